@@ -1,0 +1,49 @@
+# meshstream: the two commands of the README, plus the usual build targets.
+#   make        Release build into build/ (the CLI lands at build/bin/meshstream)
+#   make test   install what is missing, build, run every test
+#   make demo   install what is missing, build, run the main job
+#   make bench  benchmarks against Draco (JSON + plots into docs/)
+SHELL := /bin/bash
+BUILD ?= build
+ASAN_BUILD ?= build-asan
+JOBS ?= $(shell nproc)
+CMAKE_FLAGS ?=
+
+.PHONY: all deps build test test-asan demo bench fuzz clean
+
+all: build
+
+deps:
+	@scripts/install-deps
+
+$(BUILD)/build.ninja:
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+
+build: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS)
+
+test: build test-asan
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+# The importers take hostile input: run their tests once under ASan+UBSan.
+test-asan: deps
+	@[ -f $(ASAN_BUILD)/build.ninja ] || cmake -S . -B $(ASAN_BUILD) -G Ninja \
+	  -DCMAKE_BUILD_TYPE=Debug -DMESHSTREAM_SANITIZE=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --output-on-failure -j $(JOBS) -L importers
+
+demo: build
+	@scripts/demo
+
+bench: build
+	@echo "make bench: the benchmarks against Draco arrive with the progressive codec (issue 3)."
+
+fuzz: deps
+	@[ -f build-fuzz/build.ninja ] || CXX=clang++ cmake -S . -B build-fuzz -G Ninja \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_FUZZ=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
+	cmake --build build-fuzz -j $(JOBS)
+	@echo "run e.g.: build-fuzz/bin/fuzz_gltf tests/fuzz/corpus/gltf -max_total_time=60"
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz
