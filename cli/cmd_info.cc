@@ -1,0 +1,133 @@
+// meshstream info FILE [--json]
+#include <cstdio>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/args.h"
+#include "cli/exit_codes.h"
+#include "cli/verbs.h"
+#include "codec/mesh_health.h"
+#include "importers/import.h"
+
+namespace meshstream::cli {
+
+namespace {
+
+const char kHelp[] =
+    "usage: meshstream info FILE [--json]\n"
+    "\n"
+    "Prints what FILE (.gltf .glb .obj .ply .off .stl) holds: scenes, nodes, meshes,\n"
+    "primitives, vertex and face counts, attributes, bounding box, and mesh health\n"
+    "(unreferenced vertices, degenerate faces, non-manifold edges).\n"
+    "\n"
+    "  vertices   the positions the file defines (for OBJ before seams are split)\n"
+    "  faces      triangles (polygons, strips and fans counted as triangles)\n"
+    "  bbox       of all vertices, in each mesh's own coordinates\n"
+    "\n"
+    "Options:\n"
+    "  --json     print one JSON object instead of text\n";
+
+// Attribute names in a fixed order, as a union over all primitives.
+std::vector<std::string> AttributeUnion(const Scene& scene) {
+  std::vector<std::string> ordered;
+  std::set<std::string> seen;
+  for (const Mesh& m : scene.meshes)
+    for (const Primitive& p : m.primitives)
+      for (const std::string& name : p.AttributeNames())
+        if (seen.insert(name).second) ordered.push_back(name);
+  std::stable_sort(ordered.begin(), ordered.end(), [](const std::string& a, const std::string& b) {
+    auto rank = [](const std::string& s) {
+      if (s == "POSITION") return 0;
+      if (s == "NORMAL") return 1;
+      if (s.rfind("TEXCOORD_", 0) == 0) return 2;
+      return 3;
+    };
+    return rank(a) < rank(b) || (rank(a) == rank(b) && a < b);
+  });
+  return ordered;
+}
+
+size_t JsonArraySize(const std::string& text) {
+  nlohmann::json v = nlohmann::json::parse(text, nullptr, false);
+  return v.is_array() ? v.size() : 0;
+}
+
+}  // namespace
+
+int RunInfo(const std::vector<std::string>& argv) {
+  auto parsed = ParseArgs(argv, {{"json", false}});
+  if (!parsed.ok()) return ReportError("info", parsed.status());
+  const ParsedArgs& args = parsed.value();
+  if (args.Has("help")) {
+    std::fputs(kHelp, stdout);
+    return kExitOk;
+  }
+  if (args.positional.size() != 1) {
+    return ReportError("info", InvalidArgument("expected exactly one FILE"));
+  }
+  const std::string& path = args.positional[0];
+  auto scene_or = ImportFile(path);
+  if (!scene_or.ok()) return ReportError("info", scene_or.status());
+  const Scene& scene = scene_or.value();
+
+  MeshHealth total;
+  nlohmann::json meshes = nlohmann::json::array();
+  for (const Mesh& mesh : scene.meshes) {
+    nlohmann::json prims = nlohmann::json::array();
+    for (const Primitive& p : mesh.primitives) {
+      const MeshHealth h = ComputeHealth(p);
+      total.Add(h);
+      prims.push_back({{"vertices", h.vertices}, {"faces", h.faces}, {"attributes", p.AttributeNames()},
+                       {"material", p.material}, {"unreferenced_vertices", h.unreferenced_vertices},
+                       {"degenerate_faces", h.degenerate_faces}, {"nonmanifold_edges", h.nonmanifold_edges}});
+    }
+    meshes.push_back({{"name", mesh.name}, {"primitives", prims}});
+  }
+  const std::vector<std::string> attributes = AttributeUnion(scene);
+  nlohmann::json out = {
+      {"file", path},
+      {"scenes", scene.scenes.size()},
+      {"nodes", scene.nodes.size()},
+      {"meshes", scene.meshes.size()},
+      {"primitives", scene.total_primitives()},
+      {"vertices", scene.source_vertices},
+      {"primitive_vertices", total.vertices},
+      {"faces", total.faces},
+      {"attributes", attributes},
+      {"bbox_min", total.bbox.min},
+      {"bbox_max", total.bbox.max},
+      {"unreferenced_vertices", total.unreferenced_vertices},
+      {"degenerate_faces", total.degenerate_faces},
+      {"nonmanifold_edges", total.nonmanifold_edges},
+      {"materials", JsonArraySize(scene.materials_json)},
+      {"textures", JsonArraySize(scene.textures_json)},
+      {"images", scene.images.size()},
+      {"warnings", scene.warnings},
+      {"mesh_list", meshes},
+  };
+  if (args.Has("json")) {
+    std::puts(out.dump().c_str());
+    return kExitOk;
+  }
+  std::printf("%s\n", path.c_str());
+  std::printf("  scenes %zu, nodes %zu, meshes %zu, primitives %zu, materials %zu, images %zu\n",
+              scene.scenes.size(), scene.nodes.size(), scene.meshes.size(), scene.total_primitives(),
+              JsonArraySize(scene.materials_json), scene.images.size());
+  std::printf("  vertices %llu (in primitives: %llu), faces %llu\n",
+              static_cast<unsigned long long>(scene.source_vertices),
+              static_cast<unsigned long long>(total.vertices), static_cast<unsigned long long>(total.faces));
+  std::string names;
+  for (const std::string& a : attributes) names += (names.empty() ? "" : ", ") + a;
+  std::printf("  attributes %s\n", names.c_str());
+  std::printf("  bbox [%g %g %g] .. [%g %g %g]\n", total.bbox.min[0], total.bbox.min[1], total.bbox.min[2],
+              total.bbox.max[0], total.bbox.max[1], total.bbox.max[2]);
+  std::printf("  health: %llu unreferenced vertices, %llu degenerate faces, %llu non-manifold edges\n",
+              static_cast<unsigned long long>(total.unreferenced_vertices),
+              static_cast<unsigned long long>(total.degenerate_faces),
+              static_cast<unsigned long long>(total.nonmanifold_edges));
+  for (const std::string& w : scene.warnings) std::printf("  warning: %s\n", w.c_str());
+  return kExitOk;
+}
+
+}  // namespace meshstream::cli

@@ -1,0 +1,156 @@
+#include "importers/draco_codec.h"
+
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "codec/quantization.h"
+#include "draco/compression/decode.h"
+#include "draco/compression/encode.h"
+#include "draco/mesh/mesh.h"
+
+namespace meshstream {
+
+namespace {
+
+// Adds a float attribute with one value per point (identity mapping) and
+// returns its unique id.
+template <size_t N>
+int AddFloatAttribute(draco::Mesh& mesh, draco::GeometryAttribute::Type type,
+                      const std::vector<std::array<float, N>>& values) {
+  draco::GeometryAttribute ga;
+  ga.Init(type, nullptr, static_cast<uint8_t>(N), draco::DT_FLOAT32, false,
+          sizeof(float) * N, 0);
+  const int att_id = mesh.AddAttribute(ga, true, static_cast<uint32_t>(values.size()));
+  draco::PointAttribute* att = mesh.attribute(att_id);
+  for (size_t i = 0; i < values.size(); ++i) {
+    att->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)), values[i].data());
+  }
+  return static_cast<int>(att->unique_id());
+}
+
+std::string DracoError(const draco::Status& s) { return s.error_msg_string(); }
+
+template <size_t N>
+Status ReadAttribute(const draco::Mesh& mesh, int unique_id, const char* name,
+                     std::vector<std::array<float, N>>& out) {
+  const draco::PointAttribute* att = mesh.GetAttributeByUniqueId(static_cast<uint32_t>(unique_id));
+  if (att == nullptr) {
+    return InvalidInput(std::string("Draco stream has no attribute with id ") +
+                        std::to_string(unique_id) + " for " + name);
+  }
+  if (att->num_components() < 1 || att->num_components() > N) {
+    return InvalidInput(std::string(name) + " has " + std::to_string(att->num_components()) +
+                        " components in the Draco stream, expected " + std::to_string(N));
+  }
+  const uint32_t n = mesh.num_points();
+  out.assign(n, std::array<float, N>{});
+  for (uint32_t i = 0; i < n; ++i) {
+    const draco::AttributeValueIndex avi = att->mapped_index(draco::PointIndex(i));
+    if (avi.value() >= att->size()) {
+      return InvalidInput(std::string(name) + ": Draco point " + std::to_string(i) +
+                          " maps to a missing value");
+    }
+    std::array<float, N> v{};
+    if (N == 4) v[3] = 1.0f;  // colours without alpha are opaque
+    if (!att->ConvertValue<float>(avi, att->num_components(), v.data())) {
+      return InvalidInput(std::string(name) + ": Draco value cannot be converted to float");
+    }
+    out[i] = v;
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncodeOptions& options) {
+  MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qp, "--qp"));
+  MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qn, "--qn"));
+  MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qt, "--qt"));
+  MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qc, "--qc"));
+  if (options.compression_level < 0 || options.compression_level > 10) {
+    return InvalidArgument("compression level must be between 0 and 10");
+  }
+  MS_RETURN_IF_ERROR(ValidatePrimitive(p));
+  if (p.face_count() == 0) return InvalidInput("a primitive without triangles cannot be Draco-compressed");
+
+  MS_ASSIGN_OR_RETURN(QuantizationGrid grid, PositionGrid(p.positions, p.indices, options.qp));
+  // Snap to the cell centres first: Draco's float quantizer then lands on the
+  // same integer as ours even where a value sits on a rounding boundary.
+  std::vector<Vec3f> snapped = p.positions;
+  SnapToGrid(snapped, grid);
+
+  draco::Mesh mesh;
+  mesh.set_num_points(static_cast<uint32_t>(p.vertex_count()));
+  DracoEncoded result;
+  result.ids.position = AddFloatAttribute<3>(mesh, draco::GeometryAttribute::POSITION, snapped);
+  if (!p.normals.empty()) {
+    result.ids.normal = AddFloatAttribute<3>(mesh, draco::GeometryAttribute::NORMAL, p.normals);
+  }
+  for (const auto& uv : p.texcoords) {
+    result.ids.texcoords.push_back(AddFloatAttribute<2>(mesh, draco::GeometryAttribute::TEX_COORD, uv));
+  }
+  if (!p.colors.empty()) {
+    result.ids.color = AddFloatAttribute<4>(mesh, draco::GeometryAttribute::COLOR, p.colors);
+  }
+  for (size_t f = 0; f < p.face_count(); ++f) {
+    const uint32_t a = p.indices[3 * f], b = p.indices[3 * f + 1], c = p.indices[3 * f + 2];
+    if (a == b || b == c || a == c) {
+      ++result.dropped_faces;
+      continue;
+    }
+    mesh.AddFace({draco::PointIndex(a), draco::PointIndex(b), draco::PointIndex(c)});
+  }
+  if (mesh.num_faces() == 0) return InvalidInput("every triangle repeats a vertex; nothing to compress");
+
+  draco::Encoder encoder;
+  const int speed = 10 - options.compression_level;
+  encoder.SetSpeedOptions(speed, speed);
+  encoder.SetAttributeExplicitQuantization(draco::GeometryAttribute::POSITION, options.qp, 3,
+                                           grid.origin.data(), grid.range);
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, options.qn);
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, options.qt);
+  encoder.SetAttributeQuantization(draco::GeometryAttribute::COLOR, options.qc);
+  draco::EncoderBuffer buffer;
+  const draco::Status status = encoder.EncodeMeshToBuffer(mesh, &buffer);
+  if (!status.ok()) return Internal("Draco encoding failed: " + DracoError(status));
+  result.bytes.assign(reinterpret_cast<const uint8_t*>(buffer.data()),
+                      reinterpret_cast<const uint8_t*>(buffer.data()) + buffer.size());
+  return result;
+}
+
+StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size, const DracoAttributeIds& ids) {
+  if (size == 0) return InvalidInput("empty Draco buffer");
+  if (ids.position < 0) return InvalidInput("the Draco extension names no POSITION attribute");
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(data), size);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok()) return InvalidInput("Draco decoding failed: " + DracoError(decoded.status()));
+  const std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
+  if (!mesh) return InvalidInput("Draco decoding produced no mesh");
+
+  Primitive p;
+  MS_RETURN_IF_ERROR(ReadAttribute<3>(*mesh, ids.position, "POSITION", p.positions));
+  if (ids.normal >= 0) MS_RETURN_IF_ERROR(ReadAttribute<3>(*mesh, ids.normal, "NORMAL", p.normals));
+  for (size_t t = 0; t < ids.texcoords.size(); ++t) {
+    p.texcoords.emplace_back();
+    const std::string name = "TEXCOORD_" + std::to_string(t);
+    MS_RETURN_IF_ERROR(ReadAttribute<2>(*mesh, ids.texcoords[t], name.c_str(), p.texcoords.back()));
+  }
+  if (ids.color >= 0) MS_RETURN_IF_ERROR(ReadAttribute<4>(*mesh, ids.color, "COLOR_0", p.colors));
+  p.indices.reserve(size_t{3} * mesh->num_faces());
+  for (draco::FaceIndex f(0); f < mesh->num_faces(); ++f) {
+    const draco::Mesh::Face& face = mesh->face(f);
+    for (int k = 0; k < 3; ++k) {
+      if (face[k].value() >= mesh->num_points()) {
+        return InvalidInput("Draco face " + std::to_string(f.value()) + " names point " +
+                            std::to_string(face[k].value()) + " of " + std::to_string(mesh->num_points()));
+      }
+      p.indices.push_back(face[k].value());
+    }
+  }
+  return p;
+}
+
+}  // namespace meshstream

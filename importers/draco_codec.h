@@ -1,0 +1,60 @@
+// Draco encoding and decoding of one triangle primitive, for glTF's
+// KHR_draco_mesh_compression.
+//
+// Positions are put on the grid of the brief (codec/quantization.h): the
+// encoder receives an explicit quantization with origin = minimum corner of
+// the referenced vertices and range = their largest extent, so a decoded
+// position dequantizes to the centre of the same grid cell that
+// PositionGrid() gives. Faces with a repeated index are not encodable by
+// Draco's edgebreaker and are dropped (they have no area; counted in
+// DracoEncoded::dropped_faces).
+//
+// Contract: DecodeDracoPrimitive is safe on untrusted bytes (Draco's own
+// checks plus ours on the decoded counts and attribute shapes). No exception
+// escapes. Calls keep no state and may run in parallel.
+// Never include draco/io/gltf_decoder.h here or in users of the renamed
+// tinygltf namespace (BRIEF, Debian traps).
+#ifndef MESHSTREAM_IMPORTERS_DRACO_CODEC_H_
+#define MESHSTREAM_IMPORTERS_DRACO_CODEC_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/mesh.h"
+#include "codec/status.h"
+
+namespace meshstream {
+
+// Draco attribute unique ids per glTF semantic; -1 when absent.
+struct DracoAttributeIds {
+  int position = -1;
+  int normal = -1;
+  std::vector<int> texcoords;  // TEXCOORD_0, TEXCOORD_1, ...
+  int color = -1;
+};
+
+struct DracoEncodeOptions {
+  int qp = 11;  // position bits
+  int qn = 8;   // normal bits
+  int qt = 10;  // texture coordinate bits
+  int qc = 8;   // colour bits
+  int compression_level = 7;  // 0 (fastest) .. 10 (smallest), like draco_encoder -cl
+};
+
+struct DracoEncoded {
+  std::vector<uint8_t> bytes;
+  DracoAttributeIds ids;
+  uint64_t dropped_faces = 0;
+};
+
+StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& primitive,
+                                            const DracoEncodeOptions& options);
+
+// Decodes a Draco mesh; `ids` says which Draco attribute is which glTF
+// semantic (from the extension's "attributes" object).
+StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size,
+                                         const DracoAttributeIds& ids);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_IMPORTERS_DRACO_CODEC_H_

@@ -1,0 +1,315 @@
+#include "importers/gltf_export.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+
+#include "importers/gltf_limits.h"
+#include "importers/import.h"
+
+namespace meshstream {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr int kFloat = 5126;
+constexpr int kUnsignedShort = 5123;
+constexpr int kUnsignedInt = 5125;
+constexpr int kArrayBuffer = 34962;
+constexpr int kElementArrayBuffer = 34963;
+
+// Builds the document and the single binary buffer.
+class DocumentBuilder {
+ public:
+  explicit DocumentBuilder(const ExportOptions& options) : options_(options) {}
+
+  StatusOr<json> Build(const Scene& scene);
+  std::vector<uint8_t>& bin() { return bin_; }
+
+ private:
+  // Appends bytes (4-aligned) and returns the new bufferView's index.
+  int AddView(const void* data, size_t size, int target) {
+    while (bin_.size() % 4) bin_.push_back(0);
+    json view = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}};
+    if (target) view["target"] = target;
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    bin_.insert(bin_.end(), p, p + size);
+    views_.push_back(view);
+    return static_cast<int>(views_.size()) - 1;
+  }
+
+  int AddAccessor(json accessor) {
+    accessors_.push_back(std::move(accessor));
+    return static_cast<int>(accessors_.size()) - 1;
+  }
+
+  template <size_t N>
+  int AddFloatAttribute(const std::vector<std::array<float, N>>& values, bool with_bounds) {
+    static const char* kTypes[] = {"", "SCALAR", "VEC2", "VEC3", "VEC4"};
+    const int view = AddView(values.data(), values.size() * sizeof(float) * N, kArrayBuffer);
+    json accessor = {{"bufferView", view}, {"componentType", kFloat}, {"count", values.size()}, {"type", kTypes[N]}};
+    if (with_bounds) AddBounds(accessor, values);
+    return AddAccessor(std::move(accessor));
+  }
+
+  template <size_t N>
+  static void AddBounds(json& accessor, const std::vector<std::array<float, N>>& values) {
+    std::array<float, N> lo, hi;
+    lo.fill(std::numeric_limits<float>::infinity());
+    hi.fill(-std::numeric_limits<float>::infinity());
+    for (const auto& v : values) {
+      for (size_t c = 0; c < N; ++c) {
+        lo[c] = std::min(lo[c], v[c]);
+        hi[c] = std::max(hi[c], v[c]);
+      }
+    }
+    accessor["min"] = lo;
+    accessor["max"] = hi;
+  }
+
+  int AddIndices(const std::vector<uint32_t>& indices, size_t vertex_count) {
+    json accessor = {{"count", indices.size()}, {"type", "SCALAR"}};
+    if (vertex_count < 0xFFFF) {
+      std::vector<uint16_t> narrow(indices.begin(), indices.end());
+      accessor["bufferView"] = AddView(narrow.data(), narrow.size() * 2, kElementArrayBuffer);
+      accessor["componentType"] = kUnsignedShort;
+    } else {
+      accessor["bufferView"] = AddView(indices.data(), indices.size() * 4, kElementArrayBuffer);
+      accessor["componentType"] = kUnsignedInt;
+    }
+    return AddAccessor(std::move(accessor));
+  }
+
+  StatusOr<json> PlainPrimitive(const Primitive& p);
+  StatusOr<json> DracoPrimitive(const Primitive& p);
+
+  const ExportOptions& options_;
+  std::vector<uint8_t> bin_;
+  json views_ = json::array();
+  json accessors_ = json::array();
+};
+
+std::vector<Vec3f> UnitNormals(const std::vector<Vec3f>& normals) {
+  std::vector<Vec3f> out(normals.size());
+  for (size_t i = 0; i < normals.size(); ++i) {
+    const Vec3f& n = normals[i];
+    const double len = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+    if (!(len > 0) || !std::isfinite(len)) {
+      out[i] = {0, 0, 1};
+    } else {
+      out[i] = {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
+    }
+  }
+  return out;
+}
+
+std::vector<Vec4f> ClampedColors(const std::vector<Vec4f>& colors) {
+  std::vector<Vec4f> out(colors);
+  for (Vec4f& c : out)
+    for (float& v : c) v = std::min(1.0f, std::max(0.0f, v));
+  return out;
+}
+
+// The attribute set the writer emits: normals unit length, colours clamped.
+Primitive Normalized(const Primitive& p) {
+  Primitive out = p;
+  out.normals = UnitNormals(p.normals);
+  out.colors = ClampedColors(p.colors);
+  return out;
+}
+
+StatusOr<json> DocumentBuilder::PlainPrimitive(const Primitive& source) {
+  const Primitive p = Normalized(source);
+  json attributes = json::object();
+  attributes["POSITION"] = AddFloatAttribute<3>(p.positions, true);
+  if (!p.normals.empty()) attributes["NORMAL"] = AddFloatAttribute<3>(p.normals, false);
+  for (size_t t = 0; t < p.texcoords.size(); ++t) {
+    attributes["TEXCOORD_" + std::to_string(t)] = AddFloatAttribute<2>(p.texcoords[t], false);
+  }
+  if (!p.colors.empty()) attributes["COLOR_0"] = AddFloatAttribute<4>(p.colors, false);
+  json prim = {{"attributes", attributes}, {"mode", 4}};
+  prim["indices"] = AddIndices(p.indices, p.vertex_count());
+  return prim;
+}
+
+StatusOr<json> DocumentBuilder::DracoPrimitive(const Primitive& source) {
+  const Primitive p = Normalized(source);
+  MS_ASSIGN_OR_RETURN(DracoEncoded encoded, EncodeDracoPrimitive(p, options_.draco_options));
+  // Decode what we wrote: the accessors must describe the decoded data
+  // (Draco may reorder and drop points), and this proves the stream decodes.
+  MS_ASSIGN_OR_RETURN(Primitive decoded,
+                      DecodeDracoPrimitive(encoded.bytes.data(), encoded.bytes.size(), encoded.ids));
+  const int view = AddView(encoded.bytes.data(), encoded.bytes.size(), 0);
+  json attributes = json::object();
+  json draco_attributes = json::object();
+  json position = {{"componentType", kFloat}, {"count", decoded.vertex_count()}, {"type", "VEC3"}};
+  AddBounds(position, decoded.positions);
+  attributes["POSITION"] = AddAccessor(position);
+  draco_attributes["POSITION"] = encoded.ids.position;
+  if (encoded.ids.normal >= 0) {
+    attributes["NORMAL"] = AddAccessor({{"componentType", kFloat}, {"count", decoded.vertex_count()}, {"type", "VEC3"}});
+    draco_attributes["NORMAL"] = encoded.ids.normal;
+  }
+  for (size_t t = 0; t < encoded.ids.texcoords.size(); ++t) {
+    const std::string name = "TEXCOORD_" + std::to_string(t);
+    attributes[name] = AddAccessor({{"componentType", kFloat}, {"count", decoded.vertex_count()}, {"type", "VEC2"}});
+    draco_attributes[name] = encoded.ids.texcoords[t];
+  }
+  if (encoded.ids.color >= 0) {
+    attributes["COLOR_0"] = AddAccessor({{"componentType", kFloat}, {"count", decoded.vertex_count()}, {"type", "VEC4"}});
+    draco_attributes["COLOR_0"] = encoded.ids.color;
+  }
+  json indices = {{"componentType", decoded.vertex_count() < 0xFFFF ? kUnsignedShort : kUnsignedInt},
+                  {"count", decoded.indices.size()}, {"type", "SCALAR"}};
+  json prim = {{"attributes", attributes}, {"mode", 4}, {"indices", AddAccessor(indices)}};
+  prim["extensions"]["KHR_draco_mesh_compression"] = {{"bufferView", view}, {"attributes", draco_attributes}};
+  return prim;
+}
+
+json ParseCarried(const std::string& text) {
+  json v = json::parse(text, nullptr, false);
+  return v.is_array() ? v : json::array();
+}
+
+StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
+  MS_RETURN_IF_ERROR(ValidateScene(scene));
+  json doc = {{"asset", {{"version", "2.0"}, {"generator", "meshstream"}}}};
+
+  json meshes = json::array();
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    json out = {{"primitives", json::array()}};
+    if (!mesh.name.empty()) out["name"] = mesh.name;
+    for (size_t k = 0; k < mesh.primitives.size(); ++k) {
+      const Primitive& p = mesh.primitives[k];
+      if (p.face_count() == 0) continue;
+      auto prim = options_.draco ? DracoPrimitive(p) : PlainPrimitive(p);
+      if (!prim.ok()) {
+        return prim.status().WithContext("meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]");
+      }
+      if (p.material >= 0) prim.value()["material"] = p.material;
+      out["primitives"].push_back(std::move(prim).value());
+    }
+    if (out["primitives"].empty()) {
+      return InvalidInput("meshes[" + std::to_string(m) + "] has no triangle to write");
+    }
+    meshes.push_back(std::move(out));
+  }
+
+  json nodes = json::array();
+  for (const Node& node : scene.nodes) {
+    json out = json::object();
+    if (!node.name.empty()) out["name"] = node.name;
+    if (node.mesh >= 0) out["mesh"] = node.mesh;
+    if (node.camera >= 0) out["camera"] = node.camera;
+    if (!node.children.empty()) out["children"] = node.children;
+    if (node.has_matrix) {
+      out["matrix"] = node.matrix;
+    } else {
+      if (node.translation != Vec3d{0, 0, 0}) out["translation"] = node.translation;
+      if (node.rotation != std::array<double, 4>{0, 0, 0, 1}) out["rotation"] = node.rotation;
+      if (node.scale != Vec3d{1, 1, 1}) out["scale"] = node.scale;
+    }
+    nodes.push_back(std::move(out));
+  }
+
+  json images = json::array();
+  for (const Image& image : scene.images) {
+    json out = {{"bufferView", AddView(image.bytes.data(), image.bytes.size(), 0)}, {"mimeType", image.mime_type}};
+    if (!image.name.empty()) out["name"] = image.name;
+    images.push_back(std::move(out));
+  }
+
+  json scenes = json::array();
+  for (const SceneRoot& root : scene.scenes) {
+    json out = {{"nodes", root.nodes}};
+    if (!root.name.empty()) out["name"] = root.name;
+    scenes.push_back(std::move(out));
+  }
+
+  if (!scenes.empty()) doc["scenes"] = scenes;
+  if (scene.default_scene >= 0) doc["scene"] = scene.default_scene;
+  if (!nodes.empty()) doc["nodes"] = nodes;
+  if (!meshes.empty()) doc["meshes"] = meshes;
+  for (const auto& [key, text] : {std::pair<const char*, const std::string&>{"materials", scene.materials_json},
+                                  {"textures", scene.textures_json},
+                                  {"samplers", scene.samplers_json},
+                                  {"cameras", scene.cameras_json}}) {
+    json carried = ParseCarried(text);
+    if (!carried.empty()) doc[key] = std::move(carried);
+  }
+  if (!images.empty()) doc["images"] = images;
+  if (!accessors_.empty()) doc["accessors"] = accessors_;
+  if (!views_.empty()) doc["bufferViews"] = views_;
+  while (bin_.size() % 4) bin_.push_back(0);
+  if (!bin_.empty()) doc["buffers"] = json::array({{{"byteLength", bin_.size()}}});
+
+  std::vector<std::string> used = scene.extensions_used;
+  if (options_.draco) {
+    used.push_back("KHR_draco_mesh_compression");
+    doc["extensionsRequired"] = json::array({"KHR_draco_mesh_compression"});
+  }
+  if (!used.empty()) doc["extensionsUsed"] = used;
+  return doc;
+}
+
+void AppendU32(std::vector<uint8_t>& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+
+}  // namespace
+
+StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
+  DocumentBuilder builder(options);
+  MS_ASSIGN_OR_RETURN(json doc, builder.Build(scene));
+  std::string text = doc.dump();
+  while (text.size() % 4) text.push_back(' ');
+  const std::vector<uint8_t>& bin = builder.bin();
+  const uint64_t total = 12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size());
+  if (total > 0xFFFFFFFFull) return ResourceExhausted("the GLB would be larger than 4 GiB");
+  std::vector<uint8_t> out;
+  out.reserve(total);
+  AppendU32(out, kGlbMagic);
+  AppendU32(out, 2);
+  AppendU32(out, static_cast<uint32_t>(total));
+  AppendU32(out, static_cast<uint32_t>(text.size()));
+  AppendU32(out, kGlbChunkJson);
+  out.insert(out.end(), text.begin(), text.end());
+  if (!bin.empty()) {
+    AppendU32(out, static_cast<uint32_t>(bin.size()));
+    AppendU32(out, kGlbChunkBin);
+    out.insert(out.end(), bin.begin(), bin.end());
+  }
+  return out;
+}
+
+Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportOptions& options) {
+  const std::string ext = FileExtension(path);
+  if (ext == ".glb") {
+    auto bytes = ExportGlb(scene, options);
+    if (!bytes.ok()) return bytes.status().WithContext(path);
+    return WriteFileBytes(path, bytes.value());
+  }
+  if (ext != ".gltf") {
+    return InvalidArgument(path + ": output must end in .gltf or .glb");
+  }
+  DocumentBuilder builder(options);
+  auto doc = builder.Build(scene);
+  if (!doc.ok()) return doc.status().WithContext(path);
+  const size_t slash = path.find_last_of('/');
+  const std::string file = slash == std::string::npos ? path : path.substr(slash + 1);
+  const std::string stem = file.substr(0, file.size() - ext.size());
+  if (!builder.bin().empty()) {
+    const std::string bin_name = stem + ".bin";
+    doc.value()["buffers"][0]["uri"] = bin_name;
+    const std::string bin_path = (slash == std::string::npos ? "" : path.substr(0, slash + 1)) + bin_name;
+    MS_RETURN_IF_ERROR(WriteFileBytes(bin_path, builder.bin()));
+  }
+  const std::string text = doc.value().dump(2);
+  return WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end()));
+}
+
+}  // namespace meshstream

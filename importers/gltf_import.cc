@@ -1,0 +1,748 @@
+#include "importers/gltf_import.h"
+
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <set>
+
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include "importers/draco_codec.h"
+#include "importers/gltf_limits.h"
+
+namespace meshstream {
+
+namespace {
+
+using json = nlohmann::json;
+namespace tg = tinygltf;
+
+constexpr int kMaxJsonDepth = 64;
+constexpr int kMaxTexcoordSets = 8;
+
+// Extensions whose objects may stay inside carried-through materials,
+// textures and samplers: they refer only to textures, images and samplers,
+// whose indices we keep.
+const std::set<std::string>& PassThroughExtensions() {
+  static const std::set<std::string> names = {
+      "KHR_materials_clearcoat", "KHR_materials_emissive_strength", "KHR_materials_ior",
+      "KHR_materials_iridescence", "KHR_materials_sheen", "KHR_materials_specular",
+      "KHR_materials_transmission", "KHR_materials_unlit", "KHR_materials_variants",
+      "KHR_materials_volume", "KHR_materials_anisotropy", "KHR_texture_transform",
+      "KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif"};
+  return names;
+}
+
+// Extensions meshstream itself understands when they are required.
+bool IsConsumedExtension(const std::string& name) {
+  return name == "KHR_draco_mesh_compression" || name == "KHR_mesh_quantization";
+}
+
+// Nesting depth of JSON text, counted outside strings. tinygltf converts
+// extras and extensions recursively, so deep nesting must be refused first.
+Status CheckJsonDepth(const uint8_t* data, size_t size) {
+  int depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < size; ++i) {
+    const char c = static_cast<char>(data[i]);
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == '{' || c == '[') {
+      if (++depth > kMaxJsonDepth) {
+        return InvalidInput("JSON nests deeper than " + std::to_string(kMaxJsonDepth) +
+                            " levels (byte " + std::to_string(i) + ")");
+      }
+    } else if (c == '}' || c == ']') {
+      --depth;
+    }
+  }
+  return Status::Ok();
+}
+
+// Filesystem callbacks for tinygltf: only files inside the asset's folder.
+struct FsContext {
+  std::string base_real;  // realpath of the asset's folder, "" to refuse all files
+  uint64_t max_bytes = 0;
+  std::string error;
+};
+
+bool InsideBase(const FsContext& ctx, const std::string& path, std::string* real_out) {
+  if (ctx.base_real.empty()) return false;
+  char buf[PATH_MAX];
+  if (realpath(path.c_str(), buf) == nullptr) return false;
+  const std::string real(buf);
+  if (real.compare(0, ctx.base_real.size() + 1, ctx.base_real + "/") != 0) return false;
+  if (real_out) *real_out = real;
+  return true;
+}
+
+bool FsFileExists(const std::string& path, void* user) {
+  return InsideBase(*static_cast<FsContext*>(user), path, nullptr);
+}
+
+std::string FsExpandFilePath(const std::string& path, void*) { return path; }
+
+bool FsReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path,
+                     void* user) {
+  FsContext& ctx = *static_cast<FsContext*>(user);
+  std::string real;
+  if (!InsideBase(ctx, path, &real)) {
+    ctx.error = path + " is not a file inside the asset's folder";
+    if (err) *err += ctx.error + "\n";
+    return false;
+  }
+  auto bytes = ReadFileBytes(real, ctx.max_bytes);
+  if (!bytes.ok()) {
+    ctx.error = bytes.status().message();
+    if (err) *err += ctx.error + "\n";
+    return false;
+  }
+  *out = std::move(bytes).value();
+  return true;
+}
+
+bool FsWriteWholeFile(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "writing is not allowed while importing\n";
+  return false;
+}
+
+// Keeps image bytes as they are: meshstream never decodes images.
+bool KeepImageBytes(tg::Image* image, const int, std::string*, std::string*, int, int,
+                    const unsigned char* bytes, int size, void*) {
+  if (size < 0) return false;
+  image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+std::string Where(size_t mesh, size_t prim) {
+  return "meshes[" + std::to_string(mesh) + "].primitives[" + std::to_string(prim) + "]";
+}
+
+int ComponentBytes(int component_type) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+  }
+}
+
+double ReadComponent(const uint8_t* p, int component_type, bool normalized) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: { float f; std::memcpy(&f, p, 4); return f; }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      const int8_t v = static_cast<int8_t>(p[0]);
+      return normalized ? std::max(v / 127.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v; std::memcpy(&v, p, 2);
+      return normalized ? v / 65535.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v; std::memcpy(&v, p, 2);
+      return normalized ? std::max(v / 32767.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { uint32_t v; std::memcpy(&v, p, 4); return v; }
+    case TINYGLTF_COMPONENT_TYPE_INT: { int32_t v; std::memcpy(&v, p, 4); return v; }
+    default: return 0;
+  }
+}
+
+// Returns a pointer to `bytes` bytes at `offset` of bufferView `view`, after
+// checking every bound against the data really loaded.
+StatusOr<const uint8_t*> ViewBytes(const tg::Model& model, int view, uint64_t offset, uint64_t bytes,
+                                   const std::string& where) {
+  if (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size()) {
+    return InvalidInput(where + ": bufferView " + std::to_string(view) + " does not exist");
+  }
+  const tg::BufferView& bv = model.bufferViews[view];
+  if (bv.buffer < 0 || static_cast<size_t>(bv.buffer) >= model.buffers.size()) {
+    return InvalidInput(where + ": bufferViews[" + std::to_string(view) + "].buffer does not exist");
+  }
+  const std::vector<unsigned char>& data = model.buffers[bv.buffer].data;
+  if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset ||
+      offset > bv.byteLength || bytes > bv.byteLength - offset) {
+    return InvalidInput(where + ": bytes " + std::to_string(offset) + "+" + std::to_string(bytes) +
+                        " are outside bufferViews[" + std::to_string(view) + "]");
+  }
+  return data.data() + bv.byteOffset + offset;
+}
+
+// Reads accessor `index` as doubles, `components` per element, applying
+// sparse substitution and normalization.
+StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, int components,
+                                           const std::string& where_in) {
+  const std::string where = where_in + " (accessors[" + std::to_string(index) + "])";
+  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
+    return InvalidInput(where_in + ": accessor " + std::to_string(index) + " does not exist");
+  }
+  const tg::Accessor& a = model.accessors[index];
+  const int type_components = tg::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+  if (type_components != components) {
+    return InvalidInput(where + ": has " + std::to_string(type_components) + " components per element, expected " +
+                        std::to_string(components));
+  }
+  const int csize = ComponentBytes(a.componentType);
+  if (csize == 0) return InvalidInput(where + ": componentType " + std::to_string(a.componentType) + " is not valid");
+  const uint64_t element = uint64_t(csize) * components;
+  const uint64_t count = a.count;
+  if (count == 0 || count > (uint64_t{1} << 31)) {
+    return InvalidInput(where + ": count " + std::to_string(count) + " is out of range");
+  }
+  std::vector<double> out;
+  if (a.bufferView >= 0) {
+    if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) {
+      return InvalidInput(where + ": bufferView " + std::to_string(a.bufferView) + " does not exist");
+    }
+    const tg::BufferView& bv = model.bufferViews[a.bufferView];
+    const uint64_t stride = bv.byteStride ? bv.byteStride : element;
+    if (stride < element) return InvalidInput(where + ": byteStride is smaller than one element");
+    MS_ASSIGN_OR_RETURN(const uint8_t* base,
+                        ViewBytes(model, a.bufferView, a.byteOffset, stride * (count - 1) + element, where));
+    out.resize(count * components);
+    for (uint64_t i = 0; i < count; ++i) {
+      for (int c = 0; c < components; ++c) {
+        out[i * components + c] = ReadComponent(base + i * stride + uint64_t(c) * csize, a.componentType, a.normalized);
+      }
+    }
+  } else {
+    out.assign(count * components, 0.0);  // glTF: no bufferView means zeros
+  }
+  if (a.sparse.isSparse) {
+    const uint64_t n = static_cast<uint64_t>(a.sparse.count);
+    if (a.sparse.count <= 0 || n > count) return InvalidInput(where + ": sparse.count is out of range");
+    const int icsize = ComponentBytes(a.sparse.indices.componentType);
+    if (icsize == 0 || a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+        a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_SHORT ||
+        a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      return InvalidInput(where + ": sparse.indices.componentType is not an unsigned integer type");
+    }
+    if (a.sparse.indices.byteOffset < 0 || a.sparse.values.byteOffset < 0) {
+      return InvalidInput(where + ": negative sparse byteOffset");
+    }
+    MS_ASSIGN_OR_RETURN(const uint8_t* ibase, ViewBytes(model, a.sparse.indices.bufferView,
+                                                        a.sparse.indices.byteOffset, n * icsize, where + ".sparse.indices"));
+    MS_ASSIGN_OR_RETURN(const uint8_t* vbase, ViewBytes(model, a.sparse.values.bufferView,
+                                                        a.sparse.values.byteOffset, n * element, where + ".sparse.values"));
+    int64_t previous = -1;
+    for (uint64_t i = 0; i < n; ++i) {
+      const double target_d = ReadComponent(ibase + i * icsize, a.sparse.indices.componentType, false);
+      const int64_t target = static_cast<int64_t>(target_d);
+      if (target <= previous || static_cast<uint64_t>(target) >= count) {
+        return InvalidInput(where + ": sparse index " + std::to_string(target) +
+                            " is out of range or not increasing");
+      }
+      previous = target;
+      for (int c = 0; c < components; ++c) {
+        out[target * components + c] = ReadComponent(vbase + i * element + uint64_t(c) * csize, a.componentType, a.normalized);
+      }
+    }
+  }
+  return out;
+}
+
+StatusOr<std::vector<uint32_t>> ReadIndices(const tg::Model& model, int index, const std::string& where) {
+  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
+    return InvalidInput(where + ": indices accessor " + std::to_string(index) + " does not exist");
+  }
+  const int ct = model.accessors[index].componentType;
+  if (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+    return InvalidInput(where + ": indices (accessors[" + std::to_string(index) +
+                        "]) must be unsigned byte, short or int");
+  }
+  MS_ASSIGN_OR_RETURN(std::vector<double> values, ReadAccessor(model, index, 1, where + ".indices"));
+  std::vector<uint32_t> out(values.size());
+  for (size_t i = 0; i < values.size(); ++i) out[i] = static_cast<uint32_t>(values[i]);
+  return out;
+}
+
+template <size_t N>
+std::vector<std::array<float, N>> ToVectors(const std::vector<double>& flat, size_t components) {
+  std::vector<std::array<float, N>> out(flat.size() / components);
+  for (size_t i = 0; i < out.size(); ++i) {
+    std::array<float, N> v{};
+    if (N == 4) v[3] = 1.0f;
+    for (size_t c = 0; c < components && c < N; ++c) v[c] = static_cast<float>(flat[i * components + c]);
+    out[i] = v;
+  }
+  return out;
+}
+
+// Triangle lists from any triangle mode; index triples that repeat a vertex
+// (strip restarts) are dropped from strips and fans.
+StatusOr<std::vector<uint32_t>> Triangulate(const std::vector<uint32_t>& v, int mode, const std::string& where) {
+  std::vector<uint32_t> out;
+  switch (mode) {
+    case TINYGLTF_MODE_TRIANGLES:
+      if (v.size() % 3 != 0) {
+        return InvalidInput(where + ": " + std::to_string(v.size()) + " indices is not a multiple of 3");
+      }
+      return v;
+    case TINYGLTF_MODE_TRIANGLE_STRIP:
+      for (size_t i = 0; i + 2 < v.size(); ++i) {
+        const uint32_t a = v[i], b = v[i + 1 + (i % 2)], c = v[i + 2 - (i % 2)];
+        if (a == b || b == c || a == c) continue;
+        out.insert(out.end(), {a, b, c});
+      }
+      return out;
+    case TINYGLTF_MODE_TRIANGLE_FAN:
+      for (size_t i = 1; i + 1 < v.size(); ++i) {
+        const uint32_t a = v[i], b = v[i + 1], c = v[0];
+        if (a == b || b == c || a == c) continue;
+        out.insert(out.end(), {a, b, c});
+      }
+      return out;
+    case TINYGLTF_MODE_POINTS:
+      return Unsupported(where + ": mode POINTS is not supported (meshstream streams triangle meshes)");
+    case TINYGLTF_MODE_LINE:
+    case TINYGLTF_MODE_LINE_LOOP:
+    case TINYGLTF_MODE_LINE_STRIP:
+      return Unsupported(where + ": line primitives (mode " + std::to_string(mode) +
+                         ") are not supported (meshstream streams triangle meshes)");
+    default:
+      return InvalidInput(where + ": mode " + std::to_string(mode) + " is not a glTF primitive mode");
+  }
+}
+
+bool IsKeptAttribute(const std::string& name) {
+  if (name == "POSITION" || name == "NORMAL" || name == "COLOR_0") return true;
+  return name.rfind("TEXCOORD_", 0) == 0;
+}
+
+// TEXCOORD_n for n = 0.. while present.
+std::vector<std::string> TexcoordNames(const std::map<std::string, int>& attributes) {
+  std::vector<std::string> names;
+  for (int t = 0; t < kMaxTexcoordSets; ++t) {
+    const std::string name = "TEXCOORD_" + std::to_string(t);
+    if (!attributes.count(name)) break;
+    names.push_back(name);
+  }
+  return names;
+}
+
+Status ReadDracoPrimitive(const tg::Model& model, const json& ext, const tg::Primitive& tp,
+                          const std::string& where, Primitive& out) {
+  if (!ext.is_object() || !ext.contains("bufferView") || !ext["bufferView"].is_number_integer() ||
+      !ext.contains("attributes") || !ext["attributes"].is_object()) {
+    return InvalidInput(where + ": KHR_draco_mesh_compression needs an integer bufferView and an attributes object");
+  }
+  const int view = ext["bufferView"].get<int>();
+  if (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size()) {
+    return InvalidInput(where + ": KHR_draco_mesh_compression.bufferView " + std::to_string(view) + " does not exist");
+  }
+  MS_ASSIGN_OR_RETURN(const uint8_t* bytes, ViewBytes(model, view, 0, model.bufferViews[view].byteLength, where));
+  DracoAttributeIds ids;
+  std::map<std::string, int> draco_attributes;
+  for (auto it = ext["attributes"].begin(); it != ext["attributes"].end(); ++it) {
+    if (!it.value().is_number_integer() || it.value().get<int64_t>() < 0 || it.value().get<int64_t>() > INT_MAX) {
+      return InvalidInput(where + ": KHR_draco_mesh_compression.attributes." + it.key() + " is not a valid id");
+    }
+    draco_attributes[it.key()] = it.value().get<int>();
+  }
+  auto id_of = [&](const std::string& name) {
+    auto it = draco_attributes.find(name);
+    return (it != draco_attributes.end() && tp.attributes.count(name)) ? it->second : -1;
+  };
+  ids.position = id_of("POSITION");
+  ids.normal = id_of("NORMAL");
+  for (const std::string& name : TexcoordNames(tp.attributes)) {
+    if (id_of(name) < 0) break;
+    ids.texcoords.push_back(id_of(name));
+  }
+  ids.color = id_of("COLOR_0");
+  auto decoded = DecodeDracoPrimitive(bytes, model.bufferViews[view].byteLength, ids);
+  if (!decoded.ok()) return decoded.status().WithContext(where);
+  out = std::move(decoded).value();
+  return Status::Ok();
+}
+
+Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Primitive& tp,
+                     const std::string& where, Scene& scene, Primitive& out) {
+  if (!tp.targets.empty()) {
+    return Unsupported(where + " has morph targets; meshstream does not stream morph targets "
+                       "(see docs/gltf-support.md)");
+  }
+  for (const auto& [name, index] : tp.attributes) {
+    (void)index;
+    if (name.rfind("JOINTS_", 0) == 0 || name.rfind("WEIGHTS_", 0) == 0) {
+      return Unsupported(where + " has skinning attribute " + name +
+                         "; meshstream does not stream skinned meshes (see docs/gltf-support.md)");
+    }
+    if (!IsKeptAttribute(name)) {
+      scene.warnings.push_back(where + ": attribute " + name + " dropped (meshstream keeps POSITION, NORMAL, TEXCOORD_n, COLOR_0)");
+    }
+  }
+  if (!tp.attributes.count("POSITION")) return InvalidInput(where + " has no POSITION attribute");
+  const int mode = tp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : tp.mode;
+
+  const json* draco = nullptr;
+  if (raw_prim.is_object() && raw_prim.contains("extensions") && raw_prim["extensions"].is_object() &&
+      raw_prim["extensions"].contains("KHR_draco_mesh_compression")) {
+    draco = &raw_prim["extensions"]["KHR_draco_mesh_compression"];
+  }
+  if (draco) {
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP) {
+      return InvalidInput(where + ": KHR_draco_mesh_compression requires triangles or triangle strips");
+    }
+    MS_RETURN_IF_ERROR(ReadDracoPrimitive(model, *draco, tp, where, out));
+  } else {
+    MS_ASSIGN_OR_RETURN(std::vector<double> pos, ReadAccessor(model, tp.attributes.at("POSITION"), 3, where + ".POSITION"));
+    out.positions = ToVectors<3>(pos, 3);
+    const size_t n = out.positions.size();
+    auto check_count = [&](size_t count, const std::string& name) -> Status {
+      if (count != n) {
+        return InvalidInput(where + ": " + name + " has " + std::to_string(count) + " elements but POSITION has " +
+                            std::to_string(n));
+      }
+      return Status::Ok();
+    };
+    if (tp.attributes.count("NORMAL")) {
+      MS_ASSIGN_OR_RETURN(std::vector<double> nrm, ReadAccessor(model, tp.attributes.at("NORMAL"), 3, where + ".NORMAL"));
+      out.normals = ToVectors<3>(nrm, 3);
+      MS_RETURN_IF_ERROR(check_count(out.normals.size(), "NORMAL"));
+    }
+    for (const std::string& name : TexcoordNames(tp.attributes)) {
+      MS_ASSIGN_OR_RETURN(std::vector<double> uv, ReadAccessor(model, tp.attributes.at(name), 2, where + "." + name));
+      out.texcoords.push_back(ToVectors<2>(uv, 2));
+      MS_RETURN_IF_ERROR(check_count(out.texcoords.back().size(), name));
+    }
+    if (tp.attributes.count("COLOR_0")) {
+      const int color_index = tp.attributes.at("COLOR_0");
+      if (color_index < 0 || static_cast<size_t>(color_index) >= model.accessors.size()) {
+        return InvalidInput(where + ".COLOR_0: accessor " + std::to_string(color_index) + " does not exist");
+      }
+      const int components = model.accessors[color_index].type == TINYGLTF_TYPE_VEC3 ? 3 : 4;
+      MS_ASSIGN_OR_RETURN(std::vector<double> col, ReadAccessor(model, color_index, components, where + ".COLOR_0"));
+      out.colors = ToVectors<4>(col, components);
+      MS_RETURN_IF_ERROR(check_count(out.colors.size(), "COLOR_0"));
+    }
+    std::vector<uint32_t> vertex_list;
+    if (tp.indices >= 0) {
+      MS_ASSIGN_OR_RETURN(vertex_list, ReadIndices(model, tp.indices, where));
+    } else {
+      vertex_list.resize(n);
+      for (size_t i = 0; i < n; ++i) vertex_list[i] = static_cast<uint32_t>(i);
+    }
+    for (size_t i = 0; i < vertex_list.size(); ++i) {
+      if (vertex_list[i] >= n) {
+        return InvalidInput(where + ": index " + std::to_string(vertex_list[i]) + " at position " + std::to_string(i) +
+                            " is out of range (" + std::to_string(n) + " vertices)");
+      }
+    }
+    MS_ASSIGN_OR_RETURN(out.indices, Triangulate(vertex_list, mode, where));
+  }
+  for (size_t t = out.texcoords.size(); t < TexcoordNames(tp.attributes).size(); ++t) {
+    scene.warnings.push_back(where + ": TEXCOORD_" + std::to_string(t) + " missing from the Draco stream, dropped");
+  }
+  if (tp.material >= 0) {
+    if (static_cast<size_t>(tp.material) >= model.materials.size()) {
+      return InvalidInput(where + ".material " + std::to_string(tp.material) + " does not exist");
+    }
+    out.material = tp.material;
+  }
+  return ValidatePrimitive(out).WithContext(where);
+}
+
+// Removes extensions outside the pass-through list from every object of a
+// carried-through array, with a warning for each.
+json FilterExtensions(const json& array, const std::string& what, Scene& scene,
+                      std::set<std::string>& used) {
+  json out = array.is_array() ? array : json::array();
+  for (size_t i = 0; i < out.size(); ++i) {
+    std::vector<json*> stack = {&out[i]};
+    while (!stack.empty()) {
+      json* obj = stack.back();
+      stack.pop_back();
+      if (obj->is_object()) {
+        auto ext = obj->find("extensions");
+        if (ext != obj->end() && ext->is_object()) {
+          for (auto it = ext->begin(); it != ext->end();) {
+            if (PassThroughExtensions().count(it.key())) {
+              used.insert(it.key());
+              ++it;
+            } else {
+              scene.warnings.push_back(what + "[" + std::to_string(i) + "]: extension " + it.key() + " dropped");
+              it = ext->erase(it);
+            }
+          }
+        }
+        for (auto& [key, value] : obj->items()) {
+          (void)key;
+          if (value.is_object() || value.is_array()) stack.push_back(&value);
+        }
+      } else if (obj->is_array()) {
+        for (json& value : *obj) stack.push_back(&value);
+      }
+    }
+  }
+  return out;
+}
+
+std::string GuessMimeType(const std::string& uri, const std::vector<uint8_t>& bytes) {
+  if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') return "image/png";
+  if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) return "image/jpeg";
+  const std::string ext = FileExtension(uri);
+  if (ext == ".png") return "image/png";
+  if (ext == ".jpg" || ext == ".jpeg") return "image/jpeg";
+  if (ext == ".webp") return "image/webp";
+  if (ext == ".ktx2") return "image/ktx2";
+  return "application/octet-stream";
+}
+
+Status CheckNodeForest(const Scene& scene) {
+  std::vector<int> parent(scene.nodes.size(), -1);
+  for (size_t i = 0; i < scene.nodes.size(); ++i) {
+    for (int32_t c : scene.nodes[i].children) {
+      if (parent[c] != -1 || static_cast<size_t>(c) == i) {
+        return InvalidInput("nodes[" + std::to_string(c) + "] has more than one parent or is its own child");
+      }
+      parent[c] = static_cast<int>(i);
+    }
+  }
+  for (size_t i = 0; i < scene.nodes.size(); ++i) {
+    size_t steps = 0;
+    for (int p = parent[i]; p != -1; p = parent[p]) {
+      if (++steps > scene.nodes.size()) {
+        return InvalidInput("nodes[" + std::to_string(i) + "] is part of a cycle in the node hierarchy");
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::string& base_dir,
+                        const ImportOptions& options) {
+  Scene scene;
+  if (!model.skins.empty()) {
+    return Unsupported("the asset has " + std::to_string(model.skins.size()) +
+                       " skin(s); meshstream does not stream skinned meshes (see docs/gltf-support.md)");
+  }
+  if (!model.animations.empty()) {
+    return Unsupported("the asset has " + std::to_string(model.animations.size()) +
+                       " animation(s); meshstream does not carry animations (see docs/gltf-support.md)");
+  }
+  for (const std::string& ext : model.extensionsRequired) {
+    if (!IsConsumedExtension(ext) && !PassThroughExtensions().count(ext)) {
+      return Unsupported("required extension " + ext + " is not supported");
+    }
+  }
+  std::set<std::string> used;
+  for (const std::string& ext : model.extensionsUsed) {
+    if (!IsConsumedExtension(ext) && !PassThroughExtensions().count(ext)) {
+      scene.warnings.push_back("optional extension " + ext + " is not supported and was dropped");
+    }
+  }
+
+  const json empty_array = json::array();
+  const json& raw_meshes = doc.contains("meshes") ? doc["meshes"] : empty_array;
+  for (size_t m = 0; m < model.meshes.size(); ++m) {
+    Mesh mesh;
+    mesh.name = model.meshes[m].name;
+    for (size_t k = 0; k < model.meshes[m].primitives.size(); ++k) {
+      const json* raw_prim = &empty_array;
+      if (raw_meshes.is_array() && m < raw_meshes.size() && raw_meshes[m].contains("primitives") &&
+          raw_meshes[m]["primitives"].is_array() && k < raw_meshes[m]["primitives"].size()) {
+        raw_prim = &raw_meshes[m]["primitives"][k];
+      }
+      Primitive prim;
+      MS_RETURN_IF_ERROR(ReadPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), scene, prim));
+      scene.source_vertices += prim.vertex_count();
+      mesh.primitives.push_back(std::move(prim));
+    }
+    scene.meshes.push_back(std::move(mesh));
+  }
+
+  const int32_t camera_count = doc.contains("cameras") && doc["cameras"].is_array()
+                                   ? static_cast<int32_t>(doc["cameras"].size()) : 0;
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const tg::Node& tn = model.nodes[i];
+    const std::string where = "nodes[" + std::to_string(i) + "]";
+    Node node;
+    node.name = tn.name;
+    node.mesh = tn.mesh;
+    if (tn.mesh < -1 || tn.mesh >= static_cast<int>(scene.meshes.size())) {
+      return InvalidInput(where + ".mesh " + std::to_string(tn.mesh) + " does not exist");
+    }
+    if (tn.camera < -1 || tn.camera >= camera_count) {
+      return InvalidInput(where + ".camera " + std::to_string(tn.camera) + " does not exist");
+    }
+    node.camera = tn.camera;
+    for (int c : tn.children) {
+      if (c < 0 || static_cast<size_t>(c) >= model.nodes.size()) {
+        return InvalidInput(where + ".children names node " + std::to_string(c) + ", which does not exist");
+      }
+      node.children.push_back(c);
+    }
+    if (!tn.matrix.empty()) {
+      if (tn.matrix.size() != 16) return InvalidInput(where + ".matrix must have 16 numbers");
+      node.has_matrix = true;
+      std::copy(tn.matrix.begin(), tn.matrix.end(), node.matrix.begin());
+    }
+    if (!tn.translation.empty()) {
+      if (tn.translation.size() != 3) return InvalidInput(where + ".translation must have 3 numbers");
+      std::copy(tn.translation.begin(), tn.translation.end(), node.translation.begin());
+    }
+    if (!tn.rotation.empty()) {
+      if (tn.rotation.size() != 4) return InvalidInput(where + ".rotation must have 4 numbers");
+      std::copy(tn.rotation.begin(), tn.rotation.end(), node.rotation.begin());
+    }
+    if (!tn.scale.empty()) {
+      if (tn.scale.size() != 3) return InvalidInput(where + ".scale must have 3 numbers");
+      std::copy(tn.scale.begin(), tn.scale.end(), node.scale.begin());
+    }
+    for (double v : node.matrix) if (!std::isfinite(v)) return InvalidInput(where + ".matrix is not finite");
+    scene.nodes.push_back(std::move(node));
+  }
+  MS_RETURN_IF_ERROR(CheckNodeForest(scene));
+  for (const tg::Scene& ts : model.scenes) {
+    SceneRoot root;
+    root.name = ts.name;
+    for (int n : ts.nodes) {
+      if (n < 0 || static_cast<size_t>(n) >= scene.nodes.size()) {
+        return InvalidInput("scenes names node " + std::to_string(n) + ", which does not exist");
+      }
+      root.nodes.push_back(n);
+    }
+    scene.scenes.push_back(std::move(root));
+  }
+  scene.default_scene = model.defaultScene;
+  if (scene.default_scene >= static_cast<int32_t>(scene.scenes.size())) {
+    return InvalidInput("scene " + std::to_string(scene.default_scene) + " does not exist");
+  }
+
+  // Images, as bytes.
+  for (size_t i = 0; i < model.images.size(); ++i) {
+    const tg::Image& ti = model.images[i];
+    Image image;
+    image.name = ti.name;
+    if (!ti.uri.empty() && ti.uri.rfind("data:", 0) != 0) {
+      MS_ASSIGN_OR_RETURN(std::string relative, CheckUri(ti.uri, "images[" + std::to_string(i) + "]"));
+      if (base_dir.empty()) return InvalidInput("images[" + std::to_string(i) + "] names an external file, which is not allowed here");
+      FsContext ctx;
+      char buf[PATH_MAX];
+      if (realpath(base_dir.c_str(), buf) == nullptr) return IoError(base_dir + ": cannot resolve the asset's folder");
+      ctx.base_real = buf;
+      ctx.max_bytes = options.max_input_bytes;
+      std::vector<unsigned char> bytes;
+      if (!FsReadWholeFile(&bytes, nullptr, base_dir + "/" + relative, &ctx)) {
+        return NotFound("images[" + std::to_string(i) + "]: " + ctx.error);
+      }
+      image.bytes = std::move(bytes);
+    } else {
+      image.bytes = ti.image;
+    }
+    image.mime_type = ti.mimeType.empty() ? GuessMimeType(ti.uri, image.bytes) : ti.mimeType;
+    scene.images.push_back(std::move(image));
+  }
+
+  // Carried-through JSON, with cross references checked.
+  auto array_of = [&](const char* key) { return doc.contains(key) ? doc[key] : json::array(); };
+  const json materials = FilterExtensions(array_of("materials"), "materials", scene, used);
+  const json textures = FilterExtensions(array_of("textures"), "textures", scene, used);
+  const json samplers = FilterExtensions(array_of("samplers"), "samplers", scene, used);
+  const json cameras = FilterExtensions(array_of("cameras"), "cameras", scene, used);
+  for (size_t t = 0; t < textures.size(); ++t) {
+    const json& tex = textures[t];
+    for (const char* key : {"source", "sampler"}) {
+      if (!tex.is_object() || !tex.contains(key)) continue;
+      const size_t limit = std::string(key) == "source" ? scene.images.size() : samplers.size();
+      if (!tex[key].is_number_integer() || tex[key].get<int64_t>() < 0 ||
+          static_cast<uint64_t>(tex[key].get<int64_t>()) >= limit) {
+        return InvalidInput("textures[" + std::to_string(t) + "]." + key + " does not exist");
+      }
+    }
+  }
+  scene.materials_json = materials.dump();
+  scene.textures_json = textures.dump();
+  scene.samplers_json = samplers.dump();
+  scene.cameras_json = cameras.dump();
+  scene.extensions_used.assign(used.begin(), used.end());
+  MS_RETURN_IF_ERROR(ValidateScene(scene));
+  return scene;
+}
+
+}  // namespace
+
+StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
+                                const std::string& name, const ImportOptions& options) {
+  auto fail = [&](const Status& s) { return s.WithContext(name); };
+  if (bytes.size() > options.max_input_bytes) {
+    return fail(ResourceExhausted(std::to_string(bytes.size()) + " bytes is above the input cap"));
+  }
+  const bool is_glb = LooksLikeGlb(bytes.data(), bytes.size());
+  GlbView glb;
+  const uint8_t* json_data = bytes.data();
+  size_t json_size = bytes.size();
+  if (is_glb) {
+    auto parsed = ParseGlb(bytes.data(), bytes.size());
+    if (!parsed.ok()) return fail(parsed.status());
+    glb = parsed.value();
+    json_data = glb.json;
+    json_size = glb.json_size;
+  }
+  if (json_size == 0) return fail(InvalidInput("empty file"));
+  if (Status s = CheckJsonDepth(json_data, json_size); !s.ok()) return fail(s);
+  json doc = json::parse(json_data, json_data + json_size, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return fail(InvalidInput("the glTF JSON does not parse"));
+  if (Status s = ValidateGltfDocument(doc, is_glb, glb.bin_size); !s.ok()) return fail(s);
+
+  FsContext ctx;
+  ctx.max_bytes = options.max_input_bytes;
+  if (!base_dir.empty()) {
+    char buf[PATH_MAX];
+    if (realpath(base_dir.c_str(), buf) == nullptr) return fail(IoError(base_dir + ": cannot resolve the asset's folder"));
+    ctx.base_real = buf;
+  }
+  tg::TinyGLTF loader;
+  loader.SetImageLoader(&KeepImageBytes, nullptr);
+  tg::FsCallbacks callbacks{&FsFileExists, &FsExpandFilePath, &FsReadWholeFile, &FsWriteWholeFile, &ctx};
+  loader.SetFsCallbacks(callbacks);
+  tg::Model model;
+  std::string err, warn;
+  bool loaded = false;
+  try {
+    if (is_glb) {
+      loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
+                                           static_cast<unsigned int>(bytes.size()), ctx.base_real);
+    } else {
+      loaded = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                          static_cast<unsigned int>(bytes.size()), ctx.base_real);
+    }
+  } catch (const std::exception& e) {
+    return fail(InvalidInput(std::string("glTF parser failed: ") + e.what()));
+  } catch (...) {
+    return fail(InvalidInput("glTF parser failed"));
+  }
+  if (!loaded) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    for (char& c : err) if (c == '\n') c = ';';
+    if (!ctx.error.empty()) return fail(NotFound(ctx.error));
+    return fail(InvalidInput(err.empty() ? "glTF parser failed" : err));
+  }
+  try {
+    auto scene = Convert(model, doc, base_dir, options);
+    if (!scene.ok()) return fail(scene.status());
+    return scene;
+  } catch (const std::exception& e) {
+    return fail(Internal(std::string("unexpected error: ") + e.what()));
+  }
+}
+
+StatusOr<Scene> ImportGltfFile(const std::string& path, const ImportOptions& options) {
+  MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadFileBytes(path, options.max_input_bytes));
+  const size_t slash = path.find_last_of('/');
+  const std::string base_dir = slash == std::string::npos ? "." : path.substr(0, slash == 0 ? 1 : slash);
+  return ImportGltfBytes(bytes, base_dir, path, options);
+}
+
+}  // namespace meshstream
