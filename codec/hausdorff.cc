@@ -14,14 +14,9 @@ namespace {
 
 struct DirectionStats {
   double max = 0;
-  double sum = 0;
+  double sum = 0;  // over the samples the mean is taken from
   uint64_t count = 0;
 
-  void Add(double d) {
-    max = std::max(max, d);
-    sum += d;
-    ++count;
-  }
   double mean() const { return count ? sum / static_cast<double>(count) : 0.0; }
 };
 
@@ -72,14 +67,25 @@ double TriangleArea(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
 DirectionStats SampleToSurface(const Primitive& from, const TriangleGrid& to, int64_t budget) {
   TriangleGrid::Searcher searcher(to);
   DirectionStats stats;
-  auto measure = [&](const Vec3d& q) { stats.Add(searcher.Closest(q).distance); };
+  // Vertex and edge samples are not spread by area: they count for the
+  // maximum, and for the mean only when there are no area samples.
+  DirectionStats fixed;
+  auto measure = [&](const Vec3d& q) {
+    const double d = searcher.Closest(q).distance;
+    fixed.max = std::max(fixed.max, d);
+    fixed.sum += d;
+    ++fixed.count;
+  };
 
   // 1. Referenced vertices.
   const std::vector<char> referenced = ReferencedMask(from);
+  uint64_t vertex_samples = 0;
   for (size_t v = 0; v < from.positions.size(); ++v) {
-    if (referenced[v]) measure(ToDouble(from.positions[v]));
+    if (referenced[v]) {
+      measure(ToDouble(from.positions[v]));
+      ++vertex_samples;
+    }
   }
-  const uint64_t vertex_samples = stats.count;
 
   // 2. Midpoints of distinct undirected edges.
   std::vector<uint64_t> edges;
@@ -99,10 +105,12 @@ DirectionStats SampleToSurface(const Primitive& from, const TriangleGrid& to, in
     measure({0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])});
   }
 
-  // 3. Area-weighted stratified samples with the rest of the budget.
-  const int64_t rest = budget - static_cast<int64_t>(vertex_samples) -
-                       static_cast<int64_t>(edges.size());
-  if (rest <= 0) return stats;
+  // 3. Area-weighted stratified samples with the rest of the budget, but at
+  // least half of it.
+  const int64_t rest = std::max(budget - static_cast<int64_t>(vertex_samples) -
+                                    static_cast<int64_t>(edges.size()),
+                                budget / 2);
+  if (rest <= 0) return fixed;
   const size_t faces = from.face_count();
   std::vector<double> areas(faces);
   double total_area = 0;
@@ -112,7 +120,7 @@ DirectionStats SampleToSurface(const Primitive& from, const TriangleGrid& to, in
                             ToDouble(from.positions[from.indices[3 * f + 2]]));
     total_area += areas[f];
   }
-  if (!(total_area > 0) || !std::isfinite(total_area)) return stats;
+  if (!(total_area > 0) || !std::isfinite(total_area)) return fixed;
   const double per_area = static_cast<double>(rest) / total_area;
   double carry = 0;
   for (size_t f = 0; f < faces; ++f) {
@@ -127,8 +135,13 @@ DirectionStats SampleToSurface(const Primitive& from, const TriangleGrid& to, in
     const Vec3d ac = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
     const double inv = 1.0 / (3.0 * static_cast<double>(k));
     auto at = [&](double u, double v) {
-      measure({a[0] + u * ab[0] + v * ac[0], a[1] + u * ab[1] + v * ac[1],
-               a[2] + u * ab[2] + v * ac[2]});
+      const double d = searcher.Closest({a[0] + u * ab[0] + v * ac[0],
+                                         a[1] + u * ab[1] + v * ac[1],
+                                         a[2] + u * ab[2] + v * ac[2]})
+                           .distance;
+      stats.max = std::max(stats.max, d);
+      stats.sum += d;
+      ++stats.count;
     };
     // Sub-triangle (i, j) pointing up has corners (i, j), (i+1, j), (i, j+1)
     // in units of 1/k; pointing down, (i+1, j), (i, j+1), (i+1, j+1).
@@ -141,6 +154,8 @@ DirectionStats SampleToSurface(const Primitive& from, const TriangleGrid& to, in
       }
     }
   }
+  if (stats.count == 0) return fixed;
+  stats.max = std::max(stats.max, fixed.max);
   return stats;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <cstdlib>
 
 namespace meshstream {
 
@@ -95,34 +96,36 @@ StatusOr<TriangleGrid> TriangleGrid::Build(std::vector<Triangle> triangles) {
     return ResourceExhausted("too many triangles to index: " + std::to_string(triangles.size()));
   }
   TriangleGrid g;
-  g.triangles_ = std::move(triangles);
-  const size_t count = g.triangles_.size();
+  const size_t count = triangles.size();
 
   // Bounding boxes, per triangle and overall.
-  g.boxes_.resize(count);
+  std::vector<Item> items(count);
   Vec3d lo, hi;
   lo.fill(std::numeric_limits<double>::infinity());
   hi.fill(-std::numeric_limits<double>::infinity());
   for (size_t t = 0; t < count; ++t) {
-    const Triangle& tri = g.triangles_[t];
-    Box& box = g.boxes_[t];
+    Item& item = items[t];
+    item.tri = triangles[t];
+    const Triangle& tri = item.tri;
     for (int i = 0; i < 3; ++i) {
       if (!std::isfinite(tri.a[i]) || !std::isfinite(tri.b[i]) || !std::isfinite(tri.c[i])) {
         return InvalidInput("triangle " + std::to_string(t) + " has a non-finite coordinate");
       }
-      box.lo[i] = std::min({tri.a[i], tri.b[i], tri.c[i]});
-      box.hi[i] = std::max({tri.a[i], tri.b[i], tri.c[i]});
-      lo[i] = std::min(lo[i], box.lo[i]);
-      hi[i] = std::max(hi[i], box.hi[i]);
+      item.lo[i] = std::min({tri.a[i], tri.b[i], tri.c[i]});
+      item.hi[i] = std::max({tri.a[i], tri.b[i], tri.c[i]});
+      lo[i] = std::min(lo[i], item.lo[i]);
+      hi[i] = std::max(hi[i], item.hi[i]);
     }
   }
+  std::vector<Triangle>().swap(triangles);
 
   // Cell size: about two cells per triangle over the non-flat axes.
   const Vec3d ext = Sub(hi, lo);
   const double max_ext = std::max({ext[0], ext[1], ext[2]});
   g.origin_ = lo;
   if (max_ext > 0) {
-    const uint64_t target = std::min<uint64_t>(2 * static_cast<uint64_t>(count), kMaxCells);
+    const double mult = getenv("TG_MULT") ? atof(getenv("TG_MULT")) : 2.0;
+    const uint64_t target = std::min<uint64_t>(mult * static_cast<uint64_t>(count), kMaxCells);
     double volume = 1;
     int flat_dims = 0;
     for (int i = 0; i < 3; ++i) {
@@ -151,13 +154,33 @@ StatusOr<TriangleGrid> TriangleGrid::Build(std::vector<Triangle> triangles) {
   g.inv_cell_ = 1.0 / g.cell_;
   for (int i = 0; i < 3; ++i) g.upper_[i] = g.origin_[i] + g.dims_[i] * g.cell_;
 
+  // Store the triangles in the order of the cells of their box centres.
+  {
+    std::vector<std::pair<uint64_t, uint32_t>> order(count);
+    for (uint32_t t = 0; t < count; ++t) {
+      const Item& item = items[t];
+      order[t] = {g.CellIndex(g.CellCoord(0.5 * (item.lo[0] + item.hi[0]), 0),
+                              g.CellCoord(0.5 * (item.lo[1] + item.hi[1]), 1),
+                              g.CellCoord(0.5 * (item.lo[2] + item.hi[2]), 2)),
+                  t};
+    }
+    std::sort(order.begin(), order.end());
+    g.items_.resize(count);
+    g.ids_.resize(count);
+    for (size_t k = 0; k < count; ++k) {
+      g.items_[k] = items[order[k].second];
+      g.ids_[k] = order[k].second;
+    }
+  }
+  std::vector<Item>().swap(items);
+
   // Counting pass, then filling pass, over the same cell test.
   const uint64_t cells = uint64_t{g.dims_[0]} * g.dims_[1] * g.dims_[2];
   const double half_diagonal = g.cell_ * 0.8660254037844387;  // sqrt(3) / 2
   std::vector<uint64_t> count_per_cell(cells + 1, 0);
   auto for_each_cell = [&g, half_diagonal](uint32_t t, auto&& visit) {
-    const Triangle& tri = g.triangles_[t];
-    const Box& box = g.boxes_[t];
+    const Triangle& tri = g.items_[t].tri;
+    const Item& box = g.items_[t];
     const Vec3d n = Cross(Sub(tri.b, tri.a), Sub(tri.c, tri.a));
     const double n_len = std::sqrt(Dot(n, n));
     const uint32_t x0 = g.CellCoord(box.lo[0], 0), x1 = g.CellCoord(box.hi[0], 0);
@@ -232,9 +255,9 @@ TriangleGrid::Searcher::Searcher(const TriangleGrid& grid)
 void TriangleGrid::Searcher::Test(uint32_t t, const Vec3d& p, double& best2, Hit& hit) {
   if (stamp_[t] == query_) return;
   stamp_[t] = query_;
-  const Box& box = grid_->boxes_[t];
-  if (BoxDist2(p, box.lo, box.hi) >= best2) return;
-  const Triangle& tri = grid_->triangles_[t];
+  const Item& item = grid_->items_[t];
+  if (BoxDist2(p, item.lo, item.hi) >= best2) return;
+  const Triangle& tri = item.tri;
   Vec3d q;
   if (tri.a == tri.b && tri.a == tri.c) {
     q = tri.a;
@@ -320,6 +343,7 @@ TriangleGrid::Hit TriangleGrid::Searcher::Closest(const Vec3d& p) {
   }
   hit.distance = std::sqrt(best2);
   last_ = hit.triangle;
+  if (hit.triangle != kNone) hit.triangle = g.ids_[hit.triangle];
   return hit;
 }
 

@@ -22,7 +22,7 @@
 // that ValidatePrimitive rejects; they fail with kResourceExhausted beyond
 // 2^32 - 2 triangles or cell entries. Build is O(T + cells); a query is O(1)
 // expected for points near the surface (O(cells) in the worst case).
-// Memory: about 72 + 48 bytes per triangle plus 4 bytes per cell and per entry.
+// Memory: about 124 bytes per triangle plus 4 bytes per cell and per entry.
 // Thread safety: a built TriangleGrid is immutable and may be shared between
 // threads; a Searcher holds per-query scratch state, so use one per thread.
 #ifndef MESHSTREAM_CODEC_TRIANGLE_GRID_H_
@@ -65,8 +65,7 @@ class TriangleGrid {
   // One triangle with three equal corners per point, in the given order.
   static StatusOr<TriangleGrid> FromPoints(const std::vector<Vec3d>& points);
 
-  size_t triangle_count() const { return triangles_.size(); }
-  const Triangle& triangle(uint32_t i) const { return triangles_[i]; }
+  size_t triangle_count() const { return items_.size(); }
   const std::array<uint32_t, 3>& dims() const { return dims_; }
   double cell_size() const { return cell_; }
   size_t entry_count() const { return entries_.size(); }
@@ -82,13 +81,16 @@ class TriangleGrid {
     void Test(uint32_t t, const Vec3d& p, double& best2, Hit& hit);
 
     const TriangleGrid* grid_;
-    std::vector<uint32_t> stamp_;  // per triangle: last query that tested it
+    std::vector<uint32_t> stamp_;  // per item: last query that tested it
     uint32_t query_ = 0;
-    uint32_t last_ = kNone;  // previous answer, the starting upper bound
+    uint32_t last_ = kNone;  // item of the previous answer, the starting upper bound
   };
 
  private:
-  struct Box {
+  // A triangle with its bounding box. Stored sorted by the cell of the
+  // centroid, so that one cell's triangles are close together in memory.
+  struct Item {
+    Triangle tri;
     Vec3d lo, hi;
   };
 
@@ -98,10 +100,10 @@ class TriangleGrid {
   }
   uint32_t CellCoord(double v, int axis) const;
 
-  std::vector<Triangle> triangles_;
-  std::vector<Box> boxes_;          // per triangle
+  std::vector<Item> items_;
+  std::vector<uint32_t> ids_;       // per item: its index as given to Build
   std::vector<uint32_t> offsets_;   // per cell, into entries_ (size cells + 1)
-  std::vector<uint32_t> entries_;   // triangle indices, grouped by cell
+  std::vector<uint32_t> entries_;   // item indices, grouped by cell
   Vec3d origin_ = {0, 0, 0};
   Vec3d upper_ = {0, 0, 0};  // the far corner of the last cell
   double cell_ = 1.0;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -671,6 +672,51 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
   return scene;
 }
 
+// A copy of `doc` without the "indices" of Draco-compressed primitives, or
+// nothing when there is none to remove.
+std::optional<json> WithoutDracoIndices(const json& doc) {
+  std::optional<json> out;
+  auto meshes = doc.find("meshes");
+  if (meshes == doc.end() || !meshes->is_array()) return out;
+  for (size_t m = 0; m < meshes->size(); ++m) {
+    const json& mesh = (*meshes)[m];
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+    for (size_t k = 0; k < mesh["primitives"].size(); ++k) {
+      const json& prim = mesh["primitives"][k];
+      if (!prim.is_object() || !prim.contains("indices") || !prim.contains("extensions") ||
+          !prim["extensions"].is_object() || !prim["extensions"].contains("KHR_draco_mesh_compression")) {
+        continue;
+      }
+      if (!out) out = doc;
+      (*out)["meshes"][m]["primitives"][k].erase("indices");
+    }
+  }
+  return out;
+}
+
+void AppendU32(std::vector<uint8_t>& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+
+std::vector<uint8_t> RebuildGlb(std::string text, const GlbView& glb) {
+  while (text.size() % 4) text.push_back(' ');
+  const size_t bin_padded = (glb.bin_size + 3) & ~size_t{3};
+  std::vector<uint8_t> out;
+  AppendU32(out, kGlbMagic);
+  AppendU32(out, 2);
+  AppendU32(out, static_cast<uint32_t>(12 + 8 + text.size() + (glb.bin ? 8 + bin_padded : 0)));
+  AppendU32(out, static_cast<uint32_t>(text.size()));
+  AppendU32(out, kGlbChunkJson);
+  out.insert(out.end(), text.begin(), text.end());
+  if (glb.bin) {
+    AppendU32(out, static_cast<uint32_t>(bin_padded));
+    AppendU32(out, kGlbChunkBin);
+    out.insert(out.end(), glb.bin, glb.bin + glb.bin_size);
+    out.resize(out.size() + (bin_padded - glb.bin_size), 0);
+  }
+  return out;
+}
+
 }  // namespace
 
 StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
@@ -696,6 +742,22 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   if (doc.is_discarded()) return fail(InvalidInput("the glTF JSON does not parse"));
   if (Status s = ValidateGltfDocument(doc, is_glb, glb.bin_size); !s.ok()) return fail(s);
 
+  // tinygltf 2.7, built without Draco, refuses an indices accessor without a
+  // bufferView, which is what every KHR_draco_mesh_compression primitive has.
+  // Such primitives take their indices from the Draco stream, so tinygltf is
+  // given a copy of the document without them.
+  std::vector<uint8_t> rewritten;
+  const std::vector<uint8_t>* parser_bytes = &bytes;
+  if (auto stripped = WithoutDracoIndices(doc); stripped.has_value()) {
+    std::string text = stripped->dump();
+    if (is_glb) {
+      rewritten = RebuildGlb(text, glb);
+    } else {
+      rewritten.assign(text.begin(), text.end());
+    }
+    parser_bytes = &rewritten;
+  }
+
   FsContext ctx;
   ctx.max_bytes = options.max_input_bytes;
   if (!base_dir.empty()) {
@@ -712,11 +774,11 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   bool loaded = false;
   try {
     if (is_glb) {
-      loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
-                                           static_cast<unsigned int>(bytes.size()), ctx.base_real);
+      loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, parser_bytes->data(),
+                                           static_cast<unsigned int>(parser_bytes->size()), ctx.base_real);
     } else {
-      loaded = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
-                                          static_cast<unsigned int>(bytes.size()), ctx.base_real);
+      loaded = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(parser_bytes->data()),
+                                          static_cast<unsigned int>(parser_bytes->size()), ctx.base_real);
     }
   } catch (const std::exception& e) {
     return fail(InvalidInput(std::string("glTF parser failed: ") + e.what()));

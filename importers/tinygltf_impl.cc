@@ -1,10 +1,9 @@
 // The one translation unit that compiles tinygltf. Its namespace is renamed
 // to meshstream_tinygltf by a PUBLIC definition of the importers target, so
 // it cannot collide with the copy of tinygltf inside libdraco.so (BRIEF,
-// Debian traps). Images are never decoded (no stb_image); external images are
+// Debian traps). Images are never decoded (no stb_image; the TINYGLTF_NO_*
+// definitions are PUBLIC on the target so every user sees one class layout);
+// external images are
 // read by gltf_import.cc itself, inside the asset's folder only.
 #define TINYGLTF_IMPLEMENTATION
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
