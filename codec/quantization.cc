@@ -130,7 +130,14 @@ std::array<uint32_t, 2> QuantizeNormal(const Vec3f& normal, int bits) {
     const double q = std::round((v + 1.0) * 0.5 * max);
     return static_cast<uint32_t>(std::clamp(q, 0.0, max));
   };
-  return {to_grid(s), to_grid(t)};
+  uint32_t qs = to_grid(s), qt = to_grid(t);
+  // The border of the octahedral square folds onto itself: (s, +-1) and
+  // (-s, +-1) are one direction, and so are (+-1, t) and (+-1, -t). Keep the
+  // non-negative half so that every direction has exactly one code.
+  const uint32_t m = (1u << bits) - 1u;
+  if ((qt == 0 || qt == m) && qs < m - qs) qs = m - qs;
+  if ((qs == 0 || qs == m) && qt < m - qt) qt = m - qt;
+  return {qs, qt};
 }
 
 Vec3f DequantizeNormal(const std::array<uint32_t, 2>& q, int bits) {

@@ -8,6 +8,16 @@
 // fanned into triangles; per-corner attributes (OBJ's vt/vn indices) are
 // unified by splitting vertices, and Scene::source_vertices keeps the file's
 // own position count.
+// A file with vertices but no faces is refused ("no triangles", InvalidInput).
+// Kept: every vertex (unreferenced ones too) in file order; faces in file
+// order. Normals are scaled to unit length (with a warning); colours are
+// converted from sRGB to linear; texture coordinates are kept as in the file
+// (no V flip). STL corners with equal positions are merged by OpenMesh, and
+// triangles that become degenerate are dropped with a warning.
+// Errors name the file, and the face (0-based) when a face is at fault.
+// OBJ is read by tinyobjloader (no material file is ever opened); PLY, OFF and
+// STL by OpenMesh's readers into our own BaseImporter, under one mutex because
+// OpenMesh's readers are shared singletons.
 #ifndef MESHSTREAM_IMPORTERS_MESH_IO_H_
 #define MESHSTREAM_IMPORTERS_MESH_IO_H_
 
