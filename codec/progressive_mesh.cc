@@ -1,0 +1,67 @@
+#include "codec/progressive_mesh.h"
+
+#include "codec/batch_simplifier.h"
+
+namespace meshstream {
+
+std::vector<uint32_t> ProgressiveMesh::level_vertices() const {
+  std::vector<uint32_t> out = {static_cast<uint32_t>(base.vertex_count())};
+  for (const Refinement& r : refinements) out.push_back(out.back() + static_cast<uint32_t>(r.split_count()));
+  return out;
+}
+
+Status RefinementState::Reset(const QuantizedMesh& base) {
+  channels = base.layout.channels();
+  positions = base.positions;
+  attributes = base.attributes;
+  return connectivity.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices);
+}
+
+Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
+  const uint32_t w = r.split_vertices[j];
+  if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
+  std::vector<uint32_t> neighbours;
+  connectivity.SortedNeighbours(w, neighbours);
+  const auto& wings = r.wings[j];
+  if (wings[0] >= neighbours.size() || wings[1] >= neighbours.size()) {
+    return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
+                        std::to_string(neighbours.size()) + " neighbours");
+  }
+  MS_ASSIGN_OR_RETURN(const uint32_t n, connectivity.Split(w, neighbours[wings[0]], neighbours[wings[1]]));
+  Vec3i u{}, v{};
+  for (int k = 0; k < 3; ++k) {
+    u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);
+    v[k] = static_cast<int32_t>(static_cast<int64_t>(u[k]) - r.position_delta[j][k]);
+  }
+  positions[w] = u;
+  positions.push_back(v);
+  attributes.resize(attributes.size() + channels);
+  for (int k = 0; k < channels; ++k) {
+    const int32_t d = r.attribute_delta[j * channels + k];
+    const int32_t au = FromMidpoint(attributes[size_t(w) * channels + k], d);
+    attributes[size_t(w) * channels + k] = au;
+    attributes[size_t(n) * channels + k] = static_cast<int32_t>(static_cast<int64_t>(au) - d);
+  }
+  return Status::Ok();
+}
+
+Status RefinementState::ApplyRefinement(const Refinement& r) {
+  if (r.vertices_before != connectivity.vertex_count()) {
+    return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +
+                        std::to_string(connectivity.vertex_count()));
+  }
+  for (size_t j = 0; j < r.split_count(); ++j) MS_RETURN_IF_ERROR(ApplySplit(r, j));
+  return Status::Ok();
+}
+
+QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const {
+  QuantizedMesh out;
+  out.position_grid = base_layout.position_grid;
+  out.layout = base_layout.layout;
+  out.positions = positions;
+  out.attributes = attributes;
+  out.indices = connectivity.Indices();
+  return out;
+}
+
+}  // namespace meshstream

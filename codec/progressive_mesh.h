@@ -1,0 +1,62 @@
+// The progressive representation of one primitive, in memory: a base mesh in
+// canonical vertex order and a list of refinements from coarse to fine.
+// Serialization (progressive_bitstream.h) and packetization (packetizer.h)
+// turn it into bytes; this header is the contract between encoder and
+// decoder.
+//
+// Canonical order (BRIEF, property 2): the base mesh's vertices are numbered
+// in the order in which its decoder (Draco) returns them. Refinement i splits
+// the vertices whose split bit is 1, in ascending id order; the j-th split
+// creates vertex `vertices_before + j`. Ids therefore follow from the split
+// bits alone.
+//
+// Structure of a split: the wings a and b, as indices into the split vertex's
+// neighbours sorted by id in the coarser mesh (they refer to the mesh before
+// the refinement, so the order of splits does not matter). Geometry: the
+// differences u - v of positions and attribute channels of the two vertices
+// after the split, where the coarser vertex holds floor((u + v) / 2).
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_MESH_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_MESH_H_
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "codec/quantized_mesh.h"
+#include "codec/split_mesh.h"
+#include "codec/status.h"
+
+namespace meshstream {
+
+struct Refinement {
+  uint32_t vertices_before = 0;
+  std::vector<uint32_t> split_vertices;       // ascending canonical ids
+  std::vector<std::array<uint16_t, 2>> wings; // per split: indices into sorted neighbours
+  std::vector<Vec3i> position_delta;          // per split: u - v
+  std::vector<int32_t> attribute_delta;       // per split: channels of u - v
+  size_t split_count() const { return split_vertices.size(); }
+};
+
+struct ProgressiveMesh {
+  QuantizedMesh base;  // canonical order
+  std::vector<Refinement> refinements;
+  std::vector<uint32_t> level_vertices() const;
+};
+
+// The state a decoder refines: connectivity plus values on the grids.
+struct RefinementState {
+  SplitMesh connectivity;
+  std::vector<Vec3i> positions;
+  std::vector<int32_t> attributes;
+  int channels = 0;
+
+  Status Reset(const QuantizedMesh& base);
+  // Applies split j of `r` (all data present). Errors leave the state valid.
+  Status ApplySplit(const Refinement& r, size_t j);
+  Status ApplyRefinement(const Refinement& r);
+  QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_MESH_H_

@@ -1,0 +1,120 @@
+#include "codec/split_mesh.h"
+
+#include <algorithm>
+
+namespace meshstream {
+
+Status SplitMesh::Reset(uint32_t vertex_count, const std::vector<uint32_t>& indices) {
+  if (indices.size() % 3 != 0) return InvalidInput("index count is not a multiple of 3");
+  faces_.clear();
+  faces_.reserve(indices.size() / 3);
+  vertex_faces_.assign(vertex_count, {});
+  for (size_t i = 0; i < indices.size(); i += 3) {
+    const Face f = {indices[i], indices[i + 1], indices[i + 2]};
+    for (uint32_t v : f) {
+      if (v >= vertex_count) return InvalidInput("face " + std::to_string(i / 3) + " names vertex " + std::to_string(v));
+    }
+    const uint32_t id = static_cast<uint32_t>(faces_.size());
+    faces_.push_back(f);
+    vertex_faces_[f[0]].push_back(id);
+    if (f[1] != f[0]) vertex_faces_[f[1]].push_back(id);
+    if (f[2] != f[0] && f[2] != f[1]) vertex_faces_[f[2]].push_back(id);
+  }
+  return Status::Ok();
+}
+
+bool SplitMesh::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
+  ring.clear();
+  const std::vector<uint32_t>& fs = vertex_faces_[w];
+  if (fs.size() < 3) return false;
+  // next[x] = y for every triangle (w, x, y); pairs stored flat.
+  scratch_.clear();
+  for (uint32_t f : fs) {
+    const Face r = RotateTo(faces_[f], w);
+    if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
+    scratch_.push_back(r[1]);
+    scratch_.push_back(r[2]);
+  }
+  const size_t n = fs.size();
+  uint32_t start = UINT32_MAX;
+  for (size_t i = 0; i < n; ++i) start = std::min(start, scratch_[2 * i]);
+  uint32_t cur = start;
+  for (size_t step = 0; step < n; ++step) {
+    ring.push_back(cur);
+    uint32_t next = UINT32_MAX;
+    for (size_t i = 0; i < n; ++i) {
+      if (scratch_[2 * i] == cur) {
+        if (next != UINT32_MAX) return false;  // two triangles leave cur: not a fan
+        next = scratch_[2 * i + 1];
+      }
+    }
+    if (next == UINT32_MAX) return false;  // open fan (boundary)
+    cur = next;
+    if (cur == start) return step + 1 == n;
+  }
+  return false;
+}
+
+void SplitMesh::SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const {
+  out.clear();
+  for (uint32_t f : vertex_faces_[w]) {
+    for (uint32_t x : faces_[f]) {
+      if (x != w) out.push_back(x);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+StatusOr<uint32_t> SplitMesh::Split(uint32_t w, uint32_t a, uint32_t b) {
+  if (w >= vertex_count() || a >= vertex_count() || b >= vertex_count() || a == b || a == w || b == w) {
+    return InvalidInput("split of vertex " + std::to_string(w) + " names invalid wings");
+  }
+  std::vector<uint32_t> ring;
+  if (!CyclicRing(w, ring)) return InvalidInput("vertex " + std::to_string(w) + " is not a closed manifold fan");
+  const auto ia = std::find(ring.begin(), ring.end(), a);
+  const auto ib = std::find(ring.begin(), ring.end(), b);
+  if (ia == ring.end() || ib == ring.end()) {
+    return InvalidInput("split of vertex " + std::to_string(w) + ": a wing is not a neighbour");
+  }
+  const uint32_t n = vertex_count();
+  vertex_faces_.emplace_back();
+  // Triangles (w, x, y) with x on the path from b up to (not including) a move to n.
+  std::vector<uint32_t> on_path;
+  const size_t d = ring.size();
+  for (size_t k = static_cast<size_t>(ib - ring.begin()); ring[k % d] != a; ++k) on_path.push_back(ring[k % d]);
+  std::vector<uint32_t>& wf = vertex_faces_[w];
+  std::vector<uint32_t> keep;
+  for (uint32_t f : wf) {
+    const Face r = RotateTo(faces_[f], w);
+    if (std::find(on_path.begin(), on_path.end(), r[1]) != on_path.end()) {
+      Face& face = faces_[f];
+      for (uint32_t& x : face) {
+        if (x == w) x = n;
+      }
+      vertex_faces_[n].push_back(f);
+    } else {
+      keep.push_back(f);
+    }
+  }
+  wf.swap(keep);
+  const uint32_t f1 = static_cast<uint32_t>(faces_.size());
+  faces_.push_back({w, n, a});
+  faces_.push_back({n, w, b});
+  vertex_faces_[w].push_back(f1);
+  vertex_faces_[w].push_back(f1 + 1);
+  vertex_faces_[n].push_back(f1);
+  vertex_faces_[n].push_back(f1 + 1);
+  vertex_faces_[a].push_back(f1);
+  vertex_faces_[b].push_back(f1 + 1);
+  return n;
+}
+
+std::vector<uint32_t> SplitMesh::Indices() const {
+  std::vector<uint32_t> out;
+  out.reserve(faces_.size() * 3);
+  for (const Face& f : faces_) out.insert(out.end(), f.begin(), f.end());
+  return out;
+}
+
+}  // namespace meshstream

@@ -1,0 +1,65 @@
+// The connectivity that the progressive decoder refines, and that the encoder
+// replays to produce exactly what the decoder will see: triangles plus, per
+// vertex, the list of incident triangles.
+//
+// A vertex split of w with wings a and b (both neighbours of w) creates a new
+// vertex n. Walk w's ring in the direction of its triangles (x -> y for every
+// triangle (w, x, y)) from b to a: the triangles on that path move to n, and
+// the triangles (w, n, a) and (n, w, b) are added. This is the exact inverse
+// of collapsing the edge (w, n) whose left and right triangles were
+// (w, n, a) and (n, w, b) (docs/progressive-format.md, "Vertex split").
+//
+// Contract: pure, no allocation beyond its vectors. Split() refuses (without
+// changing anything) a split whose w is not a closed manifold fan or whose
+// wings are not distinct neighbours of w. Thread safety: none.
+#ifndef MESHSTREAM_CODEC_SPLIT_MESH_H_
+#define MESHSTREAM_CODEC_SPLIT_MESH_H_
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "codec/status.h"
+
+namespace meshstream {
+
+using Face = std::array<uint32_t, 3>;
+
+class SplitMesh {
+ public:
+  // `indices` must refer to vertices below `vertex_count` (checked).
+  Status Reset(uint32_t vertex_count, const std::vector<uint32_t>& indices);
+
+  uint32_t vertex_count() const { return static_cast<uint32_t>(vertex_faces_.size()); }
+  size_t face_count() const { return faces_.size(); }
+  const std::vector<Face>& faces() const { return faces_; }
+  const std::vector<uint32_t>& faces_of(uint32_t v) const { return vertex_faces_[v]; }
+
+  // The neighbours of w in cyclic order (x -> y over w's triangles), starting
+  // at the smallest id. Returns false (ring unspecified) when the triangles of
+  // w do not form one closed fan.
+  bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const;
+  // The neighbours of w sorted by id (any connectivity).
+  void SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const;
+
+  // Splits w; the new vertex gets id vertex_count(). Returns its id.
+  StatusOr<uint32_t> Split(uint32_t w, uint32_t a, uint32_t b);
+
+  std::vector<uint32_t> Indices() const;
+
+ private:
+  std::vector<Face> faces_;
+  std::vector<std::vector<uint32_t>> vertex_faces_;
+  mutable std::vector<uint32_t> scratch_;
+};
+
+// Rotates a face so that vertex v comes first; v must be in the face.
+inline Face RotateTo(const Face& f, uint32_t v) {
+  if (f[0] == v) return f;
+  if (f[1] == v) return {f[1], f[2], f[0]};
+  return {f[2], f[0], f[1]};
+}
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_SPLIT_MESH_H_
