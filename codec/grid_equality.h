@@ -14,7 +14,9 @@
 //
 // Contract: both inputs must pass ValidatePrimitive (kInvalidInput naming the
 // side); qp must be in [1, 30] (kInvalidArgument); A must have a position to
-// build the grid from (kInvalidInput). A referenced position of B farther than
+// build the grid from (kInvalidInput; like PositionGrid, a primitive without
+// faces gets the grid of all its vertices, and two face-less primitives are
+// equal). A referenced position of B farther than
 // 2^52 steps from A's grid origin is kInvalidInput (it cannot match anyway).
 // Complexity: O(F log F) time, O(F) memory.
 // Thread safety: pure functions; safe to call concurrently.

@@ -110,6 +110,14 @@ double Distance(const Vec3d& a, const Vec3d& b) {
                    (a[2] - b[2]) * (a[2] - b[2]));
 }
 
+// Fewer samples than the default where the answer does not depend on them,
+// to keep sanitizer builds quick.
+SurfaceDistanceOptions FewSamples() {
+  SurfaceDistanceOptions options;
+  options.samples_per_side = 20000;
+  return options;
+}
+
 // ---------------------------------------------------------------- triangle grid
 
 TEST(TriangleGridTest, ClosestPointInEveryRegion) {
@@ -151,7 +159,7 @@ TEST(TriangleGridTest, MatchesBruteForce) {
   auto grid = TriangleGrid::Build(triangles);
   ASSERT_TRUE(grid.ok()) << grid.status().ToString();
   TriangleGrid::Searcher searcher(*grid);
-  for (int q = 0; q < 2000; ++q) {
+  for (int q = 0; q < 1000; ++q) {
     // Queries inside the box and far outside it.
     const double spread = (q % 4 == 0) ? 60 : 12;
     const Vec3d p = {rng.Next() * spread - (spread - 10) / 2, rng.Next() * spread - (spread - 10) / 2,
@@ -164,6 +172,41 @@ TEST(TriangleGridTest, MatchesBruteForce) {
     ASSERT_NE(hit.triangle, TriangleGrid::kNone);
     EXPECT_NEAR(hit.distance, best, 1e-12) << "query " << q;
     EXPECT_NEAR(Distance(p, hit.point), hit.distance, 1e-12);
+  }
+}
+
+TEST(TriangleGridTest, MatchesBruteForceAroundAClosedSurface) {
+  // Queries on, near and far from a bumpy sphere: the grid rings answer the
+  // near ones, the tree the far ones; both must agree with brute force.
+  const Primitive sphere = BumpySphere(16, 32);
+  std::vector<TriangleGrid::Triangle> triangles;
+  for (size_t f = 0; f < sphere.face_count(); ++f) {
+    TriangleGrid::Triangle t;
+    Vec3d* corners[3] = {&t.a, &t.b, &t.c};
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f& p = sphere.positions[sphere.indices[3 * f + k]];
+      *corners[k] = {p[0], p[1], p[2]};
+    }
+    triangles.push_back(t);
+  }
+  auto grid = TriangleGrid::FromPrimitive(sphere);
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  TriangleGrid::Searcher searcher(*grid);
+  Lcg rng(11);
+  for (int q = 0; q < 1000; ++q) {
+    const double radius = (q % 3 == 0) ? 1.0 + 0.2 * (rng.Next() - 0.5) : 5 * rng.Next();
+    const double z = 2 * rng.Next() - 1, phi = 6.283185307179586 * rng.Next();
+    const double s = std::sqrt(1 - z * z);
+    const Vec3d p = {radius * s * std::cos(phi), radius * s * std::sin(phi), radius * z};
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : triangles) {
+      best = std::min(best, Distance(p, ClosestPointOnTriangle(p, t.a, t.b, t.c)));
+    }
+    const TriangleGrid::Hit hit = searcher.Closest(p);
+    ASSERT_LT(hit.triangle, sphere.face_count());
+    EXPECT_NEAR(hit.distance, best, 1e-12) << "query " << q;
+    const TriangleGrid::Triangle& t = triangles[hit.triangle];
+    EXPECT_NEAR(Distance(p, ClosestPointOnTriangle(p, t.a, t.b, t.c)), hit.distance, 1e-12);
   }
 }
 
@@ -196,7 +239,7 @@ TEST(SurfaceDistanceTest, TranslatedCube) {
   // B's face x = 0.1; every other point is at most 0.1 from the other cube.
   // Eq. 3: every corner's nearest corner of the other cube is 0.1 away.
   // (0.1 and 1.1 are rounded to float, hence the tolerance.)
-  auto d = ComputeSurfaceDistance(Cube(), Cube({0.1f, 0, 0}));
+  auto d = ComputeSurfaceDistance(Cube(), Cube({0.1f, 0, 0}), FewSamples());
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   EXPECT_NEAR(d->hausdorff, 0.1, 1e-6);
   EXPECT_NEAR(d->hausdorff_vertex, 0.1, 1e-6);
@@ -204,6 +247,20 @@ TEST(SurfaceDistanceTest, TranslatedCube) {
   EXPECT_NEAR(d->hausdorff_vertex_rel, 0.1 / std::sqrt(3.0), 1e-6);
   EXPECT_GT(d->mean_distance, 0.0);
   EXPECT_LT(d->mean_distance, 0.1);
+}
+
+TEST(SurfaceDistanceTest, FarApartAndFarFromTheOrigin) {
+  // Cubes 5 apart: A's face x = 0 is 5 from B's nearest face x = 5.
+  auto far = ComputeSurfaceDistance(Cube(), Cube({5, 0, 0}), FewSamples());
+  ASSERT_TRUE(far.ok()) << far.status().ToString();
+  EXPECT_NEAR(far->hausdorff, 5.0, 1e-12);
+  EXPECT_NEAR(far->hausdorff_vertex, 5.0, 1e-12);
+  // Large coordinates, a translation exact in float.
+  auto offset = ComputeSurfaceDistance(Cube({1000, -2000, 3000}),
+                                       Cube({1000.125f, -2000, 3000}), FewSamples());
+  ASSERT_TRUE(offset.ok()) << offset.status().ToString();
+  EXPECT_NEAR(offset->hausdorff, 0.125, 1e-9);
+  EXPECT_NEAR(offset->hausdorff_vertex, 0.125, 1e-9);
 }
 
 TEST(SurfaceDistanceTest, PlaneWithOneVertexBumped) {
@@ -214,7 +271,7 @@ TEST(SurfaceDistanceTest, PlaneWithOneVertexBumped) {
   const Primitive flat = Plane(20);
   Primitive bumped = flat;
   bumped.positions[10 * 21 + 10][2] = h;
-  auto d = ComputeSurfaceDistance(flat, bumped);
+  auto d = ComputeSurfaceDistance(flat, bumped, FewSamples());
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   EXPECT_NEAR(d->hausdorff, h, 1e-9);
   EXPECT_NEAR(d->hausdorff_vertex, h, 1e-9);
@@ -223,13 +280,13 @@ TEST(SurfaceDistanceTest, PlaneWithOneVertexBumped) {
   EXPECT_GT(d->mean_distance, 0.0);
   EXPECT_LT(d->mean_distance, 0.01 * h);
   // Symmetric.
-  auto back = ComputeSurfaceDistance(bumped, flat);
+  auto back = ComputeSurfaceDistance(bumped, flat, FewSamples());
   ASSERT_TRUE(back.ok());
   EXPECT_DOUBLE_EQ(back->hausdorff, d->hausdorff);
 }
 
 TEST(SurfaceDistanceTest, IdenticalMeshesGiveZero) {
-  const Primitive sphere = BumpySphere(60, 120);  // 14,160 faces
+  const Primitive sphere = BumpySphere(30, 60);  // 3,480 faces
   auto d = ComputeSurfaceDistance(sphere, sphere);
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   EXPECT_LT(d->hausdorff_rel, 1e-9);
@@ -247,7 +304,7 @@ TEST(SurfaceDistanceTest, IdenticalMeshesGiveZero) {
   for (size_t v = 0; v < n; ++v) shuffled.positions[where[v]] = sphere.positions[v];
   for (uint32_t i : sphere.indices) shuffled.indices.push_back(where[i]);
   shuffled.positions.push_back({100, 100, 100});
-  auto e = ComputeSurfaceDistance(sphere, shuffled);
+  auto e = ComputeSurfaceDistance(sphere, shuffled, FewSamples());
   ASSERT_TRUE(e.ok()) << e.status().ToString();
   EXPECT_LT(e->hausdorff_rel, 1e-9);
   EXPECT_EQ(e->hausdorff_vertex, 0.0);
@@ -260,7 +317,7 @@ TEST(SurfaceDistanceTest, DegenerateFaceCountsAsItsSegment) {
   Primitive b = a;
   b.positions.push_back({0, 0, 0.5f});
   b.indices.insert(b.indices.end(), {0, 9, 9});
-  auto d = ComputeSurfaceDistance(a, b);
+  auto d = ComputeSurfaceDistance(a, b, FewSamples());
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   EXPECT_NEAR(d->hausdorff, 0.5, 1e-12);
   EXPECT_NEAR(d->hausdorff_vertex, 0.5, 1e-12);
@@ -268,7 +325,7 @@ TEST(SurfaceDistanceTest, DegenerateFaceCountsAsItsSegment) {
   Primitive segment;
   segment.positions = {{0, 0, 0}, {1, 0, 0}};
   segment.indices = {0, 1, 1};
-  auto s = ComputeSurfaceDistance(segment, segment);
+  auto s = ComputeSurfaceDistance(segment, segment, FewSamples());
   ASSERT_TRUE(s.ok()) << s.status().ToString();
   EXPECT_EQ(s->hausdorff, 0.0);
 }
@@ -276,12 +333,14 @@ TEST(SurfaceDistanceTest, DegenerateFaceCountsAsItsSegment) {
 TEST(SurfaceDistanceTest, DeterministicAndStableInTheSampleCount) {
   // A fine sphere against a coarse one: the largest distance lies inside
   // faces, so it depends on the sampling, but not at the third digit.
-  const Primitive fine = BumpySphere(60, 120);
-  const Primitive coarse = BumpySphere(12, 24);
-  auto d1 = ComputeSurfaceDistance(fine, coarse);
-  auto d2 = ComputeSurfaceDistance(fine, coarse);
+  const Primitive fine = BumpySphere(30, 60);
+  const Primitive coarse = BumpySphere(8, 16);
+  SurfaceDistanceOptions options;
+  options.samples_per_side = 20000;
+  auto d1 = ComputeSurfaceDistance(fine, coarse, options);
+  auto d2 = ComputeSurfaceDistance(fine, coarse, options);
   SurfaceDistanceOptions dense;
-  dense.samples_per_side = 800000;
+  dense.samples_per_side = 80000;
   auto d3 = ComputeSurfaceDistance(fine, coarse, dense);
   ASSERT_TRUE(d1.ok() && d2.ok() && d3.ok());
   EXPECT_EQ(d1->hausdorff, d2->hausdorff);
@@ -301,6 +360,10 @@ TEST(SurfaceDistanceTest, RejectsEmptyAndInvalidInput) {
   SurfaceDistanceOptions negative;
   negative.samples_per_side = -1;
   EXPECT_EQ(ComputeSurfaceDistance(Cube(), Cube(), negative).status().code(),
+            StatusCode::kInvalidArgument);
+  SurfaceDistanceOptions huge;
+  huge.samples_per_side = kMaxSamplesPerSide + 1;
+  EXPECT_EQ(ComputeSurfaceDistance(Cube(), Cube(), huge).status().code(),
             StatusCode::kInvalidArgument);
 }
 
