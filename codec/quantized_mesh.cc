@@ -59,6 +59,38 @@ StatusOr<QuantizedMesh> QuantizePrimitive(const Primitive& p, const Quantization
   return q;
 }
 
+StatusOr<QuantizedMesh> QuantizeOnto(const Primitive& p, const QuantizedMesh& grids) {
+  const AttributeLayout& layout = grids.layout;
+  if (layout.has_normals != !p.normals.empty() || layout.texcoord_sets != static_cast<int>(p.texcoords.size()) ||
+      layout.has_colors != !p.colors.empty()) {
+    return InvalidInput("the decoded mesh does not have the attributes its header announces");
+  }
+  MS_RETURN_IF_ERROR(ValidatePrimitive(p));
+  QuantizedMesh q;
+  q.position_grid = grids.position_grid;
+  q.layout = layout;
+  const size_t n = p.vertex_count();
+  q.positions.resize(n);
+  q.attributes.reserve(n * layout.channels());
+  for (size_t v = 0; v < n; ++v) {
+    for (int c = 0; c < 3; ++c) {
+      q.positions[v][c] = static_cast<int32_t>(grids.position_grid.Quantize(p.positions[v][c], c));
+    }
+    if (layout.has_normals) {
+      const auto nq = QuantizeNormal(p.normals[v], layout.qn);
+      q.attributes.push_back(static_cast<int32_t>(nq[0]));
+      q.attributes.push_back(static_cast<int32_t>(nq[1]));
+    }
+    for (int t = 0; t < layout.texcoord_sets; ++t)
+      for (int c = 0; c < 2; ++c)
+        q.attributes.push_back(static_cast<int32_t>(layout.texcoord_grids[t].Quantize(p.texcoords[t][v][c], c)));
+    if (layout.has_colors)
+      for (int c = 0; c < 4; ++c) q.attributes.push_back(static_cast<int32_t>(layout.color_grid.Quantize(p.colors[v][c], c)));
+  }
+  q.indices = p.indices;
+  return q;
+}
+
 Primitive DequantizeMesh(const QuantizedMesh& q, int32_t material) {
   Primitive p;
   p.material = material;

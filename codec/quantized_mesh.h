@@ -61,6 +61,11 @@ struct QuantizedMesh {
 StatusOr<QuantizedMesh> QuantizePrimitive(const Primitive& primitive, const QuantizationParams& params);
 Primitive DequantizeMesh(const QuantizedMesh& mesh, int32_t material);
 
+// Quantizes every vertex of `primitive` (unreferenced ones too, order kept)
+// onto the grids of `grids` (its position grid and attribute layout). The
+// primitive must have the attributes the layout names.
+StatusOr<QuantizedMesh> QuantizeOnto(const Primitive& primitive, const QuantizedMesh& grids);
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_QUANTIZED_MESH_H_

@@ -6,7 +6,7 @@
 
 #include "codec/quantization.h"
 #include "draco/compression/decode.h"
-#include "draco/compression/encode.h"
+#include "draco/compression/expert_encode.h"
 #include "draco/mesh/mesh.h"
 
 namespace meshstream {
@@ -14,7 +14,7 @@ namespace meshstream {
 namespace {
 
 // Adds a float attribute with one value per point (identity mapping) and
-// returns its unique id.
+// returns its id.
 template <size_t N>
 int AddFloatAttribute(draco::Mesh& mesh, draco::GeometryAttribute::Type type,
                       const std::vector<std::array<float, N>>& values) {
@@ -23,10 +23,13 @@ int AddFloatAttribute(draco::Mesh& mesh, draco::GeometryAttribute::Type type,
           sizeof(float) * N, 0);
   const int att_id = mesh.AddAttribute(ga, true, static_cast<uint32_t>(values.size()));
   draco::PointAttribute* att = mesh.attribute(att_id);
+  // The unique id (named by the glTF extension) is the attribute id, which
+  // is what ExpertEncoder's per-attribute options take.
+  att->set_unique_id(static_cast<uint32_t>(att_id));
   for (size_t i = 0; i < values.size(); ++i) {
     att->SetAttributeValue(draco::AttributeValueIndex(static_cast<uint32_t>(i)), values[i].data());
   }
-  return static_cast<int>(att->unique_id());
+  return att_id;
 }
 
 std::string DracoError(const draco::Status& s) { return s.error_msg_string(); }
@@ -74,7 +77,15 @@ StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncod
   MS_RETURN_IF_ERROR(ValidatePrimitive(p));
   if (p.face_count() == 0) return InvalidInput("a primitive without triangles cannot be Draco-compressed");
 
-  MS_ASSIGN_OR_RETURN(QuantizationGrid grid, PositionGrid(p.positions, p.indices, options.qp));
+  QuantizationGrid grid;
+  if (options.position_grid) {
+    grid = *options.position_grid;
+  } else {
+    MS_ASSIGN_OR_RETURN(grid, PositionGrid(p.positions, p.indices, options.qp));
+  }
+  if (options.texcoord_grids && options.texcoord_grids->size() != p.texcoords.size()) {
+    return InvalidArgument("one texture coordinate grid per TEXCOORD set is needed");
+  }
   // Snap to the cell centres first: Draco's float quantizer then lands on the
   // same integer as ours even where a value sits on a rounding boundary.
   std::vector<Vec3f> snapped = p.positions;
@@ -103,16 +114,33 @@ StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncod
   }
   if (mesh.num_faces() == 0) return InvalidInput("every triangle repeats a vertex; nothing to compress");
 
-  draco::Encoder encoder;
+  draco::ExpertEncoder encoder(mesh);
   const int speed = 10 - options.compression_level;
   encoder.SetSpeedOptions(speed, speed);
-  encoder.SetAttributeExplicitQuantization(draco::GeometryAttribute::POSITION, options.qp, 3,
-                                           grid.origin.data(), grid.range);
-  encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, options.qn);
-  encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, options.qt);
-  encoder.SetAttributeQuantization(draco::GeometryAttribute::COLOR, options.qc);
+  if (options.encoding_method >= 0) {
+    encoder.SetEncodingMethod(options.encoding_method == 0 ? draco::MESH_SEQUENTIAL_ENCODING
+                                                           : draco::MESH_EDGEBREAKER_ENCODING);
+  }
+  encoder.SetAttributeExplicitQuantization(result.ids.position, grid.bits, 3, grid.origin.data(), grid.range);
+  if (result.ids.normal >= 0) encoder.SetAttributeQuantization(result.ids.normal, options.qn);
+  for (size_t t = 0; t < result.ids.texcoords.size(); ++t) {
+    if (options.texcoord_grids) {
+      const QuantizationGrid& g = (*options.texcoord_grids)[t];
+      encoder.SetAttributeExplicitQuantization(result.ids.texcoords[t], g.bits, 2, g.origin.data(), g.range);
+    } else {
+      encoder.SetAttributeQuantization(result.ids.texcoords[t], options.qt);
+    }
+  }
+  if (result.ids.color >= 0) {
+    if (options.color_grid) {
+      const QuantizationGrid& g = *options.color_grid;
+      encoder.SetAttributeExplicitQuantization(result.ids.color, g.bits, 4, g.origin.data(), g.range);
+    } else {
+      encoder.SetAttributeQuantization(result.ids.color, options.qc);
+    }
+  }
   draco::EncoderBuffer buffer;
-  const draco::Status status = encoder.EncodeMeshToBuffer(mesh, &buffer);
+  const draco::Status status = encoder.EncodeToBuffer(&buffer);
   if (!status.ok()) return Internal("Draco encoding failed: " + DracoError(status));
   result.bytes.assign(reinterpret_cast<const uint8_t*>(buffer.data()),
                       reinterpret_cast<const uint8_t*>(buffer.data()) + buffer.size());

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "codec/mesh.h"
+#include "codec/quantization.h"
 #include "codec/status.h"
 
 namespace meshstream {
@@ -39,6 +40,15 @@ struct DracoEncodeOptions {
   int qt = 10;  // texture coordinate bits
   int qc = 8;   // colour bits
   int compression_level = 7;  // 0 (fastest) .. 10 (smallest), like draco_encoder -cl
+  // Explicit grids (from a QuantizedMesh) instead of the primitive's own
+  // bounding boxes; null means: positions on the primitive's brief grid,
+  // texture coordinates and colours on Draco's own grids.
+  const QuantizationGrid* position_grid = nullptr;
+  const std::vector<QuantizationGrid>* texcoord_grids = nullptr;
+  const QuantizationGrid* color_grid = nullptr;
+  // -1: Draco chooses (edgebreaker for meshes); 0: sequential, which keeps the
+  // vertex order; 1: edgebreaker.
+  int encoding_method = -1;
 };
 
 struct DracoEncoded {

@@ -1,0 +1,39 @@
+// Draco as the single-rate coder of the progressive codec's base mesh
+// (codec/progressive_encoder.h, BaseMeshEncoder).
+//
+// Positions, texture coordinates and colours use Draco's explicit
+// quantization with exactly our grids, so the decoded values requantize to
+// the same integers; normals use Draco's own octahedral quantization at --qn
+// bits, and the few values that do not requantize exactly are carried as
+// fix-ups by the progressive stream. Method 0 is edgebreaker, method 1 the
+// order-preserving sequential coder (used when coincident vertices of the
+// base cannot be told apart after edgebreaker reorders them).
+#ifndef MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
+#define MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/progressive_encoder.h"
+#include "codec/quantized_mesh.h"
+#include "importers/draco_codec.h"
+
+namespace meshstream {
+
+BaseMeshEncoder DracoBaseEncoder(int compression_level);
+
+// Encodes; also returns the Draco attribute ids (for the glTF extension).
+StatusOr<EncodedBase> EncodeDracoBase(const QuantizedMesh& base, int method, int compression_level,
+                                      DracoAttributeIds* ids);
+
+// Decodes a base mesh onto the grids and layout of `grids`.
+StatusOr<QuantizedMesh> DecodeDracoBase(const uint8_t* data, size_t size, const DracoAttributeIds& ids,
+                                        const QuantizedMesh& grids);
+
+// The Draco attribute ids EncodeDracoBase assigns for a layout (the order in
+// which it adds attributes: POSITION, NORMAL, TEXCOORD_n, COLOR_0).
+DracoAttributeIds DracoBaseAttributeIds(const AttributeLayout& layout);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
