@@ -1,0 +1,105 @@
+// The progressive bitstream of one primitive (docs/progressive-format.md):
+// shared definitions of the stream writer (stream_writer.h) and reader
+// (stream_reader.h), mirrored stages in the manner of Draco's prediction
+// schemes.
+//
+// A stream has a reliable part (header with grids and counts, fix-ups of the
+// base, and per refinement its split bits and static models) and an
+// unreliable part (per refinement, datagrams of at most packet_bytes that
+// each decode on their own given the reliable part). The base mesh itself is
+// the single-rate coder's bytes (Draco), kept beside the stream.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_STREAM_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_STREAM_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/byte_io.h"
+#include "codec/quantized_mesh.h"
+#include "codec/status.h"
+
+namespace meshstream {
+
+constexpr uint8_t kStreamVersion = 1;
+constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
+constexpr uint8_t kDatagramVersion = 1;
+constexpr uint32_t kMinPacketBytes = 64;
+constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
+constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
+constexpr uint32_t kMaxRefinements = 255;
+constexpr uint64_t kMaxStreamVertices = uint64_t{1} << 28;
+
+enum class Packing : uint8_t {
+  kSplit = 0,    // structure and geometry of a split in separate datagrams (the default)
+  kBundled = 1,  // structure and geometry of a split in one fragment
+};
+
+enum class DatagramKind : uint8_t {
+  kBundled = 0,    // structure then geometry of each split
+  kStructure = 1,  // wings only
+  kGeometry = 2,   // position and attribute differences only
+};
+
+// The reliable header of a stream.
+struct StreamHeader {
+  Packing packing = Packing::kSplit;
+  QuantizationParams quantization;
+  QuantizedMesh grids;  // grids and layout only (no vertices)
+  uint32_t base_vertices = 0;
+  uint32_t base_faces = 0;
+  uint8_t base_method = 0;
+  std::vector<uint32_t> split_counts;  // per refinement
+  std::vector<int32_t> base_position_fix;
+  std::vector<int32_t> base_attribute_fix;
+
+  void Serialize(ByteWriter& w) const;
+  static StatusOr<StreamHeader> Parse(const uint8_t* data, size_t size);
+};
+
+// Everything of one primitive's stream except the base mesh bytes.
+struct ProgressiveStream {
+  std::vector<uint8_t> header;                                // StreamHeader
+  std::vector<std::vector<uint8_t>> control;                  // per refinement: split bits + models
+  std::vector<std::vector<std::vector<uint8_t>>> datagrams;   // per refinement
+
+  size_t reliable_bytes() const;
+  size_t unreliable_bytes() const;
+  size_t datagram_count() const;
+  // One blob: "MSPS", version, header, refinements with control and datagrams.
+  std::vector<uint8_t> Serialize() const;
+  static StatusOr<ProgressiveStream> Parse(const uint8_t* data, size_t size);
+};
+
+// The fixed part of a datagram, before its range-coded payload.
+struct DatagramHeader {
+  DatagramKind kind = DatagramKind::kBundled;
+  uint32_t stream = 0;      // primitive within the asset
+  uint32_t refinement = 0;
+  uint32_t stride = 1;      // the datagram carries ordinals offset, offset + stride, ...
+  uint32_t offset = 0;
+  uint32_t count = 0;
+
+  void Serialize(ByteWriter& w) const;
+  // Checks magic, version, kind and that offset < stride; the reader checks
+  // the ordinals against the refinement's split count.
+  static StatusOr<DatagramHeader> Parse(ByteReader& r);
+};
+
+// Split-bit contexts: age of the vertex (created by the previous refinement,
+// the one before, or older / base) and whether it split in the previous
+// refinement. Built from reliable data only (BRIEF, property 5).
+constexpr int kSplitContexts = 6;
+inline int SplitContext(uint32_t vertex, const std::vector<uint32_t>& level_starts, size_t refinement,
+                        const std::vector<uint8_t>& split_before) {
+  // level_starts[i] = vertex count before refinement i; refinement i - 1
+  // created the ids in [level_starts[i - 1], level_starts[i]).
+  int age = 2;
+  if (refinement >= 1 && vertex >= level_starts[refinement - 1]) age = 0;
+  else if (refinement >= 2 && vertex >= level_starts[refinement - 2]) age = 1;
+  const int prev = (vertex < split_before.size() && split_before[vertex]) ? 1 : 0;
+  return age * 2 + prev;
+}
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_STREAM_H_

@@ -1,0 +1,156 @@
+#include "codec/stream_reader.h"
+
+#include "codec/range_coder.h"
+
+namespace meshstream {
+
+StatusOr<StreamReader> StreamReader::Create(const uint8_t* header, size_t size, uint32_t stream_id) {
+  StreamReader r;
+  MS_ASSIGN_OR_RETURN(r.header_, StreamHeader::Parse(header, size));
+  r.stream_id_ = stream_id;
+  return r;
+}
+
+Status StreamReader::SetBase(QuantizedMesh base) {
+  const StreamHeader& h = header_;
+  if (base.vertex_count() != h.base_vertices || base.face_count() != h.base_faces) {
+    return InvalidInput("the base mesh has " + std::to_string(base.vertex_count()) + " vertices and " +
+                        std::to_string(base.face_count()) + " triangles; the stream expects " +
+                        std::to_string(h.base_vertices) + " and " + std::to_string(h.base_faces));
+  }
+  const int ch = h.grids.layout.channels();
+  if (base.layout.channels() != ch) return InvalidInput("the base mesh's attributes do not match the stream");
+  for (size_t v = 0; v < base.vertex_count(); ++v) {
+    for (int k = 0; k < 3; ++k) base.positions[v][k] += h.base_position_fix[v * 3 + k];
+    for (int k = 0; k < ch; ++k) base.attributes[v * ch + k] += h.base_attribute_fix[v * ch + k];
+  }
+  base.position_grid = h.grids.position_grid;
+  base.layout = h.grids.layout;
+  MS_RETURN_IF_ERROR(state_.Reset(base));
+  level_starts_ = {static_cast<uint32_t>(base.vertex_count())};
+  for (uint32_t c : h.split_counts) level_starts_.push_back(level_starts_.back() + c);
+  has_base_ = true;
+  next_ = 0;
+  split_before_.clear();
+  return Status::Ok();
+}
+
+Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
+  if (!has_base_) return InvalidArgument("the base mesh must be set before refinements");
+  if (in_refinement_) return InvalidArgument("the previous refinement is not finished");
+  if (next_ >= refinement_count()) return InvalidInput("the stream has no refinement " + std::to_string(next_));
+  const std::string where = "refinement " + std::to_string(next_);
+  ByteReader r(control, size);
+  size_t length = 0;
+  MS_ASSIGN_OR_RETURN(const uint8_t* bits, r.Block("split bits", &length));
+  const uint32_t n = state_.connectivity.vertex_count();
+  Refinement ref;
+  ref.vertices_before = n;
+  RangeDecoder dec(bits, length);
+  BitModel contexts[kSplitContexts];
+  std::vector<uint8_t> split(n, 0);
+  for (uint32_t v = 0; v < n; ++v) {
+    split[v] = static_cast<uint8_t>(dec.DecodeBit(contexts[SplitContext(v, level_starts_, next_, split_before_)]));
+    if (split[v]) ref.split_vertices.push_back(v);
+  }
+  if (dec.overran()) return InvalidInput(where + ": split bits are truncated");
+  if (ref.split_vertices.size() != header_.split_counts[next_]) {
+    return InvalidInput(where + ": " + std::to_string(ref.split_vertices.size()) + " split bits are set, the header says " +
+                        std::to_string(header_.split_counts[next_]));
+  }
+  MS_ASSIGN_OR_RETURN(wings_, StaticModel::Parse(r));
+  for (StaticModel& m : position_) {
+    MS_ASSIGN_OR_RETURN(m, StaticModel::Parse(r));
+  }
+  attributes_.clear();
+  for (int k = 0; k < header_.grids.layout.channels(); ++k) {
+    MS_ASSIGN_OR_RETURN(StaticModel m, StaticModel::Parse(r));
+    attributes_.push_back(std::move(m));
+  }
+  const size_t k = ref.split_count();
+  const int ch = header_.grids.layout.channels();
+  ref.wings.assign(k, {0, 0});
+  ref.position_delta.assign(k, Vec3i{});
+  ref.attribute_delta.assign(k * ch, 0);
+  has_structure_.assign(k, 0);
+  has_geometry_.assign(k, 0);
+  current_ = std::move(ref);
+  split_before_ = std::move(split);
+  in_refinement_ = true;
+  return Status::Ok();
+}
+
+bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
+  ByteReader r(data, size);
+  auto parsed = DatagramHeader::Parse(r);
+  if (!parsed.ok() || !in_refinement_) {
+    ++stats_.rejected;
+    return false;
+  }
+  const DatagramHeader& h = parsed.value();
+  const uint64_t k = current_.split_count();
+  const bool kind_ok = header_.packing == Packing::kBundled ? h.kind == DatagramKind::kBundled
+                                                            : h.kind != DatagramKind::kBundled;
+  if (h.stream != stream_id_ || h.refinement != next_ || !kind_ok ||
+      h.offset + uint64_t(h.count - 1) * h.stride >= k) {
+    ++stats_.rejected;
+    return false;
+  }
+  // Decode into scratch first: a datagram is used whole or not at all.
+  const bool structure = h.kind != DatagramKind::kGeometry;
+  const bool geometry = h.kind != DatagramKind::kStructure;
+  const int ch = header_.grids.layout.channels();
+  RangeDecoder dec(data + r.position(), r.remaining());
+  std::vector<std::array<uint16_t, 2>> wings(h.count);
+  std::vector<Vec3i> deltas(geometry ? h.count : 0);
+  std::vector<int32_t> attrs(geometry ? size_t(h.count) * ch : 0);
+  for (uint32_t i = 0; i < h.count; ++i) {
+    if (structure) {
+      wings[i][0] = static_cast<uint16_t>(wings_.Decode(dec));
+      wings[i][1] = static_cast<uint16_t>(wings_.Decode(dec));
+    }
+    if (geometry) {
+      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, position_[c]);
+      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, attributes_[c]);
+    }
+  }
+  if (dec.overran()) {
+    ++stats_.rejected;
+    return false;
+  }
+  bool fresh = false;
+  for (uint32_t i = 0; i < h.count; ++i) {
+    const size_t j = h.offset + size_t(i) * h.stride;
+    if (structure && !has_structure_[j]) {
+      current_.wings[j] = wings[i];
+      has_structure_[j] = 1;
+      fresh = true;
+    }
+    if (geometry && !has_geometry_[j]) {
+      current_.position_delta[j] = deltas[i];
+      std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
+                current_.attribute_delta.begin() + j * ch);
+      has_geometry_[j] = 1;
+      fresh = true;
+    }
+  }
+  if (fresh) ++stats_.accepted;
+  else ++stats_.duplicates;
+  return true;
+}
+
+Status StreamReader::FinishRefinement() {
+  if (!in_refinement_) return InvalidArgument("no refinement was begun");
+  for (size_t j = 0; j < current_.split_count(); ++j) {
+    if (!has_structure_[j] || !has_geometry_[j]) {
+      return InvalidInput("refinement " + std::to_string(next_) + ": split " + std::to_string(j) +
+                          " has no " + (has_structure_[j] ? "geometry" : "structure"));
+    }
+  }
+  MS_RETURN_IF_ERROR(state_.ApplyRefinement(current_).WithContext("refinement " + std::to_string(next_)));
+  in_refinement_ = false;
+  ++next_;
+  return Status::Ok();
+}
+
+}  // namespace meshstream

@@ -1,0 +1,72 @@
+// Reads a progressive stream (stream_writer.h's mirror): the header, the base
+// (decoded by the caller's single-rate decoder onto the header's grids), then
+// refinement by refinement its control block and whichever datagrams arrive,
+// in any order, duplicated or not.
+//
+// Contract: safe on hostile bytes. Header counts bound every allocation
+// (at most kMaxStreamVertices vertices); a datagram is checked field by field
+// before anything it carries is stored, and a datagram that does not decode
+// cleanly is dropped whole and counted. Split bits and models are reliable:
+// an error there fails the stream. Without loss tolerance (a later stage),
+// FinishRefinement fails when a split lacks its structure or geometry.
+// Thread safety: one reader per stream.
+#ifndef MESHSTREAM_CODEC_STREAM_READER_H_
+#define MESHSTREAM_CODEC_STREAM_READER_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/progressive_mesh.h"
+#include "codec/progressive_stream.h"
+#include "codec/symbol_model.h"
+
+namespace meshstream {
+
+struct DatagramStats {
+  uint64_t accepted = 0;
+  uint64_t rejected = 0;    // malformed, wrong stream or refinement, bad ordinals
+  uint64_t duplicates = 0;  // every unit it carried had already arrived
+};
+
+class StreamReader {
+ public:
+  static StatusOr<StreamReader> Create(const uint8_t* header, size_t size, uint32_t stream_id = 0);
+
+  const StreamHeader& header() const { return header_; }
+  // The base as the single-rate decoder returned it; fix-ups are applied here.
+  Status SetBase(QuantizedMesh decoded_base);
+
+  size_t refinement_count() const { return header_.split_counts.size(); }
+  size_t applied() const { return next_; }
+
+  Status BeginRefinement(const uint8_t* control, size_t size);
+  bool OfferDatagram(const uint8_t* data, size_t size);
+  Status FinishRefinement();
+
+  const Refinement& current() const { return current_; }
+  const std::vector<uint8_t>& has_structure() const { return has_structure_; }
+  const std::vector<uint8_t>& has_geometry() const { return has_geometry_; }
+  const DatagramStats& stats() const { return stats_; }
+  const RefinementState& state() const { return state_; }
+  QuantizedMesh Mesh() const { return state_.Snapshot(header_.grids); }
+
+ private:
+  StreamHeader header_;
+  uint32_t stream_id_ = 0;
+  RefinementState state_;
+  bool has_base_ = false;
+  size_t next_ = 0;          // refinements applied
+  bool in_refinement_ = false;
+  std::vector<uint32_t> level_starts_;
+  std::vector<uint8_t> split_before_;
+  Refinement current_;
+  std::vector<uint8_t> has_structure_, has_geometry_;
+  StaticModel wings_;
+  StaticModel position_[3];
+  std::vector<StaticModel> attributes_;
+  DatagramStats stats_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_STREAM_READER_H_

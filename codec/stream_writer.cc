@@ -1,0 +1,163 @@
+#include "codec/stream_writer.h"
+
+#include <cmath>
+
+#include "codec/range_coder.h"
+#include "codec/symbol_model.h"
+
+namespace meshstream {
+
+namespace {
+
+// The models of one refinement (sent in its control block).
+struct RefinementModels {
+  StaticModel wings;
+  StaticModel position[3];
+  std::vector<StaticModel> attributes;  // one per channel
+
+  void Serialize(ByteWriter& w) const {
+    wings.Serialize(w);
+    for (const StaticModel& m : position) m.Serialize(w);
+    for (const StaticModel& m : attributes) m.Serialize(w);
+  }
+};
+
+RefinementModels BuildModels(const Refinement& r, int channels) {
+  RefinementModels m;
+  std::vector<uint64_t> wing_counts(kWingAlphabet, 0);
+  std::vector<std::vector<uint64_t>> pos(3, std::vector<uint64_t>(kSignedBuckets, 0));
+  std::vector<std::vector<uint64_t>> attr(channels, std::vector<uint64_t>(kSignedBuckets, 0));
+  for (size_t j = 0; j < r.split_count(); ++j) {
+    ++wing_counts[r.wings[j][0]];
+    ++wing_counts[r.wings[j][1]];
+    for (int k = 0; k < 3; ++k) ++pos[k][BucketOf(r.position_delta[j][k])];
+    for (int k = 0; k < channels; ++k) ++attr[k][BucketOf(r.attribute_delta[j * channels + k])];
+  }
+  m.wings = StaticModel::FromCounts(wing_counts);
+  for (int k = 0; k < 3; ++k) m.position[k] = StaticModel::FromCounts(pos[k]);
+  for (int k = 0; k < channels; ++k) m.attributes.push_back(StaticModel::FromCounts(attr[k]));
+  return m;
+}
+
+void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j) {
+  m.wings.Encode(enc, r.wings[j][0]);
+  m.wings.Encode(enc, r.wings[j][1]);
+}
+
+void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j, int channels) {
+  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position[k], r.position_delta[j][k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attributes[k], r.attribute_delta[j * channels + k]);
+}
+
+double UnitCost(const RefinementModels& m, const Refinement& r, size_t j, int channels, DatagramKind kind) {
+  double bits = 0;
+  if (kind != DatagramKind::kGeometry) bits += m.wings.Cost(r.wings[j][0]) + m.wings.Cost(r.wings[j][1]);
+  if (kind != DatagramKind::kStructure) {
+    for (int k = 0; k < 3; ++k) bits += SignedCost(m.position[k], r.position_delta[j][k]);
+    for (int k = 0; k < channels; ++k) bits += SignedCost(m.attributes[k], r.attribute_delta[j * channels + k]);
+  }
+  return bits;
+}
+
+// Deals the splits of a refinement to as few datagrams as fit.
+std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Refinement& r, int channels,
+                                            DatagramKind kind, uint32_t refinement, const StreamWriteOptions& o) {
+  const size_t k = r.split_count();
+  std::vector<std::vector<uint8_t>> out;
+  if (k == 0) return out;
+  double bits = 0;
+  for (size_t j = 0; j < k; ++j) bits += UnitCost(m, r, j, channels, kind);
+  const double capacity = std::max(8.0, double(o.packet_bytes) - 24.0);  // header and coder flush
+  size_t stride = std::max<size_t>(1, static_cast<size_t>(std::ceil(bits / 8.0 / (capacity * 0.92))));
+  stride = std::min(stride, k);
+  for (;;) {
+    out.clear();
+    bool fits = true;
+    for (size_t d = 0; d < stride && fits; ++d) {
+      DatagramHeader h;
+      h.kind = kind;
+      h.stream = o.stream_id;
+      h.refinement = refinement;
+      h.stride = static_cast<uint32_t>(stride);
+      h.offset = static_cast<uint32_t>(d);
+      h.count = static_cast<uint32_t>((k - d + stride - 1) / stride);
+      ByteWriter w;
+      h.Serialize(w);
+      RangeEncoder enc;
+      for (size_t j = d; j < k; j += stride) {
+        if (kind != DatagramKind::kGeometry) EncodeStructure(enc, m, r, j);
+        if (kind != DatagramKind::kStructure) EncodeGeometry(enc, m, r, j, channels);
+      }
+      w.Bytes(enc.Finish());
+      if (w.size() > o.packet_bytes) fits = false;
+      out.push_back(std::move(w.bytes()));
+    }
+    if (fits) return out;
+    if (stride == k) return out;  // a single split larger than a datagram: send it as it is
+    stride = std::min(k, stride + std::max<size_t>(1, stride / 8));
+  }
+}
+
+}  // namespace
+
+StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const QuantizationParams& quantization,
+                                        const StreamWriteOptions& o) {
+  if (o.packet_bytes < kMinPacketBytes || o.packet_bytes > kMaxPacketBytes) {
+    return InvalidArgument("--packet-bytes must be between " + std::to_string(kMinPacketBytes) + " and " +
+                           std::to_string(kMaxPacketBytes));
+  }
+  const ProgressiveMesh& pm = e.mesh;
+  if (pm.refinements.size() > kMaxRefinements) return InvalidArgument("too many refinements");
+  const int channels = pm.base.layout.channels();
+
+  StreamHeader h;
+  h.packing = o.packing;
+  h.quantization = quantization;
+  h.grids.position_grid = pm.base.position_grid;
+  h.grids.layout = pm.base.layout;
+  h.base_vertices = static_cast<uint32_t>(pm.base.vertex_count());
+  h.base_faces = static_cast<uint32_t>(pm.base.face_count());
+  h.base_method = static_cast<uint8_t>(e.base_method);
+  for (const Refinement& r : pm.refinements) h.split_counts.push_back(static_cast<uint32_t>(r.split_count()));
+  h.base_position_fix = e.base_position_fix;
+  h.base_attribute_fix = e.base_attribute_fix;
+  ProgressiveStream s;
+  ByteWriter hw;
+  h.Serialize(hw);
+  s.header = std::move(hw.bytes());
+
+  const std::vector<uint32_t> starts = pm.level_vertices();
+  std::vector<uint8_t> split_before;
+  for (size_t i = 0; i < pm.refinements.size(); ++i) {
+    const Refinement& r = pm.refinements[i];
+    // Split bits.
+    std::vector<uint8_t> bits(r.vertices_before, 0);
+    for (uint32_t v : r.split_vertices) bits[v] = 1;
+    RangeEncoder enc;
+    BitModel contexts[kSplitContexts];
+    for (uint32_t v = 0; v < r.vertices_before; ++v) {
+      enc.EncodeBit(contexts[SplitContext(v, starts, i, split_before)], bits[v]);
+    }
+    ByteWriter cw;
+    cw.Block(enc.Finish());
+    const RefinementModels models = BuildModels(r, channels);
+    models.Serialize(cw);
+    s.control.push_back(std::move(cw.bytes()));
+    split_before = std::move(bits);
+
+    // Datagrams.
+    std::vector<std::vector<uint8_t>> datagrams;
+    const uint32_t index = static_cast<uint32_t>(i);
+    if (o.packing == Packing::kBundled) {
+      datagrams = Packetize(models, r, channels, DatagramKind::kBundled, index, o);
+    } else {
+      datagrams = Packetize(models, r, channels, DatagramKind::kStructure, index, o);
+      auto geometry = Packetize(models, r, channels, DatagramKind::kGeometry, index, o);
+      for (auto& d : geometry) datagrams.push_back(std::move(d));
+    }
+    s.datagrams.push_back(std::move(datagrams));
+  }
+  return s;
+}
+
+}  // namespace meshstream
