@@ -38,8 +38,11 @@ StatusOr<QuantizationGrid> GridOfBox(const std::array<float, N>& lo,
     grid.origin[c] = lo[c];
     extent = std::max(extent, static_cast<double>(hi[c]) - lo[c]);
   }
+  if (!std::isfinite(extent) || !std::isfinite(static_cast<float>(extent))) {
+    return InvalidInput("values span more than a float can hold; they cannot be quantized");
+  }
   grid.range = static_cast<float>(extent);
-  if (!(grid.range > 0.0f) || !std::isfinite(grid.range)) grid.range = 1.0f;
+  if (!(grid.range > 0.0f)) grid.range = 1.0f;  // all values equal
   return grid;
 }
 

@@ -123,21 +123,30 @@ StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncod
   }
   encoder.SetAttributeExplicitQuantization(result.ids.position, grid.bits, 3, grid.origin.data(), grid.range);
   if (result.ids.normal >= 0) encoder.SetAttributeQuantization(result.ids.normal, options.qn);
+  // Texture coordinates and colours always get explicit grids (their own
+  // bounding box unless the caller gives one): Draco's automatic range
+  // crashes on values whose span overflows a float, GridOf refuses them.
   for (size_t t = 0; t < result.ids.texcoords.size(); ++t) {
+    QuantizationGrid g;
     if (options.texcoord_grids) {
-      const QuantizationGrid& g = (*options.texcoord_grids)[t];
-      encoder.SetAttributeExplicitQuantization(result.ids.texcoords[t], g.bits, 2, g.origin.data(), g.range);
+      g = (*options.texcoord_grids)[t];
     } else {
-      encoder.SetAttributeQuantization(result.ids.texcoords[t], options.qt);
+      auto own = GridOf(p.texcoords[t], options.qt);
+      if (!own.ok()) return own.status().WithContext("TEXCOORD_" + std::to_string(t));
+      g = own.value();
     }
+    encoder.SetAttributeExplicitQuantization(result.ids.texcoords[t], g.bits, 2, g.origin.data(), g.range);
   }
   if (result.ids.color >= 0) {
+    QuantizationGrid g;
     if (options.color_grid) {
-      const QuantizationGrid& g = *options.color_grid;
-      encoder.SetAttributeExplicitQuantization(result.ids.color, g.bits, 4, g.origin.data(), g.range);
+      g = *options.color_grid;
     } else {
-      encoder.SetAttributeQuantization(result.ids.color, options.qc);
+      auto own = GridOf(p.colors, options.qc);
+      if (!own.ok()) return own.status().WithContext("COLOR_0");
+      g = own.value();
     }
+    encoder.SetAttributeExplicitQuantization(result.ids.color, g.bits, 4, g.origin.data(), g.range);
   }
   draco::EncoderBuffer buffer;
   const draco::Status status = encoder.EncodeToBuffer(&buffer);

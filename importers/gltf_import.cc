@@ -1,11 +1,14 @@
 #include "importers/gltf_import.h"
 
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <set>
+
+#include <sys/stat.h>
 
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
@@ -22,6 +25,41 @@ namespace tg = tinygltf;
 
 constexpr int kMaxJsonDepth = 64;
 constexpr int kMaxTexcoordSets = 8;
+
+// How many values (attribute components and indices) one import may decode:
+// a floor for small files plus a multiple of the input's size. Accessors can
+// be shared by any number of primitives, so without this cap a few hundred
+// kilobytes of JSON could decode to gigabytes.
+constexpr uint64_t kDecodeBudgetFloor = uint64_t{1} << 24;
+constexpr uint64_t kDecodeBudgetPerInputByte = 32;
+// An accessor without bufferView is all zeros (plus sparse values); no bytes
+// back its count, so it may not have more elements than this floor or the
+// input has bytes.
+constexpr uint64_t kMaxZeroFilledElementsFloor = uint64_t{1} << 16;
+
+class DecodeBudget {
+ public:
+  explicit DecodeBudget(uint64_t input_bytes)
+      : input_bytes_(input_bytes),
+        limit_(kDecodeBudgetFloor + std::min<uint64_t>(input_bytes, uint64_t{1} << 40) * kDecodeBudgetPerInputByte) {}
+
+  uint64_t input_bytes() const { return input_bytes_; }
+
+  Status Spend(uint64_t values, const std::string& where) {
+    if (values > limit_ - used_) {
+      return ResourceExhausted(where + ": decoding would exceed " + std::to_string(limit_) +
+                               " values for a " + std::to_string(input_bytes_) +
+                               "-byte input (accessors shared by too many primitives?)");
+    }
+    used_ += values;
+    return Status::Ok();
+  }
+
+ private:
+  uint64_t input_bytes_;
+  uint64_t limit_;
+  uint64_t used_ = 0;
+};
 
 // Extensions whose objects may stay inside carried-through materials,
 // textures and samplers: they refer only to textures, images and samplers,
@@ -66,25 +104,63 @@ Status CheckJsonDepth(const uint8_t* data, size_t size) {
   return Status::Ok();
 }
 
-// Filesystem callbacks for tinygltf: only files inside the asset's folder.
+// Filesystem callbacks for tinygltf: only regular files inside the asset's
+// folder. tinygltf asks for "<base>/<uri>" and then for "./<uri>" (relative
+// to the working directory); only the first is ever accepted.
 struct FsContext {
   std::string base_real;  // realpath of the asset's folder, "" to refuse all files
   uint64_t max_bytes = 0;
-  std::string error;
+  Status status;          // why the first refused file was refused
 };
 
-bool InsideBase(const FsContext& ctx, const std::string& path, std::string* real_out) {
-  if (ctx.base_real.empty()) return false;
+// "<asset's folder>/", what every path inside it starts with.
+std::string BasePrefix(const FsContext& ctx) {
+  return ctx.base_real == "/" ? "/" : ctx.base_real + "/";
+}
+
+// `path` shown relative to the asset's folder when it lies lexically inside.
+std::string ShownPath(const FsContext& ctx, const std::string& path) {
+  const std::string prefix = BasePrefix(ctx);
+  if (!ctx.base_real.empty() && path.compare(0, prefix.size(), prefix) == 0) return path.substr(prefix.size());
+  return path;
+}
+
+// Checks that `path` names a regular file whose real path (symlinks
+// resolved) lies inside the asset's folder.
+Status ResolveInsideBase(const FsContext& ctx, const std::string& path, std::string* real_out) {
+  const std::string shown = ShownPath(ctx, path);
+  if (ctx.base_real.empty()) return InvalidInput(shown + ": external files are not allowed here");
+  const std::string prefix = BasePrefix(ctx);
+  if (path.compare(0, prefix.size(), prefix) != 0) {
+    return InvalidInput(shown + " is not a path inside the asset's folder");
+  }
   char buf[PATH_MAX];
-  if (realpath(path.c_str(), buf) == nullptr) return false;
+  if (realpath(path.c_str(), buf) == nullptr) return NotFound(shown + ": no such file");
   const std::string real(buf);
-  if (real.compare(0, ctx.base_real.size() + 1, ctx.base_real + "/") != 0) return false;
+  if (real.compare(0, prefix.size(), prefix) != 0) {
+    return InvalidInput(shown + " resolves to a file outside the asset's folder");
+  }
+  struct stat st;
+  if (stat(real.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+    return InvalidInput(shown + " is not a regular file");
+  }
   if (real_out) *real_out = real;
-  return true;
+  return Status::Ok();
+}
+
+void Remember(FsContext& ctx, const Status& s) {
+  if (ctx.status.ok()) ctx.status = s;
 }
 
 bool FsFileExists(const std::string& path, void* user) {
-  return InsideBase(*static_cast<FsContext*>(user), path, nullptr);
+  FsContext& ctx = *static_cast<FsContext*>(user);
+  const std::string prefix = BasePrefix(ctx);
+  if (!ctx.base_real.empty() && path.compare(0, prefix.size(), prefix) != 0) {
+    return false;  // tinygltf's second guess, relative to the working directory
+  }
+  Status s = ResolveInsideBase(ctx, path, nullptr);
+  if (!s.ok()) Remember(ctx, s);
+  return s.ok();
 }
 
 std::string FsExpandFilePath(const std::string& path, void*) { return path; }
@@ -93,19 +169,18 @@ bool FsReadWholeFile(std::vector<unsigned char>* out, std::string* err, const st
                      void* user) {
   FsContext& ctx = *static_cast<FsContext*>(user);
   std::string real;
-  if (!InsideBase(ctx, path, &real)) {
-    ctx.error = path + " is not a file inside the asset's folder";
-    if (err) *err += ctx.error + "\n";
-    return false;
+  Status s = ResolveInsideBase(ctx, path, &real);
+  if (s.ok()) {
+    auto bytes = ReadFileBytes(real, ctx.max_bytes);
+    if (bytes.ok()) {
+      *out = std::move(bytes).value();
+      return true;
+    }
+    s = bytes.status();
   }
-  auto bytes = ReadFileBytes(real, ctx.max_bytes);
-  if (!bytes.ok()) {
-    ctx.error = bytes.status().message();
-    if (err) *err += ctx.error + "\n";
-    return false;
-  }
-  *out = std::move(bytes).value();
-  return true;
+  Remember(ctx, s);
+  if (err) *err += s.message() + "\n";
+  return false;
 }
 
 bool FsWriteWholeFile(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
@@ -181,7 +256,7 @@ StatusOr<const uint8_t*> ViewBytes(const tg::Model& model, int view, uint64_t of
 // Reads accessor `index` as doubles, `components` per element, applying
 // sparse substitution and normalization.
 StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, int components,
-                                           const std::string& where_in) {
+                                           const std::string& where_in, DecodeBudget& budget) {
   const std::string where = where_in + " (accessors[" + std::to_string(index) + "])";
   if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
     return InvalidInput(where_in + ": accessor " + std::to_string(index) + " does not exist");
@@ -199,6 +274,11 @@ StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, in
   if (count == 0 || count > (uint64_t{1} << 31)) {
     return InvalidInput(where + ": count " + std::to_string(count) + " is out of range");
   }
+  if (a.bufferView < 0 && count > std::max(kMaxZeroFilledElementsFloor, budget.input_bytes())) {
+    return ResourceExhausted(where + ": count " + std::to_string(count) +
+                             " with no bufferView (all zeros) is more elements than the input has bytes");
+  }
+  MS_RETURN_IF_ERROR(budget.Spend(count * components, where));
   std::vector<double> out;
   if (a.bufferView >= 0) {
     if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) {
@@ -251,7 +331,8 @@ StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, in
   return out;
 }
 
-StatusOr<std::vector<uint32_t>> ReadIndices(const tg::Model& model, int index, const std::string& where) {
+StatusOr<std::vector<uint32_t>> ReadIndices(const tg::Model& model, int index, const std::string& where,
+                                            DecodeBudget& budget) {
   if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
     return InvalidInput(where + ": indices accessor " + std::to_string(index) + " does not exist");
   }
@@ -261,7 +342,7 @@ StatusOr<std::vector<uint32_t>> ReadIndices(const tg::Model& model, int index, c
     return InvalidInput(where + ": indices (accessors[" + std::to_string(index) +
                         "]) must be unsigned byte, short or int");
   }
-  MS_ASSIGN_OR_RETURN(std::vector<double> values, ReadAccessor(model, index, 1, where + ".indices"));
+  MS_ASSIGN_OR_RETURN(std::vector<double> values, ReadAccessor(model, index, 1, where + ".indices", budget));
   std::vector<uint32_t> out(values.size());
   for (size_t i = 0; i < values.size(); ++i) out[i] = static_cast<uint32_t>(values[i]);
   return out;
@@ -332,7 +413,7 @@ std::vector<std::string> TexcoordNames(const std::map<std::string, int>& attribu
 }
 
 Status ReadDracoPrimitive(const tg::Model& model, const json& ext, const tg::Primitive& tp,
-                          const std::string& where, Primitive& out) {
+                          const std::string& where, DecodeBudget& budget, Primitive& out) {
   if (!ext.is_object() || !ext.contains("bufferView") || !ext["bufferView"].is_number_integer() ||
       !ext.contains("attributes") || !ext["attributes"].is_object()) {
     return InvalidInput(where + ": KHR_draco_mesh_compression needs an integer bufferView and an attributes object");
@@ -361,14 +442,19 @@ Status ReadDracoPrimitive(const tg::Model& model, const json& ext, const tg::Pri
     ids.texcoords.push_back(id_of(name));
   }
   ids.color = id_of("COLOR_0");
+  // Decoding costs time in proportion to the stream even when it yields
+  // little, and a bufferView may be shared by many primitives.
+  MS_RETURN_IF_ERROR(budget.Spend(model.bufferViews[view].byteLength, where));
   auto decoded = DecodeDracoPrimitive(bytes, model.bufferViews[view].byteLength, ids);
   if (!decoded.ok()) return decoded.status().WithContext(where);
   out = std::move(decoded).value();
-  return Status::Ok();
+  uint64_t values = out.indices.size() + out.positions.size() * 3 + out.normals.size() * 3 + out.colors.size() * 4;
+  for (const auto& uv : out.texcoords) values += uv.size() * 2;
+  return budget.Spend(values, where);
 }
 
 Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Primitive& tp,
-                     const std::string& where, Scene& scene, Primitive& out) {
+                     const std::string& where, Scene& scene, DecodeBudget& budget, Primitive& out) {
   if (!tp.targets.empty()) {
     return Unsupported(where + " has morph targets; meshstream does not stream morph targets "
                        "(see docs/gltf-support.md)");
@@ -395,9 +481,9 @@ Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Pri
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP) {
       return InvalidInput(where + ": KHR_draco_mesh_compression requires triangles or triangle strips");
     }
-    MS_RETURN_IF_ERROR(ReadDracoPrimitive(model, *draco, tp, where, out));
+    MS_RETURN_IF_ERROR(ReadDracoPrimitive(model, *draco, tp, where, budget, out));
   } else {
-    MS_ASSIGN_OR_RETURN(std::vector<double> pos, ReadAccessor(model, tp.attributes.at("POSITION"), 3, where + ".POSITION"));
+    MS_ASSIGN_OR_RETURN(std::vector<double> pos, ReadAccessor(model, tp.attributes.at("POSITION"), 3, where + ".POSITION", budget));
     out.positions = ToVectors<3>(pos, 3);
     const size_t n = out.positions.size();
     auto check_count = [&](size_t count, const std::string& name) -> Status {
@@ -408,12 +494,12 @@ Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Pri
       return Status::Ok();
     };
     if (tp.attributes.count("NORMAL")) {
-      MS_ASSIGN_OR_RETURN(std::vector<double> nrm, ReadAccessor(model, tp.attributes.at("NORMAL"), 3, where + ".NORMAL"));
+      MS_ASSIGN_OR_RETURN(std::vector<double> nrm, ReadAccessor(model, tp.attributes.at("NORMAL"), 3, where + ".NORMAL", budget));
       out.normals = ToVectors<3>(nrm, 3);
       MS_RETURN_IF_ERROR(check_count(out.normals.size(), "NORMAL"));
     }
     for (const std::string& name : TexcoordNames(tp.attributes)) {
-      MS_ASSIGN_OR_RETURN(std::vector<double> uv, ReadAccessor(model, tp.attributes.at(name), 2, where + "." + name));
+      MS_ASSIGN_OR_RETURN(std::vector<double> uv, ReadAccessor(model, tp.attributes.at(name), 2, where + "." + name, budget));
       out.texcoords.push_back(ToVectors<2>(uv, 2));
       MS_RETURN_IF_ERROR(check_count(out.texcoords.back().size(), name));
     }
@@ -423,14 +509,15 @@ Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Pri
         return InvalidInput(where + ".COLOR_0: accessor " + std::to_string(color_index) + " does not exist");
       }
       const int components = model.accessors[color_index].type == TINYGLTF_TYPE_VEC3 ? 3 : 4;
-      MS_ASSIGN_OR_RETURN(std::vector<double> col, ReadAccessor(model, color_index, components, where + ".COLOR_0"));
+      MS_ASSIGN_OR_RETURN(std::vector<double> col, ReadAccessor(model, color_index, components, where + ".COLOR_0", budget));
       out.colors = ToVectors<4>(col, components);
       MS_RETURN_IF_ERROR(check_count(out.colors.size(), "COLOR_0"));
     }
     std::vector<uint32_t> vertex_list;
     if (tp.indices >= 0) {
-      MS_ASSIGN_OR_RETURN(vertex_list, ReadIndices(model, tp.indices, where));
+      MS_ASSIGN_OR_RETURN(vertex_list, ReadIndices(model, tp.indices, where, budget));
     } else {
+      MS_RETURN_IF_ERROR(budget.Spend(n, where));
       vertex_list.resize(n);
       for (size_t i = 0; i < n; ++i) vertex_list[i] = static_cast<uint32_t>(i);
     }
@@ -500,21 +587,66 @@ std::string GuessMimeType(const std::string& uri, const std::vector<uint8_t>& by
   return "application/octet-stream";
 }
 
+// Every node has at most one parent and the hierarchy has no cycle. Linear
+// time: each node is walked towards its root once, since a walk stops at the
+// first node an earlier walk already cleared.
 Status CheckNodeForest(const Scene& scene) {
-  std::vector<int> parent(scene.nodes.size(), -1);
-  for (size_t i = 0; i < scene.nodes.size(); ++i) {
+  const size_t n = scene.nodes.size();
+  std::vector<int64_t> parent(n, -1);
+  for (size_t i = 0; i < n; ++i) {
     for (int32_t c : scene.nodes[i].children) {
       if (parent[c] != -1 || static_cast<size_t>(c) == i) {
         return InvalidInput("nodes[" + std::to_string(c) + "] has more than one parent or is its own child");
       }
-      parent[c] = static_cast<int>(i);
+      parent[c] = static_cast<int64_t>(i);
     }
   }
-  for (size_t i = 0; i < scene.nodes.size(); ++i) {
-    size_t steps = 0;
-    for (int p = parent[i]; p != -1; p = parent[p]) {
-      if (++steps > scene.nodes.size()) {
-        return InvalidInput("nodes[" + std::to_string(i) + "] is part of a cycle in the node hierarchy");
+  enum : uint8_t { kUnseen, kOnWalk, kCleared };
+  std::vector<uint8_t> state(n, kUnseen);
+  std::vector<size_t> walk;
+  for (size_t i = 0; i < n; ++i) {
+    walk.clear();
+    int64_t p = static_cast<int64_t>(i);
+    while (p != -1 && state[p] == kUnseen) {
+      state[p] = kOnWalk;
+      walk.push_back(static_cast<size_t>(p));
+      p = parent[p];
+    }
+    if (p != -1 && state[p] == kOnWalk) {
+      return InvalidInput("nodes[" + std::to_string(p) + "] is part of a cycle in the node hierarchy");
+    }
+    for (size_t w : walk) state[w] = kCleared;
+  }
+  return Status::Ok();
+}
+
+// Texture references inside the carried-through materials: every object
+// under a key ending in "Texture" (baseColorTexture, normalTexture,
+// clearcoatTexture, ...) with an "index" must name an existing texture.
+// "extras" belong to the application and are not interpreted.
+Status CheckMaterialTextures(const json& materials, size_t texture_count) {
+  for (size_t i = 0; i < materials.size(); ++i) {
+    std::vector<const json*> stack = {&materials[i]};
+    while (!stack.empty()) {
+      const json* obj = stack.back();
+      stack.pop_back();
+      if (obj->is_array()) {
+        for (const json& v : *obj) stack.push_back(&v);
+        continue;
+      }
+      if (!obj->is_object()) continue;
+      for (auto it = obj->begin(); it != obj->end(); ++it) {
+        const std::string& key = it.key();
+        const bool texture_info = key.size() >= 7 && key.compare(key.size() - 7, 7, "Texture") == 0;
+        if (texture_info && it->is_object() && it->contains("index")) {
+          const json& index = (*it)["index"];
+          if (!index.is_number_integer() || index.get<int64_t>() < 0 ||
+              static_cast<uint64_t>(index.get<int64_t>()) >= texture_count) {
+            return InvalidInput("materials[" + std::to_string(i) + "]: " + key + " names texture " + index.dump() +
+                                ", which does not exist");
+          }
+        }
+        if ((it->is_object() || it->is_array()) && key != "extras") stack.push_back(&*it);
       }
     }
   }
@@ -522,8 +654,9 @@ Status CheckNodeForest(const Scene& scene) {
 }
 
 StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::string& base_dir,
-                        const ImportOptions& options) {
+                        const ImportOptions& options, uint64_t input_bytes) {
   Scene scene;
+  DecodeBudget budget(input_bytes);
   if (!model.skins.empty()) {
     return Unsupported("the asset has " + std::to_string(model.skins.size()) +
                        " skin(s); meshstream does not stream skinned meshes (see docs/gltf-support.md)");
@@ -556,7 +689,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
         raw_prim = &raw_meshes[m]["primitives"][k];
       }
       Primitive prim;
-      MS_RETURN_IF_ERROR(ReadPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), scene, prim));
+      MS_RETURN_IF_ERROR(ReadPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), scene, budget, prim));
       scene.source_vertices += prim.vertex_count();
       mesh.primitives.push_back(std::move(prim));
     }
@@ -617,7 +750,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
     scene.scenes.push_back(std::move(root));
   }
   scene.default_scene = model.defaultScene;
-  if (scene.default_scene >= static_cast<int32_t>(scene.scenes.size())) {
+  if (scene.default_scene < -1 || scene.default_scene >= static_cast<int32_t>(scene.scenes.size())) {
     return InvalidInput("scene " + std::to_string(scene.default_scene) + " does not exist");
   }
 
@@ -635,13 +768,15 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
       ctx.base_real = buf;
       ctx.max_bytes = options.max_input_bytes;
       std::vector<unsigned char> bytes;
-      if (!FsReadWholeFile(&bytes, nullptr, base_dir + "/" + relative, &ctx)) {
-        return NotFound("images[" + std::to_string(i) + "]: " + ctx.error);
+      const std::string path = BasePrefix(ctx) + relative;
+      if (!FsReadWholeFile(&bytes, nullptr, path, &ctx)) {
+        return ctx.status.WithContext("images[" + std::to_string(i) + "]");
       }
       image.bytes = std::move(bytes);
     } else {
       image.bytes = ti.image;
     }
+    if (image.bytes.empty()) return InvalidInput("images[" + std::to_string(i) + "] has no bytes");
     image.mime_type = ti.mimeType.empty() ? GuessMimeType(ti.uri, image.bytes) : ti.mimeType;
     scene.images.push_back(std::move(image));
   }
@@ -663,6 +798,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
       }
     }
   }
+  MS_RETURN_IF_ERROR(CheckMaterialTextures(materials, textures.size()));
   scene.materials_json = materials.dump();
   scene.textures_json = textures.dump();
   scene.samplers_json = samplers.dump();
@@ -757,6 +893,9 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
     }
     parser_bytes = &rewritten;
   }
+  if (parser_bytes->size() > UINT32_MAX) {
+    return fail(ResourceExhausted(std::to_string(parser_bytes->size()) + " bytes is more than the glTF parser takes (4 GiB)"));
+  }
 
   FsContext ctx;
   ctx.max_bytes = options.max_input_bytes;
@@ -788,11 +927,11 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   if (!loaded) {
     while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
     for (char& c : err) if (c == '\n') c = ';';
-    if (!ctx.error.empty()) return fail(NotFound(ctx.error));
+    if (!ctx.status.ok()) return fail(ctx.status);
     return fail(InvalidInput(err.empty() ? "glTF parser failed" : err));
   }
   try {
-    auto scene = Convert(model, doc, base_dir, options);
+    auto scene = Convert(model, doc, base_dir, options, bytes.size());
     if (!scene.ok()) return fail(scene.status());
     return scene;
   } catch (const std::exception& e) {

@@ -18,6 +18,7 @@ constexpr uint64_t kMaxByteLength = uint64_t{1} << 40;
 
 using json = nlohmann::json;
 
+// A size, offset or count: a value above kMaxByteLength is ResourceExhausted.
 StatusOr<uint64_t> GetUint(const json& obj, const char* key, uint64_t default_value,
                            bool required, const std::string& where) {
   auto it = obj.find(key);
@@ -31,6 +32,16 @@ StatusOr<uint64_t> GetUint(const json& obj, const char* key, uint64_t default_va
   const uint64_t v = it->get<uint64_t>();
   if (v > kMaxByteLength) {
     return ResourceExhausted(where + "." + key + " = " + std::to_string(v) + " is absurdly large");
+  }
+  return v;
+}
+
+// An index or an enum value: a huge one is simply not valid (InvalidInput).
+StatusOr<uint64_t> GetId(const json& obj, const char* key, uint64_t default_value, bool required,
+                         const std::string& where) {
+  auto v = GetUint(obj, key, default_value, required, where);
+  if (!v.ok() && v.status().code() == StatusCode::kResourceExhausted) {
+    return InvalidInput(where + "." + key + " = " + obj.find(key)->dump() + " is not valid");
   }
   return v;
 }
@@ -112,6 +123,13 @@ StatusOr<GlbView> ParseGlb(const uint8_t* data, size_t size) {
                           std::to_string(chunk_length) + " bytes but only " +
                           std::to_string(length - body) + " remain");
     }
+    // Chunks are padded to 4 bytes. Only the last may be unpadded: a
+    // misaligned chunk followed by another leaves where that one starts open
+    // to interpretation (the glTF parser reads it unpadded).
+    if (chunk_length % 4 != 0 && chunk_length < length - body) {
+      return InvalidInput("GLB: chunk " + std::to_string(chunk_index) + " length " + std::to_string(chunk_length) +
+                          " is not a multiple of 4 and more chunks follow");
+    }
     if (chunk_index == 0) {
       if (chunk_type != kGlbChunkJson) return InvalidInput("GLB: the first chunk is not JSON");
       if (chunk_length == 0) return InvalidInput("GLB: the JSON chunk is empty");
@@ -134,7 +152,19 @@ StatusOr<GlbView> ParseGlb(const uint8_t* data, size_t size) {
 }
 
 StatusOr<std::string> CheckUri(const std::string& uri, const std::string& where) {
-  if (uri.rfind("data:", 0) == 0) return std::string();
+  if (uri.rfind("data:", 0) == 0) {
+    // Only the forms the glTF parser decodes; anything else it would take for
+    // a file name ("data:/../x.bin"), past the checks below.
+    static const char* const kDataPrefixes[] = {
+        "data:application/octet-stream;base64,", "data:application/gltf-buffer;base64,",
+        "data:image/png;base64,", "data:image/jpeg;base64,", "data:image/bmp;base64,",
+        "data:image/gif;base64,", "data:text/plain;base64,"};
+    for (const char* prefix : kDataPrefixes) {
+      if (uri.rfind(prefix, 0) == 0) return std::string();
+    }
+    return InvalidInput(where + ": data: URI '" + uri.substr(0, 48) + (uri.size() > 48 ? "..." : "") +
+                        "' is not base64 with a supported media type");
+  }
   // Percent-decode first so that "%2e%2e/" cannot hide a "..".
   std::string decoded;
   decoded.reserve(uri.size());
@@ -193,6 +223,7 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
       const json& b = (*buffers)[i];
       MS_RETURN_IF_ERROR(CheckObject(b, where));
       MS_ASSIGN_OR_RETURN(uint64_t len, GetUint(b, "byteLength", 0, true, where));
+      if (len == 0) return InvalidInput(where + ".byteLength must be at least 1");
       auto uri = b.find("uri");
       if (uri != b.end()) {
         if (!uri->is_string()) return InvalidInput(where + ".uri must be a string");
@@ -218,10 +249,11 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
       const std::string where = "bufferViews[" + std::to_string(i) + "]";
       const json& v = (*views)[i];
       MS_RETURN_IF_ERROR(CheckObject(v, where));
-      MS_ASSIGN_OR_RETURN(uint64_t buffer, GetUint(v, "buffer", 0, true, where));
+      MS_ASSIGN_OR_RETURN(uint64_t buffer, GetId(v, "buffer", 0, true, where));
       MS_ASSIGN_OR_RETURN(uint64_t offset, GetUint(v, "byteOffset", 0, false, where));
       MS_ASSIGN_OR_RETURN(uint64_t length, GetUint(v, "byteLength", 0, true, where));
-      MS_ASSIGN_OR_RETURN(uint64_t stride, GetUint(v, "byteStride", 0, false, where));
+      if (length == 0) return InvalidInput(where + ".byteLength must be at least 1");
+      MS_ASSIGN_OR_RETURN(uint64_t stride, GetId(v, "byteStride", 0, false, where));
       if (buffer >= buffer_lengths.size()) {
         return InvalidInput(where + ".buffer " + std::to_string(buffer) + " does not exist");
       }
@@ -258,7 +290,7 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
       const json& a = (*accessors)[i];
       MS_RETURN_IF_ERROR(CheckObject(a, where));
       MS_ASSIGN_OR_RETURN(uint64_t count, GetUint(a, "count", 0, true, where));
-      MS_ASSIGN_OR_RETURN(uint64_t component_type, GetUint(a, "componentType", 0, true, where));
+      MS_ASSIGN_OR_RETURN(uint64_t component_type, GetId(a, "componentType", 0, true, where));
       MS_ASSIGN_OR_RETURN(uint64_t offset, GetUint(a, "byteOffset", 0, false, where));
       if (count == 0) return InvalidInput(where + ".count is 0");
       if (count > kMaxCount) {
@@ -275,7 +307,7 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
       }
       const uint64_t element = uint64_t(csize) * ComponentCount(type->get<std::string>());
       if (a.contains("bufferView")) {
-        MS_ASSIGN_OR_RETURN(uint64_t view, GetUint(a, "bufferView", 0, true, where));
+        MS_ASSIGN_OR_RETURN(uint64_t view, GetId(a, "bufferView", 0, true, where));
         if (view >= view_info.size()) {
           return InvalidInput(where + ".bufferView " + std::to_string(view) + " does not exist");
         }
@@ -302,14 +334,14 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
         }
         MS_RETURN_IF_ERROR(CheckObject(*indices, sw + ".indices"));
         MS_RETURN_IF_ERROR(CheckObject(*values, sw + ".values"));
-        MS_ASSIGN_OR_RETURN(uint64_t iview, GetUint(*indices, "bufferView", 0, true, sw + ".indices"));
+        MS_ASSIGN_OR_RETURN(uint64_t iview, GetId(*indices, "bufferView", 0, true, sw + ".indices"));
         MS_ASSIGN_OR_RETURN(uint64_t ioff, GetUint(*indices, "byteOffset", 0, false, sw + ".indices"));
-        MS_ASSIGN_OR_RETURN(uint64_t itype, GetUint(*indices, "componentType", 0, true, sw + ".indices"));
+        MS_ASSIGN_OR_RETURN(uint64_t itype, GetId(*indices, "componentType", 0, true, sw + ".indices"));
         if (itype != 5121 && itype != 5123 && itype != 5125) {
           return InvalidInput(sw + ".indices.componentType " + std::to_string(itype) + " is not an unsigned type");
         }
         MS_RETURN_IF_ERROR(check_view_range(iview, ioff, scount * ComponentSize(itype), sw + ".indices"));
-        MS_ASSIGN_OR_RETURN(uint64_t vview, GetUint(*values, "bufferView", 0, true, sw + ".values"));
+        MS_ASSIGN_OR_RETURN(uint64_t vview, GetId(*values, "bufferView", 0, true, sw + ".values"));
         MS_ASSIGN_OR_RETURN(uint64_t voff, GetUint(*values, "byteOffset", 0, false, sw + ".values"));
         MS_RETURN_IF_ERROR(check_view_range(vview, voff, scount * element, sw + ".values"));
       }
@@ -328,7 +360,7 @@ Status ValidateGltfDocument(const json& doc, bool is_glb, size_t glb_bin_size) {
         if (!uri->is_string()) return InvalidInput(where + ".uri must be a string");
         MS_RETURN_IF_ERROR(CheckUri(uri->get<std::string>(), where).status());
       } else {
-        MS_ASSIGN_OR_RETURN(uint64_t view, GetUint(im, "bufferView", 0, true, where));
+        MS_ASSIGN_OR_RETURN(uint64_t view, GetId(im, "bufferView", 0, true, where));
         if (view >= view_info.size()) {
           return InvalidInput(where + ".bufferView " + std::to_string(view) + " does not exist");
         }
