@@ -48,8 +48,12 @@ StatusOr<ParsedArgs> ParseArgs(const std::vector<std::string>& args, const std::
       for (++i; i < args.size(); ++i) out.positional.push_back(args[i]);
       break;
     }
-    if (a.size() > 2 && a.compare(0, 2, "--") == 0) {
-      std::string name = a.substr(2);
+    // "--name" for every option; "-x" for one-letter options (e.g. -o).
+    const bool long_form = a.size() > 2 && a.compare(0, 2, "--") == 0;
+    const bool short_form = a.size() == 2 && a[0] == '-' && a[1] != '-';
+    if (long_form || short_form) {
+      std::string name = a.substr(long_form ? 2 : 1);
+      if (short_form && !(a[1] >= 'a' && a[1] <= 'z')) return InvalidArgument("unknown option " + a);
       std::string value;
       bool has_inline = false;
       if (const size_t eq = name.find('='); eq != std::string::npos) {

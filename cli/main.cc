@@ -16,6 +16,8 @@ const char kUsage[] =
     "  info FILE [--json]                      what a mesh or scene file holds, and its health\n"
     "  convert IN OUT [--draco] [--qp N] ...   any supported input to .gltf or .glb\n"
     "  compare A B [--qp N] [--json]           distances between two meshes (Hausdorff, Laplacian)\n"
+    "  encode IN -o OUT.glb [--qp N] ...       a progressive .glb (base mesh + refinements)\n"
+    "  decode IN.glb -o OUT [--lod K] ...      a level of detail of a progressive .glb\n"
     "\n"
     "Inputs: .gltf .glb .obj .ply .off .stl. Outputs: .gltf .glb.\n"
     "Run 'meshstream <verb> --help' for the options of a verb.\n"
@@ -41,6 +43,8 @@ int main(int argc, char** argv) {
   if (verb == "info") return meshstream::cli::RunInfo(args);
   if (verb == "convert") return meshstream::cli::RunConvert(args);
   if (verb == "compare") return meshstream::cli::RunCompare(args);
+  if (verb == "encode") return meshstream::cli::RunEncode(args);
+  if (verb == "decode") return meshstream::cli::RunDecode(args);
   std::fprintf(stderr, "meshstream: unknown verb '%s'\n\n%s", verb.c_str(), kUsage);
   return meshstream::cli::kExitUsage;
 }

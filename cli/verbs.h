@@ -11,6 +11,8 @@ namespace meshstream::cli {
 int RunInfo(const std::vector<std::string>& args);
 int RunConvert(const std::vector<std::string>& args);
 int RunCompare(const std::vector<std::string>& args);
+int RunEncode(const std::vector<std::string>& args);
+int RunDecode(const std::vector<std::string>& args);
 
 }  // namespace meshstream::cli
 

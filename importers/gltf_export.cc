@@ -1,5 +1,6 @@
 #include "importers/gltf_export.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -85,6 +86,16 @@ class DocumentBuilder {
 
   StatusOr<json> PlainPrimitive(const Primitive& p);
   StatusOr<json> DracoPrimitive(const Primitive& p);
+  json DracoJson(const DracoEncoded& encoded, const Primitive& decoded);
+  json PrecodedJson(const PrecodedPrimitive& pre);
+  bool used_precoded_ = false;
+  std::vector<std::string> extra_extensions_;
+
+ public:
+  bool used_precoded() const { return used_precoded_; }
+  const std::vector<std::string>& extra_extensions() const { return extra_extensions_; }
+
+ private:
 
   const ExportOptions& options_;
   std::vector<uint8_t> bin_;
@@ -142,6 +153,10 @@ StatusOr<json> DocumentBuilder::DracoPrimitive(const Primitive& source) {
   // (Draco may reorder and drop points), and this proves the stream decodes.
   MS_ASSIGN_OR_RETURN(Primitive decoded,
                       DecodeDracoPrimitive(encoded.bytes.data(), encoded.bytes.size(), encoded.ids));
+  return DracoJson(encoded, decoded);
+}
+
+json DocumentBuilder::DracoJson(const DracoEncoded& encoded, const Primitive& decoded) {
   const int view = AddView(encoded.bytes.data(), encoded.bytes.size(), 0);
   json attributes = json::object();
   json draco_attributes = json::object();
@@ -169,6 +184,22 @@ StatusOr<json> DocumentBuilder::DracoPrimitive(const Primitive& source) {
   return prim;
 }
 
+json DocumentBuilder::PrecodedJson(const PrecodedPrimitive& pre) {
+  used_precoded_ = true;
+  DracoEncoded encoded;
+  encoded.bytes = pre.draco_bytes;
+  encoded.ids = pre.ids;
+  json prim = DracoJson(encoded, pre.decoded);
+  if (!pre.extension_name.empty()) {
+    const int view = AddView(pre.extension_bytes.data(), pre.extension_bytes.size(), 0);
+    prim["extensions"][pre.extension_name] = {{"bufferView", view}, {"version", pre.extension_version}};
+    if (std::find(extra_extensions_.begin(), extra_extensions_.end(), pre.extension_name) == extra_extensions_.end()) {
+      extra_extensions_.push_back(pre.extension_name);
+    }
+  }
+  return prim;
+}
+
 json ParseCarried(const std::string& text) {
   json v = json::parse(text, nullptr, false);
   return v.is_array() ? v : json::array();
@@ -186,7 +217,9 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     for (size_t k = 0; k < mesh.primitives.size(); ++k) {
       const Primitive& p = mesh.primitives[k];
       if (p.face_count() == 0) continue;
-      auto prim = options_.draco ? DracoPrimitive(p) : PlainPrimitive(p);
+      const PrecodedPrimitive* pre = nullptr;
+      if (m < options_.precoded.size() && k < options_.precoded[m].size()) pre = options_.precoded[m][k];
+      auto prim = pre ? StatusOr<json>(PrecodedJson(*pre)) : options_.draco ? DracoPrimitive(p) : PlainPrimitive(p);
       if (!prim.ok()) {
         return prim.status().WithContext("meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]");
       }
@@ -248,7 +281,8 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
   if (!bin_.empty()) doc["buffers"] = json::array({{{"byteLength", bin_.size()}}});
 
   std::vector<std::string> used = scene.extensions_used;
-  if (options_.draco) {
+  used.insert(used.end(), extra_extensions_.begin(), extra_extensions_.end());
+  if (options_.draco || used_precoded_) {
     used.push_back("KHR_draco_mesh_compression");
     doc["extensionsRequired"] = json::array({"KHR_draco_mesh_compression"});
   }

@@ -25,9 +25,25 @@
 
 namespace meshstream {
 
+// A primitive whose Draco coding is already done (the base mesh of a
+// progressive stream), plus an optional extension of ours on the primitive
+// that points at a bufferView of extra bytes.
+struct PrecodedPrimitive {
+  std::vector<uint8_t> draco_bytes;
+  DracoAttributeIds ids;
+  Primitive decoded;                    // what the Draco bytes decode to
+  std::string extension_name;           // empty: none
+  std::vector<uint8_t> extension_bytes; // referenced as {"bufferView": n}
+  int extension_version = 1;
+};
+
 struct ExportOptions {
   bool draco = false;
   DracoEncodeOptions draco_options;
+  // [mesh][primitive]; a null entry (or a short table) means: encode as usual.
+  // Precoded primitives make the asset require KHR_draco_mesh_compression;
+  // their own extension is listed in extensionsUsed only.
+  std::vector<std::vector<const PrecodedPrimitive*>> precoded;
 };
 
 // By the extension of `path`: .glb or .gltf (the buffer goes to <stem>.bin).

@@ -1,0 +1,173 @@
+#include "importers/progressive_glb.h"
+
+#include <nlohmann/json.hpp>
+
+#include "codec/stream_reader.h"
+#include "importers/draco_base_coder.h"
+#include "importers/gltf_export.h"
+#include "importers/gltf_import.h"
+#include "importers/gltf_limits.h"
+
+namespace meshstream {
+
+namespace {
+
+using json = nlohmann::json;
+
+std::vector<uint32_t> LevelVertices(const StreamHeader& h) {
+  std::vector<uint32_t> out = {h.base_vertices};
+  for (uint32_t c : h.split_counts) out.push_back(out.back() + c);
+  return out;
+}
+
+void AddLevels(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
+  if (total.size() < levels.size()) total.resize(levels.size(), total.empty() ? 0 : total.back());
+  for (size_t i = 0; i < total.size(); ++i) total[i] += levels[std::min(i, levels.size() - 1)];
+}
+
+}  // namespace
+
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
+                                                    ProgressiveGlbReport* report) {
+  MS_RETURN_IF_ERROR(ValidateScene(scene));
+  std::vector<std::vector<PrecodedPrimitive>> precoded(scene.meshes.size());
+  ExportOptions export_options;
+  export_options.precoded.resize(scene.meshes.size());
+  ProgressiveGlbReport local;
+  uint32_t stream_id = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    precoded[m].resize(mesh.primitives.size());
+    export_options.precoded[m].assign(mesh.primitives.size(), nullptr);
+    for (size_t k = 0; k < mesh.primitives.size(); ++k) {
+      const Primitive& prim = mesh.primitives[k];
+      if (prim.face_count() == 0) continue;
+      const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]";
+      ProgressiveEncodeOptions encode = options.encode;
+      const size_t index = stream_id;
+      if (options.progress) {
+        encode.simplify.observer = [&options, index](int batch, size_t left) {
+          options.progress(index, batch, left);
+          return true;
+        };
+      }
+      DracoAttributeIds ids;
+      const int level = options.draco_compression_level;
+      auto encoded = EncodeProgressive(prim, encode, [&ids, level](const QuantizedMesh& base, int method) {
+        return EncodeDracoBase(base, method, level, &ids);
+      });
+      if (!encoded.ok()) return encoded.status().WithContext(where);
+      StreamWriteOptions stream_options = options.stream;
+      stream_options.stream_id = stream_id++;
+      auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
+      if (!stream.ok()) return stream.status().WithContext(where);
+
+      PrecodedPrimitive& pre = precoded[m][k];
+      pre.draco_bytes = encoded->base_bytes;
+      pre.ids = ids;
+      auto decoded = DecodeDracoPrimitive(pre.draco_bytes.data(), pre.draco_bytes.size(), ids);
+      if (!decoded.ok()) return decoded.status().WithContext(where);
+      pre.decoded = std::move(decoded).value();
+      pre.extension_name = kProgressiveExtension;
+      pre.extension_bytes = stream->Serialize();
+      export_options.precoded[m][k] = &pre;
+
+      PrimitiveStreamReport r;
+      r.vertices = encoded->input_vertices;
+      r.faces = encoded->input_faces;
+      r.level_vertices = encoded->mesh.level_vertices();
+      r.base_bytes = pre.draco_bytes.size();
+      r.reliable_bytes = stream->reliable_bytes();
+      r.unreliable_bytes = stream->unreliable_bytes();
+      r.datagrams = stream->datagram_count();
+      r.removed_faces = encoded->removed_faces;
+      local.primitives.push_back(std::move(r));
+    }
+  }
+  MS_ASSIGN_OR_RETURN(std::vector<uint8_t> glb, ExportGlb(scene, export_options));
+  local.file_bytes = glb.size();
+  if (report) *report = std::move(local);
+  return glb;
+}
+
+namespace {
+
+StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const ProgressiveDecodeOptions& options,
+                              ProgressiveDecodeReport* report) {
+  // The glTF import checks everything and decodes every base with Draco.
+  MS_ASSIGN_OR_RETURN(Scene scene, ImportGltfBytes(bytes, "", "progressive stream", {}));
+  if (!LooksLikeGlb(bytes.data(), bytes.size())) return InvalidInput("a progressive file must be a .glb");
+  MS_ASSIGN_OR_RETURN(GlbView glb, ParseGlb(bytes.data(), bytes.size()));
+  const json doc = json::parse(glb.json, glb.json + glb.json_size, nullptr, false);
+  if (doc.is_discarded()) return InvalidInput("the glTF JSON does not parse");
+  // Drop the importer's note about our own extension.
+  scene.warnings.erase(std::remove_if(scene.warnings.begin(), scene.warnings.end(),
+                                      [](const std::string& w) { return w.find(kProgressiveExtension) != std::string::npos; }),
+                       scene.warnings.end());
+
+  ProgressiveDecodeReport local;
+  uint32_t stream_id = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    for (size_t k = 0; k < scene.meshes[m].primitives.size(); ++k) {
+      const json& prim = doc.at("meshes").at(m).at("primitives").at(k);
+      const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]";
+      if (!prim.contains("extensions") || !prim["extensions"].is_object() ||
+          !prim["extensions"].contains(kProgressiveExtension)) {
+        continue;
+      }
+      const json& ext = prim["extensions"][kProgressiveExtension];
+      if (!ext.is_object() || !ext.contains("bufferView") || !ext["bufferView"].is_number_unsigned()) {
+        return InvalidInput(where + ": " + kProgressiveExtension + ".bufferView is missing");
+      }
+      const uint64_t view = ext["bufferView"].get<uint64_t>();
+      const json& views = doc.at("bufferViews");
+      if (!views.is_array() || view >= views.size()) {
+        return InvalidInput(where + ": " + kProgressiveExtension + ".bufferView does not exist");
+      }
+      const uint64_t offset = views[view].value("byteOffset", uint64_t{0});
+      const uint64_t length = views[view].value("byteLength", uint64_t{0});
+      if (glb.bin == nullptr || offset > glb.bin_size || length > glb.bin_size - offset) {
+        return InvalidInput(where + ": the progressive stream lies outside the GLB's binary chunk");
+      }
+      MS_ASSIGN_OR_RETURN(ProgressiveStream stream, ProgressiveStream::Parse(glb.bin + offset, length));
+      auto reader = StreamReader::Create(stream.header.data(), stream.header.size(), stream_id++);
+      if (!reader.ok()) return reader.status().WithContext(where);
+      Primitive& target = scene.meshes[m].primitives[k];
+      auto base = QuantizeOnto(target, reader->header().grids);
+      if (!base.ok()) return base.status().WithContext(where);
+      MS_RETURN_IF_ERROR(reader->SetBase(std::move(base).value()).WithContext(where));
+      if (stream.control.size() != reader->refinement_count()) {
+        return InvalidInput(where + ": the stream has " + std::to_string(stream.control.size()) +
+                            " refinements, its header says " + std::to_string(reader->refinement_count()));
+      }
+      const size_t levels = reader->refinement_count();
+      const size_t apply = options.lod < 0 ? levels : std::min(levels, static_cast<size_t>(options.lod));
+      for (size_t i = 0; i < apply; ++i) {
+        MS_RETURN_IF_ERROR(reader->BeginRefinement(stream.control[i].data(), stream.control[i].size()).WithContext(where));
+        for (const auto& d : stream.datagrams[i]) reader->OfferDatagram(d.data(), d.size());
+        local.datagrams += stream.datagrams[i].size();
+        MS_RETURN_IF_ERROR(reader->FinishRefinement().WithContext(where));
+      }
+      target = DequantizeMesh(reader->Mesh(), target.material);
+      local.levels = std::max<uint64_t>(local.levels, levels);
+      local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
+      AddLevels(local.level_vertices, LevelVertices(reader->header()));
+    }
+  }
+  if (report) *report = std::move(local);
+  return scene;
+}
+
+}  // namespace
+
+StatusOr<Scene> DecodeProgressiveGlb(const std::vector<uint8_t>& bytes, const ProgressiveDecodeOptions& options,
+                                     ProgressiveDecodeReport* report) {
+  try {
+    return DecodeChecked(bytes, options, report);
+  } catch (const std::exception& e) {
+    // nlohmann's at() on a document the importer already validated; kept as a backstop.
+    return InvalidInput(std::string("progressive stream: ") + e.what());
+  }
+}
+
+}  // namespace meshstream

@@ -1,0 +1,72 @@
+// The progressive container: a valid .glb whose primitives carry their base
+// mesh under KHR_draco_mesh_compression and their refinements in a
+// bufferView named by our extension MESHSTREAM_progressive (listed in
+// extensionsUsed, not in extensionsRequired), so any glTF reader shows the
+// base level (BRIEF, property 9; docs/progressive-format.md).
+//
+// Contract: DecodeProgressiveGlb is safe on untrusted bytes (the glTF import
+// checks of gltf_import.h, then the stream reader's). Every primitive of every
+// mesh is encoded; scene structure, materials and textures come back.
+#ifndef MESHSTREAM_IMPORTERS_PROGRESSIVE_GLB_H_
+#define MESHSTREAM_IMPORTERS_PROGRESSIVE_GLB_H_
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "codec/mesh.h"
+#include "codec/progressive_encoder.h"
+#include "codec/stream_writer.h"
+#include "importers/import.h"
+
+namespace meshstream {
+
+constexpr char kProgressiveExtension[] = "MESHSTREAM_progressive";
+
+struct ProgressiveGlbOptions {
+  ProgressiveEncodeOptions encode;
+  StreamWriteOptions stream;
+  int draco_compression_level = 7;
+  // Called with (primitive index, batch index, vertices left) during encoding.
+  std::function<void(size_t, int, size_t)> progress;
+};
+
+struct PrimitiveStreamReport {
+  uint64_t vertices = 0;  // referenced input vertices
+  uint64_t faces = 0;
+  std::vector<uint32_t> level_vertices;
+  uint64_t base_bytes = 0;
+  uint64_t reliable_bytes = 0;    // header, fix-ups, split bits, models (base excluded)
+  uint64_t unreliable_bytes = 0;  // datagrams with their headers
+  uint64_t datagrams = 0;
+  uint64_t removed_faces = 0;
+};
+
+struct ProgressiveGlbReport {
+  std::vector<PrimitiveStreamReport> primitives;
+  uint64_t file_bytes = 0;
+};
+
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
+                                                    ProgressiveGlbReport* report);
+
+struct ProgressiveDecodeOptions {
+  int lod = -1;  // refinements to apply per primitive; -1: all
+};
+
+struct ProgressiveDecodeReport {
+  uint64_t levels = 0;           // the most refinements any primitive has
+  uint64_t levels_applied = 0;
+  uint64_t datagrams = 0;
+  std::vector<uint32_t> level_vertices;  // summed over primitives
+};
+
+// Decodes a progressive .glb held in memory into a scene at the requested
+// level of detail. Primitives without our extension come back as they are.
+StatusOr<Scene> DecodeProgressiveGlb(const std::vector<uint8_t>& bytes, const ProgressiveDecodeOptions& options,
+                                     ProgressiveDecodeReport* report);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_IMPORTERS_PROGRESSIVE_GLB_H_
