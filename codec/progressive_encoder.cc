@@ -165,7 +165,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   // Replay from coarse to fine, exactly as the decoder will.
   RefinementState state;
   MS_RETURN_IF_ERROR(state.Reset(cbase));
-  std::vector<uint32_t> neighbours;
+  std::vector<uint32_t> neighbours, ring;
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
     std::vector<uint32_t> order(k);
@@ -175,24 +175,36 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
     });
     Refinement r;
     r.vertices_before = state.connectivity.vertex_count();
+    std::vector<uint32_t> created(k);  // the input id that becomes the new vertex of split j
     for (uint32_t i : order) {
       const Collapse& c = batch->collapses[i];
       const uint32_t w = canonical[c.u];
       state.connectivity.SortedNeighbours(w, neighbours);
-      const auto ia = std::lower_bound(neighbours.begin(), neighbours.end(), canonical[c.a]);
-      const auto ib = std::lower_bound(neighbours.begin(), neighbours.end(), canonical[c.b]);
-      if (ia == neighbours.end() || *ia != canonical[c.a] || ib == neighbours.end() || *ib != canonical[c.b]) {
-        return Internal("replay: a wing is not a neighbour of the split vertex");
-      }
+      if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
+      const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
+      const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
+      if (pa == ring.end() || pb == ring.end()) return Internal("replay: a wing is not a neighbour of the split vertex");
+      const size_t d = ring.size();
+      const size_t offset = (static_cast<size_t>(pb - pa) + d) % d;
+      // Either end of the collapsed edge may keep w's id; keeping v instead
+      // of u swaps the wings (offset d - offset) and negates the deltas.
+      const bool swap = offset > d / 2;
+      const uint32_t keep = swap ? c.v : c.u;
+      const uint32_t first_wing = canonical[swap ? c.b : c.a];
+      const Vec3i& pk = swap ? c.pos_v : c.pos_u;
+      const Vec3i& pn = swap ? c.pos_u : c.pos_v;
+      const auto ia = std::lower_bound(neighbours.begin(), neighbours.end(), first_wing);
       r.split_vertices.push_back(w);
-      r.wings.push_back({static_cast<uint16_t>(ia - neighbours.begin()), static_cast<uint16_t>(ib - neighbours.begin())});
-      r.position_delta.push_back({c.pos_u[0] - c.pos_v[0], c.pos_u[1] - c.pos_v[1], c.pos_u[2] - c.pos_v[2]});
-      for (int m = 0; m < ch; ++m) {
-        r.attribute_delta.push_back(batch->attr_u[size_t(i) * ch + m] - batch->attr_v[size_t(i) * ch + m]);
-      }
+      r.wings.push_back({static_cast<uint16_t>(ia - neighbours.begin()), static_cast<uint16_t>(swap ? d - offset : offset)});
+      r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
+      const std::vector<int32_t>& ak = swap ? batch->attr_v : batch->attr_u;
+      const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;
+      for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
+      canonical[keep] = w;
+      created[r.split_vertices.size() - 1] = swap ? c.u : c.v;
     }
     MS_RETURN_IF_ERROR(state.ApplyRefinement(r).WithContext("replay"));
-    for (size_t j = 0; j < k; ++j) canonical[batch->collapses[order[j]].v] = r.vertices_before + static_cast<uint32_t>(j);
+    for (size_t j = 0; j < k; ++j) canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
     out.mesh.refinements.push_back(std::move(r));
   }
 

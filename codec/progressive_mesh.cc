@@ -1,5 +1,7 @@
 #include "codec/progressive_mesh.h"
 
+#include <algorithm>
+
 #include "codec/batch_simplifier.h"
 
 namespace meshstream {
@@ -20,14 +22,20 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
 Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   const uint32_t w = r.split_vertices[j];
   if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
-  std::vector<uint32_t> neighbours;
+  std::vector<uint32_t> neighbours, ring;
   connectivity.SortedNeighbours(w, neighbours);
   const auto& wings = r.wings[j];
-  if (wings[0] >= neighbours.size() || wings[1] >= neighbours.size()) {
+  if (!connectivity.CyclicRing(w, ring)) {
+    return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
+  }
+  if (wings[0] >= neighbours.size() || wings[1] == 0 || wings[1] >= ring.size()) {
     return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
                         std::to_string(neighbours.size()) + " neighbours");
   }
-  MS_ASSIGN_OR_RETURN(const uint32_t n, connectivity.Split(w, neighbours[wings[0]], neighbours[wings[1]]));
+  const uint32_t a = neighbours[wings[0]];
+  const size_t at = static_cast<size_t>(std::find(ring.begin(), ring.end(), a) - ring.begin());
+  const uint32_t b = ring[(at + wings[1]) % ring.size()];
+  MS_ASSIGN_OR_RETURN(const uint32_t n, connectivity.Split(w, a, b));
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
     u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);

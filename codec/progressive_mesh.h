@@ -10,9 +10,12 @@
 // creates vertex `vertices_before + j`. Ids therefore follow from the split
 // bits alone.
 //
-// Structure of a split: the wings a and b, as indices into the split vertex's
-// neighbours sorted by id in the coarser mesh (they refer to the mesh before
-// the refinement, so the order of splits does not matter). Geometry: the
+// Structure of a split: the wing a, as an index into the split vertex's
+// neighbours sorted by id, and the wing b, as the number of steps from a to
+// b around the split vertex's ring in the direction of its triangles (1 to
+// degree - 1); both refer to the coarser mesh before the refinement, so the
+// order of splits does not matter. The encoder orients every split so that
+// this offset is at most half the degree. Geometry: the
 // differences u - v of positions and attribute channels of the two vertices
 // after the split, where the coarser vertex holds floor((u + v) / 2).
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_MESH_H_
@@ -31,7 +34,7 @@ namespace meshstream {
 struct Refinement {
   uint32_t vertices_before = 0;
   std::vector<uint32_t> split_vertices;       // ascending canonical ids
-  std::vector<std::array<uint16_t, 2>> wings; // per split: indices into sorted neighbours
+  std::vector<std::array<uint16_t, 2>> wings; // per split: a's index among sorted neighbours, ring offset to b
   std::vector<Vec3i> position_delta;          // per split: u - v
   std::vector<int32_t> attribute_delta;       // per split: channels of u - v
   size_t split_count() const { return split_vertices.size(); }

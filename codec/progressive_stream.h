@@ -85,21 +85,6 @@ struct DatagramHeader {
   static StatusOr<DatagramHeader> Parse(ByteReader& r);
 };
 
-// Split-bit contexts: age of the vertex (created by the previous refinement,
-// the one before, or older / base) and whether it split in the previous
-// refinement. Built from reliable data only (BRIEF, property 5).
-constexpr int kSplitContexts = 6;
-inline int SplitContext(uint32_t vertex, const std::vector<uint32_t>& level_starts, size_t refinement,
-                        const std::vector<uint8_t>& split_before) {
-  // level_starts[i] = vertex count before refinement i; refinement i - 1
-  // created the ids in [level_starts[i - 1], level_starts[i]).
-  int age = 2;
-  if (refinement >= 1 && vertex >= level_starts[refinement - 1]) age = 0;
-  else if (refinement >= 2 && vertex >= level_starts[refinement - 2]) age = 1;
-  const int prev = (vertex < split_before.size() && split_before[vertex]) ? 1 : 0;
-  return age * 2 + prev;
-}
-
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_PROGRESSIVE_STREAM_H_

@@ -27,11 +27,11 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   base.position_grid = h.grids.position_grid;
   base.layout = h.grids.layout;
   MS_RETURN_IF_ERROR(state_.Reset(base));
-  level_starts_ = {static_cast<uint32_t>(base.vertex_count())};
-  for (uint32_t c : h.split_counts) level_starts_.push_back(level_starts_.back() + c);
+  history_ = SplitHistory();
+  history_.vertices = static_cast<uint32_t>(base.vertex_count());
+  models_.clear();
   has_base_ = true;
   next_ = 0;
-  split_before_.clear();
   return Status::Ok();
 }
 
@@ -46,27 +46,32 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   const uint32_t n = state_.connectivity.vertex_count();
   Refinement ref;
   ref.vertices_before = n;
-  RangeDecoder dec(bits, length);
-  BitModel contexts[kSplitContexts];
-  std::vector<uint8_t> split(n, 0);
-  for (uint32_t v = 0; v < n; ++v) {
-    split[v] = static_cast<uint8_t>(dec.DecodeBit(contexts[SplitContext(v, level_starts_, next_, split_before_)]));
+  if (history_.vertices != n) return Internal(where + ": split history is out of step");
+  auto decoded = DecodeSplitBits(bits, length, history_);
+  if (!decoded.ok()) return decoded.status().WithContext(where);
+  std::vector<uint8_t> split = std::move(decoded).value();
+  for (uint32_t v = 0; v < n; ++v)
     if (split[v]) ref.split_vertices.push_back(v);
-  }
-  if (dec.overran()) return InvalidInput(where + ": split bits are truncated");
   if (ref.split_vertices.size() != header_.split_counts[next_]) {
     return InvalidInput(where + ": " + std::to_string(ref.split_vertices.size()) + " split bits are set, the header says " +
                         std::to_string(header_.split_counts[next_]));
   }
-  MS_ASSIGN_OR_RETURN(wings_, StaticModel::Parse(r));
-  for (StaticModel& m : position_) {
-    MS_ASSIGN_OR_RETURN(m, StaticModel::Parse(r));
+  // Models: per slot, a flag (0: the previous refinement's, 1: a new one follows).
+  const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
+  std::vector<StaticModel> models;
+  for (size_t k = 0; k < slots; ++k) {
+    MS_ASSIGN_OR_RETURN(uint8_t fresh, r.U8("model flag"));
+    if (fresh > 1) return InvalidInput(where + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
+    if (fresh) {
+      MS_ASSIGN_OR_RETURN(StaticModel m, StaticModel::Parse(r));
+      models.push_back(std::move(m));
+    } else {
+      if (models_.size() != slots) return InvalidInput(where + ": reuses a model that was never sent");
+      models.push_back(models_[k]);
+    }
   }
-  attributes_.clear();
-  for (int k = 0; k < header_.grids.layout.channels(); ++k) {
-    MS_ASSIGN_OR_RETURN(StaticModel m, StaticModel::Parse(r));
-    attributes_.push_back(std::move(m));
-  }
+  if (r.remaining() != 0) return InvalidInput(where + ": " + std::to_string(r.remaining()) + " stray bytes after the models");
+  models_ = std::move(models);
   const size_t k = ref.split_count();
   const int ch = header_.grids.layout.channels();
   ref.wings.assign(k, {0, 0});
@@ -75,7 +80,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   has_structure_.assign(k, 0);
   has_geometry_.assign(k, 0);
   current_ = std::move(ref);
-  split_before_ = std::move(split);
+  history_ = history_.Next(split);
   in_refinement_ = true;
   return Status::Ok();
 }
@@ -106,12 +111,12 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   std::vector<int32_t> attrs(geometry ? size_t(h.count) * ch : 0);
   for (uint32_t i = 0; i < h.count; ++i) {
     if (structure) {
-      wings[i][0] = static_cast<uint16_t>(wings_.Decode(dec));
-      wings[i][1] = static_cast<uint16_t>(wings_.Decode(dec));
+      wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));
+      wings[i][1] = static_cast<uint16_t>(models_[1].Decode(dec));
     }
     if (geometry) {
-      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, position_[c]);
-      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, attributes_[c]);
+      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, models_[2 + c]);
+      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
     }
   }
   if (dec.overran()) {

@@ -18,6 +18,7 @@
 
 #include "codec/progressive_mesh.h"
 #include "codec/progressive_stream.h"
+#include "codec/split_bits.h"
 #include "codec/symbol_model.h"
 
 namespace meshstream {
@@ -57,13 +58,10 @@ class StreamReader {
   bool has_base_ = false;
   size_t next_ = 0;          // refinements applied
   bool in_refinement_ = false;
-  std::vector<uint32_t> level_starts_;
-  std::vector<uint8_t> split_before_;
+  SplitHistory history_;
   Refinement current_;
   std::vector<uint8_t> has_structure_, has_geometry_;
-  StaticModel wings_;
-  StaticModel position_[3];
-  std::vector<StaticModel> attributes_;
+  std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
   DatagramStats stats_;
 };
 

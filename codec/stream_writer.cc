@@ -3,58 +3,86 @@
 #include <cmath>
 
 #include "codec/range_coder.h"
+#include "codec/split_bits.h"
 #include "codec/symbol_model.h"
 
 namespace meshstream {
 
 namespace {
 
-// The models of one refinement (sent in its control block).
+// The models of one refinement, by slot: wing, offset, position x, y, z,
+// then one per attribute channel. Each slot either carries a new model or
+// reuses the previous refinement's (when that costs fewer bits), see
+// docs/progressive-format.md, "Control block".
 struct RefinementModels {
-  StaticModel wings;
-  StaticModel position[3];
-  std::vector<StaticModel> attributes;  // one per channel
-
-  void Serialize(ByteWriter& w) const {
-    wings.Serialize(w);
-    for (const StaticModel& m : position) m.Serialize(w);
-    for (const StaticModel& m : attributes) m.Serialize(w);
-  }
+  std::vector<StaticModel> slots;
+  const StaticModel& wing() const { return slots[0]; }
+  const StaticModel& offset() const { return slots[1]; }
+  const StaticModel& position(int axis) const { return slots[2 + axis]; }
+  const StaticModel& attribute(int channel) const { return slots[5 + channel]; }
 };
 
-RefinementModels BuildModels(const Refinement& r, int channels) {
-  RefinementModels m;
-  std::vector<uint64_t> wing_counts(kWingAlphabet, 0);
-  std::vector<std::vector<uint64_t>> pos(3, std::vector<uint64_t>(kSignedBuckets, 0));
-  std::vector<std::vector<uint64_t>> attr(channels, std::vector<uint64_t>(kSignedBuckets, 0));
+std::vector<std::vector<uint64_t>> Histograms(const Refinement& r, int channels) {
+  std::vector<std::vector<uint64_t>> h(5 + channels);
+  h[0].assign(kWingAlphabet, 0);
+  h[1].assign(kWingAlphabet, 0);
+  for (size_t k = 2; k < h.size(); ++k) h[k].assign(kSignedSymbols, 0);
   for (size_t j = 0; j < r.split_count(); ++j) {
-    ++wing_counts[r.wings[j][0]];
-    ++wing_counts[r.wings[j][1]];
-    for (int k = 0; k < 3; ++k) ++pos[k][BucketOf(r.position_delta[j][k])];
-    for (int k = 0; k < channels; ++k) ++attr[k][BucketOf(r.attribute_delta[j * channels + k])];
+    ++h[0][r.wings[j][0]];
+    ++h[1][r.wings[j][1]];
+    for (int k = 0; k < 3; ++k) ++h[2 + k][SignedSymbol(r.position_delta[j][k])];
+    for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[j * channels + k])];
   }
-  m.wings = StaticModel::FromCounts(wing_counts);
-  for (int k = 0; k < 3; ++k) m.position[k] = StaticModel::FromCounts(pos[k]);
-  for (int k = 0; k < channels; ++k) m.attributes.push_back(StaticModel::FromCounts(attr[k]));
-  return m;
+  return h;
+}
+
+double CostWith(const StaticModel& m, const std::vector<uint64_t>& counts) {
+  double bits = 0;
+  for (size_t s = 0; s < counts.size(); ++s) {
+    if (counts[s] == 0) continue;
+    if (!m.Has(static_cast<uint32_t>(s))) return 1e300;
+    bits += counts[s] * m.Cost(static_cast<uint32_t>(s));
+  }
+  return bits;
+}
+
+// Chooses and writes the models of a refinement; `previous` is updated.
+RefinementModels WriteModels(const Refinement& r, int channels, RefinementModels* previous, ByteWriter& w) {
+  const auto histograms = Histograms(r, channels);
+  RefinementModels chosen;
+  for (size_t k = 0; k < histograms.size(); ++k) {
+    StaticModel fresh = StaticModel::FromCounts(histograms[k]);
+    ByteWriter serialized;
+    fresh.Serialize(serialized);
+    const double fresh_bits = CostWith(fresh, histograms[k]) + 8.0 * serialized.size();
+    const bool reuse = previous && CostWith(previous->slots[k], histograms[k]) < fresh_bits;
+    w.U8(reuse ? 0 : 1);
+    if (reuse) {
+      chosen.slots.push_back(previous->slots[k]);
+    } else {
+      w.Bytes(serialized.bytes());
+      chosen.slots.push_back(std::move(fresh));
+    }
+  }
+  return chosen;
 }
 
 void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j) {
-  m.wings.Encode(enc, r.wings[j][0]);
-  m.wings.Encode(enc, r.wings[j][1]);
+  m.wing().Encode(enc, r.wings[j][0]);
+  m.offset().Encode(enc, r.wings[j][1]);
 }
 
 void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j, int channels) {
-  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position[k], r.position_delta[j][k]);
-  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attributes[k], r.attribute_delta[j * channels + k]);
+  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position(k), r.position_delta[j][k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[j * channels + k]);
 }
 
 double UnitCost(const RefinementModels& m, const Refinement& r, size_t j, int channels, DatagramKind kind) {
   double bits = 0;
-  if (kind != DatagramKind::kGeometry) bits += m.wings.Cost(r.wings[j][0]) + m.wings.Cost(r.wings[j][1]);
+  if (kind != DatagramKind::kGeometry) bits += m.wing().Cost(r.wings[j][0]) + m.offset().Cost(r.wings[j][1]);
   if (kind != DatagramKind::kStructure) {
-    for (int k = 0; k < 3; ++k) bits += SignedCost(m.position[k], r.position_delta[j][k]);
-    for (int k = 0; k < channels; ++k) bits += SignedCost(m.attributes[k], r.attribute_delta[j * channels + k]);
+    for (int k = 0; k < 3; ++k) bits += SignedCost(m.position(k), r.position_delta[j][k]);
+    for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[j * channels + k]);
   }
   return bits;
 }
@@ -126,24 +154,20 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   h.Serialize(hw);
   s.header = std::move(hw.bytes());
 
-  const std::vector<uint32_t> starts = pm.level_vertices();
-  std::vector<uint8_t> split_before;
+  SplitHistory history;
+  history.vertices = static_cast<uint32_t>(pm.base.vertex_count());
+  RefinementModels previous;
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
     const Refinement& r = pm.refinements[i];
-    // Split bits.
+    // Split bits, then the models.
     std::vector<uint8_t> bits(r.vertices_before, 0);
     for (uint32_t v : r.split_vertices) bits[v] = 1;
-    RangeEncoder enc;
-    BitModel contexts[kSplitContexts];
-    for (uint32_t v = 0; v < r.vertices_before; ++v) {
-      enc.EncodeBit(contexts[SplitContext(v, starts, i, split_before)], bits[v]);
-    }
     ByteWriter cw;
-    cw.Block(enc.Finish());
-    const RefinementModels models = BuildModels(r, channels);
-    models.Serialize(cw);
+    cw.Block(EncodeSplitBits(bits, history));
+    history = history.Next(bits);
+    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
     s.control.push_back(std::move(cw.bytes()));
-    split_before = std::move(bits);
+    previous = models;
 
     // Datagrams.
     std::vector<std::vector<uint8_t>> datagrams;

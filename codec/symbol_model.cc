@@ -5,43 +5,51 @@
 
 namespace meshstream {
 
+namespace {
+
+// Weights of the 4-bit codes: about 1.6^c.
+constexpr uint32_t kCodeWeight[16] = {0, 2, 3, 4, 7, 10, 17, 27, 43, 69, 110, 176, 281, 450, 720, 1153};
+
+}  // namespace
+
 StaticModel StaticModel::FromCounts(const std::vector<uint64_t>& counts) {
   StaticModel m;
   size_t n = counts.size();
   while (n > 1 && counts[n - 1] == 0) --n;
   n = std::max<size_t>(n, 1);
-  m.freq_.assign(n, 0);
-  uint64_t total = 0;
-  for (size_t s = 0; s < n; ++s) total += counts[s];
-  const uint32_t one = 1u << kModelBits;
-  if (total == 0) {
-    m.freq_[0] = one;
+  m.codes_.assign(n, 0);
+  uint64_t max = 0;
+  for (size_t s = 0; s < n; ++s) max = std::max(max, counts[s]);
+  if (max == 0) {
+    m.codes_[0] = 15;
   } else {
-    uint32_t used = 0;
     for (size_t s = 0; s < n; ++s) {
       if (counts[s] == 0) continue;
-      m.freq_[s] = std::max<uint32_t>(1, static_cast<uint32_t>(std::floor(double(counts[s]) * one / total)));
-      used += m.freq_[s];
-    }
-    // Fix the sum to exactly 2^12: adjust the most frequent symbols.
-    while (used != one) {
-      size_t best = 0;
-      for (size_t s = 1; s < n; ++s) if (m.freq_[s] > m.freq_[best]) best = s;
-      if (used < one) {
-        m.freq_[best] += one - used;
-        used = one;
-      } else {
-        // Take from the largest symbols that can spare it.
-        const uint32_t excess = used - one;
-        const uint32_t take = std::min(excess, m.freq_[best] - 1);
-        m.freq_[best] -= take;
-        used -= take;
-        if (take == 0) break;  // cannot happen with n <= 64 < 2^12
-      }
+      const double c = 15.0 + std::log(double(counts[s]) / double(max)) / std::log(1.6);
+      m.codes_[s] = static_cast<uint8_t>(std::clamp(std::lround(c), 1L, 15L));
     }
   }
-  m.Build();
+  m.FromCodes();
   return m;
+}
+
+void StaticModel::FromCodes() {
+  const size_t n = codes_.size();
+  freq_.assign(n, 0);
+  uint64_t weight = 0;
+  for (uint8_t c : codes_) weight += kCodeWeight[c];
+  const uint32_t one = 1u << kModelBits;
+  uint32_t used = 0;
+  size_t largest = 0;
+  for (size_t s = 0; s < n; ++s) {
+    if (codes_[s] == 0) continue;
+    freq_[s] = std::max<uint32_t>(1, static_cast<uint32_t>(uint64_t(kCodeWeight[codes_[s]]) * one / weight));
+    used += freq_[s];
+    if (freq_[s] > freq_[largest]) largest = s;
+  }
+  // n <= 64 symbols of at least 1 each: the largest can absorb the rounding.
+  freq_[largest] += one - used;
+  Build();
 }
 
 void StaticModel::Build() {
@@ -56,23 +64,28 @@ void StaticModel::Build() {
 }
 
 void StaticModel::Serialize(ByteWriter& w) const {
-  w.U8(static_cast<uint8_t>(freq_.size()));
-  for (uint32_t f : freq_) w.Varint(f);
+  w.U8(static_cast<uint8_t>(codes_.size()));
+  for (size_t s = 0; s < codes_.size(); s += 2) {
+    const uint8_t hi = s + 1 < codes_.size() ? codes_[s + 1] : 0;
+    w.U8(static_cast<uint8_t>(codes_[s] | (hi << 4)));
+  }
 }
 
 StatusOr<StaticModel> StaticModel::Parse(ByteReader& r) {
   MS_ASSIGN_OR_RETURN(uint8_t n, r.U8("model alphabet size"));
   if (n == 0 || n > kMaxAlphabet) return InvalidInput("model alphabet size " + std::to_string(n) + " is out of range");
   StaticModel m;
-  m.freq_.resize(n);
-  uint64_t sum = 0;
-  for (uint32_t s = 0; s < n; ++s) {
-    MS_ASSIGN_OR_RETURN(uint64_t f, r.Varint("model frequency", 1u << kModelBits));
-    m.freq_[s] = static_cast<uint32_t>(f);
-    sum += f;
+  m.codes_.resize(n);
+  bool any = false;
+  for (uint32_t s = 0; s < n; s += 2) {
+    MS_ASSIGN_OR_RETURN(uint8_t b, r.U8("model codes"));
+    m.codes_[s] = b & 0x0F;
+    if (s + 1 < n) m.codes_[s + 1] = b >> 4;
+    else if ((b >> 4) != 0) return InvalidInput("model codes have a stray nibble");
   }
-  if (sum != (1u << kModelBits)) return InvalidInput("model frequencies sum to " + std::to_string(sum) + ", not 4096");
-  m.Build();
+  for (uint8_t c : m.codes_) any = any || c != 0;
+  if (!any) return InvalidInput("model has no symbol");
+  m.FromCodes();
   return m;
 }
 
@@ -82,40 +95,42 @@ double StaticModel::Cost(uint32_t symbol) const {
 }
 
 void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v) {
+  const uint32_t symbol = SignedSymbol(v);
+  model.Encode(enc, symbol);
+  if (symbol < kDirectSymbols) return;
   const uint32_t z = ZigZag(v);
-  const uint32_t k = BucketOf(v);
-  model.Encode(enc, k);
-  if (k > 1) {
-    uint32_t rest = z - (1u << (k - 1));
-    int bits = static_cast<int>(k - 1);
-    while (bits > 16) {
-      enc.EncodeRaw(rest & 0xFFFF, 16);
-      rest >>= 16;
-      bits -= 16;
-    }
-    enc.EncodeRaw(rest, bits);
+  int bits = static_cast<int>((symbol - kDirectSymbols) / 2 + 5) - 2;  // L - 2
+  uint32_t rest = z & ((bits >= 32) ? 0xFFFFFFFFu : ((1u << bits) - 1u));
+  while (bits > 16) {
+    enc.EncodeRaw(rest & 0xFFFF, 16);
+    rest >>= 16;
+    bits -= 16;
   }
+  enc.EncodeRaw(rest, bits);
 }
 
 int32_t DecodeSigned(RangeDecoder& dec, const StaticModel& model) {
-  const uint32_t k = model.Decode(dec);
-  if (k == 0) return 0;
-  if (k > 32) return 0;
+  const uint32_t symbol = model.Decode(dec);
+  if (symbol < kDirectSymbols) return UnZigZag(symbol);
+  if (symbol >= kSignedSymbols) return 0;  // not a signed-value symbol (hostile model)
+  const uint32_t length = (symbol - kDirectSymbols) / 2 + 5;
+  const uint32_t second = (symbol - kDirectSymbols) & 1;
+  int bits = static_cast<int>(length - 2);
   uint32_t rest = 0;
-  int bits = static_cast<int>(k - 1);
   int shift = 0;
   while (bits > 16) {
     rest |= dec.DecodeRaw(16) << shift;
     shift += 16;
     bits -= 16;
   }
-  if (bits > 0) rest |= dec.DecodeRaw(bits) << shift;
-  return UnZigZag((k == 32 ? 0x80000000u : (1u << (k - 1))) + rest);
+  rest |= dec.DecodeRaw(bits) << shift;
+  const uint32_t z = (1u << (length - 1)) | (second << (length - 2)) | rest;
+  return UnZigZag(z);
 }
 
 double SignedCost(const StaticModel& model, int32_t v) {
-  const uint32_t k = BucketOf(v);
-  return model.Cost(k) + (k > 1 ? k - 1 : 0);
+  const uint32_t symbol = SignedSymbol(v);
+  return model.Cost(symbol) + (symbol < kDirectSymbols ? 0 : (symbol - kDirectSymbols) / 2 + 3);
 }
 
 }  // namespace meshstream

@@ -1,8 +1,11 @@
 // Static symbol models for the range coder: frequencies that sum to 2^12,
 // built from a histogram by the encoder and sent once (per refinement) on
 // the reliable channel, so that every datagram decodes with them on its own.
-// Also the coding of signed integers as (bucket, raw bits): bucket 0 is the
-// value 0, bucket k > 0 holds zigzag values in [2^(k-1), 2^k).
+// A model travels as its alphabet size and one 4-bit code per symbol: 0 for
+// an absent symbol, else c in [1, 15] for a weight of about 1.6^c relative
+// to the others; both sides rebuild the same frequencies from the codes
+// (about n/2 bytes instead of a table of 12-bit counts).
+// Also the coding of signed integers as a symbol plus raw bits (below).
 //
 // Contract: Parse is safe on hostile bytes (alphabet size and frequencies
 // checked; the table must sum to exactly 2^12). Decode never returns a symbol
@@ -20,8 +23,7 @@
 namespace meshstream {
 
 constexpr int kModelBits = 12;
-constexpr uint32_t kMaxAlphabet = 64;
-constexpr uint32_t kSignedBuckets = 33;  // bucket 0 .. 32
+constexpr uint32_t kMaxAlphabet = 96;
 
 class StaticModel {
  public:
@@ -44,15 +46,25 @@ class StaticModel {
 
  private:
   void Build();
+  void FromCodes();
+  std::vector<uint8_t> codes_;
   std::vector<uint32_t> freq_, cum_;
   std::vector<uint8_t> lookup_;
 };
 
 inline uint32_t ZigZag(int32_t v) { return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31); }
 inline int32_t UnZigZag(uint32_t z) { return static_cast<int32_t>((z >> 1) ^ (~(z & 1) + 1)); }
-inline uint32_t BucketOf(int32_t v) {
+
+// Signed values as symbols: zigzag values below 16 are their own symbol;
+// larger ones are coded by bit length L (5..32) and the bit below the
+// leading one (symbol 16 + 2 (L - 5) + that bit), followed by L - 2 raw bits.
+constexpr uint32_t kDirectSymbols = 16;
+constexpr uint32_t kSignedSymbols = kDirectSymbols + 2 * 28;  // 72
+inline uint32_t SignedSymbol(int32_t v) {
   const uint32_t z = ZigZag(v);
-  return z == 0 ? 0 : 32 - static_cast<uint32_t>(__builtin_clz(z));
+  if (z < kDirectSymbols) return z;
+  const uint32_t length = 32 - static_cast<uint32_t>(__builtin_clz(z));
+  return kDirectSymbols + 2 * (length - 5) + ((z >> (length - 2)) & 1);
 }
 
 void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v);
