@@ -22,20 +22,23 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
 Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   const uint32_t w = r.split_vertices[j];
   if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
-  std::vector<uint32_t> neighbours, ring;
-  connectivity.SortedNeighbours(w, neighbours);
+  std::vector<uint32_t>& neighbours = scratch_neighbours;
+  std::vector<uint32_t>& ring = scratch_ring;
   const auto& wings = r.wings[j];
   if (!connectivity.CyclicRing(w, ring)) {
     return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
   }
+  // A closed fan's ring holds every neighbour once: sorted, it is the
+  // neighbour list that wing a indexes.
+  neighbours = ring;
+  std::sort(neighbours.begin(), neighbours.end());
   if (wings[0] >= neighbours.size() || wings[1] == 0 || wings[1] >= ring.size()) {
     return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
                         std::to_string(neighbours.size()) + " neighbours");
   }
   const uint32_t a = neighbours[wings[0]];
-  const size_t at = static_cast<size_t>(std::find(ring.begin(), ring.end(), a) - ring.begin());
-  const uint32_t b = ring[(at + wings[1]) % ring.size()];
-  MS_ASSIGN_OR_RETURN(const uint32_t n, connectivity.Split(w, a, b));
+  const size_t a_at = static_cast<size_t>(std::find(ring.begin(), ring.end(), a) - ring.begin());
+  const uint32_t n = connectivity.SplitAt(w, ring, a_at, (a_at + wings[1]) % ring.size());
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
     u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);
@@ -58,6 +61,10 @@ Status RefinementState::ApplyRefinement(const Refinement& r) {
     return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +
                         std::to_string(connectivity.vertex_count()));
   }
+  connectivity.Reserve(static_cast<uint32_t>(positions.size() + r.split_count()),
+                       connectivity.face_count() + 2 * r.split_count());
+  positions.reserve(positions.size() + r.split_count());
+  attributes.reserve(attributes.size() + r.split_count() * channels);
   for (size_t j = 0; j < r.split_count(); ++j) MS_RETURN_IF_ERROR(ApplySplit(r, j));
   return Status::Ok();
 }

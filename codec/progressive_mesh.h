@@ -49,6 +49,7 @@ struct ProgressiveMesh {
 // The state a decoder refines: connectivity plus values on the grids.
 struct RefinementState {
   SplitMesh connectivity;
+  std::vector<uint32_t> scratch_neighbours, scratch_ring;
   std::vector<Vec3i> positions;
   std::vector<int32_t> attributes;
   int channels = 0;

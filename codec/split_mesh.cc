@@ -77,34 +77,49 @@ StatusOr<uint32_t> SplitMesh::Split(uint32_t w, uint32_t a, uint32_t b) {
   if (ia == ring.end() || ib == ring.end()) {
     return InvalidInput("split of vertex " + std::to_string(w) + ": a wing is not a neighbour");
   }
+  return SplitAt(w, ring, static_cast<size_t>(ia - ring.begin()), static_cast<size_t>(ib - ring.begin()));
+}
+
+void SplitMesh::Reserve(uint32_t vertices, size_t faces) {
+  vertex_faces_.reserve(vertices);
+  faces_.reserve(faces);
+}
+
+uint32_t SplitMesh::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
   const uint32_t n = vertex_count();
-  vertex_faces_.emplace_back();
-  // Triangles (w, x, y) with x on the path from b up to (not including) a move to n.
-  std::vector<uint32_t> on_path;
+  const uint32_t a = ring[a_at], b = ring[b_at];
   const size_t d = ring.size();
-  for (size_t k = static_cast<size_t>(ib - ring.begin()); ring[k % d] != a; ++k) on_path.push_back(ring[k % d]);
+  // Ring positions on the path from b up to (not including) a move to n.
+  const size_t path = (a_at + d - b_at) % d;
+  vertex_faces_.emplace_back();
+  std::vector<uint32_t>& nf = vertex_faces_[n];
+  nf.reserve(path + 4);
   std::vector<uint32_t>& wf = vertex_faces_[w];
-  std::vector<uint32_t> keep;
-  for (uint32_t f : wf) {
-    const Face r = RotateTo(faces_[f], w);
-    if (std::find(on_path.begin(), on_path.end(), r[1]) != on_path.end()) {
-      Face& face = faces_[f];
-      for (uint32_t& x : face) {
-        if (x == w) x = n;
+  size_t kept = 0;
+  for (size_t i = 0; i < wf.size(); ++i) {
+    const uint32_t f = wf[i];
+    Face& face = faces_[f];
+    const uint32_t x = RotateTo(face, w)[1];
+    // Position of x in the ring, counted from b.
+    size_t at = 0;
+    while (ring[at] != x) ++at;
+    if ((at + d - b_at) % d < path) {
+      for (uint32_t& y : face) {
+        if (y == w) y = n;
       }
-      vertex_faces_[n].push_back(f);
+      nf.push_back(f);
     } else {
-      keep.push_back(f);
+      wf[kept++] = f;
     }
   }
-  wf.swap(keep);
+  wf.resize(kept);
   const uint32_t f1 = static_cast<uint32_t>(faces_.size());
   faces_.push_back({w, n, a});
   faces_.push_back({n, w, b});
-  vertex_faces_[w].push_back(f1);
-  vertex_faces_[w].push_back(f1 + 1);
-  vertex_faces_[n].push_back(f1);
-  vertex_faces_[n].push_back(f1 + 1);
+  wf.push_back(f1);
+  wf.push_back(f1 + 1);
+  nf.push_back(f1);
+  nf.push_back(f1 + 1);
   vertex_faces_[a].push_back(f1);
   vertex_faces_[b].push_back(f1 + 1);
   return n;

@@ -44,6 +44,11 @@ class SplitMesh {
 
   // Splits w; the new vertex gets id vertex_count(). Returns its id.
   StatusOr<uint32_t> Split(uint32_t w, uint32_t a, uint32_t b);
+  // The same with w's cyclic ring already computed (CyclicRing) and the
+  // wings given by their positions in it.
+  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+  // Room for this many vertices in total, to avoid reallocation while refining.
+  void Reserve(uint32_t vertices, size_t faces);
 
   std::vector<uint32_t> Indices() const;
 
