@@ -28,8 +28,8 @@ test: build test-asan
 # The importers take hostile input: run their tests once under ASan+UBSan.
 test-asan: deps
 	@[ -f $(ASAN_BUILD)/build.ninja ] || cmake -S . -B $(ASAN_BUILD) -G Ninja \
-	  -DCMAKE_BUILD_TYPE=Debug -DMESHSTREAM_SANITIZE=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
-	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_SANITIZE=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
+	cmake --build $(ASAN_BUILD) -j $(JOBS) --target importer_checks
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) -L importers
 
