@@ -1,0 +1,86 @@
+// Golden files of the released progressive format (docs/progressive-format.md,
+// version 1). They were written once by `meshstream encode` and must decode
+// forever, to the same levels and losslessly against their sources:
+//   fandisk-qp11-v1.glb:          encode fandisk.obj (qp 11, split packing, 1200 bytes)
+//   spot-qp11-bundled-v1.glb:     encode spot.obj --packing bundled --packet-bytes 600
+// Never regenerate them for a format change: bump the version and add new files.
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "codec/grid_equality.h"
+#include "codec/quantization.h"
+#include "codec/scene_flatten.h"
+#include "importers/import.h"
+#include "importers/progressive_glb.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+struct Golden {
+  const char* file;
+  const char* source;
+  std::vector<uint32_t> level_vertices;
+  std::vector<std::string> attributes;
+};
+
+const std::vector<Golden>& Goldens() {
+  static const std::vector<Golden> goldens = {
+      {"fandisk-qp11-v1.glb", "fandisk.obj",
+       {130, 153, 180, 214, 253, 301, 354, 419, 497, 591, 697, 820, 976, 1161, 1379, 1645, 1952, 2318, 2743, 3265,
+        3891, 4610, 5485, 6475},
+       {"POSITION"}},
+      {"spot-qp11-bundled-v1.glb", "spot.obj",
+       {642, 645, 648, 656, 664, 675, 689, 706, 733, 764, 804, 853, 912, 980, 1066, 1169, 1299, 1449, 1631, 1847,
+        2103, 2412, 2800, 3225},
+       {"POSITION", "TEXCOORD_0"}},
+  };
+  return goldens;
+}
+
+TEST(GoldenV1, DecodesToEveryLevelAndLosslessly) {
+  for (const Golden& g : Goldens()) {
+    auto bytes = ReadFileBytes(test_util::SourcePath(std::string("tests/data/golden/") + g.file), kDefaultMaxInputBytes);
+    ASSERT_TRUE(bytes.ok()) << bytes.status().ToString();
+    for (size_t lod = 0; lod < g.level_vertices.size(); ++lod) {
+      ProgressiveDecodeOptions options;
+      options.lod = static_cast<int>(lod);
+      ProgressiveDecodeReport report;
+      auto scene = DecodeProgressiveGlb(bytes.value(), options, &report);
+      ASSERT_TRUE(scene.ok()) << g.file << " lod " << lod << ": " << scene.status().ToString();
+      EXPECT_EQ(report.level_vertices, g.level_vertices) << g.file;
+      EXPECT_EQ(scene->total_vertices(), g.level_vertices[lod]) << g.file << " lod " << lod;
+      EXPECT_EQ(scene->meshes[0].primitives[0].AttributeNames(), g.attributes) << g.file;
+      if (lod + 1 == g.level_vertices.size()) {
+        auto source = ImportFile(test_util::ModelPath(g.source));
+        ASSERT_TRUE(source.ok());
+        auto same = CompareOnGrid(FlattenScene(source.value()), FlattenScene(scene.value()), 11);
+        ASSERT_TRUE(same.ok());
+        EXPECT_TRUE(same->equal) << g.file << ": " << same->differing() << " triangles differ";
+        // Texture coordinates come back on their grid: equal multisets of
+        // (position, UV) on the source's grids.
+        const Primitive& a = source->meshes[0].primitives[0];
+        const Primitive& b = scene->meshes[0].primitives[0];
+        if (!a.texcoords.empty()) {
+          auto pos_grid = PositionGrid(a.positions, a.indices, 11);
+          auto uv_grid = GridOf(a.texcoords[0], 10);
+          ASSERT_TRUE(pos_grid.ok() && uv_grid.ok());
+          auto keys = [&](const Primitive& p) {
+            std::multiset<std::array<int64_t, 5>> out;
+            for (size_t v = 0; v < p.vertex_count(); ++v) {
+              out.insert({pos_grid->Quantize(p.positions[v][0], 0), pos_grid->Quantize(p.positions[v][1], 1),
+                          pos_grid->Quantize(p.positions[v][2], 2), uv_grid->Quantize(p.texcoords[0][v][0], 0),
+                          uv_grid->Quantize(p.texcoords[0][v][1], 1)});
+            }
+            return out;
+          };
+          EXPECT_TRUE(keys(a) == keys(b)) << g.file << ": UVs differ";
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace meshstream
