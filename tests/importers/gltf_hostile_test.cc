@@ -1023,7 +1023,7 @@ TEST(GltfGoodInput, ExportedSceneRoundTrips) {
 
 TEST(GltfGoodInput, SharedBoxTexturedImports) {
   const fs::path path = fs::path(MESHSTREAM_MODELS_DIR) / "gltf" / "BoxTextured.glb";
-  if (!fs::exists(path)) GTEST_SKIP() << path << " is not present";
+  ASSERT_TRUE(fs::exists(path)) << path << " is missing: the tests need ../shared/models";
   auto scene = ImportGltfFile(path.string(), ImportOptions{});
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
   EXPECT_EQ(scene->total_faces(), 12u);

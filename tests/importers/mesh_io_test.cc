@@ -90,7 +90,7 @@ bool ModelsPresent() {
 
 #define REQUIRE_MODELS()                                                           \
   do {                                                                             \
-    if (!ModelsPresent()) GTEST_SKIP() << "shared models not found at " MESHSTREAM_MODELS_DIR; \
+    ASSERT_TRUE(ModelsPresent()) << "shared models not found at " MESHSTREAM_MODELS_DIR; \
   } while (false)
 
 // Little helper to write binary files.
