@@ -25,31 +25,34 @@ Status SplitMesh::Reset(uint32_t vertex_count, const std::vector<uint32_t>& indi
 
 bool SplitMesh::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
   ring.clear();
+  ring_faces_.clear();
   const std::vector<uint32_t>& fs = vertex_faces_[w];
-  if (fs.size() < 3) return false;
-  // next[x] = y for every triangle (w, x, y); pairs stored flat.
-  scratch_.clear();
-  for (uint32_t f : fs) {
-    const Face r = RotateTo(faces_[f], w);
-    if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
-    scratch_.push_back(r[1]);
-    scratch_.push_back(r[2]);
-  }
   const size_t n = fs.size();
-  uint32_t start = UINT32_MAX;
-  for (size_t i = 0; i < n; ++i) start = std::min(start, scratch_[2 * i]);
+  if (n < 3) return false;
+  // (x, y) for every triangle (w, x, y).
+  scratch_.resize(2 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const Face r = RotateTo(faces_[fs[i]], w);
+    if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
+    scratch_[2 * i] = r[1];
+    scratch_[2 * i + 1] = r[2];
+  }
+  // Follow x -> y. Each step must find exactly one triangle leaving the
+  // current vertex, and the walk must close after visiting every triangle.
+  const uint32_t start = scratch_[0];
   uint32_t cur = start;
   for (size_t step = 0; step < n; ++step) {
-    ring.push_back(cur);
-    uint32_t next = UINT32_MAX;
+    size_t found = n;
     for (size_t i = 0; i < n; ++i) {
       if (scratch_[2 * i] == cur) {
-        if (next != UINT32_MAX) return false;  // two triangles leave cur: not a fan
-        next = scratch_[2 * i + 1];
+        if (found != n) return false;  // two triangles leave cur: not a fan
+        found = i;
       }
     }
-    if (next == UINT32_MAX) return false;  // open fan (boundary)
-    cur = next;
+    if (found == n) return false;  // open fan (boundary)
+    ring.push_back(cur);
+    ring_faces_.push_back(fs[found]);
+    cur = scratch_[2 * found + 1];
     if (cur == start) return step + 1 == n;
   }
   return false;
@@ -89,30 +92,26 @@ uint32_t SplitMesh::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_
   const uint32_t n = vertex_count();
   const uint32_t a = ring[a_at], b = ring[b_at];
   const size_t d = ring.size();
-  // Ring positions on the path from b up to (not including) a move to n.
-  const size_t path = (a_at + d - b_at) % d;
   vertex_faces_.emplace_back();
   std::vector<uint32_t>& nf = vertex_faces_[n];
-  nf.reserve(path + 4);
   std::vector<uint32_t>& wf = vertex_faces_[w];
-  size_t kept = 0;
-  for (size_t i = 0; i < wf.size(); ++i) {
-    const uint32_t f = wf[i];
-    Face& face = faces_[f];
-    const uint32_t x = RotateTo(face, w)[1];
-    // Position of x in the ring, counted from b.
-    size_t at = 0;
-    while (ring[at] != x) ++at;
-    if ((at + d - b_at) % d < path) {
-      for (uint32_t& y : face) {
+  // Triangles (w, ring[k], ring[k+1]) for k from b up to (not including) a
+  // move to n; the others stay with w.
+  const size_t path = (a_at + d - b_at) % d;
+  nf.reserve(path + 2);
+  wf.clear();
+  for (size_t step = 0; step < d; ++step) {
+    const size_t k = (b_at + step) % d;
+    const uint32_t f = ring_faces_[k];
+    if (step < path) {
+      for (uint32_t& y : faces_[f]) {
         if (y == w) y = n;
       }
       nf.push_back(f);
     } else {
-      wf[kept++] = f;
+      wf.push_back(f);
     }
   }
-  wf.resize(kept);
   const uint32_t f1 = static_cast<uint32_t>(faces_.size());
   faces_.push_back({w, n, a});
   faces_.push_back({n, w, b});

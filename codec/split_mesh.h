@@ -36,16 +36,17 @@ class SplitMesh {
   const std::vector<uint32_t>& faces_of(uint32_t v) const { return vertex_faces_[v]; }
 
   // The neighbours of w in cyclic order (x -> y over w's triangles), starting
-  // at the smallest id. Returns false (ring unspecified) when the triangles of
-  // w do not form one closed fan.
+  // at the first vertex of w's first triangle. Returns false (ring
+  // unspecified) when the triangles of w do not form one closed fan. The
+  // triangle (w, ring[k], ring[k + 1]) is remembered for SplitAt.
   bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const;
   // The neighbours of w sorted by id (any connectivity).
   void SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const;
 
   // Splits w; the new vertex gets id vertex_count(). Returns its id.
   StatusOr<uint32_t> Split(uint32_t w, uint32_t a, uint32_t b);
-  // The same with w's cyclic ring already computed (CyclicRing) and the
-  // wings given by their positions in it.
+  // The same right after CyclicRing(w, ring) returned true, with the wings
+  // given by their positions in the ring.
   uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
   // Room for this many vertices in total, to avoid reallocation while refining.
   void Reserve(uint32_t vertices, size_t faces);
@@ -55,7 +56,8 @@ class SplitMesh {
  private:
   std::vector<Face> faces_;
   std::vector<std::vector<uint32_t>> vertex_faces_;
-  mutable std::vector<uint32_t> scratch_;
+  mutable std::vector<uint32_t> scratch_;     // (x, y) per triangle of the last ring
+  mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
 };
 
 // Rotates a face so that vertex v comes first; v must be in the face.
