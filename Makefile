@@ -36,8 +36,14 @@ test-asan: deps
 demo: build
 	@scripts/demo
 
+# Benchmarks (never part of `make test`): meshstream against Draco in one binary, gltfpack
+# LODs; JSON, PNG plots and the tables of docs/benchmarks.md. BENCH_ARGS e.g. "--model spot".
+PYTHON ?= $(shell [ -x /usr/bin/python3 ] && echo /usr/bin/python3 || echo python3)
+BENCH_ARGS ?=
 bench: build
-	@echo "make bench: the benchmarks against Draco arrive with the progressive codec (issue 3)."
+	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_bench --out docs/bench/results.json $(BENCH_ARGS)
+	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
 
 fuzz: deps
 	@[ -f build-fuzz/build.ninja ] || CXX=clang++ cmake -S . -B build-fuzz -G Ninja \

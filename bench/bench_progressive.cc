@@ -1,0 +1,995 @@
+// meshstream_bench: the benchmark of issue 3 (docs/benchmarks.md).
+//
+// For every shared model at every --qp, in one run on one machine:
+//   - meshstream, both packings (split, bundled): sizes (base, reliable,
+//     unreliable, total, the .glb), bits per referenced vertex, vertices and
+//     growth per level, encode time (EncodeProgressiveGlb) and decode time
+//     (DecodeProgressiveGlb, the .glb bytes in memory to the final mesh in
+//     memory), medians of in-process runs;
+//   - Draco (the library, linked here) at the same quantization, compression
+//     levels 7 and 10: whole-buffer size, encode and decode medians;
+//   - the ratios meshstream / Draco;
+//   - the rate-distortion curve: bytes received up to level K against the
+//     symmetric Hausdorff distance between the level-K mesh and the full
+//     mesh, beside the LODs `gltfpack -si R` makes of the same full mesh;
+//   - the order-0 entropy of what the refinements carry (where bits go).
+// Writes one JSON object (--out, default docs/bench/results.json).
+//
+// Timed work runs alone, one thing at a time; the decoders of a model and qp
+// are timed interleaved, round by round, so that meshstream and Draco see the
+// same machine load. The distance computations run afterwards on --threads
+// threads (they are not timed).
+#include <draco/compression/decode.h>
+#include <draco/core/decoder_buffer.h>
+#include <draco/core/draco_version.h>
+#include <sys/utsname.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "codec/hausdorff.h"
+#include "codec/mesh.h"
+#include "codec/progressive_encoder.h"
+#include "codec/scene_flatten.h"
+#include "codec/stream_writer.h"
+#include "importers/draco_base_coder.h"
+#include "importers/draco_codec.h"
+#include "importers/gltf_export.h"
+#include "importers/import.h"
+#include "importers/progressive_glb.h"
+
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+namespace ms = meshstream;
+
+const char kHelp[] =
+    "usage: meshstream_bench [--models DIR] [--model NAME]... [--qp 11,14] [--repeat 5] [--decode-repeat 15]\n"
+    "                        [--out FILE] [--threads N] [--samples N] [--ratios LIST]\n"
+    "                        [--gltfpack PATH | --no-gltfpack] [--no-distortion]\n"
+    "\n"
+    "Benchmarks meshstream against Draco (same binary, same quantization, same run) and\n"
+    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n"
+    "  --models DIR      folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
+    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
+    "  --qp LIST         position bits, comma-separated (default 11,14)\n"
+    "  --qn N --qt N     normal and texture coordinate bits (default 8 and 10, both codecs)\n"
+    "  --repeat N        in-process encode runs; the median is reported (default 5)\n"
+    "  --decode-repeat N in-process decode runs, after one warm-up (default 15)\n"
+    "  --threads N       threads for the (untimed) distance computations (default: nproc)\n"
+    "  --samples N       Hausdorff samples per side (default 200000)\n"
+    "  --ratios LIST     gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)\n";
+
+// ---------------------------------------------------------------- utilities
+
+struct Args {
+  std::string models_dir = MESHSTREAM_MODELS_DIR;
+  std::vector<std::string> only;
+  std::vector<int> qps = {11, 14};
+  int qn = 8;
+  int qt = 10;
+  int repeat = 5;
+  int decode_repeat = 15;
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/results.json";
+  unsigned threads = 0;
+  int64_t samples = 200000;
+  std::vector<double> ratios = {0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0};
+  std::string gltfpack = "gltfpack";
+  bool use_gltfpack = true;
+  bool distortion = true;
+};
+
+[[noreturn]] void Die(const std::string& what) {
+  std::fprintf(stderr, "meshstream_bench: %s\n", what.c_str());
+  std::exit(1);
+}
+
+template <class T>
+T Check(ms::StatusOr<T> v, const std::string& what) {
+  if (!v.ok()) Die(what + ": " + v.status().ToString());
+  return std::move(v).value();
+}
+
+std::vector<std::string> SplitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+double ParseDouble(const std::string& s, const std::string& flag) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end == s.c_str() || *end != '\0' || !std::isfinite(v)) Die(flag + ": not a number: '" + s + "'");
+  return v;
+}
+
+long ParseInt(const std::string& s, const std::string& flag, long lo, long hi) {
+  char* end = nullptr;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (end == s.c_str() || *end != '\0' || v < lo || v > hi) {
+    Die(flag + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + s + "'");
+  }
+  return v;
+}
+
+Args ParseArgs(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string f = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) Die(f + " needs a value");
+      return argv[++i];
+    };
+    if (f == "--help" || f == "-h") {
+      std::fputs(kHelp, stdout);
+      std::exit(0);
+    } else if (f == "--models") {
+      a.models_dir = next();
+    } else if (f == "--model") {
+      a.only.push_back(next());
+    } else if (f == "--qp") {
+      a.qps.clear();
+      for (const auto& s : SplitList(next())) a.qps.push_back(static_cast<int>(ParseInt(s, f, 1, 30)));
+      if (a.qps.empty()) Die("--qp: empty list");
+    } else if (f == "--qn") {
+      a.qn = static_cast<int>(ParseInt(next(), f, 2, 15));
+    } else if (f == "--qt") {
+      a.qt = static_cast<int>(ParseInt(next(), f, 1, 30));
+    } else if (f == "--repeat") {
+      a.repeat = static_cast<int>(ParseInt(next(), f, 1, 1000));
+    } else if (f == "--decode-repeat") {
+      a.decode_repeat = static_cast<int>(ParseInt(next(), f, 1, 10000));
+    } else if (f == "--out") {
+      a.out = next();
+    } else if (f == "--threads") {
+      a.threads = static_cast<unsigned>(ParseInt(next(), f, 1, 256));
+    } else if (f == "--samples") {
+      a.samples = ParseInt(next(), f, 0, 100000000);
+    } else if (f == "--ratios") {
+      a.ratios.clear();
+      for (const auto& s : SplitList(next())) {
+        const double r = ParseDouble(s, f);
+        if (r <= 0 || r > 1) Die("--ratios: each ratio must be in (0, 1]");
+        a.ratios.push_back(r);
+      }
+    } else if (f == "--gltfpack") {
+      a.gltfpack = next();
+    } else if (f == "--no-gltfpack") {
+      a.use_gltfpack = false;
+    } else if (f == "--no-distortion") {
+      a.distortion = false;
+    } else {
+      Die("unknown option " + f + " (see --help)");
+    }
+  }
+  if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
+  return a;
+}
+
+double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Runs `f` n times; returns the wall times in ms.
+std::vector<double> TimeRuns(int n, const std::function<void()>& f) {
+  std::vector<double> t;
+  t.reserve(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const auto s = Clock::now();
+    f();
+    t.push_back(Ms(s, Clock::now()));
+  }
+  return t;
+}
+
+json Timing(const std::vector<double>& runs) {
+  return {{"median_ms", Median(runs)},
+          {"min_ms", runs.empty() ? 0.0 : *std::min_element(runs.begin(), runs.end())},
+          {"runs_ms", runs}};
+}
+
+std::string ShellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') out += "'\\''";
+    else out += c;
+  }
+  return out + "'";
+}
+
+// Runs a command line; returns its exit status (-1 when it did not exit).
+int Run(const std::string& cmd) {
+  const int rc = std::system(cmd.c_str());
+  if (rc == -1 || !WIFEXITED(rc)) return -1;
+  return WEXITSTATUS(rc);
+}
+
+std::string FirstLineOf(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  char buf[512];
+  if (std::fgets(buf, sizeof buf, p)) out = buf;
+  pclose(p);
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return out;
+}
+
+uint64_t FileSize(const std::string& path) {
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  return f ? static_cast<uint64_t>(f.tellg()) : 0;
+}
+
+std::string CpuModel() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const size_t c = line.find(':');
+      if (c != std::string::npos) {
+        size_t s = c + 1;
+        while (s < line.size() && line[s] == ' ') ++s;
+        return line.substr(s);
+      }
+    }
+  }
+  return "unknown";
+}
+
+// The first three fields of /proc/loadavg: other work on the machine skews timings.
+std::string LoadAverage() {
+  std::ifstream f("/proc/loadavg");
+  std::string a, b, c;
+  if (!(f >> a >> b >> c)) return "unknown";
+  return a + " " + b + " " + c;
+}
+
+std::string UtcNow() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+json MachineInfo(const Args& args) {
+  utsname u{};
+  uname(&u);
+  json m = {
+      {"nproc", std::thread::hardware_concurrency()},
+      {"cpu", CpuModel()},
+      {"date", UtcNow()},
+      {"kernel", std::string(u.sysname) + " " + u.release},
+      {"loadavg_at_start", LoadAverage()},
+      {"compiler", __VERSION__},
+      {"build_type", MESHSTREAM_BUILD_TYPE},
+      {"draco", draco::kDracoVersion},
+  };
+  if (args.use_gltfpack) m["gltfpack"] = FirstLineOf(ShellQuote(args.gltfpack) + " -v 2>&1");
+  const std::string commit =
+      FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) + " rev-parse --short HEAD 2>/dev/null");
+  if (!commit.empty()) {
+    const std::string dirty = FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) +
+                                          " status --porcelain --untracked-files=no 2>/dev/null");
+    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
+  }
+  return m;
+}
+
+// ------------------------------------------------------------ the mesh side
+
+std::string Stem(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const size_t dot = name.find_last_of('.');
+  return dot == std::string::npos ? name : name.substr(0, dot);
+}
+
+std::vector<const ms::Primitive*> Primitives(const ms::Scene& s) {
+  std::vector<const ms::Primitive*> out;
+  for (const ms::Mesh& m : s.meshes)
+    for (const ms::Primitive& p : m.primitives)
+      if (p.face_count() > 0) out.push_back(&p);
+  return out;
+}
+
+double Diagonal(const ms::Primitive& p) {
+  std::array<double, 3> lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (uint32_t i : p.indices)
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::min<double>(lo[c], p.positions[i][c]);
+      hi[c] = std::max<double>(hi[c], p.positions[i][c]);
+    }
+  double d = 0;
+  for (int c = 0; c < 3; ++c) d += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+  return std::sqrt(d);
+}
+
+// Order-0 entropy in bits of a list of symbols.
+template <class T>
+double Entropy(const std::vector<T>& symbols) {
+  if (symbols.empty()) return 0;
+  std::map<T, uint64_t> count;
+  for (const T& s : symbols) ++count[s];
+  const double n = static_cast<double>(symbols.size());
+  double bits = 0;
+  for (const auto& kv : count) bits -= static_cast<double>(kv.second) * std::log2(static_cast<double>(kv.second) / n);
+  return bits;
+}
+
+double BinaryEntropyBits(uint64_t ones, uint64_t n) {
+  if (n == 0 || ones == 0 || ones == n) return 0;
+  const double p = static_cast<double>(ones) / static_cast<double>(n);
+  return n * -(p * std::log2(p) + (1 - p) * std::log2(1 - p));
+}
+
+// What the refinements carry, measured as order-0 entropies per refinement
+// (each refinement its own model, as the stream sends models per refinement):
+// a lower bound for coders without context, to set beside the real bytes.
+json EntropyReport(const ms::ProgressiveMesh& pm, uint64_t vertices) {
+  double split_bits = 0, wing_bits = 0, position_bits = 0, attribute_bits = 0;
+  uint64_t splits = 0;
+  for (const ms::Refinement& r : pm.refinements) {
+    const size_t k = r.split_count();
+    splits += k;
+    split_bits += BinaryEntropyBits(k, r.vertices_before);
+    std::vector<uint16_t> wa, wb;
+    for (const auto& w : r.wings) {
+      wa.push_back(w[0]);
+      wb.push_back(w[1]);
+    }
+    wing_bits += Entropy(wa) + Entropy(wb);
+    for (int c = 0; c < 3; ++c) {
+      std::vector<int32_t> d;
+      d.reserve(k);
+      for (const auto& p : r.position_delta) d.push_back(p[c]);
+      position_bits += Entropy(d);
+    }
+    if (k > 0 && !r.attribute_delta.empty()) {
+      const size_t channels = r.attribute_delta.size() / k;
+      for (size_t c = 0; c < channels; ++c) {
+        std::vector<int32_t> d;
+        for (size_t j = 0; j < k; ++j) d.push_back(r.attribute_delta[j * channels + c]);
+        attribute_bits += Entropy(d);
+      }
+    }
+  }
+  const double v = vertices ? static_cast<double>(vertices) : 1.0;
+  const double s = splits ? static_cast<double>(splits) : 1.0;
+  return {
+      {"splits", splits},
+      {"split_bits_bpv", split_bits / v},
+      {"structure_bits_per_split", wing_bits / s},
+      {"geometry_bits_per_split", position_bits / s},
+      {"attribute_bits_per_split", attribute_bits / s},
+      {"structure_bpv", wing_bits / v},
+      {"geometry_bpv", position_bits / v},
+      {"attribute_bpv", attribute_bits / v},
+  };
+}
+
+struct DistanceJob {
+  std::shared_ptr<const ms::Primitive> reference;
+  std::shared_ptr<const ms::Primitive> candidate;
+  json* slot = nullptr;  // receives hausdorff, hausdorff_rel, mean_rel, ...
+  std::string what;
+};
+
+void RunDistanceJobs(std::vector<DistanceJob>& jobs, unsigned threads, int64_t samples) {
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  std::atomic<size_t> next{0};
+  std::atomic<size_t> done{0};
+  std::mutex print;
+  ms::SurfaceDistanceOptions options;
+  options.samples_per_side = samples;
+  auto worker = [&]() {
+    for (;;) {
+      const size_t i = next++;
+      if (i >= jobs.size()) return;
+      DistanceJob& job = jobs[i];
+      const auto start = Clock::now();
+      auto d = ms::ComputeSurfaceDistance(*job.reference, *job.candidate, options);
+      const double ms_taken = Ms(start, Clock::now());
+      std::lock_guard<std::mutex> lock(print);
+      if (!d.ok()) {
+        (*job.slot)["distance_error"] = d.status().ToString();
+        std::fprintf(stderr, "  distance %s: %s\n", job.what.c_str(), d.status().ToString().c_str());
+      } else {
+        const double diag = d->hausdorff_rel > 0 ? d->hausdorff / d->hausdorff_rel : Diagonal(*job.reference);
+        (*job.slot)["hausdorff"] = d->hausdorff;
+        (*job.slot)["hausdorff_rel"] = d->hausdorff_rel;
+        (*job.slot)["mean_distance"] = d->mean_distance;
+        (*job.slot)["mean_rel"] = diag > 0 ? d->mean_distance / diag : 0.0;
+        (*job.slot)["hausdorff_vertex_rel"] = d->hausdorff_vertex_rel;
+      }
+      ++done;
+      if (tty) {
+        std::fprintf(stderr, "\r  distances: %zu / %zu (%s, %.0f ms)          ", done.load(), jobs.size(),
+                     job.what.c_str(), ms_taken);
+        std::fflush(stderr);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < std::min<size_t>(threads, jobs.size()); ++t) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  if (tty) std::fputs("\n", stderr);
+}
+
+// --------------------------------------------------------------- one model
+
+struct MeshstreamRun {
+  std::vector<uint8_t> glb;
+  ms::ProgressiveGlbReport report;
+  json j;
+};
+
+const char* PackingName(ms::Packing p) { return p == ms::Packing::kSplit ? "split" : "bundled"; }
+
+// A decoder under test: the interleaved loop (DecodeTimings) calls `run`.
+struct Decoder {
+  std::string name;
+  std::function<void()> run;
+  std::vector<double> times;
+};
+
+// Times every decoder `n` times, interleaved (one run of each, then the next
+// round) so that they all see the same machine load; one untimed warm-up
+// round first.
+void DecodeTimings(std::vector<Decoder>& decoders, int n) {
+  for (auto& d : decoders) d.run();
+  for (int i = 0; i < n; ++i) {
+    for (auto& d : decoders) {
+      const auto s = Clock::now();
+      d.run();
+      d.times.push_back(Ms(s, Clock::now()));
+    }
+  }
+}
+
+MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationParams& q, ms::Packing packing,
+                              int repeat, const std::string& label) {
+  MeshstreamRun run;
+  ms::ProgressiveGlbOptions options;
+  options.encode.quantization = q;
+  options.stream.packing = packing;
+  std::vector<double> enc;
+  for (int i = 0; i < repeat; ++i) {
+    const auto s = Clock::now();
+    auto glb = ms::EncodeProgressiveGlb(scene, options, &run.report);
+    enc.push_back(Ms(s, Clock::now()));
+    run.glb = Check(std::move(glb), label + ": EncodeProgressiveGlb");
+  }
+  // Decoded once here to check it; timed later with the other decoders.
+  const ms::Scene full = Check(ms::DecodeProgressiveGlb(run.glb, {}, nullptr), label + ": DecodeProgressiveGlb");
+
+  uint64_t vertices = 0, faces = 0, base = 0, reliable = 0, unreliable = 0, datagrams = 0, removed = 0;
+  std::vector<uint32_t> levels;
+  for (const auto& p : run.report.primitives) {
+    vertices += p.vertices;
+    faces += p.faces;
+    base += p.base_bytes;
+    reliable += p.reliable_bytes;
+    unreliable += p.unreliable_bytes;
+    datagrams += p.datagrams;
+    removed += p.removed_faces;
+    if (levels.size() < p.level_vertices.size()) levels.resize(p.level_vertices.size(), levels.empty() ? 0 : levels.back());
+    for (size_t i = 0; i < levels.size(); ++i) levels[i] += p.level_vertices[std::min(i, p.level_vertices.size() - 1)];
+  }
+  std::vector<double> growth;
+  for (size_t i = 0; i + 1 < levels.size(); ++i) {
+    growth.push_back(levels[i] ? static_cast<double>(levels[i + 1]) / levels[i] - 1.0 : 0.0);
+  }
+  double mean_growth = 0;
+  if (levels.size() >= 2 && levels.front() > 0) {
+    mean_growth = std::pow(static_cast<double>(levels.back()) / levels.front(), 1.0 / (levels.size() - 1)) - 1.0;
+  }
+  size_t decoded_vertices = 0;
+  for (const ms::Primitive* p : Primitives(full)) decoded_vertices += p->vertex_count();
+  const double v = vertices ? static_cast<double>(vertices) : 1.0;
+  const uint64_t rel_all = base + reliable;
+  run.j = {
+      {"packing", PackingName(packing)},
+      {"vertices", vertices},
+      {"faces", faces},
+      {"removed_faces", removed},
+      {"levels", levels.empty() ? 0 : levels.size() - 1},
+      {"level_vertices", levels},
+      {"growth", growth},
+      {"mean_growth", mean_growth},
+      {"base_vertices", levels.empty() ? 0 : levels.front()},
+      {"base_bytes", base},
+      {"stream_reliable_bytes", reliable},
+      {"reliable_bytes", rel_all},
+      {"unreliable_bytes", unreliable},
+      {"total_bytes", rel_all + unreliable},
+      {"file_bytes", run.report.file_bytes},
+      {"datagrams", datagrams},
+      {"base_bpv", 8.0 * base / v},
+      {"reliable_bpv", 8.0 * rel_all / v},
+      {"unreliable_bpv", 8.0 * unreliable / v},
+      {"total_bpv", 8.0 * (rel_all + unreliable) / v},
+      {"file_bpv", 8.0 * run.report.file_bytes / v},
+      {"decoded_vertices", decoded_vertices},
+      {"encode", Timing(enc)},
+      {"encode_ms", Median(enc)},
+  };
+  std::fprintf(stderr, "  meshstream %-7s %8llu B total (%.2f bpv, reliable %.2f), %zu levels, encode %.0f ms\n",
+               PackingName(packing), static_cast<unsigned long long>(rel_all + unreliable), 8.0 * (rel_all + unreliable) / v,
+               8.0 * rel_all / v, levels.empty() ? 0 : levels.size() - 1, Median(enc));
+  return run;
+}
+
+struct DracoRun {
+  std::vector<ms::DracoEncoded> encoded;  // one per primitive
+  json j;
+};
+
+// Draco's own decoder, buffer to draco::Mesh (attributes dequantized to
+// floats, as Draco returns them): what "Draco's decode time" means here.
+size_t DracoDecode(const DracoRun& run, const std::string& label) {
+  size_t points = 0;
+  for (const auto& e : run.encoded) {
+    draco::DecoderBuffer buffer;
+    buffer.Init(reinterpret_cast<const char*>(e.bytes.data()), e.bytes.size());
+    draco::Decoder decoder;
+    auto mesh = decoder.DecodeMeshFromBuffer(&buffer);
+    if (!mesh.ok()) Die(label + ": draco::Decoder: " + mesh.status().error_msg_string());
+    points += mesh.value()->num_points();
+  }
+  return points;
+}
+
+// The same, plus the conversion into our Primitive (what the glTF importer does).
+void DracoDecodeToPrimitive(const DracoRun& run, const std::string& label) {
+  for (const auto& e : run.encoded) {
+    auto p = ms::DecodeDracoPrimitive(e.bytes.data(), e.bytes.size(), e.ids);
+    if (!p.ok()) Die(label + ": DecodeDracoPrimitive: " + p.status().ToString());
+  }
+}
+
+DracoRun BenchDraco(const ms::Scene& scene, const ms::QuantizationParams& q, int cl, int repeat, uint64_t vertices,
+                    const std::string& label) {
+  const auto prims = Primitives(scene);
+  ms::DracoEncodeOptions opt;
+  opt.qp = q.qp;
+  opt.qn = q.qn;
+  opt.qt = q.qt;
+  opt.qc = q.qc;
+  opt.compression_level = cl;
+  DracoRun run;
+  run.encoded.resize(prims.size());
+  const std::vector<double> enc = TimeRuns(repeat, [&]() {
+    for (size_t i = 0; i < prims.size(); ++i) {
+      run.encoded[i] = Check(ms::EncodeDracoPrimitive(*prims[i], opt), label + ": EncodeDracoPrimitive");
+    }
+  });
+  uint64_t bytes = 0, dropped = 0;
+  for (const auto& e : run.encoded) {
+    bytes += e.bytes.size();
+    dropped += e.dropped_faces;
+  }
+  const size_t points = DracoDecode(run, label);
+  const double v = vertices ? static_cast<double>(vertices) : 1.0;
+  std::fprintf(stderr, "  draco cl%-2d        %8llu B       (%.2f bpv), encode %.0f ms\n", cl,
+               static_cast<unsigned long long>(bytes), 8.0 * bytes / v, Median(enc));
+  run.j = {
+      {"compression_level", cl},
+      {"bytes", bytes},
+      {"bpv", 8.0 * bytes / v},
+      {"dropped_faces", dropped},
+      {"decoded_points", points},
+      {"encode", Timing(enc)},
+      {"encode_ms", Median(enc)},
+  };
+  return run;
+}
+
+// Per-level bytes of the split packing from the stream itself: level K has
+// received the base, the stream header, and the control block and datagrams
+// of refinements 0..K-1.
+json LevelBytes(const ms::Primitive& prim, const ms::QuantizationParams& q, const ms::ProgressiveGlbReport& report,
+                uint64_t vertices, json* entropy, const std::string& label) {
+  ms::ProgressiveEncodeOptions options;
+  options.quantization = q;
+  ms::DracoAttributeIds ids;
+  const auto encoded = Check(ms::EncodeProgressive(prim, options,
+                                                   [&ids](const ms::QuantizedMesh& base, int method) {
+                                                     return ms::EncodeDracoBase(base, method, 7, &ids);
+                                                   }),
+                             label + ": EncodeProgressive");
+  ms::StreamWriteOptions so;
+  so.packing = ms::Packing::kSplit;
+  const auto stream = Check(ms::WriteStream(encoded, q, so), label + ": WriteStream");
+  *entropy = EntropyReport(encoded.mesh, vertices);
+  const uint64_t base = encoded.base_bytes.size();
+  const uint64_t header = stream.header.size();
+  json levels = json::array();
+  uint64_t reliable = base + header, unreliable = 0;
+  const auto lv = encoded.mesh.level_vertices();
+  for (size_t k = 0; k < lv.size(); ++k) {
+    uint64_t control = 0, dgram = 0, count = 0;
+    if (k > 0) {
+      control = stream.control[k - 1].size();
+      for (const auto& d : stream.datagrams[k - 1]) dgram += d.size();
+      count = stream.datagrams[k - 1].size();
+      reliable += control;
+      unreliable += dgram;
+    }
+    levels.push_back({{"level", k},
+                      {"vertices", lv[k]},
+                      {"control_bytes", control},
+                      {"datagram_bytes", dgram},
+                      {"datagrams", count},
+                      {"reliable_bytes", reliable},
+                      {"unreliable_bytes", unreliable},
+                      {"bytes", reliable + unreliable}});
+  }
+  // Cross-check against what EncodeProgressiveGlb reported for the same input.
+  if (report.primitives.size() == 1) {
+    const auto& p = report.primitives[0];
+    if (p.base_bytes != base || p.reliable_bytes != reliable - base || p.unreliable_bytes != unreliable) {
+      std::fprintf(stderr, "  warning: %s: per-level sums (%llu + %llu + %llu) differ from the encoder's report "
+                           "(%llu + %llu + %llu)\n", label.c_str(),
+                   static_cast<unsigned long long>(base), static_cast<unsigned long long>(reliable - base),
+                   static_cast<unsigned long long>(unreliable), static_cast<unsigned long long>(p.base_bytes),
+                   static_cast<unsigned long long>(p.reliable_bytes), static_cast<unsigned long long>(p.unreliable_bytes));
+    }
+  }
+  return levels;
+}
+
+std::string FormatRatio(double r) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", r);
+  return buf;
+}
+
+struct WorkDir {
+  std::string path;
+  WorkDir() {
+    char tmpl[] = "/tmp/meshstream-bench-XXXXXX";
+    const char* p = mkdtemp(tmpl);
+    if (!p) Die("cannot create a temporary folder");
+    path = p;
+  }
+  ~WorkDir() {
+    if (!path.empty()) Run("rm -rf " + ShellQuote(path));
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = ParseArgs(argc, argv);
+  const auto bench_start = Clock::now();
+  const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
+  std::vector<std::string> chosen;
+  for (const auto& f : files) {
+    if (args.only.empty() || std::find(args.only.begin(), args.only.end(), f) != args.only.end() ||
+        std::find(args.only.begin(), args.only.end(), Stem(f)) != args.only.end()) {
+      chosen.push_back(f);
+    }
+  }
+  if (chosen.empty()) Die("no model matches --model");
+  bool gltfpack_ok = args.use_gltfpack;
+  if (gltfpack_ok && Run(ShellQuote(args.gltfpack) + " -h >/dev/null 2>&1") < 0) {
+    std::fprintf(stderr, "meshstream_bench: %s not found; skipping the gltfpack LODs\n", args.gltfpack.c_str());
+    gltfpack_ok = false;
+  }
+  WorkDir work;
+
+  json out;
+  out["schema"] = "meshstream-bench/1";
+  out["machine"] = MachineInfo(args);
+  out["settings"] = {
+      {"qps", args.qps},
+      {"qn", args.qn},
+      {"qt", args.qt},
+      {"qc", 8},
+      {"repeat", args.repeat},
+      {"decode_repeat", args.decode_repeat},
+      {"packet_bytes", ms::StreamWriteOptions{}.packet_bytes},
+      {"base_compression_level", ms::ProgressiveGlbOptions{}.draco_compression_level},
+      {"base_ratio", ms::SimplifyOptions{}.base_ratio},
+      {"max_levels", ms::SimplifyOptions{}.max_levels},
+      {"hausdorff_samples_per_side", args.samples},
+      {"gltfpack_ratios", args.ratios},
+      {"gltfpack_mode",
+       "default quantization (-vp 14 -vt 12 -vn 8, KHR_mesh_quantization), no -sa; bytes_cc: the same with -cc "
+       "(EXT_meshopt_compression); input: the full meshstream mesh at the qp, as a plain .glb"},
+      {"timing", "in-process wall-clock medians: encodes of `repeat` runs; decodes of `decode_repeat` rounds "
+                 "after one untimed warm-up round, every decoder of a model and qp interleaved in each round so "
+                 "that all see the same machine load; nothing else runs in the process meanwhile"},
+  };
+  out["models"] = json::array();
+
+  std::vector<DistanceJob> jobs;
+  // Every slot a job writes to must stay put: build the whole JSON tree first,
+  // then take pointers. Simpler: keep per-run JSON objects in stable storage.
+  std::vector<std::unique_ptr<json>> run_objects;
+  std::vector<std::pair<size_t, size_t>> run_owner;  // (model index, run index)
+
+  for (size_t mi = 0; mi < chosen.size(); ++mi) {
+    const std::string path = args.models_dir + "/" + chosen[mi];
+    const std::string name = Stem(chosen[mi]);
+    std::fprintf(stderr, "%s\n", name.c_str());
+    const ms::Scene scene = Check(ms::ImportFile(path), path);
+    const auto prims = Primitives(scene);
+    if (prims.empty()) Die(path + ": no triangles");
+    std::vector<std::string> attributes = prims[0]->AttributeNames();
+    json model = {{"name", name},
+                  {"file", chosen[mi]},
+                  {"source_vertices", scene.source_vertices},
+                  {"primitives", prims.size()},
+                  {"attributes", attributes},
+                  {"runs", json::array()}};
+
+    for (size_t qi = 0; qi < args.qps.size(); ++qi) {
+      ms::QuantizationParams q;
+      q.qp = args.qps[qi];
+      q.qn = args.qn;
+      q.qt = args.qt;
+      const std::string label = name + " qp" + std::to_string(q.qp);
+      std::fprintf(stderr, " qp %d\n", q.qp);
+      MeshstreamRun split = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, label + " split");
+      MeshstreamRun bundled = BenchMeshstream(scene, q, ms::Packing::kBundled, args.repeat, label + " bundled");
+      const uint64_t vertices = split.j["vertices"].get<uint64_t>();
+      DracoRun d7run = BenchDraco(scene, q, 7, args.repeat, vertices, label);
+      DracoRun d10run = BenchDraco(scene, q, 10, args.repeat, vertices, label);
+
+      // Every decoder of this model and qp, interleaved run by run.
+      ms::ProgressiveDecodeOptions all_levels, base_only;
+      base_only.lod = 0;  // the base alone: what a viewer waits for before the first mesh
+      auto progressive = [&label](const MeshstreamRun& m, const ms::ProgressiveDecodeOptions& o) {
+        return [&m, &o, &label]() {
+          auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
+          if (!s.ok()) Die(label + ": DecodeProgressiveGlb: " + s.status().ToString());
+        };
+      };
+      std::vector<Decoder> decoders = {
+          {"split", progressive(split, all_levels), {}},
+          {"bundled", progressive(bundled, all_levels), {}},
+          {"split_base", progressive(split, base_only), {}},
+          {"draco7", [&]() { DracoDecode(d7run, label); }, {}},
+          {"draco10", [&]() { DracoDecode(d10run, label); }, {}},
+          {"draco7_primitive", [&]() { DracoDecodeToPrimitive(d7run, label); }, {}},
+          {"draco10_primitive", [&]() { DracoDecodeToPrimitive(d10run, label); }, {}},
+      };
+      DecodeTimings(decoders, args.decode_repeat);
+      auto times = [&decoders](const std::string& name) -> const std::vector<double>& {
+        for (const auto& d : decoders)
+          if (d.name == name) return d.times;
+        Die("no decoder " + name);
+      };
+      for (auto* m : {&split, &bundled}) {
+        const std::vector<double>& t = times(m == &split ? "split" : "bundled");
+        m->j["decode"] = Timing(t);
+        m->j["decode_ms"] = Median(t);
+      }
+      split.j["decode_base"] = Timing(times("split_base"));
+      split.j["decode_base_ms"] = Median(times("split_base"));
+      bundled.j["decode_base_ms"] = nullptr;
+      json draco7 = d7run.j, draco10 = d10run.j;
+      draco7["decode"] = Timing(times("draco7"));
+      draco7["decode_ms"] = Median(times("draco7"));
+      draco7["decode_to_primitive"] = Timing(times("draco7_primitive"));
+      draco7["decode_to_primitive_ms"] = Median(times("draco7_primitive"));
+      draco10["decode"] = Timing(times("draco10"));
+      draco10["decode_ms"] = Median(times("draco10"));
+      draco10["decode_to_primitive"] = Timing(times("draco10_primitive"));
+      draco10["decode_to_primitive_ms"] = Median(times("draco10_primitive"));
+      std::fprintf(stderr, "  decode (median ms): meshstream split %.1f, bundled %.1f, base only %.2f; draco cl7 %.1f, cl10 %.1f\n",
+                   Median(times("split")), Median(times("bundled")), Median(times("split_base")),
+                   Median(times("draco7")), Median(times("draco10")));
+
+      auto run = std::make_unique<json>();
+      json& r = *run;
+      r["qp"] = q.qp;
+      r["qn"] = q.qn;
+      r["qt"] = q.qt;
+      r["vertices"] = vertices;
+      r["faces"] = split.j["faces"];
+      r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}};
+      r["draco"] = {{"cl7", draco7}, {"cl10", draco10}};
+      const double d7 = draco7["bytes"].get<double>(), d10 = draco10["bytes"].get<double>();
+      const double dd7 = draco7["decode_ms"].get<double>(), dd10 = draco10["decode_ms"].get<double>();
+      const double de7 = draco7["encode_ms"].get<double>();
+      auto ratios = [&](const json& m) {
+        return json{{"total_vs_draco_cl7", m["total_bytes"].get<double>() / d7},
+                    {"total_vs_draco_cl10", m["total_bytes"].get<double>() / d10},
+                    {"file_vs_draco_cl7", m["file_bytes"].get<double>() / d7},
+                    {"reliable_vs_draco_cl7", m["reliable_bytes"].get<double>() / d7},
+                    {"decode_vs_draco_cl7", dd7 > 0 ? m["decode_ms"].get<double>() / dd7 : 0.0},
+                    {"decode_vs_draco_cl10", dd10 > 0 ? m["decode_ms"].get<double>() / dd10 : 0.0},
+                    {"encode_vs_draco_cl7", de7 > 0 ? m["encode_ms"].get<double>() / de7 : 0.0}};
+      };
+      r["ratios"] = {{"split", ratios(split.j)}, {"bundled", ratios(bundled.j)}};
+
+      // Rate-distortion: levels of the split packing, and gltfpack's LODs.
+      json rd;
+      rd["reference"] = "the full meshstream decode at this qp (the quantized input)";
+      if (prims.size() == 1) {
+        json entropy;
+        rd["levels"] = LevelBytes(*prims[0], q, split.report, vertices, &entropy, label);
+        r["entropy_order0"] = entropy;
+        ms::ProgressiveDecodeOptions dopt;
+        const ms::Scene full_scene = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), label + ": decode");
+        auto full = std::make_shared<const ms::Primitive>(ms::FlattenScene(full_scene));
+        rd["diagonal"] = Diagonal(*full);
+        const size_t level_count = rd["levels"].size();
+        // Level meshes are decoded here; their distances come later.
+        std::vector<std::shared_ptr<const ms::Primitive>> level_meshes;
+        for (size_t k = 0; k < level_count; ++k) {
+          dopt.lod = static_cast<int>(k);
+          const ms::Scene s = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), label + ": decode lod");
+          auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(s));
+          rd["levels"][k]["faces"] = p->face_count();
+          level_meshes.push_back(p);
+        }
+        rd["gltfpack"] = json::array();
+        if (gltfpack_ok) {
+          ms::Primitive plain = *Primitives(full_scene)[0];
+          plain.material = -1;
+          const std::string in = work.path + "/" + name + "-qp" + std::to_string(q.qp) + ".glb";
+          const ms::Status w = ms::ExportGltfFile(ms::SceneFromPrimitive(plain, name), in, {});
+          if (!w.ok()) Die(in + ": " + w.ToString());
+          rd["gltfpack_input_bytes"] = FileSize(in);
+          for (double ratio : args.ratios) {
+            const std::string o = work.path + "/" + name + "-qp" + std::to_string(q.qp) + "-si" + FormatRatio(ratio);
+            const std::string log = work.path + "/gltfpack.log";
+            const std::string base_cmd = ShellQuote(args.gltfpack) + " -i " + ShellQuote(in) + " -si " + FormatRatio(ratio);
+            if (Run(base_cmd + " -o " + ShellQuote(o + ".glb") + " >" + ShellQuote(log) + " 2>&1") != 0 ||
+                Run(base_cmd + " -cc -o " + ShellQuote(o + "-cc.glb") + " >>" + ShellQuote(log) + " 2>&1") != 0) {
+              std::fprintf(stderr, "  gltfpack -si %g failed; see its output:\n", ratio);
+              Run("cat " + ShellQuote(log) + " >&2");
+              continue;
+            }
+            auto lod_scene = ms::ImportFile(o + ".glb");
+            if (!lod_scene.ok()) {
+              std::fprintf(stderr, "  %s: %s\n", (o + ".glb").c_str(), lod_scene.status().ToString().c_str());
+              continue;
+            }
+            auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(lod_scene.value()));
+            size_t referenced = 0;
+            {
+              std::vector<uint8_t> used(p->vertex_count(), 0);
+              for (uint32_t i : p->indices) used[i] = 1;
+              for (uint8_t u : used) referenced += u;
+            }
+            rd["gltfpack"].push_back({{"ratio", ratio},
+                                      {"vertices", referenced},
+                                      {"faces", p->face_count()},
+                                      {"bytes", FileSize(o + ".glb")},
+                                      {"bytes_cc", FileSize(o + "-cc.glb")}});
+            level_meshes.push_back(p);
+          }
+        }
+        r["rate_distortion"] = std::move(rd);
+        // Jobs point into the run object, which is not moved again.
+        json& rdj = r["rate_distortion"];
+        for (size_t k = 0; k < level_count; ++k) {
+          jobs.push_back({full, level_meshes[k], &rdj["levels"][k], label + " level " + std::to_string(k)});
+        }
+        for (size_t g = 0; g < rdj["gltfpack"].size(); ++g) {
+          jobs.push_back({full, level_meshes[level_count + g], &rdj["gltfpack"][g],
+                          label + " gltfpack " + FormatRatio(rdj["gltfpack"][g]["ratio"].get<double>())});
+        }
+      } else {
+        rd["skipped"] = "more than one primitive";
+        r["rate_distortion"] = std::move(rd);
+      }
+      run_owner.emplace_back(mi, model["runs"].size());
+      model["runs"].push_back(nullptr);  // filled from run_objects at the end
+      run_objects.push_back(std::move(run));
+    }
+    out["models"].push_back(std::move(model));
+  }
+  const double timed_s = Ms(bench_start, Clock::now()) / 1000.0;
+
+  if (args.distortion && !jobs.empty()) {
+    std::fprintf(stderr, "distances (%zu meshes, %u threads, %lld samples per side)\n", jobs.size(), args.threads,
+                 static_cast<long long>(args.samples));
+    RunDistanceJobs(jobs, args.threads, args.samples);
+  }
+  for (size_t i = 0; i < run_objects.size(); ++i) {
+    out["models"][run_owner[i].first]["runs"][run_owner[i].second] = std::move(*run_objects[i]);
+  }
+
+  // The targets of issue 3, stated from the numbers.
+  json targets = json::array();
+  const std::map<std::string, double> paper_reliable = {{"stanford-bunny", 4.3}, {"horse", 2.87}};
+  for (const json& m : out["models"]) {
+    const std::string name = m["name"];
+    for (const json& r : m["runs"]) {
+      const json& s = r["meshstream"]["split"];
+      const json& b = r["meshstream"]["bundled"];
+      const int qp = r["qp"];
+      if (paper_reliable.count(name)) {
+        const double ratio = r["ratios"]["split"]["total_vs_draco_cl7"];
+        const double ratio_b = r["ratios"]["bundled"]["total_vs_draco_cl7"];
+        targets.push_back({{"target", "total size <= 1.5 x Draco cl7"}, {"model", name}, {"qp", qp},
+                           {"value", ratio}, {"value_bundled", ratio_b}, {"limit", 1.5},
+                           {"met", ratio <= 1.5 && ratio_b <= 1.5}});
+        const double rbpv = s["reliable_bpv"];
+        targets.push_back({{"target", "reliable bpv below the paper's Table 2"}, {"model", name}, {"qp", qp},
+                           {"value", rbpv}, {"value_bundled", b["reliable_bpv"]}, {"limit", paper_reliable.at(name)},
+                           {"met", rbpv < paper_reliable.at(name) && b["reliable_bpv"].get<double>() < paper_reliable.at(name)}});
+        const double dr = r["ratios"]["split"]["decode_vs_draco_cl7"];
+        const double dr_b = r["ratios"]["bundled"]["decode_vs_draco_cl7"];
+        targets.push_back({{"target", "decode all levels <= 2 x Draco decode"}, {"model", name}, {"qp", qp},
+                           {"value", dr}, {"value_bundled", dr_b}, {"limit", 2.0},
+                           {"meshstream_ms", s["decode_ms"]}, {"draco_ms", r["draco"]["cl7"]["decode_ms"]},
+                           {"met", dr <= 2.0 && dr_b <= 2.0}});
+      }
+      if (name == "stanford-bunny") {
+        const double e = s["encode_ms"];
+        targets.push_back({{"target", "encode the bunny < 1 s"}, {"model", name}, {"qp", qp}, {"value", e},
+                           {"value_bundled", b["encode_ms"]}, {"limit", 1000.0},
+                           {"met", e < 1000.0 && b["encode_ms"].get<double>() < 1000.0}});
+      }
+    }
+  }
+  out["targets"] = targets;
+  out["machine"]["loadavg_at_end"] = LoadAverage();
+  out["elapsed_s"] = {{"timed_part", timed_s}, {"total", Ms(bench_start, Clock::now()) / 1000.0}};
+
+  // Console summary.
+  std::printf("%-15s %3s %9s %6s %7s %9s %9s %6s %6s %8s %8s %8s\n", "model", "qp", "ms_total", "bpv", "rel_bpv",
+              "draco7", "draco10", "x_d7", "x_d10", "dec_ms", "draco_ms", "enc_ms");
+  for (const json& m : out["models"]) {
+    for (const json& r : m["runs"]) {
+      const json& s = r["meshstream"]["split"];
+      std::printf("%-15s %3d %9llu %6.2f %7.2f %9llu %9llu %6.2f %6.2f %8.1f %8.1f %8.0f\n",
+                  m["name"].get<std::string>().c_str(), r["qp"].get<int>(),
+                  static_cast<unsigned long long>(s["total_bytes"].get<uint64_t>()), s["total_bpv"].get<double>(),
+                  s["reliable_bpv"].get<double>(),
+                  static_cast<unsigned long long>(r["draco"]["cl7"]["bytes"].get<uint64_t>()),
+                  static_cast<unsigned long long>(r["draco"]["cl10"]["bytes"].get<uint64_t>()),
+                  r["ratios"]["split"]["total_vs_draco_cl7"].get<double>(),
+                  r["ratios"]["split"]["total_vs_draco_cl10"].get<double>(), s["decode_ms"].get<double>(),
+                  r["draco"]["cl7"]["decode_ms"].get<double>(), s["encode_ms"].get<double>());
+    }
+  }
+  for (const json& t : targets) {
+    std::printf("%-40s %-15s qp%-3d %10.3f (limit %g): %s\n", t["target"].get<std::string>().c_str(),
+                t["model"].get<std::string>().c_str(), t["qp"].get<int>(), t["value"].get<double>(),
+                t["limit"].get<double>(), t["met"].get<bool>() ? "met" : "NOT met");
+  }
+
+  std::ofstream f(args.out + ".tmp");
+  f << out.dump(1) << "\n";
+  f.close();
+  if (!f || std::rename((args.out + ".tmp").c_str(), args.out.c_str()) != 0) Die("cannot write " + args.out);
+  std::fprintf(stderr, "wrote %s (%.0f s)\n", args.out.c_str(), Ms(bench_start, Clock::now()) / 1000.0);
+  return 0;
+}
