@@ -82,6 +82,8 @@ class ByteReader {
   // A length-prefixed block: returns a pointer into the span.
   StatusOr<const uint8_t*> Block(const char* what, size_t* length) {
     MS_ASSIGN_OR_RETURN(uint64_t n, Varint(what, remaining()));
+    // The limit above still counted the varint's own bytes.
+    if (n > remaining()) return Short(what);
     *length = static_cast<size_t>(n);
     const uint8_t* p = data_ + pos_;
     pos_ += *length;

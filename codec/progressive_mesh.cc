@@ -61,12 +61,19 @@ Status RefinementState::ApplyRefinement(const Refinement& r) {
     return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +
                         std::to_string(connectivity.vertex_count()));
   }
-  connectivity.Reserve(static_cast<uint32_t>(positions.size() + r.split_count()),
-                       connectivity.face_count() + 2 * r.split_count());
-  positions.reserve(positions.size() + r.split_count());
-  attributes.reserve(attributes.size() + r.split_count() * channels);
+  // Grow geometrically (never to a size a header merely claims: only by the
+  // splits really being applied).
+  const size_t needed = positions.size() + r.split_count();
+  if (positions.capacity() < needed) Reserve(static_cast<uint32_t>(std::max(needed, 2 * positions.capacity())));
   for (size_t j = 0; j < r.split_count(); ++j) MS_RETURN_IF_ERROR(ApplySplit(r, j));
   return Status::Ok();
+}
+
+void RefinementState::Reserve(uint32_t final_vertices) {
+  const size_t extra = final_vertices > positions.size() ? final_vertices - positions.size() : 0;
+  connectivity.Reserve(final_vertices, connectivity.face_count() + 2 * extra);
+  positions.reserve(final_vertices);
+  attributes.reserve(size_t(final_vertices) * channels);
 }
 
 QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const {

@@ -58,6 +58,8 @@ struct RefinementState {
   // Applies split j of `r` (all data present). Errors leave the state valid.
   Status ApplySplit(const Refinement& r, size_t j);
   Status ApplyRefinement(const Refinement& r);
+  // Room for this many vertices, so that splits do not reallocate.
+  void Reserve(uint32_t final_vertices);
   QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;
 };
 

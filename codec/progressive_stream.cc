@@ -48,14 +48,18 @@ Status DecodeFixups(ByteReader& r, size_t count, std::vector<int32_t>& out, cons
   MS_ASSIGN_OR_RETURN(const uint8_t* data, r.Block(what, &length));
   RangeDecoder dec(data, length);
   BitModel nonzero;
-  out.assign(count, 0);
+  // `count` comes from the header: grow with the values the bytes really
+  // hold instead of allocating it up front (a lying count fails on overrun).
+  out.clear();
   for (size_t i = 0; i < count; ++i) {
+    int32_t v = 0;
     if (dec.DecodeBit(nonzero)) {
       const uint32_t lo = dec.DecodeRaw(16);
       const uint32_t z = lo | (dec.DecodeRaw(16) << 16);
-      out[i] = static_cast<int32_t>((z >> 1) ^ (~(z & 1) + 1));
+      v = static_cast<int32_t>((z >> 1) ^ (~(z & 1) + 1));
     }
     if (dec.overran()) return InvalidInput(std::string(what) + ": truncated");
+    out.push_back(v);
   }
   return Status::Ok();
 }

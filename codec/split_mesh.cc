@@ -4,21 +4,50 @@
 
 namespace meshstream {
 
+uint32_t SplitMesh::NewSlot(uint32_t capacity) {
+  Slot slot;
+  slot.offset = static_cast<uint32_t>(pool_.size());
+  slot.capacity = capacity;
+  pool_.resize(pool_.size() + capacity);
+  slots_.push_back(slot);
+  return static_cast<uint32_t>(slots_.size() - 1);
+}
+
+void SplitMesh::Append(uint32_t v, uint32_t face) {
+  Slot& slot = slots_[v];
+  if (slot.count == slot.capacity) {
+    const uint32_t capacity = std::max<uint32_t>(8, 2 * slot.capacity);
+    const uint32_t offset = static_cast<uint32_t>(pool_.size());
+    pool_.resize(pool_.size() + capacity);
+    std::copy(pool_.begin() + slot.offset, pool_.begin() + slot.offset + slot.count, pool_.begin() + offset);
+    slot.offset = offset;
+    slot.capacity = capacity;
+  }
+  pool_[slot.offset + slot.count++] = face;
+}
+
 Status SplitMesh::Reset(uint32_t vertex_count, const std::vector<uint32_t>& indices) {
   if (indices.size() % 3 != 0) return InvalidInput("index count is not a multiple of 3");
   faces_.clear();
   faces_.reserve(indices.size() / 3);
-  vertex_faces_.assign(vertex_count, {});
+  std::vector<uint32_t> valence(vertex_count, 0);
+  for (size_t i = 0; i < indices.size(); ++i) {
+    if (indices[i] >= vertex_count) {
+      return InvalidInput("face " + std::to_string(i / 3) + " names vertex " + std::to_string(indices[i]));
+    }
+    ++valence[indices[i]];
+  }
+  pool_.clear();
+  slots_.clear();
+  slots_.reserve(vertex_count);
+  for (uint32_t v = 0; v < vertex_count; ++v) NewSlot(std::max<uint32_t>(8, valence[v] + 2));
   for (size_t i = 0; i < indices.size(); i += 3) {
     const Face f = {indices[i], indices[i + 1], indices[i + 2]};
-    for (uint32_t v : f) {
-      if (v >= vertex_count) return InvalidInput("face " + std::to_string(i / 3) + " names vertex " + std::to_string(v));
-    }
     const uint32_t id = static_cast<uint32_t>(faces_.size());
     faces_.push_back(f);
-    vertex_faces_[f[0]].push_back(id);
-    if (f[1] != f[0]) vertex_faces_[f[1]].push_back(id);
-    if (f[2] != f[0] && f[2] != f[1]) vertex_faces_[f[2]].push_back(id);
+    Append(f[0], id);
+    if (f[1] != f[0]) Append(f[1], id);
+    if (f[2] != f[0] && f[2] != f[1]) Append(f[2], id);
   }
   return Status::Ok();
 }
@@ -26,13 +55,13 @@ Status SplitMesh::Reset(uint32_t vertex_count, const std::vector<uint32_t>& indi
 bool SplitMesh::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
   ring.clear();
   ring_faces_.clear();
-  const std::vector<uint32_t>& fs = vertex_faces_[w];
+  const FaceList fs = faces_of(w);
   const size_t n = fs.size();
   if (n < 3) return false;
   // (x, y) for every triangle (w, x, y).
   scratch_.resize(2 * n);
   for (size_t i = 0; i < n; ++i) {
-    const Face r = RotateTo(faces_[fs[i]], w);
+    const Face r = RotateTo(faces_[fs.first[i]], w);
     if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
     scratch_[2 * i] = r[1];
     scratch_[2 * i + 1] = r[2];
@@ -51,7 +80,7 @@ bool SplitMesh::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
     }
     if (found == n) return false;  // open fan (boundary)
     ring.push_back(cur);
-    ring_faces_.push_back(fs[found]);
+    ring_faces_.push_back(fs.first[found]);
     cur = scratch_[2 * found + 1];
     if (cur == start) return step + 1 == n;
   }
@@ -60,7 +89,7 @@ bool SplitMesh::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
 
 void SplitMesh::SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const {
   out.clear();
-  for (uint32_t f : vertex_faces_[w]) {
+  for (uint32_t f : faces_of(w)) {
     for (uint32_t x : faces_[f]) {
       if (x != w) out.push_back(x);
     }
@@ -84,43 +113,38 @@ StatusOr<uint32_t> SplitMesh::Split(uint32_t w, uint32_t a, uint32_t b) {
 }
 
 void SplitMesh::Reserve(uint32_t vertices, size_t faces) {
-  vertex_faces_.reserve(vertices);
+  slots_.reserve(vertices);
   faces_.reserve(faces);
 }
 
 uint32_t SplitMesh::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
-  const uint32_t n = vertex_count();
   const uint32_t a = ring[a_at], b = ring[b_at];
   const size_t d = ring.size();
-  vertex_faces_.emplace_back();
-  std::vector<uint32_t>& nf = vertex_faces_[n];
-  std::vector<uint32_t>& wf = vertex_faces_[w];
   // Triangles (w, ring[k], ring[k+1]) for k from b up to (not including) a
   // move to n; the others stay with w.
   const size_t path = (a_at + d - b_at) % d;
-  nf.reserve(path + 2);
-  wf.clear();
+  const uint32_t n = NewSlot(std::max<uint32_t>(8, static_cast<uint32_t>(path) + 4));
+  slots_[w].count = 0;
   for (size_t step = 0; step < d; ++step) {
-    const size_t k = (b_at + step) % d;
-    const uint32_t f = ring_faces_[k];
+    const uint32_t f = ring_faces_[(b_at + step) % d];
     if (step < path) {
       for (uint32_t& y : faces_[f]) {
         if (y == w) y = n;
       }
-      nf.push_back(f);
+      Append(n, f);
     } else {
-      wf.push_back(f);
+      Append(w, f);
     }
   }
   const uint32_t f1 = static_cast<uint32_t>(faces_.size());
   faces_.push_back({w, n, a});
   faces_.push_back({n, w, b});
-  wf.push_back(f1);
-  wf.push_back(f1 + 1);
-  nf.push_back(f1);
-  nf.push_back(f1 + 1);
-  vertex_faces_[a].push_back(f1);
-  vertex_faces_[b].push_back(f1 + 1);
+  Append(w, f1);
+  Append(w, f1 + 1);
+  Append(n, f1);
+  Append(n, f1 + 1);
+  Append(a, f1);
+  Append(b, f1 + 1);
   return n;
 }
 

@@ -30,10 +30,18 @@ class SplitMesh {
   // `indices` must refer to vertices below `vertex_count` (checked).
   Status Reset(uint32_t vertex_count, const std::vector<uint32_t>& indices);
 
-  uint32_t vertex_count() const { return static_cast<uint32_t>(vertex_faces_.size()); }
+  uint32_t vertex_count() const { return static_cast<uint32_t>(slots_.size()); }
   size_t face_count() const { return faces_.size(); }
   const std::vector<Face>& faces() const { return faces_; }
-  const std::vector<uint32_t>& faces_of(uint32_t v) const { return vertex_faces_[v]; }
+  // The triangles of v (ids into faces()), in no particular order.
+  struct FaceList {
+    const uint32_t* first;
+    uint32_t count;
+    const uint32_t* begin() const { return first; }
+    const uint32_t* end() const { return first + count; }
+    uint32_t size() const { return count; }
+  };
+  FaceList faces_of(uint32_t v) const { return {pool_.data() + slots_[v].offset, slots_[v].count}; }
 
   // The neighbours of w in cyclic order (x -> y over w's triangles), starting
   // at the first vertex of w's first triangle. Returns false (ring
@@ -54,8 +62,18 @@ class SplitMesh {
   std::vector<uint32_t> Indices() const;
 
  private:
+  // Per-vertex triangle lists live in one pool: a vertex owns `capacity`
+  // entries from `offset`, and moves to the end of the pool with twice the
+  // room when it outgrows them (no allocation per vertex).
+  struct Slot {
+    uint32_t offset = 0, count = 0, capacity = 0;
+  };
+  void Append(uint32_t v, uint32_t face);
+  uint32_t NewSlot(uint32_t capacity);
+
   std::vector<Face> faces_;
-  std::vector<std::vector<uint32_t>> vertex_faces_;
+  std::vector<uint32_t> pool_;
+  std::vector<Slot> slots_;
   mutable std::vector<uint32_t> scratch_;     // (x, y) per triangle of the last ring
   mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
 };
