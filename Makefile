@@ -42,6 +42,7 @@ PYTHON ?= $(shell [ -x /usr/bin/python3 ] && echo /usr/bin/python3 || echo pytho
 BENCH_ARGS ?=
 bench: build
 	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_rule_comparison --out docs/bench/rules.json
 	$(BUILD)/bin/meshstream_bench --out docs/bench/results.json $(BENCH_ARGS)
 	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
 

@@ -260,9 +260,20 @@ class Simplifier {
       // Close u, v and every neighbour: the produced vertices stay pairwise
       // non-adjacent in the coarser mesh.
       closed_[c.u] = closed_[c.v] = 1;
-      for (uint32_t x : nu_) closed_[x] = 1;
-      for (uint32_t x : nv_) closed_[x] = 1;
+      if (options_.rule == BatchRule::kStrict) {
+        for (uint32_t x : nu_) closed_[x] = 1;
+        for (uint32_t x : nv_) closed_[x] = 1;
+      } else {
+        // Neighbouring collapses change each other's surroundings: apply at
+        // once, so that the next candidate is checked on the current mesh.
+        Apply(c);
+        applied_now_ = true;
+      }
       batch.collapses.push_back(c);
+    }
+    if (applied_now_) {
+      applied_now_ = false;
+      return batch;  // kPaper: applied one by one above (attributes not recorded)
     }
     // Record attributes before applying anything (collapses are disjoint).
     for (const Collapse& c : batch.collapses) {
@@ -286,6 +297,7 @@ class Simplifier {
   std::vector<uint8_t> locked_;
   std::vector<uint8_t> closed_;
   uint64_t removed_faces_ = 0;
+  bool applied_now_ = false;
   std::vector<std::array<uint32_t, 2>> pairs_;
   std::vector<uint32_t> nu_, nv_, na_, common_;
 };

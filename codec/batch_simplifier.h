@@ -35,7 +35,15 @@
 
 namespace meshstream {
 
+enum class BatchRule {
+  kStrict,  // split vertices pairwise non-adjacent in the coarser mesh (the codec's rule)
+  kPaper,   // only: collapsed edges share no vertex (the paper's minimum). The
+            // progressive codec does not accept hierarchies built with it; it
+            // exists to measure batch sizes against the strict rule.
+};
+
 struct SimplifyOptions {
+  BatchRule rule = BatchRule::kStrict;
   double base_ratio = 0.02;     // stop when at most this share of the vertices is left
   uint32_t max_levels = 40;     // stop after this many batches
   int max_valence = 14;         // of a collapsed vertex

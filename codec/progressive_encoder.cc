@@ -98,6 +98,9 @@ StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const Pro
 StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& input,
                                                         const ProgressiveEncodeOptions& options,
                                                         const BaseMeshEncoder& base_encoder) {
+  if (options.simplify.rule != BatchRule::kStrict) {
+    return InvalidArgument("the progressive codec needs the strict batch rule (docs/codec.md)");
+  }
   MS_ASSIGN_OR_RETURN(Hierarchy h, SimplifyInBatches(input, options.simplify));
   const int ch = input.layout.channels();
   ProgressiveEncoded out;
