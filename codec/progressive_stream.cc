@@ -120,7 +120,7 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   if (has_colors) {
     MS_ASSIGN_OR_RETURN(l.color_grid, ReadGrid(r, 4, bits[3], "colour grid"));
   }
-  MS_ASSIGN_OR_RETURN(uint64_t bv, r.Varint("base vertex count", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t bv, r.Varint("base vertex count", kMaxBaseVertices));
   MS_ASSIGN_OR_RETURN(uint64_t bf, r.Varint("base face count", 2 * kMaxStreamVertices));
   h.base_vertices = static_cast<uint32_t>(bv);
   h.base_faces = static_cast<uint32_t>(bf);

@@ -28,6 +28,9 @@ constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
 constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
 constexpr uint32_t kMaxRefinements = 255;
 constexpr uint64_t kMaxStreamVertices = uint64_t{1} << 28;
+// The header's fix-up tables are sized by the base vertex count before the
+// base itself is seen: this cap bounds them (16 MB per channel at most).
+constexpr uint64_t kMaxBaseVertices = uint64_t{1} << 22;
 
 enum class Packing : uint8_t {
   kSplit = 0,    // structure and geometry of a split in separate datagrams (the default)
