@@ -43,10 +43,8 @@ std::vector<uint8_t> EncodeFixups(const std::vector<int32_t>& values) {
   return enc.Finish();
 }
 
-Status DecodeFixups(ByteReader& r, size_t count, std::vector<int32_t>& out, const char* what) {
-  size_t length = 0;
-  MS_ASSIGN_OR_RETURN(const uint8_t* data, r.Block(what, &length));
-  RangeDecoder dec(data, length);
+Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::vector<int32_t>& out, const char* what) {
+  RangeDecoder dec(block.data(), block.size());
   BitModel nonzero;
   // `count` comes from the header: grow with the values the bytes really
   // hold instead of allocating it up front (a lying count fails on overrun).
@@ -135,9 +133,18 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
     if (total > kMaxStreamVertices) return ResourceExhausted("the stream has too many vertices");
     h.split_counts.push_back(static_cast<uint32_t>(c));
   }
-  MS_RETURN_IF_ERROR(DecodeFixups(r, size_t{3} * bv, h.base_position_fix, "position fix-ups"));
-  MS_RETURN_IF_ERROR(DecodeFixups(r, size_t(l.channels()) * bv, h.base_attribute_fix, "attribute fix-ups"));
+  size_t length = 0;
+  MS_ASSIGN_OR_RETURN(const uint8_t* pos_fix, r.Block("position fix-ups", &length));
+  h.position_fix_block.assign(pos_fix, pos_fix + length);
+  MS_ASSIGN_OR_RETURN(const uint8_t* attr_fix, r.Block("attribute fix-ups", &length));
+  h.attribute_fix_block.assign(attr_fix, attr_fix + length);
   return h;
+}
+
+Status StreamHeader::DecodeFixups() {
+  MS_RETURN_IF_ERROR(DecodeFixupBlock(position_fix_block, size_t{3} * base_vertices, base_position_fix, "position fix-ups"));
+  return DecodeFixupBlock(attribute_fix_block, size_t(grids.layout.channels()) * base_vertices, base_attribute_fix,
+                          "attribute fix-ups");
 }
 
 size_t ProgressiveStream::reliable_bytes() const {

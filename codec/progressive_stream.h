@@ -28,8 +28,6 @@ constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
 constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
 constexpr uint32_t kMaxRefinements = 255;
 constexpr uint64_t kMaxStreamVertices = uint64_t{1} << 28;
-// The header's fix-up tables are sized by the base vertex count before the
-// base itself is seen: this cap bounds them (16 MB per channel at most).
 constexpr uint64_t kMaxBaseVertices = uint64_t{1} << 22;
 
 enum class Packing : uint8_t {
@@ -52,8 +50,17 @@ struct StreamHeader {
   uint32_t base_faces = 0;
   uint8_t base_method = 0;
   std::vector<uint32_t> split_counts;  // per refinement
+  // Written by the encoder; a parsed header keeps the coded blocks and
+  // decodes them only once the base mesh has been seen (DecodeFixups), so a
+  // lying vertex count cannot make it allocate what the stream does not hold.
   std::vector<int32_t> base_position_fix;
   std::vector<int32_t> base_attribute_fix;
+  std::vector<uint8_t> position_fix_block;
+  std::vector<uint8_t> attribute_fix_block;
+
+  // Fills base_position_fix and base_attribute_fix for `base_vertices`
+  // vertices (the caller has checked that against the real base).
+  Status DecodeFixups();
 
   void Serialize(ByteWriter& w) const;
   static StatusOr<StreamHeader> Parse(const uint8_t* data, size_t size);

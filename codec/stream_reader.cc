@@ -20,6 +20,7 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   }
   const int ch = h.grids.layout.channels();
   if (base.layout.channels() != ch) return InvalidInput("the base mesh's attributes do not match the stream");
+  MS_RETURN_IF_ERROR(header_.DecodeFixups());
   for (size_t v = 0; v < base.vertex_count(); ++v) {
     for (int k = 0; k < 3; ++k) base.positions[v][k] += h.base_position_fix[v * 3 + k];
     for (int k = 0; k < ch; ++k) base.attributes[v * ch + k] += h.base_attribute_fix[v * ch + k];

@@ -1,0 +1,352 @@
+// The CLI contract of `meshstream encode` and `meshstream decode` (issue 3),
+// run as real processes on the shared models: lossless decoding on the grid
+// (BRIEF, property 1), every level of detail with its vertex count, the JSON
+// keys, attributes, the progressive .glb as valid glTF whose base any reader
+// shows (property 9), a multi-primitive scene, and the exit codes.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using nlohmann::json;
+using test_util::Cli;
+using test_util::ModelPath;
+using test_util::Quote;
+using test_util::RunCommand;
+using test_util::TempDir;
+
+json RunJson(const std::string& args) {
+  const auto r = RunCommand(Cli() + " " + args);
+  EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
+  json j = json::parse(r.out, nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << args << "\n" << r.out;
+  return j.is_discarded() ? json::object() : j;
+}
+
+// One line of JSON per file from the Khronos validator (tools/validate-gltf.js).
+std::vector<json> Validate(const std::vector<std::string>& files) {
+  std::string command = "node " + Quote(test_util::SourcePath("tools/validate-gltf.js"));
+  for (const std::string& f : files) command += " " + Quote(f);
+  const auto r = RunCommand(command);
+  std::vector<json> reports;
+  size_t start = 0;
+  while (start < r.out.size()) {
+    const size_t end = std::min(r.out.find('\n', start), r.out.size());
+    if (end > start) reports.push_back(json::parse(r.out.substr(start, end - start), nullptr, false));
+    start = end + 1;
+  }
+  EXPECT_EQ(reports.size(), files.size()) << "validator output: " << r.out << r.err;
+  return reports;
+}
+
+uint64_t U(const json& j, const char* key) {
+  if (!j.contains(key) || !j[key].is_number_unsigned()) {
+    ADD_FAILURE() << key << " is missing or not an unsigned number in " << j.dump();
+    return 0;
+  }
+  return j[key].get<uint64_t>();
+}
+
+std::vector<uint64_t> LevelVertices(const json& encode) {
+  if (!encode.contains("level_vertices") || !encode["level_vertices"].is_array()) return {};
+  return encode["level_vertices"].get<std::vector<uint64_t>>();
+}
+
+// Every key of the issue's contract, with values that agree with each other.
+void CheckEncodeJson(const json& e, const std::string& what) {
+  SCOPED_TRACE(what);
+  for (const char* key : {"vertices", "faces", "levels", "level_vertices", "base_vertices", "base_bytes",
+                          "reliable_bytes", "unreliable_bytes", "datagrams", "total_bytes", "reliable_bpv",
+                          "unreliable_bpv", "total_bpv", "encode_ms"}) {
+    EXPECT_TRUE(e.contains(key)) << key << " is missing from " << e.dump();
+  }
+  const std::vector<uint64_t> levels = LevelVertices(e);
+  ASSERT_FALSE(levels.empty()) << e.dump();
+  const uint64_t vertices = U(e, "vertices");
+  EXPECT_EQ(U(e, "levels"), levels.size() - 1);
+  EXPECT_EQ(levels.back(), vertices);
+  EXPECT_EQ(levels.front(), U(e, "base_vertices"));
+  for (size_t i = 1; i < levels.size(); ++i) EXPECT_LT(levels[i - 1], levels[i]) << "level " << i;
+  const uint64_t reliable = U(e, "reliable_bytes"), unreliable = U(e, "unreliable_bytes");
+  EXPECT_EQ(U(e, "total_bytes"), reliable + unreliable);
+  EXPECT_GT(U(e, "base_bytes"), 0u);
+  EXPECT_LT(U(e, "base_bytes"), reliable);  // the base is part of the reliable bytes
+  EXPECT_GT(U(e, "faces"), 0u);
+  if (levels.size() > 1) {
+    EXPECT_GT(U(e, "datagrams"), 0u);
+    EXPECT_GT(unreliable, U(e, "datagrams"));  // every datagram has a header
+  }
+  const double v = static_cast<double>(vertices);
+  EXPECT_NEAR(e.value("reliable_bpv", -1.0), 8.0 * reliable / v, 1e-6);
+  EXPECT_NEAR(e.value("unreliable_bpv", -1.0), 8.0 * unreliable / v, 1e-6);
+  EXPECT_NEAR(e.value("total_bpv", -1.0), 8.0 * (reliable + unreliable) / v, 1e-6);
+  EXPECT_GE(e.value("encode_ms", -1.0), 0.0);
+}
+
+void CheckDecodeJson(const json& d, const std::string& what) {
+  SCOPED_TRACE(what);
+  for (const char* key : {"vertices", "faces", "attributes", "levels_applied", "unreferenced_vertices",
+                          "degenerate_faces", "nonmanifold_edges", "decode_ms"}) {
+    EXPECT_TRUE(d.contains(key)) << key << " is missing from " << d.dump();
+  }
+  EXPECT_TRUE(d["attributes"].is_array());
+  EXPECT_TRUE(d["decode_ms"].is_number());
+  EXPECT_GE(d.value("decode_ms", -1.0), 0.0);
+  // Unreferenced input vertices are not encoded; the decoder makes none.
+  EXPECT_EQ(U(d, "unreferenced_vertices"), 0u);
+}
+
+struct ModelCase {
+  const char* file;
+  std::vector<std::string> attributes;
+};
+
+std::string Name(const ::testing::TestParamInfo<ModelCase>& info) {
+  std::string name = info.param.file;
+  name = name.substr(0, name.find('.'));
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
+class ProgressiveCliModel : public ::testing::TestWithParam<ModelCase> {};
+
+// On every shared model at qp 11 and 14 in both packings: encode, decode
+// every level, compare on the grid: the same triangles, with the model's
+// attributes. For each model also a few levels of detail (0, 1, the middle,
+// the last but one), the validator on every progressive .glb, and a plain
+// glTF reader (convert) showing the base level.
+TEST_P(ProgressiveCliModel, LosslessAtEveryQpAndPackingWithItsLevelsAndValidGlb) {
+  const ModelCase& m = GetParam();
+  const std::string src = ModelPath(m.file);
+  TempDir dir;
+  std::vector<std::string> glbs;
+  for (int qp : {11, 14}) {
+    for (const char* packing : {"split", "bundled"}) {
+      const std::string what = std::string(m.file) + " qp " + std::to_string(qp) + " " + packing;
+      SCOPED_TRACE(what);
+      const std::string glb = dir.File(std::to_string(qp) + packing + ".glb");
+      const std::string ply = dir.File(std::to_string(qp) + packing + ".ply");
+      const json e = RunJson("encode --json --qp " + std::to_string(qp) + " --packing " + packing + " " + Quote(src) +
+                             " -o " + Quote(glb));
+      CheckEncodeJson(e, what);
+      EXPECT_EQ(e.value("packing", ""), packing);
+      glbs.push_back(glb);
+      const std::vector<uint64_t> levels = LevelVertices(e);
+      ASSERT_GE(levels.size(), 3u) << "the model should have several levels";
+
+      const json d = RunJson("decode --json " + Quote(glb) + " -o " + Quote(ply));
+      CheckDecodeJson(d, what);
+      EXPECT_EQ(U(d, "vertices"), levels.back());
+      EXPECT_EQ(U(d, "faces"), U(e, "faces"));
+      EXPECT_EQ(U(d, "levels_applied"), levels.size() - 1);
+      EXPECT_EQ(d["attributes"], json(m.attributes));
+
+      const json c = RunJson("compare --json --samples 1000 --qp " + std::to_string(qp) + " " + Quote(src) + " " +
+                             Quote(ply));
+      EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+      EXPECT_EQ(U(c, "grid_differing_faces"), 0u);
+      // Only truly invalid faces may be cleaned up, and the encoder counts them.
+      EXPECT_EQ(U(c, "faces_b"), U(c, "faces_a") - e.value("removed_faces", uint64_t{0}));
+      EXPECT_EQ(U(c, "faces_b"), U(e, "faces"));
+
+      if (qp == 11 && std::string(packing) == "split") {
+        const size_t n = levels.size() - 1;
+        for (size_t k : {size_t{0}, size_t{1}, n / 2, n - 1}) {
+          const json lod = RunJson("decode --json --lod " + std::to_string(k) + " " + Quote(glb) + " -o " +
+                                   Quote(dir.File("lod.glb")));
+          EXPECT_EQ(U(lod, "vertices"), levels[k]) << "lod " << k;
+          EXPECT_EQ(U(lod, "levels_applied"), k);
+          EXPECT_EQ(lod["attributes"], json(m.attributes)) << "lod " << k;
+        }
+        // A plain glTF reader shows the base level.
+        const std::string base = dir.File("base.glb");
+        ASSERT_EQ(RunCommand(Cli() + " convert --quiet " + Quote(glb) + " " + Quote(base)).exit_code, 0);
+        const json info = RunJson("info --json " + Quote(base));
+        EXPECT_EQ(U(info, "primitive_vertices"), levels.front());
+        EXPECT_EQ(info["attributes"], json(m.attributes));
+      }
+    }
+  }
+  for (const json& report : Validate(glbs)) {
+    EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedModels, ProgressiveCliModel,
+                         ::testing::Values(ModelCase{"stanford-bunny.obj", {"POSITION"}},
+                                           ModelCase{"horse.ply", {"POSITION", "NORMAL"}},
+                                           ModelCase{"fandisk.obj", {"POSITION"}},
+                                           ModelCase{"rocker-arm.obj", {"POSITION"}},
+                                           ModelCase{"spot.obj", {"POSITION", "TEXCOORD_0"}}),
+                         Name);
+
+TEST(ProgressiveCli, EveryLevelOfDetailHasItsVertexCount) {
+  TempDir dir;
+  const std::string glb = dir.File("fandisk.glb");
+  const json e = RunJson("encode --json " + Quote(ModelPath("fandisk.obj")) + " -o " + Quote(glb));
+  const std::vector<uint64_t> levels = LevelVertices(e);
+  ASSERT_GE(levels.size(), 3u);
+  for (size_t k = 0; k < levels.size(); ++k) {
+    const json d = RunJson("decode --json --lod " + std::to_string(k) + " " + Quote(glb) + " -o " +
+                           Quote(dir.File("lod.obj")));
+    EXPECT_EQ(U(d, "vertices"), levels[k]) << "lod " << k;
+    EXPECT_EQ(U(d, "levels_applied"), k);
+    EXPECT_EQ(U(d, "degenerate_faces"), 0u) << "lod " << k;
+    // A closed vertex split adds two triangles: the faces follow the vertices.
+    EXPECT_EQ(U(d, "faces"), U(e, "faces") - 2 * (levels.back() - levels[k])) << "lod " << k;
+  }
+}
+
+// A multi-primitive glTF scene comes back with its nodes, meshes and
+// primitives. Each primitive has its own grid, so the geometry is compared
+// by distance over the whole scene rather than on one grid.
+TEST(ProgressiveCli, SceneKeepsItsStructure) {
+  TempDir dir;
+  const std::string src = ModelPath("gltf/2CylinderEngine.glb");
+  const std::string glb = dir.File("engine.glb");
+  const std::string out = dir.File("engine-decoded.glb");
+  const json e = RunJson("encode --json " + Quote(src) + " -o " + Quote(glb));
+  CheckEncodeJson(e, "2CylinderEngine");
+  EXPECT_EQ(U(e, "primitives"), 34u);
+  const json d = RunJson("decode --json " + Quote(glb) + " -o " + Quote(out));
+  CheckDecodeJson(d, "2CylinderEngine");
+  EXPECT_EQ(U(d, "levels_applied"), U(e, "levels"));
+  EXPECT_EQ(U(d, "faces"), U(e, "faces"));
+
+  const json before = RunJson("info --json " + Quote(src));
+  for (const std::string& file : {glb, out}) {
+    const json after = RunJson("info --json " + Quote(file));
+    for (const char* key : {"scenes", "nodes", "meshes", "primitives", "materials"}) {
+      EXPECT_EQ(after[key], before[key]) << key << " of " << file;
+    }
+  }
+  // The engine has triangles that repeat a vertex: the encoder removes them
+  // (and counts them), and keeps every other one.
+  EXPECT_EQ(U(e, "faces") + e.value("removed_faces", uint64_t{0}), U(before, "faces"));
+  EXPECT_LE(e.value("removed_faces", uint64_t{0}), U(before, "degenerate_faces"));
+  EXPECT_EQ(U(e, "vertices"), U(before, "primitive_vertices"));
+  EXPECT_EQ(U(d, "vertices"), U(e, "vertices"));
+  // compare flattens the node tree (meshes used by several nodes count each time).
+  const json c = RunJson("compare --json --samples 20000 " + Quote(src) + " " + Quote(out));
+  EXPECT_EQ(U(c, "vertices_b"), U(c, "vertices_a"));
+  EXPECT_LE(U(c, "faces_b"), U(c, "faces_a"));
+  EXPECT_LT(c.value("hausdorff_rel", 1.0), 1e-3) << c.dump();
+  for (const json& report : Validate({glb, out})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+}
+
+// A .glb without our extension is its own base: it decodes unchanged with
+// no level, and asking for a level it does not have is a usage error.
+TEST(ProgressiveCli, PlainGlbDecodesUnchangedWithoutLevels) {
+  TempDir dir;
+  const std::string plain = dir.File("plain.glb");
+  const std::string src = ModelPath("spot.obj");
+  ASSERT_EQ(RunCommand(Cli() + " convert --quiet " + Quote(src) + " " + Quote(plain)).exit_code, 0);
+  const json d = RunJson("decode --json " + Quote(plain) + " -o " + Quote(dir.File("out.glb")));
+  EXPECT_EQ(U(d, "levels_applied"), 0u);
+  EXPECT_EQ(U(d, "levels"), 0u);
+  const json info = RunJson("info --json " + Quote(plain));
+  EXPECT_EQ(U(d, "vertices"), U(info, "primitive_vertices"));
+  EXPECT_EQ(U(d, "faces"), U(info, "faces"));
+  const json c = RunJson("compare --json --samples 1000 --qp 14 " + Quote(plain) + " " + Quote(dir.File("out.glb")));
+  EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+  EXPECT_EQ(RunCommand(Cli() + " decode --lod 1 " + Quote(plain) + " -o " + Quote(dir.File("x.glb"))).exit_code, 2);
+}
+
+TEST(ProgressiveCli, UsageErrorsExitTwoAndBadInputExitsOne) {
+  TempDir dir;
+  const std::string src = Quote(ModelPath("spot.obj"));
+  const std::string glb = dir.File("spot.glb");
+  ASSERT_EQ(RunCommand(Cli() + " encode --levels 3 " + src + " -o " + Quote(glb)).exit_code, 0);
+
+  struct Case {
+    std::string args;
+    int exit_code;
+  };
+  const std::vector<Case> cases = {
+      {"encode " + src, 2},                                             // no -o
+      {"encode " + src + " -o " + Quote(dir.File("x.obj")), 2},          // not a .glb
+      {"encode --packing foo " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --qp 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --packet-bytes 10 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"decode " + Quote(glb), 2},                                       // no -o
+      {"decode " + Quote(glb) + " -o " + Quote(dir.File("x.fbx")), 2},
+      {"decode --lod 4 " + Quote(glb) + " -o " + Quote(dir.File("x.glb")), 2},  // beyond its 3 levels
+      {"decode --lod -1 " + Quote(glb) + " -o " + Quote(dir.File("x.glb")), 2},
+      {"decode --repeat 0 " + Quote(glb) + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode /nonexistent/model.obj -o " + Quote(dir.File("x.glb")), 1},
+      {"decode /nonexistent/model.glb -o " + Quote(dir.File("x.glb")), 1},
+      {"decode " + src + " -o " + Quote(dir.File("x.glb")), 1},          // an OBJ is no progressive file
+  };
+  for (const Case& c : cases) {
+    const auto r = RunCommand(Cli() + " " + c.args);
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find("meshstream"), std::string::npos) << c.args << ": " << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.File("x.glb")));
+  // The last level is still accepted.
+  EXPECT_EQ(RunCommand(Cli() + " decode --lod 3 " + Quote(glb) + " -o " + Quote(dir.File("y.glb"))).exit_code, 0);
+
+  // A progressive file whose stream is damaged: a clear error, exit 1.
+  std::string bytes = test_util::ReadText(glb);
+  ASSERT_GT(bytes.size(), 200u);
+  const std::string truncated = dir.File("truncated.glb");
+  test_util::WriteText(truncated, bytes.substr(0, bytes.size() - 100));
+  const auto cut = RunCommand(Cli() + " decode " + Quote(truncated) + " -o " + Quote(dir.File("x.glb")));
+  EXPECT_EQ(cut.exit_code, 1) << cut.err;
+  EXPECT_NE(cut.err.find("truncated.glb"), std::string::npos) << cut.err;
+  EXPECT_EQ(std::count(cut.err.begin(), cut.err.end(), '\n'), 1) << cut.err;
+}
+
+// The refinements live at the end of the binary chunk; overwriting the last
+// bytes damages the stream but not the GLB: decode fails with exit 1, and
+// the file is still a glTF whose base level any reader shows.
+TEST(ProgressiveCli, DamagedStreamIsAnErrorNotACrash) {
+  TempDir dir;
+  const std::string glb = dir.File("fandisk.glb");
+  const json e = RunJson("encode --json --levels 4 " + Quote(ModelPath("fandisk.obj")) + " -o " + Quote(glb));
+  std::string bytes = test_util::ReadText(glb);
+  ASSERT_GT(bytes.size(), 64u);
+  int failures = 0;
+  for (size_t back : {1, 5, 17, 40}) {
+    std::string damaged = bytes;
+    for (size_t i = damaged.size() - back - 8; i < damaged.size() - back; ++i) damaged[i] = static_cast<char>(0xFF);
+    const std::string file = dir.File("damaged" + std::to_string(back) + ".glb");
+    test_util::WriteText(file, damaged);
+    const auto r = RunCommand(Cli() + " decode --json " + Quote(file) + " -o " + Quote(dir.File("x.glb")));
+    EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.exit_code << " " << r.err;
+    if (r.exit_code == 1) ++failures;
+    const json info = RunJson("info --json " + Quote(file));
+    EXPECT_EQ(U(info, "primitive_vertices"), LevelVertices(e).front());
+  }
+  EXPECT_GT(failures, 0);
+}
+
+TEST(ProgressiveCli, EncodeAndDecodeHaveHelp) {
+  for (const char* verb : {"encode", "decode"}) {
+    const auto r = RunCommand(Cli() + " " + verb + " --help");
+    EXPECT_EQ(r.exit_code, 0) << verb;
+    EXPECT_NE(r.out.find(std::string("usage: meshstream ") + verb), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("--json"), std::string::npos) << r.out;
+  }
+  const auto encode = RunCommand(Cli() + " encode --help");
+  for (const char* flag : {"--qp", "--levels", "--base-ratio", "--packing", "--packet-bytes"}) {
+    EXPECT_NE(encode.out.find(flag), std::string::npos) << flag;
+  }
+  const auto decode = RunCommand(Cli() + " decode --help");
+  for (const char* flag : {"--lod", "--repeat"}) EXPECT_NE(decode.out.find(flag), std::string::npos) << flag;
+  const auto top = RunCommand(Cli() + " --help");
+  EXPECT_NE(top.out.find("encode"), std::string::npos);
+  EXPECT_NE(top.out.find("decode"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace meshstream
