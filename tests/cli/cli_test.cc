@@ -4,7 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tests/common/test_util.h"
+#include "tests/common/cli_util.h"
 
 namespace meshstream {
 namespace {
@@ -16,21 +16,11 @@ using test_util::Quote;
 using test_util::RunCommand;
 using test_util::TempDir;
 
-json RunJson(const std::string& args) {
-  const auto r = RunCommand(Cli() + " " + args);
-  EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
-  json j = json::parse(r.out, nullptr, false);
-  EXPECT_FALSE(j.is_discarded()) << r.out;
-  return j;
-}
+const auto RunJson = test_util::RunCliJson;
 
-// Runs the Khronos glTF validator (tools/validate-gltf.js) and returns its
-// report for one file.
 json Validate(const std::string& file) {
-  const auto r = RunCommand("node " + Quote(test_util::SourcePath("tools/validate-gltf.js")) + " " + Quote(file));
-  json j = json::parse(r.out, nullptr, false);
-  EXPECT_FALSE(j.is_discarded()) << "validator output: " << r.out << r.err;
-  return j;
+  const auto reports = test_util::ValidateGltf({file});
+  return reports.empty() ? json::object() : reports[0];
 }
 
 struct ModelCase {

@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tests/common/test_util.h"
+#include "tests/common/cli_util.h"
 
 namespace meshstream {
 namespace {
@@ -22,30 +22,7 @@ using test_util::ModelPath;
 using test_util::Quote;
 using test_util::RunCommand;
 using test_util::TempDir;
-
-json RunJson(const std::string& args) {
-  const auto r = RunCommand(Cli() + " " + args);
-  EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
-  json j = json::parse(r.out, nullptr, false);
-  EXPECT_FALSE(j.is_discarded()) << args << "\n" << r.out;
-  return j.is_discarded() ? json::object() : j;
-}
-
-// One line of JSON per file from the Khronos validator (tools/validate-gltf.js).
-std::vector<json> Validate(const std::vector<std::string>& files) {
-  std::string command = "node " + Quote(test_util::SourcePath("tools/validate-gltf.js"));
-  for (const std::string& f : files) command += " " + Quote(f);
-  const auto r = RunCommand(command);
-  std::vector<json> reports;
-  size_t start = 0;
-  while (start < r.out.size()) {
-    const size_t end = std::min(r.out.find('\n', start), r.out.size());
-    if (end > start) reports.push_back(json::parse(r.out.substr(start, end - start), nullptr, false));
-    start = end + 1;
-  }
-  EXPECT_EQ(reports.size(), files.size()) << "validator output: " << r.out << r.err;
-  return reports;
-}
+const auto RunJson = test_util::RunCliJson;
 
 uint64_t U(const json& j, const char* key) {
   if (!j.contains(key) || !j[key].is_number_unsigned()) {
@@ -175,7 +152,7 @@ TEST_P(ProgressiveCliModel, LosslessAtEveryQpAndPackingWithItsLevelsAndValidGlb)
       }
     }
   }
-  for (const json& report : Validate(glbs)) {
+  for (const json& report : test_util::ValidateGltf(glbs)) {
     EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
   }
 }
@@ -239,7 +216,7 @@ TEST(ProgressiveCli, SceneKeepsItsStructure) {
   EXPECT_EQ(U(c, "vertices_b"), U(c, "vertices_a"));
   EXPECT_LE(U(c, "faces_b"), U(c, "faces_a"));
   EXPECT_LT(c.value("hausdorff_rel", 1.0), 1e-3) << c.dump();
-  for (const json& report : Validate({glb, out})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  for (const json& report : test_util::ValidateGltf({glb, out})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
 }
 
 // A .glb without our extension is its own base: it decodes unchanged with

@@ -1,0 +1,46 @@
+// Helpers for tests that run the meshstream CLI and the Khronos validator as
+// real processes (tests/cli/).
+#ifndef MESHSTREAM_TESTS_COMMON_CLI_UTIL_H_
+#define MESHSTREAM_TESTS_COMMON_CLI_UTIL_H_
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/common/test_util.h"
+
+namespace meshstream::test_util {
+
+// Runs `meshstream ARGS`, expects exit 0 and one JSON object on stdout.
+inline nlohmann::json RunCliJson(const std::string& args) {
+  const auto r = RunCommand(Cli() + " " + args);
+  EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
+  nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << args << "\n" << r.out;
+  return j.is_discarded() ? nlohmann::json::object() : j;
+}
+
+// The Khronos validator's report (tools/validate-gltf.js): one JSON object per
+// file, with "errors", "warnings", "infos" and the first error messages.
+inline std::vector<nlohmann::json> ValidateGltf(const std::vector<std::string>& files) {
+  std::string command = "node " + Quote(SourcePath("tools/validate-gltf.js"));
+  for (const std::string& f : files) command += " " + Quote(f);
+  const auto r = RunCommand(command);
+  std::vector<nlohmann::json> reports;
+  size_t start = 0;
+  while (start < r.out.size()) {
+    const size_t end = std::min(r.out.find('\n', start), r.out.size());
+    if (end > start) reports.push_back(nlohmann::json::parse(r.out.substr(start, end - start), nullptr, false));
+    start = end + 1;
+  }
+  EXPECT_EQ(reports.size(), files.size()) << "validator output: " << r.out << r.err;
+  return reports;
+}
+
+}  // namespace meshstream::test_util
+
+#endif  // MESHSTREAM_TESTS_COMMON_CLI_UTIL_H_
