@@ -492,19 +492,11 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
   // Decoded once here to check it; timed later with the other decoders.
   const ms::Scene full = Check(ms::DecodeProgressiveGlb(run.glb, {}, nullptr), label + ": DecodeProgressiveGlb");
 
-  uint64_t vertices = 0, faces = 0, base = 0, reliable = 0, unreliable = 0, datagrams = 0, removed = 0;
-  std::vector<uint32_t> levels;
-  for (const auto& p : run.report.primitives) {
-    vertices += p.vertices;
-    faces += p.faces;
-    base += p.base_bytes;
-    reliable += p.reliable_bytes;
-    unreliable += p.unreliable_bytes;
-    datagrams += p.datagrams;
-    removed += p.removed_faces;
-    if (levels.size() < p.level_vertices.size()) levels.resize(p.level_vertices.size(), levels.empty() ? 0 : levels.back());
-    for (size_t i = 0; i < levels.size(); ++i) levels[i] += p.level_vertices[std::min(i, p.level_vertices.size() - 1)];
-  }
+  const ms::PrimitiveStreamReport total = run.report.Total();
+  const uint64_t vertices = total.vertices, faces = total.faces, base = total.base_bytes,
+                 reliable = total.reliable_bytes, unreliable = total.unreliable_bytes, datagrams = total.datagrams,
+                 removed = total.removed_faces;
+  const std::vector<uint32_t>& levels = total.level_vertices;
   std::vector<double> growth;
   for (size_t i = 0; i + 1 < levels.size(); ++i) {
     growth.push_back(levels[i] ? static_cast<double>(levels[i + 1]) / levels[i] - 1.0 : 0.0);

@@ -97,23 +97,11 @@ int RunEncode(const std::vector<std::string>& argv) {
   const Status written = WriteFileBytes(out, glb.value());
   if (!written.ok()) return ReportError("encode", written);
 
-  uint64_t vertices = 0, faces = 0, base_bytes = 0, reliable = 0, unreliable = 0, datagrams = 0, removed = 0;
-  std::vector<uint32_t> level_vertices;
-  for (const PrimitiveStreamReport& p : report.primitives) {
-    vertices += p.vertices;
-    faces += p.faces;
-    base_bytes += p.base_bytes;
-    reliable += p.base_bytes + p.reliable_bytes;
-    unreliable += p.unreliable_bytes;
-    datagrams += p.datagrams;
-    removed += p.removed_faces;
-    if (level_vertices.size() < p.level_vertices.size()) {
-      level_vertices.resize(p.level_vertices.size(), level_vertices.empty() ? 0 : level_vertices.back());
-    }
-    for (size_t i = 0; i < level_vertices.size(); ++i) {
-      level_vertices[i] += p.level_vertices[std::min(i, p.level_vertices.size() - 1)];
-    }
-  }
+  const PrimitiveStreamReport total = report.Total();
+  const uint64_t vertices = total.vertices, faces = total.faces, base_bytes = total.base_bytes,
+                 reliable = total.base_bytes + total.reliable_bytes, unreliable = total.unreliable_bytes,
+                 datagrams = total.datagrams, removed = total.removed_faces;
+  const std::vector<uint32_t>& level_vertices = total.level_vertices;
   const double v = vertices ? static_cast<double>(vertices) : 1.0;
   nlohmann::json j = {
       {"input", in},

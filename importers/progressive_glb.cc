@@ -20,12 +20,28 @@ std::vector<uint32_t> LevelVertices(const StreamHeader& h) {
   return out;
 }
 
-void AddLevels(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
+}  // namespace
+
+void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
+  if (levels.empty()) return;
   if (total.size() < levels.size()) total.resize(levels.size(), total.empty() ? 0 : total.back());
   for (size_t i = 0; i < total.size(); ++i) total[i] += levels[std::min(i, levels.size() - 1)];
 }
 
-}  // namespace
+PrimitiveStreamReport ProgressiveGlbReport::Total() const {
+  PrimitiveStreamReport t;
+  for (const PrimitiveStreamReport& p : primitives) {
+    t.vertices += p.vertices;
+    t.faces += p.faces;
+    t.base_bytes += p.base_bytes;
+    t.reliable_bytes += p.reliable_bytes;
+    t.unreliable_bytes += p.unreliable_bytes;
+    t.datagrams += p.datagrams;
+    t.removed_faces += p.removed_faces;
+    AddLevelVertices(t.level_vertices, p.level_vertices);
+  }
+  return t;
+}
 
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report) {
@@ -151,7 +167,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       target = DequantizeMesh(reader->Mesh(), target.material);
       local.levels = std::max<uint64_t>(local.levels, levels);
       local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
-      AddLevels(local.level_vertices, LevelVertices(reader->header()));
+      AddLevelVertices(local.level_vertices, LevelVertices(reader->header()));
     }
   }
   if (report) *report = std::move(local);

@@ -46,7 +46,13 @@ struct PrimitiveStreamReport {
 struct ProgressiveGlbReport {
   std::vector<PrimitiveStreamReport> primitives;
   uint64_t file_bytes = 0;
+  // Sums over primitives; level_vertices[K] counts every primitive at its
+  // level min(K, its own level count).
+  PrimitiveStreamReport Total() const;
 };
+
+// Adds one primitive's vertex counts per level into a running total (see Total).
+void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels);
 
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report);
