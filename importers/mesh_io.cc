@@ -38,8 +38,17 @@
 //   or out-of-float-range numbers; faces with fewer than 3 corners or an
 //   index out of range (the message names the face, 0-based in file order);
 //   files with vertices but no faces ("no triangles").
-//   Unsupported: PLY triangle strips (OpenMesh's reader has no tristrips
-//   element); PLY list properties other than face vertex_indices; face
+// - PLY triangle strips: OpenMesh's reader knows only 'face' elements, so an
+//   element 'tristrips' (one integer list 'vertex_indices', -1 restarts a
+//   strip) is read here while walking the body, hidden from the header
+//   OpenMesh reads (it must be the last element, so the bytes OpenMesh reads
+//   are unchanged), and turned into triangles as glTF does TRIANGLE_STRIP
+//   (odd triangles swap their first two corners; triangles repeating a
+//   vertex are skipped). They follow the faces of the 'face' element, which
+//   may then be absent. A strip index out of range names the strip record.
+//   Unsupported: PLY tristrips that are not the last element or have other
+//   properties; PLY list properties other than face and tristrips
+//   vertex_indices; face
 //   properties declared before vertex_indices (OpenMesh forgets them and
 //   misreads the records); binary PLY coordinates that are not float/double;
 //   binary OFF, OFF comments and the STOFF/4OFF/nOFF variants; OBJ tag lines.
@@ -758,36 +767,59 @@ bool IsFaceIndexList(const PlyElement& e, const PlyProperty& p) {
   return e.name == "face" && p.is_list() && (p.name == "vertex_indices" || p.name == "vertex_index");
 }
 
+constexpr size_t kNoElement = std::numeric_limits<size_t>::max();
+
 struct PlyLayout {
-  size_t vertex = 0;  // element indices
-  size_t face = 0;
+  size_t vertex = 0;           // element indices
+  size_t face = kNoElement;    // kNoElement: none (then there are strips)
+  size_t strips = kNoElement;  // 'tristrips', always the last element
+  // The last element whose values OpenMesh reads and we check.
+  size_t last_checked() const { return face != kNoElement ? face : vertex; }
 };
+
+bool IsStripsElement(const PlyElement& e) { return e.name == "tristrips"; }
 
 // Everything OpenMesh's PLY reader would misread, loop on, or silently drop.
 StatusOr<PlyLayout> CheckPlyForOpenMesh(const std::string& path, const PlyHeader& h) {
-  int vertex = -1, face = -1;
+  int vertex = -1, face = -1, strips = -1;
   for (size_t i = 0; i < h.elements.size(); ++i) {
     const PlyElement& e = h.elements[i];
-    if (e.name == "tristrips") {
-      return Refuse(path, "PLY triangle strips (element 'tristrips') are not supported: OpenMesh's PLY "
-                          "reader reads only 'face' elements");
-    }
     if (e.count > 0 && e.properties.empty()) {
       return Bad(path, "PLY element " + Quote(e.name) + " has " + Num(e.count) + " records but no properties");
     }
-    if (e.name == "vertex" || e.name == "face") {
-      int& slot = e.name == "vertex" ? vertex : face;
+    if (e.name == "vertex" || e.name == "face" || IsStripsElement(e)) {
+      int& slot = e.name == "vertex" ? vertex : e.name == "face" ? face : strips;
       if (slot >= 0) return Bad(path, "PLY header declares element " + Quote(e.name) + " twice");
       slot = static_cast<int>(i);
     }
   }
   if (vertex < 0) return Bad(path, "PLY file has no 'vertex' element");
-  if (face < 0) return Bad(path, "no triangles: the PLY file has no 'face' element");
-  if (face < vertex) {
+  if (face < 0 && strips < 0) {
+    return Bad(path, "no triangles: the PLY file has no 'face' or 'tristrips' element");
+  }
+  if (face >= 0 && face < vertex) {
     return Refuse(path, "PLY 'face' element before the 'vertex' element is not supported");
   }
+  if (strips >= 0) {
+    const PlyElement& e = h.elements[static_cast<size_t>(strips)];
+    if (static_cast<size_t>(strips) + 1 != h.elements.size()) {
+      // OpenMesh reads every element of the header it is given; the strips
+      // are hidden from it, which works only when nothing follows them.
+      return Refuse(path, "PLY element 'tristrips' must be the last element (element " +
+                              Quote(h.elements[static_cast<size_t>(strips) + 1].name) + " follows it)");
+    }
+    if (e.properties.size() != 1 || !e.properties[0].is_list() || e.properties[0].name != "vertex_indices") {
+      return Refuse(path, "PLY element 'tristrips' must have exactly one property, the list "
+                          "'vertex_indices'");
+    }
+    if (e.properties[0].type->is_float) {
+      return Refuse(path, "PLY tristrips property 'vertex_indices' has float entries; vertex indices "
+                          "must be integers");
+    }
+  }
   const bool binary = h.format != PlyFormat::kAscii;
-  for (size_t i = 0; i <= static_cast<size_t>(face); ++i) {
+  const size_t last_checked = static_cast<size_t>(face >= 0 ? face : vertex);
+  for (size_t i = 0; i <= last_checked; ++i) {
     const PlyElement& e = h.elements[i];
     bool has_indices = false;
     for (const PlyProperty& p : e.properties) {
@@ -829,17 +861,24 @@ StatusOr<PlyLayout> CheckPlyForOpenMesh(const std::string& path, const PlyHeader
     for (const PlyProperty& p : v.properties) found = found || p.name == axis;
     if (!found) return Bad(path, std::string("PLY vertex element has no '") + axis + "' property");
   }
-  return PlyLayout{static_cast<size_t>(vertex), static_cast<size_t>(face)};
+  PlyLayout layout;
+  layout.vertex = static_cast<size_t>(vertex);
+  if (face >= 0) layout.face = static_cast<size_t>(face);
+  if (strips >= 0) layout.strips = static_cast<size_t>(strips);
+  return layout;
 }
 
 // The header as OpenMesh will parse it: one canonical line per item, so that
 // OpenMesh's token-based header parser and its binary-offset arithmetic
 // ("end_header" + newline, counted from the previous token) agree with ours.
+// The tristrips element (the last one) is left out: OpenMesh would not read
+// it, and stops before its bytes.
 std::string CanonicalPlyHeader(const PlyHeader& h) {
   std::string s = "ply\nformat ";
   s += PlyFormatName(h.format);
   s += " 1.0\n";
   for (const PlyElement& e : h.elements) {
+    if (IsStripsElement(e)) continue;
     s += "element " + e.name + " " + Num(e.count) + "\n";
     for (const PlyProperty& p : e.properties) {
       if (p.is_list()) {
@@ -853,9 +892,62 @@ std::string CanonicalPlyHeader(const PlyHeader& h) {
   return s;
 }
 
+std::string RecordName(const PlyElement& e, uint64_t r) {
+  return e.name + " " + Num(r) + " of " + Num(e.count);
+}
+
+// Marks a restart in PlyBodyStats::strips (never a valid vertex index: a
+// PLY has at most 2^32 - 1 vertices).
+constexpr uint32_t kStripRestart = std::numeric_limits<uint32_t>::max();
+
 struct PlyBodyStats {
   uint64_t face_corners = 0;
+  // Every tristrips entry in file order, kStripRestart for -1 and after each
+  // record; every other entry is a checked vertex index.
+  std::vector<uint32_t> strips;
 };
+
+// Checks one tristrips entry (entry k of record r) and appends it.
+Status AddStripEntry(const std::string& path, const PlyElement& e, uint64_t r, uint64_t k, int64_t value,
+                     uint64_t vertex_count, std::vector<uint32_t>* strips) {
+  if (value == -1) {
+    strips->push_back(kStripRestart);
+    return Status::Ok();
+  }
+  if (value < 0) {
+    return Bad(path, RecordName(e, r) + ": entry " + Num(k) + " is " + std::to_string(value) +
+                         " (a strip index must be -1, a restart, or a vertex index)");
+  }
+  if (static_cast<uint64_t>(value) >= vertex_count) {
+    return Bad(path, RecordName(e, r) + ": entry " + Num(k) + " names vertex " +
+                         Num(static_cast<uint64_t>(value)) + ", out of range (the file has " +
+                         Num(vertex_count) + " vertices)");
+  }
+  strips->push_back(static_cast<uint32_t>(value));
+  return Status::Ok();
+}
+
+// glTF's TRIANGLE_STRIP within each run between restarts: triangle i is
+// (v[i], v[i+1], v[i+2]) for even i, (v[i+1], v[i], v[i+2]) for odd i;
+// triangles repeating a vertex (restart degenerates) are skipped.
+void AppendStripTriangles(const std::vector<uint32_t>& strips, std::vector<uint32_t>* indices) {
+  size_t run = 0;
+  while (run < strips.size()) {
+    size_t end = run;
+    while (end < strips.size() && strips[end] != kStripRestart) ++end;
+    for (size_t i = run; i + 2 < end; ++i) {
+      const bool odd = (i - run) % 2 == 1;
+      const uint32_t a = odd ? strips[i + 1] : strips[i];
+      const uint32_t b = odd ? strips[i] : strips[i + 1];
+      const uint32_t c = strips[i + 2];
+      if (a == b || b == c || a == c) continue;
+      indices->push_back(a);
+      indices->push_back(b);
+      indices->push_back(c);
+    }
+    run = end + 1;
+  }
+}
 
 uint64_t ReadUnsigned(const uint8_t* p, int size, bool big_endian) {
   uint64_t v = 0;
@@ -873,10 +965,6 @@ int64_t ReadListLength(const uint8_t* p, const PlyType* t, bool big_endian) {
   const uint64_t sign = uint64_t{1} << (8 * t->size - 1);
   if (raw & sign) return static_cast<int64_t>(raw) - static_cast<int64_t>(sign << 1);
   return static_cast<int64_t>(raw);
-}
-
-std::string RecordName(const PlyElement& e, uint64_t r) {
-  return e.name + " " + Num(r) + " of " + Num(e.count);
 }
 
 Status WalkPlyBinary(const std::string& path, const PlyHeader& h, const PlyLayout& layout,
@@ -940,6 +1028,16 @@ Status WalkPlyBinary(const std::string& path, const PlyHeader& h, const PlyLayou
           return Bad(path, "truncated: " + RecordName(e, r) + " declares " + Num(static_cast<uint64_t>(length)) +
                                " list entries, more than the file holds");
         }
+        if (ei == layout.strips) {
+          const uint64_t vertex_count = h.elements[layout.vertex].count;
+          for (int64_t k = 0; k < length; ++k) {
+            const int64_t value = ReadListLength(data + offset + static_cast<uint64_t>(k) * p.type->size,
+                                                 p.type, big);
+            MS_RETURN_IF_ERROR(AddStripEntry(path, e, r, static_cast<uint64_t>(k), value, vertex_count,
+                                             &stats->strips));
+          }
+          stats->strips.push_back(kStripRestart);
+        }
         offset += bytes;
         if (indices) stats->face_corners += static_cast<uint64_t>(length);
       }
@@ -963,7 +1061,8 @@ Status WalkPlyAscii(const std::string& path, const PlyHeader& h, const PlyLayout
   Tokens tokens(body, h.header_lines + 1);
   for (size_t ei = 0; ei < h.elements.size(); ++ei) {
     const PlyElement& e = h.elements[ei];
-    const bool read_by_openmesh = ei <= layout.face;
+    const bool read_by_openmesh = ei <= layout.last_checked();
+    const bool strips = ei == layout.strips;
     for (uint64_t r = 0; r < e.count; ++r) {
       for (const PlyProperty& p : e.properties) {
         auto where = [&]() { return "line " + Num(tokens.line()) + ": " + RecordName(e, r) + ": "; };
@@ -987,7 +1086,20 @@ Status WalkPlyAscii(const std::string& path, const PlyHeader& h, const PlyLayout
             if (indices && !ParseU32(t, &index)) {
               return Bad(path, where() + "vertex index " + Quote(t) + " is not a non-negative integer");
             }
+            if (strips) {
+              int64_t value = -1;
+              if (t != "-1") {
+                if (!ParseU32(t, &index)) {
+                  return Bad(path, where() + "entry " + Num(k) + ": strip index " + Quote(t) +
+                                       " is neither -1 nor a non-negative integer");
+                }
+                value = index;
+              }
+              MS_RETURN_IF_ERROR(AddStripEntry(path, e, r, k, value, h.elements[layout.vertex].count,
+                                               &stats->strips));
+            }
           }
+          if (strips) stats->strips.push_back(kStripRestart);
           continue;
         }
         if (!read_by_openmesh) continue;
@@ -1020,9 +1132,13 @@ StatusOr<Primitive> ImportPly(const std::string& path, std::string_view data,
     MS_RETURN_IF_ERROR(WalkPlyBinary(path, header, layout, body, &stats));
   }
   const uint64_t vertex_count = header.elements[layout.vertex].count;
-  const uint64_t face_count = header.elements[layout.face].count;
-  if (face_count == 0) {
-    return Bad(path, "no triangles: the PLY file has " + Num(vertex_count) + " vertices but no faces");
+  const uint64_t face_count = layout.face != kNoElement ? header.elements[layout.face].count : 0;
+  std::vector<uint32_t> strip_triangles;
+  AppendStripTriangles(stats.strips, &strip_triangles);
+  stats.strips = std::vector<uint32_t>();
+  if (face_count == 0 && strip_triangles.empty()) {
+    return Bad(path, "no triangles: the PLY file has " + Num(vertex_count) + " vertices but no faces" +
+                         (layout.strips != kNoElement ? " and no non-degenerate strip triangles" : ""));
   }
 
   MeshRecorder recorder(vertex_count, face_count, stats.face_corners);
@@ -1042,7 +1158,9 @@ StatusOr<Primitive> ImportPly(const std::string& path, std::string_view data,
                          Num(vertex_count) + " vertices and " + Num(recorder.face_starts.size()) + " of " +
                          Num(face_count) + " faces");
   }
-  return PrimitiveFromRecorder(path, recorder, warnings);
+  MS_ASSIGN_OR_RETURN(Primitive prim, PrimitiveFromRecorder(path, recorder, warnings));
+  prim.indices.insert(prim.indices.end(), strip_triangles.begin(), strip_triangles.end());
+  return prim;
 }
 
 // ================================================================ [4] OFF

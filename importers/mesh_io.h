@@ -8,6 +8,9 @@
 // fanned into triangles; per-corner attributes (OBJ's vt/vn indices) are
 // unified by splitting vertices, and Scene::source_vertices keeps the file's
 // own position count.
+// PLY triangle strips (a last element 'tristrips' with a 'vertex_indices'
+// list, -1 restarting a strip) are read by this file, not OpenMesh, and
+// become triangles as in glTF's TRIANGLE_STRIP, after the PLY's faces.
 // A file with vertices but no faces is refused ("no triangles", InvalidInput).
 // Kept: every vertex (unreferenced ones too) in file order; faces in file
 // order. Normals are scaled to unit length (with a warning); colours are

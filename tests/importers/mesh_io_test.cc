@@ -368,14 +368,98 @@ TEST_F(MeshIoFiles, BinaryPlyWithCommentBeforeEndHeader) {
   EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2}));
 }
 
-TEST_F(MeshIoFiles, PlyTriangleStripsAreRefusedAsUnsupported) {
-  // OpenMesh's PLY reader knows only 'vertex' and 'face' elements.
-  const std::string path = Write("strips.ply",
-                                 "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
-                                 "property float y\nproperty float z\nelement tristrips 1\n"
-                                 "property list int int vertex_indices\nend_header\n"
-                                 "0 0 0\n1 0 0\n0 1 0\n1 1 0\n4 0 1 2 3\n");
-  ExpectError(Import(path), StatusCode::kUnsupported, path, {"strips"});
+// OpenMesh's PLY reader knows only 'vertex' and 'face' elements; the strips
+// are read by mesh_io.cc and turned into triangles as glTF's TRIANGLE_STRIP.
+const char kStripVertices5[] =
+    "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n";
+const char kStripBody5[] = "0 0 0\n1 0 0\n0 1 0\n1 1 0\n2 0 0\n";
+
+TEST_F(MeshIoFiles, PlyTriangleStripBecomesTriangles) {
+  const std::string path = Write("strip.ply", std::string(kStripVertices5) +
+                                                  "element tristrips 1\nproperty list int int vertex_indices\n"
+                                                  "end_header\n" + kStripBody5 + "5 0 1 2 3 4\n");
+  const Primitive p = Only(MustImport(path));
+  EXPECT_EQ(p.positions.size(), 5u);
+  EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3, 2, 3, 4}));
+}
+
+TEST_F(MeshIoFiles, PlyTriangleStripRestartStartsANewRun) {
+  // Two records: the first restarts after 3 entries; the second is its own
+  // run, whose degenerate first triangle (1,1,2) is skipped.
+  const std::string path = Write("restart.ply", std::string(kStripVertices5) +
+                                                    "element tristrips 2\nproperty list uchar int "
+                                                    "vertex_indices\nend_header\n" + kStripBody5 +
+                                                    "7 0 1 2 -1 3 2 4\n4 1 1 2 3\n");
+  const Primitive p = Only(MustImport(path));
+  EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2, 3, 2, 4, 2, 1, 3}));
+}
+
+TEST_F(MeshIoFiles, BinaryPlyWithVerticesAndStripsOnly) {
+  Bytes b;
+  b.s = "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n";
+  b.f32(0).f32(0).f32(0).f32(1).f32(0).f32(0).f32(0).f32(1).f32(0).f32(1).f32(1).f32(0);
+  b.i32(5).i32(0).i32(1).i32(-1).i32(2).i32(3);
+  const std::string path = Write("strip_le.ply", b.s);
+  // Run [0 1] gives nothing; run [2 3] neither: no triangles.
+  ExpectError(Import(path), StatusCode::kInvalidInput, path, {"no triangles"});
+
+  Bytes c;
+  c.s = "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement tristrips 1\nproperty list uchar int vertex_indices\nend_header\n";
+  c.f32(0).f32(0).f32(0).f32(1).f32(0).f32(0).f32(0).f32(1).f32(0).f32(1).f32(1).f32(0);
+  c.u8(4).i32(0).i32(1).i32(2).i32(3);
+  const Primitive p = Only(MustImport(Write("strip_le2.ply", c.s)));
+  EXPECT_EQ(p.positions, (std::vector<Vec3f>{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}));
+  EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));
+}
+
+TEST_F(MeshIoFiles, PlyFacesComeBeforeStripTriangles) {
+  const std::string path = Write("both.ply", std::string(kStripVertices5) +
+                                                 "element face 1\nproperty list uchar int vertex_indices\n"
+                                                 "element tristrips 1\nproperty list int int vertex_indices\n"
+                                                 "end_header\n" + kStripBody5 + "3 4 3 2\n4 0 1 2 3\n");
+  const Primitive p = Only(MustImport(path));
+  EXPECT_EQ(p.indices, (std::vector<uint32_t>{4, 3, 2, 0, 1, 2, 2, 1, 3}));
+}
+
+TEST_F(MeshIoFiles, BadPlyTriangleStripsAreRefused) {
+  const std::string head = std::string(kStripVertices5) +
+                           "element tristrips 2\nproperty list int int vertex_indices\nend_header\n" +
+                           kStripBody5;
+  const std::string range = Write("strip_range.ply", head + "3 0 1 2\n3 0 1 5\n");
+  ExpectError(Import(range), StatusCode::kInvalidInput, range, {"tristrips 1 of 2", "entry 2", "vertex 5"});
+  const std::string negative = Write("strip_negative.ply", head + "3 0 1 2\n3 0 -2 1\n");
+  ExpectError(Import(negative), StatusCode::kInvalidInput, negative, {"tristrips 1 of 2", "-2"});
+  const std::string truncated = Write("strip_short.ply", head + "3 0 1 2\n4 0 1 2\n");
+  ExpectError(Import(truncated), StatusCode::kInvalidInput, truncated, {"truncated", "tristrips 1 of 2"});
+
+  Bytes b;
+  b.s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n";
+  b.f32(0).f32(0).f32(0).f32(1).f32(0).f32(0).f32(0).f32(1).f32(0);
+  Bytes range_b = b;
+  range_b.i32(3).i32(0).i32(1).i32(3);
+  const std::string brange = Write("strip_range_b.ply", range_b.s);
+  ExpectError(Import(brange), StatusCode::kInvalidInput, brange, {"tristrips 0 of 1", "vertex 3"});
+  Bytes short_b = b;
+  short_b.i32(4).i32(0).i32(1).i32(2);
+  const std::string bshort = Write("strip_short_b.ply", short_b.s);
+  ExpectError(Import(bshort), StatusCode::kInvalidInput, bshort, {"truncated", "tristrips 0 of 1"});
+}
+
+TEST_F(MeshIoFiles, PlyTriangleStripsOpenMeshCannotSkipAreRefused) {
+  const std::string not_last = Write("strip_first.ply", std::string(kStripVertices5) +
+                                                            "element tristrips 1\nproperty list int int "
+                                                            "vertex_indices\nelement face 1\nproperty list "
+                                                            "uchar int vertex_indices\nend_header\n" +
+                                                            kStripBody5 + "3 0 1 2\n3 0 1 2\n");
+  ExpectError(Import(not_last), StatusCode::kUnsupported, not_last, {"tristrips", "last"});
+  const std::string extra = Write("strip_extra.ply", std::string(kStripVertices5) +
+                                                         "element tristrips 1\nproperty list int int "
+                                                         "vertex_indices\nproperty int flags\nend_header\n" +
+                                                         kStripBody5 + "3 0 1 2 7\n");
+  ExpectError(Import(extra), StatusCode::kUnsupported, extra, {"tristrips"});
 }
 
 TEST_F(MeshIoFiles, OffWithAQuad) {
