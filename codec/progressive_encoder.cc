@@ -168,7 +168,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   // Replay from coarse to fine, exactly as the decoder will.
   RefinementState state;
   MS_RETURN_IF_ERROR(state.Reset(cbase));
-  std::vector<uint32_t> neighbours, ring;
+  std::vector<uint32_t> ring;
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
     std::vector<uint32_t> order(k);
@@ -182,7 +182,6 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
     for (uint32_t i : order) {
       const Collapse& c = batch->collapses[i];
       const uint32_t w = canonical[c.u];
-      state.connectivity.SortedNeighbours(w, neighbours);
       if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
       const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
       const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
@@ -193,12 +192,12 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
       // of u swaps the wings (offset d - offset) and negates the deltas.
       const bool swap = offset > d / 2;
       const uint32_t keep = swap ? c.v : c.u;
-      const uint32_t first_wing = canonical[swap ? c.b : c.a];
       const Vec3i& pk = swap ? c.pos_v : c.pos_u;
       const Vec3i& pn = swap ? c.pos_u : c.pos_v;
-      const auto ia = std::lower_bound(neighbours.begin(), neighbours.end(), first_wing);
+      const size_t a_at = static_cast<size_t>((swap ? pb : pa) - ring.begin());
+      const size_t b_at = static_cast<size_t>((swap ? pa : pb) - ring.begin());
       r.split_vertices.push_back(w);
-      r.wings.push_back({static_cast<uint16_t>(ia - neighbours.begin()), static_cast<uint16_t>(swap ? d - offset : offset)});
+      r.wings.push_back(WingsOf(ring, a_at, b_at));
       r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
       const std::vector<int32_t>& ak = swap ? batch->attr_v : batch->attr_u;
       const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;

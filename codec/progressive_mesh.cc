@@ -12,6 +12,37 @@ std::vector<uint32_t> ProgressiveMesh::level_vertices() const {
   return out;
 }
 
+namespace {
+
+// Neighbours of w with a smaller id than ring[at] (a closed fan's ring holds
+// every neighbour once, so this is its rank by id).
+size_t RankInRing(const std::vector<uint32_t>& ring, size_t at) {
+  size_t rank = 0;
+  for (uint32_t x : ring) rank += x < ring[at] ? 1 : 0;
+  return rank;
+}
+
+}  // namespace
+
+std::array<uint16_t, 2> WingsOf(const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
+  const size_t d = ring.size();
+  return {static_cast<uint16_t>(RankInRing(ring, a_at)), static_cast<uint16_t>((b_at + d - a_at) % d)};
+}
+
+bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t, 2>& wings, size_t* a_at,
+                   size_t* b_at) {
+  const size_t d = ring.size();
+  if (wings[1] == 0 || wings[1] >= d) return false;
+  for (size_t k = 0; k < d; ++k) {
+    if (RankInRing(ring, k) == wings[0]) {
+      *a_at = k;
+      *b_at = (k + wings[1]) % d;
+      return true;
+    }
+  }
+  return false;
+}
+
 Status RefinementState::Reset(const QuantizedMesh& base) {
   channels = base.layout.channels();
   positions = base.positions;
@@ -22,23 +53,16 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
 Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   const uint32_t w = r.split_vertices[j];
   if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
-  std::vector<uint32_t>& neighbours = scratch_neighbours;
   std::vector<uint32_t>& ring = scratch_ring;
-  const auto& wings = r.wings[j];
   if (!connectivity.CyclicRing(w, ring)) {
     return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
   }
-  // A closed fan's ring holds every neighbour once: sorted, it is the
-  // neighbour list that wing a indexes.
-  neighbours = ring;
-  std::sort(neighbours.begin(), neighbours.end());
-  if (wings[0] >= neighbours.size() || wings[1] == 0 || wings[1] >= ring.size()) {
+  size_t a_at = 0, b_at = 0;
+  if (!WingPositions(ring, r.wings[j], &a_at, &b_at)) {
     return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
-                        std::to_string(neighbours.size()) + " neighbours");
+                        std::to_string(ring.size()) + " neighbours");
   }
-  const uint32_t a = neighbours[wings[0]];
-  const size_t a_at = static_cast<size_t>(std::find(ring.begin(), ring.end(), a) - ring.begin());
-  const uint32_t n = connectivity.SplitAt(w, ring, a_at, (a_at + wings[1]) % ring.size());
+  const uint32_t n = connectivity.SplitAt(w, ring, a_at, b_at);
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
     u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);

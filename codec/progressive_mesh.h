@@ -46,10 +46,19 @@ struct ProgressiveMesh {
   std::vector<uint32_t> level_vertices() const;
 };
 
+// The coded structure of a split of w, given w's cyclic ring
+// (SplitMesh::CyclicRing) and the ring positions of its wings a and b:
+// {rank of a among the ring's ids, ring steps from a to b}. Encoder and
+// decoder both go through these two functions.
+std::array<uint16_t, 2> WingsOf(const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+// The inverse; false when the coded wings do not fit this ring.
+bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t, 2>& wings, size_t* a_at,
+                   size_t* b_at);
+
 // The state a decoder refines: connectivity plus values on the grids.
 struct RefinementState {
   SplitMesh connectivity;
-  std::vector<uint32_t> scratch_neighbours, scratch_ring;
+  std::vector<uint32_t> scratch_ring;
   std::vector<Vec3i> positions;
   std::vector<int32_t> attributes;
   int channels = 0;

@@ -40,7 +40,6 @@ class RangeEncoder {
   void EncodeUniform(uint32_t value, uint32_t n);
   // Flushes; the coder must not be used afterwards.
   std::vector<uint8_t> Finish();
-  size_t BytesSoFar() const { return out_.size() + cache_size_ + 4; }
 
  private:
   void ShiftLow();

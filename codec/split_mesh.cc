@@ -98,20 +98,6 @@ void SplitMesh::SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const {
   out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 
-StatusOr<uint32_t> SplitMesh::Split(uint32_t w, uint32_t a, uint32_t b) {
-  if (w >= vertex_count() || a >= vertex_count() || b >= vertex_count() || a == b || a == w || b == w) {
-    return InvalidInput("split of vertex " + std::to_string(w) + " names invalid wings");
-  }
-  std::vector<uint32_t> ring;
-  if (!CyclicRing(w, ring)) return InvalidInput("vertex " + std::to_string(w) + " is not a closed manifold fan");
-  const auto ia = std::find(ring.begin(), ring.end(), a);
-  const auto ib = std::find(ring.begin(), ring.end(), b);
-  if (ia == ring.end() || ib == ring.end()) {
-    return InvalidInput("split of vertex " + std::to_string(w) + ": a wing is not a neighbour");
-  }
-  return SplitAt(w, ring, static_cast<size_t>(ia - ring.begin()), static_cast<size_t>(ib - ring.begin()));
-}
-
 void SplitMesh::Reserve(uint32_t vertices, size_t faces) {
   slots_.reserve(vertices);
   faces_.reserve(faces);

@@ -9,9 +9,9 @@
 // of collapsing the edge (w, n) whose left and right triangles were
 // (w, n, a) and (n, w, b) (docs/progressive-format.md, "Vertex split").
 //
-// Contract: pure, no allocation beyond its vectors. Split() refuses (without
-// changing anything) a split whose w is not a closed manifold fan or whose
-// wings are not distinct neighbours of w. Thread safety: none.
+// Contract: pure, no allocation beyond its vectors. A split needs w to be a
+// closed manifold fan: CyclicRing says so, and SplitAt may only follow a
+// CyclicRing(w) that returned true. Thread safety: none.
 #ifndef MESHSTREAM_CODEC_SPLIT_MESH_H_
 #define MESHSTREAM_CODEC_SPLIT_MESH_H_
 
@@ -51,10 +51,9 @@ class SplitMesh {
   // The neighbours of w sorted by id (any connectivity).
   void SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const;
 
-  // Splits w; the new vertex gets id vertex_count(). Returns its id.
-  StatusOr<uint32_t> Split(uint32_t w, uint32_t a, uint32_t b);
-  // The same right after CyclicRing(w, ring) returned true, with the wings
-  // given by their positions in the ring.
+  // Splits w right after CyclicRing(w, ring) returned true, with the wings
+  // given by their positions in the ring; the new vertex gets id
+  // vertex_count(), which is returned.
   uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
   // Room for this many vertices in total, to avoid reallocation while refining.
   void Reserve(uint32_t vertices, size_t faces);

@@ -2,16 +2,6 @@
 
 namespace meshstream {
 
-DracoAttributeIds DracoBaseAttributeIds(const AttributeLayout& layout) {
-  DracoAttributeIds ids;
-  int next = 0;
-  ids.position = next++;
-  if (layout.has_normals) ids.normal = next++;
-  for (int t = 0; t < layout.texcoord_sets; ++t) ids.texcoords.push_back(next++);
-  if (layout.has_colors) ids.color = next++;
-  return ids;
-}
-
 StatusOr<QuantizedMesh> DecodeDracoBase(const uint8_t* data, size_t size, const DracoAttributeIds& ids,
                                         const QuantizedMesh& grids) {
   MS_ASSIGN_OR_RETURN(Primitive decoded, DecodeDracoPrimitive(data, size, ids));

@@ -30,10 +30,6 @@ StatusOr<EncodedBase> EncodeDracoBase(const QuantizedMesh& base, int method, int
 StatusOr<QuantizedMesh> DecodeDracoBase(const uint8_t* data, size_t size, const DracoAttributeIds& ids,
                                         const QuantizedMesh& grids);
 
-// The Draco attribute ids EncodeDracoBase assigns for a layout (the order in
-// which it adds attributes: POSITION, NORMAL, TEXCOORD_n, COLOR_0).
-DracoAttributeIds DracoBaseAttributeIds(const AttributeLayout& layout);
-
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
