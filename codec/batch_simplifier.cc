@@ -257,24 +257,21 @@ class Simplifier {
     for (const Candidate& cand : candidates) {
       Collapse c;
       if (!Legal(cand.u, cand.v, c)) continue;
-      // Close u, v and every neighbour: the produced vertices stay pairwise
-      // non-adjacent in the coarser mesh.
       closed_[c.u] = closed_[c.v] = 1;
       if (options_.rule == BatchRule::kStrict) {
+        // Close every neighbour too: the produced vertices stay pairwise
+        // non-adjacent in the coarser mesh.
         for (uint32_t x : nu_) closed_[x] = 1;
         for (uint32_t x : nv_) closed_[x] = 1;
       } else {
         // Neighbouring collapses change each other's surroundings: apply at
         // once, so that the next candidate is checked on the current mesh.
         Apply(c);
-        applied_now_ = true;
       }
       batch.collapses.push_back(c);
     }
-    if (applied_now_) {
-      applied_now_ = false;
-      return batch;  // kPaper: applied one by one above (attributes not recorded)
-    }
+    // kPaper applied its collapses one by one above (attributes not recorded).
+    if (options_.rule != BatchRule::kStrict) return batch;
     // Record attributes before applying anything (collapses are disjoint).
     for (const Collapse& c : batch.collapses) {
       for (int k = 0; k < channels_; ++k) {
@@ -297,7 +294,6 @@ class Simplifier {
   std::vector<uint8_t> locked_;
   std::vector<uint8_t> closed_;
   uint64_t removed_faces_ = 0;
-  bool applied_now_ = false;
   std::vector<std::array<uint32_t, 2>> pairs_;
   std::vector<uint32_t> nu_, nv_, na_, common_;
 };

@@ -147,6 +147,12 @@ Status StreamHeader::DecodeFixups() {
                           "attribute fix-ups");
 }
 
+std::vector<uint32_t> StreamHeader::level_vertices() const {
+  std::vector<uint32_t> out = {base_vertices};
+  for (uint32_t c : split_counts) out.push_back(out.back() + c);
+  return out;
+}
+
 size_t ProgressiveStream::reliable_bytes() const {
   size_t n = header.size();
   for (const auto& c : control) n += c.size();

@@ -64,6 +64,8 @@ struct StreamHeader {
 
   void Serialize(ByteWriter& w) const;
   static StatusOr<StreamHeader> Parse(const uint8_t* data, size_t size);
+  // Vertices at each level: [0] the base, [i + 1] after refinement i.
+  std::vector<uint32_t> level_vertices() const;
 };
 
 // Everything of one primitive's stream except the base mesh bytes.

@@ -51,16 +51,8 @@ StatusOr<QuantizationGrid> GridOfValues(const std::vector<std::array<float, N>>&
                                         int bits, const char* what) {
   MS_RETURN_IF_ERROR(CheckQuantizationBits(bits, what));
   if (values.empty()) return InvalidInput(std::string("no values to build a ") + what + " grid");
-  std::array<float, N> lo, hi;
-  lo.fill(std::numeric_limits<float>::infinity());
-  hi.fill(-std::numeric_limits<float>::infinity());
-  for (const auto& v : values) {
-    for (size_t c = 0; c < N; ++c) {
-      lo[c] = std::min(lo[c], v[c]);
-      hi[c] = std::max(hi[c], v[c]);
-    }
-  }
-  return GridOfBox<N>(lo, hi, bits);
+  const ComponentBounds<N> b = BoundsOf(values);
+  return GridOfBox<N>(b.lo, b.hi, bits);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "codec/mesh.h"
@@ -45,6 +46,25 @@ struct QuantizationGrid {
 };
 
 Status CheckQuantizationBits(int bits, const char* flag);
+
+// Per-component minimum and maximum of `values` (+inf / -inf when empty).
+template <size_t N>
+struct ComponentBounds {
+  std::array<float, N> lo, hi;
+};
+template <size_t N>
+ComponentBounds<N> BoundsOf(const std::vector<std::array<float, N>>& values) {
+  ComponentBounds<N> b;
+  b.lo.fill(std::numeric_limits<float>::infinity());
+  b.hi.fill(-std::numeric_limits<float>::infinity());
+  for (const auto& v : values) {
+    for (size_t c = 0; c < N; ++c) {
+      b.lo[c] = v[c] < b.lo[c] ? v[c] : b.lo[c];
+      b.hi[c] = v[c] > b.hi[c] ? v[c] : b.hi[c];
+    }
+  }
+  return b;
+}
 
 // Grid of the positions of the vertices referenced by `indices` (all vertices
 // when `indices` is empty). Fails when no vertex is referenced or bits are out

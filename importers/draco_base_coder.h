@@ -22,9 +22,10 @@ namespace meshstream {
 
 BaseMeshEncoder DracoBaseEncoder(int compression_level);
 
-// Encodes; also returns the Draco attribute ids (for the glTF extension).
+// Encodes; also returns, when asked, the Draco attribute ids and the base as
+// Draco decodes it to floats (both for the glTF primitive).
 StatusOr<EncodedBase> EncodeDracoBase(const QuantizedMesh& base, int method, int compression_level,
-                                      DracoAttributeIds* ids);
+                                      DracoAttributeIds* ids, Primitive* decoded_floats = nullptr);
 
 // Decodes a base mesh onto the grids and layout of `grids`.
 StatusOr<QuantizedMesh> DecodeDracoBase(const uint8_t* data, size_t size, const DracoAttributeIds& ids,

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/quantization.h"
 #include "importers/gltf_limits.h"
 #include "importers/import.h"
 
@@ -58,17 +59,9 @@ class DocumentBuilder {
 
   template <size_t N>
   static void AddBounds(json& accessor, const std::vector<std::array<float, N>>& values) {
-    std::array<float, N> lo, hi;
-    lo.fill(std::numeric_limits<float>::infinity());
-    hi.fill(-std::numeric_limits<float>::infinity());
-    for (const auto& v : values) {
-      for (size_t c = 0; c < N; ++c) {
-        lo[c] = std::min(lo[c], v[c]);
-        hi[c] = std::max(hi[c], v[c]);
-      }
-    }
-    accessor["min"] = lo;
-    accessor["max"] = hi;
+    const ComponentBounds<N> b = BoundsOf(values);
+    accessor["min"] = b.lo;
+    accessor["max"] = b.hi;
   }
 
   int AddIndices(const std::vector<uint32_t>& indices, size_t vertex_count) {

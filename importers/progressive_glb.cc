@@ -14,11 +14,6 @@ namespace {
 
 using json = nlohmann::json;
 
-std::vector<uint32_t> LevelVertices(const StreamHeader& h) {
-  std::vector<uint32_t> out = {h.base_vertices};
-  for (uint32_t c : h.split_counts) out.push_back(out.back() + c);
-  return out;
-}
 
 }  // namespace
 
@@ -67,10 +62,12 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
           return true;
         };
       }
-      DracoAttributeIds ids;
+      PrecodedPrimitive& pre = precoded[m][k];
       const int level = options.draco_compression_level;
-      auto encoded = EncodeProgressive(prim, encode, [&ids, level](const QuantizedMesh& base, int method) {
-        return EncodeDracoBase(base, method, level, &ids);
+      // The base coder's last call is the one the encoder kept: its Draco ids
+      // and decoded floats describe the base in the glTF.
+      auto encoded = EncodeProgressive(prim, encode, [&pre, level](const QuantizedMesh& base, int method) {
+        return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
       });
       if (!encoded.ok()) return encoded.status().WithContext(where);
       StreamWriteOptions stream_options = options.stream;
@@ -78,12 +75,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
       auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
       if (!stream.ok()) return stream.status().WithContext(where);
 
-      PrecodedPrimitive& pre = precoded[m][k];
       pre.draco_bytes = encoded->base_bytes;
-      pre.ids = ids;
-      auto decoded = DecodeDracoPrimitive(pre.draco_bytes.data(), pre.draco_bytes.size(), ids);
-      if (!decoded.ok()) return decoded.status().WithContext(where);
-      pre.decoded = std::move(decoded).value();
       pre.extension_name = kProgressiveExtension;
       pre.extension_bytes = stream->Serialize();
       export_options.precoded[m][k] = &pre;
@@ -167,7 +159,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       target = DequantizeMesh(reader->Mesh(), target.material);
       local.levels = std::max<uint64_t>(local.levels, levels);
       local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
-      AddLevelVertices(local.level_vertices, LevelVertices(reader->header()));
+      AddLevelVertices(local.level_vertices, reader->header().level_vertices());
     }
   }
   if (report) *report = std::move(local);
