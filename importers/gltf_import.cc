@@ -857,6 +857,11 @@ std::vector<uint8_t> RebuildGlb(std::string text, const GlbView& glb) {
 
 StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
                                 const std::string& name, const ImportOptions& options) {
+  return ImportGltfBytes(bytes, base_dir, name, options, nullptr);
+}
+
+StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
+                                const std::string& name, const ImportOptions& options, json* document) {
   auto fail = [&](const Status& s) { return s.WithContext(name); };
   if (bytes.size() > options.max_input_bytes) {
     return fail(ResourceExhausted(std::to_string(bytes.size()) + " bytes is above the input cap"));
@@ -933,6 +938,7 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   try {
     auto scene = Convert(model, doc, base_dir, options, bytes.size());
     if (!scene.ok()) return fail(scene.status());
+    if (document) *document = std::move(doc);
     return scene;
   } catch (const std::exception& e) {
     return fail(Internal(std::string("unexpected error: ") + e.what()));

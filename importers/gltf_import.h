@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "codec/mesh.h"
 #include "codec/status.h"
 #include "importers/import.h"
@@ -33,6 +35,12 @@ StatusOr<Scene> ImportGltfFile(const std::string& path, const ImportOptions& opt
 // `name` is used in error messages.
 StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
                                 const std::string& name, const ImportOptions& options);
+
+// The same, also handing back the checked glTF JSON, for readers of our own
+// extensions (the progressive container), so that nobody parses it twice.
+StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::string& base_dir,
+                                const std::string& name, const ImportOptions& options,
+                                nlohmann::json* document);
 
 }  // namespace meshstream
 
