@@ -47,6 +47,7 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
   channels = base.layout.channels();
   positions = base.positions;
   attributes = base.attributes;
+  reliable.assign(base.vertex_count(), 1);
   return connectivity.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices);
 }
 
@@ -70,6 +71,7 @@ Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   }
   positions[w] = u;
   positions.push_back(v);
+  reliable.push_back(1);
   attributes.resize(attributes.size() + channels);
   for (int k = 0; k < channels; ++k) {
     const int32_t d = r.attribute_delta[j * channels + k];

@@ -61,6 +61,7 @@ struct RefinementState {
   std::vector<uint32_t> scratch_ring;
   std::vector<Vec3i> positions;
   std::vector<int32_t> attributes;
+  std::vector<uint8_t> reliable;  // per vertex: 1 decoded exactly (stream_reader.h)
   int channels = 0;
 
   Status Reset(const QuantizedMesh& base);

@@ -231,20 +231,37 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram version"));
   if (version != kDatagramVersion) return Unsupported("datagram version " + std::to_string(version));
   MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram kind"));
-  if (kind > 2) return InvalidInput("datagram kind " + std::to_string(kind) + " is unknown");
+  if (kind > 3) return InvalidInput("datagram kind " + std::to_string(kind) + " is unknown");
   h.kind = static_cast<DatagramKind>(kind);
   MS_ASSIGN_OR_RETURN(uint64_t stream, r.Varint("stream", UINT32_MAX));
   MS_ASSIGN_OR_RETURN(uint64_t refinement, r.Varint("refinement", kMaxRefinements));
   MS_ASSIGN_OR_RETURN(uint64_t stride, r.Varint("stride", kMaxStreamVertices));
   MS_ASSIGN_OR_RETURN(uint64_t offset, r.Varint("offset", kMaxStreamVertices));
   MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("count", kMaxStreamVertices));
-  if (stride == 0 || offset >= stride || count == 0) return InvalidInput("datagram ordinals are not valid");
+  if (kind == static_cast<uint8_t>(DatagramKind::kEnd)) {
+    if (stride != 1 || offset != 0 || r.remaining() != 0) return InvalidInput("an END datagram has stride 1, offset 0, no payload");
+  } else if (stride == 0 || offset >= stride || count == 0) {
+    return InvalidInput("datagram ordinals are not valid");
+  }
   h.stream = static_cast<uint32_t>(stream);
   h.refinement = static_cast<uint32_t>(refinement);
   h.stride = static_cast<uint32_t>(stride);
   h.offset = static_cast<uint32_t>(offset);
   h.count = static_cast<uint32_t>(count);
   return h;
+}
+
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams) {
+  DatagramHeader h;
+  h.kind = DatagramKind::kEnd;
+  h.stream = stream;
+  h.refinement = refinement;
+  h.stride = 1;
+  h.offset = 0;
+  h.count = datagrams;
+  ByteWriter w;
+  h.Serialize(w);
+  return std::move(w.bytes());
 }
 
 }  // namespace meshstream

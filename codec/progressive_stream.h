@@ -39,6 +39,7 @@ enum class DatagramKind : uint8_t {
   kBundled = 0,    // structure then geometry of each split
   kStructure = 1,  // wings only
   kGeometry = 2,   // position and attribute differences only
+  kEnd = 3,        // the sender's END of a refinement: count = its data datagrams, no payload
 };
 
 // The reliable header of a stream.
@@ -93,9 +94,14 @@ struct DatagramHeader {
 
   void Serialize(ByteWriter& w) const;
   // Checks magic, version, kind and that offset < stride; the reader checks
-  // the ordinals against the refinement's split count.
+  // the ordinals against the refinement's split count. An END has stride 1,
+  // offset 0, any count (the refinement's data datagrams) and no payload.
   static StatusOr<DatagramHeader> Parse(ByteReader& r);
 };
+
+// The END datagram the sender puts on the unreliable channel after the data
+// datagrams of a refinement (docs/progressive-format.md, section 6).
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams);
 
 }  // namespace meshstream
 

@@ -4,6 +4,21 @@
 
 namespace meshstream {
 
+void RecoveryStats::Add(const RecoveryStats& o) {
+  exact += o.exact;
+  predicted_both += o.predicted_both;
+  predicted_structure += o.predicted_structure;
+  predicted_geometry += o.predicted_geometry;
+  structure_fallbacks += o.structure_fallbacks;
+  abandoned += o.abandoned;
+}
+
+uint64_t StreamReader::unreliable_vertices() const {
+  uint64_t n = 0;
+  for (uint8_t r : state_.reliable) n += r ? 0 : 1;
+  return n;
+}
+
 StatusOr<StreamReader> StreamReader::Create(const uint8_t* header, size_t size, uint32_t stream_id) {
   StreamReader r;
   MS_ASSIGN_OR_RETURN(r.header_, StreamHeader::Parse(header, size));
@@ -95,8 +110,9 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   }
   const DatagramHeader& h = parsed.value();
   const uint64_t k = current_.split_count();
-  const bool kind_ok = header_.packing == Packing::kBundled ? h.kind == DatagramKind::kBundled
-                                                            : h.kind != DatagramKind::kBundled;
+  const bool kind_ok = header_.packing == Packing::kBundled
+                           ? h.kind == DatagramKind::kBundled
+                           : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
   if (h.stream != stream_id_ || h.refinement != next_ || !kind_ok ||
       h.offset + uint64_t(h.count - 1) * h.stride >= k) {
     ++stats_.rejected;
@@ -145,7 +161,8 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   return true;
 }
 
-Status StreamReader::FinishRefinement() {
+Status StreamReader::FinishRefinement(Recovery recovery) {
+  (void)recovery;
   if (!in_refinement_) return InvalidArgument("no refinement was begun");
   for (size_t j = 0; j < current_.split_count(); ++j) {
     if (!has_structure_[j] || !has_geometry_[j]) {

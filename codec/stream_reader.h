@@ -7,8 +7,16 @@
 // (at most kMaxStreamVertices vertices); a datagram is checked field by field
 // before anything it carries is stored, and a datagram that does not decode
 // cleanly is dropped whole and counted. Split bits and models are reliable:
-// an error there fails the stream. Without loss tolerance (a later stage),
-// FinishRefinement fails when a split lacks its structure or geometry.
+// an error there fails the stream, and their decoding never looks at
+// connectivity or positions (BRIEF, property 5), so they decode bit-exactly
+// whatever was lost.
+//
+// Loss (docs/loss-tolerance.md): FinishRefinement applies every split whose
+// structure and geometry arrived, and recovers the others by `Recovery`:
+// kPredict predicts what is missing (paper, section 4.4; split_prediction.h)
+// so every level has the lossless vertex count; kLwop abandons the split and
+// every later split that depends on it (paper, section 5.3). Per vertex, a
+// reliability bit says whether it was decoded exactly (paper, section 4.5).
 // Thread safety: one reader per stream.
 #ifndef MESHSTREAM_CODEC_STREAM_READER_H_
 #define MESHSTREAM_CODEC_STREAM_READER_H_
@@ -22,6 +30,23 @@
 #include "codec/symbol_model.h"
 
 namespace meshstream {
+
+enum class Recovery : uint8_t {
+  kPredict = 0,  // predict lost structure and/or geometry (the default)
+  kLwop = 1,     // loss without prediction: abandon lost splits and their dependants
+};
+
+// What became of the splits of the refinements finished so far.
+struct RecoveryStats {
+  uint64_t exact = 0;               // case 1: both arrived and applied as coded
+  uint64_t predicted_both = 0;      // case 2: both lost, both predicted
+  uint64_t predicted_structure = 0; // case 3: structure lost (or did not fit the ring), geometry arrived
+  uint64_t predicted_geometry = 0;  // case 4: geometry lost, structure arrived
+  uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
+  uint64_t abandoned = 0;           // kLwop: splits not applied
+  uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
+  void Add(const RecoveryStats& o);
+};
 
 struct DatagramStats {
   uint64_t accepted = 0;
@@ -42,13 +67,23 @@ class StreamReader {
 
   Status BeginRefinement(const uint8_t* control, size_t size);
   bool OfferDatagram(const uint8_t* data, size_t size);
-  Status FinishRefinement();
+  // Applies the current refinement; what was lost is recovered by `recovery`.
+  // Within one stream every refinement must use the same recovery.
+  Status FinishRefinement(Recovery recovery = Recovery::kPredict);
 
   const Refinement& current() const { return current_; }
   const std::vector<uint8_t>& has_structure() const { return has_structure_; }
   const std::vector<uint8_t>& has_geometry() const { return has_geometry_; }
   const DatagramStats& stats() const { return stats_; }
+  const RecoveryStats& recovery_stats() const { return recovery_stats_; }
   const RefinementState& state() const { return state_; }
+  // Per canonical vertex id: 1 decoded exactly, 0 predicted, moved by a
+  // prediction, or with a ring a prediction changed (BRIEF, property 6).
+  const std::vector<uint8_t>& reliable() const { return state_.reliable; }
+  // Vertices that reliable() marks 0 and that exist.
+  uint64_t unreliable_vertices() const;
+  // The current level. Vertices that LwoP never created are left out (the
+  // others keep their relative order), so no vertex is unreferenced.
   QuantizedMesh Mesh() const { return state_.Snapshot(header_.grids); }
 
  private:
@@ -63,6 +98,7 @@ class StreamReader {
   std::vector<uint8_t> has_structure_, has_geometry_;
   std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
   DatagramStats stats_;
+  RecoveryStats recovery_stats_;
 };
 
 }  // namespace meshstream
