@@ -48,6 +48,9 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
   positions = base.positions;
   attributes = base.attributes;
   reliable.assign(base.vertex_count(), 1);
+  flags.assign(base.vertex_count(), 0);
+  any_absent = false;
+  any_inexact = false;
   return connectivity.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices);
 }
 
@@ -72,6 +75,7 @@ Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   positions[w] = u;
   positions.push_back(v);
   reliable.push_back(1);
+  flags.push_back(0);
   attributes.resize(attributes.size() + channels);
   for (int k = 0; k < channels; ++k) {
     const int32_t d = r.attribute_delta[j * channels + k];
@@ -99,6 +103,8 @@ void RefinementState::Reserve(uint32_t final_vertices) {
   const size_t extra = final_vertices > positions.size() ? final_vertices - positions.size() : 0;
   connectivity.Reserve(final_vertices, connectivity.face_count() + 2 * extra);
   positions.reserve(final_vertices);
+  reliable.reserve(final_vertices);
+  flags.reserve(final_vertices);
   attributes.reserve(size_t(final_vertices) * channels);
 }
 
@@ -106,9 +112,23 @@ QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const 
   QuantizedMesh out;
   out.position_grid = base_layout.position_grid;
   out.layout = base_layout.layout;
-  out.positions = positions;
-  out.attributes = attributes;
   out.indices = connectivity.Indices();
+  if (!any_absent) {
+    out.positions = positions;
+    out.attributes = attributes;
+    return out;
+  }
+  // Leave out the vertices LwoP never created; the others keep their order.
+  std::vector<uint32_t> remap(positions.size(), 0);
+  uint32_t kept = 0;
+  for (size_t v = 0; v < positions.size(); ++v) {
+    if (flags[v] & kAbsent) continue;
+    remap[v] = kept++;
+    out.positions.push_back(positions[v]);
+    out.attributes.insert(out.attributes.end(), attributes.begin() + v * channels,
+                          attributes.begin() + (v + 1) * channels);
+  }
+  for (uint32_t& i : out.indices) i = remap[i];
   return out;
 }
 

@@ -55,19 +55,56 @@ std::array<uint16_t, 2> WingsOf(const std::vector<uint32_t>& ring, size_t a_at, 
 bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t, 2>& wings, size_t* a_at,
                    size_t* b_at);
 
+enum class Recovery : uint8_t {
+  kPredict = 0,  // predict lost structure and/or geometry (the default)
+  kLwop = 1,     // loss without prediction: abandon lost splits and their dependants
+};
+
+// What became of the splits of the refinements finished so far.
+struct RecoveryStats {
+  uint64_t exact = 0;               // case 1: both arrived and applied as coded
+  uint64_t predicted_both = 0;      // case 2: both lost, both predicted
+  uint64_t predicted_structure = 0; // case 3: structure lost (or did not fit the ring), geometry arrived
+  uint64_t predicted_geometry = 0;  // case 4: geometry lost, structure arrived
+  uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
+  uint64_t abandoned = 0;           // kLwop: splits not applied
+  uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
+  void Add(const RecoveryStats& o);
+};
+
+// Per-vertex flags of a decoder's state (docs/loss-tolerance.md).
+enum VertexFlag : uint8_t {
+  kRingInexact = 1,      // its ring may differ from the lossless decode's
+  kPositionInexact = 2,  // its values may differ from the lossless decode's
+  kAbsent = 4,           // LwoP never created it (no faces)
+};
+
 // The state a decoder refines: connectivity plus values on the grids.
 struct RefinementState {
   SplitMesh connectivity;
   std::vector<uint32_t> scratch_ring;
   std::vector<Vec3i> positions;
   std::vector<int32_t> attributes;
-  std::vector<uint8_t> reliable;  // per vertex: 1 decoded exactly (stream_reader.h)
+  std::vector<uint8_t> reliable;  // per vertex: 1 when flags are 0 (stream_reader.h)
+  std::vector<uint8_t> flags;     // per vertex: VertexFlag bits
+  bool any_absent = false;
+  bool any_inexact = false;  // some split was predicted
   int channels = 0;
 
   Status Reset(const QuantizedMesh& base);
   // Applies split j of `r` (all data present). Errors leave the state valid.
   Status ApplySplit(const Refinement& r, size_t j);
   Status ApplyRefinement(const Refinement& r);
+  // Split j of `r` with only the parts that arrived; the rest is predicted
+  // or, with kLwop, the split is abandoned (split_recovery.cc). Keeps the
+  // vertex numbering: an abandoned split still takes its id (kAbsent).
+  Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
+                      RecoveryStats* stats);
+  // How many triangles of v are collinear on the grid.
+  int Degenerate(uint32_t v) const;
+  // After a split of w into w and n: moves n (else w) by a grid step or
+  // three when a triangle of theirs is collinear; true when something moved.
+  bool AvoidDegenerateFaces(uint32_t w, uint32_t n);
   // Room for this many vertices, so that splits do not reallocate.
   void Reserve(uint32_t final_vertices);
   QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;

@@ -55,6 +55,9 @@ class SplitMesh {
   // given by their positions in the ring; the new vertex gets id
   // vertex_count(), which is returned.
   uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+  // A vertex without triangles (a split that LwoP abandoned keeps its id);
+  // returns its id.
+  uint32_t AddIsolatedVertex() { return NewSlot(0); }
   // Room for this many vertices in total, to avoid reallocation while refining.
   void Reserve(uint32_t vertices, size_t faces);
 

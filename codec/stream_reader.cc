@@ -1,21 +1,14 @@
 #include "codec/stream_reader.h"
 
+#include <algorithm>
+
 #include "codec/range_coder.h"
 
 namespace meshstream {
 
-void RecoveryStats::Add(const RecoveryStats& o) {
-  exact += o.exact;
-  predicted_both += o.predicted_both;
-  predicted_structure += o.predicted_structure;
-  predicted_geometry += o.predicted_geometry;
-  structure_fallbacks += o.structure_fallbacks;
-  abandoned += o.abandoned;
-}
-
 uint64_t StreamReader::unreliable_vertices() const {
   uint64_t n = 0;
-  for (uint8_t r : state_.reliable) n += r ? 0 : 1;
+  for (uint8_t f : state_.flags) n += f != 0 && (f & kAbsent) == 0 ? 1 : 0;
   return n;
 }
 
@@ -162,15 +155,20 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
 }
 
 Status StreamReader::FinishRefinement(Recovery recovery) {
-  (void)recovery;
   if (!in_refinement_) return InvalidArgument("no refinement was begun");
-  for (size_t j = 0; j < current_.split_count(); ++j) {
-    if (!has_structure_[j] || !has_geometry_[j]) {
-      return InvalidInput("refinement " + std::to_string(next_) + ": split " + std::to_string(j) +
-                          " has no " + (has_structure_[j] ? "geometry" : "structure"));
-    }
+  const std::string where = "refinement " + std::to_string(next_);
+  if (current_.vertices_before != state_.connectivity.vertex_count()) return Internal(where + ": out of step");
+  // Grow geometrically, only by the splits really being applied.
+  const size_t needed = state_.positions.size() + current_.split_count();
+  if (state_.positions.capacity() < needed) {
+    state_.Reserve(static_cast<uint32_t>(std::max(needed, 2 * state_.positions.capacity())));
   }
-  MS_RETURN_IF_ERROR(state_.ApplyRefinement(current_).WithContext("refinement " + std::to_string(next_)));
+  RecoveryStats stats;
+  for (size_t j = 0; j < current_.split_count(); ++j) {
+    MS_RETURN_IF_ERROR(state_.RecoverSplit(current_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &stats)
+                           .WithContext(where));
+  }
+  recovery_stats_.Add(stats);
   in_refinement_ = false;
   ++next_;
   return Status::Ok();

@@ -31,23 +31,6 @@
 
 namespace meshstream {
 
-enum class Recovery : uint8_t {
-  kPredict = 0,  // predict lost structure and/or geometry (the default)
-  kLwop = 1,     // loss without prediction: abandon lost splits and their dependants
-};
-
-// What became of the splits of the refinements finished so far.
-struct RecoveryStats {
-  uint64_t exact = 0;               // case 1: both arrived and applied as coded
-  uint64_t predicted_both = 0;      // case 2: both lost, both predicted
-  uint64_t predicted_structure = 0; // case 3: structure lost (or did not fit the ring), geometry arrived
-  uint64_t predicted_geometry = 0;  // case 4: geometry lost, structure arrived
-  uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
-  uint64_t abandoned = 0;           // kLwop: splits not applied
-  uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
-  void Add(const RecoveryStats& o);
-};
-
 struct DatagramStats {
   uint64_t accepted = 0;
   uint64_t rejected = 0;    // malformed, wrong stream or refinement, bad ordinals

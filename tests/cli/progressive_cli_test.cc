@@ -286,13 +286,16 @@ TEST(ProgressiveCli, UsageErrorsExitTwoAndBadInputExitsOne) {
 // The refinements live at the end of the binary chunk; overwriting the last
 // bytes damages the stream but not the GLB: decode fails with exit 1, and
 // the file is still a glTF whose base level any reader shows.
-TEST(ProgressiveCli, DamagedStreamIsAnErrorNotACrash) {
+// Damage at the end of the file hits the last refinement's datagrams: they
+// are dropped as malformed and their splits predicted, so the decode succeeds
+// with the full vertex count; damage in the reliable part is an error.
+TEST(ProgressiveCli, DamagedStreamIsRecoveredOrAnErrorNotACrash) {
   TempDir dir;
   const std::string glb = dir.File("fandisk.glb");
   const json e = RunJson("encode --json --levels 4 " + Quote(ModelPath("fandisk.obj")) + " -o " + Quote(glb));
   std::string bytes = test_util::ReadText(glb);
   ASSERT_GT(bytes.size(), 64u);
-  int failures = 0;
+  int recovered = 0;
   for (size_t back : {1, 5, 17, 40}) {
     std::string damaged = bytes;
     for (size_t i = damaged.size() - back - 8; i < damaged.size() - back; ++i) damaged[i] = static_cast<char>(0xFF);
@@ -300,11 +303,15 @@ TEST(ProgressiveCli, DamagedStreamIsAnErrorNotACrash) {
     test_util::WriteText(file, damaged);
     const auto r = RunCommand(Cli() + " decode --json " + Quote(file) + " -o " + Quote(dir.File("x.glb")));
     EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.exit_code << " " << r.err;
-    if (r.exit_code == 1) ++failures;
+    if (r.exit_code == 0) {
+      const json d = json::parse(r.out);
+      EXPECT_EQ(U(d, "vertices"), LevelVertices(e).back());
+      if (U(d, "predicted_splits") > 0) ++recovered;
+    }
     const json info = RunJson("info --json " + Quote(file));
     EXPECT_EQ(U(info, "primitive_vertices"), LevelVertices(e).front());
   }
-  EXPECT_GT(failures, 0);
+  EXPECT_GT(recovered, 0);
 }
 
 TEST(ProgressiveCli, EncodeAndDecodeHaveHelp) {

@@ -1,0 +1,81 @@
+// Prediction of a vertex split whose data was lost (paper, section 4.4;
+// docs/loss-tolerance.md). Everything works on one split vertex w and its
+// one-ring, in the least-squares plane of the ring: O(valence) per split, no
+// global pass.
+//
+// - Case 2 (structure and geometry lost): PredictWings finds the ring edge
+//   farthest from w in the plane, puts the new vertex at the centroid of the
+//   triangle it forms with w, and runs Delaunay edge flips that keep w and
+//   the new vertex adjacent (the result is again a vertex split, so later
+//   splits still refer to rings); PredictGeometry then places both vertices.
+// - Case 3 (structure lost, geometry arrived): WingsFromGeometry chooses the
+//   wings that best separate the ring vertices nearer the new vertex from
+//   those nearer w.
+// - Case 4 (geometry lost): PredictGeometry alone, on the coded wings.
+//
+// Contract: pure functions of their arguments; never fail (degenerate rings
+// fall back to any plane); results are ring positions in [0, ring size).
+// Thread safety: none needed.
+#ifndef MESHSTREAM_CODEC_SPLIT_PREDICTION_H_
+#define MESHSTREAM_CODEC_SPLIT_PREDICTION_H_
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "codec/mesh.h"
+#include "codec/quantized_mesh.h"
+
+namespace meshstream {
+
+using Vec2d = std::array<double, 2>;
+
+// w's one-ring in its least-squares plane (the parametric plane).
+struct RingFrame {
+  Vec3d w{};                    // w's position
+  std::vector<Vec3d> ring;      // ring positions, in ring order
+  Vec2d w_uv{};                 // projections onto the plane
+  std::vector<Vec2d> ring_uv;
+  Vec3d origin{}, axis_u{}, axis_v{}, normal{};
+  Vec2d Project(const Vec3d& p) const;
+};
+
+// Fits the plane through w and its ring (smallest eigenvector of their
+// covariance, oriented like the fan's normal so the ring turns
+// counter-clockwise in the plane).
+RingFrame FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring);
+
+struct PredictedWings {
+  size_t a_at = 0, b_at = 0;  // ring positions of the wings (SplitMesh::SplitAt)
+  Vec2d new_uv{};             // where the new vertex sits in the plane
+};
+
+// Case 2: steps 2-5 of the paper.
+PredictedWings PredictWings(const RingFrame& frame);
+
+// Case 3: u is w's position after the split, v the new vertex's.
+PredictedWings WingsFromGeometry(const RingFrame& frame, const Vec3i& u, const Vec3i& v);
+
+// The plane position of the new vertex for the coded wings of case 4: midway
+// between w and the mean of the ring vertices it will be joined to.
+Vec2d NewVertexUv(const RingFrame& frame, size_t a_at, size_t b_at);
+
+struct PredictedGeometry {
+  Vec3i u{}, v{};                   // w's and the new vertex's positions
+  std::vector<int32_t> u_channels;  // their attribute channels
+  std::vector<int32_t> v_channels;
+};
+
+// Step 6 of the paper (inverse-distance weights in the plane, Eq. 1-2): the
+// new vertex from its neighbours (ring[b..a] and w), then w from its
+// neighbours (ring[a..b] and the new vertex); channels with the same
+// weights. Then both are shifted together so that their midpoint is w's
+// coarse position (which the coarse vertex holds exactly), and clamped to
+// the range of the values they were made from. `channels` holds w's
+// channels then the ring's, `count` per vertex.
+PredictedGeometry PredictGeometry(const RingFrame& frame, size_t a_at, size_t b_at, const Vec2d& new_uv,
+                                  const std::vector<int32_t>& channels, int count);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_SPLIT_PREDICTION_H_

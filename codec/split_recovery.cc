@@ -1,0 +1,250 @@
+// RefinementState::RecoverSplit: one split of a refinement with whatever of
+// its data arrived (paper, sections 4.3-4.5 and 5.3; docs/loss-tolerance.md).
+#include <algorithm>
+
+#include "codec/batch_simplifier.h"
+#include "codec/progressive_mesh.h"
+#include "codec/split_prediction.h"
+
+namespace meshstream {
+
+namespace {
+
+constexpr size_t kMaxScanValence = 32;
+
+// Twice the area vector of (a, b, c) on the integer grid is zero.
+bool Collinear(const Vec3i& a, const Vec3i& b, const Vec3i& c) {
+  const int64_t e[3] = {int64_t(b[0]) - a[0], int64_t(b[1]) - a[1], int64_t(b[2]) - a[2]};
+  const int64_t f[3] = {int64_t(c[0]) - a[0], int64_t(c[1]) - a[1], int64_t(c[2]) - a[2]};
+  return e[1] * f[2] - e[2] * f[1] == 0 && e[2] * f[0] - e[0] * f[2] == 0 && e[0] * f[1] - e[1] * f[0] == 0;
+}
+
+}  // namespace
+
+void RecoveryStats::Add(const RecoveryStats& o) {
+  exact += o.exact;
+  predicted_both += o.predicted_both;
+  predicted_structure += o.predicted_structure;
+  predicted_geometry += o.predicted_geometry;
+  structure_fallbacks += o.structure_fallbacks;
+  abandoned += o.abandoned;
+}
+
+Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry,
+                                     Recovery recovery, RecoveryStats* stats) {
+  const uint32_t w = r.split_vertices[j];
+  if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
+  auto mark = [&](uint32_t v, uint8_t bits) {
+    flags[v] |= bits;
+    reliable[v] = flags[v] == 0;
+  };
+  // The common case: everything arrived and w is as the lossless decode has it.
+  if (has_structure && has_geometry && flags[w] == 0) {
+    ++stats->exact;
+    MS_RETURN_IF_ERROR(ApplySplit(r, j));
+    // Exact values next to predicted ones can still line up.
+    if (any_inexact) {
+      const uint32_t n = connectivity.vertex_count() - 1;
+      if (AvoidDegenerateFaces(w, n)) {
+        mark(w, kPositionInexact);
+        mark(n, kPositionInexact);
+      }
+    }
+    return Status::Ok();
+  }
+  std::vector<uint32_t>& ring = scratch_ring;
+  const bool fan = (flags[w] & kAbsent) == 0 && connectivity.CyclicRing(w, ring);
+
+  if (recovery == Recovery::kLwop) {
+    // Abandon when data is missing, or when w was abandoned, never created or
+    // has a ring or position the lossless decode does not have (its coded
+    // structure and geometry refer to those). The new id stays reserved.
+    if (!has_structure || !has_geometry || flags[w] != 0 || !fan) {
+      ++stats->abandoned;
+      mark(w, kRingInexact | kPositionInexact);
+      if (fan) {
+        for (uint32_t x : ring) mark(x, kRingInexact);
+      }
+      connectivity.AddIsolatedVertex();
+      positions.push_back(positions[w]);
+      attributes.resize(attributes.size() + size_t(channels));
+      std::copy_n(attributes.begin() + size_t(w) * channels, channels, attributes.end() - channels);
+      flags.push_back(kAbsent | kRingInexact | kPositionInexact);
+      reliable.push_back(0);
+      any_absent = true;
+      return Status::Ok();
+    }
+    ++stats->exact;
+    return ApplySplit(r, j);
+  }
+
+  if (!fan) return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
+  // Error control: structure that does not fit the ring the decoder really
+  // has is treated as lost.
+  size_t a_at = 0, b_at = 0;
+  bool structure = has_structure && WingPositions(ring, r.wings[j], &a_at, &b_at);
+  if (has_structure && !structure) ++stats->structure_fallbacks;
+
+  std::vector<Vec3i> ring_positions(ring.size());
+  for (size_t k = 0; k < ring.size(); ++k) ring_positions[k] = positions[ring[k]];
+  const Vec3i s = positions[w];
+  const RingFrame frame = FitRingFrame(s, ring_positions);
+
+  Vec3i u{}, v{};
+  std::vector<int32_t> u_ch(static_cast<size_t>(channels)), v_ch(static_cast<size_t>(channels));
+  if (has_geometry) {
+    for (int k = 0; k < 3; ++k) {
+      u[k] = FromMidpoint(s[k], r.position_delta[j][k]);
+      v[k] = static_cast<int32_t>(int64_t(u[k]) - r.position_delta[j][k]);
+    }
+    for (int k = 0; k < channels; ++k) {
+      const int32_t dk = r.attribute_delta[j * channels + k];
+      u_ch[k] = FromMidpoint(attributes[size_t(w) * channels + k], dk);
+      v_ch[k] = static_cast<int32_t>(int64_t(u_ch[k]) - dk);
+    }
+  }
+  // Would the split (u, v, wings at a_at, b_at) make a collinear triangle?
+  const size_t d = ring.size();
+  auto degenerate = [&](const Vec3i& pu, const Vec3i& pv, size_t a, size_t b) {
+    if (Collinear(pu, pv, ring_positions[a]) || Collinear(pv, pu, ring_positions[b])) return true;
+    const size_t path = (a + d - b) % d;
+    for (size_t step = 0; step < d; ++step) {
+      const size_t k = (b + step) % d;
+      if (Collinear(step < path ? pv : pu, ring_positions[k], ring_positions[(k + 1) % d])) return true;
+    }
+    return false;
+  };
+  Vec2d new_uv{};
+  if (!structure) {
+    const PredictedWings wings = has_geometry ? WingsFromGeometry(frame, u, v) : PredictWings(frame);
+    a_at = wings.a_at;
+    b_at = wings.b_at;
+    new_uv = wings.new_uv;
+  } else if (!has_geometry) {
+    new_uv = NewVertexUv(frame, a_at, b_at);
+  }
+  if (!has_geometry) {
+    std::vector<int32_t> values;
+    values.reserve((ring.size() + 1) * size_t(channels));
+    values.insert(values.end(), attributes.begin() + size_t(w) * channels,
+                  attributes.begin() + size_t(w + 1) * channels);
+    for (uint32_t x : ring)
+      values.insert(values.end(), attributes.begin() + size_t(x) * channels,
+                    attributes.begin() + size_t(x + 1) * channels);
+    PredictedGeometry g = PredictGeometry(frame, a_at, b_at, new_uv, values, channels);
+    // A predicted vertex must not make a triangle of w's or n's collinear; the
+    // first fallback keeps w where it is and puts n at the centroid of (w, a, b).
+    if (degenerate(g.u, g.v, a_at, b_at)) {
+      Vec3i c{};
+      for (int k = 0; k < 3; ++k) {
+        c[k] = static_cast<int32_t>((int64_t(s[k]) + ring_positions[a_at][k] + ring_positions[b_at][k]) / 3);
+      }
+      if (!degenerate(s, c, a_at, b_at)) {
+        g.u = s;
+        g.v = c;
+      }
+    }
+    u = g.u;
+    v = g.v;
+    u_ch = std::move(g.u_channels);
+    v_ch = std::move(g.v_channels);
+  }
+  // Last resort, rare (a wrong ring or a prediction on a sliver): the wings
+  // that make no collinear triangle and best separate the ring between u and
+  // v. O(valence^3), only when the choice above would be degenerate.
+  if (degenerate(u, v, a_at, b_at) && d <= kMaxScanValence) {
+    const Vec3d dir = {double(v[0]) - u[0], double(v[1]) - u[1], double(v[2]) - u[2]};
+    auto score = [&](size_t k) {
+      double t = 0;
+      for (int c = 0; c < 3; ++c) t += (ring_positions[k][c] - (double(u[c]) + v[c]) / 2) * dir[c];
+      return t;
+    };
+    double best = -1e300;
+    bool found = false;
+    for (size_t b = 0; b < d; ++b) {
+      for (size_t a = 0; a < d; ++a) {
+        if (a == b || degenerate(u, v, a, b)) continue;
+        double value = score(a) + score(b);
+        for (size_t k = (b + 1) % d; k != a; k = (k + 1) % d) value += 2 * score(k);
+        if (value > best) {
+          best = value;
+          a_at = a;
+          b_at = b;
+          found = true;
+        }
+      }
+    }
+    if (found && structure) {
+      structure = false;
+      ++stats->structure_fallbacks;
+    }
+  }
+  // Reliability bits (paper, section 4.5). What w's data depends on carries
+  // over to both vertices of the split.
+  const uint8_t inherited = flags[w] & (kRingInexact | kPositionInexact);
+  uint8_t both = inherited;
+  if (!has_geometry) both |= kPositionInexact;
+  // Structure applied to a ring that may not be the lossless one changes the
+  // rings of w's neighbours in ways the lossless decode may not have.
+  if (!structure || (inherited & kRingInexact)) {
+    both |= kRingInexact;
+    for (uint32_t x : ring) mark(x, kRingInexact);
+  }
+  if (!structure) {
+    ++(has_geometry ? stats->predicted_structure : stats->predicted_both);
+  } else if (!has_geometry) {
+    ++stats->predicted_geometry;
+  } else {
+    ++stats->exact;
+  }
+
+  const uint32_t n = connectivity.SplitAt(w, ring, a_at, b_at);
+  positions[w] = u;
+  positions.push_back(v);
+  attributes.resize(attributes.size() + size_t(channels));
+  std::copy(u_ch.begin(), u_ch.end(), attributes.begin() + size_t(w) * channels);
+  std::copy(v_ch.begin(), v_ch.end(), attributes.begin() + size_t(n) * channels);
+  flags.push_back(0);
+  reliable.push_back(1);
+  if (AvoidDegenerateFaces(w, n)) both |= kPositionInexact;
+  any_inexact = true;
+  mark(w, both);
+  mark(n, both);
+  return Status::Ok();
+}
+
+int RefinementState::Degenerate(uint32_t v) const {
+  int count = 0;
+  for (uint32_t f : connectivity.faces_of(v)) {
+    const Face& t = connectivity.faces()[f];
+    count += Collinear(positions[t[0]], positions[t[1]], positions[t[2]]) ? 1 : 0;
+  }
+  return count;
+}
+
+bool RefinementState::AvoidDegenerateFaces(uint32_t w, uint32_t n) {
+  if (Degenerate(w) == 0 && Degenerate(n) == 0) return false;
+  // The new vertex, then w, moves by the smallest grid step that leaves the
+  // fewest collinear triangles around the two (a prediction, whatever
+  // arrived). Moving one vertex changes only its own triangles.
+  for (uint32_t moving : {n, w}) {
+    int best = Degenerate(moving);
+    Vec3i best_at = positions[moving];
+    const Vec3i at = positions[moving];
+    for (int32_t r = 1; r <= 3 && best > 0; ++r) {
+      for (int k = 0; k < 27 && best > 0; ++k) {
+        if (k == 13) continue;
+        positions[moving] = {at[0] + r * (k % 3 - 1), at[1] + r * (k / 3 % 3 - 1), at[2] + r * (k / 9 - 1)};
+        const int count = Degenerate(moving);
+        if (count < best) {
+          best = count;
+          best_at = positions[moving];
+        }
+      }
+    }
+    positions[moving] = best_at;
+  }
+  return true;
+}
+
+}  // namespace meshstream
