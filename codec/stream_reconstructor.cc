@@ -52,18 +52,25 @@ StreamReconstructor::Pending& StreamReconstructor::At(size_t k) {
   return pending_[k];
 }
 
-void StreamReconstructor::Offer(Pending& p) {
-  for (; p.offered < p.seen.size(); ++p.offered) {
-    const std::vector<uint8_t>& d = p.seen[p.offered];
-    const uint64_t accepted = reader_.stats().accepted;
-    if (!reader_.OfferDatagram(d.data(), d.size())) {
-      ++stats_.rejected;
-      continue;
-    }
+void StreamReconstructor::OfferOne(Pending& p, const uint8_t* data, size_t size) {
+  const uint64_t accepted = reader_.stats().accepted;
+  if (!reader_.OfferDatagram(data, size)) {
+    ++stats_.rejected;
+  } else if (reader_.stats().accepted != accepted) {
+    ++stats_.accepted;
     ++p.usable;
-    if (reader_.stats().accepted != accepted) ++stats_.accepted;
-    else ++stats_.duplicates;  // every unit it carries arrived in another datagram
+  } else {
+    ++stats_.duplicates;  // every unit it carries arrived in another datagram
   }
+}
+
+void StreamReconstructor::Offer(Pending& p) {
+  for (const std::vector<uint8_t>& d : p.seen) {
+    OfferOne(p, d.data(), d.size());
+    buffered_bytes_ -= d.size() + kEntryOverhead;
+  }
+  p.seen = {};
+  p.by_hash = {};
 }
 
 Status StreamReconstructor::BeginFront() {
@@ -151,6 +158,10 @@ void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t 
     return;
   }
   Pending& p = At(k);
+  if (k == 0 && begun_) {
+    OfferOne(p, data, size);  // the refinement being decoded: straight to the reader
+    return;
+  }
   const uint64_t hash = HashBytes(data, size);
   const auto range = p.by_hash.equal_range(hash);
   for (auto it = range.first; it != range.second; ++it) {
@@ -165,20 +176,8 @@ void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t 
     ++stats_.overflow;
     return;
   }
-  if (k == 0 && begun_) {
-    // The refinement being decoded: straight to the reader; kept only to recognize copies.
-    const uint64_t accepted = reader_.stats().accepted;
-    if (!reader_.OfferDatagram(data, size)) {
-      ++stats_.rejected;
-      return;
-    }
-    ++p.usable;
-    if (reader_.stats().accepted != accepted) ++stats_.accepted;
-    else ++stats_.duplicates;
-  }
   p.by_hash.emplace(hash, static_cast<uint32_t>(p.seen.size()));
   p.seen.emplace_back(data, data + size);
-  if (k == 0 && begun_) p.offered = p.seen.size();
   buffered_bytes_ += cost;
 }
 
@@ -194,7 +193,6 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   if (!finished.ok()) return failed_ = finished.WithContext("reconstructor");
   ++(complete ? stats_.finished_complete : stats_.finished_timeout);
   begun_ = false;
-  for (const auto& d : p.seen) buffered_bytes_ -= d.size() + kEntryOverhead;
   pending_.pop_front();
   if (!done() && !pending_.empty() && pending_.front().has_control) MS_RETURN_IF_ERROR(BeginFront());
   return true;

@@ -20,20 +20,21 @@
 //
 // Details:
 //   - A refinement is begun in the reader (BeginRefinement, then its buffered
-//     datagrams) as soon as its control block has arrived and the previous
-//     refinement is finished; its datagrams then go straight to the reader.
-//   - Completeness counts distinct datagrams the reader took (byte-identical
-//     copies once) against the END's count.
+//     datagrams, which are released) as soon as its control block has
+//     arrived and the previous refinement is finished; its datagrams then go
+//     straight to the reader and are not buffered.
+//   - "Every datagram the END announces has arrived" is counted as: that many
+//     datagrams gave the reader a unit it did not have yet. The sender's
+//     datagrams carry disjoint units, so copies and datagrams made of units
+//     already there never count.
 //   - Datagrams are checked (DatagramHeader::Parse, stream id, refinement,
 //     kind for the packing, ordinals against the split count) before anything
 //     is stored; an END announcing more than twice the split count is
 //     rejected. ENDs are small and kept for any refinement to decode.
-//   - A byte-identical copy of a datagram already seen for its refinement
-//     counts as a duplicate; so does one whose units all arrived already
-//     (the reader's own check).
+//   - Duplicates: a buffered datagram byte-identical to one already buffered
+//     for its refinement, or any datagram whose units the reader already has.
 //   - Every buffered datagram is charged its size plus a fixed 64 bytes of
-//     bookkeeping against max_buffered_bytes; a refinement's datagrams are
-//     released when it is finished.
+//     bookkeeping against max_buffered_bytes until its refinement is begun.
 //   - With lod >= 0 only refinements [0, lod) are decoded; control blocks
 //     past it are ignored and datagrams past it are counted as late.
 //   - Flush counts a refinement as finished_complete when it is complete,
@@ -106,18 +107,18 @@ class StreamReconstructor {
     uint64_t control_time_us = 0;
     bool has_end = false;
     uint32_t announced = 0;                         // data datagrams the END announced
-    // Distinct data datagrams (byte-identical copies are kept once), in
-    // arrival order; [0, offered) have been handed to the reader.
+    // Distinct data datagrams (byte-identical copies are kept once) that
+    // arrived before the refinement was begun, in arrival order.
     std::vector<std::vector<uint8_t>> seen;
     std::unordered_multimap<uint64_t, uint32_t> by_hash;  // hash of bytes -> index in seen
-    size_t offered = 0;
-    uint32_t usable = 0;  // offered datagrams the reader took (for completeness)
+    uint32_t usable = 0;  // datagrams that gave the reader a unit it did not have (completeness)
   };
   StreamReconstructor() = default;
   size_t limit() const;  // refinements to decode (lod and the stream's count)
   Pending& At(size_t k);  // pending_[k], grown as needed
   Status BeginFront();    // begins refinement applied() when its control arrived
-  void Offer(Pending& p);  // hands p's datagrams that are not offered yet to the reader
+  void Offer(Pending& p);  // hands p's buffered datagrams to the reader and releases them
+  void OfferOne(Pending& p, const uint8_t* data, size_t size);
   bool Complete(const Pending& p) const;
   // Finishes refinement applied() if it is ready at now_us (or whenever its
   // control arrived, when flushing), then begins the next; returns whether it did.
