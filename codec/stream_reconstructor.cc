@@ -87,12 +87,12 @@ bool StreamReconstructor::Complete(const Pending& p) const {
 }
 
 Status StreamReconstructor::OnControl(const uint8_t* control, size_t size, uint64_t now_us) {
+  MS_RETURN_IF_ERROR(failed_);
   if (!has_base_) return InvalidArgument("reconstructor: a control block arrived before the base mesh was set");
   if (controls_ >= reader_.refinement_count()) {
     return InvalidInput("reconstructor: control block " + std::to_string(controls_) + " but the stream has " +
                         std::to_string(reader_.refinement_count()) + " refinements");
   }
-  MS_RETURN_IF_ERROR(failed_);
   const size_t index = controls_++;
   if (index >= limit()) return Status::Ok();  // beyond the level of detail asked for
   // Controls arrive in order and refinements are decoded only after theirs, so index >= applied().
