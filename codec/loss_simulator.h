@@ -58,6 +58,8 @@ struct TransmissionStats {
   uint64_t reordered = 0;
 };
 
+// Move it, do not copy it: a copy's events still point at the original's
+// END datagrams.
 struct Transmission {
   std::vector<std::vector<uint8_t>> end_datagrams;  // owned END datagrams
   std::vector<ChannelEvent> events;                  // by arrival time
@@ -66,6 +68,21 @@ struct Transmission {
 
 // Sends refinements [0, refinements) of `stream` (numbered `stream_id` in
 // its datagrams); refinements beyond the stream's count are an error.
+//
+// Schedule: refinement i starts at i * refinement_interval_us; its control
+// block arrives reliable_latency_us later; its d-th datagram is sent at the
+// start + d * datagram_interval_us and its END one interval after the last
+// datagram; a datagram arrives unreliable_latency_us after it is sent, plus
+// a uniform extra delay in (0, reorder_delay_us] for the `reorder` fraction;
+// the copy of a duplicated datagram arrives within one datagram interval after
+// it. Loss applies to data and END datagrams alike: independent when
+// burst <= 1, otherwise a Gilbert-Elliott chain with stationary loss `loss`
+// and mean loss-run length `burst` (p(bad -> good) = 1 / burst,
+// p(good -> bad) = loss / (burst (1 - loss))). Every datagram takes the same
+// number of draws from the generator whatever the model, so for one seed the
+// loss pattern does not depend on `reorder` and `duplicate`. Events are
+// ordered by arrival time, ties by send order (a control block before its
+// refinement's datagrams, a copy after its original).
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
                                             const LossModel& model, const LinkTiming& timing = {});
 

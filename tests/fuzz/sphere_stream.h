@@ -79,6 +79,7 @@ inline StatusOr<EncodedBase> ReversingBaseCoder(const QuantizedMesh& base, int) 
 
 struct SphereStream {
   ProgressiveStream stream;
+  QuantizedMesh base;                  // as the base decoder returned it (for SetBase)
   std::vector<StreamReader> prepared;  // [r]: ready for BeginRefinement(r)
   std::vector<QuantizedMesh> expected; // [r]: the mesh after refinement r
   std::vector<Refinement> refinements; // [r]: what refinement r carries
@@ -122,6 +123,7 @@ inline SphereStream BuildSphereStream(Packing packing) {
   SphereStream s;
   s.stream = std::move(stream).value();
   s.refinements = enc->mesh.refinements;
+  s.base = enc->mesh.base;
   auto reader = StreamReader::Create(s.stream.header.data(), s.stream.header.size());
   if (!reader.ok()) Bug(target, "header: " + reader.status().ToString());
   // The canonical base is what the base decoder returned.
