@@ -21,21 +21,6 @@ using test_util::Fandisk;
 using test_util::kRealStreamId;
 using test_util::RealStream;
 
-bool RecoveryAvailable() {
-  const RealStream& s = Fandisk();
-  auto reader = StreamReader::Create(s.stream.header.data(), s.stream.header.size(), kRealStreamId);
-  if (!reader.ok() || !reader->SetBase(s.base).ok()) return false;
-  if (!reader->BeginRefinement(s.stream.control[0].data(), s.stream.control[0].size()).ok()) return false;
-  return reader->FinishRefinement(Recovery::kPredict).ok();  // nothing arrived: everything to predict
-}
-
-#define REQUIRE_RECOVERY()                                                                         \
-  do {                                                                                             \
-    if (!RecoveryAvailable())                                                                      \
-      GTEST_SKIP() << "StreamReader::FinishRefinement cannot recover lost splits yet (recovery is " \
-                      "being implemented on another branch)";                                      \
-  } while (false)
-
 void ExpectSameMesh(const QuantizedMesh& got, const QuantizedMesh& want, const std::string& what) {
   EXPECT_EQ(got.positions, want.positions) << what;
   EXPECT_EQ(got.attributes, want.attributes) << what;
@@ -127,7 +112,6 @@ void ExpectNoWorseThanLossless(const QuantizedMesh& got, size_t level, const std
 }
 
 TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
-  REQUIRE_RECOVERY();
   const RealStream& s = Fandisk();
   const size_t n = s.stream.control.size();
   for (double burst : {0.0, 3.0}) {
@@ -157,7 +141,6 @@ TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
 }
 
 TEST(LossyDecode, PredictionSurvivesLosingEverything) {
-  REQUIRE_RECOVERY();
   const RealStream& s = Fandisk();
   LossyDecodeOptions options;
   options.loss.loss = 1;
@@ -171,7 +154,6 @@ TEST(LossyDecode, PredictionSurvivesLosingEverything) {
 }
 
 TEST(LossyDecode, LossWithoutPredictionAbandonsButStaysValid) {
-  REQUIRE_RECOVERY();
   const RealStream& s = Fandisk();
   LossyDecodeOptions options;
   options.loss.loss = 0.15;
@@ -187,7 +169,6 @@ TEST(LossyDecode, LossWithoutPredictionAbandonsButStaysValid) {
 }
 
 TEST(LossyDecode, SameSeedSameMeshUnderLoss) {
-  REQUIRE_RECOVERY();
   const RealStream& s = Fandisk();
   LossyDecodeOptions options;
   options.loss.loss = 0.2;

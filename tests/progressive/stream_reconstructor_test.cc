@@ -289,7 +289,9 @@ TEST(StreamReconstructor, FlushFinishesWhatHasAControl) {
   StreamReconstructor rec = Make();
   for (size_t i = 0; i < 3; ++i) {
     SendData(rec, i, 0);
-    if (i < 2) ASSERT_TRUE(SendControl(rec, i, 0).ok());
+    if (i < 2) {
+      ASSERT_TRUE(SendControl(rec, i, 0).ok());
+    }
   }
   EXPECT_EQ(rec.Poll(0).value(), 0u);  // no END arrived and no time has passed
   ASSERT_TRUE(rec.Flush().ok());
