@@ -1,4 +1,5 @@
-// meshstream decode IN.glb -o OUT [--lod K] [--repeat N] [--json]
+// meshstream decode IN.glb -o OUT [--lod K] [--loss P] [--seed S] [--burst B] [--reorder R]
+//   [--duplicate D] [--recovery predict|lwop] [--repeat N] [--json]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -19,13 +20,25 @@ namespace meshstream::cli {
 namespace {
 
 const char kHelp[] =
-    "usage: meshstream decode IN.glb -o OUT.(glb|gltf|obj|ply) [--lod K] [--repeat N] [--json]\n"
+    "usage: meshstream decode IN.glb -o OUT.(glb|gltf|obj|ply) [--lod K] [--loss P] [--seed S]\n"
+    "         [--burst B] [--reorder R] [--duplicate D] [--recovery predict|lwop] [--repeat N] [--json]\n"
     "\n"
     "Decodes a progressive .glb made by `meshstream encode` to the level of detail K\n"
-    "(0 = the base mesh, `levels` = the full mesh, the default) and writes it.\n"
+    "(0 = the base mesh, `levels` = the full mesh, the default) and writes it. The\n"
+    "refinements cross a simulated network (seeded, so a run repeats exactly): the\n"
+    "control blocks reliably, the datagrams with loss, reordering and duplication;\n"
+    "what is lost is predicted (or abandoned with --recovery lwop). With no loss the\n"
+    "result is the lossless mesh, through the same code path.\n"
     "\n"
     "Options:\n"
-    "  --lod K      refinements to apply (per primitive, clamped to its own count)\n"
+    "  --lod K         refinements to apply (per primitive, clamped to its own count)\n"
+    "  --loss P        probability that a datagram is lost, 0..1 (default 0)\n"
+    "  --burst B       mean length of a loss burst (default: independent losses)\n"
+    "  --reorder R     fraction of datagrams delayed behind later ones, 0..1 (default 0)\n"
+    "  --duplicate D   fraction of datagrams delivered twice, 0..1 (default 0)\n"
+    "  --seed S        seed of the simulated network (default 1)\n"
+    "  --recovery M    predict (default): predict lost splits (paper, section 4.4);\n"
+    "                  lwop: abandon them and every split that depends on them\n"
     "  --repeat N   decode N times in-process and report the median decode_ms (default 1)\n"
     "  --json       print one JSON object: counts, mesh health, decode_ms (from the file's\n"
     "               bytes in memory to the final mesh in memory: Draco base decode,\n"
@@ -34,7 +47,17 @@ const char kHelp[] =
 }  // namespace
 
 int RunDecode(const std::vector<std::string>& argv) {
-  auto parsed = ParseArgs(argv, {{"o", true}, {"output", true}, {"lod", true}, {"repeat", true}, {"json", false}});
+  auto parsed = ParseArgs(argv, {{"o", true},
+                                 {"output", true},
+                                 {"lod", true},
+                                 {"repeat", true},
+                                 {"loss", true},
+                                 {"seed", true},
+                                 {"burst", true},
+                                 {"reorder", true},
+                                 {"duplicate", true},
+                                 {"recovery", true},
+                                 {"json", false}});
   if (!parsed.ok()) return ReportError("decode", parsed.status());
   const ParsedArgs& args = parsed.value();
   if (args.Has("help")) {
@@ -57,6 +80,24 @@ int RunDecode(const std::vector<std::string>& argv) {
   if (!bytes.ok()) return ReportError("decode", bytes.status());
   ProgressiveDecodeOptions options;
   options.lod = *lod;
+  auto loss = args.Double("loss", 0, 0, 1);
+  auto burst = args.Double("burst", 0, 0, 1e6);
+  auto reorder = args.Double("reorder", 0, 0, 1);
+  auto duplicate = args.Double("duplicate", 0, 0, 1);
+  auto seed = args.Int("seed", 1, 0, 2147483647);
+  for (const Status& s : {loss.status(), burst.status(), reorder.status(), duplicate.status(), seed.status()}) {
+    if (!s.ok()) return ReportError("decode", s);
+  }
+  options.loss.loss = *loss;
+  options.loss.burst = *burst;
+  options.loss.reorder = *reorder;
+  options.loss.duplicate = *duplicate;
+  options.loss.seed = static_cast<uint64_t>(*seed);
+  const std::string recovery = args.String("recovery", "predict");
+  if (recovery != "predict" && recovery != "lwop") {
+    return ReportError("decode", InvalidArgument("--recovery must be predict or lwop, not '" + recovery + "'"));
+  }
+  options.recovery = recovery == "lwop" ? Recovery::kLwop : Recovery::kPredict;
   std::vector<double> times;
   StatusOr<Scene> scene = InvalidInput("not decoded");
   ProgressiveDecodeReport report;
@@ -94,12 +135,26 @@ int RunDecode(const std::vector<std::string>& argv) {
       {"levels_applied", report.levels_applied},
       {"level_vertices", report.level_vertices},
       {"datagrams", report.datagrams},
+      {"lost_datagrams", report.lost_datagrams},
+      {"late_datagrams", report.late_datagrams},
+      {"recovery", recovery},
+      {"loss", *loss},
+      {"seed", *seed},
+      {"predicted_vertices", report.predicted_vertices},
       {"unreferenced_vertices", health.unreferenced_vertices},
       {"degenerate_faces", health.degenerate_faces},
       {"nonmanifold_edges", health.nonmanifold_edges},
       {"decode_ms", decode_ms},
       {"repeat", *repeat},
   };
+  if (options.recovery == Recovery::kLwop) {
+    j["abandoned_splits"] = report.recovery.abandoned;
+  } else {
+    j["predicted_splits"] = report.recovery.predicted();
+    j["predicted_structure_only"] = report.recovery.predicted_structure;
+    j["predicted_geometry_only"] = report.recovery.predicted_geometry;
+    j["structure_fallbacks"] = report.recovery.structure_fallbacks;
+  }
   if (args.Has("json")) {
     std::puts(j.dump().c_str());
   } else {

@@ -66,7 +66,13 @@ Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
     return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
                         std::to_string(ring.size()) + " neighbours");
   }
-  const uint32_t n = connectivity.SplitAt(w, ring, a_at, b_at);
+  ApplySplitAt(r, j, a_at, b_at);
+  return Status::Ok();
+}
+
+uint32_t RefinementState::ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at) {
+  const uint32_t w = r.split_vertices[j];
+  const uint32_t n = connectivity.SplitAt(w, scratch_ring, a_at, b_at);
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
     u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);
@@ -83,7 +89,7 @@ Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
     attributes[size_t(w) * channels + k] = au;
     attributes[size_t(n) * channels + k] = static_cast<int32_t>(static_cast<int64_t>(au) - d);
   }
-  return Status::Ok();
+  return n;
 }
 
 Status RefinementState::ApplyRefinement(const Refinement& r) {

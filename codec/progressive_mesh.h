@@ -94,6 +94,9 @@ struct RefinementState {
   Status Reset(const QuantizedMesh& base);
   // Applies split j of `r` (all data present). Errors leave the state valid.
   Status ApplySplit(const Refinement& r, size_t j);
+  // The same right after connectivity.CyclicRing(w, scratch_ring) and with
+  // the wings' ring positions resolved; returns the new vertex.
+  uint32_t ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at);
   Status ApplyRefinement(const Refinement& r);
   // Split j of `r` with only the parts that arrived; the rest is predicted
   // or, with kLwop, the split is abandoned (split_recovery.cc). Keeps the

@@ -38,52 +38,56 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     flags[v] |= bits;
     reliable[v] = flags[v] == 0;
   };
-  // The common case: everything arrived and w is as the lossless decode has it.
-  if (has_structure && has_geometry && flags[w] == 0) {
+  std::vector<uint32_t>& ring = scratch_ring;
+  const bool fan = (flags[w] & kAbsent) == 0 && connectivity.CyclicRing(w, ring);
+  // Error control: coded structure is checked against the ring the decoder
+  // really has; what does not fit is treated as lost.
+  size_t a_at = 0, b_at = 0;
+  const bool fits = fan && has_structure && WingPositions(ring, r.wings[j], &a_at, &b_at);
+  if (has_structure && fan && !fits) ++stats->structure_fallbacks;
+  // LwoP applies a split only where w's ring is known to be the lossless
+  // one: coded wings name ring vertices by rank, and a ring that lacks a
+  // vertex LwoP never created could still fit them and name the wrong ones.
+  // Prediction applies arrived data wherever it fits: geometry relative to
+  // a predicted w gives a predicted pair, marked as such.
+  const bool applicable = recovery == Recovery::kLwop ? flags[w] == 0 : true;
+  if (fits && has_geometry && applicable) {
+    // Case 1: applied as coded. Both vertices inherit what w depends on.
     ++stats->exact;
-    MS_RETURN_IF_ERROR(ApplySplit(r, j));
+    const uint32_t n = ApplySplitAt(r, j, a_at, b_at);
+    flags[n] = flags[w];
+    reliable[n] = flags[n] == 0;
     // Exact values next to predicted ones can still line up.
-    if (any_inexact) {
-      const uint32_t n = connectivity.vertex_count() - 1;
-      if (AvoidDegenerateFaces(w, n)) {
-        mark(w, kPositionInexact);
-        mark(n, kPositionInexact);
-      }
+    if (any_inexact && AvoidDegenerateFaces(w, n)) {
+      mark(w, kPositionInexact);
+      mark(n, kPositionInexact);
     }
     return Status::Ok();
   }
-  std::vector<uint32_t>& ring = scratch_ring;
-  const bool fan = (flags[w] & kAbsent) == 0 && connectivity.CyclicRing(w, ring);
 
   if (recovery == Recovery::kLwop) {
-    // Abandon when data is missing, or when w was abandoned, never created or
-    // has a ring or position the lossless decode does not have (its coded
-    // structure and geometry refer to those). The new id stays reserved.
-    if (!has_structure || !has_geometry || flags[w] != 0 || !fan) {
-      ++stats->abandoned;
-      mark(w, kRingInexact | kPositionInexact);
-      if (fan) {
-        for (uint32_t x : ring) mark(x, kRingInexact);
-      }
-      connectivity.AddIsolatedVertex();
-      positions.push_back(positions[w]);
-      attributes.resize(attributes.size() + size_t(channels));
-      std::copy_n(attributes.begin() + size_t(w) * channels, channels, attributes.end() - channels);
-      flags.push_back(kAbsent | kRingInexact | kPositionInexact);
-      reliable.push_back(0);
-      any_absent = true;
-      return Status::Ok();
+    // Abandoned (paper, section 5.3): data lost, w never created, left
+    // unsplit by an earlier abandoned split, or next to one (its ring then
+    // lacks a vertex the coded wings may count). The new id stays reserved
+    // (kAbsent); w keeps its coarse position; its neighbours, which the new
+    // vertex would have joined, no longer have the lossless rings.
+    ++stats->abandoned;
+    mark(w, kPositionInexact | kRingInexact);
+    if (fan) {
+      for (uint32_t x : ring) mark(x, kRingInexact);
     }
-    ++stats->exact;
-    return ApplySplit(r, j);
+    connectivity.AddIsolatedVertex();
+    positions.push_back(positions[w]);
+    attributes.resize(attributes.size() + size_t(channels));
+    std::copy_n(attributes.begin() + size_t(w) * channels, channels, attributes.end() - channels);
+    flags.push_back(kAbsent | kRingInexact | kPositionInexact);
+    reliable.push_back(0);
+    any_absent = true;
+    return Status::Ok();
   }
 
   if (!fan) return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
-  // Error control: structure that does not fit the ring the decoder really
-  // has is treated as lost.
-  size_t a_at = 0, b_at = 0;
-  bool structure = has_structure && WingPositions(ring, r.wings[j], &a_at, &b_at);
-  if (has_structure && !structure) ++stats->structure_fallbacks;
+  bool structure = fits;
 
   std::vector<Vec3i> ring_positions(ring.size());
   for (size_t k = 0; k < ring.size(); ++k) ring_positions[k] = positions[ring[k]];
@@ -179,16 +183,18 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
       ++stats->structure_fallbacks;
     }
   }
-  // Reliability bits (paper, section 4.5). What w's data depends on carries
-  // over to both vertices of the split.
+  // Reliability bits (paper, section 4.5; BRIEF, property 6): the vertices
+  // of a split inherit what w depends on; predicted geometry marks both;
+  // predicted structure marks both and the neighbours the new vertex joins
+  // (ring[b..a]), whose rings it changed. Nothing spreads further: a later
+  // split of a marked vertex checks its structure against its real ring.
   const uint8_t inherited = flags[w] & (kRingInexact | kPositionInexact);
   uint8_t both = inherited;
   if (!has_geometry) both |= kPositionInexact;
-  // Structure applied to a ring that may not be the lossless one changes the
-  // rings of w's neighbours in ways the lossless decode may not have.
-  if (!structure || (inherited & kRingInexact)) {
+  if (!structure) {
     both |= kRingInexact;
-    for (uint32_t x : ring) mark(x, kRingInexact);
+    const size_t path = (a_at + d - b_at) % d;
+    for (size_t step = 0; step <= path; ++step) mark(ring[(b_at + step) % d], kRingInexact);
   }
   if (!structure) {
     ++(has_geometry ? stats->predicted_structure : stats->predicted_both);

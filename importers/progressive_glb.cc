@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/lossy_decode.h"
 #include "codec/stream_reader.h"
 #include "importers/draco_base_coder.h"
 #include "importers/gltf_export.h"
@@ -137,28 +138,40 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
         return InvalidInput(where + ": the progressive stream lies outside the GLB's binary chunk");
       }
       MS_ASSIGN_OR_RETURN(ProgressiveStream stream, ProgressiveStream::Parse(glb.bin + offset, length));
-      auto reader = StreamReader::Create(stream.header.data(), stream.header.size(), stream_id++);
-      if (!reader.ok()) return reader.status().WithContext(where);
+      auto header = StreamHeader::Parse(stream.header.data(), stream.header.size());
+      if (!header.ok()) return header.status().WithContext(where);
       Primitive& target = scene.meshes[m].primitives[k];
-      auto base = QuantizeOnto(target, reader->header().grids);
+      auto base = QuantizeOnto(target, header->grids);
       if (!base.ok()) return base.status().WithContext(where);
-      MS_RETURN_IF_ERROR(reader->SetBase(std::move(base).value()).WithContext(where));
-      if (stream.control.size() != reader->refinement_count()) {
+      if (stream.control.size() != header->split_counts.size()) {
         return InvalidInput(where + ": the stream has " + std::to_string(stream.control.size()) +
-                            " refinements, its header says " + std::to_string(reader->refinement_count()));
+                            " refinements, its header says " + std::to_string(header->split_counts.size()));
       }
-      const size_t levels = reader->refinement_count();
+      const size_t levels = header->split_counts.size();
       const size_t apply = options.lod < 0 ? levels : std::min(levels, static_cast<size_t>(options.lod));
-      for (size_t i = 0; i < apply; ++i) {
-        MS_RETURN_IF_ERROR(reader->BeginRefinement(stream.control[i].data(), stream.control[i].size()).WithContext(where));
-        for (const auto& d : stream.datagrams[i]) reader->OfferDatagram(d.data(), d.size());
-        local.datagrams += stream.datagrams[i].size();
-        MS_RETURN_IF_ERROR(reader->FinishRefinement().WithContext(where));
+      // Loss-free or not, every stream crosses the simulated network and the
+      // reconstructor: one code path.
+      LossyDecodeOptions lossy;
+      lossy.loss = options.loss;
+      lossy.loss.seed = options.loss.seed + stream_id;
+      lossy.reconstructor.recovery = options.recovery;
+      lossy.reconstructor.lod = static_cast<int>(apply);
+      LossyDecodeReport lr;
+      auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
+      if (!reader.ok()) return reader.status().WithContext(where);
+      if (reader->applied() != apply) {
+        return Internal(where + ": decoded " + std::to_string(reader->applied()) + " of " + std::to_string(apply) +
+                        " refinements");
       }
+      local.datagrams += lr.transmission.datagrams_sent;
+      local.lost_datagrams += lr.transmission.datagrams_lost;
+      local.late_datagrams += lr.reconstructor.late;
+      local.recovery.Add(lr.recovery);
+      local.predicted_vertices += reader->unreliable_vertices();
       target = DequantizeMesh(reader->Mesh(), target.material);
       local.levels = std::max<uint64_t>(local.levels, levels);
       local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
-      AddLevelVertices(local.level_vertices, reader->header().level_vertices());
+      AddLevelVertices(local.level_vertices, header->level_vertices());
     }
   }
   if (report) *report = std::move(local);

@@ -16,7 +16,9 @@
 #include <vector>
 
 #include "codec/mesh.h"
+#include "codec/loss_simulator.h"
 #include "codec/progressive_encoder.h"
+#include "codec/stream_reader.h"
 #include "codec/stream_writer.h"
 #include "importers/import.h"
 
@@ -59,13 +61,21 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
 
 struct ProgressiveDecodeOptions {
   int lod = -1;  // refinements to apply per primitive; -1: all
+  // The network every primitive's stream crosses (codec/loss_simulator.h):
+  // the seed of primitive k is seed + k. A zero model takes the same path.
+  LossModel loss;
+  Recovery recovery = Recovery::kPredict;
 };
 
 struct ProgressiveDecodeReport {
   uint64_t levels = 0;           // the most refinements any primitive has
   uint64_t levels_applied = 0;
-  uint64_t datagrams = 0;
-  std::vector<uint32_t> level_vertices;  // summed over primitives
+  uint64_t datagrams = 0;        // data datagrams sent
+  uint64_t lost_datagrams = 0;   // dropped by the simulated network
+  uint64_t late_datagrams = 0;   // arrived after their refinement was decoded
+  RecoveryStats recovery;        // summed over primitives
+  uint64_t predicted_vertices = 0;  // vertices whose reliability bit is 0
+  std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
 };
 
 // Decodes a progressive .glb held in memory into a scene at the requested
