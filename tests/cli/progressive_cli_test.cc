@@ -314,6 +314,41 @@ TEST(ProgressiveCli, DamagedStreamIsRecoveredOrAnErrorNotACrash) {
   EXPECT_GT(recovered, 0);
 }
 
+// decode --loss: the seeded network repeats exactly, prediction keeps the
+// lossless vertex count, LwoP abandons, and bad values are usage errors.
+TEST(ProgressiveCli, LossyDecodeIsSeededAndRecovers) {
+  TempDir dir;
+  const std::string glb = dir.File("fandisk.glb");
+  const json e = RunJson("encode --json --packet-bytes 200 " + Quote(ModelPath("fandisk.obj")) + " -o " + Quote(glb));
+  const std::string flags = " --loss 0.2 --burst 2 --reorder 0.3 --duplicate 0.1 --seed 7";
+  const json a = RunJson("decode --json " + Quote(glb) + " -o " + Quote(dir.File("a.ply")) + flags);
+  const json b = RunJson("decode --json " + Quote(glb) + " -o " + Quote(dir.File("b.ply")) + flags);
+  EXPECT_EQ(test_util::ReadText(dir.File("a.ply")), test_util::ReadText(dir.File("b.ply")));
+  EXPECT_GT(U(a, "lost_datagrams"), 0u);
+  EXPECT_EQ(U(a, "lost_datagrams"), U(b, "lost_datagrams"));
+  EXPECT_GT(U(a, "predicted_splits"), 0u);
+  EXPECT_GT(U(a, "predicted_vertices"), 0u);
+  EXPECT_EQ(U(a, "vertices"), LevelVertices(e).back());
+  EXPECT_EQ(U(a, "unreferenced_vertices"), 0u);
+  EXPECT_EQ(U(a, "degenerate_faces"), 0u);
+  EXPECT_EQ(U(a, "nonmanifold_edges"), 0u);
+  const json other = RunJson("decode --json " + Quote(glb) + " -o " + Quote(dir.File("c.ply")) +
+                             " --loss 0.2 --burst 2 --seed 8");
+  EXPECT_NE(test_util::ReadText(dir.File("a.ply")), test_util::ReadText(dir.File("c.ply")));
+  const json lwop = RunJson("decode --json --recovery lwop " + Quote(glb) + " -o " + Quote(dir.File("d.ply")) + flags);
+  EXPECT_GT(U(lwop, "abandoned_splits"), 0u);
+  EXPECT_LT(U(lwop, "vertices"), LevelVertices(e).back());
+  EXPECT_EQ(U(lwop, "unreferenced_vertices"), 0u);
+  const json clean = RunJson("decode --json " + Quote(glb) + " -o " + Quote(dir.File("e.ply")));
+  EXPECT_EQ(U(clean, "lost_datagrams"), 0u);
+  EXPECT_EQ(U(clean, "predicted_vertices"), 0u);
+  for (const char* bad : {" --loss 1.5", " --recovery guess", " --reorder -1"}) {
+    const auto r = RunCommand(Cli() + " decode " + Quote(glb) + " -o " + Quote(dir.File("f.ply")) + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.err;
+    EXPECT_FALSE(r.err.empty());
+  }
+}
+
 TEST(ProgressiveCli, EncodeAndDecodeHaveHelp) {
   for (const char* verb : {"encode", "decode"}) {
     const auto r = RunCommand(Cli() + " " + verb + " --help");
@@ -326,7 +361,9 @@ TEST(ProgressiveCli, EncodeAndDecodeHaveHelp) {
     EXPECT_NE(encode.out.find(flag), std::string::npos) << flag;
   }
   const auto decode = RunCommand(Cli() + " decode --help");
-  for (const char* flag : {"--lod", "--repeat"}) EXPECT_NE(decode.out.find(flag), std::string::npos) << flag;
+  for (const char* flag : {"--lod", "--repeat", "--loss", "--seed", "--burst", "--reorder", "--duplicate", "--recovery"}) {
+    EXPECT_NE(decode.out.find(flag), std::string::npos) << flag;
+  }
   const auto top = RunCommand(Cli() + " --help");
   EXPECT_NE(top.out.find("encode"), std::string::npos);
   EXPECT_NE(top.out.find("decode"), std::string::npos);
