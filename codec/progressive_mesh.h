@@ -27,6 +27,7 @@
 
 #include "codec/quantized_mesh.h"
 #include "codec/split_mesh.h"
+#include "codec/split_prediction.h"
 #include "codec/status.h"
 
 namespace meshstream {
@@ -83,6 +84,13 @@ enum VertexFlag : uint8_t {
 struct RefinementState {
   SplitMesh connectivity;
   std::vector<uint32_t> scratch_ring;
+  // Reused by RecoverSplit so that predicting a split allocates nothing.
+  struct PredictionScratch {
+    std::vector<Vec3i> ring_positions;
+    std::vector<int32_t> values, u_channels, v_channels;
+    RingFrame frame;
+    PredictedGeometry geometry;
+  } prediction;
   std::vector<Vec3i> positions;
   std::vector<int32_t> attributes;
   std::vector<uint8_t> reliable;  // per vertex: 1 when flags are 0 (stream_reader.h)

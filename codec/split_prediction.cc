@@ -21,41 +21,35 @@ Vec2d Sub2(const Vec2d& a, const Vec2d& b) { return {a[0] - b[0], a[1] - b[1]}; 
 double Cross2(const Vec2d& a, const Vec2d& b) { return a[0] * b[1] - a[1] * b[0]; }
 double Dist2(const Vec2d& a, const Vec2d& b) { return std::hypot(a[0] - b[0], a[1] - b[1]); }
 
-// Eigenvector of the smallest eigenvalue of a symmetric 3x3 matrix (cyclic
-// Jacobi rotations; a fixed number of sweeps is plenty for 3x3).
-Vec3d SmallestEigenvector(double m[3][3]) {
-  double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  for (int sweep = 0; sweep < 12; ++sweep) {
-    const double off = m[0][1] * m[0][1] + m[0][2] * m[0][2] + m[1][2] * m[1][2];
-    if (off < 1e-30) break;
-    for (int p = 0; p < 2; ++p) {
-      for (int q = p + 1; q < 3; ++q) {
-        if (std::fabs(m[p][q]) < 1e-300) continue;
-        const double theta = (m[q][q] - m[p][p]) / (2 * m[p][q]);
-        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1));
-        const double c = 1 / std::sqrt(t * t + 1), s = t * c;
-        for (int k = 0; k < 3; ++k) {  // m = J^T m J
-          const double mkp = m[k][p], mkq = m[k][q];
-          m[k][p] = c * mkp - s * mkq;
-          m[k][q] = s * mkp + c * mkq;
-        }
-        for (int k = 0; k < 3; ++k) {
-          const double mpk = m[p][k], mqk = m[q][k];
-          m[p][k] = c * mpk - s * mqk;
-          m[q][k] = s * mpk + c * mqk;
-        }
-        for (int k = 0; k < 3; ++k) {
-          const double vkp = v[k][p], vkq = v[k][q];
-          v[k][p] = c * vkp - s * vkq;
-          v[k][q] = s * vkp + c * vkq;
-        }
-      }
-    }
+// Eigenvector of the smallest eigenvalue of a symmetric 3x3 matrix: the
+// eigenvalue in closed form (the trigonometric solution of the
+// characteristic cubic), the vector as the longest cross product of two rows
+// of m - lambda I. Zero when the eigenvalue is not simple enough to define one.
+Vec3d SmallestEigenvector(const double m[3][3]) {
+  const double p1 = m[0][1] * m[0][1] + m[0][2] * m[0][2] + m[1][2] * m[1][2];
+  const double q = (m[0][0] + m[1][1] + m[2][2]) / 3;
+  const double p2 = (m[0][0] - q) * (m[0][0] - q) + (m[1][1] - q) * (m[1][1] - q) + (m[2][2] - q) * (m[2][2] - q) + 2 * p1;
+  const double p = std::sqrt(p2 / 6);
+  double lambda = q;
+  if (p > 1e-300) {
+    double b[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) b[i][j] = (m[i][j] - (i == j ? q : 0)) / p;
+    const double det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
+                       b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+                       b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    const double r = std::clamp(det / 2, -1.0, 1.0);
+    const double phi = std::acos(r) / 3;
+    lambda = q + 2 * p * std::cos(phi + 2.0943951023931953);  // the smallest of the three
   }
-  int best = 0;
-  for (int k = 1; k < 3; ++k)
-    if (m[k][k] < m[best][best]) best = k;
-  return {v[0][best], v[1][best], v[2][best]};
+  const Vec3d r0 = {m[0][0] - lambda, m[0][1], m[0][2]};
+  const Vec3d r1 = {m[1][0], m[1][1] - lambda, m[1][2]};
+  const Vec3d r2 = {m[2][0], m[2][1], m[2][2] - lambda};
+  Vec3d best = Cross(r0, r1);
+  for (const Vec3d& c : {Cross(r0, r2), Cross(r1, r2)}) {
+    if (Dot(c, c) > Dot(best, best)) best = c;
+  }
+  return best;
 }
 
 // Distance from p to the segment [a, b].
@@ -95,10 +89,11 @@ Vec2d RingFrame::Project(const Vec3d& p) const {
   return {Dot(d, axis_u), Dot(d, axis_v)};
 }
 
-RingFrame FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring) {
-  RingFrame f;
+void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out) {
+  RingFrame& f = *out;
   f.w = ToD(w);
-  f.ring.reserve(ring.size());
+  f.ring.clear();
+  f.ring_uv.clear();
   Vec3d c = f.w;
   for (const Vec3i& p : ring) {
     f.ring.push_back(ToD(p));
@@ -121,7 +116,7 @@ RingFrame FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring) {
     for (int i = 0; i < 3; ++i) fan[i] += e[i];
   }
   Vec3d n = SmallestEigenvector(m);
-  if (Norm(n) < 1e-12) n = fan;
+  if (Norm(n) < 1e-9 * (1 + Norm(fan))) n = fan;
   if (Dot(n, fan) < 0) n = Scale(n, -1);
   if (Norm(n) < 1e-12) n = {0, 0, 1};
   n = Scale(n, 1.0 / Norm(n));
@@ -134,9 +129,7 @@ RingFrame FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring) {
   f.axis_v = Cross(n, u);
   f.origin = c;
   f.w_uv = f.Project(f.w);
-  f.ring_uv.reserve(f.ring.size());
   for (const Vec3d& p : f.ring) f.ring_uv.push_back(f.Project(p));
-  return f;
 }
 
 PredictedWings PredictWings(const RingFrame& f) {
@@ -256,8 +249,8 @@ Vec2d NewVertexUv(const RingFrame& f, size_t a_at, size_t b_at) {
   return {(f.w_uv[0] + mean[0]) / 2, (f.w_uv[1] + mean[1]) / 2};
 }
 
-PredictedGeometry PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& new_uv,
-                                  const std::vector<int32_t>& channels, int count) {
+void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& new_uv,
+                     const std::vector<int32_t>& channels, int count, PredictedGeometry* result) {
   const size_t d = f.ring.size();
   const size_t path = (a_at + d - b_at) % d;
   const size_t dims = 3 + size_t(count);
@@ -268,7 +261,10 @@ PredictedGeometry PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, 
   };
   auto weight = [](const Vec2d& from, const Vec2d& to) { return 1.0 / std::max(Dist2(from, to), 1e-9); };
   // The new vertex: neighbours ring[b..a] and w.
-  std::vector<double> nv(dims, 0), wv(dims, 0);
+  std::vector<double>& both = result->scratch;
+  both.assign(2 * dims, 0);
+  double* nv = both.data();
+  double* wv = both.data() + dims;
   double total = weight(new_uv, f.w_uv);
   for (size_t c = 0; c < dims; ++c) nv[c] = total * value(0, c);
   for (size_t s = 0; s <= path; ++s) {
@@ -277,7 +273,7 @@ PredictedGeometry PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, 
     total += wt;
     for (size_t c = 0; c < dims; ++c) nv[c] += wt * value(1 + k, c);
   }
-  for (double& x : nv) x /= total;
+  for (size_t c = 0; c < dims; ++c) nv[c] /= total;
   // w: neighbours ring[a..b] and the new vertex (already updated).
   total = weight(f.w_uv, new_uv);
   for (size_t c = 0; c < dims; ++c) wv[c] = total * nv[c];
@@ -287,10 +283,10 @@ PredictedGeometry PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, 
     total += wt;
     for (size_t c = 0; c < dims; ++c) wv[c] += wt * value(1 + k, c);
   }
-  for (double& x : wv) x /= total;
+  for (size_t c = 0; c < dims; ++c) wv[c] /= total;
   // Keep the coarse vertex at their midpoint, and every value within the
   // range of what it was made from.
-  PredictedGeometry out;
+  PredictedGeometry& out = *result;
   out.u_channels.resize(size_t(count));
   out.v_channels.resize(size_t(count));
   for (size_t c = 0; c < dims; ++c) {
@@ -311,7 +307,6 @@ PredictedGeometry PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, 
       out.v_channels[c - 3] = v;
     }
   }
-  return out;
 }
 
 }  // namespace meshstream

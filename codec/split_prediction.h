@@ -40,10 +40,11 @@ struct RingFrame {
   Vec2d Project(const Vec3d& p) const;
 };
 
-// Fits the plane through w and its ring (smallest eigenvector of their
-// covariance, oriented like the fan's normal so the ring turns
-// counter-clockwise in the plane).
-RingFrame FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring);
+// Fits the plane through w and its ring (the eigenvector of the smallest
+// eigenvalue of their covariance, in closed form, oriented like the fan's
+// normal so the ring turns counter-clockwise in the plane).
+// Fills `out`, reusing its storage.
+void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out);
 
 struct PredictedWings {
   size_t a_at = 0, b_at = 0;  // ring positions of the wings (SplitMesh::SplitAt)
@@ -64,6 +65,7 @@ struct PredictedGeometry {
   Vec3i u{}, v{};                   // w's and the new vertex's positions
   std::vector<int32_t> u_channels;  // their attribute channels
   std::vector<int32_t> v_channels;
+  std::vector<double> scratch;      // reused between calls
 };
 
 // Step 6 of the paper (inverse-distance weights in the plane, Eq. 1-2): the
@@ -73,8 +75,8 @@ struct PredictedGeometry {
 // coarse position (which the coarse vertex holds exactly), and clamped to
 // the range of the values they were made from. `channels` holds w's
 // channels then the ring's, `count` per vertex.
-PredictedGeometry PredictGeometry(const RingFrame& frame, size_t a_at, size_t b_at, const Vec2d& new_uv,
-                                  const std::vector<int32_t>& channels, int count);
+void PredictGeometry(const RingFrame& frame, size_t a_at, size_t b_at, const Vec2d& new_uv,
+                     const std::vector<int32_t>& channels, int count, PredictedGeometry* out);
 
 }  // namespace meshstream
 

@@ -57,7 +57,9 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     const uint32_t n = ApplySplitAt(r, j, a_at, b_at);
     flags[n] = flags[w];
     reliable[n] = flags[n] == 0;
-    // Exact values next to predicted ones can still line up.
+    // Exact values next to predicted ones, or on a ring a prediction changed,
+    // can still line up. (Whether a ring is the lossless one is not known
+    // cheaply enough to skip the check: it runs after any prediction.)
     if (any_inexact && AvoidDegenerateFaces(w, n)) {
       mark(w, kPositionInexact);
       mark(n, kPositionInexact);
@@ -89,13 +91,18 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
   if (!fan) return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
   bool structure = fits;
 
-  std::vector<Vec3i> ring_positions(ring.size());
+  std::vector<Vec3i>& ring_positions = prediction.ring_positions;
+  ring_positions.resize(ring.size());
   for (size_t k = 0; k < ring.size(); ++k) ring_positions[k] = positions[ring[k]];
   const Vec3i s = positions[w];
-  const RingFrame frame = FitRingFrame(s, ring_positions);
+  RingFrame& frame = prediction.frame;
+  FitRingFrame(s, ring_positions, &frame);
 
   Vec3i u{}, v{};
-  std::vector<int32_t> u_ch(static_cast<size_t>(channels)), v_ch(static_cast<size_t>(channels));
+  std::vector<int32_t>& u_ch = prediction.u_channels;
+  std::vector<int32_t>& v_ch = prediction.v_channels;
+  u_ch.resize(static_cast<size_t>(channels));
+  v_ch.resize(static_cast<size_t>(channels));
   if (has_geometry) {
     for (int k = 0; k < 3; ++k) {
       u[k] = FromMidpoint(s[k], r.position_delta[j][k]);
@@ -128,14 +135,15 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     new_uv = NewVertexUv(frame, a_at, b_at);
   }
   if (!has_geometry) {
-    std::vector<int32_t> values;
-    values.reserve((ring.size() + 1) * size_t(channels));
+    std::vector<int32_t>& values = prediction.values;
+    values.clear();
     values.insert(values.end(), attributes.begin() + size_t(w) * channels,
                   attributes.begin() + size_t(w + 1) * channels);
     for (uint32_t x : ring)
       values.insert(values.end(), attributes.begin() + size_t(x) * channels,
                     attributes.begin() + size_t(x + 1) * channels);
-    PredictedGeometry g = PredictGeometry(frame, a_at, b_at, new_uv, values, channels);
+    PredictedGeometry& g = prediction.geometry;
+    PredictGeometry(frame, a_at, b_at, new_uv, values, channels, &g);
     // A predicted vertex must not make a triangle of w's or n's collinear; the
     // first fallback keeps w where it is and puts n at the centroid of (w, a, b).
     if (degenerate(g.u, g.v, a_at, b_at)) {
@@ -150,8 +158,8 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     }
     u = g.u;
     v = g.v;
-    u_ch = std::move(g.u_channels);
-    v_ch = std::move(g.v_channels);
+    u_ch.swap(g.u_channels);
+    v_ch.swap(g.v_channels);
   }
   // Last resort, rare (a wrong ring or a prediction on a sliver): the wings
   // that make no collinear triangle and best separate the ring between u and
