@@ -490,7 +490,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan)
 // ------------------------------------------------------------ timing
 
 // Medians of DecodeStreamLossy alone, split packing, random loss, per loss
-// level and recovery; round r uses seed r + 1; every round times every
+// level and recovery; the warm-up round uses seed 1, kept round r seed r + 2; every round times every
 // configuration once, so all see the same machine load.
 json TimeDecodes(const Model& m, int repeat) {
   const Stream& s = m.streams[0];
@@ -590,7 +590,7 @@ int main(int argc, char** argv) {
                      {"quick", args.quick},
                      {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
                                 "reader; base copy outside the timed part), one warm-up round, every loss level "
-                                "and recovery timed once per round, round r with seed r+1; split packing, random "
+                                "and recovery timed once per round, the kept rounds with seeds 2..repeat+1; split packing, random "
                                 "loss; ratio = median / zero-loss median of the same run"}};
 
   // 1. Timing, alone (nothing else runs in the process meanwhile).
