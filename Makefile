@@ -38,13 +38,17 @@ demo: build
 
 # Benchmarks (never part of `make test`): meshstream against Draco in one binary, gltfpack
 # LODs; JSON, PNG plots and the tables of docs/benchmarks.md. BENCH_ARGS e.g. "--model spot".
+# Then the loss experiments (docs/loss-results.md); LOSS_BENCH_ARGS e.g. "--quick".
 PYTHON ?= $(shell [ -x /usr/bin/python3 ] && echo /usr/bin/python3 || echo python3)
 BENCH_ARGS ?=
+LOSS_BENCH_ARGS ?=
 bench: build
 	@mkdir -p docs/bench
 	$(BUILD)/bin/meshstream_rule_comparison --out docs/bench/rules.json
 	$(BUILD)/bin/meshstream_bench --out docs/bench/results.json $(BENCH_ARGS)
 	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
+	$(BUILD)/bin/meshstream_loss_bench --out docs/bench/loss.json $(LOSS_BENCH_ARGS)
+	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
 
 fuzz: deps
 	@[ -f build-fuzz/build.ninja ] || CXX=clang++ cmake -S . -B build-fuzz -G Ninja \

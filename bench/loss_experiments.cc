@@ -1,0 +1,713 @@
+// meshstream_loss_bench: the loss experiments of the paper (sections 5.2-5.3,
+// Figures 6-9 and 11-15) with this codec; issue 4 "Experiments";
+// docs/loss-results.md.
+//
+// Per model (qp 11, qn 8, qt 10), encoded once (progressive encoder, Draco
+// cl 7 base) and written once per packing (split, bundled):
+//   - the reference: DecodeStreamLossy with a zero loss model, every level
+//     captured through on_level;
+//   - for every (packing, pattern, loss, seed) of the model's matrix, one
+//     lossy decode per recovery (kPredict, kLwop) with the SAME seed, so the
+//     two see the same loss pattern and pair up; at the final level the
+//     point-to-surface and vertex-to-vertex Hausdorff distances to the
+//     reference (relative to its bbox diagonal), the mean surface distance,
+//     the Laplacian distortion (Eq. 4-5, when the vertex counts agree) and
+//     the vertex count of every level;
+//   - for a subset (bunny and horse by default: split packing, random loss,
+//     the first --level-seeds seeds; plus bundled and LwoP at 12 %) the same
+//     metrics at every level against the reference's level;
+//   - decoding time: medians of in-process DecodeStreamLossy calls alone (no
+//     metric inside the timed part), per loss level, interleaved round by
+//     round with the zero-loss decode, before any other work starts.
+// Writes one JSON object (--out); bench/plot_loss.py turns it into plots and
+// the generated part of docs/loss-results.md. Aggregation happens there.
+#include <sys/utsname.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "codec/hausdorff.h"
+#include "codec/laplacian.h"
+#include "codec/lossy_decode.h"
+#include "codec/mesh.h"
+#include "codec/progressive_encoder.h"
+#include "codec/stream_reader.h"
+#include "codec/stream_writer.h"
+#include "importers/draco_base_coder.h"
+#include "importers/import.h"
+
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+namespace ms = meshstream;
+
+const char kHelp[] =
+    "usage: meshstream_loss_bench [--out FILE] [--model NAME]... [--seeds N] [--quick]\n"
+    "                             [--models DIR] [--threads N] [--samples N] [--repeat N]\n"
+    "                             [--level-seeds N] [--small-seeds N]\n"
+    "\n"
+    "The loss experiments of the paper with this codec (docs/loss-results.md); writes one\n"
+    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n"
+    "  --out FILE        output JSON\n"
+    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
+    "  --seeds N         seeds per cell for bunny and horse (default 20)\n"
+    "  --small-seeds N   seeds per cell for fandisk, rocker-arm, spot (default 10)\n"
+    "  --level-seeds N   seeds of the per-level subset (default 3)\n"
+    "  --repeat N        timed decodes per loss level, after one warm-up (default 7)\n"
+    "  --threads N       threads for the untimed decodes and metrics (default 2)\n"
+    "  --samples N       Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
+    "                    and face centroid, see codec/hausdorff.h)\n"
+    "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n";
+
+struct Args {
+  std::string models_dir = MESHSTREAM_MODELS_DIR;
+  std::vector<std::string> only;
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/loss.json";
+  int seeds = 20;
+  int small_seeds = 10;
+  int level_seeds = 3;
+  int repeat = 7;
+  unsigned threads = 2;
+  int64_t samples = 0;
+  bool quick = false;
+};
+
+[[noreturn]] void Die(const std::string& what) {
+  std::fprintf(stderr, "meshstream_loss_bench: %s\n", what.c_str());
+  std::exit(1);
+}
+
+template <class T>
+T Check(ms::StatusOr<T> v, const std::string& what) {
+  if (!v.ok()) Die(what + ": " + v.status().ToString());
+  return std::move(v).value();
+}
+
+long ParseInt(const std::string& s, const std::string& flag, long lo, long hi) {
+  char* end = nullptr;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (end == s.c_str() || *end != '\0' || v < lo || v > hi)
+    Die(flag + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + s + "'");
+  return v;
+}
+
+Args ParseArgs(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string f = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) Die(f + " needs a value");
+      return argv[++i];
+    };
+    if (f == "--help" || f == "-h") {
+      std::fputs(kHelp, stdout);
+      std::exit(0);
+    } else if (f == "--out") {
+      a.out = value();
+    } else if (f == "--models") {
+      a.models_dir = value();
+    } else if (f == "--model") {
+      a.only.push_back(value());
+    } else if (f == "--seeds") {
+      a.seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
+    } else if (f == "--small-seeds") {
+      a.small_seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
+    } else if (f == "--level-seeds") {
+      a.level_seeds = static_cast<int>(ParseInt(value(), f, 0, 10000));
+    } else if (f == "--repeat") {
+      a.repeat = static_cast<int>(ParseInt(value(), f, 1, 1000));
+    } else if (f == "--threads") {
+      a.threads = static_cast<unsigned>(ParseInt(value(), f, 1, 64));
+    } else if (f == "--samples") {
+      a.samples = ParseInt(value(), f, 0, 100000000);
+    } else if (f == "--quick") {
+      a.quick = true;
+    } else {
+      Die("unknown option " + f + " (see --help)");
+    }
+  }
+  return a;
+}
+
+double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string Stem(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const size_t dot = name.find_last_of('.');
+  return dot == std::string::npos ? name : name.substr(0, dot);
+}
+
+std::string FirstLineOf(const std::string& cmd) {
+  std::string out;
+  if (FILE* p = popen(cmd.c_str(), "r")) {
+    char buf[512];
+    if (std::fgets(buf, sizeof buf, p)) out = buf;
+    pclose(p);
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return out;
+}
+
+json MachineInfo() {
+  utsname u{};
+  uname(&u);
+  std::string cpu;
+  std::ifstream info("/proc/cpuinfo");
+  for (std::string line; std::getline(info, line);) {
+    if (line.rfind("model name", 0) == 0) {
+      cpu = line.substr(line.find(':') + 2);
+      break;
+    }
+  }
+  json m = {{"cpu", cpu},
+            {"cores", std::thread::hardware_concurrency()},
+            {"os", std::string(u.sysname) + " " + u.release},
+            {"compiler", __VERSION__},
+            {"build_type", MESHSTREAM_BUILD_TYPE},
+            {"loadavg_at_start", FirstLineOf("cut -d' ' -f1-3 /proc/loadavg")}};
+  const std::string commit = FirstLineOf("git -C '" MESHSTREAM_SOURCE_DIR "' rev-parse --short HEAD 2>/dev/null");
+  if (!commit.empty()) m["git_commit"] = commit;
+  return m;
+}
+
+double Diagonal(const ms::Primitive& p) {
+  std::array<double, 3> lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (uint32_t i : p.indices)
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::min<double>(lo[c], p.positions[i][c]);
+      hi[c] = std::max<double>(hi[c], p.positions[i][c]);
+    }
+  double d = 0;
+  for (int c = 0; c < 3; ++c) d += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+  return std::sqrt(d);
+}
+
+bool SameMesh(const ms::QuantizedMesh& a, const ms::QuantizedMesh& b) {
+  return a.positions == b.positions && a.indices == b.indices && a.attributes == b.attributes;
+}
+
+// ------------------------------------------------------------ the matrix
+
+const char* kPackingNames[2] = {"split", "bundled"};
+const ms::Packing kPackings[2] = {ms::Packing::kSplit, ms::Packing::kBundled};
+const char* kPatternNames[2] = {"random", "bursty"};
+const double kBursts[2] = {0.0, 4.0};
+const char* kRecoveryNames[2] = {"predict", "lwop"};
+const ms::Recovery kRecoveries[2] = {ms::Recovery::kPredict, ms::Recovery::kLwop};
+
+constexpr size_t kLevelStep = 3;  // per-level metrics at every third level
+
+struct Plan {
+  std::vector<double> losses;  // nonzero loss levels
+  int seeds = 0;
+  bool per_level = false;      // the per-level subset and the timing
+  bool full = false;
+};
+
+struct Stream {
+  ms::ProgressiveStream stream;
+  ms::QuantizedMesh base;  // as Draco decodes it
+  std::vector<ms::QuantizedMesh> ref_q;     // [k]: reference level k (0 = base after fix-ups)
+  std::vector<ms::Primitive> ref;           // dequantized
+  std::vector<double> ref_diag;
+  uint64_t datagrams = 0;
+};
+
+struct Model {
+  std::string name, file;
+  Plan plan;
+  std::vector<uint32_t> level_vertices;  // from the header
+  Stream streams[2];
+};
+
+struct Job {
+  size_t model = 0;
+  int packing = 0, pattern = 0;
+  double loss = 0;
+  uint64_t seed = 0;
+  bool levels_predict = false;  // per-level metrics for prediction
+  bool levels_lwop = false;     // per-level metrics for LwoP
+};
+
+struct Metrics {
+  double hd_rel = 0, hv_rel = 0, mean_rel = 0;
+  double lap_rel = NAN;  // NaN: not computed or undefined (vertex counts differ)
+  bool identical = false;
+};
+
+struct RecResult {
+  std::string error;
+  uint64_t vertices = 0, faces = 0, unreliable = 0;
+  ms::RecoveryStats stats;
+  uint64_t levels_applied = 0;
+  std::vector<uint64_t> level_vertices;  // per level 1..n
+  Metrics final_m;
+  std::vector<Metrics> level_m;          // per level 1..n when asked
+};
+
+struct JobResult {
+  ms::TransmissionStats tx;
+  ms::ReconstructorStats rc;
+  RecResult rec[2];
+  double seconds = 0;
+};
+
+ms::LossyDecodeOptions DecodeOptions(double loss, double burst, uint64_t seed, ms::Recovery r) {
+  ms::LossyDecodeOptions o;
+  o.loss.loss = loss;
+  o.loss.burst = burst;
+  o.loss.seed = seed;
+  o.reconstructor.recovery = r;
+  return o;
+}
+
+Metrics Measure(const ms::QuantizedMesh& ref_q, const ms::Primitive& ref, double diag, const ms::QuantizedMesh& q,
+                bool laplacian, int64_t samples, std::string* error) {
+  Metrics m;
+  if (SameMesh(ref_q, q)) {
+    m.identical = true;
+    m.lap_rel = 0;
+    return m;
+  }
+  const ms::Primitive p = ms::DequantizeMesh(q, -1);
+  ms::SurfaceDistanceOptions so;
+  so.samples_per_side = samples;
+  auto d = ms::ComputeSurfaceDistance(ref, p, so);
+  if (!d.ok()) {
+    *error = "ComputeSurfaceDistance: " + d.status().ToString();
+    m.hd_rel = m.hv_rel = m.mean_rel = NAN;
+    return m;
+  }
+  m.hd_rel = d->hausdorff_rel;
+  m.hv_rel = d->hausdorff_vertex_rel;
+  m.mean_rel = diag > 0 ? d->mean_distance / diag : NAN;
+  if (laplacian) {
+    auto l = ms::LaplacianDistortion(ref, p);
+    if (l.ok() && diag > 0) m.lap_rel = l.value() / diag;
+  }
+  return m;
+}
+
+JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
+  JobResult out;
+  const Stream& s = model.streams[job.packing];
+  const size_t n = s.ref.size() - 1;
+  for (int r = 0; r < 2; ++r) {
+    RecResult& rr = out.rec[r];
+    const bool levels = r == 0 ? job.levels_predict : job.levels_lwop;
+    std::vector<ms::QuantizedMesh> got(n + 1);
+    auto options = DecodeOptions(job.loss, kBursts[job.pattern], job.seed, kRecoveries[r]);
+    options.on_level = [&](size_t level, const ms::StreamReader& reader) {
+      ms::QuantizedMesh m = reader.Mesh();
+      if (level >= rr.level_vertices.size()) rr.level_vertices.resize(level, 0);
+      rr.level_vertices[level - 1] = m.vertex_count();
+      if (levels && level <= n) got[level] = std::move(m);
+    };
+    ms::LossyDecodeReport report;
+    auto reader = ms::DecodeStreamLossy(s.stream, 0, s.base, options, &report);
+    if (r == 0) {
+      out.tx = report.transmission;
+      out.rc = report.reconstructor;
+    }
+    rr.stats = report.recovery;
+    rr.levels_applied = report.levels_applied;
+    if (!reader.ok()) {
+      rr.error = "DecodeStreamLossy: " + reader.status().ToString();
+      continue;
+    }
+    if (reader->applied() != n) {
+      rr.error = "decoded " + std::to_string(reader->applied()) + " of " + std::to_string(n) + " levels";
+      continue;
+    }
+    const ms::QuantizedMesh final_q = reader->Mesh();
+    rr.vertices = final_q.vertex_count();
+    rr.faces = final_q.face_count();
+    rr.unreliable = reader->unreliable_vertices();
+    rr.final_m = Measure(s.ref_q[n], s.ref[n], s.ref_diag[n], final_q, r == 0, samples, &rr.error);
+    if (levels) {
+      rr.level_m.resize(n);
+      // Every third level, counted down from the last (the budget), marked
+      // hd_rel NaN and skipped in the JSON otherwise.
+      for (size_t k = 1; k <= n; ++k) {
+        if ((n - k) % kLevelStep != 0) {
+          rr.level_m[k - 1].hd_rel = NAN;
+          continue;
+        }
+        rr.level_m[k - 1] = k == n ? rr.final_m
+                                   : Measure(s.ref_q[k], s.ref[k], s.ref_diag[k], got[k], r == 0, samples, &rr.error);
+      }
+    }
+  }
+  return out;
+}
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json StatsJson(const ms::RecoveryStats& s) {
+  return {{"exact", s.exact},
+          {"predicted_both", s.predicted_both},
+          {"predicted_structure", s.predicted_structure},
+          {"predicted_geometry", s.predicted_geometry},
+          {"structure_fallbacks", s.structure_fallbacks},
+          {"abandoned", s.abandoned}};
+}
+
+json MetricsJson(const Metrics& m, bool laplacian) {
+  json j = {{"hd_rel", Num(m.hd_rel)}, {"hv_rel", Num(m.hv_rel)}, {"mean_rel", Num(m.mean_rel)}};
+  if (laplacian) j["lap_rel"] = Num(m.lap_rel);
+  if (m.identical) j["identical"] = true;
+  return j;
+}
+
+json JobJson(const Job& job, const JobResult& r) {
+  json j = {{"packing", kPackingNames[job.packing]},
+            {"pattern", kPatternNames[job.pattern]},
+            {"loss", job.loss},
+            {"seed", job.seed},
+            {"datagrams_sent", r.tx.datagrams_sent},
+            {"datagrams_lost", r.tx.datagrams_lost},
+            {"ends_lost", r.tx.ends_lost},
+            {"finished_timeout", r.rc.finished_timeout},
+            {"seconds", r.seconds}};
+  for (int k = 0; k < 2; ++k) {
+    const RecResult& rr = r.rec[k];
+    json x = {{"vertices", rr.vertices},
+              {"faces", rr.faces},
+              {"unreliable_vertices", rr.unreliable},
+              {"levels_applied", rr.levels_applied},
+              {"stats", StatsJson(rr.stats)},
+              {"level_vertices", rr.level_vertices}};
+    x.update(MetricsJson(rr.final_m, k == 0));
+    if (!rr.error.empty()) x["error"] = rr.error;
+    if (!rr.level_m.empty()) {
+      json lv = json::array();
+      for (size_t i = 0; i < rr.level_m.size(); ++i) {
+        if (std::isnan(rr.level_m[i].hd_rel)) continue;
+        json e = MetricsJson(rr.level_m[i], k == 0);
+        e["level"] = i + 1;
+        lv.push_back(e);
+      }
+      x["levels"] = lv;
+    }
+    j[kRecoveryNames[k]] = x;
+  }
+  return j;
+}
+
+// ------------------------------------------------------------ preparation
+
+Model Prepare(const std::string& dir, const std::string& file, const Plan& plan) {
+  Model m;
+  m.file = file;
+  m.name = Stem(file);
+  m.plan = plan;
+  const ms::Scene scene = Check(ms::ImportFile(dir + "/" + file), file);
+  const ms::Primitive* prim = nullptr;
+  size_t prims = 0;
+  for (const ms::Mesh& mesh : scene.meshes)
+    for (const ms::Primitive& p : mesh.primitives)
+      if (p.face_count() > 0) {
+        if (!prim) prim = &p;
+        ++prims;
+      }
+  if (!prim) Die(file + ": no triangles");
+  if (prims > 1) std::fprintf(stderr, "  warning: %s has %zu primitives; only the first is used\n", file.c_str(), prims);
+  ms::ProgressiveEncodeOptions options;
+  options.quantization.qp = 11;
+  options.quantization.qn = 8;
+  options.quantization.qt = 10;
+  ms::DracoAttributeIds ids;
+  const auto enc = Check(ms::EncodeProgressive(*prim, options,
+                                               [&ids](const ms::QuantizedMesh& base, int method) {
+                                                 return ms::EncodeDracoBase(base, method, 7, &ids);
+                                               }),
+                         file + ": EncodeProgressive");
+  for (int p = 0; p < 2; ++p) {
+    Stream& s = m.streams[p];
+    ms::StreamWriteOptions wo;
+    wo.packing = kPackings[p];
+    s.stream = Check(ms::WriteStream(enc, options.quantization, wo), file + ": WriteStream");
+    for (const auto& d : s.stream.datagrams) s.datagrams += d.size();
+    auto reader = Check(ms::StreamReader::Create(s.stream.header.data(), s.stream.header.size(), 0), "header");
+    s.base = Check(ms::DecodeDracoBase(enc.base_bytes.data(), enc.base_bytes.size(), ids, reader.header().grids),
+                   file + ": DecodeDracoBase");
+    m.level_vertices = reader.header().level_vertices();
+    // The reference: the zero-loss decode, through the same path as the lossy ones.
+    const size_t n = s.stream.control.size();
+    s.ref_q.resize(n + 1);
+    {
+      auto base_reader = Check(ms::StreamReader::Create(s.stream.header.data(), s.stream.header.size(), 0), "header");
+      if (!base_reader.SetBase(s.base).ok()) Die(file + ": SetBase");
+      s.ref_q[0] = base_reader.Mesh();
+    }
+    auto o = DecodeOptions(0, 0, 1, ms::Recovery::kPredict);
+    o.on_level = [&](size_t level, const ms::StreamReader& r) {
+      if (level <= n) s.ref_q[level] = r.Mesh();
+    };
+    ms::LossyDecodeReport report;
+    auto done = Check(ms::DecodeStreamLossy(s.stream, 0, s.base, o, &report), file + ": zero-loss decode");
+    if (done.applied() != n) Die(file + ": the zero-loss decode stopped early");
+    for (size_t k = 0; k <= n; ++k) {
+      s.ref.push_back(ms::DequantizeMesh(s.ref_q[k], -1));
+      s.ref_diag.push_back(Diagonal(s.ref.back()));
+    }
+    if (s.ref_q[n].vertex_count() != m.level_vertices.back())
+      std::fprintf(stderr, "  warning: %s %s: zero-loss decode has %zu vertices, the header says %u\n", file.c_str(),
+                   kPackingNames[p], s.ref_q[n].vertex_count(), m.level_vertices.back());
+  }
+  if (!SameMesh(m.streams[0].ref_q.back(), m.streams[1].ref_q.back()))
+    std::fprintf(stderr, "  warning: %s: the two packings' zero-loss decodes differ\n", file.c_str());
+  return m;
+}
+
+// ------------------------------------------------------------ timing
+
+// Medians of DecodeStreamLossy alone, split packing, random loss, per loss
+// level and recovery; the warm-up round uses seed 1, kept round r seed r + 2; every round times every
+// configuration once, so all see the same machine load.
+json TimeDecodes(const Model& m, int repeat) {
+  const Stream& s = m.streams[0];
+  std::vector<double> losses = {0.0};
+  for (double l : m.plan.losses) losses.push_back(l);
+  std::vector<std::vector<double>> t(losses.size() * 2);
+  for (int round = -1; round < repeat; ++round) {  // round -1: warm-up, not kept
+    for (size_t li = 0; li < losses.size(); ++li)
+      for (int r = 0; r < 2; ++r) {
+        if (losses[li] == 0 && r == 1) continue;
+        const auto o = DecodeOptions(losses[li], 0, static_cast<uint64_t>(round + 2), kRecoveries[r]);
+        ms::QuantizedMesh base = s.base;  // the copy is not timed
+        ms::LossyDecodeReport report;
+        const auto start = Clock::now();
+        auto reader = ms::DecodeStreamLossy(s.stream, 0, std::move(base), o, &report);
+        const double ms_ = Ms(start, Clock::now());
+        if (!reader.ok()) Die(m.name + ": timed decode failed: " + reader.status().ToString());
+        if (round >= 0) t[li * 2 + r].push_back(ms_);
+      }
+  }
+  const double zero = Median(t[0]);
+  json rows = json::array();
+  for (size_t li = 0; li < losses.size(); ++li) {
+    json row = {{"loss", losses[li]}};
+    for (int r = 0; r < 2; ++r) {
+      const auto& v = t[li * 2 + (losses[li] == 0 ? 0 : r)];
+      const double med = Median(v);
+      row[kRecoveryNames[r]] = {{"median_ms", med},
+                                {"min_ms", *std::min_element(v.begin(), v.end())},
+                                {"max_ms", *std::max_element(v.begin(), v.end())},
+                                {"ratio", zero > 0 ? med / zero : 0.0}};
+    }
+    rows.push_back(row);
+    std::fprintf(stderr, "  time %s loss %4.1f%%: predict %.2f ms (x%.3f), lwop %.2f ms\n", m.name.c_str(),
+                 100 * losses[li], Median(t[li * 2]), zero > 0 ? Median(t[li * 2]) / zero : 0.0,
+                 Median(t[li * 2 + (losses[li] == 0 ? 0 : 1)]));
+  }
+  return {{"packing", "split"}, {"pattern", "random"}, {"repeat", repeat}, {"zero_loss_median_ms", zero},
+          {"rows", rows}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = ParseArgs(argc, argv);
+  const auto t0 = Clock::now();
+  const std::vector<double> kFullLosses = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.20, 0.30};
+  const std::vector<double> kSmallLosses = {0.04, 0.08, 0.12, 0.20, 0.30};
+  const std::vector<std::string> all = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
+  std::vector<std::string> chosen;
+  const std::vector<std::string> only = args.only.empty() && args.quick ? std::vector<std::string>{"spot"} : args.only;
+  for (const auto& f : all) {
+    if (only.empty()) {
+      chosen.push_back(f);
+      continue;
+    }
+    for (const auto& o : only)
+      if (o == f || o == Stem(f)) chosen.push_back(f);
+  }
+  if (chosen.empty()) Die("no model matches --model");
+
+  std::vector<Model> models;
+  for (const auto& f : chosen) {
+    Plan plan;
+    plan.full = f == "stanford-bunny.obj" || f == "horse.ply";
+    plan.per_level = plan.full || args.quick;
+    plan.losses = plan.full ? kFullLosses : kSmallLosses;
+    plan.seeds = plan.full ? args.seeds : args.small_seeds;
+    if (args.quick) {
+      plan.losses = {0.04, 0.12};
+      plan.seeds = 2;
+    }
+    std::fprintf(stderr, "prepare %s\n", f.c_str());
+    const auto s = Clock::now();
+    models.push_back(Prepare(args.models_dir, f, plan));
+    const Model& m = models.back();
+    std::fprintf(stderr, "  %zu levels, %u vertices, datagrams split %llu bundled %llu (%.1f s)\n",
+                 m.level_vertices.size() - 1, m.level_vertices.back(),
+                 static_cast<unsigned long long>(m.streams[0].datagrams),
+                 static_cast<unsigned long long>(m.streams[1].datagrams), Ms(s, Clock::now()) / 1000);
+  }
+
+  json out;
+  out["tool"] = "meshstream_loss_bench";
+  out["machine"] = MachineInfo();
+  out["settings"] = {{"qp", 11}, {"qn", 8}, {"qt", 10}, {"base", "Draco cl 7"},
+                     {"packet_bytes", ms::StreamWriteOptions{}.packet_bytes},
+                     {"bursty_mean_burst", kBursts[1]},
+                     {"samples_per_side", args.samples},
+                     {"threads", args.threads},
+                     {"repeat", args.repeat},
+                     {"seeds_full", args.quick ? 2 : args.seeds},
+                     {"seeds_small", args.quick ? 2 : args.small_seeds},
+                     {"level_seeds", args.level_seeds},
+                     {"level_step", kLevelStep},
+                     {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
+                     {"quick", args.quick},
+                     {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
+                                "reader; base copy outside the timed part), one warm-up round, every loss level "
+                                "and recovery timed once per round, the kept rounds with seeds 2..repeat+1; split packing, random "
+                                "loss; ratio = median / zero-loss median of the same run"}};
+
+  // 1. Timing, alone (nothing else runs in the process meanwhile).
+  std::vector<json> timing(models.size());
+  for (size_t mi = 0; mi < models.size(); ++mi) {
+    if (!models[mi].plan.per_level) continue;
+    std::fprintf(stderr, "timing %s\n", models[mi].name.c_str());
+    timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat);
+  }
+
+  // 2. The matrix, on worker threads.
+  std::vector<Job> jobs;
+  for (size_t mi = 0; mi < models.size(); ++mi) {
+    const Plan& p = models[mi].plan;
+    for (int pk = 0; pk < 2; ++pk)
+      for (int pt = 0; pt < 2; ++pt)
+        for (double loss : p.losses) {
+          // Compute budget (about 10 min on 2 cores): every loss level for
+          // split packing with random loss; the other cells at 4, 12 and 30 %
+          // (bursty with bundled packing at 12 % only).
+          const bool key = std::fabs(loss - 0.04) < 1e-9 || std::fabs(loss - 0.12) < 1e-9 ||
+                           std::fabs(loss - 0.30) < 1e-9;
+          const bool in = args.quick || (pk == 0 && pt == 0) || (key && !(pk == 1 && pt == 1)) ||
+                          std::fabs(loss - 0.12) < 1e-9;
+          if (!in) continue;
+          for (int sd = 1; sd <= p.seeds; ++sd) {
+            Job j;
+            j.model = mi;
+            j.packing = pk;
+            j.pattern = pt;
+            j.loss = loss;
+            j.seed = static_cast<uint64_t>(sd);
+            const bool subset = p.per_level && pt == 0 && sd <= args.level_seeds;
+            const bool at12 = std::fabs(loss - 0.12) < 1e-9;
+            j.levels_predict = subset && (pk == 0 || at12);
+            j.levels_lwop = subset && pk == 0 && at12;
+            jobs.push_back(j);
+          }
+        }
+  }
+  // Expensive jobs first (large models, per-level ones), so the tail is short.
+  std::stable_sort(jobs.begin(), jobs.end(), [&](const Job& a, const Job& b) {
+    auto cost = [&](const Job& j) {
+      return static_cast<double>(models[j.model].level_vertices.back()) * (j.levels_predict ? 3 : 1) *
+             (j.levels_lwop ? 2 : 1);
+    };
+    return cost(a) > cost(b);
+  });
+  std::fprintf(stderr, "matrix: %zu jobs (each decodes with both recoveries) on %u threads\n", jobs.size(),
+               args.threads);
+  std::vector<JobResult> results(jobs.size());
+  std::atomic<size_t> next{0}, finished{0};
+  std::mutex log_mu;
+  const auto m0 = Clock::now();
+  auto worker = [&]() {
+    for (;;) {
+      const size_t i = next.fetch_add(1);
+      if (i >= jobs.size()) return;
+      const auto s = Clock::now();
+      results[i] = RunJob(models[jobs[i].model], jobs[i], args.samples);
+      results[i].seconds = Ms(s, Clock::now()) / 1000;
+      const size_t f = finished.fetch_add(1) + 1;
+      std::lock_guard<std::mutex> lock(log_mu);
+      for (int r = 0; r < 2; ++r)
+        if (!results[i].rec[r].error.empty())
+          std::fprintf(stderr, "  ERROR %s %s %s loss %.2f seed %llu %s: %s\n", models[jobs[i].model].name.c_str(),
+                       kPackingNames[jobs[i].packing], kPatternNames[jobs[i].pattern], jobs[i].loss,
+                       static_cast<unsigned long long>(jobs[i].seed), kRecoveryNames[r],
+                       results[i].rec[r].error.c_str());
+      if (f % 50 == 0 || f == jobs.size()) {
+        const double el = Ms(m0, Clock::now()) / 1000;
+        std::fprintf(stderr, "  %zu/%zu jobs, %.0f s elapsed, about %.0f s left\n", f, jobs.size(), el,
+                     el / f * (jobs.size() - f));
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < args.threads; ++t) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+
+  // 3. The JSON, runs grouped by model in matrix order.
+  out["models"] = json::array();
+  uint64_t errors = 0;
+  for (size_t mi = 0; mi < models.size(); ++mi) {
+    const Model& m = models[mi];
+    json runs = json::array();
+    std::vector<size_t> order;
+    for (size_t i = 0; i < jobs.size(); ++i)
+      if (jobs[i].model == mi) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      const Job &x = jobs[a], &y = jobs[b];
+      return std::tie(x.packing, x.pattern, x.loss, x.seed) < std::tie(y.packing, y.pattern, y.loss, y.seed);
+    });
+    for (size_t i : order) {
+      runs.push_back(JobJson(jobs[i], results[i]));
+      for (int r = 0; r < 2; ++r) errors += !results[i].rec[r].error.empty();
+    }
+    json mj = {{"name", m.name},
+               {"file", m.file},
+               {"matrix", m.plan.full ? "full" : "reduced"},
+               {"losses", m.plan.losses},
+               {"seeds", m.plan.seeds},
+               {"level_vertices", m.level_vertices},
+               {"vertices", m.level_vertices.back()},
+               {"diagonal", m.streams[0].ref_diag.back()},
+               {"datagrams", {{"split", m.streams[0].datagrams}, {"bundled", m.streams[1].datagrams}}},
+               {"runs", runs}};
+    if (!timing[mi].is_null()) mj["timing"] = timing[mi];
+    out["models"].push_back(mj);
+  }
+  out["errors"] = errors;
+  out["runtime_s"] = Ms(t0, Clock::now()) / 1000;
+  out["machine"]["loadavg_at_end"] = FirstLineOf("cut -d' ' -f1-3 /proc/loadavg");
+  std::ofstream f(args.out);
+  if (!f) Die("cannot write " + args.out);
+  f << out.dump(1) << "\n";
+  std::fprintf(stderr, "wrote %s (%.0f s, %llu errors)\n", args.out.c_str(), Ms(t0, Clock::now()) / 1000,
+               static_cast<unsigned long long>(errors));
+  return 0;
+}

@@ -1,0 +1,460 @@
+#!/usr/bin/env python3
+"""Plots and tables from the loss experiments' JSON (bench/loss_experiments.cc).
+
+usage: bench/plot_loss.py [LOSS.json] [--out DIR] [--doc docs/loss-results.md]
+
+Writes into DIR (default: the JSON's folder):
+  loss-levels-<model>.png  per level, Hausdorff and Laplacian distortion of the
+                           predicted decode against the zero-loss decode of the
+                           same level, one curve per loss ratio (paper Figs 6-9)
+  loss-time.png            decoding time relative to the zero-loss decode (Fig 11)
+  loss-packing.png         split against bundled packing at 12 %, per level (Figs 12-13)
+  loss-lwop.png            prediction against LwoP at 12 %: Hausdorff and vertices
+                           per level (Figs 14, and the vertex counts of 5.3)
+  loss-final.png           final-level Hausdorff against loss, every model
+  loss-results.md          the generated Markdown
+and replaces the text between "<!-- loss:results:begin -->" and
+"<!-- loss:results:end -->" in the --doc file with it. Every number of the
+"Where we stand" list comes from the JSON. Works headless (Agg backend).
+"""
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+BEGIN = "<!-- loss:results:begin -->"
+END = "<!-- loss:results:end -->"
+TARGET_TIME = 1.10
+TARGET_HD = 0.005
+TARGET_BETTER = 0.90
+PAPER_BETTER = 0.70
+PAPER_TIME = 1.10
+PAPER_VERTS = (13023, 12063)  # predict, LwoP after three refinements at 12 %
+
+
+def close(a, b):
+    return abs(a - b) < 1e-9
+
+
+def med(v):
+    v = [x for x in v if x is not None and not (isinstance(x, float) and math.isnan(x))]
+    return statistics.median(v) if v else None
+
+
+def quant(v, q):
+    v = sorted(x for x in v if x is not None)
+    if not v:
+        return None
+    return v[min(len(v) - 1, int(math.ceil(q * len(v))) - 1)]
+
+
+def pct(x, digits=2):
+    return "-" if x is None else "%.*f %%" % (digits, 100 * x)
+
+
+def lossy(r):
+    return r["datagrams_lost"] > 0
+
+
+def better(r):
+    """Prediction strictly closer (point-to-surface Hausdorff, final level) than LwoP."""
+    p, l = r["predict"].get("hd_rel"), r["lwop"].get("hd_rel")
+    return p is not None and l is not None and p < l
+
+
+def cells(model):
+    out = {}
+    for r in model["runs"]:
+        out.setdefault((r["packing"], r["pattern"], r["loss"]), []).append(r)
+    order = {"split": 0, "bundled": 1, "random": 0, "bursty": 1}
+    return sorted(out.items(), key=lambda kv: (order[kv[0][0]], order[kv[0][1]], kv[0][2]))
+
+
+def per_level(runs, rec, key):
+    """{level: median over runs} of runs that carry per-level metrics."""
+    acc = {}
+    for r in runs:
+        for e in r[rec].get("levels", []):
+            if e.get(key) is not None:
+                acc.setdefault(e["level"], []).append(e[key])
+    return {k: statistics.median(v) for k, v in sorted(acc.items())}
+
+
+def level_runs(model, packing, loss, rec="predict"):
+    return [r for r in model["runs"] if r["packing"] == packing and r["pattern"] == "random"
+            and close(r["loss"], loss) and "levels" in r[rec]]
+
+
+# ------------------------------------------------------------------ plots
+
+def plot_levels(model, path):
+    losses = sorted({r["loss"] for r in model["runs"] if "levels" in r["predict"] and r["packing"] == "split"})
+    if not losses:
+        return False
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.8))
+    cmap = plt.get_cmap("viridis")
+    for i, loss in enumerate(losses):
+        runs = level_runs(model, "split", loss)
+        for ax, key in ((axes[0], "hd_rel"), (axes[1], "lap_rel")):
+            m = per_level(runs, "predict", key)
+            ax.plot(list(m), [100 * v for v in m.values()], "o-", ms=3, color=cmap(i / max(1, len(losses) - 1)),
+                    label="l = %d %%" % round(100 * loss))
+    n = len(level_runs(model, "split", losses[0]))
+    axes[0].set_title("%s: Hausdorff (point-to-surface) to the zero-loss level" % model["name"])
+    axes[1].set_title("%s: Laplacian distortion (Eq. 4)" % model["name"])
+    for ax in axes:
+        ax.set_xlabel("level (refinements applied)")
+        ax.set_ylabel("% of the bbox diagonal")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("prediction, split packing, random loss, median of %d seeds" % n, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def plot_time(data, path):
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    any_ = False
+    for m, c in zip(data["models"], ("C0", "C1", "C2", "C3", "C4")):
+        t = m.get("timing")
+        if not t:
+            continue
+        any_ = True
+        xs = [100 * r["loss"] for r in t["rows"]]
+        ax.plot(xs, [r["predict"]["ratio"] for r in t["rows"]], "o-", color=c, label="%s prediction" % m["name"])
+        ax.plot(xs, [r["lwop"]["ratio"] for r in t["rows"]], "s--", color=c, alpha=0.6, label="%s LwoP" % m["name"])
+    ax.axhline(TARGET_TIME, color="red", lw=0.8, ls=":", label="target / paper at 12 %: 1.10")
+    ax.set_xlabel("loss ratio l (%)")
+    ax.set_ylabel("decode time / zero-loss decode time")
+    ax.set_title("Decoding time relative to zero loss (median of in-process runs)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return any_
+
+
+def plot_packing(data, path):
+    models = [m for m in data["models"] if level_runs(m, "bundled", 0.12)]
+    if not models:
+        return False
+    fig, axes = plt.subplots(len(models), 2, figsize=(13, 4.2 * len(models)), squeeze=False)
+    for row, m in zip(axes, models):
+        for ax, key, title in ((row[0], "hd_rel", "Hausdorff"), (row[1], "lap_rel", "Laplacian")):
+            for packing, style in (("split", "o-"), ("bundled", "s--")):
+                v = per_level(level_runs(m, packing, 0.12), "predict", key)
+                ax.plot(list(v), [100 * x for x in v.values()], style, ms=3, label=packing)
+            ax.set_title("%s, l = 12 %%: %s to the zero-loss level (median)" % (m["name"], title))
+            ax.set_xlabel("level")
+            ax.set_ylabel("% of the bbox diagonal")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def plot_lwop(data, path):
+    models = [m for m in data["models"] if level_runs(m, "split", 0.12, "lwop")]
+    if not models:
+        return False
+    fig, axes = plt.subplots(len(models), 2, figsize=(13, 4.2 * len(models)), squeeze=False)
+    for row, m in zip(axes, models):
+        runs = level_runs(m, "split", 0.12, "lwop")
+        for rec, style in (("predict", "o-"), ("lwop", "s--")):
+            v = per_level(runs, rec, "hd_rel")
+            row[0].plot(list(v), [100 * x for x in v.values()], style, ms=3, label=rec)
+        row[0].set_title("%s, l = 12 %%: Hausdorff to the zero-loss level (median of %d)" % (m["name"], len(runs)))
+        row[0].set_ylabel("% of the bbox diagonal")
+        allr = [r for r in m["runs"] if r["packing"] == "split" and r["pattern"] == "random" and close(r["loss"], 0.12)]
+        lv = m["level_vertices"]
+        row[1].plot(range(len(lv)), lv, "k:", label="lossless")
+        for rec, style in (("predict", "o-"), ("lwop", "s--")):
+            n = len(lv) - 1
+            ys = [med([r[rec]["level_vertices"][k - 1] for r in allr if len(r[rec]["level_vertices"]) >= k])
+                  for k in range(1, n + 1)]
+            row[1].plot(range(1, n + 1), ys, style, ms=3, label=rec)
+        row[1].set_yscale("log")
+        row[1].set_title("%s, l = 12 %%: vertices per level (median of %d)" % (m["name"], len(allr)))
+        for ax in row:
+            ax.set_xlabel("level")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def plot_final(data, path):
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    for m, c in zip(data["models"], ("C0", "C1", "C2", "C3", "C4")):
+        cs = [(k, v) for k, v in cells(m) if k[0] == "split" and k[1] == "random"]
+        if not cs:
+            continue
+        xs = [100 * k[2] for k, _ in cs]
+        ax.plot(xs, [100 * med([r["predict"]["hd_rel"] for r in v]) for _, v in cs], "o-", color=c,
+                label="%s prediction" % m["name"])
+        ax.plot(xs, [100 * med([r["lwop"]["hd_rel"] for r in v]) for _, v in cs], "s--", color=c, alpha=0.6,
+                label="%s LwoP" % m["name"])
+    ax.axhline(100 * TARGET_HD, color="red", lw=0.8, ls=":", label="target 0.5 %")
+    ax.set_xlabel("loss ratio l (%)")
+    ax.set_ylabel("Hausdorff, % of the bbox diagonal")
+    ax.set_title("Final level against the zero-loss decode (median; split packing, random loss)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+# ------------------------------------------------------------------ markdown
+
+def verdict(ok):
+    return "**met**" if ok else "**not met**"
+
+
+def markdown(data, plots, prefix):
+    s = data["settings"]
+    L = []
+    L.append("Generated by `bench/plot_loss.py` from `docs/bench/loss.json` (%s run, %.0f s; machine: %s, "
+             "%s cores, load at start %s; commit %s). Distances are relative to the bbox diagonal of the "
+             "zero-loss decode; `samples_per_side` %s (0: every vertex, edge midpoint and face centroid)."
+             % ("quick" if s.get("quick") else "full", data["runtime_s"], data["machine"].get("cpu", "?"),
+                data["machine"].get("cores", "?"), data["machine"].get("loadavg_at_start", "?"),
+                data["machine"].get("git_commit", "?"), s["samples_per_side"]))
+    L.append("")
+    if data.get("errors"):
+        L.append("**%d decodes or metrics failed** (see the `error` fields of the JSON)." % data["errors"])
+        L.append("")
+
+    # ---- where we stand
+    all_runs = [(m, r) for m in data["models"] for r in m["runs"]]
+    lossy_runs = [(m, r) for m, r in all_runs if lossy(r)]
+    n_better = sum(better(r) for _, r in lossy_runs)
+    share = n_better / len(lossy_runs) if lossy_runs else None
+    ties = sum(1 for _, r in lossy_runs if r["predict"].get("hd_rel") == r["lwop"].get("hd_rel"))
+    L.append("### Where we stand")
+    L.append("")
+    times = {m["name"]: m["timing"] for m in data["models"] if m.get("timing")}
+    for name, t in times.items():
+        row = [r for r in t["rows"] if close(r["loss"], 0.12)]
+        if row:
+            x = row[0]["predict"]["ratio"]
+            L.append("- Decoding time at 12 %% loss, %s: **%.2fx** the zero-loss decode (%.1f ms against %.1f ms, "
+                     "medians of %d) — target at most %.2fx: %s; the paper reports about 1.10x. LwoP: %.2fx."
+                     % (name, x, row[0]["predict"]["median_ms"], t["zero_loss_median_ms"], t["repeat"], TARGET_TIME,
+                        verdict(x <= TARGET_TIME), row[0]["lwop"]["ratio"]))
+    for name in ("stanford-bunny", "horse"):
+        m = next((m for m in data["models"] if m["name"] == name), None)
+        if not m:
+            continue
+        at12 = [r for r in m["runs"] if close(r["loss"], 0.12)]
+        sr = [r for r in at12 if r["packing"] == "split" and r["pattern"] == "random"]
+        hd = [r["predict"]["hd_rel"] for r in at12 if r["predict"].get("hd_rel") is not None]
+        hds = [r["predict"]["hd_rel"] for r in sr if r["predict"].get("hd_rel") is not None]
+        hv = [r["predict"]["hv_rel"] for r in sr if r["predict"].get("hv_rel") is not None]
+        if not hd:
+            continue
+        L.append("- Hausdorff distance to the zero-loss decode at 12 %% loss, %s, prediction, final level: split "
+                 "packing with random loss median %s, worst %s (vertex-to-vertex, Eq. 3: median %s); over all "
+                 "%d runs at 12 %% (both packings and patterns) median %s, worst %s — target at most 0.5 %%: "
+                 "%s for the median, %s for every run."
+                 % (name, pct(med(hds), 3), pct(max(hds), 3), pct(med(hv), 3), len(hd), pct(med(hd), 3),
+                    pct(max(hd), 3), verdict(med(hd) <= TARGET_HD), verdict(max(hd) <= TARGET_HD)))
+    if share is not None:
+        L.append("- Prediction strictly closer than LwoP (point-to-surface Hausdorff of the final level, same seed): "
+                 "**%s** of the %d runs with at least one lost datagram (%d ties) — target at least 90 %%: %s; the "
+                 "paper reports about 70 %%." % (pct(share, 1), len(lossy_runs), ties, verdict(share >= TARGET_BETTER)))
+    if lossy_runs:
+        parts = []
+        for key, vals in (("packing", ("split", "bundled")), ("pattern", ("random", "bursty"))):
+            for v in vals:
+                rs = [r for _, r in lossy_runs if r[key] == v]
+                if rs:
+                    parts.append("%s %s (%d)" % (v, pct(sum(map(better, rs)) / len(rs), 1), len(rs)))
+        L.append("- The same share by packing and by loss pattern: %s." % ", ".join(parts))
+    for m in data["models"]:
+        vals = {}
+        for packing in ("split", "bundled"):
+            rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+            vals[packing] = (med([r["predict"]["hd_rel"] for r in rs]), med([r["predict"].get("lap_rel") for r in rs]))
+        if m["name"] in ("stanford-bunny", "horse") and None not in vals["split"] + vals["bundled"]:
+            L.append("- Packing at 12 %% (random loss, final level, prediction), %s: split Hausdorff %s and Laplacian %s, "
+                     "bundled %s and %s — split is %s, %s the paper (Figs 12-13: the split packing is better)."
+                     % (m["name"], pct(vals["split"][0], 3), pct(vals["split"][1], 4), pct(vals["bundled"][0], 3),
+                        pct(vals["bundled"][1], 4),
+                        "better on both" if vals["split"][0] < vals["bundled"][0] and vals["split"][1] < vals["bundled"][1]
+                        else "not better on both",
+                        "as in" if vals["split"][0] < vals["bundled"][0] and vals["split"][1] < vals["bundled"][1]
+                        else "unlike"))
+    bunny = next((m for m in data["models"] if m["name"] == "stanford-bunny"), None)
+    if bunny:
+        sr = [r for r in bunny["runs"] if r["packing"] == "split" and r["pattern"] == "random" and close(r["loss"], 0.12)]
+        if sr:
+            def at(rec, k):
+                return med([r[rec]["level_vertices"][k - 1] for r in sr if len(r[rec]["level_vertices"]) >= k])
+            n = len(bunny["level_vertices"]) - 1
+            L.append("- Vertex counts, bunny at 12 %% (split, random, median of %d seeds): after three refinements "
+                     "prediction %d, LwoP %d (ratio %.3f; lossless %d); after all %d refinements prediction %d, LwoP "
+                     "%d (ratio %.3f). The paper: %d against %d after three refinements (ratio %.3f)."
+                     % (len(sr), at("predict", 3), at("lwop", 3), at("lwop", 3) / at("predict", 3),
+                        bunny["level_vertices"][3], n, at("predict", n), at("lwop", n),
+                        at("lwop", n) / at("predict", n), PAPER_VERTS[0], PAPER_VERTS[1],
+                        PAPER_VERTS[1] / PAPER_VERTS[0]))
+            lv = bunny["level_vertices"]
+            k = min(range(1, n + 1), key=lambda i: abs(lv[i] - PAPER_VERTS[0]))
+            L.append("- Our levels grow less per refinement than the paper's (35-40 %%), so the closer point is the "
+                     "level nearest the paper's 13,023 lossless vertices: level %d (%d lossless), prediction %d, "
+                     "LwoP %d (ratio %.3f)." % (k, lv[k], at("predict", k), at("lwop", k), at("lwop", k) / at("predict", k)))
+    wrong = [(m["name"], r) for m, r in all_runs if not r["predict"].get("error") and r["predict"]["vertices"] != m["vertices"]]
+    nolap = sum(1 for _, r in lossy_runs if r["predict"].get("lap_rel") is None)
+    L.append("- Prediction keeps the lossless vertex count: %s (%d of %d runs differ); Laplacian undefined in %d "
+             "lossy runs." % ("yes" if not wrong else "**no**", len(wrong), len(all_runs), nolap))
+    L.append("")
+
+    # ---- plots
+    L.append("### Plots")
+    L.append("")
+    for title, f in plots:
+        L.append("**%s**" % title)
+        L.append("")
+        L.append("![%s](%s%s)" % (title, prefix, f))
+        L.append("")
+
+    # ---- decode time table
+    if times:
+        L.append("### Decoding time (split packing, random loss)")
+        L.append("")
+        names = list(times)
+        L.append("| loss | " + " | ".join("%s prediction | %s LwoP" % (n, n) for n in names) + " |")
+        L.append("|---|" + "---:|---:|" * len(names))
+        losses = [r["loss"] for r in times[names[0]]["rows"]]
+        for loss in losses:
+            cellsx = []
+            for n in names:
+                row = [r for r in times[n]["rows"] if close(r["loss"], loss)]
+                if row:
+                    cellsx.append("%.1f ms (%.2fx)" % (row[0]["predict"]["median_ms"], row[0]["predict"]["ratio"]))
+                    cellsx.append("%.1f ms (%.2fx)" % (row[0]["lwop"]["median_ms"], row[0]["lwop"]["ratio"]))
+                else:
+                    cellsx += ["-", "-"]
+            L.append("| %d %% | %s |" % (round(100 * loss), " | ".join(cellsx)))
+        L.append("")
+
+    # ---- share table overall per loss
+    L.append("### Prediction against LwoP, by loss ratio (all models, packings, patterns)")
+    L.append("")
+    L.append("| loss | lossy runs | prediction strictly closer | median Hausdorff prediction | median Hausdorff LwoP |")
+    L.append("|---|---:|---:|---:|---:|")
+    for loss in sorted({r["loss"] for _, r in lossy_runs}):
+        rs = [r for _, r in lossy_runs if close(r["loss"], loss)]
+        L.append("| %d %% | %d | %s | %s | %s |" % (round(100 * loss), len(rs), pct(sum(map(better, rs)) / len(rs), 1),
+                                                   pct(med([r["predict"]["hd_rel"] for r in rs]), 3),
+                                                   pct(med([r["lwop"]["hd_rel"] for r in rs]), 3)))
+    L.append("")
+
+    # ---- per model tables
+    L.append("### Final level against the zero-loss decode, per model")
+    L.append("")
+    L.append("Medians over seeds (worst in brackets). hd: point-to-surface Hausdorff; hv: vertex-to-vertex "
+             "(Eq. 3); lap: Laplacian distortion (Eq. 4, prediction only); better: share of the lossy runs "
+             "where prediction is strictly closer than LwoP (hd).")
+    L.append("")
+    for m in data["models"]:
+        L.append("**%s** (%d vertices, %d levels, %s matrix, %d seeds; datagrams: split %d, bundled %d)"
+                 % (m["name"], m["vertices"], len(m["level_vertices"]) - 1, m["matrix"], m["seeds"],
+                    m["datagrams"]["split"], m["datagrams"]["bundled"]))
+        L.append("")
+        L.append("| packing | pattern | loss | lossy runs | lost datagrams | predict hd | predict hv | predict lap "
+                 "| LwoP hd | LwoP vertices | better |")
+        L.append("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for (packing, pattern, loss), rs in cells(m):
+            ls = [r for r in rs if lossy(r)]
+            hd = [r["predict"]["hd_rel"] for r in rs]
+            L.append("| %s | %s | %d %% | %d/%d | %.1f | %s (%s) | %s | %s | %s | %d | %s |" % (
+                packing, pattern, round(100 * loss), len(ls), len(rs), statistics.mean(r["datagrams_lost"] for r in rs),
+                pct(med(hd), 3), pct(max(x for x in hd if x is not None), 3),
+                pct(med([r["predict"]["hv_rel"] for r in rs]), 3), pct(med([r["predict"].get("lap_rel") for r in rs]), 4),
+                pct(med([r["lwop"]["hd_rel"] for r in rs]), 3), med([r["lwop"]["vertices"] for r in rs]),
+                pct(sum(map(better, ls)) / len(ls), 0) if ls else "-"))
+        L.append("")
+
+    # ---- packing table at 12 %
+    L.append("### Packing at 12 % (random loss, final level, prediction)")
+    L.append("")
+    L.append("| model | split hd | bundled hd | split lap | bundled lap | split: predicted splits | "
+             "bundled: predicted splits |")
+    L.append("|---|---:|---:|---:|---:|---:|---:|")
+    for m in data["models"]:
+        row = []
+        for key in ("hd_rel", "lap_rel"):
+            for packing in ("split", "bundled"):
+                rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+                row.append(pct(med([r["predict"].get(key) for r in rs]), 3 if key == "hd_rel" else 4))
+        for packing in ("split", "bundled"):
+            rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+            st = [r["predict"]["stats"] for r in rs]
+            row.append("%d (both lost %d)" % (med([s["predicted_both"] + s["predicted_structure"] + s["predicted_geometry"]
+                                                   for s in st]) or 0, med([s["predicted_both"] for s in st]) or 0))
+        L.append("| %s | %s |" % (m["name"], " | ".join(row)))
+    L.append("")
+    return "\n".join(L)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("json", nargs="?", default="docs/bench/loss.json")
+    ap.add_argument("--out", default=None)
+    ap.add_argument("--doc", default=None)
+    a = ap.parse_args()
+    with open(a.json, encoding="utf-8") as f:
+        data = json.load(f)
+    out = a.out or os.path.dirname(os.path.abspath(a.json))
+    os.makedirs(out, exist_ok=True)
+    plots = []
+    if plot_final(data, os.path.join(out, "loss-final.png")):
+        plots.append(("Final-level Hausdorff distance against loss", "loss-final.png"))
+    for m in data["models"]:
+        f = "loss-levels-%s.png" % m["name"]
+        if plot_levels(m, os.path.join(out, f)):
+            plots.append(("%s: distortion per level (paper Figs 6-9)" % m["name"], f))
+    if plot_time(data, os.path.join(out, "loss-time.png")):
+        plots.append(("Decoding time relative to zero loss (paper Fig 11)", "loss-time.png"))
+    if plot_packing(data, os.path.join(out, "loss-packing.png")):
+        plots.append(("Split against bundled packing at 12 % (paper Figs 12-13)", "loss-packing.png"))
+    if plot_lwop(data, os.path.join(out, "loss-lwop.png")):
+        plots.append(("Prediction against LwoP at 12 % (paper Fig 14, vertex counts of 5.3)", "loss-lwop.png"))
+    with open(os.path.join(out, "loss-results.md"), "w", encoding="utf-8") as f:
+        f.write("# Loss experiment results\n\n" + markdown(data, plots, "") + "\n")
+    if a.doc and os.path.exists(a.doc):
+        with open(a.doc, encoding="utf-8") as f:
+            doc = f.read()
+        i, j = doc.find(BEGIN), doc.find(END)
+        if i >= 0 and j > i:
+            rel = os.path.relpath(out, os.path.dirname(os.path.abspath(a.doc)))
+            md = markdown(data, plots, "" if rel == "." else rel + "/")
+            doc = doc[: i + len(BEGIN)] + "\n" + md + "\n" + doc[j:]
+            with open(a.doc, "w", encoding="utf-8") as f:
+                f.write(doc)
+            print("plot_loss.py: updated %s" % a.doc)
+        else:
+            print("plot_loss.py: no markers in %s, left alone" % a.doc, file=sys.stderr)
+    print("plot_loss.py: wrote %d plots and loss-results.md into %s" % (len(plots), out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
