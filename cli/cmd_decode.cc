@@ -154,6 +154,7 @@ int RunDecode(const std::vector<std::string>& argv) {
     j["predicted_structure_only"] = report.recovery.predicted_structure;
     j["predicted_geometry_only"] = report.recovery.predicted_geometry;
     j["structure_fallbacks"] = report.recovery.structure_fallbacks;
+    j["structure_distrusted"] = report.recovery.structure_distrusted;
   }
   if (args.Has("json")) {
     std::puts(j.dump().c_str());

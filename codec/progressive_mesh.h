@@ -68,6 +68,7 @@ struct RecoveryStats {
   uint64_t predicted_structure = 0; // case 3: structure lost (or did not fit the ring), geometry arrived
   uint64_t predicted_geometry = 0;  // case 4: geometry lost, structure arrived
   uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
+  uint64_t structure_distrusted = 0; // arrived structure on a changed ring, replaced by case 3
   uint64_t abandoned = 0;           // kLwop: splits not applied
   uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
   void Add(const RecoveryStats& o);

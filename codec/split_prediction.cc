@@ -284,21 +284,27 @@ void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& 
     for (size_t c = 0; c < dims; ++c) wv[c] += wt * value(1 + k, c);
   }
   for (size_t c = 0; c < dims; ++c) wv[c] /= total;
-  // Keep the coarse vertex at their midpoint, and every value within the
-  // range of what it was made from.
+  // Keep the coarse vertex at their midpoint, the pair in the plane of the
+  // ring (an offset along the normal is what moves a surface; the coarse
+  // surface is the best guess of the fine one there), and every value
+  // within the range of what it was made from.
+  double half[3];
+  for (int c = 0; c < 3; ++c) half[c] = (nv[c] - wv[c]) / 2;
+  const double along = half[0] * f.normal[0] + half[1] * f.normal[1] + half[2] * f.normal[2];
+  for (int c = 0; c < 3; ++c) half[c] -= along * f.normal[c];
   PredictedGeometry& out = *result;
   out.u_channels.resize(size_t(count));
   out.v_channels.resize(size_t(count));
   for (size_t c = 0; c < dims; ++c) {
     const double coarse = value(0, c);
-    const double shift = coarse - (nv[c] + wv[c]) / 2;
     double lo = coarse, hi = coarse;
     for (size_t k = 0; k < d; ++k) {
       lo = std::min(lo, value(1 + k, c));
       hi = std::max(hi, value(1 + k, c));
     }
-    const int32_t u = static_cast<int32_t>(std::lround(std::clamp(wv[c] + shift, lo, hi)));
-    const int32_t v = static_cast<int32_t>(std::lround(std::clamp(nv[c] + shift, lo, hi)));
+    const double h = c < 3 ? half[c] : (nv[c] - wv[c]) / 2;
+    const int32_t u = static_cast<int32_t>(std::lround(std::clamp(coarse - h, lo, hi)));
+    const int32_t v = static_cast<int32_t>(std::lround(std::clamp(coarse + h, lo, hi)));
     if (c < 3) {
       out.u[c] = u;
       out.v[c] = v;
