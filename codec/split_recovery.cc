@@ -51,7 +51,9 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
   // Hausdorff distance to the lossless decode drops from 1.5 % to 0.9 % of
   // the diagonal (docs/loss-tolerance.md).
   const bool trust_ranks = recovery == Recovery::kLwop || (flags[w] & kRingInexact) == 0 || !has_geometry;
-  if (fits && !trust_ranks) {
+  const bool distrusted = fits && !trust_ranks;
+  size_t coded_a = a_at, coded_b = b_at;
+  if (distrusted) {
     fits = false;
     ++stats->structure_distrusted;
   }
@@ -85,8 +87,16 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     // (kAbsent); w keeps its coarse position; its neighbours, which the new
     // vertex would have joined, no longer have the lossless rings.
     ++stats->abandoned;
+    const bool lossless_ring = flags[w] == 0;
     mark(w, kPositionInexact | kRingInexact);
-    if (fan) {
+    if (fits && lossless_ring) {
+      // Known structure on the lossless ring: exactly the vertices the new
+      // vertex would have joined (ring[b..a]) lose a ring entry or change one.
+      const size_t d = ring.size();
+      for (size_t step = 0, path = (a_at + d - b_at) % d; step <= path; ++step) {
+        mark(ring[(b_at + step) % d], kRingInexact);
+      }
+    } else if (fan) {
       for (uint32_t x : ring) mark(x, kRingInexact);
     }
     connectivity.AddIsolatedVertex();
@@ -142,6 +152,9 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     a_at = wings.a_at;
     b_at = wings.b_at;
     new_uv = wings.new_uv;
+    // Geometry and ranks agree: the coded structure, as if trusted (the
+    // ring is not changed further, so errors stop spreading here).
+    if (distrusted && a_at == coded_a && b_at == coded_b) structure = true;
   } else if (!has_geometry) {
     new_uv = NewVertexUv(frame, a_at, b_at);
   }
