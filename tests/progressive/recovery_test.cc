@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "codec/lossy_decode.h"
 #include "codec/mesh_health.h"
 #include "codec/progressive_encoder.h"
 #include "codec/stream_reader.h"
@@ -143,6 +144,62 @@ TEST_P(Recovery_, LosingEveryDatagramRefinesTheBaseByPredictionAlone) {
   const Decoded lwop = Decode(e, Recovery::kLwop, [](size_t, size_t) { return false; });
   EXPECT_EQ(lwop.mesh.vertex_count(), header->base_vertices);
   EXPECT_EQ(lwop.mesh.face_count(), header->base_faces);
+}
+
+// The same through the whole client path (simulator, reconstructor, reader):
+// loss, bursts, reordering and duplication together, both recoveries.
+TEST_P(Recovery_, SimulatedNetworkPatternsKeepCountsAndSplitBits) {
+  const auto [name, packing] = GetParam();
+  const Encoded e = EncodeModel(name, packing);
+  auto header = StreamHeader::Parse(e.stream.header.data(), e.stream.header.size());
+  ASSERT_TRUE(header.ok());
+  auto base_of = [&]() {
+    auto base = DecodeDracoBase(e.base_bytes.data(), e.base_bytes.size(), e.ids, header->grids);
+    EXPECT_TRUE(base.ok());
+    return std::move(base).value();
+  };
+  // Per decoded level, the vertex ids in use (kept and never-created alike):
+  // ids follow from the split bits alone, so they must match the lossless run.
+  auto run = [&](const LossModel& model, Recovery recovery, std::vector<size_t>* ids) {
+    LossyDecodeOptions options;
+    options.loss = model;
+    options.reconstructor.recovery = recovery;
+    options.on_level = [&](size_t, const StreamReader& reader) { ids->push_back(reader.state().positions.size()); };
+    LossyDecodeReport report;
+    auto reader = DecodeStreamLossy(e.stream, 0, base_of(), options, &report);
+    EXPECT_TRUE(reader.ok()) << reader.status().ToString();
+    return reader.ok() ? reader->Mesh() : QuantizedMesh{};
+  };
+  std::vector<size_t> lossless_ids;
+  const QuantizedMesh lossless = run(LossModel{}, Recovery::kPredict, &lossless_ids);
+  ASSERT_EQ(lossless.vertex_count(), header->level_vertices().back());
+  const MeshHealth clean = Health(lossless);
+  for (int seed = 0; seed < 20; ++seed) {
+    LossModel model;
+    model.seed = 1000 + seed;
+    model.loss = 0.05 * (seed % 5);
+    model.burst = seed % 2 ? 3 : 0;
+    model.reorder = 0.3;
+    model.duplicate = 0.2;
+    for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {
+      std::vector<size_t> ids;
+      const QuantizedMesh m = run(model, recovery, &ids);
+      EXPECT_EQ(ids, lossless_ids) << name << " seed " << seed;
+      const MeshHealth h = Health(m);
+      EXPECT_EQ(h.unreferenced_vertices, 0u) << name << " seed " << seed;
+      EXPECT_LE(h.degenerate_faces, clean.degenerate_faces) << name << " seed " << seed;
+      EXPECT_LE(h.nonmanifold_edges, clean.nonmanifold_edges) << name << " seed " << seed;
+      if (recovery == Recovery::kPredict) {
+        EXPECT_EQ(m.vertex_count(), lossless.vertex_count()) << name << " seed " << seed;
+        EXPECT_EQ(m.face_count(), lossless.face_count()) << name << " seed " << seed;
+      }
+      if (model.loss == 0) {
+        // Reordering and duplicates alone lose nothing.
+        EXPECT_EQ(m.positions, lossless.positions) << name << " seed " << seed;
+        EXPECT_EQ(m.indices, lossless.indices) << name << " seed " << seed;
+      }
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(SharedModels, Recovery_,
