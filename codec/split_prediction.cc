@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 
 namespace meshstream {
 
@@ -89,7 +88,7 @@ Vec2d RingFrame::Project(const Vec3d& p) const {
   return {Dot(d, axis_u), Dot(d, axis_v)};
 }
 
-void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out) {
+void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out, bool least_squares) {
   RingFrame& f = *out;
   f.w = ToD(w);
   f.ring.clear();
@@ -106,8 +105,10 @@ void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) m[i][j] += d[i] * d[j];
   };
-  add(f.w);
-  for (const Vec3d& p : f.ring) add(p);
+  if (least_squares) {
+    add(f.w);
+    for (const Vec3d& p : f.ring) add(p);
+  }
   // The fan's normal orients the plane; it also stands in for a plane the
   // points do not define (all on one line or one point).
   Vec3d fan{0, 0, 0};
@@ -115,7 +116,7 @@ void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out
     const Vec3d e = Cross(Sub(f.ring[k], f.w), Sub(f.ring[(k + 1) % f.ring.size()], f.w));
     for (int i = 0; i < 3; ++i) fan[i] += e[i];
   }
-  Vec3d n = SmallestEigenvector(m);
+  Vec3d n = least_squares ? SmallestEigenvector(m) : fan;
   if (Norm(n) < 1e-9 * (1 + Norm(fan))) n = fan;
   if (Dot(n, fan) < 0) n = Scale(n, -1);
   if (Norm(n) < 1e-12) n = {0, 0, 1};
@@ -197,7 +198,10 @@ PredictedWings WingsFromGeometry(const RingFrame& f, const Vec3i& u, const Vec3i
   const Vec2d mid = {(pu[0] + pv[0]) / 2, (pu[1] + pv[1]) / 2};
   const Vec2d dir = Sub2(pv, pu);
   // score > 0: the ring vertex is nearer the new vertex than w.
-  std::vector<double> score(2 * d), prefix(2 * d + 1, 0);
+  std::vector<double>& work = f.work;
+  work.assign(4 * d + 1, 0);
+  double* score = work.data();
+  double* prefix = work.data() + 2 * d;
   for (size_t t = 0; t < 2 * d; ++t) {
     const Vec2d& x = f.ring_uv[t % d];
     score[t] = (x[0] - mid[0]) * dir[0] + (x[1] - mid[1]) * dir[1];
@@ -208,23 +212,25 @@ PredictedWings WingsFromGeometry(const RingFrame& f, const Vec3i& u, const Vec3i
   // to w. Maximize score(i) + score(j) + 2 * sum(score(i+1..j-1)) =
   // g(j) + f(i) with g(j) = score(j) + 2 prefix(j), f(i) = score(i) -
   // 2 prefix(i+1): a sliding-window maximum of f over i in [j-d+1, j-1],
-  // O(d) in all.
+  // O(d) in all (a monotonic queue: candidate i with f decreasing).
   auto fi = [&](size_t i) { return score[i] - 2 * prefix[i + 1]; };
-  std::deque<size_t> window;  // candidate i, f decreasing
+  std::vector<size_t>& window = f.window;
+  window.clear();
+  size_t head = 0;
   double best = -1e300;
   size_t best_i = 0, best_j = 1;
   for (size_t j = 1; j < 2 * d; ++j) {
     const size_t i = j - 1;
     if (i < d) {
-      while (!window.empty() && fi(window.back()) < fi(i)) window.pop_back();
+      while (window.size() > head && fi(window.back()) < fi(i)) window.pop_back();
       window.push_back(i);
     }
-    while (!window.empty() && window.front() + d - 1 < j) window.pop_front();
-    if (window.empty()) continue;
-    const double value = score[j] + 2 * prefix[j] + fi(window.front());
+    while (window.size() > head && window[head] + d - 1 < j) ++head;
+    if (window.size() == head) continue;
+    const double value = score[j] + 2 * prefix[j] + fi(window[head]);
     if (value > best) {
       best = value;
-      best_i = window.front();
+      best_i = window[head];
       best_j = j;
     }
   }

@@ -38,13 +38,18 @@ struct RingFrame {
   std::vector<Vec2d> ring_uv;
   Vec3d origin{}, axis_u{}, axis_v{}, normal{};
   Vec2d Project(const Vec3d& p) const;
+  // Scratch reused between calls (no allocation per split).
+  mutable std::vector<double> work;
+  mutable std::vector<size_t> window;
 };
 
 // Fits the plane through w and its ring (the eigenvector of the smallest
 // eigenvalue of their covariance, in closed form, oriented like the fan's
 // normal so the ring turns counter-clockwise in the plane).
-// Fills `out`, reusing its storage.
-void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out);
+// Fills `out`, reusing its storage. Without `least_squares` the plane is the
+// fan's (area-weighted normal): cheaper, and enough where the plane only
+// sorts the ring into sides (case 3).
+void FitRingFrame(const Vec3i& w, const std::vector<Vec3i>& ring, RingFrame* out, bool least_squares = true);
 
 struct PredictedWings {
   size_t a_at = 0, b_at = 0;  // ring positions of the wings (SplitMesh::SplitAt)

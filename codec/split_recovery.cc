@@ -117,7 +117,7 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
   for (size_t k = 0; k < ring.size(); ++k) ring_positions[k] = positions[ring[k]];
   const Vec3i s = positions[w];
   RingFrame& frame = prediction.frame;
-  FitRingFrame(s, ring_positions, &frame);
+  FitRingFrame(s, ring_positions, &frame, /*least_squares=*/!has_geometry);
 
   Vec3i u{}, v{};
   std::vector<int32_t>& u_ch = prediction.u_channels;
