@@ -256,7 +256,7 @@ Vec2d NewVertexUv(const RingFrame& f, size_t a_at, size_t b_at) {
 }
 
 void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& new_uv,
-                     const std::vector<int32_t>& channels, int count, PredictedGeometry* result) {
+                     const std::vector<int32_t>& channels, int count, PredictedGeometry* result, double spread) {
   const size_t d = f.ring.size();
   const size_t path = (a_at + d - b_at) % d;
   const size_t dims = 3 + size_t(count);
@@ -295,7 +295,7 @@ void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& 
   // surface is the best guess of the fine one there), and every value
   // within the range of what it was made from.
   double half[3];
-  for (int c = 0; c < 3; ++c) half[c] = (nv[c] - wv[c]) / 2;
+  for (int c = 0; c < 3; ++c) half[c] = (nv[c] - wv[c]) / 2 * spread;
   const double along = half[0] * f.normal[0] + half[1] * f.normal[1] + half[2] * f.normal[2];
   for (int c = 0; c < 3; ++c) half[c] -= along * f.normal[c];
   PredictedGeometry& out = *result;
@@ -308,7 +308,7 @@ void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& 
       lo = std::min(lo, value(1 + k, c));
       hi = std::max(hi, value(1 + k, c));
     }
-    const double h = c < 3 ? half[c] : (nv[c] - wv[c]) / 2;
+    const double h = c < 3 ? half[c] : (nv[c] - wv[c]) / 2 * spread;
     const int32_t u = static_cast<int32_t>(std::lround(std::clamp(coarse - h, lo, hi)));
     const int32_t v = static_cast<int32_t>(std::lround(std::clamp(coarse + h, lo, hi)));
     if (c < 3) {

@@ -167,7 +167,7 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
       values.insert(values.end(), attributes.begin() + size_t(x) * channels,
                     attributes.begin() + size_t(x + 1) * channels);
     PredictedGeometry& g = prediction.geometry;
-    PredictGeometry(frame, a_at, b_at, new_uv, values, channels, &g);
+    PredictGeometry(frame, a_at, b_at, new_uv, values, channels, &g, structure ? 1.0 : kCase2Spread);
     // A predicted vertex must not make a triangle of w's or n's collinear; the
     // first fallback keeps w where it is and puts n at the centroid of (w, a, b).
     if (degenerate(g.u, g.v, a_at, b_at)) {
