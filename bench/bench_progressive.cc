@@ -110,16 +110,8 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      return argv[++i];
-    };
-    if (f == "--help" || f == "-h") {
-      std::fputs(kHelp, stdout);
-      std::exit(0);
-    } else if (f == "--models") {
+  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
+    if (f == "--models") {
       a.models_dir = next();
     } else if (f == "--model") {
       a.only.push_back(next());
@@ -155,9 +147,10 @@ Args ParseArgs(int argc, char** argv) {
     } else if (f == "--no-distortion") {
       a.distortion = false;
     } else {
-      Die("unknown option " + f + " (see --help)");
+      return false;
     }
-  }
+    return true;
+  });
   if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
   return a;
 }

@@ -8,6 +8,7 @@
 #define MESHSTREAM_BENCH_BENCH_UTIL_H_
 
 #include <chrono>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,6 +34,13 @@ T Check(StatusOr<T> v, const std::string& what) {
   if (!v.ok()) Die(what + ": " + v.status().ToString());
   return std::move(v).value();
 }
+
+// Walks the flags argv[1..]: --help or -h prints `help` to stdout and exits
+// 0; any other flag goes to on_flag(flag, value), where value() takes the
+// next argument (Die("<flag> needs a value") when there is none). on_flag
+// returns false for a flag it does not know: Die("unknown option ...").
+using FlagHandler = std::function<bool(const std::string& flag, const std::function<std::string()>& value)>;
+void ParseFlags(int argc, char** argv, const char* help, const FlagHandler& on_flag);
 
 // The comma-separated items of `s`, empty ones dropped.
 std::vector<std::string> SplitList(const std::string& s);

@@ -32,6 +32,7 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -99,16 +100,8 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      return argv[++i];
-    };
-    if (f == "--help" || f == "-h") {
-      std::fputs(kHelp, stdout);
-      std::exit(0);
-    } else if (f == "--out") {
+  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& value) {
+    if (f == "--out") {
       a.out = value();
     } else if (f == "--models") {
       a.models_dir = value();
@@ -129,9 +122,10 @@ Args ParseArgs(int argc, char** argv) {
     } else if (f == "--quick") {
       a.quick = true;
     } else {
-      Die("unknown option " + f + " (see --help)");
+      return false;
     }
-  }
+    return true;
+  });
   return a;
 }
 
