@@ -22,7 +22,6 @@
 #include <draco/compression/decode.h>
 #include <draco/core/decoder_buffer.h>
 #include <draco/core/draco_version.h>
-#include <sys/utsname.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -38,19 +37,18 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "bench/bench_util.h"
 #include "codec/hausdorff.h"
 #include "codec/mesh.h"
 #include "codec/progressive_encoder.h"
 #include "codec/scene_flatten.h"
 #include "codec/stream_writer.h"
-#include "importers/draco_base_coder.h"
 #include "importers/draco_codec.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"
@@ -59,8 +57,20 @@
 namespace {
 
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 namespace ms = meshstream;
+using ms::bench::Check;
+using ms::bench::Clock;
+using ms::bench::Diagonal;
+using ms::bench::Die;
+using ms::bench::FirstLineOf;
+using ms::bench::Median;
+using ms::bench::Ms;
+using ms::bench::ParseDouble;
+using ms::bench::ParseInt;
+using ms::bench::Primitives;
+using ms::bench::ShellQuote;
+using ms::bench::SplitList;
+using ms::bench::Stem;
 
 const char kHelp[] =
     "usage: meshstream_bench [--models DIR] [--model NAME]... [--qp 11,14] [--repeat 5] [--decode-repeat 15]\n"
@@ -98,55 +108,10 @@ struct Args {
   bool distortion = true;
 };
 
-[[noreturn]] void Die(const std::string& what) {
-  std::fprintf(stderr, "meshstream_bench: %s\n", what.c_str());
-  std::exit(1);
-}
-
-template <class T>
-T Check(ms::StatusOr<T> v, const std::string& what) {
-  if (!v.ok()) Die(what + ": " + v.status().ToString());
-  return std::move(v).value();
-}
-
-std::vector<std::string> SplitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
-double ParseDouble(const std::string& s, const std::string& flag) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (end == s.c_str() || *end != '\0' || !std::isfinite(v)) Die(flag + ": not a number: '" + s + "'");
-  return v;
-}
-
-long ParseInt(const std::string& s, const std::string& flag, long lo, long hi) {
-  char* end = nullptr;
-  const long v = std::strtol(s.c_str(), &end, 10);
-  if (end == s.c_str() || *end != '\0' || v < lo || v > hi) {
-    Die(flag + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + s + "'");
-  }
-  return v;
-}
-
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      return argv[++i];
-    };
-    if (f == "--help" || f == "-h") {
-      std::fputs(kHelp, stdout);
-      std::exit(0);
-    } else if (f == "--models") {
+  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
+    if (f == "--models") {
       a.models_dir = next();
     } else if (f == "--model") {
       a.only.push_back(next());
@@ -182,20 +147,12 @@ Args ParseArgs(int argc, char** argv) {
     } else if (f == "--no-distortion") {
       a.distortion = false;
     } else {
-      Die("unknown option " + f + " (see --help)");
+      return false;
     }
-  }
+    return true;
+  });
   if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
   return a;
-}
-
-double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // Runs `f` n times; returns the wall times in ms.
@@ -216,31 +173,11 @@ json Timing(const std::vector<double>& runs) {
           {"runs_ms", runs}};
 }
 
-std::string ShellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') out += "'\\''";
-    else out += c;
-  }
-  return out + "'";
-}
-
 // Runs a command line; returns its exit status (-1 when it did not exit).
 int Run(const std::string& cmd) {
   const int rc = std::system(cmd.c_str());
   if (rc == -1 || !WIFEXITED(rc)) return -1;
   return WEXITSTATUS(rc);
-}
-
-std::string FirstLineOf(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return out;
-  char buf[512];
-  if (std::fgets(buf, sizeof buf, p)) out = buf;
-  pclose(p);
-  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
-  return out;
 }
 
 uint64_t FileSize(const std::string& path) {
@@ -282,21 +219,18 @@ std::string UtcNow() {
 }
 
 json MachineInfo(const Args& args) {
-  utsname u{};
-  uname(&u);
   json m = {
       {"nproc", std::thread::hardware_concurrency()},
       {"cpu", CpuModel()},
       {"date", UtcNow()},
-      {"kernel", std::string(u.sysname) + " " + u.release},
+      {"kernel", ms::bench::KernelName()},
       {"loadavg_at_start", LoadAverage()},
       {"compiler", __VERSION__},
       {"build_type", MESHSTREAM_BUILD_TYPE},
       {"draco", draco::kDracoVersion},
   };
   if (args.use_gltfpack) m["gltfpack"] = FirstLineOf(ShellQuote(args.gltfpack) + " -v 2>&1");
-  const std::string commit =
-      FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) + " rev-parse --short HEAD 2>/dev/null");
+  const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
   if (!commit.empty()) {
     const std::string dirty = FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) +
                                           " status --porcelain --untracked-files=no 2>/dev/null");
@@ -306,33 +240,6 @@ json MachineInfo(const Args& args) {
 }
 
 // ------------------------------------------------------------ the mesh side
-
-std::string Stem(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  const size_t dot = name.find_last_of('.');
-  return dot == std::string::npos ? name : name.substr(0, dot);
-}
-
-std::vector<const ms::Primitive*> Primitives(const ms::Scene& s) {
-  std::vector<const ms::Primitive*> out;
-  for (const ms::Mesh& m : s.meshes)
-    for (const ms::Primitive& p : m.primitives)
-      if (p.face_count() > 0) out.push_back(&p);
-  return out;
-}
-
-double Diagonal(const ms::Primitive& p) {
-  std::array<double, 3> lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (uint32_t i : p.indices)
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min<double>(lo[c], p.positions[i][c]);
-      hi[c] = std::max<double>(hi[c], p.positions[i][c]);
-    }
-  double d = 0;
-  for (int c = 0; c < 3; ++c) d += (hi[c] - lo[c]) * (hi[c] - lo[c]);
-  return std::sqrt(d);
-}
 
 // Order-0 entropy in bits of a list of symbols.
 template <class T>
@@ -614,11 +521,7 @@ json LevelBytes(const ms::Primitive& prim, const ms::QuantizationParams& q, cons
   ms::ProgressiveEncodeOptions options;
   options.quantization = q;
   ms::DracoAttributeIds ids;
-  const auto encoded = Check(ms::EncodeProgressive(prim, options,
-                                                   [&ids](const ms::QuantizedMesh& base, int method) {
-                                                     return ms::EncodeDracoBase(base, method, 7, &ids);
-                                                   }),
-                             label + ": EncodeProgressive");
+  const auto encoded = ms::bench::EncodeWithDracoBase(prim, options, &ids, label);
   ms::StreamWriteOptions so;
   so.packing = ms::Packing::kSplit;
   const auto stream = Check(ms::WriteStream(encoded, q, so), label + ": WriteStream");
@@ -682,6 +585,7 @@ struct WorkDir {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_bench");
   const Args args = ParseArgs(argc, argv);
   const auto bench_start = Clock::now();
   const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};

@@ -21,11 +21,9 @@
 //     round with the zero-loss decode, before any other work starts.
 // Writes one JSON object (--out); bench/plot_loss.py turns it into plots and
 // the generated part of docs/loss-results.md. Aggregation happens there.
-#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -34,6 +32,7 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -44,6 +43,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench/bench_util.h"
 #include "codec/hausdorff.h"
 #include "codec/laplacian.h"
 #include "codec/lossy_decode.h"
@@ -57,8 +57,15 @@
 namespace {
 
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 namespace ms = meshstream;
+using ms::bench::Check;
+using ms::bench::Clock;
+using ms::bench::Die;
+using ms::bench::FirstLineOf;
+using ms::bench::Median;
+using ms::bench::Ms;
+using ms::bench::ParseInt;
+using ms::bench::Stem;
 
 const char kHelp[] =
     "usage: meshstream_loss_bench [--out FILE] [--model NAME]... [--seeds N] [--quick]\n"
@@ -91,37 +98,10 @@ struct Args {
   bool quick = false;
 };
 
-[[noreturn]] void Die(const std::string& what) {
-  std::fprintf(stderr, "meshstream_loss_bench: %s\n", what.c_str());
-  std::exit(1);
-}
-
-template <class T>
-T Check(ms::StatusOr<T> v, const std::string& what) {
-  if (!v.ok()) Die(what + ": " + v.status().ToString());
-  return std::move(v).value();
-}
-
-long ParseInt(const std::string& s, const std::string& flag, long lo, long hi) {
-  char* end = nullptr;
-  const long v = std::strtol(s.c_str(), &end, 10);
-  if (end == s.c_str() || *end != '\0' || v < lo || v > hi)
-    Die(flag + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + s + "'");
-  return v;
-}
-
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      return argv[++i];
-    };
-    if (f == "--help" || f == "-h") {
-      std::fputs(kHelp, stdout);
-      std::exit(0);
-    } else if (f == "--out") {
+  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& value) {
+    if (f == "--out") {
       a.out = value();
     } else if (f == "--models") {
       a.models_dir = value();
@@ -142,42 +122,16 @@ Args ParseArgs(int argc, char** argv) {
     } else if (f == "--quick") {
       a.quick = true;
     } else {
-      Die("unknown option " + f + " (see --help)");
+      return false;
     }
-  }
+    return true;
+  });
   return a;
 }
 
-double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-std::string Stem(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  const size_t dot = name.find_last_of('.');
-  return dot == std::string::npos ? name : name.substr(0, dot);
-}
-
-std::string FirstLineOf(const std::string& cmd) {
-  std::string out;
-  if (FILE* p = popen(cmd.c_str(), "r")) {
-    char buf[512];
-    if (std::fgets(buf, sizeof buf, p)) out = buf;
-    pclose(p);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
-  return out;
-}
-
+// The machine, as docs/loss-results.md quotes it (keys differ from
+// meshstream_bench's: this JSON has its own readers).
 json MachineInfo() {
-  utsname u{};
-  uname(&u);
   std::string cpu;
   std::ifstream info("/proc/cpuinfo");
   for (std::string line; std::getline(info, line);) {
@@ -188,25 +142,13 @@ json MachineInfo() {
   }
   json m = {{"cpu", cpu},
             {"cores", std::thread::hardware_concurrency()},
-            {"os", std::string(u.sysname) + " " + u.release},
+            {"os", ms::bench::KernelName()},
             {"compiler", __VERSION__},
             {"build_type", MESHSTREAM_BUILD_TYPE},
             {"loadavg_at_start", FirstLineOf("cut -d' ' -f1-3 /proc/loadavg")}};
-  const std::string commit = FirstLineOf("git -C '" MESHSTREAM_SOURCE_DIR "' rev-parse --short HEAD 2>/dev/null");
+  const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
   if (!commit.empty()) m["git_commit"] = commit;
   return m;
-}
-
-double Diagonal(const ms::Primitive& p) {
-  std::array<double, 3> lo = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (uint32_t i : p.indices)
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min<double>(lo[c], p.positions[i][c]);
-      hi[c] = std::max<double>(hi[c], p.positions[i][c]);
-    }
-  double d = 0;
-  for (int c = 0; c < 3; ++c) d += (hi[c] - lo[c]) * (hi[c] - lo[c]);
-  return std::sqrt(d);
 }
 
 bool SameMesh(const ms::QuantizedMesh& a, const ms::QuantizedMesh& b) {
@@ -429,26 +371,16 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan)
   m.name = Stem(file);
   m.plan = plan;
   const ms::Scene scene = Check(ms::ImportFile(dir + "/" + file), file);
-  const ms::Primitive* prim = nullptr;
-  size_t prims = 0;
-  for (const ms::Mesh& mesh : scene.meshes)
-    for (const ms::Primitive& p : mesh.primitives)
-      if (p.face_count() > 0) {
-        if (!prim) prim = &p;
-        ++prims;
-      }
-  if (!prim) Die(file + ": no triangles");
-  if (prims > 1) std::fprintf(stderr, "  warning: %s has %zu primitives; only the first is used\n", file.c_str(), prims);
+  const auto prims = ms::bench::Primitives(scene);
+  if (prims.empty()) Die(file + ": no triangles");
+  if (prims.size() > 1)
+    std::fprintf(stderr, "  warning: %s has %zu primitives; only the first is used\n", file.c_str(), prims.size());
   ms::ProgressiveEncodeOptions options;
   options.quantization.qp = 11;
   options.quantization.qn = 8;
   options.quantization.qt = 10;
   ms::DracoAttributeIds ids;
-  const auto enc = Check(ms::EncodeProgressive(*prim, options,
-                                               [&ids](const ms::QuantizedMesh& base, int method) {
-                                                 return ms::EncodeDracoBase(base, method, 7, &ids);
-                                               }),
-                         file + ": EncodeProgressive");
+  const auto enc = ms::bench::EncodeWithDracoBase(*prims[0], options, &ids, file);
   for (int p = 0; p < 2; ++p) {
     Stream& s = m.streams[p];
     ms::StreamWriteOptions wo;
@@ -476,7 +408,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan)
     if (done.applied() != n) Die(file + ": the zero-loss decode stopped early");
     for (size_t k = 0; k <= n; ++k) {
       s.ref.push_back(ms::DequantizeMesh(s.ref_q[k], -1));
-      s.ref_diag.push_back(Diagonal(s.ref.back()));
+      s.ref_diag.push_back(ms::bench::Diagonal(s.ref.back()));
     }
     if (s.ref_q[n].vertex_count() != m.level_vertices.back())
       std::fprintf(stderr, "  warning: %s %s: zero-loss decode has %zu vertices, the header says %u\n", file.c_str(),
@@ -535,6 +467,7 @@ json TimeDecodes(const Model& m, int repeat) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_loss_bench");
   const Args args = ParseArgs(argc, argv);
   const auto t0 = Clock::now();
   const std::vector<double> kFullLosses = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.20, 0.30};

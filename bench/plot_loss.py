@@ -18,16 +18,13 @@ and replaces the text between "<!-- loss:results:begin -->" and
 "Where we stand" list comes from the JSON. Works headless (Agg backend).
 """
 import argparse
-import json
 import math
 import os
 import statistics
 import sys
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_common import load, output_dir, plt, save_figure, style_axes, update_doc, write_text  # noqa: E402
 
 BEGIN = "<!-- loss:results:begin -->"
 END = "<!-- loss:results:end -->"
@@ -37,6 +34,7 @@ TARGET_BETTER = 0.90
 PAPER_BETTER = 0.70
 PAPER_TIME = 1.10
 PAPER_VERTS = (13023, 12063)  # predict, LwoP after three refinements at 12 %
+MODEL_COLORS = ("C0", "C1", "C2", "C3", "C4")
 
 
 def close(a, b):
@@ -87,12 +85,32 @@ def per_level(runs, rec, key):
     return {k: statistics.median(v) for k, v in sorted(acc.items())}
 
 
+def random_runs(model, packing, loss):
+    """The model's runs with random loss at this packing and loss ratio."""
+    return [r for r in model["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], loss)]
+
+
 def level_runs(model, packing, loss, rec="predict"):
-    return [r for r in model["runs"] if r["packing"] == packing and r["pattern"] == "random"
-            and close(r["loss"], loss) and "levels" in r[rec]]
+    return [r for r in random_runs(model, packing, loss) if "levels" in r[rec]]
+
+
+def median_level_vertices(runs, rec, k):
+    """Median vertex count after level k over the runs that reached it."""
+    return med([r[rec]["level_vertices"][k - 1] for r in runs if len(r[rec]["level_vertices"]) >= k])
 
 
 # ------------------------------------------------------------------ plots
+
+def plot_percent(ax, by_level, style, label, **kw):
+    """{level: fraction} as percentages against the level (kw: more ax.plot arguments)."""
+    ax.plot(list(by_level), [100 * v for v in by_level.values()], style, ms=3, label=label, **kw)
+
+
+def plot_recoveries(ax, xs, predict, lwop, color, name):
+    """One model's prediction (solid) and LwoP (dashed) curves in its colour."""
+    ax.plot(xs, predict, "o-", color=color, label="%s prediction" % name)
+    ax.plot(xs, lwop, "s--", color=color, alpha=0.6, label="%s LwoP" % name)
+
 
 def plot_levels(model, path):
     losses = sorted({r["loss"] for r in model["runs"] if "levels" in r["predict"] and r["packing"] == "split"})
@@ -103,44 +121,32 @@ def plot_levels(model, path):
     for i, loss in enumerate(losses):
         runs = level_runs(model, "split", loss)
         for ax, key in ((axes[0], "hd_rel"), (axes[1], "lap_rel")):
-            m = per_level(runs, "predict", key)
-            ax.plot(list(m), [100 * v for v in m.values()], "o-", ms=3, color=cmap(i / max(1, len(losses) - 1)),
-                    label="l = %d %%" % round(100 * loss))
+            plot_percent(ax, per_level(runs, "predict", key), "o-", "l = %d %%" % round(100 * loss),
+                         color=cmap(i / max(1, len(losses) - 1)))
     n = len(level_runs(model, "split", losses[0]))
     axes[0].set_title("%s: Hausdorff (point-to-surface) to the zero-loss level" % model["name"])
     axes[1].set_title("%s: Laplacian distortion (Eq. 4)" % model["name"])
     for ax in axes:
-        ax.set_xlabel("level (refinements applied)")
-        ax.set_ylabel("% of the bbox diagonal")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        style_axes(ax, "level (refinements applied)", "% of the bbox diagonal")
     fig.suptitle("prediction, split packing, random loss, median of %d seeds" % n, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, 90)
     return True
 
 
 def plot_time(data, path):
     fig, ax = plt.subplots(figsize=(7, 4.5))
     any_ = False
-    for m, c in zip(data["models"], ("C0", "C1", "C2", "C3", "C4")):
+    for m, c in zip(data["models"], MODEL_COLORS):
         t = m.get("timing")
         if not t:
             continue
         any_ = True
-        xs = [100 * r["loss"] for r in t["rows"]]
-        ax.plot(xs, [r["predict"]["ratio"] for r in t["rows"]], "o-", color=c, label="%s prediction" % m["name"])
-        ax.plot(xs, [r["lwop"]["ratio"] for r in t["rows"]], "s--", color=c, alpha=0.6, label="%s LwoP" % m["name"])
+        plot_recoveries(ax, [100 * r["loss"] for r in t["rows"]], [r["predict"]["ratio"] for r in t["rows"]],
+                        [r["lwop"]["ratio"] for r in t["rows"]], c, m["name"])
     ax.axhline(TARGET_TIME, color="red", lw=0.8, ls=":", label="target / paper at 12 %: 1.10")
-    ax.set_xlabel("loss ratio l (%)")
-    ax.set_ylabel("decode time / zero-loss decode time")
-    ax.set_title("Decoding time relative to zero loss (median of in-process runs)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    style_axes(ax, "loss ratio l (%)", "decode time / zero-loss decode time",
+               "Decoding time relative to zero loss (median of in-process runs)")
+    save_figure(fig, path, 90)
     return any_
 
 
@@ -152,16 +158,10 @@ def plot_packing(data, path):
     for row, m in zip(axes, models):
         for ax, key, title in ((row[0], "hd_rel", "Hausdorff"), (row[1], "lap_rel", "Laplacian")):
             for packing, style in (("split", "o-"), ("bundled", "s--")):
-                v = per_level(level_runs(m, packing, 0.12), "predict", key)
-                ax.plot(list(v), [100 * x for x in v.values()], style, ms=3, label=packing)
-            ax.set_title("%s, l = 12 %%: %s to the zero-loss level (median)" % (m["name"], title))
-            ax.set_xlabel("level")
-            ax.set_ylabel("% of the bbox diagonal")
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+                plot_percent(ax, per_level(level_runs(m, packing, 0.12), "predict", key), style, packing)
+            style_axes(ax, "level", "% of the bbox diagonal",
+                       "%s, l = 12 %%: %s to the zero-loss level (median)" % (m["name"], title))
+    save_figure(fig, path, 90)
     return True
 
 
@@ -173,50 +173,36 @@ def plot_lwop(data, path):
     for row, m in zip(axes, models):
         runs = level_runs(m, "split", 0.12, "lwop")
         for rec, style in (("predict", "o-"), ("lwop", "s--")):
-            v = per_level(runs, rec, "hd_rel")
-            row[0].plot(list(v), [100 * x for x in v.values()], style, ms=3, label=rec)
+            plot_percent(row[0], per_level(runs, rec, "hd_rel"), style, rec)
         row[0].set_title("%s, l = 12 %%: Hausdorff to the zero-loss level (median of %d)" % (m["name"], len(runs)))
         row[0].set_ylabel("% of the bbox diagonal")
-        allr = [r for r in m["runs"] if r["packing"] == "split" and r["pattern"] == "random" and close(r["loss"], 0.12)]
+        allr = random_runs(m, "split", 0.12)
         lv = m["level_vertices"]
         row[1].plot(range(len(lv)), lv, "k:", label="lossless")
         for rec, style in (("predict", "o-"), ("lwop", "s--")):
             n = len(lv) - 1
-            ys = [med([r[rec]["level_vertices"][k - 1] for r in allr if len(r[rec]["level_vertices"]) >= k])
-                  for k in range(1, n + 1)]
+            ys = [median_level_vertices(allr, rec, k) for k in range(1, n + 1)]
             row[1].plot(range(1, n + 1), ys, style, ms=3, label=rec)
         row[1].set_yscale("log")
         row[1].set_title("%s, l = 12 %%: vertices per level (median of %d)" % (m["name"], len(allr)))
         for ax in row:
-            ax.set_xlabel("level")
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+            style_axes(ax, "level")
+    save_figure(fig, path, 90)
     return True
 
 
 def plot_final(data, path):
     fig, ax = plt.subplots(figsize=(8, 4.8))
-    for m, c in zip(data["models"], ("C0", "C1", "C2", "C3", "C4")):
+    for m, c in zip(data["models"], MODEL_COLORS):
         cs = [(k, v) for k, v in cells(m) if k[0] == "split" and k[1] == "random"]
         if not cs:
             continue
-        xs = [100 * k[2] for k, _ in cs]
-        ax.plot(xs, [100 * med([r["predict"]["hd_rel"] for r in v]) for _, v in cs], "o-", color=c,
-                label="%s prediction" % m["name"])
-        ax.plot(xs, [100 * med([r["lwop"]["hd_rel"] for r in v]) for _, v in cs], "s--", color=c, alpha=0.6,
-                label="%s LwoP" % m["name"])
+        plot_recoveries(ax, [100 * k[2] for k, _ in cs], [100 * med([r["predict"]["hd_rel"] for r in v]) for _, v in cs],
+                        [100 * med([r["lwop"]["hd_rel"] for r in v]) for _, v in cs], c, m["name"])
     ax.axhline(100 * TARGET_HD, color="red", lw=0.8, ls=":", label="target 0.5 %")
-    ax.set_xlabel("loss ratio l (%)")
-    ax.set_ylabel("Hausdorff, % of the bbox diagonal")
-    ax.set_title("Final level against the zero-loss decode (median; split packing, random loss)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    style_axes(ax, "loss ratio l (%)", "Hausdorff, % of the bbox diagonal",
+               "Final level against the zero-loss decode (median; split packing, random loss)", 7, 2)
+    save_figure(fig, path, 90)
     return True
 
 
@@ -289,7 +275,7 @@ def markdown(data, plots, prefix):
     for m in data["models"]:
         vals = {}
         for packing in ("split", "bundled"):
-            rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+            rs = random_runs(m, packing, 0.12)
             vals[packing] = (med([r["predict"]["hd_rel"] for r in rs]), med([r["predict"].get("lap_rel") for r in rs]))
         if m["name"] in ("stanford-bunny", "horse") and None not in vals["split"] + vals["bundled"]:
             L.append("- Packing at 12 %% (random loss, final level, prediction), %s: split Hausdorff %s and Laplacian %s, "
@@ -302,10 +288,10 @@ def markdown(data, plots, prefix):
                         else "unlike"))
     bunny = next((m for m in data["models"] if m["name"] == "stanford-bunny"), None)
     if bunny:
-        sr = [r for r in bunny["runs"] if r["packing"] == "split" and r["pattern"] == "random" and close(r["loss"], 0.12)]
+        sr = random_runs(bunny, "split", 0.12)
         if sr:
             def at(rec, k):
-                return med([r[rec]["level_vertices"][k - 1] for r in sr if len(r[rec]["level_vertices"]) >= k])
+                return median_level_vertices(sr, rec, k)
             n = len(bunny["level_vertices"]) - 1
             L.append("- Vertex counts, bunny at 12 %% (split, random, median of %d seeds): after three refinements "
                      "prediction %d, LwoP %d (ratio %.3f; lossless %d); after all %d refinements prediction %d, LwoP "
@@ -402,10 +388,10 @@ def markdown(data, plots, prefix):
         row = []
         for key in ("hd_rel", "lap_rel"):
             for packing in ("split", "bundled"):
-                rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+                rs = random_runs(m, packing, 0.12)
                 row.append(pct(med([r["predict"].get(key) for r in rs]), 3 if key == "hd_rel" else 4))
         for packing in ("split", "bundled"):
-            rs = [r for r in m["runs"] if r["packing"] == packing and r["pattern"] == "random" and close(r["loss"], 0.12)]
+            rs = random_runs(m, packing, 0.12)
             st = [r["predict"]["stats"] for r in rs]
             row.append("%d (both lost %d)" % (med([s["predicted_both"] + s["predicted_structure"] + s["predicted_geometry"]
                                                    for s in st]) or 0, med([s["predicted_both"] for s in st]) or 0))
@@ -420,10 +406,8 @@ def main():
     ap.add_argument("--out", default=None)
     ap.add_argument("--doc", default=None)
     a = ap.parse_args()
-    with open(a.json, encoding="utf-8") as f:
-        data = json.load(f)
-    out = a.out or os.path.dirname(os.path.abspath(a.json))
-    os.makedirs(out, exist_ok=True)
+    data = load(a.json)
+    out = output_dir(a.out, a.json)
     plots = []
     if plot_final(data, os.path.join(out, "loss-final.png")):
         plots.append(("Final-level Hausdorff distance against loss", "loss-final.png"))
@@ -437,18 +421,9 @@ def main():
         plots.append(("Split against bundled packing at 12 % (paper Figs 12-13)", "loss-packing.png"))
     if plot_lwop(data, os.path.join(out, "loss-lwop.png")):
         plots.append(("Prediction against LwoP at 12 % (paper Fig 14, vertex counts of 5.3)", "loss-lwop.png"))
-    with open(os.path.join(out, "loss-results.md"), "w", encoding="utf-8") as f:
-        f.write("# Loss experiment results\n\n" + markdown(data, plots, "") + "\n")
+    write_text(os.path.join(out, "loss-results.md"), "# Loss experiment results\n\n" + markdown(data, plots, "") + "\n")
     if a.doc and os.path.exists(a.doc):
-        with open(a.doc, encoding="utf-8") as f:
-            doc = f.read()
-        i, j = doc.find(BEGIN), doc.find(END)
-        if i >= 0 and j > i:
-            rel = os.path.relpath(out, os.path.dirname(os.path.abspath(a.doc)))
-            md = markdown(data, plots, "" if rel == "." else rel + "/")
-            doc = doc[: i + len(BEGIN)] + "\n" + md + "\n" + doc[j:]
-            with open(a.doc, "w", encoding="utf-8") as f:
-                f.write(doc)
+        if update_doc(a.doc, BEGIN, END, out, lambda prefix: markdown(data, plots, prefix)):
             print("plot_loss.py: updated %s" % a.doc)
         else:
             print("plot_loss.py: no markers in %s, left alone" % a.doc, file=sys.stderr)
