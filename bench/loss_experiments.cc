@@ -70,7 +70,7 @@ using ms::bench::Stem;
 const char kHelp[] =
     "usage: meshstream_loss_bench [--out FILE] [--model NAME]... [--seeds N] [--quick]\n"
     "                             [--models DIR] [--threads N] [--samples N] [--repeat N]\n"
-    "                             [--level-seeds N] [--small-seeds N]\n"
+    "                             [--level-seeds N] [--small-seeds N] [--base-ratio F]\n"
     "\n"
     "The loss experiments of the paper with this codec (docs/loss-results.md); writes one\n"
     "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n"
@@ -83,7 +83,9 @@ const char kHelp[] =
     "  --threads N       threads for the untimed decodes and metrics (default 2)\n"
     "  --samples N       Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
     "                    and face centroid, see codec/hausdorff.h)\n"
-    "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n";
+    "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n"
+    "  --base-ratio F    simplify down to F of the vertices (default: the encoder's, 0.02;\n"
+    "                    0.14 is close to the paper's base, see docs/loss-results.md)\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -96,6 +98,7 @@ struct Args {
   unsigned threads = 2;
   int64_t samples = 0;
   bool quick = false;
+  double base_ratio = ms::SimplifyOptions{}.base_ratio;
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -121,6 +124,9 @@ Args ParseArgs(int argc, char** argv) {
       a.samples = ParseInt(value(), f, 0, 100000000);
     } else if (f == "--quick") {
       a.quick = true;
+    } else if (f == "--base-ratio") {
+      a.base_ratio = ms::bench::ParseDouble(value(), f);
+      if (a.base_ratio <= 0 || a.base_ratio > 1) ms::bench::Die("--base-ratio: expected a number in (0, 1]");
     } else {
       return false;
     }
@@ -365,7 +371,7 @@ json JobJson(const Job& job, const JobResult& r) {
 
 // ------------------------------------------------------------ preparation
 
-Model Prepare(const std::string& dir, const std::string& file, const Plan& plan) {
+Model Prepare(const std::string& dir, const std::string& file, const Plan& plan, double base_ratio) {
   Model m;
   m.file = file;
   m.name = Stem(file);
@@ -379,6 +385,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan)
   options.quantization.qp = 11;
   options.quantization.qn = 8;
   options.quantization.qt = 10;
+  options.simplify.base_ratio = base_ratio;
   ms::DracoAttributeIds ids;
   const auto enc = ms::bench::EncodeWithDracoBase(*prims[0], options, &ids, file);
   for (int p = 0; p < 2; ++p) {
@@ -498,7 +505,7 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "prepare %s\n", f.c_str());
     const auto s = Clock::now();
-    models.push_back(Prepare(args.models_dir, f, plan));
+    models.push_back(Prepare(args.models_dir, f, plan, args.base_ratio));
     const Model& m = models.back();
     std::fprintf(stderr, "  %zu levels, %u vertices, datagrams split %llu bundled %llu (%.1f s)\n",
                  m.level_vertices.size() - 1, m.level_vertices.back(),
@@ -509,7 +516,7 @@ int main(int argc, char** argv) {
   json out;
   out["tool"] = "meshstream_loss_bench";
   out["machine"] = MachineInfo();
-  out["settings"] = {{"qp", 11}, {"qn", 8}, {"qt", 10}, {"base", "Draco cl 7"},
+  out["settings"] = {{"qp", 11}, {"qn", 8}, {"qt", 10}, {"base", "Draco cl 7"}, {"base_ratio", args.base_ratio},
                      {"packet_bytes", ms::StreamWriteOptions{}.packet_bytes},
                      {"bursty_mean_burst", kBursts[1]},
                      {"samples_per_side", args.samples},

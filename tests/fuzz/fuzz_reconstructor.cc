@@ -171,7 +171,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       case kBytes: {
         hostile = true;
-        const size_t n = std::min<size_t>(next(), size - at);
+        const size_t wanted = next();  // before `at` is read below: argument order is unspecified
+        const size_t n = std::min<size_t>(wanted, size - at);
         offer(std::vector<uint8_t>(data + at, data + at + n));
         at += n;
         break;
