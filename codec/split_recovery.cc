@@ -57,7 +57,7 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     fits = false;
     ++stats->structure_distrusted;
   }
-  if (has_structure && fan && !fits) ++stats->structure_fallbacks;
+  if (has_structure && fan && !fits && !distrusted) ++stats->structure_fallbacks;
   // LwoP applies a split only where w's ring is known to be the lossless
   // one: coded wings name ring vertices by rank, and a ring that lacks a
   // vertex LwoP never created could still fit them and name the wrong ones.
@@ -227,8 +227,6 @@ Status RefinementState::RecoverSplit(const Refinement& r, size_t j, bool has_str
     both |= kRingInexact;
     const size_t path = (a_at + d - b_at) % d;
     for (size_t step = 0; step <= path; ++step) mark(ring[(b_at + step) % d], kRingInexact);
-  }
-  if (!structure) {
     ++(has_geometry ? stats->predicted_structure : stats->predicted_both);
   } else if (!has_geometry) {
     ++stats->predicted_geometry;
