@@ -3,7 +3,9 @@
 // is lost, prediction keeps the lossless vertex and face counts and adds no
 // defect; LwoP keeps fewer vertices and adds no defect; split bits decode
 // bit-exactly in every case.
+#include <functional>
 #include <random>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -197,6 +199,44 @@ TEST_P(Recovery_, SimulatedNetworkPatternsKeepCountsAndSplitBits) {
         // Reordering and duplicates alone lose nothing.
         EXPECT_EQ(m.positions, lossless.positions) << name << " seed " << seed;
         EXPECT_EQ(m.indices, lossless.indices) << name << " seed " << seed;
+      }
+    }
+  }
+}
+
+// Named patterns: the first datagram, the last, a whole level (first, middle,
+// last), every datagram of one kind in a level.
+TEST_P(Recovery_, NamedLossPatternsKeepCountsAndAddNoDefect) {
+  const auto [name, packing] = GetParam();
+  const Encoded e = EncodeModel(name, packing);
+  const size_t levels = e.stream.datagrams.size();
+  ASSERT_GT(levels, 2u);
+  const Decoded lossless = Decode(e, Recovery::kPredict, [](size_t, size_t) { return true; });
+  const MeshHealth clean = Health(lossless.mesh);
+  const size_t last = levels - 1, middle = levels / 2;
+  const std::vector<std::pair<std::string, std::function<bool(size_t, size_t)>>> patterns = {
+      {"first datagram", [](size_t i, size_t d) { return !(i == 0 && d == 0); }},
+      {"last datagram", [&](size_t i, size_t d) { return !(i == last && d + 1 == e.stream.datagrams[last].size()); }},
+      {"first level", [](size_t i, size_t) { return i != 0; }},
+      {"middle level", [&](size_t i, size_t) { return i != middle; }},
+      {"last level", [&](size_t i, size_t) { return i != last; }},
+      {"even datagrams of the middle level", [&](size_t i, size_t d) { return i != middle || d % 2 == 1; }},
+  };
+  for (const auto& [what, keep] : patterns) {
+    for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {
+      const Decoded lossy = Decode(e, recovery, keep);
+      const MeshHealth h = Health(lossy.mesh);
+      EXPECT_EQ(lossy.split_vertices, lossless.split_vertices) << name << ": " << what;
+      EXPECT_GT(lossy.lost, 0u) << what;
+      EXPECT_EQ(h.unreferenced_vertices, 0u) << name << ": " << what;
+      EXPECT_LE(h.degenerate_faces, clean.degenerate_faces) << name << ": " << what;
+      EXPECT_LE(h.nonmanifold_edges, clean.nonmanifold_edges) << name << ": " << what;
+      if (recovery == Recovery::kPredict) {
+        EXPECT_EQ(lossy.mesh.vertex_count(), lossless.mesh.vertex_count()) << name << ": " << what;
+        EXPECT_EQ(lossy.mesh.face_count(), lossless.mesh.face_count()) << name << ": " << what;
+        EXPECT_GT(lossy.recovery.predicted(), 0u) << name << ": " << what;
+      } else {
+        EXPECT_LT(lossy.mesh.vertex_count(), lossless.mesh.vertex_count()) << name << ": " << what;
       }
     }
   }
