@@ -1,20 +1,16 @@
 #include "codec/lossy_decode.h"
 
 #include <algorithm>
-#include <string>
 #include <utility>
 
 namespace meshstream {
 
 StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32_t stream_id, QuantizedMesh base,
                                          const LossyDecodeOptions& options, LossyDecodeReport* report) {
-  const int lod = options.reconstructor.lod;
-  if (lod < -1) return InvalidArgument("lossy decode: lod " + std::to_string(lod) + " is below -1");
   MS_ASSIGN_OR_RETURN(StreamReconstructor rec, StreamReconstructor::Create(stream.header.data(), stream.header.size(),
                                                                            stream_id, options.reconstructor));
   // Refinements the reconstructor will decode; the simulator sends only those.
-  size_t refinements = std::min(stream.control.size(), rec.reader().refinement_count());
-  if (lod >= 0) refinements = std::min(refinements, static_cast<size_t>(lod));
+  const size_t refinements = std::min(stream.control.size(), rec.limit());
   MS_ASSIGN_OR_RETURN(Transmission sent,
                       SimulateTransmission(stream, stream_id, refinements, options.loss, options.timing));
   MS_RETURN_IF_ERROR(rec.SetBase(std::move(base)));

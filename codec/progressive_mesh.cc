@@ -97,12 +97,14 @@ Status RefinementState::ApplyRefinement(const Refinement& r) {
     return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +
                         std::to_string(connectivity.vertex_count()));
   }
-  // Grow geometrically (never to a size a header merely claims: only by the
-  // splits really being applied).
-  const size_t needed = positions.size() + r.split_count();
-  if (positions.capacity() < needed) Reserve(static_cast<uint32_t>(std::max(needed, 2 * positions.capacity())));
+  ReserveSplits(r.split_count());
   for (size_t j = 0; j < r.split_count(); ++j) MS_RETURN_IF_ERROR(ApplySplit(r, j));
   return Status::Ok();
+}
+
+void RefinementState::ReserveSplits(size_t splits) {
+  const size_t needed = positions.size() + splits;
+  if (positions.capacity() < needed) Reserve(static_cast<uint32_t>(std::max(needed, 2 * positions.capacity())));
 }
 
 void RefinementState::Reserve(uint32_t final_vertices) {

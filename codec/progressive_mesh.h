@@ -117,6 +117,9 @@ struct RefinementState {
   // After a split of w into w and n: moves n (else w) by a grid step or
   // three when a triangle of theirs is collinear; true when something moved.
   bool AvoidDegenerateFaces(uint32_t w, uint32_t n);
+  // Room for `splits` more vertices, grown geometrically (never to a size a
+  // header merely claims: only by the splits really being applied).
+  void ReserveSplits(size_t splits);
   // Room for this many vertices, so that splits do not reallocate.
   void Reserve(uint32_t final_vertices);
   QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;

@@ -251,6 +251,15 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   return h;
 }
 
+bool DatagramFits(const DatagramHeader& h, const StreamHeader& header) {
+  if (h.refinement >= header.split_counts.size()) return false;
+  const bool kind_ok = header.packing == Packing::kBundled
+                           ? h.kind == DatagramKind::kBundled
+                           : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
+  // Parse guarantees count >= 1 and stride, offset, count <= 2^28: no overflow.
+  return kind_ok && h.offset + uint64_t(h.count - 1) * h.stride < header.split_counts[h.refinement];
+}
+
 std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams) {
   DatagramHeader h;
   h.kind = DatagramKind::kEnd;

@@ -99,6 +99,11 @@ struct DatagramHeader {
   static StatusOr<DatagramHeader> Parse(ByteReader& r);
 };
 
+// Whether a data datagram (not an END) fits a stream: its kind matches the
+// packing and its ordinals lie below the split count of its refinement
+// (which must exist). Stream number and timing are the receiver's business.
+bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
+
 // The END datagram the sender puts on the unreliable channel after the data
 // datagrams of a refinement (docs/progressive-format.md, section 6).
 std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams);

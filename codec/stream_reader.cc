@@ -102,12 +102,7 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
     return false;
   }
   const DatagramHeader& h = parsed.value();
-  const uint64_t k = current_.split_count();
-  const bool kind_ok = header_.packing == Packing::kBundled
-                           ? h.kind == DatagramKind::kBundled
-                           : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
-  if (h.stream != stream_id_ || h.refinement != next_ || !kind_ok ||
-      h.offset + uint64_t(h.count - 1) * h.stride >= k) {
+  if (h.stream != stream_id_ || h.refinement != next_ || !DatagramFits(h, header_)) {
     ++stats_.rejected;
     return false;
   }
@@ -158,11 +153,7 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   if (!in_refinement_) return InvalidArgument("no refinement was begun");
   const std::string where = "refinement " + std::to_string(next_);
   if (current_.vertices_before != state_.connectivity.vertex_count()) return Internal(where + ": out of step");
-  // Grow geometrically, only by the splits really being applied.
-  const size_t needed = state_.positions.size() + current_.split_count();
-  if (state_.positions.capacity() < needed) {
-    state_.Reserve(static_cast<uint32_t>(std::max(needed, 2 * state_.positions.capacity())));
-  }
+  state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
   for (size_t j = 0; j < current_.split_count(); ++j) {
     MS_RETURN_IF_ERROR(state_.RecoverSplit(current_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &stats)

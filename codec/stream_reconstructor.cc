@@ -118,26 +118,13 @@ void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t 
   const bool end = h.kind == DatagramKind::kEnd;
   ++(end ? stats_.ends : stats_.datagrams);
   const StreamHeader& header = reader_.header();
-  if (h.stream != stream_id_ || h.refinement >= header.split_counts.size()) {
+  // An END may announce at most two datagrams per split (structure and
+  // geometry travel in at most two); data datagrams must fit the stream.
+  const bool fits = h.refinement < header.split_counts.size() &&
+                    (end ? h.count <= 2 * uint64_t(header.split_counts[h.refinement]) : DatagramFits(h, header));
+  if (h.stream != stream_id_ || !fits) {
     ++stats_.rejected;
     return;
-  }
-  const uint64_t splits = header.split_counts[h.refinement];
-  if (end) {
-    // A split's structure and geometry travel in at most two datagrams.
-    if (h.count > 2 * splits) {
-      ++stats_.rejected;
-      return;
-    }
-  } else {
-    const bool kind_ok = header.packing == Packing::kBundled
-                             ? h.kind == DatagramKind::kBundled
-                             : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
-    // Parse guarantees count >= 1 and stride, offset, count <= 2^28: no overflow.
-    if (!kind_ok || h.offset + uint64_t(h.count - 1) * h.stride >= splits) {
-      ++stats_.rejected;
-      return;
-    }
   }
   if (h.refinement < applied() || h.refinement >= limit()) {
     if (!end) ++stats_.late;
