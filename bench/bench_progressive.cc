@@ -44,11 +44,11 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "codec/hausdorff.h"
-#include "codec/mesh.h"
-#include "codec/progressive_encoder.h"
-#include "codec/scene_flatten.h"
-#include "codec/stream_writer.h"
+#include "codec/metrics/hausdorff.h"
+#include "codec/mesh/mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/mesh/scene_flatten.h"
+#include "codec/bitstream/writer.h"
 #include "importers/draco_codec.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"

@@ -13,9 +13,9 @@
 #include <utility>
 #include <vector>
 
-#include "codec/mesh.h"
-#include "codec/progressive_encoder.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/core/status.h"
 #include "importers/draco_codec.h"
 
 namespace meshstream::bench {

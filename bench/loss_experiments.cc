@@ -44,13 +44,13 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "codec/hausdorff.h"
-#include "codec/laplacian.h"
-#include "codec/lossy_decode.h"
-#include "codec/mesh.h"
-#include "codec/progressive_encoder.h"
-#include "codec/stream_reader.h"
-#include "codec/stream_writer.h"
+#include "codec/metrics/hausdorff.h"
+#include "codec/metrics/laplacian.h"
+#include "codec/loss/lossy_decode.h"
+#include "codec/mesh/mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
 

@@ -11,8 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/batch_simplifier.h"
-#include "codec/quantized_mesh.h"
+#include "codec/progressive/batch_simplifier.h"
+#include "codec/mesh/quantized_mesh.h"
 #include "importers/import.h"
 
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "codec/status.h"
+#include "codec/core/status.h"
 
 namespace meshstream::cli {
 

@@ -6,11 +6,11 @@
 #include "cli/args.h"
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
-#include "codec/grid_equality.h"
-#include "codec/hausdorff.h"
-#include "codec/laplacian.h"
-#include "codec/mesh_health.h"
-#include "codec/scene_flatten.h"
+#include "codec/metrics/grid_equality.h"
+#include "codec/metrics/hausdorff.h"
+#include "codec/metrics/laplacian.h"
+#include "codec/mesh/mesh_health.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 
 namespace meshstream::cli {

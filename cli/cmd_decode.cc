@@ -9,7 +9,7 @@
 #include "cli/args.h"
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
-#include "codec/mesh_health.h"
+#include "codec/mesh/mesh_health.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"
 #include "importers/mesh_writer.h"

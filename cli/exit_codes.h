@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "codec/status.h"
+#include "codec/core/status.h"
 
 namespace meshstream::cli {
 

@@ -14,8 +14,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "codec/progressive_encoder.h"
-#include "codec/quantized_mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_codec.h"
 
 namespace meshstream {

@@ -4,7 +4,7 @@
 #include <memory>
 #include <string>
 
-#include "codec/quantization.h"
+#include "codec/mesh/quantization.h"
 #include "draco/compression/decode.h"
 #include "draco/compression/expert_encode.h"
 #include "draco/mesh/mesh.h"

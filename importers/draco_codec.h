@@ -20,9 +20,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "codec/mesh.h"
-#include "codec/quantization.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/mesh/quantization.h"
+#include "codec/core/status.h"
 
 namespace meshstream {
 

@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/quantization.h"
+#include "codec/mesh/quantization.h"
 #include "importers/gltf_limits.h"
 #include "importers/import.h"
 

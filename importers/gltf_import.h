@@ -21,8 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/mesh.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/core/status.h"
 #include "importers/import.h"
 
 namespace meshstream {

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/status.h"
+#include "codec/core/status.h"
 
 namespace meshstream {
 

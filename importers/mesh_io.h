@@ -26,8 +26,8 @@
 
 #include <string>
 
-#include "codec/mesh.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/core/status.h"
 #include "importers/import.h"
 
 namespace meshstream {

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "codec/scene_flatten.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 
 namespace meshstream {

@@ -6,8 +6,8 @@
 
 #include <string>
 
-#include "codec/mesh.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/core/status.h"
 
 namespace meshstream {
 

@@ -2,8 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/lossy_decode.h"
-#include "codec/stream_reader.h"
+#include "codec/loss/lossy_decode.h"
+#include "codec/bitstream/reader.h"
 #include "importers/draco_base_coder.h"
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"

@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "codec/mesh.h"
-#include "codec/loss_simulator.h"
-#include "codec/progressive_encoder.h"
-#include "codec/stream_reader.h"
-#include "codec/stream_writer.h"
+#include "codec/mesh/mesh.h"
+#include "codec/loss/simulator.h"
+#include "codec/progressive/encoder.h"
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 #include "importers/import.h"
 
 namespace meshstream {

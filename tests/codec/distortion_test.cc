@@ -9,12 +9,12 @@
 #include <utility>
 #include <vector>
 
-#include "codec/grid_equality.h"
-#include "codec/hausdorff.h"
-#include "codec/laplacian.h"
-#include "codec/mesh.h"
-#include "codec/quantization.h"
-#include "codec/triangle_grid.h"
+#include "codec/metrics/grid_equality.h"
+#include "codec/metrics/hausdorff.h"
+#include "codec/metrics/laplacian.h"
+#include "codec/mesh/mesh.h"
+#include "codec/mesh/quantization.h"
+#include "codec/metrics/triangle_grid.h"
 
 namespace meshstream {
 namespace {

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "codec/loss_simulator.h"
+#include "codec/loss/simulator.h"
 
 namespace meshstream {
 namespace {

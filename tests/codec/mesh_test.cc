@@ -1,12 +1,12 @@
-#include "codec/mesh.h"
+#include "codec/mesh/mesh.h"
 
 #include <cmath>
 #include <limits>
 
 #include <gtest/gtest.h>
 
-#include "codec/mesh_health.h"
-#include "codec/scene_flatten.h"
+#include "codec/mesh/mesh_health.h"
+#include "codec/mesh/scene_flatten.h"
 
 namespace meshstream {
 namespace {

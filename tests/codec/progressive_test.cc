@@ -7,8 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "codec/progressive_encoder.h"
-#include "codec/progressive_mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/progressive/midpoint.h"
+#include "codec/progressive/refinement.h"
+#include "codec/progressive/refinement_state.h"
 
 namespace meshstream {
 namespace {

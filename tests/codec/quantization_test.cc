@@ -1,4 +1,4 @@
-#include "codec/quantization.h"
+#include "codec/mesh/quantization.h"
 
 #include <cmath>
 #include <random>

@@ -1,4 +1,4 @@
-#include "codec/range_coder.h"
+#include "codec/entropy/range_coder.h"
 
 #include <random>
 

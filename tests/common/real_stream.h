@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "codec/progressive_encoder.h"
-#include "codec/stream_reader.h"
-#include "codec/stream_writer.h"
+#include "codec/progressive/encoder.h"
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
 #include "tests/common/test_util.h"

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "codec/mesh.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/core/status.h"
 #include "importers/progressive_glb.h"
 
 namespace {

@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "codec/stream_reconstructor.h"
+#include "codec/loss/reconstructor.h"
 #include "tests/fuzz/sphere_stream.h"
 
 namespace {

@@ -22,11 +22,11 @@
 #include <string>
 #include <vector>
 
-#include "codec/mesh.h"
-#include "codec/progressive_encoder.h"
-#include "codec/quantized_mesh.h"
-#include "codec/stream_reader.h"
-#include "codec/stream_writer.h"
+#include "codec/mesh/mesh.h"
+#include "codec/progressive/encoder.h"
+#include "codec/mesh/quantized_mesh.h"
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 
 namespace meshstream::fuzz {
 

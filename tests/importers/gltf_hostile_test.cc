@@ -22,8 +22,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/mesh.h"
-#include "codec/status.h"
+#include "codec/mesh/mesh.h"
+#include "codec/core/status.h"
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"

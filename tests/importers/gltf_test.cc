@@ -1,9 +1,9 @@
 // glTF import and export on real assets from ../shared/models/gltf.
 #include <gtest/gtest.h>
 
-#include "codec/grid_equality.h"
-#include "codec/hausdorff.h"
-#include "codec/scene_flatten.h"
+#include "codec/metrics/grid_equality.h"
+#include "codec/metrics/hausdorff.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"

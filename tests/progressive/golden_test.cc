@@ -8,9 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include "codec/grid_equality.h"
-#include "codec/quantization.h"
-#include "codec/scene_flatten.h"
+#include "codec/metrics/grid_equality.h"
+#include "codec/mesh/quantization.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
 #include "tests/common/test_util.h"

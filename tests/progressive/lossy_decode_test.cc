@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "codec/lossy_decode.h"
-#include "codec/mesh_health.h"
+#include "codec/loss/lossy_decode.h"
+#include "codec/mesh/mesh_health.h"
 #include "tests/common/real_stream.h"
 
 namespace meshstream {

@@ -9,11 +9,11 @@
 
 #include <gtest/gtest.h>
 
-#include "codec/lossy_decode.h"
-#include "codec/mesh_health.h"
-#include "codec/progressive_encoder.h"
-#include "codec/stream_reader.h"
-#include "codec/stream_writer.h"
+#include "codec/loss/lossy_decode.h"
+#include "codec/mesh/mesh_health.h"
+#include "codec/progressive/encoder.h"
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
 #include "tests/common/test_util.h"

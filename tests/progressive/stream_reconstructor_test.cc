@@ -5,8 +5,8 @@
 // bounds. Nothing here loses a data datagram (see lossy_decode_test.cc).
 #include <gtest/gtest.h>
 
-#include "codec/loss_simulator.h"
-#include "codec/stream_reconstructor.h"
+#include "codec/loss/simulator.h"
+#include "codec/loss/reconstructor.h"
 #include "tests/common/real_stream.h"
 
 namespace meshstream {

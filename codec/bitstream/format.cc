@@ -1,0 +1,276 @@
+#include "codec/bitstream/format.h"
+
+#include <cmath>
+
+#include "codec/entropy/range_coder.h"
+
+namespace meshstream {
+
+namespace {
+
+constexpr uint8_t kBlobMagic[4] = {'M', 'S', 'P', 'S'};
+
+void WriteGrid(ByteWriter& w, const QuantizationGrid& g, int components) {
+  for (int c = 0; c < components; ++c) w.F32(g.origin[c]);
+  w.F32(g.range);
+}
+
+StatusOr<QuantizationGrid> ReadGrid(ByteReader& r, int components, int bits, const char* what) {
+  QuantizationGrid g;
+  g.bits = bits;
+  g.components = components;
+  for (int c = 0; c < components; ++c) {
+    MS_ASSIGN_OR_RETURN(g.origin[c], r.F32(what));
+    if (!std::isfinite(g.origin[c])) return InvalidInput(std::string(what) + ": origin is not finite");
+  }
+  MS_ASSIGN_OR_RETURN(g.range, r.F32(what));
+  if (!std::isfinite(g.range) || !(g.range > 0)) return InvalidInput(std::string(what) + ": range is not positive");
+  return g;
+}
+
+// Fix-ups: one adaptive "nonzero" bit per value, then zigzag in two raw halves.
+std::vector<uint8_t> EncodeFixups(const std::vector<int32_t>& values) {
+  RangeEncoder enc;
+  BitModel nonzero;
+  for (int32_t v : values) {
+    enc.EncodeBit(nonzero, v != 0);
+    if (v != 0) {
+      const uint32_t z = (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
+      enc.EncodeRaw(z & 0xFFFF, 16);
+      enc.EncodeRaw(z >> 16, 16);
+    }
+  }
+  return enc.Finish();
+}
+
+Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::vector<int32_t>& out, const char* what) {
+  RangeDecoder dec(block.data(), block.size());
+  BitModel nonzero;
+  // `count` comes from the header: grow with the values the bytes really
+  // hold instead of allocating it up front (a lying count fails on overrun).
+  out.clear();
+  for (size_t i = 0; i < count; ++i) {
+    int32_t v = 0;
+    if (dec.DecodeBit(nonzero)) {
+      const uint32_t lo = dec.DecodeRaw(16);
+      const uint32_t z = lo | (dec.DecodeRaw(16) << 16);
+      v = static_cast<int32_t>((z >> 1) ^ (~(z & 1) + 1));
+    }
+    if (dec.overran()) return InvalidInput(std::string(what) + ": truncated");
+    out.push_back(v);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+void StreamHeader::Serialize(ByteWriter& w) const {
+  w.U8(kStreamVersion);
+  w.U8(static_cast<uint8_t>(packing));
+  w.U8(static_cast<uint8_t>(quantization.qp));
+  w.U8(static_cast<uint8_t>(quantization.qn));
+  w.U8(static_cast<uint8_t>(quantization.qt));
+  w.U8(static_cast<uint8_t>(quantization.qc));
+  WriteGrid(w, grids.position_grid, 3);
+  const AttributeLayout& l = grids.layout;
+  w.U8(l.has_normals ? 1 : 0);
+  w.U8(static_cast<uint8_t>(l.texcoord_sets));
+  w.U8(l.has_colors ? 1 : 0);
+  for (int t = 0; t < l.texcoord_sets; ++t) WriteGrid(w, l.texcoord_grids[t], 2);
+  if (l.has_colors) WriteGrid(w, l.color_grid, 4);
+  w.Varint(base_vertices);
+  w.Varint(base_faces);
+  w.U8(base_method);
+  w.Varint(split_counts.size());
+  for (uint32_t c : split_counts) w.Varint(c);
+  w.Block(EncodeFixups(base_position_fix));
+  w.Block(EncodeFixups(base_attribute_fix));
+}
+
+StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
+  ByteReader r(data, size);
+  StreamHeader h;
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream version"));
+  if (version != kStreamVersion) return Unsupported("stream version " + std::to_string(version));
+  MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("packing"));
+  if (packing > 1) return InvalidInput("packing " + std::to_string(packing) + " is unknown");
+  h.packing = static_cast<Packing>(packing);
+  uint8_t bits[4];
+  for (uint8_t& b : bits) {
+    MS_ASSIGN_OR_RETURN(b, r.U8("quantization bits"));
+    if (b < kMinQuantizationBits || b > kMaxQuantizationBits) return InvalidInput("quantization bits out of range");
+  }
+  h.quantization = {bits[0], bits[1], bits[2], bits[3]};
+  MS_ASSIGN_OR_RETURN(h.grids.position_grid, ReadGrid(r, 3, bits[0], "position grid"));
+  AttributeLayout& l = h.grids.layout;
+  l.qn = bits[1];
+  MS_ASSIGN_OR_RETURN(uint8_t has_normals, r.U8("layout"));
+  MS_ASSIGN_OR_RETURN(uint8_t sets, r.U8("layout"));
+  MS_ASSIGN_OR_RETURN(uint8_t has_colors, r.U8("layout"));
+  if (has_normals > 1 || has_colors > 1 || sets > 8) return InvalidInput("attribute layout is not valid");
+  l.has_normals = has_normals;
+  l.texcoord_sets = sets;
+  l.has_colors = has_colors;
+  for (int t = 0; t < sets; ++t) {
+    MS_ASSIGN_OR_RETURN(QuantizationGrid g, ReadGrid(r, 2, bits[2], "texture coordinate grid"));
+    l.texcoord_grids.push_back(g);
+  }
+  if (has_colors) {
+    MS_ASSIGN_OR_RETURN(l.color_grid, ReadGrid(r, 4, bits[3], "colour grid"));
+  }
+  MS_ASSIGN_OR_RETURN(uint64_t bv, r.Varint("base vertex count", kMaxBaseVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t bf, r.Varint("base face count", 2 * kMaxStreamVertices));
+  h.base_vertices = static_cast<uint32_t>(bv);
+  h.base_faces = static_cast<uint32_t>(bf);
+  MS_ASSIGN_OR_RETURN(h.base_method, r.U8("base method"));
+  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("refinement count", kMaxRefinements));
+  uint64_t total = bv;
+  for (uint64_t i = 0; i < levels; ++i) {
+    MS_ASSIGN_OR_RETURN(uint64_t c, r.Varint("split count", kMaxStreamVertices));
+    // A refinement splits at most every vertex once.
+    if (c > total) return InvalidInput("refinement " + std::to_string(i) + " splits more vertices than exist");
+    total += c;
+    if (total > kMaxStreamVertices) return ResourceExhausted("the stream has too many vertices");
+    h.split_counts.push_back(static_cast<uint32_t>(c));
+  }
+  size_t length = 0;
+  MS_ASSIGN_OR_RETURN(const uint8_t* pos_fix, r.Block("position fix-ups", &length));
+  h.position_fix_block.assign(pos_fix, pos_fix + length);
+  MS_ASSIGN_OR_RETURN(const uint8_t* attr_fix, r.Block("attribute fix-ups", &length));
+  h.attribute_fix_block.assign(attr_fix, attr_fix + length);
+  return h;
+}
+
+Status StreamHeader::DecodeFixups() {
+  MS_RETURN_IF_ERROR(DecodeFixupBlock(position_fix_block, size_t{3} * base_vertices, base_position_fix, "position fix-ups"));
+  return DecodeFixupBlock(attribute_fix_block, size_t(grids.layout.channels()) * base_vertices, base_attribute_fix,
+                          "attribute fix-ups");
+}
+
+std::vector<uint32_t> StreamHeader::level_vertices() const {
+  std::vector<uint32_t> out = {base_vertices};
+  for (uint32_t c : split_counts) out.push_back(out.back() + c);
+  return out;
+}
+
+size_t ProgressiveStream::reliable_bytes() const {
+  size_t n = header.size();
+  for (const auto& c : control) n += c.size();
+  return n;
+}
+
+size_t ProgressiveStream::unreliable_bytes() const {
+  size_t n = 0;
+  for (const auto& level : datagrams)
+    for (const auto& d : level) n += d.size();
+  return n;
+}
+
+size_t ProgressiveStream::datagram_count() const {
+  size_t n = 0;
+  for (const auto& level : datagrams) n += level.size();
+  return n;
+}
+
+std::vector<uint8_t> ProgressiveStream::Serialize() const {
+  ByteWriter w;
+  for (uint8_t b : kBlobMagic) w.U8(b);
+  w.U8(kStreamVersion);
+  w.Block(header);
+  w.Varint(control.size());
+  for (size_t i = 0; i < control.size(); ++i) {
+    w.Block(control[i]);
+    w.Varint(datagrams[i].size());
+    for (const auto& d : datagrams[i]) w.Block(d);
+  }
+  return std::move(w.bytes());
+}
+
+StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t size) {
+  ByteReader r(data, size);
+  for (uint8_t b : kBlobMagic) {
+    MS_ASSIGN_OR_RETURN(uint8_t got, r.U8("stream magic"));
+    if (got != b) return InvalidInput("not a meshstream progressive stream (bad magic)");
+  }
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream version"));
+  if (version != kStreamVersion) return Unsupported("stream version " + std::to_string(version));
+  ProgressiveStream s;
+  size_t length = 0;
+  MS_ASSIGN_OR_RETURN(const uint8_t* header, r.Block("stream header", &length));
+  s.header.assign(header, header + length);
+  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("refinement count", kMaxRefinements));
+  for (uint64_t i = 0; i < levels; ++i) {
+    MS_ASSIGN_OR_RETURN(const uint8_t* control, r.Block("refinement control", &length));
+    s.control.emplace_back(control, control + length);
+    // Every datagram takes at least two bytes (its length and its magic).
+    MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("datagram count", r.remaining() / 2));
+    s.datagrams.emplace_back();
+    for (uint64_t d = 0; d < count; ++d) {
+      MS_ASSIGN_OR_RETURN(const uint8_t* dg, r.Block("datagram", &length));
+      s.datagrams.back().emplace_back(dg, dg + length);
+    }
+  }
+  return s;
+}
+
+void DatagramHeader::Serialize(ByteWriter& w) const {
+  w.U8(kDatagramMagic);
+  w.U8(kDatagramVersion);
+  w.U8(static_cast<uint8_t>(kind));
+  w.Varint(stream);
+  w.Varint(refinement);
+  w.Varint(stride);
+  w.Varint(offset);
+  w.Varint(count);
+}
+
+StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
+  DatagramHeader h;
+  MS_ASSIGN_OR_RETURN(uint8_t magic, r.U8("datagram magic"));
+  if (magic != kDatagramMagic) return InvalidInput("not a meshstream datagram (bad magic)");
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram version"));
+  if (version != kDatagramVersion) return Unsupported("datagram version " + std::to_string(version));
+  MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram kind"));
+  if (kind > 3) return InvalidInput("datagram kind " + std::to_string(kind) + " is unknown");
+  h.kind = static_cast<DatagramKind>(kind);
+  MS_ASSIGN_OR_RETURN(uint64_t stream, r.Varint("stream", UINT32_MAX));
+  MS_ASSIGN_OR_RETURN(uint64_t refinement, r.Varint("refinement", kMaxRefinements));
+  MS_ASSIGN_OR_RETURN(uint64_t stride, r.Varint("stride", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t offset, r.Varint("offset", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("count", kMaxStreamVertices));
+  if (kind == static_cast<uint8_t>(DatagramKind::kEnd)) {
+    if (stride != 1 || offset != 0 || r.remaining() != 0) return InvalidInput("an END datagram has stride 1, offset 0, no payload");
+  } else if (stride == 0 || offset >= stride || count == 0) {
+    return InvalidInput("datagram ordinals are not valid");
+  }
+  h.stream = static_cast<uint32_t>(stream);
+  h.refinement = static_cast<uint32_t>(refinement);
+  h.stride = static_cast<uint32_t>(stride);
+  h.offset = static_cast<uint32_t>(offset);
+  h.count = static_cast<uint32_t>(count);
+  return h;
+}
+
+bool DatagramFits(const DatagramHeader& h, const StreamHeader& header) {
+  if (h.refinement >= header.split_counts.size()) return false;
+  const bool kind_ok = header.packing == Packing::kBundled
+                           ? h.kind == DatagramKind::kBundled
+                           : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
+  // Parse guarantees count >= 1 and stride, offset, count <= 2^28: no overflow.
+  return kind_ok && h.offset + uint64_t(h.count - 1) * h.stride < header.split_counts[h.refinement];
+}
+
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams) {
+  DatagramHeader h;
+  h.kind = DatagramKind::kEnd;
+  h.stream = stream;
+  h.refinement = refinement;
+  h.stride = 1;
+  h.offset = 0;
+  h.count = datagrams;
+  ByteWriter w;
+  h.Serialize(w);
+  return std::move(w.bytes());
+}
+
+}  // namespace meshstream

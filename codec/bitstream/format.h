@@ -1,0 +1,113 @@
+// The progressive bitstream of one primitive (docs/progressive-format.md):
+// shared definitions of the stream writer (stream_writer.h) and reader
+// (stream_reader.h), mirrored stages in the manner of Draco's prediction
+// schemes.
+//
+// A stream has a reliable part (header with grids and counts, fix-ups of the
+// base, and per refinement its split bits and static models) and an
+// unreliable part (per refinement, datagrams of at most packet_bytes that
+// each decode on their own given the reliable part). The base mesh itself is
+// the single-rate coder's bytes (Draco), kept beside the stream.
+#ifndef MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
+#define MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/byte_io.h"
+#include "codec/mesh/quantized_mesh.h"
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+constexpr uint8_t kStreamVersion = 1;
+constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
+constexpr uint8_t kDatagramVersion = 1;
+constexpr uint32_t kMinPacketBytes = 64;
+constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
+constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
+constexpr uint32_t kMaxRefinements = 255;
+constexpr uint64_t kMaxStreamVertices = uint64_t{1} << 28;
+constexpr uint64_t kMaxBaseVertices = uint64_t{1} << 22;
+
+enum class Packing : uint8_t {
+  kSplit = 0,    // structure and geometry of a split in separate datagrams (the default)
+  kBundled = 1,  // structure and geometry of a split in one fragment
+};
+
+enum class DatagramKind : uint8_t {
+  kBundled = 0,    // structure then geometry of each split
+  kStructure = 1,  // wings only
+  kGeometry = 2,   // position and attribute differences only
+  kEnd = 3,        // the sender's END of a refinement: count = its data datagrams, no payload
+};
+
+// The reliable header of a stream.
+struct StreamHeader {
+  Packing packing = Packing::kSplit;
+  QuantizationParams quantization;
+  QuantizedMesh grids;  // grids and layout only (no vertices)
+  uint32_t base_vertices = 0;
+  uint32_t base_faces = 0;
+  uint8_t base_method = 0;
+  std::vector<uint32_t> split_counts;  // per refinement
+  // Written by the encoder; a parsed header keeps the coded blocks and
+  // decodes them only once the base mesh has been seen (DecodeFixups), so a
+  // lying vertex count cannot make it allocate what the stream does not hold.
+  std::vector<int32_t> base_position_fix;
+  std::vector<int32_t> base_attribute_fix;
+  std::vector<uint8_t> position_fix_block;
+  std::vector<uint8_t> attribute_fix_block;
+
+  // Fills base_position_fix and base_attribute_fix for `base_vertices`
+  // vertices (the caller has checked that against the real base).
+  Status DecodeFixups();
+
+  void Serialize(ByteWriter& w) const;
+  static StatusOr<StreamHeader> Parse(const uint8_t* data, size_t size);
+  // Vertices at each level: [0] the base, [i + 1] after refinement i.
+  std::vector<uint32_t> level_vertices() const;
+};
+
+// Everything of one primitive's stream except the base mesh bytes.
+struct ProgressiveStream {
+  std::vector<uint8_t> header;                                // StreamHeader
+  std::vector<std::vector<uint8_t>> control;                  // per refinement: split bits + models
+  std::vector<std::vector<std::vector<uint8_t>>> datagrams;   // per refinement
+
+  size_t reliable_bytes() const;
+  size_t unreliable_bytes() const;
+  size_t datagram_count() const;
+  // One blob: "MSPS", version, header, refinements with control and datagrams.
+  std::vector<uint8_t> Serialize() const;
+  static StatusOr<ProgressiveStream> Parse(const uint8_t* data, size_t size);
+};
+
+// The fixed part of a datagram, before its range-coded payload.
+struct DatagramHeader {
+  DatagramKind kind = DatagramKind::kBundled;
+  uint32_t stream = 0;      // primitive within the asset
+  uint32_t refinement = 0;
+  uint32_t stride = 1;      // the datagram carries ordinals offset, offset + stride, ...
+  uint32_t offset = 0;
+  uint32_t count = 0;
+
+  void Serialize(ByteWriter& w) const;
+  // Checks magic, version, kind and that offset < stride; the reader checks
+  // the ordinals against the refinement's split count. An END has stride 1,
+  // offset 0, any count (the refinement's data datagrams) and no payload.
+  static StatusOr<DatagramHeader> Parse(ByteReader& r);
+};
+
+// Whether a data datagram (not an END) fits a stream: its kind matches the
+// packing and its ordinals lie below the split count of its refinement
+// (which must exist). Stream number and timing are the receiver's business.
+bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
+
+// The END datagram the sender puts on the unreliable channel after the data
+// datagrams of a refinement (docs/progressive-format.md, section 6).
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_

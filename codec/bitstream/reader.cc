@@ -1,0 +1,169 @@
+#include "codec/bitstream/reader.h"
+
+#include <algorithm>
+
+#include "codec/entropy/range_coder.h"
+
+namespace meshstream {
+
+uint64_t StreamReader::unreliable_vertices() const {
+  uint64_t n = 0;
+  for (uint8_t f : state_.flags) n += f != 0 && (f & kAbsent) == 0 ? 1 : 0;
+  return n;
+}
+
+StatusOr<StreamReader> StreamReader::Create(const uint8_t* header, size_t size, uint32_t stream_id) {
+  StreamReader r;
+  MS_ASSIGN_OR_RETURN(r.header_, StreamHeader::Parse(header, size));
+  r.stream_id_ = stream_id;
+  return r;
+}
+
+Status StreamReader::SetBase(QuantizedMesh base) {
+  const StreamHeader& h = header_;
+  if (base.vertex_count() != h.base_vertices || base.face_count() != h.base_faces) {
+    return InvalidInput("the base mesh has " + std::to_string(base.vertex_count()) + " vertices and " +
+                        std::to_string(base.face_count()) + " triangles; the stream expects " +
+                        std::to_string(h.base_vertices) + " and " + std::to_string(h.base_faces));
+  }
+  const int ch = h.grids.layout.channels();
+  if (base.layout.channels() != ch) return InvalidInput("the base mesh's attributes do not match the stream");
+  MS_RETURN_IF_ERROR(header_.DecodeFixups());
+  for (size_t v = 0; v < base.vertex_count(); ++v) {
+    for (int k = 0; k < 3; ++k) base.positions[v][k] += h.base_position_fix[v * 3 + k];
+    for (int k = 0; k < ch; ++k) base.attributes[v * ch + k] += h.base_attribute_fix[v * ch + k];
+  }
+  base.position_grid = h.grids.position_grid;
+  base.layout = h.grids.layout;
+  MS_RETURN_IF_ERROR(state_.Reset(base));
+  history_ = SplitHistory();
+  history_.vertices = static_cast<uint32_t>(base.vertex_count());
+  models_.clear();
+  has_base_ = true;
+  next_ = 0;
+  return Status::Ok();
+}
+
+Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
+  if (!has_base_) return InvalidArgument("the base mesh must be set before refinements");
+  if (in_refinement_) return InvalidArgument("the previous refinement is not finished");
+  if (next_ >= refinement_count()) return InvalidInput("the stream has no refinement " + std::to_string(next_));
+  const std::string where = "refinement " + std::to_string(next_);
+  ByteReader r(control, size);
+  size_t length = 0;
+  MS_ASSIGN_OR_RETURN(const uint8_t* bits, r.Block("split bits", &length));
+  const uint32_t n = state_.connectivity.vertex_count();
+  Refinement ref;
+  ref.vertices_before = n;
+  if (history_.vertices != n) return Internal(where + ": split history is out of step");
+  auto decoded = DecodeSplitBits(bits, length, history_);
+  if (!decoded.ok()) return decoded.status().WithContext(where);
+  std::vector<uint8_t> split = std::move(decoded).value();
+  for (uint32_t v = 0; v < n; ++v)
+    if (split[v]) ref.split_vertices.push_back(v);
+  if (ref.split_vertices.size() != header_.split_counts[next_]) {
+    return InvalidInput(where + ": " + std::to_string(ref.split_vertices.size()) + " split bits are set, the header says " +
+                        std::to_string(header_.split_counts[next_]));
+  }
+  // Models: per slot, a flag (0: the previous refinement's, 1: a new one follows).
+  const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
+  std::vector<StaticModel> models;
+  for (size_t k = 0; k < slots; ++k) {
+    MS_ASSIGN_OR_RETURN(uint8_t fresh, r.U8("model flag"));
+    if (fresh > 1) return InvalidInput(where + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
+    if (fresh) {
+      MS_ASSIGN_OR_RETURN(StaticModel m, StaticModel::Parse(r));
+      models.push_back(std::move(m));
+    } else {
+      if (models_.size() != slots) return InvalidInput(where + ": reuses a model that was never sent");
+      models.push_back(models_[k]);
+    }
+  }
+  if (r.remaining() != 0) return InvalidInput(where + ": " + std::to_string(r.remaining()) + " stray bytes after the models");
+  models_ = std::move(models);
+  const size_t k = ref.split_count();
+  const int ch = header_.grids.layout.channels();
+  ref.wings.assign(k, {0, 0});
+  ref.position_delta.assign(k, Vec3i{});
+  ref.attribute_delta.assign(k * ch, 0);
+  has_structure_.assign(k, 0);
+  has_geometry_.assign(k, 0);
+  current_ = std::move(ref);
+  history_ = history_.Next(split);
+  in_refinement_ = true;
+  return Status::Ok();
+}
+
+bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
+  ByteReader r(data, size);
+  auto parsed = DatagramHeader::Parse(r);
+  if (!parsed.ok() || !in_refinement_) {
+    ++stats_.rejected;
+    return false;
+  }
+  const DatagramHeader& h = parsed.value();
+  if (h.stream != stream_id_ || h.refinement != next_ || !DatagramFits(h, header_)) {
+    ++stats_.rejected;
+    return false;
+  }
+  // Decode into scratch first: a datagram is used whole or not at all.
+  const bool structure = h.kind != DatagramKind::kGeometry;
+  const bool geometry = h.kind != DatagramKind::kStructure;
+  const int ch = header_.grids.layout.channels();
+  RangeDecoder dec(data + r.position(), r.remaining());
+  std::vector<std::array<uint16_t, 2>> wings(h.count);
+  std::vector<Vec3i> deltas(geometry ? h.count : 0);
+  std::vector<int32_t> attrs(geometry ? size_t(h.count) * ch : 0);
+  for (uint32_t i = 0; i < h.count; ++i) {
+    if (structure) {
+      wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));
+      wings[i][1] = static_cast<uint16_t>(models_[1].Decode(dec));
+    }
+    if (geometry) {
+      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, models_[2 + c]);
+      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
+    }
+  }
+  if (dec.overran()) {
+    ++stats_.rejected;
+    return false;
+  }
+  bool fresh = false;
+  for (uint32_t i = 0; i < h.count; ++i) {
+    const size_t j = h.offset + size_t(i) * h.stride;
+    if (structure && !has_structure_[j]) {
+      current_.wings[j] = wings[i];
+      has_structure_[j] = 1;
+      fresh = true;
+    }
+    if (geometry && !has_geometry_[j]) {
+      current_.position_delta[j] = deltas[i];
+      std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
+                current_.attribute_delta.begin() + j * ch);
+      has_geometry_[j] = 1;
+      fresh = true;
+    }
+  }
+  if (fresh) ++stats_.accepted;
+  else ++stats_.duplicates;
+  return true;
+}
+
+Status StreamReader::FinishRefinement(Recovery recovery) {
+  if (!in_refinement_) return InvalidArgument("no refinement was begun");
+  const std::string where = "refinement " + std::to_string(next_);
+  if (current_.vertices_before != state_.connectivity.vertex_count()) return Internal(where + ": out of step");
+  state_.ReserveSplits(current_.split_count());
+  RecoveryStats stats;
+  for (size_t j = 0; j < current_.split_count(); ++j) {
+    MS_RETURN_IF_ERROR(RecoverSplit(current_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
+                                    &recovery_scratch_, &stats)
+                           .WithContext(where));
+  }
+  recovery_stats_.Add(stats);
+  in_refinement_ = false;
+  ++next_;
+  return Status::Ok();
+}
+
+}  // namespace meshstream

@@ -1,0 +1,92 @@
+// Reads a progressive stream (stream_writer.h's mirror): the header, the base
+// (decoded by the caller's single-rate decoder onto the header's grids), then
+// refinement by refinement its control block and whichever datagrams arrive,
+// in any order, duplicated or not.
+//
+// Contract: safe on hostile bytes. Header counts bound every allocation
+// (at most kMaxStreamVertices vertices); a datagram is checked field by field
+// before anything it carries is stored, and a datagram that does not decode
+// cleanly is dropped whole and counted. Split bits and models are reliable:
+// an error there fails the stream, and their decoding never looks at
+// connectivity or positions (BRIEF, property 5), so they decode bit-exactly
+// whatever was lost.
+//
+// Loss (docs/loss-tolerance.md): FinishRefinement applies every split whose
+// structure and geometry arrived, and recovers the others by `Recovery`:
+// kPredict predicts what is missing (paper, section 4.4; split_prediction.h)
+// so every level has the lossless vertex count; kLwop abandons the split and
+// every later split that depends on it (paper, section 5.3). Per vertex, a
+// reliability bit says whether it was decoded exactly (paper, section 4.5).
+// Thread safety: one reader per stream.
+#ifndef MESHSTREAM_CODEC_BITSTREAM_READER_H_
+#define MESHSTREAM_CODEC_BITSTREAM_READER_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/progressive/refinement.h"
+#include "codec/progressive/refinement_state.h"
+#include "codec/recovery/recover_split.h"
+#include "codec/bitstream/format.h"
+#include "codec/progressive/split_bits.h"
+#include "codec/entropy/symbol_model.h"
+
+namespace meshstream {
+
+struct DatagramStats {
+  uint64_t accepted = 0;
+  uint64_t rejected = 0;    // malformed, wrong stream or refinement, bad ordinals
+  uint64_t duplicates = 0;  // every unit it carried had already arrived
+};
+
+class StreamReader {
+ public:
+  static StatusOr<StreamReader> Create(const uint8_t* header, size_t size, uint32_t stream_id = 0);
+
+  const StreamHeader& header() const { return header_; }
+  // The base as the single-rate decoder returned it; fix-ups are applied here.
+  Status SetBase(QuantizedMesh decoded_base);
+
+  size_t refinement_count() const { return header_.split_counts.size(); }
+  size_t applied() const { return next_; }
+
+  Status BeginRefinement(const uint8_t* control, size_t size);
+  bool OfferDatagram(const uint8_t* data, size_t size);
+  // Applies the current refinement; what was lost is recovered by `recovery`.
+  // Within one stream every refinement must use the same recovery.
+  Status FinishRefinement(Recovery recovery = Recovery::kPredict);
+
+  const Refinement& current() const { return current_; }
+  const std::vector<uint8_t>& has_structure() const { return has_structure_; }
+  const std::vector<uint8_t>& has_geometry() const { return has_geometry_; }
+  const DatagramStats& stats() const { return stats_; }
+  const RecoveryStats& recovery_stats() const { return recovery_stats_; }
+  const RefinementState& state() const { return state_; }
+  // Per canonical vertex id: 1 decoded exactly, 0 predicted, moved by a
+  // prediction, or with a ring a prediction changed (BRIEF, property 6).
+  const std::vector<uint8_t>& reliable() const { return state_.reliable; }
+  // Vertices that reliable() marks 0 and that exist.
+  uint64_t unreliable_vertices() const;
+  // The current level. Vertices that LwoP never created are left out (the
+  // others keep their relative order), so no vertex is unreferenced.
+  QuantizedMesh Mesh() const { return state_.Snapshot(header_.grids); }
+
+ private:
+  StreamHeader header_;
+  uint32_t stream_id_ = 0;
+  RefinementState state_;
+  RecoveryScratch recovery_scratch_;
+  bool has_base_ = false;
+  size_t next_ = 0;          // refinements applied
+  bool in_refinement_ = false;
+  SplitHistory history_;
+  Refinement current_;
+  std::vector<uint8_t> has_structure_, has_geometry_;
+  std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
+  DatagramStats stats_;
+  RecoveryStats recovery_stats_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_BITSTREAM_READER_H_

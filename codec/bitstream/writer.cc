@@ -1,0 +1,187 @@
+#include "codec/bitstream/writer.h"
+
+#include <cmath>
+
+#include "codec/entropy/range_coder.h"
+#include "codec/progressive/split_bits.h"
+#include "codec/entropy/symbol_model.h"
+
+namespace meshstream {
+
+namespace {
+
+// The models of one refinement, by slot: wing, offset, position x, y, z,
+// then one per attribute channel. Each slot either carries a new model or
+// reuses the previous refinement's (when that costs fewer bits), see
+// docs/progressive-format.md, "Control block".
+struct RefinementModels {
+  std::vector<StaticModel> slots;
+  const StaticModel& wing() const { return slots[0]; }
+  const StaticModel& offset() const { return slots[1]; }
+  const StaticModel& position(int axis) const { return slots[2 + axis]; }
+  const StaticModel& attribute(int channel) const { return slots[5 + channel]; }
+};
+
+std::vector<std::vector<uint64_t>> Histograms(const Refinement& r, int channels) {
+  std::vector<std::vector<uint64_t>> h(5 + channels);
+  h[0].assign(kWingAlphabet, 0);
+  h[1].assign(kWingAlphabet, 0);
+  for (size_t k = 2; k < h.size(); ++k) h[k].assign(kSignedSymbols, 0);
+  for (size_t j = 0; j < r.split_count(); ++j) {
+    ++h[0][r.wings[j][0]];
+    ++h[1][r.wings[j][1]];
+    for (int k = 0; k < 3; ++k) ++h[2 + k][SignedSymbol(r.position_delta[j][k])];
+    for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[j * channels + k])];
+  }
+  return h;
+}
+
+double CostWith(const StaticModel& m, const std::vector<uint64_t>& counts) {
+  double bits = 0;
+  for (size_t s = 0; s < counts.size(); ++s) {
+    if (counts[s] == 0) continue;
+    if (!m.Has(static_cast<uint32_t>(s))) return 1e300;
+    bits += counts[s] * m.Cost(static_cast<uint32_t>(s));
+  }
+  return bits;
+}
+
+// Chooses and writes the models of a refinement; `previous` is updated.
+RefinementModels WriteModels(const Refinement& r, int channels, RefinementModels* previous, ByteWriter& w) {
+  const auto histograms = Histograms(r, channels);
+  RefinementModels chosen;
+  for (size_t k = 0; k < histograms.size(); ++k) {
+    StaticModel fresh = StaticModel::FromCounts(histograms[k]);
+    ByteWriter serialized;
+    fresh.Serialize(serialized);
+    const double fresh_bits = CostWith(fresh, histograms[k]) + 8.0 * serialized.size();
+    const bool reuse = previous && CostWith(previous->slots[k], histograms[k]) < fresh_bits;
+    w.U8(reuse ? 0 : 1);
+    if (reuse) {
+      chosen.slots.push_back(previous->slots[k]);
+    } else {
+      w.Bytes(serialized.bytes());
+      chosen.slots.push_back(std::move(fresh));
+    }
+  }
+  return chosen;
+}
+
+void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j) {
+  m.wing().Encode(enc, r.wings[j][0]);
+  m.offset().Encode(enc, r.wings[j][1]);
+}
+
+void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j, int channels) {
+  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position(k), r.position_delta[j][k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[j * channels + k]);
+}
+
+double UnitCost(const RefinementModels& m, const Refinement& r, size_t j, int channels, DatagramKind kind) {
+  double bits = 0;
+  if (kind != DatagramKind::kGeometry) bits += m.wing().Cost(r.wings[j][0]) + m.offset().Cost(r.wings[j][1]);
+  if (kind != DatagramKind::kStructure) {
+    for (int k = 0; k < 3; ++k) bits += SignedCost(m.position(k), r.position_delta[j][k]);
+    for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[j * channels + k]);
+  }
+  return bits;
+}
+
+// Deals the splits of a refinement to as few datagrams as fit.
+std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Refinement& r, int channels,
+                                            DatagramKind kind, uint32_t refinement, const StreamWriteOptions& o) {
+  const size_t k = r.split_count();
+  std::vector<std::vector<uint8_t>> out;
+  if (k == 0) return out;
+  double bits = 0;
+  for (size_t j = 0; j < k; ++j) bits += UnitCost(m, r, j, channels, kind);
+  const double capacity = std::max(8.0, double(o.packet_bytes) - 24.0);  // header and coder flush
+  size_t stride = std::max<size_t>(1, static_cast<size_t>(std::ceil(bits / 8.0 / (capacity * 0.92))));
+  stride = std::min(stride, k);
+  for (;;) {
+    out.clear();
+    bool fits = true;
+    for (size_t d = 0; d < stride && fits; ++d) {
+      DatagramHeader h;
+      h.kind = kind;
+      h.stream = o.stream_id;
+      h.refinement = refinement;
+      h.stride = static_cast<uint32_t>(stride);
+      h.offset = static_cast<uint32_t>(d);
+      h.count = static_cast<uint32_t>((k - d + stride - 1) / stride);
+      ByteWriter w;
+      h.Serialize(w);
+      RangeEncoder enc;
+      for (size_t j = d; j < k; j += stride) {
+        if (kind != DatagramKind::kGeometry) EncodeStructure(enc, m, r, j);
+        if (kind != DatagramKind::kStructure) EncodeGeometry(enc, m, r, j, channels);
+      }
+      w.Bytes(enc.Finish());
+      if (w.size() > o.packet_bytes) fits = false;
+      out.push_back(std::move(w.bytes()));
+    }
+    if (fits) return out;
+    if (stride == k) return out;  // a single split larger than a datagram: send it as it is
+    stride = std::min(k, stride + std::max<size_t>(1, stride / 8));
+  }
+}
+
+}  // namespace
+
+StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const QuantizationParams& quantization,
+                                        const StreamWriteOptions& o) {
+  if (o.packet_bytes < kMinPacketBytes || o.packet_bytes > kMaxPacketBytes) {
+    return InvalidArgument("--packet-bytes must be between " + std::to_string(kMinPacketBytes) + " and " +
+                           std::to_string(kMaxPacketBytes));
+  }
+  const ProgressiveMesh& pm = e.mesh;
+  if (pm.refinements.size() > kMaxRefinements) return InvalidArgument("too many refinements");
+  const int channels = pm.base.layout.channels();
+
+  StreamHeader h;
+  h.packing = o.packing;
+  h.quantization = quantization;
+  h.grids.position_grid = pm.base.position_grid;
+  h.grids.layout = pm.base.layout;
+  h.base_vertices = static_cast<uint32_t>(pm.base.vertex_count());
+  h.base_faces = static_cast<uint32_t>(pm.base.face_count());
+  h.base_method = static_cast<uint8_t>(e.base_method);
+  for (const Refinement& r : pm.refinements) h.split_counts.push_back(static_cast<uint32_t>(r.split_count()));
+  h.base_position_fix = e.base_position_fix;
+  h.base_attribute_fix = e.base_attribute_fix;
+  ProgressiveStream s;
+  ByteWriter hw;
+  h.Serialize(hw);
+  s.header = std::move(hw.bytes());
+
+  SplitHistory history;
+  history.vertices = static_cast<uint32_t>(pm.base.vertex_count());
+  RefinementModels previous;
+  for (size_t i = 0; i < pm.refinements.size(); ++i) {
+    const Refinement& r = pm.refinements[i];
+    // Split bits, then the models.
+    std::vector<uint8_t> bits(r.vertices_before, 0);
+    for (uint32_t v : r.split_vertices) bits[v] = 1;
+    ByteWriter cw;
+    cw.Block(EncodeSplitBits(bits, history));
+    history = history.Next(bits);
+    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
+    s.control.push_back(std::move(cw.bytes()));
+    previous = models;
+
+    // Datagrams.
+    std::vector<std::vector<uint8_t>> datagrams;
+    const uint32_t index = static_cast<uint32_t>(i);
+    if (o.packing == Packing::kBundled) {
+      datagrams = Packetize(models, r, channels, DatagramKind::kBundled, index, o);
+    } else {
+      datagrams = Packetize(models, r, channels, DatagramKind::kStructure, index, o);
+      auto geometry = Packetize(models, r, channels, DatagramKind::kGeometry, index, o);
+      for (auto& d : geometry) datagrams.push_back(std::move(d));
+    }
+    s.datagrams.push_back(std::move(datagrams));
+  }
+  return s;
+}
+
+}  // namespace meshstream

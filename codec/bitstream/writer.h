@@ -1,0 +1,36 @@
+// Writes a ProgressiveEncoded mesh as a progressive stream: entropy coding of
+// the reliable part (split bits with contexts, static models) and
+// packetization of structure and geometry into datagrams (paper, 4.2; BRIEF,
+// property 4).
+//
+// Interleaving: the splits of a refinement are dealt round-robin to its D
+// datagrams (split j goes to datagram j mod D), so a datagram carries splits
+// D ordinals apart; splits are ordered by the canonical id of their vertex,
+// which follows the base coder's traversal, so neighbours on the surface land
+// in different datagrams. D is the smallest count for which every datagram
+// fits in packet_bytes.
+//
+// Contract: pure. Fails with InvalidArgument when packet_bytes is outside
+// [kMinPacketBytes, kMaxPacketBytes].
+#ifndef MESHSTREAM_CODEC_BITSTREAM_WRITER_H_
+#define MESHSTREAM_CODEC_BITSTREAM_WRITER_H_
+
+#include <cstdint>
+
+#include "codec/progressive/encoder.h"
+#include "codec/bitstream/format.h"
+
+namespace meshstream {
+
+struct StreamWriteOptions {
+  Packing packing = Packing::kSplit;
+  uint32_t packet_bytes = 1200;  // payload bytes of a datagram, header included
+  uint32_t stream_id = 0;        // the primitive's index in the asset
+};
+
+StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& encoded, const QuantizationParams& quantization,
+                                        const StreamWriteOptions& options);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_BITSTREAM_WRITER_H_

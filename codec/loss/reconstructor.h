@@ -1,0 +1,141 @@
+// The client's stream reconstructor (paper, section 4.3): buffers the
+// datagrams of each refinement as they arrive in any order, drops
+// duplicates, synchronizes the two channels and hands a refinement to the
+// StreamReader when it is ready:
+//   - both channels have signalled its END (reliable: its control block has
+//     arrived; unreliable: its END datagram has arrived) and every datagram
+//     the END announces has arrived; or
+//   - its control block arrived at least `straggler_timeout_us` ago by the
+//     caller's clock (stragglers, and a lost END datagram, are too late).
+// Refinements are decoded in order; a refinement whose data is incomplete
+// goes through the reader's recovery (prediction or LwoP). Datagrams of a
+// refinement already decoded are counted as late and dropped.
+//
+// Contract: no sockets, threads or clocks: the caller passes every arrival
+// and the current time (microseconds, non-decreasing). Safe on hostile
+// datagrams (parsed header checked before anything is stored; malformed ones
+// dropped and counted). Memory is bounded: datagrams are buffered only for
+// the `window` refinements after the one being decoded, and at most
+// `max_buffered_bytes` in total; what does not fit is dropped and counted.
+//
+// Details:
+//   - A refinement is begun in the reader (BeginRefinement, then its buffered
+//     datagrams, which are released) as soon as its control block has
+//     arrived and the previous refinement is finished; its datagrams then go
+//     straight to the reader and are not buffered.
+//   - "Every datagram the END announces has arrived" is counted as: that many
+//     datagrams gave the reader a unit it did not have yet. The sender's
+//     datagrams carry disjoint units, so copies and datagrams made of units
+//     already there never count.
+//   - Datagrams are checked (DatagramHeader::Parse, stream id, refinement,
+//     kind for the packing, ordinals against the split count) before anything
+//     is stored; an END announcing more than twice the split count is
+//     rejected. ENDs are small and kept for any refinement to decode.
+//   - Duplicates: a buffered datagram byte-identical to one already buffered
+//     for its refinement, or any datagram whose units the reader already has.
+//   - Every buffered datagram is charged its size plus a fixed 64 bytes of
+//     bookkeeping against max_buffered_bytes until its refinement is begun.
+//   - With lod >= 0 only refinements [0, lod) are decoded; control blocks
+//     past it are ignored and datagrams past it are counted as late.
+//   - Flush counts a refinement as finished_complete when it is complete,
+//     otherwise as finished_timeout.
+//   - An error from the reader (a corrupt control block, a failed
+//     FinishRefinement) ends the session: OnControl, Poll and Flush return
+//     it again and OnDatagram ignores everything.
+// Thread safety: one reconstructor per session.
+#ifndef MESHSTREAM_CODEC_LOSS_RECONSTRUCTOR_H_
+#define MESHSTREAM_CODEC_LOSS_RECONSTRUCTOR_H_
+
+#include <cstdint>
+#include <deque>
+#include <unordered_map>
+#include <vector>
+
+#include "codec/bitstream/reader.h"
+
+namespace meshstream {
+
+struct LossyDecodeOptions;
+struct LossyDecodeReport;
+
+struct ReconstructorOptions {
+  uint64_t straggler_timeout_us = 100000;
+  uint32_t window = 8;
+  size_t max_buffered_bytes = size_t{16} << 20;
+  Recovery recovery = Recovery::kPredict;
+  int lod = -1;  // refinements to decode; -1: all
+};
+
+struct ReconstructorStats {
+  uint64_t datagrams = 0;      // data datagrams offered (END datagrams not included)
+  uint64_t accepted = 0;       // carried at least one unit not seen before
+  uint64_t duplicates = 0;
+  uint64_t rejected = 0;       // malformed, another stream, bad ordinals
+  uint64_t late = 0;           // for a refinement already decoded
+  uint64_t overflow = 0;       // beyond the window or the byte budget
+  uint64_t ends = 0;           // END datagrams received (duplicates included)
+  uint64_t finished_complete = 0;  // refinements handed over with both ENDs and all datagrams
+  uint64_t finished_timeout = 0;   // refinements handed over by the clock
+};
+
+class StreamReconstructor {
+ public:
+  static StatusOr<StreamReconstructor> Create(const uint8_t* header, size_t size, uint32_t stream_id,
+                                              const ReconstructorOptions& options = {});
+  Status SetBase(QuantizedMesh decoded_base);
+
+  // The reliable channel, in order: the control block of the next refinement.
+  Status OnControl(const uint8_t* control, size_t size, uint64_t now_us);
+  // The unreliable channel: any datagram, any order, duplicates allowed.
+  void OnDatagram(const uint8_t* data, size_t size, uint64_t now_us);
+  // Decodes every refinement that is ready at now_us; returns how many.
+  StatusOr<size_t> Poll(uint64_t now_us);
+  // The session is over: decodes every refinement whose control block arrived.
+  Status Flush();
+
+  size_t applied() const { return reader_.applied(); }
+  bool done() const;  // every refinement to decode (lod) has been decoded
+  const StreamReader& reader() const { return reader_; }
+  const ReconstructorStats& stats() const { return stats_; }
+
+ private:
+  friend StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream&, uint32_t, QuantizedMesh,
+                                                  const LossyDecodeOptions&, LossyDecodeReport*);
+  struct Pending {
+    std::vector<uint8_t> control;
+    bool has_control = false;
+    uint64_t control_time_us = 0;
+    bool has_end = false;
+    uint32_t announced = 0;                         // data datagrams the END announced
+    // Distinct data datagrams (byte-identical copies are kept once) that
+    // arrived before the refinement was begun, in arrival order.
+    std::vector<std::vector<uint8_t>> seen;
+    std::unordered_multimap<uint64_t, uint32_t> by_hash;  // hash of bytes -> index in seen
+    uint32_t usable = 0;  // datagrams that gave the reader a unit it did not have (completeness)
+  };
+  StreamReconstructor() = default;
+  size_t limit() const;  // refinements to decode (lod and the stream's count)
+  Pending& At(size_t k);  // pending_[k], grown as needed
+  Status BeginFront();    // begins refinement applied() when its control arrived
+  void Offer(Pending& p);  // hands p's buffered datagrams to the reader and releases them
+  void OfferOne(Pending& p, const uint8_t* data, size_t size);
+  bool Complete(const Pending& p) const;
+  // Finishes refinement applied() if it is ready at now_us (or whenever its
+  // control arrived, when flushing), then begins the next; returns whether it did.
+  StatusOr<bool> DecodeNext(uint64_t now_us, bool flushing);
+
+  StreamReader reader_;
+  ReconstructorOptions options_;
+  uint32_t stream_id_ = 0;
+  std::deque<Pending> pending_;  // pending_[k] is refinement applied() + k
+  size_t buffered_bytes_ = 0;
+  ReconstructorStats stats_;
+  bool has_base_ = false;
+  bool begun_ = false;      // refinement applied() is begun in the reader
+  size_t controls_ = 0;     // control blocks received
+  Status failed_;           // the first error of the reader: the session is over
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_LOSS_RECONSTRUCTOR_H_

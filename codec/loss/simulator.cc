@@ -1,0 +1,166 @@
+#include "codec/loss/simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <utility>
+
+namespace meshstream {
+namespace {
+
+// A double in [0, 1) from the top 53 bits of one draw: the same on every
+// standard library (std::uniform_real_distribution is not).
+double Uniform(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+Status CheckFraction(double value, const char* field) {
+  if (!(value >= 0.0 && value <= 1.0)) {
+    return InvalidArgument(std::string("loss model: ") + field + " = " + std::to_string(value) +
+                           " is not in [0, 1]");
+  }
+  return Status::Ok();
+}
+
+// a + b and a * b for simulated times; hostile timings are refused rather than wrapped.
+bool AddOverflows(uint64_t a, uint64_t b, uint64_t* out) { return __builtin_add_overflow(a, b, out); }
+bool MulOverflows(uint64_t a, uint64_t b, uint64_t* out) { return __builtin_mul_overflow(a, b, out); }
+
+// Which datagrams the network drops: independent (burst <= 1) or a
+// Gilbert-Elliott chain (good: delivered, bad: lost) whose stationary loss is
+// `loss` and whose bad runs last `burst` datagrams on average. When `loss` is
+// so high that good runs would have to average less than one datagram
+// (loss > burst / (1 + burst)), good runs last exactly one datagram and bad
+// runs grow to keep the loss rate.
+class LossChain {
+ public:
+  explicit LossChain(const LossModel& m) : loss_(m.loss), bursty_(m.burst > 1.0) {
+    if (bursty_ && loss_ > 0.0 && loss_ < 1.0) {
+      good_to_bad_ = loss_ / (m.burst * (1.0 - loss_));
+      bad_to_good_ = 1.0 / m.burst;
+      if (good_to_bad_ > 1.0) {
+        good_to_bad_ = 1.0;
+        bad_to_good_ = (1.0 - loss_) / loss_;
+      }
+    }
+  }
+  // The initial state, drawn from the stationary distribution.
+  void Start(double u) { bad_ = u < loss_; }
+  // Whether the next datagram is lost; `u` is one uniform draw.
+  bool Next(double u) {
+    if (!bursty_ || loss_ <= 0.0 || loss_ >= 1.0) return u < loss_;
+    const bool lost = bad_;
+    bad_ = bad_ ? !(u < bad_to_good_) : u < good_to_bad_;
+    return lost;
+  }
+
+ private:
+  double loss_;
+  bool bursty_;
+  double good_to_bad_ = 0, bad_to_good_ = 1;
+  bool bad_ = false;
+};
+
+}  // namespace
+
+Status LossModel::Validate() const {
+  MS_RETURN_IF_ERROR(CheckFraction(loss, "loss"));
+  if (!(burst >= 0.0 && std::isfinite(burst))) {
+    return InvalidArgument("loss model: burst = " + std::to_string(burst) + " is not a finite value >= 0");
+  }
+  MS_RETURN_IF_ERROR(CheckFraction(reorder, "reorder"));
+  MS_RETURN_IF_ERROR(CheckFraction(duplicate, "duplicate"));
+  return Status::Ok();
+}
+
+StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
+                                            const LossModel& model, const LinkTiming& timing) {
+  MS_RETURN_IF_ERROR(model.Validate());
+  if (refinements > stream.control.size() || refinements > stream.datagrams.size()) {
+    return InvalidArgument("cannot send " + std::to_string(refinements) + " refinements: the stream has " +
+                           std::to_string(std::min(stream.control.size(), stream.datagrams.size())));
+  }
+  Transmission t;
+  // All END datagrams first: events point into them, so the outer vector must not grow later.
+  t.end_datagrams.reserve(refinements);
+  for (size_t i = 0; i < refinements; ++i) {
+    if (stream.datagrams[i].size() > UINT32_MAX) return InvalidArgument("too many datagrams in one refinement");
+    t.end_datagrams.push_back(MakeEndDatagram(stream_id, static_cast<uint32_t>(i),
+                                              static_cast<uint32_t>(stream.datagrams[i].size())));
+  }
+
+  std::mt19937_64 rng(model.seed);
+  LossChain chain(model);
+  chain.Start(Uniform(rng));
+  const Status too_late = InvalidArgument("link timing: simulated times exceed 64 bits");
+
+  // One datagram on the unreliable channel. Every datagram consumes the same
+  // five draws whatever the model, so for one seed the loss pattern does not
+  // change with the reorder and duplicate fractions.
+  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end) -> Status {
+    const double u_loss = Uniform(rng), u_reorder = Uniform(rng), u_delay = Uniform(rng);
+    const double u_duplicate = Uniform(rng), u_copy_delay = Uniform(rng);
+    (end ? t.stats.ends_sent : t.stats.datagrams_sent) += 1;
+    if (chain.Next(u_loss)) {
+      (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
+      return Status::Ok();
+    }
+    uint64_t arrival = 0;
+    if (AddOverflows(send_us, timing.unreliable_latency_us, &arrival)) return too_late;
+    if (u_reorder < model.reorder && timing.reorder_delay_us > 0) {
+      // Uniform in (0, reorder_delay_us].
+      const uint64_t extra =
+          1 + std::min<uint64_t>(timing.reorder_delay_us - 1,
+                                 static_cast<uint64_t>(u_delay * static_cast<double>(timing.reorder_delay_us)));
+      if (AddOverflows(arrival, extra, &arrival)) return too_late;
+      ++t.stats.reordered;
+    }
+    ChannelEvent e;
+    e.kind = ChannelEvent::Kind::kDatagram;
+    e.time_us = arrival;
+    e.data = bytes.data();
+    e.size = bytes.size();
+    t.events.push_back(e);
+    if (u_duplicate < model.duplicate) {
+      // The copy follows within one datagram interval.
+      const uint64_t span = std::max<uint64_t>(1, timing.datagram_interval_us);
+      const uint64_t extra =
+          1 + std::min<uint64_t>(span - 1, static_cast<uint64_t>(u_copy_delay * static_cast<double>(span)));
+      if (AddOverflows(arrival, extra, &e.time_us)) return too_late;
+      t.events.push_back(e);
+      ++t.stats.duplicated;
+    }
+    return Status::Ok();
+  };
+
+  // Events are created in send order; the stable sort by arrival time then
+  // orders ties by that sequence.
+  for (size_t i = 0; i < refinements; ++i) {
+    uint64_t start = 0, control_arrival = 0;
+    if (MulOverflows(i, timing.refinement_interval_us, &start) ||
+        AddOverflows(start, timing.reliable_latency_us, &control_arrival)) {
+      return too_late;
+    }
+    ChannelEvent control;
+    control.kind = ChannelEvent::Kind::kControl;
+    control.time_us = control_arrival;
+    control.refinement = static_cast<uint32_t>(i);
+    control.data = stream.control[i].data();
+    control.size = stream.control[i].size();
+    t.events.push_back(control);
+    const auto& datagrams = stream.datagrams[i];
+    for (size_t d = 0; d <= datagrams.size(); ++d) {
+      uint64_t offset = 0, send_us = 0;
+      if (MulOverflows(d, timing.datagram_interval_us, &offset) || AddOverflows(start, offset, &send_us)) {
+        return too_late;
+      }
+      const bool end = d == datagrams.size();
+      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end));
+    }
+  }
+  std::stable_sort(t.events.begin(), t.events.end(),
+                   [](const ChannelEvent& a, const ChannelEvent& b) { return a.time_us < b.time_us; });
+  // Moved, not copied: a copy would point its events at the ENDs of `t`.
+  return StatusOr<Transmission>(std::move(t));
+}
+
+}  // namespace meshstream

@@ -1,0 +1,310 @@
+#include "codec/progressive/batch_simplifier.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+namespace meshstream {
+
+namespace {
+
+using Quadric = std::array<double, 10>;  // symmetric 4x4: a2 ab ac ad b2 bc bd c2 cd d2
+
+struct Candidate {
+  double cost;
+  uint32_t u, v;
+};
+
+class Simplifier {
+ public:
+  Simplifier(const QuantizedMesh& mesh, const SimplifyOptions& options)
+      : options_(options), channels_(mesh.layout.channels()) {
+    positions_ = mesh.positions;
+    attributes_ = mesh.attributes;
+    const size_t n = mesh.vertex_count();
+    vertex_faces_.assign(n, {});
+    for (size_t i = 0; i < mesh.indices.size(); i += 3) {
+      const Face f = {mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]};
+      if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) {
+        ++removed_faces_;
+        continue;
+      }
+      const uint32_t id = static_cast<uint32_t>(faces_.size());
+      faces_.push_back(f);
+      for (uint32_t v : f) vertex_faces_[v].push_back(id);
+    }
+    face_alive_.assign(faces_.size(), 1);
+    quadrics_.assign(n, Quadric{});
+    for (const Face& f : faces_) AddFaceQuadric(f);
+    InitLocks();
+  }
+
+  StatusOr<Hierarchy> Run() {
+    Hierarchy h;
+    h.removed_faces = removed_faces_;
+    h.locked_vertices = static_cast<uint64_t>(std::count(locked_.begin(), locked_.end(), 1));
+    for (const Face& f : faces_) h.input_indices.insert(h.input_indices.end(), f.begin(), f.end());
+    size_t alive = 0;
+    std::vector<uint8_t> referenced(positions_.size(), 0);
+    for (const Face& f : faces_)
+      for (uint32_t v : f) referenced[v] = 1;
+    for (uint8_t r : referenced) alive += r;
+    const size_t target = std::max<size_t>(4, static_cast<size_t>(std::ceil(alive * options_.base_ratio)));
+    while (alive > target && h.batches.size() < options_.max_levels) {
+      CollapseBatch batch = NextBatch();
+      if (batch.collapses.empty()) break;
+      alive -= batch.collapses.size();
+      h.batches.push_back(std::move(batch));
+      if (options_.observer && !options_.observer(static_cast<int>(h.batches.size()), alive)) {
+        return Status(StatusCode::kInternal, "simplification cancelled");
+      }
+    }
+    h.in_base = referenced;
+    for (const CollapseBatch& b : h.batches)
+      for (const Collapse& c : b.collapses) h.in_base[c.v] = 0;
+    for (size_t f = 0; f < faces_.size(); ++f) {
+      if (face_alive_[f]) h.base_indices.insert(h.base_indices.end(), faces_[f].begin(), faces_[f].end());
+    }
+    h.positions = positions_;
+    h.attributes = attributes_;
+    return h;
+  }
+
+ private:
+  void AddFaceQuadric(const Face& f) {
+    const Vec3i& p0 = positions_[f[0]];
+    const Vec3i& p1 = positions_[f[1]];
+    const Vec3i& p2 = positions_[f[2]];
+    const double ux = double(p1[0]) - p0[0], uy = double(p1[1]) - p0[1], uz = double(p1[2]) - p0[2];
+    const double vx = double(p2[0]) - p0[0], vy = double(p2[1]) - p0[1], vz = double(p2[2]) - p0[2];
+    double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (!(len > 0)) return;
+    const double area = 0.5 * len;
+    nx /= len; ny /= len; nz /= len;
+    const double d = -(nx * p0[0] + ny * p0[1] + nz * p0[2]);
+    const Quadric q = {nx * nx, nx * ny, nx * nz, nx * d, ny * ny, ny * nz, ny * d, nz * nz, nz * d, d * d};
+    for (uint32_t v : f)
+      for (int k = 0; k < 10; ++k) quadrics_[v][k] += area * q[k];
+  }
+
+  static double Evaluate(const Quadric& a, const Quadric& b, double x, double y, double z) {
+    Quadric q;
+    for (int k = 0; k < 10; ++k) q[k] = a[k] + b[k];
+    return q[0] * x * x + 2 * q[1] * x * y + 2 * q[2] * x * z + 2 * q[3] * x + q[4] * y * y + 2 * q[5] * y * z +
+           2 * q[6] * y + q[7] * z * z + 2 * q[8] * z + q[9];
+  }
+
+  // A vertex is free when its triangles form one closed fan.
+  bool IsClosedFan(uint32_t w) {
+    const std::vector<uint32_t>& fs = vertex_faces_[w];
+    if (fs.size() < 3) return false;
+    pairs_.clear();
+    for (uint32_t f : fs) {
+      if (!face_alive_[f]) continue;
+      const Face r = RotateTo(faces_[f], w);
+      pairs_.push_back({r[1], r[2]});
+    }
+    const size_t n = pairs_.size();
+    if (n < 3) return false;
+    std::sort(pairs_.begin(), pairs_.end());
+    for (size_t i = 1; i < n; ++i) {
+      if (pairs_[i][0] == pairs_[i - 1][0]) return false;
+    }
+    uint32_t cur = pairs_[0][0];
+    for (size_t step = 0; step < n; ++step) {
+      auto it = std::lower_bound(pairs_.begin(), pairs_.end(), std::array<uint32_t, 2>{cur, 0});
+      if (it == pairs_.end() || (*it)[0] != cur) return false;
+      cur = (*it)[1];
+      if (cur == pairs_[0][0]) return step + 1 == n;
+    }
+    return false;
+  }
+
+  void InitLocks() {
+    const size_t n = positions_.size();
+    locked_.assign(n, 0);
+    for (uint32_t v = 0; v < n; ++v) {
+      if (!vertex_faces_[v].empty() && !IsClosedFan(v)) locked_[v] = 1;
+    }
+    // Duplicated triangles (the same three vertices twice).
+    std::vector<std::array<uint32_t, 4>> keys;
+    keys.reserve(faces_.size());
+    for (uint32_t f = 0; f < faces_.size(); ++f) {
+      std::array<uint32_t, 3> s = faces_[f];
+      std::sort(s.begin(), s.end());
+      keys.push_back({s[0], s[1], s[2], f});
+    }
+    std::sort(keys.begin(), keys.end());
+    for (size_t i = 1; i < keys.size(); ++i) {
+      if (keys[i][0] == keys[i - 1][0] && keys[i][1] == keys[i - 1][1] && keys[i][2] == keys[i - 1][2]) {
+        for (int k = 0; k < 3; ++k) locked_[keys[i][k]] = 1;
+      }
+    }
+  }
+
+  void Neighbours(uint32_t w, std::vector<uint32_t>& out) const {
+    out.clear();
+    for (uint32_t f : vertex_faces_[w])
+      for (uint32_t x : faces_[f])
+        if (x != w) out.push_back(x);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  }
+
+  static std::array<double, 3> Normal(const Vec3i& p0, const Vec3i& p1, const Vec3i& p2) {
+    const double ux = double(p1[0]) - p0[0], uy = double(p1[1]) - p0[1], uz = double(p1[2]) - p0[2];
+    const double vx = double(p2[0]) - p0[0], vy = double(p2[1]) - p0[1], vz = double(p2[2]) - p0[2];
+    return {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+  }
+
+  // Moving `moved` to `target` keeps every triangle of `moved` that does not
+  // contain `other` from flipping or collapsing to zero area.
+  bool KeepsOrientation(uint32_t moved, uint32_t other, const Vec3i& target) const {
+    for (uint32_t f : vertex_faces_[moved]) {
+      const Face& face = faces_[f];
+      if (face[0] == other || face[1] == other || face[2] == other) continue;
+      Vec3i p[3];
+      for (int k = 0; k < 3; ++k) p[k] = positions_[face[k]];
+      const auto before = Normal(p[0], p[1], p[2]);
+      for (int k = 0; k < 3; ++k)
+        if (face[k] == moved) p[k] = target;
+      const auto after = Normal(p[0], p[1], p[2]);
+      const double dot = before[0] * after[0] + before[1] * after[1] + before[2] * after[2];
+      const double len2 = after[0] * after[0] + after[1] * after[1] + after[2] * after[2];
+      if (!(len2 > 0) || !(dot > 0)) return false;
+    }
+    return true;
+  }
+
+  bool Legal(uint32_t u, uint32_t v, Collapse& c) {
+    if (locked_[u] || locked_[v] || closed_[u] || closed_[v]) return false;
+    uint32_t a = UINT32_MAX, b = UINT32_MAX;
+    int shared = 0;
+    for (uint32_t f : vertex_faces_[u]) {
+      const Face r = RotateTo(faces_[f], u);
+      if (r[1] == v) { a = r[2]; ++shared; }
+      else if (r[2] == v) { b = r[1]; ++shared; }
+    }
+    if (shared != 2 || a == UINT32_MAX || b == UINT32_MAX || a == b) return false;
+    Neighbours(u, nu_);
+    Neighbours(v, nv_);
+    common_.clear();
+    std::set_intersection(nu_.begin(), nu_.end(), nv_.begin(), nv_.end(), std::back_inserter(common_));
+    if (common_.size() != 2) return false;
+    const size_t valence = nu_.size() + nv_.size() - 4;
+    if (valence < 3 || valence > static_cast<size_t>(options_.max_valence)) return false;
+    Neighbours(a, na_);
+    if (na_.size() < 4) return false;
+    Neighbours(b, na_);
+    if (na_.size() < 4) return false;
+    Vec3i m;
+    for (int k = 0; k < 3; ++k) m[k] = Midpoint(positions_[u][k], positions_[v][k]);
+    if (!KeepsOrientation(u, v, m) || !KeepsOrientation(v, u, m)) return false;
+    c = Collapse{u, v, a, b, positions_[u], positions_[v]};
+    return true;
+  }
+
+  void Apply(const Collapse& c) {
+    const uint32_t u = c.u, v = c.v;
+    std::vector<uint32_t> gone;
+    for (uint32_t f : vertex_faces_[u]) {
+      const Face& face = faces_[f];
+      if (face[0] == v || face[1] == v || face[2] == v) gone.push_back(f);
+    }
+    for (uint32_t f : gone) {
+      face_alive_[f] = 0;
+      for (uint32_t x : faces_[f]) {
+        auto& list = vertex_faces_[x];
+        list.erase(std::remove(list.begin(), list.end(), f), list.end());
+      }
+    }
+    for (uint32_t f : vertex_faces_[v]) {
+      for (uint32_t& x : faces_[f])
+        if (x == v) x = u;
+      vertex_faces_[u].push_back(f);
+    }
+    vertex_faces_[v].clear();
+    for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(c.pos_u[k], c.pos_v[k]);
+    for (int k = 0; k < channels_; ++k) {
+      int32_t& au = attributes_[size_t(u) * channels_ + k];
+      au = Midpoint(au, attributes_[size_t(v) * channels_ + k]);
+    }
+    for (int k = 0; k < 10; ++k) quadrics_[u][k] += quadrics_[v][k];
+  }
+
+  CollapseBatch NextBatch() {
+    std::vector<Candidate> candidates;
+    for (size_t f = 0; f < faces_.size(); ++f) {
+      if (!face_alive_[f]) continue;
+      const Face& face = faces_[f];
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t x = face[k], y = face[(k + 1) % 3];
+        if (x > y || locked_[x] || locked_[y]) continue;
+        const double mx = 0.5 * (double(positions_[x][0]) + positions_[y][0]);
+        const double my = 0.5 * (double(positions_[x][1]) + positions_[y][1]);
+        const double mz = 0.5 * (double(positions_[x][2]) + positions_[y][2]);
+        candidates.push_back({Evaluate(quadrics_[x], quadrics_[y], mx, my, mz), x, y});
+      }
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+      if (a.cost != b.cost) return a.cost < b.cost;
+      return a.u != b.u ? a.u < b.u : a.v < b.v;
+    });
+    closed_.assign(positions_.size(), 0);
+    CollapseBatch batch;
+    for (const Candidate& cand : candidates) {
+      Collapse c;
+      if (!Legal(cand.u, cand.v, c)) continue;
+      closed_[c.u] = closed_[c.v] = 1;
+      if (options_.rule == BatchRule::kStrict) {
+        // Close every neighbour too: the produced vertices stay pairwise
+        // non-adjacent in the coarser mesh.
+        for (uint32_t x : nu_) closed_[x] = 1;
+        for (uint32_t x : nv_) closed_[x] = 1;
+      } else {
+        // Neighbouring collapses change each other's surroundings: apply at
+        // once, so that the next candidate is checked on the current mesh.
+        Apply(c);
+      }
+      batch.collapses.push_back(c);
+    }
+    // kPaper applied its collapses one by one above (attributes not recorded).
+    if (options_.rule != BatchRule::kStrict) return batch;
+    // Record attributes before applying anything (collapses are disjoint).
+    for (const Collapse& c : batch.collapses) {
+      for (int k = 0; k < channels_; ++k) {
+        batch.attr_u.push_back(attributes_[size_t(c.u) * channels_ + k]);
+        batch.attr_v.push_back(attributes_[size_t(c.v) * channels_ + k]);
+      }
+    }
+    for (const Collapse& c : batch.collapses) Apply(c);
+    return batch;
+  }
+
+  const SimplifyOptions& options_;
+  const int channels_;
+  std::vector<Vec3i> positions_;
+  std::vector<int32_t> attributes_;
+  std::vector<Face> faces_;
+  std::vector<uint8_t> face_alive_;
+  std::vector<std::vector<uint32_t>> vertex_faces_;
+  std::vector<Quadric> quadrics_;
+  std::vector<uint8_t> locked_;
+  std::vector<uint8_t> closed_;
+  uint64_t removed_faces_ = 0;
+  std::vector<std::array<uint32_t, 2>> pairs_;
+  std::vector<uint32_t> nu_, nv_, na_, common_;
+};
+
+}  // namespace
+
+StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options) {
+  if (mesh.face_count() == 0) return InvalidInput("nothing to simplify: the mesh has no triangle");
+  if (options.base_ratio <= 0 || options.base_ratio > 1) return InvalidArgument("base ratio must be in (0, 1]");
+  Simplifier simplifier(mesh, options);
+  return simplifier.Run();
+}
+
+}  // namespace meshstream

@@ -1,0 +1,233 @@
+#include "codec/progressive/encoder.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include "codec/progressive/refinement_state.h"
+
+namespace meshstream {
+
+namespace {
+
+std::vector<Face> NormalizedFaces(const std::vector<uint32_t>& indices) {
+  std::vector<Face> faces;
+  faces.reserve(indices.size() / 3);
+  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
+    Face f = {indices[i], indices[i + 1], indices[i + 2]};
+    const uint32_t lo = std::min({f[0], f[1], f[2]});
+    faces.push_back(RotateTo(f, lo));
+  }
+  std::sort(faces.begin(), faces.end());
+  return faces;
+}
+
+// Sorted positions of the neighbours of every vertex: tells coincident
+// vertices apart by their surroundings.
+std::vector<std::vector<Vec3i>> NeighbourSignatures(const QuantizedMesh& m) {
+  std::vector<std::vector<Vec3i>> sig(m.vertex_count());
+  for (size_t i = 0; i < m.indices.size(); i += 3) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = m.indices[i + k];
+      sig[v].push_back(m.positions[m.indices[i + (k + 1) % 3]]);
+      sig[v].push_back(m.positions[m.indices[i + (k + 2) % 3]]);
+    }
+  }
+  for (auto& s : sig) std::sort(s.begin(), s.end());
+  return sig;
+}
+
+// A vertex correspondence decoded -> base that maps positions onto equal
+// positions and triangles onto triangles.
+StatusOr<std::vector<uint32_t>> MatchBase(const QuantizedMesh& base, const QuantizedMesh& decoded) {
+  if (decoded.vertex_count() != base.vertex_count() || decoded.face_count() != base.face_count()) {
+    return Internal("the base coder returned " + std::to_string(decoded.vertex_count()) + " vertices and " +
+                    std::to_string(decoded.face_count()) + " triangles for " + std::to_string(base.vertex_count()) +
+                    " and " + std::to_string(base.face_count()));
+  }
+  const size_t n = base.vertex_count();
+  std::vector<uint32_t> by_position(n);
+  std::iota(by_position.begin(), by_position.end(), 0);
+  std::sort(by_position.begin(), by_position.end(), [&](uint32_t a, uint32_t b) {
+    return base.positions[a] != base.positions[b] ? base.positions[a] < base.positions[b] : a < b;
+  });
+  std::vector<std::vector<Vec3i>> base_sig, decoded_sig;
+  std::vector<uint8_t> taken(n, 0);
+  std::vector<uint32_t> out(n);
+  for (uint32_t d = 0; d < n; ++d) {
+    const Vec3i& p = decoded.positions[d];
+    auto lo = std::lower_bound(by_position.begin(), by_position.end(), p,
+                               [&](uint32_t v, const Vec3i& q) { return base.positions[v] < q; });
+    auto hi = lo;
+    while (hi != by_position.end() && base.positions[*hi] == p) ++hi;
+    if (lo == hi) return Internal("the base coder moved a vertex off the grid");
+    uint32_t chosen = UINT32_MAX;
+    if (hi - lo == 1) {
+      chosen = *lo;
+    } else {
+      if (base_sig.empty()) {
+        base_sig = NeighbourSignatures(base);
+        decoded_sig = NeighbourSignatures(decoded);
+      }
+      for (auto it = lo; it != hi && chosen == UINT32_MAX; ++it) {
+        if (!taken[*it] && base_sig[*it] == decoded_sig[d]) chosen = *it;
+      }
+      for (auto it = lo; it != hi && chosen == UINT32_MAX; ++it) {
+        if (!taken[*it]) chosen = *it;
+      }
+    }
+    if (chosen == UINT32_MAX || taken[chosen]) return Internal("coincident base vertices cannot be told apart");
+    taken[chosen] = 1;
+    out[d] = chosen;
+  }
+  std::vector<uint32_t> mapped(decoded.indices.size());
+  for (size_t i = 0; i < mapped.size(); ++i) mapped[i] = out[decoded.indices[i]];
+  if (!SameTriangles(mapped, base.indices)) return Internal("the base coder changed the base mesh's triangles");
+  return out;
+}
+
+}  // namespace
+
+bool SameTriangles(const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
+  return a.size() == b.size() && NormalizedFaces(a) == NormalizedFaces(b);
+}
+
+StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const ProgressiveEncodeOptions& options,
+                                               const BaseMeshEncoder& base_encoder) {
+  MS_ASSIGN_OR_RETURN(QuantizedMesh q, QuantizePrimitive(input, options.quantization));
+  return EncodeProgressiveQuantized(q, options, base_encoder);
+}
+
+StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& input,
+                                                        const ProgressiveEncodeOptions& options,
+                                                        const BaseMeshEncoder& base_encoder) {
+  if (options.simplify.rule != BatchRule::kStrict) {
+    return InvalidArgument("the progressive codec needs the strict batch rule (docs/codec.md)");
+  }
+  MS_ASSIGN_OR_RETURN(Hierarchy h, SimplifyInBatches(input, options.simplify));
+  const int ch = input.layout.channels();
+  ProgressiveEncoded out;
+  out.input_vertices = input.vertex_count();
+  out.input_faces = h.input_indices.size() / 3;
+  out.removed_faces = h.removed_faces;
+  out.locked_vertices = h.locked_vertices;
+
+  // The base mesh in compact ids.
+  QuantizedMesh base;
+  base.position_grid = input.position_grid;
+  base.layout = input.layout;
+  std::vector<uint32_t> compact(input.vertex_count(), UINT32_MAX);
+  std::vector<uint32_t> base_ids;
+  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+    if (!h.in_base[v]) continue;
+    compact[v] = static_cast<uint32_t>(base_ids.size());
+    base_ids.push_back(v);
+    base.positions.push_back(h.positions[v]);
+    base.attributes.insert(base.attributes.end(), h.attributes.begin() + size_t(v) * ch,
+                           h.attributes.begin() + size_t(v + 1) * ch);
+  }
+  for (uint32_t v : h.base_indices) base.indices.push_back(compact[v]);
+
+  // Code it, and find the decoder's order.
+  std::vector<uint32_t> decoded_to_base;
+  EncodedBase encoded;
+  Status last = Internal("no base coder method");
+  for (int method = 0; method < kBaseMethods; ++method) {
+    auto attempt = base_encoder(base, method);
+    if (!attempt.ok()) {
+      last = attempt.status();
+      continue;
+    }
+    auto match = MatchBase(base, attempt->decoded);
+    if (!match.ok()) {
+      last = match.status();
+      continue;
+    }
+    encoded = std::move(attempt).value();
+    decoded_to_base = std::move(match).value();
+    out.base_method = method;
+    last = Status::Ok();
+    break;
+  }
+  MS_RETURN_IF_ERROR(last);
+  out.base_bytes = std::move(encoded.bytes);
+
+  // The base in canonical order, with the fix-ups that make it exact.
+  std::vector<uint32_t> canonical(input.vertex_count(), UINT32_MAX);
+  QuantizedMesh& cbase = out.mesh.base;
+  cbase = encoded.decoded;
+  for (uint32_t d = 0; d < decoded_to_base.size(); ++d) {
+    const uint32_t b = decoded_to_base[d];
+    canonical[base_ids[b]] = d;
+    for (int k = 0; k < 3; ++k) out.base_position_fix.push_back(base.positions[b][k] - cbase.positions[d][k]);
+    for (int k = 0; k < ch; ++k) {
+      out.base_attribute_fix.push_back(base.attributes[size_t(b) * ch + k] - cbase.attributes[size_t(d) * ch + k]);
+    }
+    cbase.positions[d] = base.positions[b];
+    std::copy(base.attributes.begin() + size_t(b) * ch, base.attributes.begin() + size_t(b + 1) * ch,
+              cbase.attributes.begin() + size_t(d) * ch);
+  }
+
+  // Replay from coarse to fine, exactly as the decoder will.
+  RefinementState state;
+  MS_RETURN_IF_ERROR(state.Reset(cbase));
+  std::vector<uint32_t> ring;
+  for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
+    const size_t k = batch->collapses.size();
+    std::vector<uint32_t> order(k);
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
+      return canonical[batch->collapses[x].u] < canonical[batch->collapses[y].u];
+    });
+    Refinement r;
+    r.vertices_before = state.connectivity.vertex_count();
+    std::vector<uint32_t> created(k);  // the input id that becomes the new vertex of split j
+    for (uint32_t i : order) {
+      const Collapse& c = batch->collapses[i];
+      const uint32_t w = canonical[c.u];
+      if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
+      const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
+      const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
+      if (pa == ring.end() || pb == ring.end()) return Internal("replay: a wing is not a neighbour of the split vertex");
+      const size_t d = ring.size();
+      const size_t offset = (static_cast<size_t>(pb - pa) + d) % d;
+      // Either end of the collapsed edge may keep w's id; keeping v instead
+      // of u swaps the wings (offset d - offset) and negates the deltas.
+      const bool swap = offset > d / 2;
+      const uint32_t keep = swap ? c.v : c.u;
+      const Vec3i& pk = swap ? c.pos_v : c.pos_u;
+      const Vec3i& pn = swap ? c.pos_u : c.pos_v;
+      const size_t a_at = static_cast<size_t>((swap ? pb : pa) - ring.begin());
+      const size_t b_at = static_cast<size_t>((swap ? pa : pb) - ring.begin());
+      r.split_vertices.push_back(w);
+      r.wings.push_back(WingsOf(ring, a_at, b_at));
+      r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
+      const std::vector<int32_t>& ak = swap ? batch->attr_v : batch->attr_u;
+      const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;
+      for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
+      canonical[keep] = w;
+      created[r.split_vertices.size() - 1] = swap ? c.u : c.v;
+    }
+    MS_RETURN_IF_ERROR(state.ApplyRefinement(r).WithContext("replay"));
+    for (size_t j = 0; j < k; ++j) canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
+    out.mesh.refinements.push_back(std::move(r));
+  }
+
+  // Verify: the replay gives back the quantized input.
+  std::vector<uint32_t> expected(h.input_indices.size());
+  for (size_t i = 0; i < expected.size(); ++i) expected[i] = canonical[h.input_indices[i]];
+  if (!SameTriangles(expected, state.connectivity.Indices())) {
+    return Internal("replay did not give back the input's triangles");
+  }
+  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+    const uint32_t c = canonical[v];
+    if (c == UINT32_MAX) continue;  // only in removed triangles
+    if (state.positions[c] != input.positions[v] ||
+        !std::equal(input.attributes.begin() + size_t(v) * ch, input.attributes.begin() + size_t(v + 1) * ch,
+                    state.attributes.begin() + size_t(c) * ch)) {
+      return Internal("replay did not give back vertex " + std::to_string(v) + "'s values");
+    }
+  }
+  return out;
+}
+
+}  // namespace meshstream

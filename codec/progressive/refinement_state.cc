@@ -1,0 +1,107 @@
+#include "codec/progressive/refinement_state.h"
+
+#include <algorithm>
+#include <string>
+
+#include "codec/progressive/midpoint.h"
+
+namespace meshstream {
+
+Status RefinementState::Reset(const QuantizedMesh& base) {
+  channels = base.layout.channels();
+  positions = base.positions;
+  attributes = base.attributes;
+  reliable.assign(base.vertex_count(), 1);
+  flags.assign(base.vertex_count(), 0);
+  any_absent = false;
+  any_inexact = false;
+  return connectivity.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices);
+}
+
+Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
+  const uint32_t w = r.split_vertices[j];
+  if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
+  std::vector<uint32_t>& ring = scratch_ring;
+  if (!connectivity.CyclicRing(w, ring)) {
+    return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
+  }
+  size_t a_at = 0, b_at = 0;
+  if (!WingPositions(ring, r.wings[j], &a_at, &b_at)) {
+    return InvalidInput("split of vertex " + std::to_string(w) + " names a wing beyond its " +
+                        std::to_string(ring.size()) + " neighbours");
+  }
+  ApplySplitAt(r, j, a_at, b_at);
+  return Status::Ok();
+}
+
+uint32_t RefinementState::ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at) {
+  const uint32_t w = r.split_vertices[j];
+  const uint32_t n = connectivity.SplitAt(w, scratch_ring, a_at, b_at);
+  Vec3i u{}, v{};
+  for (int k = 0; k < 3; ++k) {
+    u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);
+    v[k] = static_cast<int32_t>(static_cast<int64_t>(u[k]) - r.position_delta[j][k]);
+  }
+  positions[w] = u;
+  positions.push_back(v);
+  reliable.push_back(1);
+  flags.push_back(0);
+  attributes.resize(attributes.size() + channels);
+  for (int k = 0; k < channels; ++k) {
+    const int32_t d = r.attribute_delta[j * channels + k];
+    const int32_t au = FromMidpoint(attributes[size_t(w) * channels + k], d);
+    attributes[size_t(w) * channels + k] = au;
+    attributes[size_t(n) * channels + k] = static_cast<int32_t>(static_cast<int64_t>(au) - d);
+  }
+  return n;
+}
+
+Status RefinementState::ApplyRefinement(const Refinement& r) {
+  if (r.vertices_before != connectivity.vertex_count()) {
+    return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +
+                        std::to_string(connectivity.vertex_count()));
+  }
+  ReserveSplits(r.split_count());
+  for (size_t j = 0; j < r.split_count(); ++j) MS_RETURN_IF_ERROR(ApplySplit(r, j));
+  return Status::Ok();
+}
+
+void RefinementState::ReserveSplits(size_t splits) {
+  const size_t needed = positions.size() + splits;
+  if (positions.capacity() < needed) Reserve(static_cast<uint32_t>(std::max(needed, 2 * positions.capacity())));
+}
+
+void RefinementState::Reserve(uint32_t final_vertices) {
+  const size_t extra = final_vertices > positions.size() ? final_vertices - positions.size() : 0;
+  connectivity.Reserve(final_vertices, connectivity.face_count() + 2 * extra);
+  positions.reserve(final_vertices);
+  reliable.reserve(final_vertices);
+  flags.reserve(final_vertices);
+  attributes.reserve(size_t(final_vertices) * channels);
+}
+
+QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const {
+  QuantizedMesh out;
+  out.position_grid = base_layout.position_grid;
+  out.layout = base_layout.layout;
+  out.indices = connectivity.Indices();
+  if (!any_absent) {
+    out.positions = positions;
+    out.attributes = attributes;
+    return out;
+  }
+  // Leave out the vertices LwoP never created; the others keep their order.
+  std::vector<uint32_t> remap(positions.size(), 0);
+  uint32_t kept = 0;
+  for (size_t v = 0; v < positions.size(); ++v) {
+    if (flags[v] & kAbsent) continue;
+    remap[v] = kept++;
+    out.positions.push_back(positions[v]);
+    out.attributes.insert(out.attributes.end(), attributes.begin() + v * channels,
+                          attributes.begin() + (v + 1) * channels);
+  }
+  for (uint32_t& i : out.indices) i = remap[i];
+  return out;
+}
+
+}  // namespace meshstream

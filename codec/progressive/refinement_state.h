@@ -1,0 +1,68 @@
+// The state a decoder refines, level by level: the connectivity of the
+// current mesh, the values of its vertices on the grids, and per vertex the
+// flags that say what of it may differ from the lossless decode.
+//
+// This header applies splits whose structure and geometry are both known
+// (the lossless path, and case 1 of the paper under loss). What happens to a
+// split whose data was lost lives in recovery/recover_split.h; both keep the
+// vertex numbering of the split bits (docs/design.md, "Canonical order").
+//
+// Contract: pure; errors leave the state valid. Reserve* grow storage only
+// by the splits really applied, never to a size a header merely claims.
+// Thread safety: none.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_REFINEMENT_STATE_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_REFINEMENT_STATE_H_
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "codec/core/vec.h"
+#include "codec/mesh/quantized_mesh.h"
+#include "codec/progressive/refinement.h"
+#include "codec/progressive/split_connectivity.h"
+
+namespace meshstream {
+
+// Per-vertex flags of a decoder's state (docs/loss-tolerance.md).
+enum VertexFlag : uint8_t {
+  kRingInexact = 1,      // its ring may differ from the lossless decode's
+  kPositionInexact = 2,  // its values may differ from the lossless decode's
+  kAbsent = 4,           // LwoP never created it (no faces)
+};
+
+struct RefinementState {
+  SplitConnectivity connectivity;
+  std::vector<uint32_t> scratch_ring;
+  std::vector<Vec3i> positions;
+  std::vector<int32_t> attributes;
+  std::vector<uint8_t> reliable;  // per vertex: 1 when flags are 0 (bitstream/reader.h)
+  std::vector<uint8_t> flags;     // per vertex: VertexFlag bits
+  bool any_absent = false;
+  bool any_inexact = false;  // some split was predicted
+  int channels = 0;
+
+  Status Reset(const QuantizedMesh& base);
+  // Applies split j of `r` (all data present). Errors leave the state valid.
+  Status ApplySplit(const Refinement& r, size_t j);
+  // The same right after connectivity.CyclicRing(w, scratch_ring) and with
+  // the wings' ring positions resolved; returns the new vertex.
+  uint32_t ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at);
+  Status ApplyRefinement(const Refinement& r);
+  // Sets flag bits of v and keeps reliable[v] in step with them.
+  void Mark(uint32_t v, uint8_t bits) {
+    flags[v] |= bits;
+    reliable[v] = flags[v] == 0;
+  }
+  // Room for `splits` more vertices, grown geometrically (never to a size a
+  // header merely claims: only by the splits really being applied).
+  void ReserveSplits(size_t splits);
+  // Room for this many vertices, so that splits do not reallocate.
+  void Reserve(uint32_t final_vertices);
+  QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_REFINEMENT_STATE_H_

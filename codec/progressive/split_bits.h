@@ -1,0 +1,40 @@
+// Coding of a refinement's split bits (one per vertex of the coarser mesh,
+// in canonical order) on the reliable channel: an adaptive binary range coder
+// whose contexts use only reliable data (BRIEF, property 5):
+//   - the vertex's age: created by the previous refinement, by the one
+//     before, or older (base mesh);
+//   - for a vertex created by the previous refinement, whether the vertex it
+//     was split from splits now (the two are adjacent, and split vertices of
+//     one refinement never are); for an older vertex, whether it split in
+//     the previous refinement.
+// (The split bit of id - 1 as a further context was measured and gave
+// nothing on the bunny: 4.45 against 4.42 reliable bits per vertex.)
+// Contract: pure; Decode is safe on hostile bytes (fails on overrun).
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_BITS_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_BITS_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+// What earlier refinements tell about the vertices of the current one.
+struct SplitHistory {
+  uint32_t vertices = 0;                 // vertices of the coarser mesh
+  uint32_t previous_start = UINT32_MAX;  // first id created by the previous refinement
+  uint32_t older_start = UINT32_MAX;     // first id created by the one before
+  std::vector<uint8_t> previous_bits;    // split bits of the previous refinement
+  std::vector<uint32_t> previous_splits; // its split vertices: new id previous_start + j came from [j]
+
+  // The history of the refinement after this one, given this one's bits.
+  SplitHistory Next(const std::vector<uint8_t>& bits) const;
+};
+
+std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& history);
+StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& history);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_BITS_H_

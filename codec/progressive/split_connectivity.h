@@ -1,0 +1,92 @@
+// The connectivity that the progressive decoder refines, and that the encoder
+// replays to produce exactly what the decoder will see: triangles plus, per
+// vertex, the list of incident triangles.
+//
+// A vertex split of w with wings a and b (both neighbours of w) creates a new
+// vertex n. Walk w's ring in the direction of its triangles (x -> y for every
+// triangle (w, x, y)) from b to a: the triangles on that path move to n, and
+// the triangles (w, n, a) and (n, w, b) are added. This is the exact inverse
+// of collapsing the edge (w, n) whose left and right triangles were
+// (w, n, a) and (n, w, b) (docs/progressive-format.md, "Vertex split").
+//
+// Contract: pure, no allocation beyond its vectors. A split needs w to be a
+// closed manifold fan: CyclicRing says so, and SplitAt may only follow a
+// CyclicRing(w) that returned true. Thread safety: none.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_CONNECTIVITY_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_CONNECTIVITY_H_
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+using Face = std::array<uint32_t, 3>;
+
+class SplitConnectivity {
+ public:
+  // `indices` must refer to vertices below `vertex_count` (checked).
+  Status Reset(uint32_t vertex_count, const std::vector<uint32_t>& indices);
+
+  uint32_t vertex_count() const { return static_cast<uint32_t>(slots_.size()); }
+  size_t face_count() const { return faces_.size(); }
+  const std::vector<Face>& faces() const { return faces_; }
+  // The triangles of v (ids into faces()), in no particular order.
+  struct FaceList {
+    const uint32_t* first;
+    uint32_t count;
+    const uint32_t* begin() const { return first; }
+    const uint32_t* end() const { return first + count; }
+    uint32_t size() const { return count; }
+  };
+  FaceList faces_of(uint32_t v) const { return {pool_.data() + slots_[v].offset, slots_[v].count}; }
+
+  // The neighbours of w in cyclic order (x -> y over w's triangles), starting
+  // at the first vertex of w's first triangle. Returns false (ring
+  // unspecified) when the triangles of w do not form one closed fan. The
+  // triangle (w, ring[k], ring[k + 1]) is remembered for SplitAt.
+  bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const;
+  // The neighbours of w sorted by id (any connectivity).
+  void SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const;
+
+  // Splits w right after CyclicRing(w, ring) returned true, with the wings
+  // given by their positions in the ring; the new vertex gets id
+  // vertex_count(), which is returned.
+  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+  // A vertex without triangles (a split that LwoP abandoned keeps its id);
+  // returns its id.
+  uint32_t AddIsolatedVertex() { return NewSlot(0); }
+  // Room for this many vertices in total, to avoid reallocation while refining.
+  void Reserve(uint32_t vertices, size_t faces);
+
+  std::vector<uint32_t> Indices() const;
+
+ private:
+  // Per-vertex triangle lists live in one pool: a vertex owns `capacity`
+  // entries from `offset`, and moves to the end of the pool with twice the
+  // room when it outgrows them (no allocation per vertex).
+  struct Slot {
+    uint32_t offset = 0, count = 0, capacity = 0;
+  };
+  void Append(uint32_t v, uint32_t face);
+  uint32_t NewSlot(uint32_t capacity);
+
+  std::vector<Face> faces_;
+  std::vector<uint32_t> pool_;
+  std::vector<Slot> slots_;
+  mutable std::vector<uint32_t> scratch_;     // (x, y) per triangle of the last ring
+  mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
+};
+
+// Rotates a face so that vertex v comes first; v must be in the face.
+inline Face RotateTo(const Face& f, uint32_t v) {
+  if (f[0] == v) return f;
+  if (f[1] == v) return {f[1], f[2], f[0]};
+  return {f[2], f[0], f[1]};
+}
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_CONNECTIVITY_H_

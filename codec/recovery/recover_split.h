@@ -1,0 +1,72 @@
+// One split of a refinement with whatever of its data arrived (paper,
+// sections 4.3-4.5 and 5.3; docs/loss-tolerance.md):
+//   case 1  structure and geometry arrived and fit the ring: applied as coded;
+//   case 2  both lost: wings and geometry predicted (recovery/prediction.h);
+//   case 3  structure lost (or not trusted), geometry arrived: wings from it;
+//   case 4  geometry lost, structure arrived: geometry predicted on the wings.
+// With Recovery::kLwop (the paper's "loss without prediction") a split whose
+// data is missing, or that depends on one that was abandoned, is abandoned.
+//
+// Reliability bits (docs/design.md, "Prediction"): predicted vertices, split
+// vertices a prediction moved, and every vertex whose ring a prediction
+// changed are marked in the state's flags; a later split of a marked vertex
+// checks its coded structure against the ring it really has.
+//
+// Contract: safe on any combination of arrived data (the refinement itself
+// comes from the reliable channel and was validated by the reader). Never
+// creates a collinear triangle where a fallback avoids it, never a
+// non-manifold edge; keeps the vertex numbering (an abandoned split still
+// takes its id). O(valence) per split with no allocation once `scratch` has
+// grown. Thread safety: none.
+#ifndef MESHSTREAM_CODEC_RECOVERY_RECOVER_SPLIT_H_
+#define MESHSTREAM_CODEC_RECOVERY_RECOVER_SPLIT_H_
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "codec/core/vec.h"
+#include "codec/progressive/refinement.h"
+#include "codec/progressive/refinement_state.h"
+#include "codec/recovery/prediction.h"
+#include "codec/recovery/ring_frame.h"
+
+namespace meshstream {
+
+enum class Recovery : uint8_t {
+  kPredict = 0,  // predict lost structure and/or geometry (the default)
+  kLwop = 1,     // loss without prediction: abandon lost splits and their dependants
+};
+
+// What became of the splits of the refinements finished so far.
+struct RecoveryStats {
+  uint64_t exact = 0;               // case 1: both arrived and applied as coded
+  uint64_t predicted_both = 0;      // case 2: both lost, both predicted
+  uint64_t predicted_structure = 0; // case 3: structure lost (or did not fit the ring), geometry arrived
+  uint64_t predicted_geometry = 0;  // case 4: geometry lost, structure arrived
+  uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
+  uint64_t structure_distrusted = 0; // arrived structure on a changed ring, replaced by case 3
+  uint64_t abandoned = 0;           // kLwop: splits not applied
+  uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
+  void Add(const RecoveryStats& o);
+};
+
+// Storage reused from split to split so that predicting one allocates nothing.
+struct RecoveryScratch {
+  std::vector<Vec3i> ring_positions;
+  std::vector<int32_t> values, u_channels, v_channels;
+  RingFrame frame;
+  PredictedGeometry geometry;
+};
+
+// Split j of `r` with only the parts that arrived (has_structure,
+// has_geometry); the rest is predicted or, with kLwop, the split is
+// abandoned. Errors (a split vertex that does not exist, or is not a closed
+// manifold fan where a prediction needs one) leave the state valid.
+Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
+                    RefinementState* state, RecoveryScratch* scratch, RecoveryStats* stats);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_RECOVERY_RECOVER_SPLIT_H_
