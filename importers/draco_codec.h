@@ -13,7 +13,7 @@
 // checks plus ours on the decoded counts and attribute shapes). No exception
 // escapes. Calls keep no state and may run in parallel.
 // Never include draco/io/gltf_decoder.h here or in users of the renamed
-// tinygltf namespace (BRIEF, Debian traps).
+// tinygltf namespace (docs/architecture.md, "The tinygltf/Draco trap").
 #ifndef MESHSTREAM_IMPORTERS_DRACO_CODEC_H_
 #define MESHSTREAM_IMPORTERS_DRACO_CODEC_H_
 

@@ -2,7 +2,7 @@
 // mesh under KHR_draco_mesh_compression and their refinements in a
 // bufferView named by our extension MESHSTREAM_progressive (listed in
 // extensionsUsed, not in extensionsRequired), so any glTF reader shows the
-// base level (BRIEF, property 9; docs/progressive-format.md).
+// base level (docs/design.md, "glTF container"; docs/progressive-format.md).
 //
 // Contract: DecodeProgressiveGlb is safe on untrusted bytes (the glTF import
 // checks of gltf_import.h, then the stream reader's). Every primitive of every

@@ -1,13 +1,19 @@
 // The progressive bitstream of one primitive (docs/progressive-format.md):
-// shared definitions of the stream writer (stream_writer.h) and reader
-// (stream_reader.h), mirrored stages in the manner of Draco's prediction
-// schemes.
+// shared definitions of the stream writer (writer.h) and reader (reader.h),
+// mirrored stages in the manner of Draco's prediction schemes.
 //
 // A stream has a reliable part (header with grids and counts, fix-ups of the
 // base, and per refinement its split bits and static models) and an
 // unreliable part (per refinement, datagrams of at most packet_bytes that
 // each decode on their own given the reliable part). The base mesh itself is
 // the single-rate coder's bytes (Draco), kept beside the stream.
+//
+// Contract: the parsers here (StreamHeader::Parse, ProgressiveStream::Parse,
+// DatagramHeader::Parse)
+// are safe on untrusted input: every field is checked against the bytes
+// present and against the range the spec defines before anything it sizes
+// is allocated, and a reserved or out-of-range value is refused with an
+// error naming the field.
 #ifndef MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
 #define MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
 

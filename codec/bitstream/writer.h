@@ -1,7 +1,7 @@
 // Writes a ProgressiveEncoded mesh as a progressive stream: entropy coding of
 // the reliable part (split bits with contexts, static models) and
-// packetization of structure and geometry into datagrams (paper, 4.2; BRIEF,
-// property 4).
+// packetization of structure and geometry into datagrams (paper, 4.2; docs/design.md,
+// "Independent datagrams").
 //
 // Interleaving: the splits of a refinement are dealt round-robin to its D
 // datagrams (split j goes to datagram j mod D), so a datagram carries splits

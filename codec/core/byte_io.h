@@ -1,7 +1,7 @@
 // Little-endian byte writing and bounds-checked reading for meshstream's
 // bitstreams (docs/progressive-format.md).
 //
-// Contract: ByteReader never reads past its span; every getter returns an
+// Contract: ByteReader is safe on untrusted input: it never reads past its span; every getter returns an
 // error naming `what` when the bytes are missing or a varint is malformed
 // (more than 10 bytes, or above the caller's limit).
 #ifndef MESHSTREAM_CODEC_CORE_BYTE_IO_H_

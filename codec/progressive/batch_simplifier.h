@@ -1,6 +1,6 @@
 // Simplification of a quantized mesh in batches of edge collapses: the
-// encoder side of the progressive codec (paper, section 3 and 4.5; BRIEF,
-// property 3).
+// encoder side of the progressive codec (paper, section 3 and 4.5; docs/design.md,
+// "Batches").
 //
 // Each batch picks edges by a quadric error metric evaluated at the
 // collapsed vertex's position, the integer midpoint floor((u + v) / 2), and

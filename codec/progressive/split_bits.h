@@ -1,6 +1,6 @@
 // Coding of a refinement's split bits (one per vertex of the coarser mesh,
 // in canonical order) on the reliable channel: an adaptive binary range coder
-// whose contexts use only reliable data (BRIEF, property 5):
+// whose contexts use only reliable data (docs/design.md, "Reliable data"):
 //   - the vertex's age: created by the previous refinement, by the one
 //     before, or older (base mesh);
 //   - for a vertex created by the previous refinement, whether the vertex it

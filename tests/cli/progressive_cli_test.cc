@@ -1,6 +1,6 @@
 // The CLI contract of `meshstream encode` and `meshstream decode` (issue 3),
 // run as real processes on the shared models: lossless decoding on the grid
-// (BRIEF, property 1), every level of detail with its vertex count, the JSON
+// (docs/design.md, "Lossless"), every level of detail with its vertex count, the JSON
 // keys, attributes, the progressive .glb as valid glTF whose base any reader
 // shows (property 9), a multi-primitive scene, and the exit codes.
 #include <algorithm>
