@@ -8,6 +8,11 @@ BUILD ?= build
 ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
+# ccache, where installed, makes rebuilds in fresh clones (CI) and worktrees cheap.
+CCACHE := $(shell command -v ccache 2>/dev/null)
+ifneq ($(CCACHE),)
+  CMAKE_FLAGS += -DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)
+endif
 
 .PHONY: all deps build test test-asan demo bench fuzz clean
 
@@ -28,7 +33,7 @@ test: build test-asan
 # The importers take hostile input: run their tests once under ASan+UBSan.
 test-asan: deps
 	@[ -f $(ASAN_BUILD)/build.ninja ] || cmake -S . -B $(ASAN_BUILD) -G Ninja \
-	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_SANITIZE=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_SANITIZE=ON -DMESHSTREAM_ONLY_IMPORTERS=ON $(CMAKE_FLAGS)
 	cmake --build $(ASAN_BUILD) -j $(JOBS) --target importer_checks
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) -L importers
