@@ -82,7 +82,7 @@ const char kHelp[] =
     "  --repeat N        timed decodes per loss level, after one warm-up (default 7)\n"
     "  --threads N       threads for the untimed decodes and metrics (default 2)\n"
     "  --samples N       Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
-    "                    and face centroid, see codec/hausdorff.h)\n"
+    "                    and face centroid, see codec/metrics/hausdorff.h)\n"
     "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n"
     "  --base-ratio F    simplify down to F of the vertices (default: the encoder's, 0.02;\n"
     "                    0.14 is close to the paper's base, see docs/loss-results.md)\n";

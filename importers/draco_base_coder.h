@@ -1,5 +1,5 @@
 // Draco as the single-rate coder of the progressive codec's base mesh
-// (codec/progressive_encoder.h, BaseMeshEncoder).
+// (codec/progressive/encoder.h, BaseMeshEncoder).
 //
 // Positions, texture coordinates and colours use Draco's explicit
 // quantization with exactly our grids, so the decoded values requantize to

@@ -1,7 +1,7 @@
 // Draco encoding and decoding of one triangle primitive, for glTF's
 // KHR_draco_mesh_compression.
 //
-// Positions are put on the grid of the brief (codec/quantization.h): the
+// Positions are put on the grid of the brief (codec/mesh/quantization.h): the
 // encoder receives an explicit quantization with origin = minimum corner of
 // the referenced vertices and range = their largest extent, so a decoded
 // position dequantizes to the centre of the same grid cell that

@@ -61,7 +61,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
 
 struct ProgressiveDecodeOptions {
   int lod = -1;  // refinements to apply per primitive; -1: all
-  // The network every primitive's stream crosses (codec/loss_simulator.h):
+  // The network every primitive's stream crosses (codec/loss/simulator.h):
   // the seed of primitive k is seed + k. A zero model takes the same path.
   LossModel loss;
   Recovery recovery = Recovery::kPredict;

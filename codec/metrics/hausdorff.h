@@ -6,7 +6,7 @@
 // faces; degenerate faces count as the segment or point they collapse to, and
 // unreferenced vertices are not part of it. h(A, B) is the largest distance
 // from a sample point of A's surface to B's surface (exact distance to the
-// closest point, see codec/triangle_grid.h), and
+// closest point, see codec/metrics/triangle_grid.h), and
 // `hausdorff` = max(h(A, B), h(B, A)).
 // Samples of one side, deterministic (no randomness, no seed):
 //   1. every referenced vertex;

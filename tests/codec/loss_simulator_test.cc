@@ -1,4 +1,4 @@
-// The seeded network simulator (codec/loss_simulator.h) on a synthetic
+// The seeded network simulator (codec/loss/simulator.h) on a synthetic
 // stream: determinism, loss rates, burst lengths, reordering, duplication and
 // argument checks. No mesh is needed: a ProgressiveStream is plain bytes.
 #include <cmath>

@@ -1,4 +1,4 @@
-// DecodeStreamLossy (codec/lossy_decode.h) on a real stream (fandisk,
+// DecodeStreamLossy (codec/loss/lossy_decode.h) on a real stream (fandisk,
 // tests/common/real_stream.h): the client's whole path, simulator ->
 // reconstructor -> reader.
 //

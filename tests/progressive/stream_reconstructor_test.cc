@@ -1,4 +1,4 @@
-// The stream reconstructor (codec/stream_reconstructor.h) on a real stream
+// The stream reconstructor (codec/loss/reconstructor.h) on a real stream
 // (fandisk, tests/common/real_stream.h): reordering and duplicates change
 // nothing, the readiness rule (both ENDs and every datagram, or the
 // straggler timeout), late, malformed and foreign datagrams, and the memory

@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Checks that every #include points the way docs/architecture.md draws it.
+
+- codec/ includes only the C++ standard library and codec/ itself, and its
+  folders depend on each other in one direction (CODEC_DEPENDS below, the
+  order docs/architecture.md writes down; what a folder may use includes what
+  its dependencies may use);
+- importers/ uses codec/ and third-party libraries, never services/, sdk/,
+  cli/, bench/ or tests/;
+- services/ and sdk/ never include cli/, bench/ or tests/; sdk/ never
+  includes services/.
+Exits 1 naming every include that points the wrong way.
+"""
+import os
+import re
+import sys
+
+CODEC_DEPENDS = {
+    "core": [],
+    "mesh": ["core"],
+    "metrics": ["mesh"],
+    "entropy": ["core"],
+    "progressive": ["mesh", "entropy"],
+    "recovery": ["progressive"],
+    "bitstream": ["recovery"],
+    "loss": ["bitstream"],
+}
+LAYER_FORBIDDEN = {
+    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "proto"],
+    "importers": ["services", "sdk", "cli", "bench", "tests"],
+    "services": ["sdk", "cli", "bench", "tests"],
+    "sdk": ["services", "cli", "bench", "tests"],
+}
+INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]')
+
+
+def closure(folder, seen=None):
+    seen = set() if seen is None else seen
+    for dep in CODEC_DEPENDS[folder]:
+        if dep not in seen:
+            seen.add(dep)
+            closure(dep, seen)
+    return seen
+
+
+def sources(root, top):
+    for dirpath, _, files in os.walk(os.path.join(root, top)):
+        for name in sorted(files):
+            if name.endswith((".h", ".cc", ".hpp", ".cpp")):
+                yield os.path.join(dirpath, name)
+
+
+def main(root):
+    errors = []
+    checked = 0
+    for top, forbidden in LAYER_FORBIDDEN.items():
+        for path in sources(root, top):
+            rel = os.path.relpath(path, root)
+            parts = rel.split(os.sep)
+            folder = parts[1] if top == "codec" and len(parts) > 2 else None
+            if top == "codec" and folder not in CODEC_DEPENDS:
+                errors.append(f"{rel}: codec/ file outside the folders docs/architecture.md names")
+                continue
+            with open(path, encoding="utf-8", errors="replace") as f:
+                for number, line in enumerate(f, 1):
+                    m = INCLUDE.match(line)
+                    if not m:
+                        continue
+                    checked += 1
+                    kind, target = m.groups()
+                    close = ">" if kind == "<" else '"'
+                    where = f"{rel}:{number}: #include {kind}{target}{close}"
+                    head = target.split("/")[0]
+                    if kind == '"' and head in forbidden:
+                        errors.append(f"{where}: {top}/ may not depend on {head}/")
+                    if top != "codec":
+                        continue
+                    if kind == "<":
+                        # The standard library only: no third-party header in the pure library.
+                        if "/" in target or target.endswith((".h", ".hpp")):
+                            errors.append(f"{where}: codec/ uses no third-party or C header")
+                        continue
+                    if head != "codec":
+                        errors.append(f"{where}: codec/ includes only codec/")
+                        continue
+                    dep = target.split("/")[1] if target.count("/") >= 2 else None
+                    if dep not in CODEC_DEPENDS:
+                        errors.append(f"{where}: not a codec/ folder")
+                    elif dep != folder and dep not in closure(folder):
+                        errors.append(f"{where}: codec/{folder}/ may not use codec/{dep}/ "
+                                      f"(order in docs/architecture.md)")
+    for e in errors:
+        print(e)
+    print(f"layout: {checked} includes checked, {len(errors)} pointing the wrong way")
+    return 1 if errors or checked == 0 else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else os.getcwd()))
