@@ -8,6 +8,12 @@
 // fix-ups by the progressive stream. Method 0 is edgebreaker, method 1 the
 // order-preserving sequential coder (used when coincident vertices of the
 // base cannot be told apart after edgebreaker reorders them).
+//
+// Contract: DecodeDracoBase is safe on untrusted input (the bytes come from a
+// progressive file or the network): Draco's decoder checks its own framing,
+// the decoded values are requantized onto `grids` (QuantizeOnto refuses what
+// does not fit them), and StreamReader::SetBase checks the result against
+// the header's counts before it is used. Thread safety: no shared state.
 #ifndef MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
 #define MESHSTREAM_IMPORTERS_DRACO_BASE_CODER_H_
 
