@@ -15,6 +15,28 @@ namespace {
 
 using json = nlohmann::json;
 
+// The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
+// section 1): "bufferView" (an unsigned integer), "version" 1, and nothing
+// else but glTF's "extras" and "extensions".
+Status CheckProgressiveExtension(const json& ext) {
+  const std::string name = kProgressiveExtension;
+  if (!ext.is_object()) return InvalidInput(name + " is not an object");
+  if (!ext.contains("bufferView") || !ext["bufferView"].is_number_unsigned()) {
+    return InvalidInput(name + ".bufferView is missing or not an unsigned integer");
+  }
+  if (!ext.contains("version")) return InvalidInput(name + ".version is missing");
+  const json& version = ext["version"];
+  if (!version.is_number_unsigned() || version.get<uint64_t>() != kStreamVersion) {
+    return Unsupported(name + ".version " + version.dump() + " is not 1");
+  }
+  for (const auto& item : ext.items()) {
+    const std::string& key = item.key();
+    if (key != "bufferView" && key != "version" && key != "extras" && key != "extensions") {
+      return InvalidInput(name + "." + key + " is not defined by version 1");
+    }
+  }
+  return Status::Ok();
+}
 
 }  // namespace
 
@@ -124,9 +146,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
         continue;
       }
       const json& ext = prim["extensions"][kProgressiveExtension];
-      if (!ext.is_object() || !ext.contains("bufferView") || !ext["bufferView"].is_number_unsigned()) {
-        return InvalidInput(where + ": " + kProgressiveExtension + ".bufferView is missing");
-      }
+      MS_RETURN_IF_ERROR(CheckProgressiveExtension(ext).WithContext(where));
       const uint64_t view = ext["bufferView"].get<uint64_t>();
       const json& views = doc.at("bufferViews");
       if (!views.is_array() || view >= views.size()) {
@@ -137,7 +157,9 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       if (glb.bin == nullptr || offset > glb.bin_size || length > glb.bin_size - offset) {
         return InvalidInput(where + ": the progressive stream lies outside the GLB's binary chunk");
       }
-      MS_ASSIGN_OR_RETURN(ProgressiveStream stream, ProgressiveStream::Parse(glb.bin + offset, length));
+      auto parsed = ProgressiveStream::Parse(glb.bin + offset, length);
+      if (!parsed.ok()) return parsed.status().WithContext(where);
+      ProgressiveStream stream = std::move(parsed).value();
       auto header = StreamHeader::Parse(stream.header.data(), stream.header.size());
       if (!header.ok()) return header.status().WithContext(where);
       Primitive& target = scene.meshes[m].primitives[k];

@@ -59,6 +59,10 @@ Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::ve
     if (dec.overran()) return InvalidInput(std::string(what) + ": truncated");
     out.push_back(v);
   }
+  if (!dec.ended_exactly()) {
+    return InvalidInput(std::string(what) + ": the block's " + std::to_string(block.size()) +
+                        " bytes do not end with its " + std::to_string(count) + " values");
+  }
   return Status::Ok();
 }
 
@@ -90,61 +94,73 @@ void StreamHeader::Serialize(ByteWriter& w) const {
 StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   ByteReader r(data, size);
   StreamHeader h;
-  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream version"));
-  if (version != kStreamVersion) return Unsupported("stream version " + std::to_string(version));
-  MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("packing"));
-  if (packing > 1) return InvalidInput("packing " + std::to_string(packing) + " is unknown");
+  auto refuse = [](const std::string& what) { return InvalidInput("stream header: " + what); };
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream header: version"));
+  if (version != kStreamVersion) return Unsupported("stream header: version " + std::to_string(version) + " is not 1");
+  MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("stream header: packing"));
+  if (packing > 1) return refuse("packing " + std::to_string(packing) + " is reserved");
   h.packing = static_cast<Packing>(packing);
+  static const char* const kBitsNames[4] = {"qp", "qn", "qt", "qc"};
   uint8_t bits[4];
-  for (uint8_t& b : bits) {
-    MS_ASSIGN_OR_RETURN(b, r.U8("quantization bits"));
-    if (b < kMinQuantizationBits || b > kMaxQuantizationBits) return InvalidInput("quantization bits out of range");
+  for (int k = 0; k < 4; ++k) {
+    MS_ASSIGN_OR_RETURN(bits[k], r.U8("stream header: quantization bits"));
+    if (bits[k] < kMinQuantizationBits || bits[k] > kMaxQuantizationBits) {
+      return refuse(std::string(kBitsNames[k]) + " " + std::to_string(bits[k]) + " is out of range (1..30)");
+    }
   }
   h.quantization = {bits[0], bits[1], bits[2], bits[3]};
-  MS_ASSIGN_OR_RETURN(h.grids.position_grid, ReadGrid(r, 3, bits[0], "position grid"));
+  MS_ASSIGN_OR_RETURN(h.grids.position_grid, ReadGrid(r, 3, bits[0], "stream header: position grid"));
   AttributeLayout& l = h.grids.layout;
   l.qn = bits[1];
-  MS_ASSIGN_OR_RETURN(uint8_t has_normals, r.U8("layout"));
-  MS_ASSIGN_OR_RETURN(uint8_t sets, r.U8("layout"));
-  MS_ASSIGN_OR_RETURN(uint8_t has_colors, r.U8("layout"));
-  if (has_normals > 1 || has_colors > 1 || sets > 8) return InvalidInput("attribute layout is not valid");
+  MS_ASSIGN_OR_RETURN(uint8_t has_normals, r.U8("stream header: has_normals"));
+  if (has_normals > 1) return refuse("has_normals " + std::to_string(has_normals) + " is not 0 or 1");
+  MS_ASSIGN_OR_RETURN(uint8_t sets, r.U8("stream header: texcoord_sets"));
+  if (sets > 8) return refuse("texcoord_sets " + std::to_string(sets) + " is out of range (0..8)");
+  MS_ASSIGN_OR_RETURN(uint8_t has_colors, r.U8("stream header: has_colors"));
+  if (has_colors > 1) return refuse("has_colors " + std::to_string(has_colors) + " is not 0 or 1");
   l.has_normals = has_normals;
   l.texcoord_sets = sets;
   l.has_colors = has_colors;
   for (int t = 0; t < sets; ++t) {
-    MS_ASSIGN_OR_RETURN(QuantizationGrid g, ReadGrid(r, 2, bits[2], "texture coordinate grid"));
+    MS_ASSIGN_OR_RETURN(QuantizationGrid g, ReadGrid(r, 2, bits[2], "stream header: texture coordinate grid"));
     l.texcoord_grids.push_back(g);
   }
   if (has_colors) {
-    MS_ASSIGN_OR_RETURN(l.color_grid, ReadGrid(r, 4, bits[3], "colour grid"));
+    MS_ASSIGN_OR_RETURN(l.color_grid, ReadGrid(r, 4, bits[3], "stream header: colour grid"));
   }
-  MS_ASSIGN_OR_RETURN(uint64_t bv, r.Varint("base vertex count", kMaxBaseVertices));
-  MS_ASSIGN_OR_RETURN(uint64_t bf, r.Varint("base face count", 2 * kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t bv, r.Varint("stream header: base vertex count", kMaxBaseVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t bf, r.Varint("stream header: base triangle count", 2 * kMaxStreamVertices));
   h.base_vertices = static_cast<uint32_t>(bv);
   h.base_faces = static_cast<uint32_t>(bf);
-  MS_ASSIGN_OR_RETURN(h.base_method, r.U8("base method"));
-  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("refinement count", kMaxRefinements));
+  MS_ASSIGN_OR_RETURN(h.base_method, r.U8("stream header: base_method"));
+  if (h.base_method > 1) return refuse("base_method " + std::to_string(h.base_method) + " is reserved");
+  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("stream header: refinement count", kMaxRefinements));
   uint64_t total = bv;
   for (uint64_t i = 0; i < levels; ++i) {
-    MS_ASSIGN_OR_RETURN(uint64_t c, r.Varint("split count", kMaxStreamVertices));
+    MS_ASSIGN_OR_RETURN(uint64_t c, r.Varint("stream header: split count", kMaxStreamVertices));
     // A refinement splits at most every vertex once.
-    if (c > total) return InvalidInput("refinement " + std::to_string(i) + " splits more vertices than exist");
+    if (c > total) {
+      return refuse("split count " + std::to_string(c) + " of refinement " + std::to_string(i) +
+                    " exceeds its " + std::to_string(total) + " vertices");
+    }
     total += c;
-    if (total > kMaxStreamVertices) return ResourceExhausted("the stream has too many vertices");
+    if (total > kMaxStreamVertices) return ResourceExhausted("stream header: the stream has too many vertices");
     h.split_counts.push_back(static_cast<uint32_t>(c));
   }
   size_t length = 0;
-  MS_ASSIGN_OR_RETURN(const uint8_t* pos_fix, r.Block("position fix-ups", &length));
+  MS_ASSIGN_OR_RETURN(const uint8_t* pos_fix, r.Block("stream header: position fix-ups", &length));
   h.position_fix_block.assign(pos_fix, pos_fix + length);
-  MS_ASSIGN_OR_RETURN(const uint8_t* attr_fix, r.Block("attribute fix-ups", &length));
+  MS_ASSIGN_OR_RETURN(const uint8_t* attr_fix, r.Block("stream header: attribute fix-ups", &length));
   h.attribute_fix_block.assign(attr_fix, attr_fix + length);
+  if (r.remaining() != 0) return refuse(std::to_string(r.remaining()) + " stray bytes after the attribute fix-ups");
   return h;
 }
 
 Status StreamHeader::DecodeFixups() {
-  MS_RETURN_IF_ERROR(DecodeFixupBlock(position_fix_block, size_t{3} * base_vertices, base_position_fix, "position fix-ups"));
+  MS_RETURN_IF_ERROR(DecodeFixupBlock(position_fix_block, size_t{3} * base_vertices, base_position_fix,
+                                      "stream header: position fix-ups"));
   return DecodeFixupBlock(attribute_fix_block, size_t(grids.layout.channels()) * base_vertices, base_attribute_fix,
-                          "attribute fix-ups");
+                          "stream header: attribute fix-ups");
 }
 
 std::vector<uint32_t> StreamHeader::level_vertices() const {
@@ -189,26 +205,29 @@ std::vector<uint8_t> ProgressiveStream::Serialize() const {
 StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t size) {
   ByteReader r(data, size);
   for (uint8_t b : kBlobMagic) {
-    MS_ASSIGN_OR_RETURN(uint8_t got, r.U8("stream magic"));
-    if (got != b) return InvalidInput("not a meshstream progressive stream (bad magic)");
+    MS_ASSIGN_OR_RETURN(uint8_t got, r.U8("stream blob: magic"));
+    if (got != b) return InvalidInput("stream blob: magic is not MSPS (not a meshstream progressive stream)");
   }
-  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream version"));
-  if (version != kStreamVersion) return Unsupported("stream version " + std::to_string(version));
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream blob: version"));
+  if (version != kStreamVersion) return Unsupported("stream blob: version " + std::to_string(version) + " is not 1");
   ProgressiveStream s;
   size_t length = 0;
-  MS_ASSIGN_OR_RETURN(const uint8_t* header, r.Block("stream header", &length));
+  MS_ASSIGN_OR_RETURN(const uint8_t* header, r.Block("stream blob: header", &length));
   s.header.assign(header, header + length);
-  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("refinement count", kMaxRefinements));
+  MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("stream blob: refinement count", kMaxRefinements));
   for (uint64_t i = 0; i < levels; ++i) {
-    MS_ASSIGN_OR_RETURN(const uint8_t* control, r.Block("refinement control", &length));
+    MS_ASSIGN_OR_RETURN(const uint8_t* control, r.Block("stream blob: control block", &length));
     s.control.emplace_back(control, control + length);
     // Every datagram takes at least two bytes (its length and its magic).
-    MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("datagram count", r.remaining() / 2));
+    MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("stream blob: datagram count", r.remaining() / 2));
     s.datagrams.emplace_back();
     for (uint64_t d = 0; d < count; ++d) {
-      MS_ASSIGN_OR_RETURN(const uint8_t* dg, r.Block("datagram", &length));
+      MS_ASSIGN_OR_RETURN(const uint8_t* dg, r.Block("stream blob: datagram", &length));
       s.datagrams.back().emplace_back(dg, dg + length);
     }
+  }
+  if (r.remaining() != 0) {
+    return InvalidInput("stream blob: " + std::to_string(r.remaining()) + " stray bytes after the last refinement");
   }
   return s;
 }
@@ -226,22 +245,28 @@ void DatagramHeader::Serialize(ByteWriter& w) const {
 
 StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   DatagramHeader h;
-  MS_ASSIGN_OR_RETURN(uint8_t magic, r.U8("datagram magic"));
-  if (magic != kDatagramMagic) return InvalidInput("not a meshstream datagram (bad magic)");
-  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram version"));
-  if (version != kDatagramVersion) return Unsupported("datagram version " + std::to_string(version));
-  MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram kind"));
-  if (kind > 3) return InvalidInput("datagram kind " + std::to_string(kind) + " is unknown");
+  MS_ASSIGN_OR_RETURN(uint8_t magic, r.U8("datagram: magic"));
+  if (magic != kDatagramMagic) return InvalidInput("datagram: magic " + std::to_string(magic) + " is not 0x4D");
+  MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram: version"));
+  if (version != kDatagramVersion) return Unsupported("datagram: version " + std::to_string(version) + " is not 1");
+  MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram: kind"));
+  if (kind > 3) return InvalidInput("datagram: kind " + std::to_string(kind) + " is reserved");
   h.kind = static_cast<DatagramKind>(kind);
-  MS_ASSIGN_OR_RETURN(uint64_t stream, r.Varint("stream", UINT32_MAX));
-  MS_ASSIGN_OR_RETURN(uint64_t refinement, r.Varint("refinement", kMaxRefinements));
-  MS_ASSIGN_OR_RETURN(uint64_t stride, r.Varint("stride", kMaxStreamVertices));
-  MS_ASSIGN_OR_RETURN(uint64_t offset, r.Varint("offset", kMaxStreamVertices));
-  MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("count", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t stream, r.Varint("datagram: stream", UINT32_MAX));
+  MS_ASSIGN_OR_RETURN(uint64_t refinement, r.Varint("datagram: refinement", kMaxRefinements - 1));
+  MS_ASSIGN_OR_RETURN(uint64_t stride, r.Varint("datagram: stride", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t offset, r.Varint("datagram: offset", kMaxStreamVertices));
+  MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("datagram: count", kMaxStreamVertices));
   if (kind == static_cast<uint8_t>(DatagramKind::kEnd)) {
-    if (stride != 1 || offset != 0 || r.remaining() != 0) return InvalidInput("an END datagram has stride 1, offset 0, no payload");
-  } else if (stride == 0 || offset >= stride || count == 0) {
-    return InvalidInput("datagram ordinals are not valid");
+    if (stride != 1) return InvalidInput("datagram: END has stride " + std::to_string(stride) + ", not 1");
+    if (offset != 0) return InvalidInput("datagram: END has offset " + std::to_string(offset) + ", not 0");
+    if (r.remaining() != 0) return InvalidInput("datagram: END has " + std::to_string(r.remaining()) + " payload bytes");
+  } else if (stride == 0) {
+    return InvalidInput("datagram: stride 0 is not allowed");
+  } else if (offset >= stride) {
+    return InvalidInput("datagram: offset " + std::to_string(offset) + " is not below stride " + std::to_string(stride));
+  } else if (count == 0) {
+    return InvalidInput("datagram: count 0 is not allowed");
   }
   h.stream = static_cast<uint32_t>(stream);
   h.refinement = static_cast<uint32_t>(refinement);

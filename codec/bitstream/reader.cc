@@ -6,6 +6,15 @@
 
 namespace meshstream {
 
+namespace {
+
+std::string ModelSlotName(size_t k) {
+  static const char* const kNames[5] = {"wing index", "ring offset", "position x", "position y", "position z"};
+  return k < 5 ? kNames[k] : "channel " + std::to_string(k - 5);
+}
+
+}  // namespace
+
 uint64_t StreamReader::unreliable_vertices() const {
   uint64_t n = 0;
   for (uint8_t f : state_.flags) n += f != 0 && (f & kAbsent) == 0 ? 1 : 0;
@@ -29,9 +38,20 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   const int ch = h.grids.layout.channels();
   if (base.layout.channels() != ch) return InvalidInput("the base mesh's attributes do not match the stream");
   MS_RETURN_IF_ERROR(header_.DecodeFixups());
+  // A fix-up that takes a value outside 32 bits describes no grid point.
+  auto fix = [](int32_t& value, int32_t delta, const char* what, size_t v) {
+    const int64_t sum = int64_t{value} + delta;
+    if (sum < INT32_MIN || sum > INT32_MAX) {
+      return InvalidInput(std::string("stream header: ") + what + " of base vertex " + std::to_string(v) +
+                          " overflows 32 bits");
+    }
+    value = static_cast<int32_t>(sum);
+    return Status::Ok();
+  };
   for (size_t v = 0; v < base.vertex_count(); ++v) {
-    for (int k = 0; k < 3; ++k) base.positions[v][k] += h.base_position_fix[v * 3 + k];
-    for (int k = 0; k < ch; ++k) base.attributes[v * ch + k] += h.base_attribute_fix[v * ch + k];
+    for (int k = 0; k < 3; ++k) MS_RETURN_IF_ERROR(fix(base.positions[v][k], h.base_position_fix[v * 3 + k], "position fix-up", v));
+    for (int k = 0; k < ch; ++k)
+      MS_RETURN_IF_ERROR(fix(base.attributes[v * ch + k], h.base_attribute_fix[v * ch + k], "attribute fix-up", v));
   }
   base.position_grid = h.grids.position_grid;
   base.layout = h.grids.layout;
@@ -69,17 +89,25 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
   std::vector<StaticModel> models;
   for (size_t k = 0; k < slots; ++k) {
-    MS_ASSIGN_OR_RETURN(uint8_t fresh, r.U8("model flag"));
-    if (fresh > 1) return InvalidInput(where + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
+    const std::string slot = where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k) + ")";
+    auto flag = r.U8("model flag");
+    if (!flag.ok()) return flag.status().WithContext(slot);
+    const uint8_t fresh = flag.value();
+    if (fresh > 1) return InvalidInput(slot + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
     if (fresh) {
-      MS_ASSIGN_OR_RETURN(StaticModel m, StaticModel::Parse(r));
-      models.push_back(std::move(m));
+      // Wings and ring offsets are below the maximum valence; signed values
+      // have kSignedSymbols symbols. A larger alphabet names nothing.
+      auto m = StaticModel::Parse(r, k < 2 ? kWingAlphabet : kSignedSymbols);
+      if (!m.ok()) return m.status().WithContext(slot);
+      models.push_back(std::move(m).value());
     } else {
-      if (models_.size() != slots) return InvalidInput(where + ": reuses a model that was never sent");
+      if (models_.size() != slots) return InvalidInput(slot + ": model flag 0 reuses a model that was never sent");
       models.push_back(models_[k]);
     }
   }
-  if (r.remaining() != 0) return InvalidInput(where + ": " + std::to_string(r.remaining()) + " stray bytes after the models");
+  if (r.remaining() != 0) {
+    return InvalidInput(where + ": control block: " + std::to_string(r.remaining()) + " stray bytes after the models");
+  }
   models_ = std::move(models);
   const size_t k = ref.split_count();
   const int ch = header_.grids.layout.channels();
@@ -124,7 +152,9 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
       for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
     }
   }
-  if (dec.overran()) {
+  // The payload must end with its last unit: a stray byte or a cut makes the
+  // datagram malformed.
+  if (dec.overran() || !dec.ended_exactly()) {
     ++stats_.rejected;
     return false;
   }

@@ -63,6 +63,13 @@ class RangeDecoder {
   uint32_t DecodeUniform(uint32_t n);
   // True when the decoder needed bytes beyond the end of its input.
   bool overran() const { return overran_; }
+  // True when the decoder has read exactly its input, no byte more or less.
+  // A decoder reads as many bytes as the encoder wrote (4 at the start, one
+  // per normalization; the encoder's 5 final shifts minus its dropped first
+  // byte make the same count), so this holds at the end of every block the
+  // encoder wrote; a block with stray bytes after its data, or cut short,
+  // fails it (docs/progressive-format.md, section 7).
+  bool ended_exactly() const { return pos_ == size_; }
 
  private:
   uint8_t NextByte();

@@ -33,7 +33,7 @@ StaticModel StaticModel::FromCounts(const std::vector<uint64_t>& counts) {
   return m;
 }
 
-void StaticModel::FromCodes() {
+bool StaticModel::FromCodes() {
   const size_t n = codes_.size();
   freq_.assign(n, 0);
   uint64_t weight = 0;
@@ -47,9 +47,12 @@ void StaticModel::FromCodes() {
     used += freq_[s];
     if (freq_[s] > freq_[largest]) largest = s;
   }
-  // n <= 64 symbols of at least 1 each: the largest can absorb the rounding.
-  freq_[largest] += one - used;
+  // The largest absorbs the rounding. Codes the encoder writes always leave
+  // it at least 1; hostile ones (many tiny symbols raised to 1) may not.
+  if (used >= one + freq_[largest]) return false;
+  freq_[largest] = freq_[largest] + one - used;
   Build();
+  return true;
 }
 
 void StaticModel::Build() {
@@ -71,9 +74,12 @@ void StaticModel::Serialize(ByteWriter& w) const {
   }
 }
 
-StatusOr<StaticModel> StaticModel::Parse(ByteReader& r) {
+StatusOr<StaticModel> StaticModel::Parse(ByteReader& r, uint32_t max_alphabet) {
   MS_ASSIGN_OR_RETURN(uint8_t n, r.U8("model alphabet size"));
-  if (n == 0 || n > kMaxAlphabet) return InvalidInput("model alphabet size " + std::to_string(n) + " is out of range");
+  if (n == 0 || n > max_alphabet || n > kMaxAlphabet) {
+    return InvalidInput("model alphabet size " + std::to_string(n) + " is out of range (1.." +
+                        std::to_string(std::min(max_alphabet, kMaxAlphabet)) + ")");
+  }
   StaticModel m;
   m.codes_.resize(n);
   bool any = false;
@@ -84,8 +90,8 @@ StatusOr<StaticModel> StaticModel::Parse(ByteReader& r) {
     else if ((b >> 4) != 0) return InvalidInput("model codes have a stray nibble");
   }
   for (uint8_t c : m.codes_) any = any || c != 0;
-  if (!any) return InvalidInput("model has no symbol");
-  m.FromCodes();
+  if (!any) return InvalidInput("model codes: no symbol is present");
+  if (!m.FromCodes()) return InvalidInput("model codes leave the most frequent symbol no frequency");
   return m;
 }
 
@@ -112,7 +118,9 @@ void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v) {
 int32_t DecodeSigned(RangeDecoder& dec, const StaticModel& model) {
   const uint32_t symbol = model.Decode(dec);
   if (symbol < kDirectSymbols) return UnZigZag(symbol);
-  if (symbol >= kSignedSymbols) return 0;  // not a signed-value symbol (hostile model)
+  // Unreachable from a stream: the reader parses signed-value models with at
+  // most kSignedSymbols symbols (docs/progressive-format.md, section 5).
+  if (symbol >= kSignedSymbols) return 0;
   const uint32_t length = (symbol - kDirectSymbols) / 2 + 5;
   const uint32_t second = (symbol - kDirectSymbols) & 1;
   int bits = static_cast<int>(length - 2);

@@ -30,7 +30,11 @@ class StaticModel {
   // From symbol counts; every symbol with a nonzero count gets a nonzero
   // frequency. An all-zero histogram gives a model of symbol 0 only.
   static StaticModel FromCounts(const std::vector<uint64_t>& counts);
-  static StatusOr<StaticModel> Parse(ByteReader& reader);
+  // Refuses an alphabet size of 0 or above `max_alphabet` (the slot's: 16 for
+  // wings, kSignedSymbols for signed values; docs/progressive-format.md,
+  // section 5), a stray high nibble, codes that are all 0, and codes whose
+  // largest symbol would be left with a frequency below 1.
+  static StatusOr<StaticModel> Parse(ByteReader& reader, uint32_t max_alphabet = kMaxAlphabet);
   void Serialize(ByteWriter& writer) const;
 
   void Encode(RangeEncoder& enc, uint32_t symbol) const { enc.Encode(cum_[symbol], freq_[symbol], kModelBits); }
@@ -46,7 +50,9 @@ class StaticModel {
 
  private:
   void Build();
-  void FromCodes();
+  // False when the codes leave the largest symbol no frequency (only hostile
+  // codes can: the encoder's never do).
+  bool FromCodes();
   std::vector<uint8_t> codes_;
   std::vector<uint32_t> freq_, cum_;
   std::vector<uint8_t> lookup_;

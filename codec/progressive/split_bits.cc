@@ -50,6 +50,10 @@ StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size,
   std::vector<uint8_t> bits(h.vertices, 0);
   for (uint32_t v = 0; v < h.vertices; ++v) bits[v] = static_cast<uint8_t>(dec.DecodeBit(models[Context(v, bits, h)]));
   if (dec.overran()) return InvalidInput("split bits are truncated");
+  if (!dec.ended_exactly()) {
+    return InvalidInput("split bits: the block's " + std::to_string(size) + " bytes do not end with its " +
+                        std::to_string(h.vertices) + " bits");
+  }
   return bits;
 }
 

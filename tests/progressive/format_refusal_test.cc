@@ -1,0 +1,325 @@
+// Every reserved or out-of-range value of the progressive format is refused
+// with an error naming the field (docs/progressive-format.md): each test takes
+// the valid test vector (tests/data/vector/), patches one field, and expects
+// the error text to name it. The unpatched vector is accepted by each path.
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
+#include "codec/progressive/encoder.h"
+#include "importers/draco_base_coder.h"
+#include "tests/common/test_vector.h"
+
+namespace meshstream {
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+
+// The vector's stream, rebuilt in memory with its Draco base.
+struct Vector {
+  ProgressiveEncoded encoded;
+  QuantizationParams quantization;
+  StreamWriteOptions write;
+  ProgressiveStream stream;
+  QuantizedMesh base;  // as Draco decodes it
+};
+
+const Vector& TheVector() {
+  static const Vector v = [] {
+    Vector out;
+    auto scene = ImportFile(test_util::VectorPath("octahedron.obj"));
+    EXPECT_TRUE(scene.ok());
+    const ProgressiveGlbOptions o = test_util::VectorOptions();
+    DracoAttributeIds ids;
+    auto enc = EncodeProgressive(scene->meshes[0].primitives[0], o.encode, [&](const QuantizedMesh& base, int method) {
+      return EncodeDracoBase(base, method, o.draco_compression_level, &ids);
+    });
+    EXPECT_TRUE(enc.ok());
+    out.encoded = enc.value();
+    out.quantization = o.encode.quantization;
+    out.write = o.stream;
+    out.stream = WriteStream(out.encoded, out.quantization, out.write).value();
+    auto header = StreamHeader::Parse(out.stream.header.data(), out.stream.header.size());
+    EXPECT_TRUE(header.ok());
+    out.base = DecodeDracoBase(out.encoded.base_bytes.data(), out.encoded.base_bytes.size(), ids, header->grids).value();
+    return out;
+  }();
+  return v;
+}
+
+std::string HeaderError(const Bytes& header) {
+  auto h = StreamHeader::Parse(header.data(), header.size());
+  if (!h.ok()) return h.status().message();
+  Status s = h->DecodeFixups();
+  return s.ok() ? "accepted" : s.message();
+}
+
+// Header offsets of the vector (positions only, one-byte varints).
+constexpr size_t kPacking = 1, kQp = 2, kRange = 18, kHasNormals = 22, kSets = 23, kHasColors = 24, kBaseMethod = 27,
+                 kSplitCount = 29, kPositionFix = 30;
+
+Bytes Patched(Bytes b, size_t at, uint8_t value) {
+  b.at(at) = value;
+  return b;
+}
+
+TEST(FormatRefusal, TheVectorIsTheBlobStoredInTestData) {
+  EXPECT_EQ(TheVector().stream.Serialize(), test_util::ReadBytes(test_util::VectorPath("octahedron-qp8-bundled.msps")));
+  const Bytes& h = TheVector().stream.header;
+  EXPECT_EQ(HeaderError(h), "accepted");
+  EXPECT_EQ(h[kBaseMethod], 0);
+  EXPECT_EQ(h[kSplitCount], 3);
+  EXPECT_EQ(h[kPositionFix], 6);
+}
+
+TEST(FormatRefusal, StreamHeaderFields) {
+  const Bytes& h = TheVector().stream.header;
+  EXPECT_EQ(HeaderError(Patched(h, 0, 2)), "stream header: version 2 is not 1");
+  EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");
+  EXPECT_EQ(HeaderError(Patched(h, kPacking, 255)), "stream header: packing 255 is reserved");
+  const char* names[4] = {"qp", "qn", "qt", "qc"};
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(HeaderError(Patched(h, kQp + k, 0)), std::string("stream header: ") + names[k] + " 0 is out of range (1..30)");
+    EXPECT_EQ(HeaderError(Patched(h, kQp + k, 31)), std::string("stream header: ") + names[k] + " 31 is out of range (1..30)");
+  }
+  EXPECT_EQ(HeaderError(Patched(h, kHasNormals, 2)), "stream header: has_normals 2 is not 0 or 1");
+  EXPECT_EQ(HeaderError(Patched(h, kSets, 9)), "stream header: texcoord_sets 9 is out of range (0..8)");
+  EXPECT_EQ(HeaderError(Patched(h, kHasColors, 2)), "stream header: has_colors 2 is not 0 or 1");
+  // Range 0.0f and NaN (the f32's high byte).
+  Bytes zero = h;
+  for (int i = 0; i < 4; ++i) zero[kRange + i] = 0;
+  EXPECT_EQ(HeaderError(zero), "stream header: position grid: range is not positive");
+  EXPECT_EQ(HeaderError(Patched(Patched(h, kRange + 3, 0x7F), kRange + 2, 0xC0)),
+            "stream header: position grid: range is not positive");
+  EXPECT_EQ(HeaderError(Patched(h, 6 + 3, 0x7F)).rfind("stream header: position grid", 0), 0u);  // origin x = NaN/inf
+  for (int m = 2; m < 256; ++m) {
+    EXPECT_EQ(HeaderError(Patched(h, kBaseMethod, static_cast<uint8_t>(m))),
+              "stream header: base_method " + std::to_string(m) + " is reserved");
+  }
+  EXPECT_EQ(HeaderError(Patched(h, kSplitCount, 16)),
+            "stream header: split count 16 of refinement 0 exceeds its 15 vertices");
+  Bytes stray = h;
+  stray.push_back(0);
+  EXPECT_EQ(HeaderError(stray), "stream header: 1 stray bytes after the attribute fix-ups");
+}
+
+TEST(FormatRefusal, FixupBlocks) {
+  const Bytes& h = TheVector().stream.header;
+  // One byte more inside the position fix-ups: the range coder ends before it.
+  Bytes longer(h.begin(), h.begin() + kPositionFix);
+  longer.push_back(static_cast<uint8_t>(h[kPositionFix] + 1));
+  longer.insert(longer.end(), h.begin() + kPositionFix + 1, h.begin() + kPositionFix + 1 + h[kPositionFix]);
+  longer.push_back(0);
+  longer.insert(longer.end(), h.begin() + kPositionFix + 1 + h[kPositionFix], h.end());
+  EXPECT_EQ(HeaderError(longer), "stream header: position fix-ups: the block's 7 bytes do not end with its 45 values");
+  // One byte less: 45 values need more than the block holds.
+  Bytes shorter(h.begin(), h.begin() + kPositionFix);
+  shorter.push_back(static_cast<uint8_t>(h[kPositionFix] - 1));
+  shorter.insert(shorter.end(), h.begin() + kPositionFix + 1, h.begin() + kPositionFix + h[kPositionFix]);
+  shorter.insert(shorter.end(), h.begin() + kPositionFix + 1 + h[kPositionFix], h.end());
+  EXPECT_EQ(HeaderError(shorter).rfind("stream header: position fix-ups: ", 0), 0u) << HeaderError(shorter);
+
+  // A fix-up that takes a coordinate past 32 bits.
+  const Vector& v = TheVector();
+  ProgressiveEncoded e = v.encoded;
+  size_t at = 0;
+  while (v.base.positions[at / 3][at % 3] <= 0) ++at;
+  e.base_position_fix[at] = INT32_MAX;
+  auto s = WriteStream(e, v.quantization, v.write);
+  ASSERT_TRUE(s.ok());
+  auto reader = StreamReader::Create(s->header.data(), s->header.size());
+  ASSERT_TRUE(reader.ok());
+  EXPECT_EQ(reader->SetBase(v.base).message(),
+            "stream header: position fix-up of base vertex " + std::to_string(at / 3) + " overflows 32 bits");
+  auto good = StreamReader::Create(v.stream.header.data(), v.stream.header.size());
+  EXPECT_TRUE(good->SetBase(v.base).ok());
+}
+
+TEST(FormatRefusal, StreamBlob) {
+  const Bytes blob = TheVector().stream.Serialize();
+  auto error = [](const Bytes& b) {
+    auto s = ProgressiveStream::Parse(b.data(), b.size());
+    return s.ok() ? std::string("accepted") : s.status().message();
+  };
+  EXPECT_EQ(error(blob), "accepted");
+  EXPECT_EQ(error(Patched(blob, 0, 'X')), "stream blob: magic is not MSPS (not a meshstream progressive stream)");
+  EXPECT_EQ(error(Patched(blob, 4, 2)), "stream blob: version 2 is not 1");
+  Bytes stray = blob;
+  stray.push_back(0);
+  EXPECT_EQ(error(stray), "stream blob: 1 stray bytes after the last refinement");
+}
+
+// The control block of refinement 0 cut into its parts: the split-bit block
+// (with its length) and per model slot its flag and model bytes.
+struct ControlParts {
+  Bytes split_bits;
+  std::vector<Bytes> slots;
+  Bytes Join() const {
+    Bytes out = split_bits;
+    for (const Bytes& s : slots) out.insert(out.end(), s.begin(), s.end());
+    return out;
+  }
+};
+
+ControlParts Cut(const Bytes& control) {
+  ControlParts parts;
+  ByteReader r(control.data(), control.size());
+  size_t length = 0;
+  r.Block("split bits", &length).value();
+  parts.split_bits.assign(control.begin(), control.begin() + r.position());
+  for (int k = 0; k < 5; ++k) {
+    const size_t start = r.position();
+    r.U8("flag").value();
+    StaticModel::Parse(r).value();
+    parts.slots.emplace_back(control.begin() + start, control.begin() + r.position());
+  }
+  return parts;
+}
+
+std::string ControlError(const Bytes& control) {
+  const Vector& v = TheVector();
+  auto reader = StreamReader::Create(v.stream.header.data(), v.stream.header.size());
+  EXPECT_TRUE(reader.ok());
+  EXPECT_TRUE(reader->SetBase(v.base).ok());
+  Status s = reader->BeginRefinement(control.data(), control.size());
+  return s.ok() ? "accepted" : s.message();
+}
+
+TEST(FormatRefusal, ControlBlock) {
+  const Bytes& control = TheVector().stream.control[0];
+  const ControlParts parts = Cut(control);
+  ASSERT_EQ(parts.Join(), control);
+  EXPECT_EQ(ControlError(control), "accepted");
+
+  // Split bits: a stray byte inside the block, a byte short, a bit count the header does not say.
+  ControlParts p = parts;
+  p.split_bits[0] += 1;
+  p.split_bits.push_back(0);
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: split bits: the block's " + std::to_string(p.split_bits.size() - 1) +
+                                        " bytes do not end with its 15 bits");
+  p = parts;
+  p.split_bits[0] -= 1;
+  p.split_bits.pop_back();
+  EXPECT_NE(ControlError(p.Join()).find("refinement 0: split bits"), std::string::npos) << ControlError(p.Join());
+
+  // Model flags: 2 is reserved; 0 (reuse) in refinement 0 names no model.
+  p = parts;
+  p.slots[3][0] = 2;
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 3 (position y): model flag 2 is not 0 or 1");
+  p = parts;
+  p.slots[1] = {0};
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (ring offset): model flag 0 reuses a model that was never sent");
+
+  // Alphabets: 0 is reserved, wings have at most 16 symbols, signed values 72.
+  auto model = [](uint8_t n, uint8_t fill) {
+    Bytes m = {1, n};
+    for (int s = 0; s < (n + 1) / 2; ++s) m.push_back(fill);
+    return m;
+  };
+  p = parts;
+  p.slots[0] = model(16, 0x11);
+  EXPECT_EQ(ControlError(p.Join()), "accepted");  // a wing model may name every valence-16 index
+  p.slots[0] = model(17, 0x01);
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 0 (wing index): model alphabet size 17 is out of range (1..16)");
+  p = parts;
+  p.slots[1] = model(0, 0);
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (ring offset): model alphabet size 0 is out of range (1..16)");
+  for (uint8_t n : {73, 96, 255}) {
+    p = parts;
+    p.slots[2] = model(n, 0x01);
+    EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 2 (position x): model alphabet size " + std::to_string(n) +
+                                          " is out of range (1..72)");
+  }
+  p = parts;
+  p.slots[4] = model(3, 0x00);
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes: no symbol is present");
+  p = parts;
+  p.slots[4] = model(3, 0x11);  // the high nibble after symbol 2 must be 0
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes have a stray nibble");
+  p = parts;
+  p.slots[4] = {1, 5};
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes: truncated at byte " +
+                                        std::to_string(p.Join().size()));
+  Bytes stray = control;
+  stray.push_back(0);
+  EXPECT_EQ(ControlError(stray), "refinement 0: control block: 1 stray bytes after the models");
+}
+
+std::string DatagramError(const Bytes& d) {
+  ByteReader r(d.data(), d.size());
+  auto h = DatagramHeader::Parse(r);
+  return h.ok() ? "accepted" : h.status().message();
+}
+
+TEST(FormatRefusal, DatagramHeader) {
+  const Bytes& d = TheVector().stream.datagrams[0][0];
+  // 4D 01 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
+  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 1, 0, 0, 0, 1, 0, 3}));
+  EXPECT_EQ(DatagramError(d), "accepted");
+  EXPECT_EQ(DatagramError(Patched(d, 0, 0x4E)), "datagram: magic 78 is not 0x4D");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 2)), "datagram: version 2 is not 1");
+  for (int k = 4; k < 256; ++k) {
+    EXPECT_EQ(DatagramError(Patched(d, 2, static_cast<uint8_t>(k))), "datagram: kind " + std::to_string(k) + " is reserved");
+  }
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 0, 0, 0xFF, 0x01, 1, 0, 3}), "datagram: refinement = 255 exceeds 254");
+  EXPECT_EQ(DatagramError(Patched(d, 5, 0)), "datagram: stride 0 is not allowed");
+  EXPECT_EQ(DatagramError(Patched(d, 6, 1)), "datagram: offset 1 is not below stride 1");
+  EXPECT_EQ(DatagramError(Patched(d, 7, 0)), "datagram: count 0 is not allowed");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 0, 0, 0, 1, 0, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F}).rfind("datagram: count", 0), 0u);
+  // END: stride 1, offset 0, no payload.
+  EXPECT_EQ(DatagramError(MakeEndDatagram(0, 0, 1)), "accepted");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 3, 0, 0, 2, 0, 1}), "datagram: END has stride 2, not 1");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 3, 0, 0, 1, 1, 1}), "datagram: END has offset 1, not 0");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 3, 0, 0, 1, 0, 1, 0}), "datagram: END has 1 payload bytes");
+}
+
+TEST(FormatRefusal, DatagramPayloadMustEndWithItsLastSplit) {
+  const Vector& v = TheVector();
+  auto offer = [&v](const Bytes& d) {
+    auto reader = StreamReader::Create(v.stream.header.data(), v.stream.header.size());
+    EXPECT_TRUE(reader->SetBase(v.base).ok());
+    EXPECT_TRUE(reader->BeginRefinement(v.stream.control[0].data(), v.stream.control[0].size()).ok());
+    const bool accepted = reader->OfferDatagram(d.data(), d.size());
+    EXPECT_EQ(reader->stats().rejected, accepted ? 0u : 1u);
+    return accepted;
+  };
+  const Bytes& d = v.stream.datagrams[0][0];
+  EXPECT_TRUE(offer(d));
+  Bytes stray = d;
+  stray.push_back(0);
+  EXPECT_FALSE(offer(stray));
+  EXPECT_FALSE(offer(Bytes(d.begin(), d.end() - 1)));
+  EXPECT_FALSE(offer(Patched(d, 2, 1)));  // a structure datagram in a bundled stream
+}
+
+std::string GlbError(const nlohmann::json& doc) {
+  const Bytes glb = test_util::ReadBytes(test_util::VectorPath("octahedron-qp8-bundled.glb"));
+  auto scene = DecodeProgressiveGlb(test_util::WithGlbJson(glb, doc), {}, nullptr);
+  return scene.ok() ? "accepted" : scene.status().message();
+}
+
+TEST(FormatRefusal, ExtensionJson) {
+  const Bytes glb = test_util::ReadBytes(test_util::VectorPath("octahedron-qp8-bundled.glb"));
+  const nlohmann::json doc = test_util::GlbJson(glb);
+  EXPECT_EQ(GlbError(doc), "accepted");
+  auto with = [&doc](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json d = doc;
+    edit(d["meshes"][0]["primitives"][0]["extensions"][kProgressiveExtension]);
+    return GlbError(d);
+  };
+  const std::string where = "meshes[0].primitives[0]: MESHSTREAM_progressive.";
+  EXPECT_EQ(with([](nlohmann::json& e) { e["extras"] = {{"note", 1}}; }), "accepted");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 2; }), where + "version 2 is not 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "1"; }), where + "version \"1\" is not 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e.erase("version"); }), where + "version is missing");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["bufferView"] = -1; }), where + "bufferView is missing or not an unsigned integer");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 1");
+}
+
+}  // namespace
+}  // namespace meshstream

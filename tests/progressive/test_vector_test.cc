@@ -1,0 +1,94 @@
+// The test vector of docs/progressive-format.md ("Test vector"): the encoder
+// still writes exactly the stored bytes, and the decoder gives the mesh the
+// spec documents.
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+#include "codec/bitstream/format.h"
+#include "tests/common/test_vector.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::VectorPath;
+
+std::vector<uint8_t> BlobOf(const std::vector<uint8_t>& glb) {
+  const nlohmann::json doc = test_util::GlbJson(glb);
+  const size_t view = doc["meshes"][0]["primitives"][0]["extensions"][kProgressiveExtension]["bufferView"];
+  const size_t bin = 20 + test_util::GlbU32(glb, 12) + 8;
+  const size_t offset = bin + doc["bufferViews"][view].value("byteOffset", size_t{0});
+  const size_t length = doc["bufferViews"][view]["byteLength"];
+  return std::vector<uint8_t>(glb.begin() + offset, glb.begin() + offset + length);
+}
+
+TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
+  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
+  const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
+  ASSERT_EQ(blob.size(), 126u);
+  auto scene = ImportFile(VectorPath("octahedron.obj"));
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  auto glb = EncodeProgressiveGlb(scene.value(), test_util::VectorOptions(), nullptr);
+  ASSERT_TRUE(glb.ok()) << glb.status().ToString();
+  EXPECT_EQ(glb.value(), stored);
+  EXPECT_EQ(BlobOf(glb.value()), blob);
+}
+
+TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
+  const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
+  auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
+  ASSERT_TRUE(stream.ok()) << stream.status().ToString();
+  EXPECT_EQ(stream->header.size(), 42u);
+  ASSERT_EQ(stream->control.size(), 1u);
+  EXPECT_EQ(stream->control[0].size(), 56u);
+  ASSERT_EQ(stream->datagrams[0].size(), 1u);
+  EXPECT_EQ(stream->datagrams[0][0].size(), 18u);
+  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+  ASSERT_TRUE(header.ok()) << header.status().ToString();
+  EXPECT_EQ(header->packing, Packing::kBundled);
+  EXPECT_EQ(header->quantization.qp, 8);
+  EXPECT_EQ(header->grids.position_grid.origin[0], -1.0f);
+  EXPECT_EQ(header->grids.position_grid.range, 2.0f);
+  EXPECT_EQ(header->base_vertices, 15u);
+  EXPECT_EQ(header->base_faces, 26u);
+  EXPECT_EQ(header->base_method, 0);
+  EXPECT_EQ(header->split_counts, std::vector<uint32_t>{3});
+  ASSERT_TRUE(header->DecodeFixups().ok());
+  EXPECT_EQ(header->base_position_fix, std::vector<int32_t>(45, 0));
+}
+
+TEST(TestVector, DecodesToTheDocumentedMesh) {
+  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
+  for (int lod : {0, 1}) {
+    ProgressiveDecodeOptions options;
+    options.lod = lod;
+    ProgressiveDecodeReport report;
+    auto scene = DecodeProgressiveGlb(stored, options, &report);
+    ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+    EXPECT_EQ(report.level_vertices, (std::vector<uint32_t>{15, 18}));
+    const Primitive& p = scene->meshes[0].primitives[0];
+    EXPECT_EQ(p.vertex_count(), lod == 0 ? 15u : 18u);
+    EXPECT_EQ(p.face_count(), lod == 0 ? 26u : 32u);
+    // Grid: origin -1, step 2/255; q dequantizes to -1 + q 2/255 (docs: "Test vector").
+    auto at = [](int q) { return static_cast<float>(-1.0 + q * (2.0 / 255.0)); };
+    auto expect = [&](size_t v, int x, int y, int z) {
+      EXPECT_FLOAT_EQ(p.positions[v][0], at(x)) << "lod " << lod << " vertex " << v;
+      EXPECT_FLOAT_EQ(p.positions[v][1], at(y)) << "lod " << lod << " vertex " << v;
+      EXPECT_FLOAT_EQ(p.positions[v][2], at(z)) << "lod " << lod << " vertex " << v;
+    };
+    expect(0, 128, 128, 0);
+    expect(13, 128, 255, 128);
+    if (lod == 0) {
+      expect(8, 18, 173, 128);  // the midpoint of (0, 128, 128) and (37, 218, 128)
+    } else {
+      expect(8, 0, 128, 128);
+      expect(16, 37, 218, 128);
+      // The split of vertex 8 into 8 and 16 adds (w, n, a) and (n, w, b).
+      const std::vector<uint32_t> expected = {8, 16, 2, 16, 8, 9};
+      EXPECT_TRUE(std::search(p.indices.begin(), p.indices.end(), expected.begin(), expected.end()) != p.indices.end());
+    }
+  }
+}
+
+}  // namespace
+}  // namespace meshstream
