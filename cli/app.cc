@@ -47,6 +47,24 @@ std::string VerbOf(const CLI::App& root) {
   return chosen.empty() ? std::string() : chosen.back()->get_name();
 }
 
+// " (from MESHSTREAM_X)" when the option a parse error names took its value
+// from the environment rather than the command line.
+std::string EnvSource(const CLI::App& verb, const std::string& message, int argc, char** argv) {
+  for (const CLI::Option* opt : verb.get_options()) {
+    const std::string env = opt->get_envname();
+    if (env.empty() || opt->get_lnames().empty() || std::getenv(env.c_str()) == nullptr) continue;
+    const std::string flag = "--" + opt->get_lnames().front();
+    if (message.find(flag) == std::string::npos) continue;
+    bool on_command_line = false;
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a == flag || a.rfind(flag + "=", 0) == 0) on_command_line = true;
+    }
+    if (!on_command_line) return " (from " + env + ")";
+  }
+  return std::string();
+}
+
 }  // namespace
 
 CLI::App* AddVerb(CLI::App& root, const std::string& name, const std::string& summary, const std::string& details) {
@@ -110,6 +128,7 @@ int Main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     std::string verb = VerbOf(root);
     std::string message = e.what();
+    if (!verb.empty()) message += EnvSource(*root.get_subcommand(verb), message, argc, argv);
     if (verb.empty() && argc >= 2 && argv[1][0] != '-') {
       message = std::string("unknown verb '") + argv[1] + "'";
     } else if (verb.empty() && argc < 2) {

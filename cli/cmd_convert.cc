@@ -36,11 +36,11 @@ int RunConvert(ConvertArgs& args) {
   auto scene = ImportFile(args.in);
   if (!scene.ok()) return ReportError("convert", scene.status());
   MakeNamesValidUtf8(scene.value());
+  const Status written = ExportGltfFile(scene.value(), args.out, args.options);
+  if (!written.ok()) return ReportError("convert", written);  // one line: the warnings only on success
   for (const std::string& w : scene->warnings) {
     std::fprintf(stderr, "meshstream convert: warning: %s: %s\n", args.in.c_str(), w.c_str());
   }
-  const Status written = ExportGltfFile(scene.value(), args.out, args.options);
-  if (!written.ok()) return ReportError("convert", written);
   if (!args.quiet) {
     std::printf("%s -> %s (%zu vertices, %zu faces%s)\n", args.in.c_str(), args.out.c_str(), scene->total_vertices(),
                 scene->total_faces(), args.options.draco ? ", Draco" : "");

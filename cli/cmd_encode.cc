@@ -55,7 +55,6 @@ int RunEncode(EncodeArgs& args) {
   auto scene = ImportFile(in);
   if (!scene.ok()) return ReportError("encode", scene.status());
   MakeNamesValidUtf8(scene.value());
-  for (const std::string& w : scene->warnings) std::fprintf(stderr, "meshstream encode: warning: %s: %s\n", in.c_str(), w.c_str());
 
   const auto start = std::chrono::steady_clock::now();
   ProgressiveGlbReport report;
@@ -65,6 +64,8 @@ int RunEncode(EncodeArgs& args) {
   if (!glb.ok()) return ReportError("encode", glb.status().WithContext(in));
   const Status written = WriteFileBytes(out, glb.value());
   if (!written.ok()) return ReportError("encode", written);
+  // The warnings only on success, so that a failure is one line.
+  for (const std::string& w : scene->warnings) std::fprintf(stderr, "meshstream encode: warning: %s: %s\n", in.c_str(), w.c_str());
 
   const PrimitiveStreamReport total = report.Total();
   const uint64_t vertices = total.vertices, faces = total.faces, base_bytes = total.base_bytes,
