@@ -1,9 +1,11 @@
 // meshstream convert IN OUT [--draco] [--qp N] [--qn N] [--qt N] [--qc N] [--cl N]
 #include <cstdio>
+#include <memory>
 
-#include "cli/args.h"
 #include "cli/exit_codes.h"
+#include "cli/json_out.h"
 #include "cli/verbs.h"
+#include "codec/mesh/quantization.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"
 
@@ -11,69 +13,60 @@ namespace meshstream::cli {
 
 namespace {
 
-const char kHelp[] =
-    "usage: meshstream convert IN OUT [--draco] [--qp N] [--qn N] [--qt N] [--qc N] [--cl N]\n"
+const char kDetails[] =
+    "IN is .gltf .glb .obj .ply .off .stl; OUT's extension chooses .gltf or .glb (a .gltf\n"
+    "gets its binary data in a .bin beside it). Materials, textures, cameras and the node\n"
+    "hierarchy of glTF inputs are kept. With --draco, positions land on the grid of\n"
+    "`meshstream compare --qp N`, so the result is same_on_grid.\n"
     "\n"
-    "Converts IN (.gltf .glb .obj .ply .off .stl) to OUT (.gltf or .glb, chosen by OUT's\n"
-    "extension; a .gltf gets its binary data in a .bin beside it). Materials, textures,\n"
-    "cameras and the node hierarchy of glTF inputs are kept.\n"
-    "\n"
-    "Options:\n"
-    "  --draco    compress every primitive with KHR_draco_mesh_compression\n"
-    "  --qp N     position quantization bits with --draco (default 11). Positions land on\n"
-    "             the grid of `meshstream compare --qp N`, so the result is same_on_grid\n"
-    "  --qn N     normal bits (default 8)       --qt N   texture coordinate bits (default 10)\n"
-    "  --qc N     colour bits (default 8)       --cl N   Draco compression level 0-10 (default 7)\n"
-    "  --quiet    print nothing on success\n";
+    "Example:\n"
+    "  meshstream convert --draco --qp 14 bunny.obj bunny.glb";
+
+struct ConvertArgs {
+  std::string in, out;
+  ExportOptions options;
+  bool quiet = false;
+};
+
+int RunConvert(ConvertArgs& args) {
+  const std::string out_ext = FileExtension(args.out);
+  if (out_ext != ".gltf" && out_ext != ".glb") {
+    return ReportError("convert", InvalidArgument(args.out + ": OUT must end in .gltf or .glb"));
+  }
+  auto scene = ImportFile(args.in);
+  if (!scene.ok()) return ReportError("convert", scene.status());
+  MakeNamesValidUtf8(scene.value());
+  const Status written = ExportGltfFile(scene.value(), args.out, args.options);
+  if (!written.ok()) return ReportError("convert", written);  // one line: the warnings only on success
+  for (const std::string& w : scene->warnings) {
+    std::fprintf(stderr, "meshstream convert: warning: %s: %s\n", args.in.c_str(), w.c_str());
+  }
+  if (!args.quiet) {
+    std::printf("%s -> %s (%zu vertices, %zu faces%s)\n", args.in.c_str(), args.out.c_str(), scene->total_vertices(),
+                scene->total_faces(), args.options.draco ? ", Draco" : "");
+  }
+  return kExitOk;
+}
 
 }  // namespace
 
-int RunConvert(const std::vector<std::string>& argv) {
-  auto parsed = ParseArgs(argv, {{"draco", false}, {"qp", true}, {"qn", true}, {"qt", true}, {"qc", true},
-                                 {"cl", true}, {"quiet", false}});
-  if (!parsed.ok()) return ReportError("convert", parsed.status());
-  const ParsedArgs& args = parsed.value();
-  if (args.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return kExitOk;
-  }
-  if (args.positional.size() != 2) return ReportError("convert", InvalidArgument("expected IN and OUT"));
-  const std::string& in = args.positional[0];
-  const std::string& out = args.positional[1];
-  const std::string out_ext = FileExtension(out);
-  if (out_ext != ".gltf" && out_ext != ".glb") {
-    return ReportError("convert", InvalidArgument(out + ": OUT must end in .gltf or .glb"));
-  }
-  ExportOptions options;
-  options.draco = args.Has("draco");
-  DracoEncodeOptions& d = options.draco_options;
-  auto qp = args.Int("qp", d.qp, 1, 30);
-  auto qn = args.Int("qn", d.qn, 1, 30);
-  auto qt = args.Int("qt", d.qt, 1, 30);
-  auto qc = args.Int("qc", d.qc, 1, 30);
-  auto cl = args.Int("cl", d.compression_level, 0, 10);
-  for (const auto* v : {&qp, &qn, &qt, &qc, &cl}) {
-    if (!v->ok()) return ReportError("convert", v->status());
-  }
-  if (!options.draco) {
-    for (const char* flag : {"qp", "qn", "qt", "qc", "cl"}) {
-      if (args.Has(flag)) {
-        return ReportError("convert", InvalidArgument(std::string("--") + flag + " only applies with --draco"));
-      }
-    }
-  }
-  d.qp = *qp; d.qn = *qn; d.qt = *qt; d.qc = *qc; d.compression_level = *cl;
-
-  auto scene = ImportFile(in);
-  if (!scene.ok()) return ReportError("convert", scene.status());
-  for (const std::string& w : scene->warnings) std::fprintf(stderr, "meshstream convert: warning: %s: %s\n", in.c_str(), w.c_str());
-  const Status written = ExportGltfFile(scene.value(), out, options);
-  if (!written.ok()) return ReportError("convert", written);
-  if (!args.Has("quiet")) {
-    std::printf("%s -> %s (%zu vertices, %zu faces%s)\n", in.c_str(), out.c_str(), scene->total_vertices(),
-                scene->total_faces(), options.draco ? ", Draco" : "");
-  }
-  return kExitOk;
+Verb AddConvert(CLI::App& root) {
+  auto args = std::make_shared<ConvertArgs>();
+  CLI::App* cmd = AddVerb(root, "convert", "Converts any supported mesh or scene to .gltf or .glb, optionally Draco-compressed.",
+                          kDetails);
+  cmd->add_option("IN", args->in, "the input file")->required();
+  cmd->add_option("OUT", args->out, "the output file, .gltf or .glb")->required();
+  DracoEncodeOptions& d = args->options.draco_options;
+  CLI::Option* draco = cmd->add_flag("--draco", args->options.draco, "compress every primitive with KHR_draco_mesh_compression");
+  const auto bits = CLI::Range(kMinQuantizationBits, kMaxQuantizationBits);
+  cmd->add_option("--qp", d.qp, "position quantization bits")->check(bits)->needs(draco)->capture_default_str();
+  cmd->add_option("--qn", d.qn, "normal bits")->check(bits)->needs(draco)->capture_default_str();
+  cmd->add_option("--qt", d.qt, "texture coordinate bits")->check(bits)->needs(draco)->capture_default_str();
+  cmd->add_option("--qc", d.qc, "colour bits")->check(bits)->needs(draco)->capture_default_str();
+  cmd->add_option("--cl", d.compression_level, "Draco compression level")->check(CLI::Range(0, 10))->needs(draco)
+      ->capture_default_str();
+  cmd->add_flag("--quiet", args->quiet, "print nothing on success");
+  return {cmd, [args] { return RunConvert(*args); }};
 }
 
 }  // namespace meshstream::cli

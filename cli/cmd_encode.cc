@@ -3,12 +3,14 @@
 
 #include <chrono>
 #include <cstdio>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
-#include "cli/args.h"
+#include "cli/json_out.h"
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
+#include "codec/mesh/quantization.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
 
@@ -16,66 +18,32 @@ namespace meshstream::cli {
 
 namespace {
 
-const char kHelp[] =
-    "usage: meshstream encode IN -o OUT.glb [--qp 11] [--qn 8] [--qt 10] [--qc 8] [--levels N]\n"
-    "                         [--base-ratio F] [--packing split|bundled] [--packet-bytes 1200]\n"
-    "                         [--cl 7] [--json]\n"
+const char kDetails[] =
+    "IN is .gltf .glb .obj .ply .off .stl. The base mesh goes under\n"
+    "KHR_draco_mesh_compression (any glTF viewer shows it), the refinements into the\n"
+    "MESHSTREAM_progressive extension (docs/progressive-format.md). --packing split keeps\n"
+    "structure and geometry in separate datagrams; bundled puts one fragment per split.\n"
     "\n"
-    "Encodes every primitive of IN (.gltf .glb .obj .ply .off .stl) into a progressive .glb:\n"
-    "the base mesh under KHR_draco_mesh_compression (any glTF viewer shows it) and the\n"
-    "refinements in the MESHSTREAM_progressive extension (docs/progressive-format.md).\n"
-    "\n"
-    "Options:\n"
-    "  --qp/--qn/--qt/--qc N   quantization bits of positions, normals, UVs, colours\n"
-    "  --levels N              at most N refinements (default 40)\n"
-    "  --base-ratio F          stop simplifying at F of the vertices (default 0.02)\n"
-    "  --packing P             split (structure and geometry in separate datagrams, the\n"
-    "                          default) or bundled (one fragment per split)\n"
-    "  --packet-bytes N        datagram payload limit, header included (default 1200)\n"
-    "  --cl N                  Draco compression level of the base mesh (default 7)\n"
-    "  --json                  print one JSON object with sizes and timings\n";
+    "Example:\n"
+    "  meshstream encode --json --qp 14 --packet-bytes 1200 bunny.obj -o bunny.glb";
 
-}  // namespace
-
-int RunEncode(const std::vector<std::string>& argv) {
-  auto parsed = ParseArgs(argv, {{"o", true}, {"output", true}, {"qp", true}, {"qn", true}, {"qt", true}, {"qc", true},
-                                 {"levels", true}, {"base-ratio", true}, {"packing", true}, {"packet-bytes", true},
-                                 {"cl", true}, {"json", false}});
-  if (!parsed.ok()) return ReportError("encode", parsed.status());
-  const ParsedArgs& args = parsed.value();
-  if (args.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return kExitOk;
-  }
-  const std::string out = args.String("o", args.String("output", ""));
-  if (args.positional.size() != 1 || out.empty()) return ReportError("encode", InvalidArgument("expected IN and -o OUT.glb"));
-  if (FileExtension(out) != ".glb") return ReportError("encode", InvalidArgument(out + ": the progressive file must be a .glb"));
-
+struct EncodeArgs {
+  std::string in, out;
   ProgressiveGlbOptions options;
-  QuantizationParams& q = options.encode.quantization;
-  auto qp = args.Int("qp", q.qp, 1, 30);
-  auto qn = args.Int("qn", q.qn, 2, 15);
-  auto qt = args.Int("qt", q.qt, 1, 30);
-  auto qc = args.Int("qc", q.qc, 1, 16);
-  auto levels = args.Int("levels", static_cast<int>(options.encode.simplify.max_levels), 0, static_cast<int>(kMaxRefinements));
-  auto ratio = args.Double("base-ratio", options.encode.simplify.base_ratio, 1e-6, 1.0);
-  auto packet = args.Int("packet-bytes", static_cast<int>(options.stream.packet_bytes), kMinPacketBytes, kMaxPacketBytes);
-  auto cl = args.Int("cl", options.draco_compression_level, 0, 10);
-  for (const Status& s : {qp.status(), qn.status(), qt.status(), qc.status(), levels.status(), ratio.status(),
-                          packet.status(), cl.status()}) {
-    if (!s.ok()) return ReportError("encode", s);
-  }
-  const std::string packing = args.String("packing", "split");
-  if (packing != "split" && packing != "bundled") {
-    return ReportError("encode", InvalidArgument("--packing must be split or bundled, got '" + packing + "'"));
-  }
-  q = {*qp, *qn, *qt, *qc};
-  options.encode.simplify.max_levels = static_cast<uint32_t>(*levels);
-  options.encode.simplify.base_ratio = *ratio;
-  options.stream.packet_bytes = static_cast<uint32_t>(*packet);
+  int levels = 0;
+  std::string packing = "split";
+  bool json = false;
+};
+
+int RunEncode(EncodeArgs& args) {
+  const std::string& out = args.out;
+  if (FileExtension(out) != ".glb") return ReportError("encode", InvalidArgument(out + ": the progressive file must be a .glb"));
+  ProgressiveGlbOptions& options = args.options;
+  const QuantizationParams& q = options.encode.quantization;
+  const std::string& packing = args.packing;
+  options.encode.simplify.max_levels = static_cast<uint32_t>(args.levels);
   options.stream.packing = packing == "split" ? Packing::kSplit : Packing::kBundled;
-  options.draco_compression_level = *cl;
-  const bool json_out = args.Has("json");
+  const bool json_out = args.json;
   if (!json_out && isatty(STDERR_FILENO)) {
     options.progress = [](size_t primitive, int batch, size_t left) {
       std::fprintf(stderr, "\rencoding primitive %zu: refinement %d, %zu vertices left   ", primitive, batch, left);
@@ -83,10 +51,10 @@ int RunEncode(const std::vector<std::string>& argv) {
     };
   }
 
-  const std::string& in = args.positional[0];
+  const std::string& in = args.in;
   auto scene = ImportFile(in);
   if (!scene.ok()) return ReportError("encode", scene.status());
-  for (const std::string& w : scene->warnings) std::fprintf(stderr, "meshstream encode: warning: %s: %s\n", in.c_str(), w.c_str());
+  MakeNamesValidUtf8(scene.value());
 
   const auto start = std::chrono::steady_clock::now();
   ProgressiveGlbReport report;
@@ -96,6 +64,8 @@ int RunEncode(const std::vector<std::string>& argv) {
   if (!glb.ok()) return ReportError("encode", glb.status().WithContext(in));
   const Status written = WriteFileBytes(out, glb.value());
   if (!written.ok()) return ReportError("encode", written);
+  // The warnings only on success, so that a failure is one line.
+  for (const std::string& w : scene->warnings) std::fprintf(stderr, "meshstream encode: warning: %s: %s\n", in.c_str(), w.c_str());
 
   const PrimitiveStreamReport total = report.Total();
   const uint64_t vertices = total.vertices, faces = total.faces, base_bytes = total.base_bytes,
@@ -104,8 +74,8 @@ int RunEncode(const std::vector<std::string>& argv) {
   const std::vector<uint32_t>& level_vertices = total.level_vertices;
   const double v = vertices ? static_cast<double>(vertices) : 1.0;
   nlohmann::json j = {
-      {"input", in},
-      {"output", out},
+      {"input", Utf8(in)},
+      {"output", Utf8(out)},
       {"vertices", vertices},
       {"faces", faces},
       {"primitives", report.primitives.size()},
@@ -128,7 +98,7 @@ int RunEncode(const std::vector<std::string>& argv) {
       {"encode_ms", encode_ms},
   };
   if (json_out) {
-    std::puts(j.dump().c_str());
+    PrintJson(j);
   } else {
     std::printf("%s -> %s: %llu vertices in %zu levels (base %u), %llu bytes (%.2f bits/vertex: %.2f reliable, %.2f in %llu datagrams), %.0f ms\n",
                 in.c_str(), out.c_str(), static_cast<unsigned long long>(vertices),
@@ -137,6 +107,45 @@ int RunEncode(const std::vector<std::string>& argv) {
                 8.0 * reliable / v, 8.0 * unreliable / v, static_cast<unsigned long long>(datagrams), encode_ms);
   }
   return kExitOk;
+}
+
+}  // namespace
+
+Verb AddEncode(CLI::App& root) {
+  auto args = std::make_shared<EncodeArgs>();
+  CLI::App* cmd = AddVerb(root, "encode",
+                          "Encodes every primitive of a mesh or scene into a progressive .glb (base mesh + refinements).",
+                          kDetails);
+  ProgressiveGlbOptions& o = args->options;
+  QuantizationParams& q = o.encode.quantization;
+  args->levels = static_cast<int>(o.encode.simplify.max_levels);
+  cmd->add_option("IN", args->in, "the input file")->required();
+  cmd->add_option("-o,--output", args->out, "the progressive file, .glb")->required();
+  // The encoding settings are what an ingesting server is configured with:
+  // each may come from MESHSTREAM_<NAME> (docs/cli.md).
+  const int max_bits = kMaxQuantizationBits;
+  FromEnv(cmd->add_option("--qp", q.qp, "position quantization bits")->check(CLI::Range(kMinQuantizationBits, max_bits)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--qn", q.qn, "normal quantization bits")->check(CLI::Range(2, 15)))->capture_default_str();
+  FromEnv(cmd->add_option("--qt", q.qt, "texture coordinate bits")->check(CLI::Range(kMinQuantizationBits, max_bits)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--qc", q.qc, "colour bits")->check(CLI::Range(kMinQuantizationBits, 16)))->capture_default_str();
+  FromEnv(cmd->add_option("--levels", args->levels, "at most N refinements")
+              ->check(CLI::Range(0, static_cast<int>(kMaxRefinements))))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--base-ratio", o.encode.simplify.base_ratio, "stop simplifying at this fraction of the vertices")
+              ->check(NumberIn(1e-6, 1.0)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--packing", args->packing, "split or bundled")->check(CLI::IsMember({"split", "bundled"})))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--packet-bytes", o.stream.packet_bytes, "datagram payload limit, header included")
+              ->check(CLI::Range(kMinPacketBytes, kMaxPacketBytes)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
+              ->check(CLI::Range(0, 10)))
+      ->capture_default_str();
+  cmd->add_flag("--json", args->json, "print one JSON object with sizes and timings");
+  return {cmd, [args] { return RunEncode(*args); }};
 }
 
 }  // namespace meshstream::cli

@@ -4,7 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cli/args.h"
+#include "cli/json_out.h"
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
 #include "codec/mesh/mesh_health.h"
@@ -14,19 +14,20 @@ namespace meshstream::cli {
 
 namespace {
 
-const char kHelp[] =
-    "usage: meshstream info FILE [--json]\n"
-    "\n"
-    "Prints what FILE (.gltf .glb .obj .ply .off .stl) holds: scenes, nodes, meshes,\n"
-    "primitives, vertex and face counts, attributes, bounding box, and mesh health\n"
-    "(unreferenced vertices, degenerate faces, non-manifold edges).\n"
-    "\n"
+const char kDetails[] =
+    "FILE is .gltf .glb .obj .ply .off .stl. Counts, as printed:\n"
     "  vertices   the positions the file defines (for OBJ before seams are split)\n"
     "  faces      triangles (polygons, strips and fans counted as triangles)\n"
     "  bbox       of all vertices, in each mesh's own coordinates\n"
+    "  health     unreferenced vertices, degenerate faces, non-manifold edges\n"
     "\n"
-    "Options:\n"
-    "  --json     print one JSON object instead of text\n";
+    "Example:\n"
+    "  meshstream info --json bunny.obj";
+
+struct InfoArgs {
+  std::string file;
+  bool json = false;
+};
 
 // Attribute names in a fixed order, as a union over all primitives.
 std::vector<std::string> AttributeUnion(const Scene& scene) {
@@ -53,20 +54,8 @@ size_t JsonArraySize(const std::string& text) {
   return v.is_array() ? v.size() : 0;
 }
 
-}  // namespace
-
-int RunInfo(const std::vector<std::string>& argv) {
-  auto parsed = ParseArgs(argv, {{"json", false}});
-  if (!parsed.ok()) return ReportError("info", parsed.status());
-  const ParsedArgs& args = parsed.value();
-  if (args.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return kExitOk;
-  }
-  if (args.positional.size() != 1) {
-    return ReportError("info", InvalidArgument("expected exactly one FILE"));
-  }
-  const std::string& path = args.positional[0];
+int RunInfo(const InfoArgs& args) {
+  const std::string& path = args.file;
   auto scene_or = ImportFile(path);
   if (!scene_or.ok()) return ReportError("info", scene_or.status());
   const Scene& scene = scene_or.value();
@@ -78,15 +67,15 @@ int RunInfo(const std::vector<std::string>& argv) {
     for (const Primitive& p : mesh.primitives) {
       const MeshHealth h = ComputeHealth(p);
       total.Add(h);
-      prims.push_back({{"vertices", h.vertices}, {"faces", h.faces}, {"attributes", p.AttributeNames()},
+      prims.push_back({{"vertices", h.vertices}, {"faces", h.faces}, {"attributes", Utf8(p.AttributeNames())},
                        {"material", p.material}, {"unreferenced_vertices", h.unreferenced_vertices},
                        {"degenerate_faces", h.degenerate_faces}, {"nonmanifold_edges", h.nonmanifold_edges}});
     }
-    meshes.push_back({{"name", mesh.name}, {"primitives", prims}});
+    meshes.push_back({{"name", Utf8(mesh.name)}, {"primitives", prims}});
   }
   const std::vector<std::string> attributes = AttributeUnion(scene);
   nlohmann::json out = {
-      {"file", path},
+      {"file", Utf8(path)},
       {"scenes", scene.scenes.size()},
       {"nodes", scene.nodes.size()},
       {"meshes", scene.meshes.size()},
@@ -94,7 +83,7 @@ int RunInfo(const std::vector<std::string>& argv) {
       {"vertices", scene.source_vertices},
       {"primitive_vertices", total.vertices},
       {"faces", total.faces},
-      {"attributes", attributes},
+      {"attributes", Utf8(attributes)},
       {"bbox_min", total.bbox.min},
       {"bbox_max", total.bbox.max},
       {"unreferenced_vertices", total.unreferenced_vertices},
@@ -103,11 +92,11 @@ int RunInfo(const std::vector<std::string>& argv) {
       {"materials", JsonArraySize(scene.materials_json)},
       {"textures", JsonArraySize(scene.textures_json)},
       {"images", scene.images.size()},
-      {"warnings", scene.warnings},
+      {"warnings", Utf8(scene.warnings)},
       {"mesh_list", meshes},
   };
-  if (args.Has("json")) {
-    std::puts(out.dump().c_str());
+  if (args.json) {
+    PrintJson(out);
     return kExitOk;
   }
   std::printf("%s\n", path.c_str());
@@ -128,6 +117,16 @@ int RunInfo(const std::vector<std::string>& argv) {
               static_cast<unsigned long long>(total.nonmanifold_edges));
   for (const std::string& w : scene.warnings) std::printf("  warning: %s\n", w.c_str());
   return kExitOk;
+}
+
+}  // namespace
+
+Verb AddInfo(CLI::App& root) {
+  auto args = std::make_shared<InfoArgs>();
+  CLI::App* cmd = AddVerb(root, "info", "Prints what a mesh or scene file holds (scenes, nodes, meshes, counts, attributes, bounding box) and its health.", kDetails);
+  cmd->add_option("FILE", args->file, "the mesh or scene file")->required();
+  cmd->add_flag("--json", args->json, "print one JSON object instead of text");
+  return {cmd, [args] { return RunInfo(*args); }};
 }
 
 }  // namespace meshstream::cli

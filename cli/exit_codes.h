@@ -1,7 +1,9 @@
-// The one place where a Status becomes a process exit code and a message.
-//   0  success
-//   1  bad input: the file is missing, malformed, unsupported or too large
+// The one place where an outcome becomes a process exit code and a message.
+//   0  success (also --help and --version)
+//   1  bad input: the file is missing, malformed, unsupported or too large;
+//      also an internal error (an exception that should not have happened)
 //   2  bad usage: unknown verb or option, missing or out-of-range argument
+// Every failure prints exactly one line on stderr.
 #ifndef MESHSTREAM_CLI_EXIT_CODES_H_
 #define MESHSTREAM_CLI_EXIT_CODES_H_
 
@@ -21,17 +23,28 @@ inline int ExitCodeFor(const Status& status) {
   return status.code() == StatusCode::kInvalidArgument ? kExitUsage : kExitBadInput;
 }
 
-// Prints "meshstream <verb>: <message>" on stderr (one line) and returns the exit code.
-inline int ReportError(const std::string& verb, const Status& status) {
-  std::string message = status.message();
+inline std::string OneLine(std::string message) {
   for (char& c : message) {
     if (c == '\n' || c == '\r') c = ' ';
   }
-  std::fprintf(stderr, "meshstream %s: %s\n", verb.c_str(), message.c_str());
-  if (status.code() == StatusCode::kInvalidArgument) {
-    std::fprintf(stderr, "Try 'meshstream %s --help'.\n", verb.c_str());
-  }
+  while (!message.empty() && message.back() == ' ') message.pop_back();
+  return message;
+}
+
+// Prints "meshstream <verb>: <message>" on stderr (one line) and returns the
+// exit code. `verb` may be empty (a usage error before any verb).
+inline int ReportError(const std::string& verb, const Status& status) {
+  const std::string prefix = verb.empty() ? "meshstream" : "meshstream " + verb;
+  std::string line = OneLine(status.message());
+  if (status.code() == StatusCode::kInvalidArgument) line += " (see '" + prefix + " --help')";
+  std::fprintf(stderr, "%s: %s\n", prefix.c_str(), line.c_str());
   return ExitCodeFor(status);
+}
+
+// The last resort of main: an exception reached the top.
+inline int ReportInternalError(const std::string& what) {
+  std::fprintf(stderr, "meshstream: internal error: %s\n", OneLine(what).c_str());
+  return kExitBadInput;
 }
 
 }  // namespace meshstream::cli

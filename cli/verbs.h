@@ -1,18 +1,19 @@
-// The verbs of the meshstream command. Each takes the arguments after the verb
-// and returns the process exit code (see exit_codes.h).
+// The verbs of the meshstream command. Each Add* declares its subcommand and
+// options on `root` (cli/app.h) and returns what runs when it is chosen: a thin
+// layer from the parsed arguments to the libraries, returning the exit code
+// (exit_codes.h).
 #ifndef MESHSTREAM_CLI_VERBS_H_
 #define MESHSTREAM_CLI_VERBS_H_
 
-#include <string>
-#include <vector>
+#include "cli/app.h"
 
 namespace meshstream::cli {
 
-int RunInfo(const std::vector<std::string>& args);
-int RunConvert(const std::vector<std::string>& args);
-int RunCompare(const std::vector<std::string>& args);
-int RunEncode(const std::vector<std::string>& args);
-int RunDecode(const std::vector<std::string>& args);
+Verb AddInfo(CLI::App& root);
+Verb AddConvert(CLI::App& root);
+Verb AddCompare(CLI::App& root);
+Verb AddEncode(CLI::App& root);
+Verb AddDecode(CLI::App& root);
 
 }  // namespace meshstream::cli
 

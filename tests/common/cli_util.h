@@ -4,7 +4,9 @@
 #define MESHSTREAM_TESTS_COMMON_CLI_UTIL_H_
 
 #include <algorithm>
+#include <atomic>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -39,6 +41,21 @@ inline std::vector<nlohmann::json> ValidateGltf(const std::vector<std::string>& 
   }
   EXPECT_EQ(reports.size(), files.size()) << "validator output: " << r.out << r.err;
   return reports;
+}
+
+// Runs every command (through RunCommand) on a pool of `workers` threads and
+// returns the results in the order of `commands`.
+inline std::vector<CommandResult> RunCommandsInParallel(const std::vector<std::string>& commands, int workers) {
+  std::vector<CommandResult> results(commands.size());
+  std::atomic<size_t> next{0};
+  std::vector<std::thread> pool;
+  for (int w = 0; w < std::max(1, workers); ++w) {
+    pool.emplace_back([&] {
+      for (size_t i = next++; i < commands.size(); i = next++) results[i] = RunCommand(commands[i]);
+    });
+  }
+  for (std::thread& t : pool) t.join();
+  return results;
 }
 
 }  // namespace meshstream::test_util
