@@ -71,6 +71,8 @@ class ByteReader {
     for (int shift = 0; shift < 64; shift += 7) {
       if (remaining() < 1) return Short(what);
       const uint8_t b = data_[pos_++];
+      // The tenth byte holds bit 63 only: more would wrap past 2^64.
+      if (shift == 63 && (b & 0x7E)) return InvalidInput(std::string(what) + ": malformed varint (above 2^64)");
       v |= static_cast<uint64_t>(b & 0x7F) << shift;
       if (!(b & 0x80)) {
         if (v > max) return InvalidInput(std::string(what) + " = " + std::to_string(v) + " exceeds " + std::to_string(max));

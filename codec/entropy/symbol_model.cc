@@ -19,7 +19,7 @@ StaticModel StaticModel::FromCounts(const std::vector<uint64_t>& counts) {
   n = std::max<size_t>(n, 1);
   m.codes_.assign(n, 0);
   uint64_t max = 0;
-  for (size_t s = 0; s < n; ++s) max = std::max(max, counts[s]);
+  for (uint64_t c : counts) max = std::max(max, c);  // counts may be empty (n is then 1)
   if (max == 0) {
     m.codes_[0] = 15;
   } else {
