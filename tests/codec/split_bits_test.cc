@@ -198,12 +198,18 @@ TEST(SplitBits, TruncatedInputFailsCleanly) {
     EXPECT_EQ(got.status().code(), StatusCode::kInvalidInput);
     EXPECT_NE(got.status().message().find("split bits"), std::string::npos) << got.status().message();
   }
-  // Nothing at all, for a mesh with vertices: refused; for none: nothing to decode.
+  // Nothing at all, for a mesh with vertices: refused. For none, the block is
+  // what the encoder writes for no bits (its flush), which decodes to nothing;
+  // an empty block is not what the encoder writes, and a decoder must read a
+  // range-coded block to its exact end (docs/progressive-format.md), so it is
+  // refused too.
   EXPECT_FALSE(DecodeSplitBits(nullptr, 0, h).ok());
   SplitHistory empty;
-  auto none = DecodeSplitBits(nullptr, 0, empty);
-  ASSERT_TRUE(none.ok());
+  const Bits flush = EncodeSplitBits({}, empty);
+  auto none = DecodeSplitBits(flush.data(), flush.size(), empty);
+  ASSERT_TRUE(none.ok()) << none.status().message();
   EXPECT_TRUE(none->empty());
+  EXPECT_FALSE(DecodeSplitBits(nullptr, 0, empty).ok());
 }
 
 }  // namespace
