@@ -563,7 +563,7 @@ Status ReadCarriedPrimitive(const tg::Model& model, const json& raw_prim, const 
                             const std::string& where, Carrier& carrier, CarriedPrimitive& out) {
   if (raw_prim.is_object() && raw_prim.contains("extensions") && raw_prim["extensions"].is_object() &&
       raw_prim["extensions"].contains("KHR_draco_mesh_compression")) {
-    return Unsupported(where + ": a Draco-compressed primitive with skinning attributes or morph targets is not "
+    return Unsupported(where + ": a Draco-compressed points, lines, skinned or morphed primitive is not "
                        "carried yet (see docs/gltf-support.md)");
   }
   const int mode = tp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : tp.mode;

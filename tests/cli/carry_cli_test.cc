@@ -77,7 +77,9 @@ TEST(CarryCli, EncodeAndDecodeAtEveryLodKeepCarriedData) {
     ExpectValid(glb);
     EXPECT_EQ(Summary(glb), expected) << glb;
     const int levels = report.value("levels", 0);
-    if (src.name == "points_lines") EXPECT_GT(levels, 0);
+    if (src.name == "points_lines") {
+      EXPECT_GT(levels, 0);
+    }
     for (int lod = 0; lod <= levels; ++lod) {
       for (const char* ext : {".glb", ".gltf"}) {
         const std::string out = dir.File(src.name + "-lod" + std::to_string(lod) + ext);

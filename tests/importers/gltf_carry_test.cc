@@ -144,7 +144,9 @@ TEST(GltfCarry, ProgressiveEncodeStoresCarriedDataAsPlainGltfAtEveryLevel) {
     EXPECT_EQ(ValidatorErrors(encoded), 0) << encoded;
     size_t levels = 0;
     for (const auto& p : report.primitives) levels = std::max(levels, p.level_vertices.size() - 1);
-    if (src.name == "points_lines") EXPECT_GT(levels, 0u) << "the sphere should have refinements";
+    if (src.name == "points_lines") {
+      EXPECT_GT(levels, 0u) << "the sphere should have refinements";
+    }
     for (int lod = 0; lod <= static_cast<int>(levels); ++lod) {
       ProgressiveDecodeOptions decode;
       decode.lod = lod;
