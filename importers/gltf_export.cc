@@ -77,6 +77,12 @@ class DocumentBuilder {
     return AddAccessor(std::move(accessor));
   }
 
+  // The output accessor of carried accessor `id`, written on first use.
+  int CarriedAccessorIndex(const Scene& scene, int32_t id);
+  json CarriedAttributesJson(const Scene& scene, const CarriedAttributes& attributes);
+  json CarriedPrimitiveJson(const Scene& scene, const CarriedPrimitive& p);
+  std::vector<int> carried_out_;  // carried accessor -> output accessor, -1: not yet
+
   StatusOr<json> PlainPrimitive(const Primitive& p);
   StatusOr<json> DracoPrimitive(const Primitive& p);
   json DracoJson(const DracoEncoded& encoded, const Primitive& decoded);
@@ -193,6 +199,86 @@ json DocumentBuilder::PrecodedJson(const PrecodedPrimitive& pre) {
   return prim;
 }
 
+// Per-component min and max of packed little-endian elements, as the glTF
+// accessor's raw component values (floats as floats, integers as integers).
+void CarriedBounds(const CarriedAccessor& a, json& accessor) {
+  const size_t csize = a.ComponentBytes(), n = a.Components();
+  std::vector<double> lo(n, std::numeric_limits<double>::infinity()), hi(n, -std::numeric_limits<double>::infinity());
+  for (uint64_t i = 0; i < a.count; ++i) {
+    for (size_t c = 0; c < n; ++c) {
+      const uint8_t* p = a.bytes.data() + (i * n + c) * csize;
+      double v = 0;
+      switch (a.component_type) {
+        case 5120: v = static_cast<int8_t>(p[0]); break;
+        case 5121: v = p[0]; break;
+        case 5122: { int16_t x; std::memcpy(&x, p, 2); v = x; break; }
+        case 5123: { uint16_t x; std::memcpy(&x, p, 2); v = x; break; }
+        case 5125: { uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
+        default: { float x; std::memcpy(&x, p, 4); v = x; break; }
+      }
+      lo[c] = std::min(lo[c], v);
+      hi[c] = std::max(hi[c], v);
+    }
+  }
+  json jlo = json::array(), jhi = json::array();
+  for (size_t c = 0; c < n; ++c) {
+    if (a.component_type == 5126) {
+      jlo.push_back(lo[c]);
+      jhi.push_back(hi[c]);
+    } else {
+      jlo.push_back(static_cast<int64_t>(lo[c]));
+      jhi.push_back(static_cast<int64_t>(hi[c]));
+    }
+  }
+  accessor["min"] = jlo;
+  accessor["max"] = jhi;
+}
+
+int DocumentBuilder::CarriedAccessorIndex(const Scene& scene, int32_t id) {
+  if (carried_out_.size() < scene.carried_accessors.size()) carried_out_.resize(scene.carried_accessors.size(), -1);
+  if (carried_out_[id] >= 0) return carried_out_[id];
+  const CarriedAccessor& a = scene.carried_accessors[id];
+  const size_t element = a.ElementBytes();
+  int view;
+  if (a.use == CarriedAccessor::Use::kVertex && element % 4 != 0) {
+    // Vertex attribute elements must start on 4-byte boundaries: pad them.
+    const size_t stride = (element + 3) & ~size_t{3};
+    std::vector<uint8_t> padded(a.count * stride, 0);
+    for (uint64_t i = 0; i < a.count; ++i) std::memcpy(padded.data() + i * stride, a.bytes.data() + i * element, element);
+    padded.resize(padded.size() - (stride - element));  // the last element needs no padding
+    view = AddView(padded.data(), padded.size(), kArrayBuffer);
+    views_[view]["byteStride"] = stride;
+  } else {
+    const int target = a.use == CarriedAccessor::Use::kVertex ? kArrayBuffer
+                       : a.use == CarriedAccessor::Use::kIndex ? kElementArrayBuffer : 0;
+    view = AddView(a.bytes.data(), a.bytes.size(), target);
+  }
+  json accessor = {{"bufferView", view}, {"componentType", a.component_type}, {"count", a.count}, {"type", a.type}};
+  if (a.normalized) accessor["normalized"] = true;
+  if (!a.name.empty()) accessor["name"] = a.name;
+  CarriedBounds(a, accessor);
+  carried_out_[id] = AddAccessor(std::move(accessor));
+  return carried_out_[id];
+}
+
+json DocumentBuilder::CarriedAttributesJson(const Scene& scene, const CarriedAttributes& attributes) {
+  json out = json::object();
+  for (const auto& [name, id] : attributes) out[name] = CarriedAccessorIndex(scene, id);
+  return out;
+}
+
+json DocumentBuilder::CarriedPrimitiveJson(const Scene& scene, const CarriedPrimitive& p) {
+  json prim = {{"attributes", CarriedAttributesJson(scene, p.attributes)}, {"mode", p.mode}};
+  if (p.indices >= 0) prim["indices"] = CarriedAccessorIndex(scene, p.indices);
+  if (!p.targets.empty()) {
+    json targets = json::array();
+    for (const CarriedAttributes& t : p.targets) targets.push_back(CarriedAttributesJson(scene, t));
+    prim["targets"] = std::move(targets);
+  }
+  if (p.material >= 0) prim["material"] = p.material;
+  return prim;
+}
+
 json ParseCarried(const std::string& text) {
   json v = json::parse(text, nullptr, false);
   return v.is_array() ? v : json::array();
@@ -207,7 +293,12 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     const Mesh& mesh = scene.meshes[m];
     json out = {{"primitives", json::array()}};
     if (!mesh.name.empty()) out["name"] = mesh.name;
-    for (size_t k = 0; k < mesh.primitives.size(); ++k) {
+    for (const Mesh::Ref& ref : mesh.Order()) {
+      if (ref.carried) {
+        out["primitives"].push_back(CarriedPrimitiveJson(scene, mesh.carried[ref.index]));
+        continue;
+      }
+      const size_t k = ref.index;
       const Primitive& p = mesh.primitives[k];
       if (p.face_count() == 0) continue;
       const PrecodedPrimitive* pre = nullptr;
@@ -220,8 +311,9 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
       out["primitives"].push_back(std::move(prim).value());
     }
     if (out["primitives"].empty()) {
-      return InvalidInput("meshes[" + std::to_string(m) + "] has no triangle to write");
+      return InvalidInput("meshes[" + std::to_string(m) + "] has no primitive to write");
     }
+    if (!mesh.weights.empty()) out["weights"] = mesh.weights;
     meshes.push_back(std::move(out));
   }
 
@@ -231,6 +323,8 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     if (!node.name.empty()) out["name"] = node.name;
     if (node.mesh >= 0) out["mesh"] = node.mesh;
     if (node.camera >= 0) out["camera"] = node.camera;
+    if (node.skin >= 0) out["skin"] = node.skin;
+    if (!node.weights.empty()) out["weights"] = node.weights;
     if (!node.children.empty()) out["children"] = node.children;
     if (node.has_matrix) {
       out["matrix"] = node.matrix;
@@ -256,6 +350,33 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     scenes.push_back(std::move(out));
   }
 
+  json skins = json::array();
+  for (const Skin& skin : scene.skins) {
+    json out = {{"joints", skin.joints}};
+    if (skin.inverse_bind_matrices >= 0) out["inverseBindMatrices"] = CarriedAccessorIndex(scene, skin.inverse_bind_matrices);
+    if (skin.skeleton >= 0) out["skeleton"] = skin.skeleton;
+    if (!skin.name.empty()) out["name"] = skin.name;
+    skins.push_back(std::move(out));
+  }
+
+  json animations = json::array();
+  for (const Animation& anim : scene.animations) {
+    json samplers = json::array(), channels = json::array();
+    for (const AnimationSampler& s : anim.samplers) {
+      samplers.push_back({{"input", CarriedAccessorIndex(scene, s.input)},
+                          {"output", CarriedAccessorIndex(scene, s.output)},
+                          {"interpolation", s.interpolation}});
+    }
+    for (const AnimationChannel& c : anim.channels) {
+      json target = {{"path", c.path}};
+      if (c.node >= 0) target["node"] = c.node;
+      channels.push_back({{"sampler", c.sampler}, {"target", target}});
+    }
+    json out = {{"samplers", samplers}, {"channels", channels}};
+    if (!anim.name.empty()) out["name"] = anim.name;
+    animations.push_back(std::move(out));
+  }
+
   if (!scenes.empty()) doc["scenes"] = scenes;
   if (scene.default_scene >= 0) doc["scene"] = scene.default_scene;
   if (!nodes.empty()) doc["nodes"] = nodes;
@@ -267,6 +388,8 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     json carried = ParseCarried(text);
     if (!carried.empty()) doc[key] = std::move(carried);
   }
+  if (!skins.empty()) doc["skins"] = skins;
+  if (!animations.empty()) doc["animations"] = animations;
   if (!images.empty()) doc["images"] = images;
   if (!accessors_.empty()) doc["accessors"] = accessors_;
   if (!views_.empty()) doc["bufferViews"] = views_;
@@ -292,7 +415,7 @@ void AppendU32(std::vector<uint8_t>& out, uint32_t v) {
 StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
   DocumentBuilder builder(options);
   MS_ASSIGN_OR_RETURN(json doc, builder.Build(scene));
-  std::string text = doc.dump();
+  std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
   while (text.size() % 4) text.push_back(' ');
   const std::vector<uint8_t>& bin = builder.bin();
   const uint64_t total = 12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size());
@@ -335,7 +458,7 @@ Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportO
     const std::string bin_path = (slash == std::string::npos ? "" : path.substr(0, slash + 1)) + bin_name;
     MS_RETURN_IF_ERROR(WriteFileBytes(bin_path, builder.bin()));
   }
-  const std::string text = doc.value().dump(2);
+  const std::string text = doc.value().dump(2, ' ', false, json::error_handler_t::replace);
   return WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end()));
 }
 

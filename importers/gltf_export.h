@@ -8,10 +8,13 @@
 // the grid of the brief (see draco_codec.h), so `meshstream compare --qp N`
 // of a `--qp N` export against its source says same_on_grid.
 // Materials, textures, samplers, cameras and images are written back as they
-// were imported.
+// were imported; carried primitives, skins and animations too, their
+// accessors re-packed one bufferView each with min/max recomputed
+// (docs/gltf-support.md, "Carried through"). Strings that are not valid
+// UTF-8 are written with U+FFFD, never thrown on.
 //
 // Contract: refuses scenes that fail ValidateScene and meshes with no
-// triangle. Writes the output atomically (temporary file, then rename).
+// primitive left to write. Writes the output atomically (temporary file, then rename).
 #ifndef MESHSTREAM_IMPORTERS_GLTF_EXPORT_H_
 #define MESHSTREAM_IMPORTERS_GLTF_EXPORT_H_
 

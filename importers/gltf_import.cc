@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <optional>
 #include <set>
 
@@ -13,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "codec/core/utf8.h"
 #include "importers/draco_codec.h"
 #include "importers/gltf_limits.h"
 
@@ -253,20 +255,18 @@ StatusOr<const uint8_t*> ViewBytes(const tg::Model& model, int view, uint64_t of
   return data.data() + bv.byteOffset + offset;
 }
 
-// Reads accessor `index` as doubles, `components` per element, applying
-// sparse substitution and normalization.
-StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, int components,
-                                           const std::string& where_in, DecodeBudget& budget) {
+// Reads accessor `index` as its elements tightly packed (stride removed,
+// sparse substitution applied), after checking every bound against the data
+// really loaded. `where_in` names the user of the accessor.
+StatusOr<std::vector<uint8_t>> ReadAccessorBytes(const tg::Model& model, int index, const std::string& where_in,
+                                                 DecodeBudget& budget) {
   const std::string where = where_in + " (accessors[" + std::to_string(index) + "])";
   if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
     return InvalidInput(where_in + ": accessor " + std::to_string(index) + " does not exist");
   }
   const tg::Accessor& a = model.accessors[index];
-  const int type_components = tg::GetNumComponentsInType(static_cast<uint32_t>(a.type));
-  if (type_components != components) {
-    return InvalidInput(where + ": has " + std::to_string(type_components) + " components per element, expected " +
-                        std::to_string(components));
-  }
+  const int components = tg::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+  if (components <= 0) return InvalidInput(where + ": type is not valid");
   const int csize = ComponentBytes(a.componentType);
   if (csize == 0) return InvalidInput(where + ": componentType " + std::to_string(a.componentType) + " is not valid");
   const uint64_t element = uint64_t(csize) * components;
@@ -279,7 +279,7 @@ StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, in
                              " with no bufferView (all zeros) is more elements than the input has bytes");
   }
   MS_RETURN_IF_ERROR(budget.Spend(count * components, where));
-  std::vector<double> out;
+  std::vector<uint8_t> out;
   if (a.bufferView >= 0) {
     if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) {
       return InvalidInput(where + ": bufferView " + std::to_string(a.bufferView) + " does not exist");
@@ -289,14 +289,10 @@ StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, in
     if (stride < element) return InvalidInput(where + ": byteStride is smaller than one element");
     MS_ASSIGN_OR_RETURN(const uint8_t* base,
                         ViewBytes(model, a.bufferView, a.byteOffset, stride * (count - 1) + element, where));
-    out.resize(count * components);
-    for (uint64_t i = 0; i < count; ++i) {
-      for (int c = 0; c < components; ++c) {
-        out[i * components + c] = ReadComponent(base + i * stride + uint64_t(c) * csize, a.componentType, a.normalized);
-      }
-    }
+    out.resize(count * element);
+    for (uint64_t i = 0; i < count; ++i) std::memcpy(out.data() + i * element, base + i * stride, element);
   } else {
-    out.assign(count * components, 0.0);  // glTF: no bufferView means zeros
+    out.assign(count * element, 0);  // glTF: no bufferView means zeros
   }
   if (a.sparse.isSparse) {
     const uint64_t n = static_cast<uint64_t>(a.sparse.count);
@@ -323,11 +319,30 @@ StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, in
                             " is out of range or not increasing");
       }
       previous = target;
-      for (int c = 0; c < components; ++c) {
-        out[target * components + c] = ReadComponent(vbase + i * element + uint64_t(c) * csize, a.componentType, a.normalized);
-      }
+      std::memcpy(out.data() + target * element, vbase + i * element, element);
     }
   }
+  return out;
+}
+
+// Reads accessor `index` as doubles, `components` per element, applying
+// sparse substitution and normalization.
+StatusOr<std::vector<double>> ReadAccessor(const tg::Model& model, int index, int components,
+                                           const std::string& where_in, DecodeBudget& budget) {
+  const std::string where = where_in + " (accessors[" + std::to_string(index) + "])";
+  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
+    return InvalidInput(where_in + ": accessor " + std::to_string(index) + " does not exist");
+  }
+  const tg::Accessor& a = model.accessors[index];
+  const int type_components = tg::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+  if (type_components != components) {
+    return InvalidInput(where + ": has " + std::to_string(type_components) + " components per element, expected " +
+                        std::to_string(components));
+  }
+  MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadAccessorBytes(model, index, where_in, budget));
+  const int csize = ComponentBytes(a.componentType);
+  std::vector<double> out(bytes.size() / csize);
+  for (size_t i = 0; i < out.size(); ++i) out[i] = ReadComponent(bytes.data() + i * csize, a.componentType, a.normalized);
   return out;
 }
 
@@ -385,12 +400,10 @@ StatusOr<std::vector<uint32_t>> Triangulate(const std::vector<uint32_t>& v, int 
       }
       return out;
     case TINYGLTF_MODE_POINTS:
-      return Unsupported(where + ": mode POINTS is not supported (meshstream streams triangle meshes)");
     case TINYGLTF_MODE_LINE:
     case TINYGLTF_MODE_LINE_LOOP:
-    case TINYGLTF_MODE_LINE_STRIP:
-      return Unsupported(where + ": line primitives (mode " + std::to_string(mode) +
-                         ") are not supported (meshstream streams triangle meshes)");
+    case TINYGLTF_MODE_LINE_STRIP:  // carried (IsCarriedPrimitive), never triangulated
+      return Internal(where + ": mode " + std::to_string(mode) + " is not a triangle mode");
     default:
       return InvalidInput(where + ": mode " + std::to_string(mode) + " is not a glTF primitive mode");
   }
@@ -453,18 +466,237 @@ Status ReadDracoPrimitive(const tg::Model& model, const json& ext, const tg::Pri
   return budget.Spend(values, where);
 }
 
-Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Primitive& tp,
-                     const std::string& where, Scene& scene, DecodeBudget& budget, Primitive& out) {
-  if (!tp.targets.empty()) {
-    return Unsupported(where + " has morph targets; meshstream does not stream morph targets "
-                       "(see docs/gltf-support.md)");
+// Carried data: accessors copied as packed bytes, once per (source accessor,
+// use), so that shared accessors stay shared.
+class Carrier {
+ public:
+  Carrier(const tg::Model& model, Scene& scene, DecodeBudget& budget) : model_(model), scene_(scene), budget_(budget) {}
+
+  // The carried copy of accessor `index`; `where` names its user.
+  StatusOr<int32_t> Accessor(int index, CarriedAccessor::Use use, const std::string& where) {
+    const auto key = std::make_pair(index, static_cast<int>(use));
+    if (auto it = cache_.find(key); it != cache_.end()) return it->second;
+    MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadAccessorBytes(model_, index, where, budget_));
+    const tg::Accessor& a = model_.accessors[index];
+    const std::string at = where + " (accessors[" + std::to_string(index) + "])";
+    CarriedAccessor out;
+    out.component_type = a.componentType;
+    out.type = TypeName(a.type);
+    out.normalized = a.normalized;
+    out.count = a.count;
+    out.name = a.name;
+    out.use = use;
+    out.bytes = std::move(bytes);
+    if (out.type.rfind("MAT", 0) == 0 && out.ComponentBytes() < 4) {
+      return Unsupported(at + ": " + out.type + " with 8- or 16-bit components is not carried");
+    }
+    if (out.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      for (size_t i = 0; i + 4 <= out.bytes.size(); i += 4) {
+        float f;
+        std::memcpy(&f, out.bytes.data() + i, 4);
+        if (!std::isfinite(f)) {
+          return InvalidInput(at + ": element " + std::to_string(i / out.ElementBytes()) + " is not a finite number");
+        }
+      }
+    }
+    scene_.carried_accessors.push_back(std::move(out));
+    const int32_t id = static_cast<int32_t>(scene_.carried_accessors.size()) - 1;
+    cache_[key] = id;
+    return id;
   }
+
+  const CarriedAccessor& Get(int32_t id) const { return scene_.carried_accessors[id]; }
+
+ private:
+  static std::string TypeName(int type) {
+    switch (type) {
+      case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+      case TINYGLTF_TYPE_VEC2: return "VEC2";
+      case TINYGLTF_TYPE_VEC3: return "VEC3";
+      case TINYGLTF_TYPE_VEC4: return "VEC4";
+      case TINYGLTF_TYPE_MAT2: return "MAT2";
+      case TINYGLTF_TYPE_MAT3: return "MAT3";
+      case TINYGLTF_TYPE_MAT4: return "MAT4";
+      default: return "";
+    }
+  }
+
+  const tg::Model& model_;
+  Scene& scene_;
+  DecodeBudget& budget_;
+  std::map<std::pair<int, int>, int32_t> cache_;
+};
+
+// A primitive meshstream carries instead of refining: points and lines, and
+// triangles with skinning attributes or morph targets.
+bool IsCarriedPrimitive(const tg::Primitive& tp) {
+  const int mode = tp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : tp.mode;
+  if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+      mode == TINYGLTF_MODE_LINE_STRIP) {
+    return true;
+  }
+  if (!tp.targets.empty()) return true;
   for (const auto& [name, index] : tp.attributes) {
     (void)index;
-    if (name.rfind("JOINTS_", 0) == 0 || name.rfind("WEIGHTS_", 0) == 0) {
-      return Unsupported(where + " has skinning attribute " + name +
-                         "; meshstream does not stream skinned meshes (see docs/gltf-support.md)");
+    if (name.rfind("JOINTS_", 0) == 0 || name.rfind("WEIGHTS_", 0) == 0) return true;
+  }
+  return false;
+}
+
+// Carries `attributes`, each with `count` elements (0: take the first one's).
+Status CarryAttributes(const std::map<std::string, int>& attributes, const std::string& where, Carrier& carrier,
+                       uint64_t& count, CarriedAttributes& out) {
+  for (const auto& [name, index] : attributes) {
+    MS_ASSIGN_OR_RETURN(int32_t id, carrier.Accessor(index, CarriedAccessor::Use::kVertex, where + "." + name));
+    const uint64_t n = carrier.Get(id).count;
+    if (count == 0) count = n;
+    if (n != count) {
+      return InvalidInput(where + ": " + name + " has " + std::to_string(n) + " elements but POSITION has " +
+                          std::to_string(count));
     }
+    out.emplace_back(name, id);
+  }
+  return Status::Ok();
+}
+
+Status ReadCarriedPrimitive(const tg::Model& model, const json& raw_prim, const tg::Primitive& tp,
+                            const std::string& where, Carrier& carrier, CarriedPrimitive& out) {
+  if (raw_prim.is_object() && raw_prim.contains("extensions") && raw_prim["extensions"].is_object() &&
+      raw_prim["extensions"].contains("KHR_draco_mesh_compression")) {
+    return Unsupported(where + ": a Draco-compressed points, lines, skinned or morphed primitive is not "
+                       "carried yet (see docs/gltf-support.md)");
+  }
+  const int mode = tp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : tp.mode;
+  if (mode > TINYGLTF_MODE_TRIANGLE_FAN) {
+    return InvalidInput(where + ": mode " + std::to_string(mode) + " is not a glTF primitive mode");
+  }
+  out.mode = mode;
+  auto position = tp.attributes.find("POSITION");
+  if (position == tp.attributes.end()) return InvalidInput(where + " has no POSITION attribute");
+  // POSITION first, so that every count is compared with it.
+  uint64_t count = 0;
+  MS_RETURN_IF_ERROR(CarryAttributes({*position}, where, carrier, count, out.attributes));
+  std::map<std::string, int> others = tp.attributes;
+  others.erase("POSITION");
+  MS_RETURN_IF_ERROR(CarryAttributes(others, where, carrier, count, out.attributes));
+  if (tp.indices >= 0) {
+    const int ct = static_cast<size_t>(tp.indices) < model.accessors.size() ? model.accessors[tp.indices].componentType : 0;
+    if (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+      return InvalidInput(where + ".indices: accessor " + std::to_string(tp.indices) +
+                          " does not exist or is not unsigned byte, short or int");
+    }
+    MS_ASSIGN_OR_RETURN(out.indices, carrier.Accessor(tp.indices, CarriedAccessor::Use::kIndex, where + ".indices"));
+    const CarriedAccessor& ia = carrier.Get(out.indices);
+    if (ia.type != "SCALAR") return InvalidInput(where + ".indices: accessor type must be SCALAR");
+    const size_t csize = ia.ComponentBytes();
+    for (uint64_t i = 0; i < ia.count; ++i) {
+      const double v = ReadComponent(ia.bytes.data() + i * csize, ia.component_type, false);
+      if (v >= static_cast<double>(count)) {
+        return InvalidInput(where + ": index " + std::to_string(static_cast<uint64_t>(v)) + " at position " +
+                            std::to_string(i) + " is out of range (" + std::to_string(count) + " vertices)");
+      }
+    }
+  }
+  for (size_t t = 0; t < tp.targets.size(); ++t) {
+    CarriedAttributes target;
+    uint64_t target_count = count;
+    MS_RETURN_IF_ERROR(CarryAttributes(tp.targets[t], where + ".targets[" + std::to_string(t) + "]", carrier,
+                                       target_count, target));
+    out.targets.push_back(std::move(target));
+  }
+  if (tp.material >= 0) {
+    if (static_cast<size_t>(tp.material) >= model.materials.size()) {
+      return InvalidInput(where + ".material " + std::to_string(tp.material) + " does not exist");
+    }
+    out.material = tp.material;
+  }
+  return Status::Ok();
+}
+
+// Skins and animations, after the nodes: every index they hold is checked.
+Status ReadSkinsAndAnimations(const tg::Model& model, Carrier& carrier, Scene& scene) {
+  const int node_count = static_cast<int>(model.nodes.size());
+  for (size_t s = 0; s < model.skins.size(); ++s) {
+    const tg::Skin& ts = model.skins[s];
+    const std::string where = "skins[" + std::to_string(s) + "]";
+    Skin skin;
+    skin.name = ts.name;
+    if (ts.joints.empty()) return InvalidInput(where + ".joints is empty");
+    for (size_t j = 0; j < ts.joints.size(); ++j) {
+      if (ts.joints[j] < 0 || ts.joints[j] >= node_count) {
+        return InvalidInput(where + ".joints[" + std::to_string(j) + "] names node " + std::to_string(ts.joints[j]) +
+                            ", which does not exist");
+      }
+    }
+    skin.joints.assign(ts.joints.begin(), ts.joints.end());
+    if (ts.skeleton < -1 || ts.skeleton >= node_count) {
+      return InvalidInput(where + ".skeleton names node " + std::to_string(ts.skeleton) + ", which does not exist");
+    }
+    skin.skeleton = ts.skeleton;
+    if (ts.inverseBindMatrices >= 0) {
+      MS_ASSIGN_OR_RETURN(skin.inverse_bind_matrices,
+                          carrier.Accessor(ts.inverseBindMatrices, CarriedAccessor::Use::kOther, where + ".inverseBindMatrices"));
+      const CarriedAccessor& a = carrier.Get(skin.inverse_bind_matrices);
+      if (a.type != "MAT4" || a.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT || a.count < ts.joints.size()) {
+        return InvalidInput(where + ".inverseBindMatrices must be float MAT4 with at least one matrix per joint");
+      }
+    }
+    scene.skins.push_back(std::move(skin));
+  }
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const int skin = model.nodes[i].skin;
+    if (skin < -1 || skin >= static_cast<int>(scene.skins.size())) {
+      return InvalidInput("nodes[" + std::to_string(i) + "].skin " + std::to_string(skin) + " does not exist");
+    }
+    scene.nodes[i].skin = skin;
+    scene.nodes[i].weights = model.nodes[i].weights;
+  }
+  for (size_t n = 0; n < model.animations.size(); ++n) {
+    const tg::Animation& ta = model.animations[n];
+    const std::string where = "animations[" + std::to_string(n) + "]";
+    Animation anim;
+    anim.name = ta.name;
+    for (size_t s = 0; s < ta.samplers.size(); ++s) {
+      const std::string ws = where + ".samplers[" + std::to_string(s) + "]";
+      AnimationSampler sampler;
+      MS_ASSIGN_OR_RETURN(sampler.input, carrier.Accessor(ta.samplers[s].input, CarriedAccessor::Use::kOther, ws + ".input"));
+      MS_ASSIGN_OR_RETURN(sampler.output, carrier.Accessor(ta.samplers[s].output, CarriedAccessor::Use::kOther, ws + ".output"));
+      const CarriedAccessor& input = carrier.Get(sampler.input);
+      if (input.type != "SCALAR" || input.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT) {
+        return InvalidInput(ws + ".input must be a float SCALAR accessor");
+      }
+      const std::string& interpolation = ta.samplers[s].interpolation;
+      if (interpolation != "LINEAR" && interpolation != "STEP" && interpolation != "CUBICSPLINE") {
+        return InvalidInput(ws + ".interpolation is not LINEAR, STEP or CUBICSPLINE");
+      }
+      sampler.interpolation = interpolation;
+      anim.samplers.push_back(std::move(sampler));
+    }
+    for (size_t c = 0; c < ta.channels.size(); ++c) {
+      const tg::AnimationChannel& tc = ta.channels[c];
+      const std::string wc = where + ".channels[" + std::to_string(c) + "]";
+      if (tc.sampler < 0 || static_cast<size_t>(tc.sampler) >= anim.samplers.size()) {
+        return InvalidInput(wc + ".sampler " + std::to_string(tc.sampler) + " does not exist");
+      }
+      if (tc.target_node < 0 || tc.target_node >= node_count) {
+        return InvalidInput(wc + ".target.node " + std::to_string(tc.target_node) + " does not exist");
+      }
+      if (tc.target_path != "translation" && tc.target_path != "rotation" && tc.target_path != "scale" &&
+          tc.target_path != "weights") {
+        return InvalidInput(wc + ".target.path \"" + tc.target_path + "\" is not translation, rotation, scale or weights");
+      }
+      anim.channels.push_back({tc.sampler, tc.target_node, tc.target_path});
+    }
+    scene.animations.push_back(std::move(anim));
+  }
+  return Status::Ok();
+}
+
+Status ReadPrimitive(const tg::Model& model, const json& raw_prim, const tg::Primitive& tp,
+                     const std::string& where, Scene& scene, DecodeBudget& budget, Primitive& out) {
+  for (const auto& [name, index] : tp.attributes) {
+    (void)index;
     if (!IsKeptAttribute(name)) {
       scene.warnings.push_back(where + ": attribute " + name + " dropped (meshstream keeps POSITION, NORMAL, TEXCOORD_n, COLOR_0)");
     }
@@ -657,14 +889,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
                         const ImportOptions& options, uint64_t input_bytes) {
   Scene scene;
   DecodeBudget budget(input_bytes);
-  if (!model.skins.empty()) {
-    return Unsupported("the asset has " + std::to_string(model.skins.size()) +
-                       " skin(s); meshstream does not stream skinned meshes (see docs/gltf-support.md)");
-  }
-  if (!model.animations.empty()) {
-    return Unsupported("the asset has " + std::to_string(model.animations.size()) +
-                       " animation(s); meshstream does not carry animations (see docs/gltf-support.md)");
-  }
+  Carrier carrier(model, scene, budget);
   for (const std::string& ext : model.extensionsRequired) {
     if (!IsConsumedExtension(ext) && !PassThroughExtensions().count(ext)) {
       return Unsupported("required extension " + ext + " is not supported");
@@ -682,11 +907,19 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
   for (size_t m = 0; m < model.meshes.size(); ++m) {
     Mesh mesh;
     mesh.name = model.meshes[m].name;
+    mesh.weights = model.meshes[m].weights;
     for (size_t k = 0; k < model.meshes[m].primitives.size(); ++k) {
       const json* raw_prim = &empty_array;
       if (raw_meshes.is_array() && m < raw_meshes.size() && raw_meshes[m].contains("primitives") &&
           raw_meshes[m]["primitives"].is_array() && k < raw_meshes[m]["primitives"].size()) {
         raw_prim = &raw_meshes[m]["primitives"][k];
+      }
+      if (IsCarriedPrimitive(model.meshes[m].primitives[k])) {
+        CarriedPrimitive carried;
+        carried.slot = static_cast<uint32_t>(k);
+        MS_RETURN_IF_ERROR(ReadCarriedPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), carrier, carried));
+        mesh.carried.push_back(std::move(carried));
+        continue;
       }
       Primitive prim;
       MS_RETURN_IF_ERROR(ReadPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), scene, budget, prim));
@@ -738,6 +971,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
     scene.nodes.push_back(std::move(node));
   }
   MS_RETURN_IF_ERROR(CheckNodeForest(scene));
+  MS_RETURN_IF_ERROR(ReadSkinsAndAnimations(model, carrier, scene));
   for (const tg::Scene& ts : model.scenes) {
     SceneRoot root;
     root.name = ts.name;
@@ -879,6 +1113,17 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   }
   if (json_size == 0) return fail(InvalidInput("empty file"));
   if (Status s = CheckJsonDepth(json_data, json_size); !s.ok()) return fail(s);
+  // nlohmann (and so tinygltf) refuses the whole document when a string holds
+  // invalid UTF-8. Bytes outside strings that are not ASCII make the JSON
+  // invalid anyway, so repairing the whole text only touches strings: names,
+  // extras, URIs. The repaired text is what both parsers see.
+  std::string repaired;
+  const bool bad_utf8 = !IsValidUtf8(std::string_view(reinterpret_cast<const char*>(json_data), json_size));
+  if (bad_utf8) {
+    repaired = ToValidUtf8(std::string_view(reinterpret_cast<const char*>(json_data), json_size));
+    json_data = reinterpret_cast<const uint8_t*>(repaired.data());
+    json_size = repaired.size();
+  }
   json doc = json::parse(json_data, json_data + json_size, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) return fail(InvalidInput("the glTF JSON does not parse"));
   if (Status s = ValidateGltfDocument(doc, is_glb, glb.bin_size); !s.ok()) return fail(s);
@@ -889,8 +1134,9 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   // given a copy of the document without them.
   std::vector<uint8_t> rewritten;
   const std::vector<uint8_t>* parser_bytes = &bytes;
-  if (auto stripped = WithoutDracoIndices(doc); stripped.has_value()) {
-    std::string text = stripped->dump();
+  std::optional<json> stripped = WithoutDracoIndices(doc);
+  if (stripped.has_value() || bad_utf8) {
+    std::string text = stripped.has_value() ? stripped->dump() : repaired;
     if (is_glb) {
       rewritten = RebuildGlb(text, glb);
     } else {
@@ -938,6 +1184,11 @@ StatusOr<Scene> ImportGltfBytes(const std::vector<uint8_t>& bytes, const std::st
   try {
     auto scene = Convert(model, doc, base_dir, options, bytes.size());
     if (!scene.ok()) return fail(scene.status());
+    if (bad_utf8) {
+      scene->warnings.insert(scene->warnings.begin(),
+                             "the glTF JSON holds strings (names, extras) that are not valid UTF-8; "
+                             "ill-formed bytes were replaced by U+FFFD");
+    }
     if (document) *document = std::move(doc);
     return scene;
   } catch (const std::exception& e) {

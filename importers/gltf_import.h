@@ -1,14 +1,18 @@
 // glTF 2.0 (.gltf with external or data: buffers and images, .glb) into a Scene.
 //
-// Supported: triangle lists, strips and fans (strips and fans become lists);
+// Refined: triangle lists, strips and fans (strips and fans become lists);
 // KHR_draco_mesh_compression (decoded with the Draco library) and
-// KHR_mesh_quantization; sparse accessors; materials, textures, samplers,
-// cameras and images carried through untouched.
-// Refused with an error naming the feature: points and lines, skins, morph
-// targets, animations, extensions in extensionsRequired that we do not know.
+// KHR_mesh_quantization; sparse accessors. Carried through unchanged:
+// materials, textures, samplers, cameras and images; points and lines
+// primitives and triangles with skinning attributes or morph targets (as raw
+// accessors, Scene::carried_accessors); skins; animations; morph weights.
+// Refused with an error naming the feature: extensions in extensionsRequired
+// that we do not know, Draco-compressed skinned or morphed primitives.
 // Dropped with a warning in Scene::warnings: attributes other than POSITION,
-// NORMAL, TEXCOORD_n and COLOR_0 (TANGENT, _CUSTOM, ...) and optional
-// extensions we do not know. docs/gltf-support.md explains why.
+// NORMAL, TEXCOORD_n and COLOR_0 (TANGENT, _CUSTOM, ...) of refined
+// primitives and optional extensions we do not know. JSON text that is not
+// valid UTF-8 is repaired (ToValidUtf8) with a warning. docs/gltf-support.md
+// explains why.
 //
 // Contract: safe on untrusted input (see import.h). URIs may only name files
 // inside the asset's own folder: no scheme but data:, no absolute path, no "..".

@@ -138,9 +138,14 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
   ProgressiveDecodeReport local;
   uint32_t stream_id = 0;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    for (size_t k = 0; k < scene.meshes[m].primitives.size(); ++k) {
-      const json& prim = doc.at("meshes").at(m).at("primitives").at(k);
-      const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]";
+    // Carried primitives sit at their file position; refined ones fill the
+    // rest, so the file's j-th primitive is Order()[j].
+    const std::vector<Mesh::Ref> order = scene.meshes[m].Order();
+    for (size_t j = 0; j < order.size(); ++j) {
+      if (order[j].carried) continue;
+      const size_t k = order[j].index;
+      const json& prim = doc.at("meshes").at(m).at("primitives").at(j);
+      const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(j) + "]";
       if (!prim.contains("extensions") || !prim["extensions"].is_object() ||
           !prim["extensions"].contains(kProgressiveExtension)) {
         continue;

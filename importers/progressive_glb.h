@@ -5,8 +5,10 @@
 // base level (docs/design.md, "glTF container"; docs/progressive-format.md).
 //
 // Contract: DecodeProgressiveGlb is safe on untrusted bytes (the glTF import
-// checks of gltf_import.h, then the stream reader's). Every primitive of every
-// mesh is encoded; scene structure, materials and textures come back.
+// checks of gltf_import.h, then the stream reader's). Every refined (triangle)
+// primitive of every mesh is encoded; carried primitives (points, lines,
+// skinned or morphed triangles; mesh.h), skins, animations, scene structure,
+// materials and textures are stored as plain glTF and come back unchanged.
 #ifndef MESHSTREAM_IMPORTERS_PROGRESSIVE_GLB_H_
 #define MESHSTREAM_IMPORTERS_PROGRESSIVE_GLB_H_
 

@@ -1,7 +1,8 @@
 // The mesh model of meshstream: indexed triangle primitives, meshes of several
 // primitives, a node hierarchy, and the parts of a glTF asset that meshstream
 // carries through without interpreting them (materials, textures, samplers,
-// cameras, images).
+// cameras, images; points and lines primitives, skinned or morphed primitives,
+// skins and animations, whose data is held as raw accessors).
 //
 // Contract: plain value types, no I/O. A Primitive is valid when every
 // attribute array is empty or has exactly `positions.size()` entries, the index
@@ -17,6 +18,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "codec/core/status.h"
@@ -40,9 +42,56 @@ struct Primitive {
   std::vector<std::string> AttributeNames() const;
 };
 
+// The data of one glTF accessor, carried unchanged: its elements tightly
+// packed (count * ElementBytes(), little-endian, sparse substitution already
+// applied). Writers recompute min/max from the bytes.
+struct CarriedAccessor {
+  enum class Use : uint8_t { kOther, kVertex, kIndex };  // decides bufferView target and alignment
+  int32_t component_type = 5126;  // glTF componentType code (5120..5126)
+  std::string type = "SCALAR";    // glTF accessor type: SCALAR, VEC2..4, MAT2..4
+  bool normalized = false;
+  uint64_t count = 0;
+  std::string name;
+  Use use = Use::kOther;
+  std::vector<uint8_t> bytes;
+
+  // Bytes per component (0 for an unknown code), components per element (0
+  // for an unknown type), bytes per element.
+  size_t ComponentBytes() const;
+  size_t Components() const;
+  size_t ElementBytes() const { return ComponentBytes() * Components(); }
+};
+
+// A (name, carried accessor index) pair of a carried primitive or target.
+using CarriedAttributes = std::vector<std::pair<std::string, int32_t>>;
+
+// A primitive meshstream does not refine (points, lines, or triangles with
+// skinning attributes or morph targets), carried with all its attributes.
+// `slot` is its position among the mesh's primitives in the file: carried
+// primitives are stored by ascending slot and Mesh::Order() interleaves them
+// with the refined ones.
+struct CarriedPrimitive {
+  uint32_t slot = 0;
+  int32_t mode = 4;                        // glTF primitive mode 0..6
+  CarriedAttributes attributes;            // indices into Scene::carried_accessors
+  int32_t indices = -1;                    // carried accessor, -1: none
+  std::vector<CarriedAttributes> targets;  // morph targets
+  int32_t material = -1;
+};
+
 struct Mesh {
   std::string name;
-  std::vector<Primitive> primitives;
+  std::vector<Primitive> primitives;       // refined: triangle lists
+  std::vector<CarriedPrimitive> carried;   // carried through, ascending slots
+  std::vector<double> weights;             // default morph target weights
+
+  struct Ref {
+    bool carried;
+    size_t index;  // into primitives or carried
+  };
+  // Every primitive in file order: carried ones at their slot (or after the
+  // last refined one when the slot is beyond), refined ones filling the gaps.
+  std::vector<Ref> Order() const;
 };
 
 struct Node {
@@ -55,6 +104,33 @@ struct Node {
   Vec3d translation = {0, 0, 0};
   std::array<double, 4> rotation = {0, 0, 0, 1};  // quaternion x, y, z, w
   Vec3d scale = {1, 1, 1};
+  int32_t skin = -1;            // index into Scene::skins
+  std::vector<double> weights;  // morph weights of its mesh's targets, or empty
+};
+
+struct Skin {
+  std::string name;
+  int32_t inverse_bind_matrices = -1;  // carried accessor (MAT4), -1: identity
+  int32_t skeleton = -1;               // node, -1: none
+  std::vector<int32_t> joints;         // nodes
+};
+
+struct AnimationSampler {
+  int32_t input = -1;   // carried accessor: keyframe times
+  int32_t output = -1;  // carried accessor: values
+  std::string interpolation = "LINEAR";
+};
+
+struct AnimationChannel {
+  int32_t sampler = -1;
+  int32_t node = -1;    // target node, -1: none (an extension would name it)
+  std::string path;     // translation, rotation, scale, weights
+};
+
+struct Animation {
+  std::string name;
+  std::vector<AnimationSampler> samplers;
+  std::vector<AnimationChannel> channels;
 };
 
 struct SceneRoot {
@@ -82,6 +158,10 @@ struct Scene {
   std::string samplers_json = "[]";
   std::string cameras_json = "[]";
   std::vector<Image> images;
+  // Carried through with their raw data; objects refer to them by index.
+  std::vector<CarriedAccessor> carried_accessors;
+  std::vector<Skin> skins;
+  std::vector<Animation> animations;
   // Extensions used by the carried-through JSON (e.g. KHR_materials_*).
   std::vector<std::string> extensions_used;
 
@@ -95,8 +175,9 @@ struct Scene {
   size_t total_primitives() const;
 };
 
-// Checks the invariants listed at the top of this file; the message names the
-// offending array and index.
+// Checks the invariants listed at the top of this file, and for carried data:
+// accessor byte sizes, every index (accessor, node, skin, sampler) in range,
+// carried slots ascending. The message names the offending array and index.
 Status ValidatePrimitive(const Primitive& primitive);
 Status ValidateScene(const Scene& scene);
 

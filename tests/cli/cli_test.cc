@@ -172,15 +172,7 @@ TEST(CliConvert, GltfAssetsValidatePlainAndDraco) {
   }
 }
 
-TEST(CliConvert, RefusedAssetsSayWhy) {
-  TempDir dir;
-  for (const char* rel : {"gltf/simple_skin/simple_skin.gltf", "gltf/AnimatedMorphCube/AnimatedMorphCube.gltf"}) {
-    const auto r = RunCommand(Cli() + " convert " + Quote(ModelPath(rel)) + " " + Quote(dir.File("x.glb")));
-    EXPECT_EQ(r.exit_code, 1) << rel;
-    EXPECT_NE(r.err.find("not"), std::string::npos) << r.err;
-    EXPECT_FALSE(std::filesystem::exists(dir.File("x.glb")));
-  }
-}
+// Skinned and morphed assets are carried now: tests/cli/carry_cli_test.cc.
 
 }  // namespace
 }  // namespace meshstream

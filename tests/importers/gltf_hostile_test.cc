@@ -640,34 +640,44 @@ TEST(GltfHostileJson, WrongTypesAreRefused) {
 // ---------------------------------------------------------------------------
 // Features meshstream refuses, clearly.
 
-TEST(GltfHostileFeatures, PointsAndLinesAreUnsupported) {
+// Points, lines, skinning attributes and morph targets are carried, not
+// refused (tests/importers/gltf_carry_test.cc); a mode that is not glTF's is.
+TEST(GltfHostileFeatures, PointsAndLinesAreCarried) {
   Doc d = Doc::Triangle();
-  d.doc()["meshes"][0]["primitives"][0]["mode"] = 0;
-  EXPECT_TRUE(Fails(Import(d.Gltf()), StatusCode::kUnsupported, {"meshes[0].primitives[0]", "POINTS"}));
-  for (int mode : {1, 2, 3}) {
+  for (int mode : {0, 1, 2, 3}) {
     d.doc()["meshes"][0]["primitives"][0]["mode"] = mode;
-    EXPECT_TRUE(Fails(Import(d.Gltf()), StatusCode::kUnsupported, {"meshes[0].primitives[0]", "line"}));
+    auto scene = Import(d.Gltf());
+    ASSERT_TRUE(scene.ok()) << mode << ": " << scene.status().ToString();
+    ASSERT_EQ(scene->meshes[0].carried.size(), 1u);
+    EXPECT_EQ(scene->meshes[0].carried[0].mode, mode);
+    EXPECT_TRUE(scene->meshes[0].primitives.empty());
   }
   d.doc()["meshes"][0]["primitives"][0]["mode"] = 9;
   EXPECT_FALSE(Import(d.Gltf()).ok());
 }
 
-TEST(GltfHostileFeatures, SkinningAttributesAreUnsupported) {
+TEST(GltfHostileFeatures, SkinningAttributesAreCarried) {
   for (const char* name : {"JOINTS_0", "WEIGHTS_0"}) {
     Doc d = Doc::Triangle();
     const int view = d.View(std::vector<uint8_t>(12, 0));
     const int acc = d.Accessor({{"bufferView", view}, {"componentType", kUnsignedByte}, {"count", 3},
                                 {"type", "VEC4"}, {"normalized", std::string(name) == "WEIGHTS_0"}});
     d.doc()["meshes"][0]["primitives"][0]["attributes"][name] = acc;
-    EXPECT_TRUE(Fails(Import(d.Gltf()), StatusCode::kUnsupported, {"meshes[0].primitives[0]", name}));
+    auto scene = Import(d.Gltf());
+    ASSERT_TRUE(scene.ok()) << name << ": " << scene.status().ToString();
+    ASSERT_EQ(scene->meshes[0].carried.size(), 1u);
+    EXPECT_EQ(scene->meshes[0].carried[0].attributes.size(), 2u);
   }
 }
 
-TEST(GltfHostileFeatures, MorphTargetsAreUnsupported) {
+TEST(GltfHostileFeatures, MorphTargetsAreCarried) {
   Doc d = Doc::Triangle();
   const int delta = d.Positions({0, 0, 1, 0, 0, 1, 0, 0, 1});
   d.doc()["meshes"][0]["primitives"][0]["targets"] = json::array({{{"POSITION", delta}}});
-  EXPECT_TRUE(Fails(Import(d.Gltf()), StatusCode::kUnsupported, {"meshes[0].primitives[0]", "morph targets"}));
+  auto scene = Import(d.Gltf());
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  ASSERT_EQ(scene->meshes[0].carried.size(), 1u);
+  EXPECT_EQ(scene->meshes[0].carried[0].targets.size(), 1u);
 }
 
 TEST(GltfHostileFeatures, UnknownRequiredExtensionIsUnsupported) {

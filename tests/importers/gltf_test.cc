@@ -53,15 +53,13 @@ TEST(GltfImport, DracoCopyOfTheEngineHasTheSameGeometry) {
   EXPECT_GT(d->hausdorff_rel, 0.0);  // it really is a different (quantized) encoding
 }
 
-TEST(GltfImport, RefusesSkinsAndMorphTargetsByName) {
-  auto skin = ImportFile(ModelPath("gltf/simple_skin/simple_skin.gltf"));
-  ASSERT_FALSE(skin.ok());
-  EXPECT_EQ(skin.status().code(), StatusCode::kUnsupported);
-  EXPECT_NE(skin.status().message().find("skin"), std::string::npos) << skin.status().message();
-  EXPECT_NE(skin.status().message().find("simple_skin.gltf"), std::string::npos);
-  auto morph = ImportFile(ModelPath("gltf/AnimatedMorphCube/AnimatedMorphCube.gltf"));
-  ASSERT_FALSE(morph.ok());
-  EXPECT_EQ(morph.status().code(), StatusCode::kUnsupported);
+// Skins and morph targets are carried (tests/importers/gltf_carry_test.cc).
+TEST(GltfImport, CarriesSkinsAndMorphTargets) {
+  const Scene skin = MustImport(ModelPath("gltf/simple_skin/simple_skin.gltf"));
+  EXPECT_EQ(skin.skins.size(), 1u);
+  const Scene morph = MustImport(ModelPath("gltf/AnimatedMorphCube/AnimatedMorphCube.gltf"));
+  ASSERT_EQ(morph.meshes.size(), 1u);
+  EXPECT_EQ(morph.meshes[0].carried.size(), 1u);
 }
 
 TEST(GltfExport, PlainRoundTripIsExact) {
