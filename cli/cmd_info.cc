@@ -61,6 +61,7 @@ int RunInfo(const InfoArgs& args) {
   const Scene& scene = scene_or.value();
 
   MeshHealth total;
+  size_t carried_primitives = 0;  // kept as they are, not refined (docs/gltf-support.md)
   nlohmann::json meshes = nlohmann::json::array();
   for (const Mesh& mesh : scene.meshes) {
     nlohmann::json prims = nlohmann::json::array();
@@ -71,7 +72,12 @@ int RunInfo(const InfoArgs& args) {
                        {"material", p.material}, {"unreferenced_vertices", h.unreferenced_vertices},
                        {"degenerate_faces", h.degenerate_faces}, {"nonmanifold_edges", h.nonmanifold_edges}});
     }
-    meshes.push_back({{"name", Utf8(mesh.name)}, {"primitives", prims}});
+    nlohmann::json carried = nlohmann::json::array();
+    for (const CarriedPrimitive& c : mesh.carried) {
+      carried.push_back({{"mode", c.mode}, {"targets", c.targets.size()}, {"material", c.material}});
+    }
+    carried_primitives += mesh.carried.size();
+    meshes.push_back({{"name", Utf8(mesh.name)}, {"primitives", prims}, {"carried_primitives", carried}});
   }
   const std::vector<std::string> attributes = AttributeUnion(scene);
   nlohmann::json out = {
@@ -80,6 +86,9 @@ int RunInfo(const InfoArgs& args) {
       {"nodes", scene.nodes.size()},
       {"meshes", scene.meshes.size()},
       {"primitives", scene.total_primitives()},
+      {"carried_primitives", carried_primitives},
+      {"skins", scene.skins.size()},
+      {"animations", scene.animations.size()},
       {"vertices", scene.source_vertices},
       {"primitive_vertices", total.vertices},
       {"faces", total.faces},
@@ -103,6 +112,10 @@ int RunInfo(const InfoArgs& args) {
   std::printf("  scenes %zu, nodes %zu, meshes %zu, primitives %zu, materials %zu, images %zu\n",
               scene.scenes.size(), scene.nodes.size(), scene.meshes.size(), scene.total_primitives(),
               JsonArraySize(scene.materials_json), scene.images.size());
+  if (carried_primitives + scene.skins.size() + scene.animations.size() > 0) {
+    std::printf("  carried as they are: primitives %zu, skins %zu, animations %zu\n", carried_primitives,
+                scene.skins.size(), scene.animations.size());
+  }
   std::printf("  vertices %llu (in primitives: %llu), faces %llu\n",
               static_cast<unsigned long long>(scene.source_vertices),
               static_cast<unsigned long long>(total.vertices), static_cast<unsigned long long>(total.faces));

@@ -100,5 +100,22 @@ TEST(CarryCli, EncodeAndDecodeAtEveryLodKeepCarriedData) {
   }
 }
 
+TEST(CarryCli, InfoCountsWhatIsCarried) {
+  TempDir dir;
+  const json cube = test_util::RunCliJson(
+      "info --json " + Quote(ModelPath("gltf/AnimatedMorphCube/AnimatedMorphCube.gltf")));
+  EXPECT_EQ(cube.value("primitives", -1), 0) << cube.dump();  // its one triangle primitive is morphed
+  EXPECT_EQ(cube.value("carried_primitives", -1), 1) << cube.dump();
+  EXPECT_GE(cube.value("animations", -1), 1) << cube.dump();
+  const json skin = test_util::RunCliJson("info --json " + Quote(ModelPath("gltf/simple_skin/simple_skin.gltf")));
+  EXPECT_EQ(skin.value("skins", -1), 1) << skin.dump();
+  EXPECT_EQ(skin.value("carried_primitives", -1), 1) << skin.dump();
+  const json lines = test_util::RunCliJson("info --json " + Quote(test_util::WritePointsLinesScene(dir.path())));
+  EXPECT_EQ(lines.value("primitives", -1), 1) << lines.dump();  // the sphere
+  EXPECT_EQ(lines.value("carried_primitives", -1), 3) << lines.dump();
+  const auto text = RunCommand(Cli() + " info " + Quote(ModelPath("gltf/simple_skin/simple_skin.gltf")));
+  EXPECT_NE(text.out.find("carried as they are: primitives 1, skins 1"), std::string::npos) << text.out;
+}
+
 }  // namespace
 }  // namespace meshstream
