@@ -11,32 +11,14 @@
 #include "codec/progressive/midpoint.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
+#include "tests/common/sphere.h"
 
 namespace meshstream {
 namespace {
 
-// A UV sphere with poles, `rings` x `segments`, closed and manifold.
+// The rippled sphere of tests/common/sphere.h, with its positions as normals.
 Primitive Sphere(int rings, int segments) {
-  Primitive p;
-  p.positions.push_back({0, 0, 1});
-  for (int r = 1; r < rings; ++r) {
-    const double theta = M_PI * r / rings;
-    for (int s = 0; s < segments; ++s) {
-      const double phi = 2 * M_PI * s / segments;
-      p.positions.push_back({float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)),
-                             float(std::cos(theta) + 0.1 * std::sin(3 * phi))});
-    }
-  }
-  p.positions.push_back({0, 0, -1});
-  const uint32_t south = static_cast<uint32_t>(p.positions.size() - 1);
-  auto id = [&](int r, int s) { return static_cast<uint32_t>(1 + (r - 1) * segments + (s % segments)); };
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {0, id(1, s), id(1, s + 1)});
-  for (int r = 1; r < rings - 1; ++r)
-    for (int s = 0; s < segments; ++s) {
-      p.indices.insert(p.indices.end(), {id(r, s), id(r + 1, s), id(r + 1, s + 1)});
-      p.indices.insert(p.indices.end(), {id(r, s), id(r + 1, s + 1), id(r, s + 1)});
-    }
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {south, id(rings - 1, s + 1), id(rings - 1, s)});
+  Primitive p = test_util::RippledSphere(rings, segments);
   p.normals = p.positions;
   return p;
 }

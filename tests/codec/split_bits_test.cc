@@ -11,37 +11,14 @@
 #include <gtest/gtest.h>
 
 #include "codec/progressive/encoder.h"
+#include "tests/common/sphere.h"
 
 namespace meshstream {
 namespace {
 
 using Bits = std::vector<uint8_t>;
 
-// A closed UV sphere (as in progressive_test.cc), big enough for several
-// refinements.
-Primitive Sphere(int rings, int segments) {
-  Primitive p;
-  p.positions.push_back({0, 0, 1});
-  for (int r = 1; r < rings; ++r) {
-    const double theta = M_PI * r / rings;
-    for (int s = 0; s < segments; ++s) {
-      const double phi = 2 * M_PI * s / segments;
-      p.positions.push_back({float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)),
-                             float(std::cos(theta) + 0.1 * std::sin(3 * phi))});
-    }
-  }
-  p.positions.push_back({0, 0, -1});
-  const uint32_t south = static_cast<uint32_t>(p.positions.size() - 1);
-  auto id = [&](int r, int s) { return static_cast<uint32_t>(1 + (r - 1) * segments + (s % segments)); };
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {0, id(1, s), id(1, s + 1)});
-  for (int r = 1; r < rings - 1; ++r)
-    for (int s = 0; s < segments; ++s) {
-      p.indices.insert(p.indices.end(), {id(r, s), id(r + 1, s), id(r + 1, s + 1)});
-      p.indices.insert(p.indices.end(), {id(r, s), id(r + 1, s + 1), id(r, s + 1)});
-    }
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {south, id(rings - 1, s + 1), id(rings - 1, s)});
-  return p;
-}
+Primitive Sphere(int rings, int segments) { return test_util::RippledSphere(rings, segments); }
 
 // The split bits of every refinement of a real encode, coarse to fine.
 std::vector<Bits> RealSplitBits(uint32_t* base_vertices) {
