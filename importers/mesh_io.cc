@@ -62,25 +62,17 @@ std::string NameFromPath(const std::string& path, std::vector<std::string>* warn
   return name;
 }
 
-// The format's importer for `ext`, with every exception turned into a Status.
+// The format's importer for `ext` (one of .obj .ply .off .stl).
 StatusOr<Primitive> ImportByFormat(const std::string& path, const std::string& ext, std::string_view data,
                                    uint64_t* source_vertices, bool* have_source_vertices,
                                    std::vector<std::string>* warnings) {
-  try {
-    if (ext == ".obj") {
-      *have_source_vertices = true;
-      return mesh_io::ImportObj(path, data, source_vertices, warnings);
-    }
-    if (ext == ".ply") return mesh_io::ImportPly(path, data, warnings);
-    if (ext == ".off") return mesh_io::ImportOff(path, data, warnings);
-    return mesh_io::ImportStl(path, data, warnings);
-  } catch (const std::bad_alloc&) {
-    return ResourceExhausted(path + ": out of memory");
-  } catch (const std::exception& e) {
-    return Internal(path + ": " + e.what());
-  } catch (...) {
-    return Internal(path + ": unknown exception");
+  if (ext == ".obj") {
+    *have_source_vertices = true;
+    return mesh_io::ImportObj(path, data, source_vertices, warnings);
   }
+  if (ext == ".ply") return mesh_io::ImportPly(path, data, warnings);
+  if (ext == ".off") return mesh_io::ImportOff(path, data, warnings);
+  return mesh_io::ImportStl(path, data, warnings);
 }
 
 }  // namespace
@@ -90,11 +82,13 @@ StatusOr<Scene> ImportMeshFile(const std::string& path, const ImportOptions& opt
   if (ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl") {
     return Unsupported(path + ": not an OBJ, PLY, OFF or STL file (extension '" + ext + "')");
   }
-  MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadFileBytes(path, options.max_input_bytes));
-  if (bytes.empty()) return Bad(path, "empty file");
-  const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-
+  // The importer boundary: everything below may allocate (the file itself up
+  // to max_input_bytes) or call a library that throws; bad_alloc and every
+  // other exception become a Status naming the file.
   try {
+    MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadFileBytes(path, options.max_input_bytes));
+    if (bytes.empty()) return Bad(path, "empty file");
+    const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
     std::vector<std::string> warnings;
     uint64_t source_vertices = 0;
     bool have_source_vertices = false;
@@ -113,9 +107,11 @@ StatusOr<Scene> ImportMeshFile(const std::string& path, const ImportOptions& opt
     if (!valid.ok()) return valid.WithContext(path);
     return scene;
   } catch (const std::bad_alloc&) {
-    return ResourceExhausted(path + ": out of memory while assembling the scene");
+    return ResourceExhausted(path + ": out of memory");
   } catch (const std::exception& e) {
     return Internal(path + ": " + e.what());
+  } catch (...) {
+    return Internal(path + ": unknown exception");
   }
 }
 
