@@ -1,26 +1,26 @@
-// OBJ, PLY (ascii and binary), OFF and STL through OpenMesh's readers and
-// tinyobjloader, into a one-primitive Scene.
+// OBJ, PLY (ascii and binary), OFF and STL files into a one-primitive Scene:
+// the mesh-file half of ImportFile (import.h).
 //
-// Contract: safe on untrusted input. Header counts are checked against the
-// file's size before the file is handed to a library (a PLY header claiming
-// 4e8 vertices in 300 bytes is refused, not allocated), and every exception a
-// library throws is caught here. Faces with more than three corners are
-// fanned into triangles; per-corner attributes (OBJ's vt/vn indices) are
-// unified by splitting vertices, and Scene::source_vertices keeps the file's
-// own position count.
-// PLY triangle strips (a last element 'tristrips' with a 'vertex_indices'
-// list, -1 restarting a strip) are read by this file, not OpenMesh, and
-// become triangles as in glTF's TRIANGLE_STRIP, after the PLY's faces.
-// A file with vertices but no faces is refused ("no triangles", InvalidInput).
-// Kept: every vertex (unreferenced ones too) in file order; faces in file
-// order. Normals are scaled to unit length (with a warning); colours are
-// converted from sRGB to linear; texture coordinates are kept as in the file
-// (no V flip). STL corners with equal positions are merged by OpenMesh, and
-// triangles that become degenerate are dropped with a warning.
-// Errors name the file, and the face (0-based) when a face is at fault.
-// OBJ is read by tinyobjloader (no material file is ever opened); PLY, OFF and
-// STL by OpenMesh's readers into our own BaseImporter, under one mutex because
-// OpenMesh's readers are shared singletons.
+// ImportMeshFile reads the file (refusing files above
+// ImportOptions::max_input_bytes before reading, and empty files), hands its
+// bytes to the format's importer by extension, case-insensitive
+// (obj_import.h, ply_import.h, off_import.h, stl_import.h: each states what
+// it keeps and refuses), then assembles the scene: one mesh of one primitive
+// on one node, named after the file's stem made valid UTF-8 (a warning says
+// when bytes were replaced), normals scaled to unit length (one warning says
+// how many were not), Scene::source_vertices the file's own position count
+// (for OBJ, before seams were split) and the importers' warnings, all valid
+// UTF-8. A file with vertices but no faces is refused ("no triangles",
+// InvalidInput).
+//
+// Contract: errors start with the file's path and name the line, record or
+// face (0-based) at fault. Safe on untrusted input: header counts are checked
+// against the bytes present before a library sees the file (a PLY header
+// claiming 4e8 vertices in 300 bytes is refused, not allocated), and no
+// exception escapes (OpenMesh, tinyobjloader and allocation failures become
+// a Status; bad_alloc is ResourceExhausted).
+// Thread safety: OpenMesh's readers (PLY, OFF, STL) run under one process-wide
+// mutex (openmesh_reader.h); OBJ imports run fully in parallel.
 #ifndef MESHSTREAM_IMPORTERS_MESH_IO_H_
 #define MESHSTREAM_IMPORTERS_MESH_IO_H_
 

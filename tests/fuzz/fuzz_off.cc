@@ -1,0 +1,14 @@
+// libFuzzer target for the OFF (our token check, then OpenMesh by file name) importer
+// (docs/design.md, "Hostile input" gets a clear error, never a crash).
+// Each input is written to a temporary .off file and read through ImportFile;
+// see mesh_file_fuzz.h for what is checked. Built as a real libFuzzer binary
+// with MESHSTREAM_FUZZ=ON (make fuzz), and always as fuzz_off_replay,
+// which replays corpus/off/ under ctest.
+#include <cstddef>
+#include <cstdint>
+
+#include "tests/fuzz/mesh_file_fuzz.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  return meshstream_fuzz::RunMeshFile("fuzz_off", ".off", data, size);
+}
