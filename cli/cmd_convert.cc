@@ -65,7 +65,7 @@ Verb AddConvert(CLI::App& root) {
   cmd->add_option("--qc", d.qc, "colour bits")->check(bits)->needs(draco)->capture_default_str();
   cmd->add_option("--cl", d.compression_level, "Draco compression level")->check(CLI::Range(0, 10))->needs(draco)
       ->capture_default_str();
-  cmd->add_flag("--quiet", args->quiet, "print nothing on success");
+  cmd->add_flag("--quiet", args->quiet, "no summary line on success (warnings still go to stderr)");
   return {cmd, [args] { return RunConvert(*args); }};
 }
 
