@@ -8,6 +8,7 @@
 #include "draco/compression/decode.h"
 #include "draco/compression/expert_encode.h"
 #include "draco/mesh/mesh.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 
@@ -66,7 +67,9 @@ Status ReadAttribute(const draco::Mesh& mesh, int unique_id, const char* name,
 
 }  // namespace
 
-StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncodeOptions& options) {
+namespace {
+
+StatusOr<DracoEncoded> EncodeDracoPrimitiveUnguarded(const Primitive& p, const DracoEncodeOptions& options) {
   MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qp, "--qp"));
   MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qn, "--qn"));
   MS_RETURN_IF_ERROR(CheckQuantizationBits(options.qt, "--qt"));
@@ -156,7 +159,15 @@ StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncod
   return result;
 }
 
-StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size, const DracoAttributeIds& ids) {
+}  // namespace
+
+StatusOr<DracoEncoded> EncodeDracoPrimitive(const Primitive& p, const DracoEncodeOptions& options) {
+  return CatchExceptions(std::string("Draco encode"), [&] { return EncodeDracoPrimitiveUnguarded(p, options); });
+}
+
+namespace {
+
+StatusOr<Primitive> DecodeDracoPrimitiveUnguarded(const uint8_t* data, size_t size, const DracoAttributeIds& ids) {
   if (size == 0) return InvalidInput("empty Draco buffer");
   if (ids.position < 0) return InvalidInput("the Draco extension names no POSITION attribute");
   draco::DecoderBuffer buffer;
@@ -188,6 +199,12 @@ StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size, const
     }
   }
   return p;
+}
+
+}  // namespace
+
+StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size, const DracoAttributeIds& ids) {
+  return CatchExceptions(std::string("Draco decode"), [&] { return DecodeDracoPrimitiveUnguarded(data, size, ids); });
 }
 
 }  // namespace meshstream

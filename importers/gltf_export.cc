@@ -10,6 +10,7 @@
 #include "codec/mesh/quantization.h"
 #include "importers/gltf_limits.h"
 #include "importers/import.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 
@@ -412,7 +413,9 @@ void AppendU32(std::vector<uint8_t>& out, uint32_t v) {
 
 }  // namespace
 
-StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
+namespace {
+
+StatusOr<std::vector<uint8_t>> ExportGlbUnguarded(const Scene& scene, const ExportOptions& options) {
   DocumentBuilder builder(options);
   MS_ASSIGN_OR_RETURN(json doc, builder.Build(scene));
   std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
@@ -436,7 +439,15 @@ StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions
   return out;
 }
 
-Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportOptions& options) {
+}  // namespace
+
+StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
+  return CatchExceptions(std::string("glTF export"), [&] { return ExportGlbUnguarded(scene, options); });
+}
+
+namespace {
+
+Status ExportGltfFileUnguarded(const Scene& scene, const std::string& path, const ExportOptions& options) {
   const std::string ext = FileExtension(path);
   if (ext == ".glb") {
     auto bytes = ExportGlb(scene, options);
@@ -460,6 +471,12 @@ Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportO
   }
   const std::string text = doc.value().dump(2, ' ', false, json::error_handler_t::replace);
   return WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end()));
+}
+
+}  // namespace
+
+Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportOptions& options) {
+  return CatchExceptions(path, [&] { return ExportGltfFileUnguarded(scene, path, options); });
 }
 
 }  // namespace meshstream

@@ -17,6 +17,7 @@
 #include "importers/ply_import.h"
 #include "importers/stl_import.h"
 #include "importers/text_scan.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 namespace {
@@ -85,7 +86,7 @@ StatusOr<Scene> ImportMeshFile(const std::string& path, const ImportOptions& opt
   // The importer boundary: everything below may allocate (the file itself up
   // to max_input_bytes) or call a library that throws; bad_alloc and every
   // other exception become a Status naming the file.
-  try {
+  return CatchExceptions(path, [&]() -> StatusOr<Scene> {
     MS_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, ReadFileBytes(path, options.max_input_bytes));
     if (bytes.empty()) return Bad(path, "empty file");
     const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
@@ -106,13 +107,7 @@ StatusOr<Scene> ImportMeshFile(const std::string& path, const ImportOptions& opt
     const Status valid = ValidateScene(scene);
     if (!valid.ok()) return valid.WithContext(path);
     return scene;
-  } catch (const std::bad_alloc&) {
-    return ResourceExhausted(path + ": out of memory");
-  } catch (const std::exception& e) {
-    return Internal(path + ": " + e.what());
-  } catch (...) {
-    return Internal(path + ": unknown exception");
-  }
+  });
 }
 
 }  // namespace meshstream

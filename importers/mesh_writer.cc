@@ -5,6 +5,7 @@
 
 #include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 
@@ -82,11 +83,19 @@ std::vector<uint8_t> Ply(const Primitive& p) {
 
 }  // namespace
 
-Status WriteMeshFile(const Scene& scene, const std::string& path) {
+namespace {
+
+Status WriteMeshFileUnguarded(const Scene& scene, const std::string& path) {
   const std::string ext = FileExtension(path);
   if (ext != ".obj" && ext != ".ply") return InvalidArgument(path + ": output must end in .obj or .ply");
   const Primitive flat = Flatten(scene);
   return WriteFileBytes(path, ext == ".obj" ? Obj(flat) : Ply(flat));
+}
+
+}  // namespace
+
+Status WriteMeshFile(const Scene& scene, const std::string& path) {
+  return CatchExceptions(path, [&] { return WriteMeshFileUnguarded(scene, path); });
 }
 
 }  // namespace meshstream

@@ -8,6 +8,7 @@
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
 #include "importers/gltf_limits.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 
@@ -61,7 +62,9 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
   return t;
 }
 
-StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
+namespace {
+
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report) {
   MS_RETURN_IF_ERROR(ValidateScene(scene));
   std::vector<std::vector<PrecodedPrimitive>> precoded(scene.meshes.size());
@@ -119,6 +122,13 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
   local.file_bytes = glb.size();
   if (report) *report = std::move(local);
   return glb;
+}
+
+}  // namespace
+
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
+                                                    ProgressiveGlbReport* report) {
+  return CatchExceptions(std::string("progressive encode"), [&] { return EncodeProgressiveGlbUnguarded(scene, options, report); });
 }
 
 namespace {
