@@ -14,6 +14,7 @@
 #include "importers/srgb.h"
 #include "importers/text_scan.h"
 #include "importers/two_part_streambuf.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 namespace mesh_io {
@@ -90,22 +91,15 @@ StatusOr<ObjData> LoadWithTinyObj(const std::string& path, std::string_view data
   ObjData obj;
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
-  bool ok = false;
-  try {
+  MS_ASSIGN_OR_RETURN(const bool ok, CatchExceptions(path + ": tinyobjloader", [&]() -> StatusOr<bool> {
     TwoPartStreamBuf buffer(std::string_view(), data);
     std::istream in(&buffer);
     // No MaterialReader: mtllib names no file we open; faces keep corners
     // (triangulate = false) so that we fan them ourselves; vertex colours
     // only when every vertex has one.
-    ok = tinyobj::LoadObj(&obj.attrib, &obj.shapes, &materials, &warn, &err, &in, nullptr,
-                          /*triangulate=*/false, /*default_vcols_fallback=*/false);
-  } catch (const std::bad_alloc&) {
-    return ResourceExhausted(path + ": out of memory while reading the OBJ data");
-  } catch (const std::exception& e) {
-    return Internal(path + ": tinyobjloader failed: " + e.what());
-  } catch (...) {
-    return Internal(path + ": tinyobjloader failed with an unknown exception");
-  }
+    return tinyobj::LoadObj(&obj.attrib, &obj.shapes, &materials, &warn, &err, &in, nullptr,
+                            /*triangulate=*/false, /*default_vcols_fallback=*/false);
+  }));
   if (!ok || !err.empty()) {
     std::string message = ToValidUtf8(err.substr(0, err.find('\n')));
     if (message.empty()) message = "tinyobjloader could not read the file";
