@@ -25,6 +25,14 @@ constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 
 // Builds the document and the single binary buffer.
+// Sets object["extras"] from carried JSON text ("" when there were none;
+// text that does not parse, which only a hand-built Scene could hold, is left out).
+void SetExtras(json& object, const std::string& extras_json) {
+  if (extras_json.empty()) return;
+  json extras = json::parse(extras_json, nullptr, false);
+  if (!extras.is_discarded()) object["extras"] = std::move(extras);
+}
+
 class DocumentBuilder {
  public:
   explicit DocumentBuilder(const ExportOptions& options) : options_(options) {}
@@ -277,6 +285,7 @@ json DocumentBuilder::CarriedPrimitiveJson(const Scene& scene, const CarriedPrim
     prim["targets"] = std::move(targets);
   }
   if (p.material >= 0) prim["material"] = p.material;
+  SetExtras(prim, p.extras_json);
   return prim;
 }
 
@@ -315,6 +324,7 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
       return InvalidInput("meshes[" + std::to_string(m) + "] has no primitive to write");
     }
     if (!mesh.weights.empty()) out["weights"] = mesh.weights;
+    SetExtras(out, mesh.extras_json);
     meshes.push_back(std::move(out));
   }
 
@@ -334,6 +344,8 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
       if (node.rotation != std::array<double, 4>{0, 0, 0, 1}) out["rotation"] = node.rotation;
       if (node.scale != Vec3d{1, 1, 1}) out["scale"] = node.scale;
     }
+    if (node.light >= 0) out["extensions"]["KHR_lights_punctual"] = {{"light", node.light}};
+    SetExtras(out, node.extras_json);
     nodes.push_back(std::move(out));
   }
 
@@ -348,6 +360,7 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
   for (const SceneRoot& root : scene.scenes) {
     json out = {{"nodes", root.nodes}};
     if (!root.name.empty()) out["name"] = root.name;
+    SetExtras(out, root.extras_json);
     scenes.push_back(std::move(out));
   }
 
@@ -357,6 +370,7 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     if (skin.inverse_bind_matrices >= 0) out["inverseBindMatrices"] = CarriedAccessorIndex(scene, skin.inverse_bind_matrices);
     if (skin.skeleton >= 0) out["skeleton"] = skin.skeleton;
     if (!skin.name.empty()) out["name"] = skin.name;
+    SetExtras(out, skin.extras_json);
     skins.push_back(std::move(out));
   }
 
@@ -375,6 +389,7 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
     }
     json out = {{"samplers", samplers}, {"channels", channels}};
     if (!anim.name.empty()) out["name"] = anim.name;
+    SetExtras(out, anim.extras_json);
     animations.push_back(std::move(out));
   }
 
@@ -399,6 +414,11 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
 
   std::vector<std::string> used = scene.extensions_used;
   used.insert(used.end(), extra_extensions_.begin(), extra_extensions_.end());
+  const json lights = ParseCarried(scene.lights_json);
+  if (!lights.empty()) {
+    doc["extensions"]["KHR_lights_punctual"] = {{"lights", lights}};
+    used.push_back("KHR_lights_punctual");
+  }
   if (options_.draco || used_precoded_) {
     used.push_back("KHR_draco_mesh_compression");
     doc["extensionsRequired"] = json::array({"KHR_draco_mesh_compression"});

@@ -53,7 +53,65 @@ const std::set<std::string>& PassThroughExtensions() {
 
 // Extensions meshstream itself understands when they are required.
 bool IsConsumedExtension(const std::string& name) {
-  return name == "KHR_draco_mesh_compression" || name == "KHR_mesh_quantization";
+  return name == "KHR_draco_mesh_compression" || name == "KHR_mesh_quantization" || name == "KHR_lights_punctual";
+}
+
+// The "extras" of doc[array][index] as JSON text, "" when it has none.
+// Extras belong to the application (Blender's custom properties, three.js's
+// targetNames): carried as they are, never interpreted.
+std::string ExtrasOf(const json& doc, const char* array, size_t index) {
+  auto a = doc.find(array);
+  if (a == doc.end() || !a->is_array() || index >= a->size()) return "";
+  const json& object = (*a)[index];
+  if (!object.is_object()) return "";
+  auto extras = object.find("extras");
+  return extras == object.end() ? "" : extras->dump();
+}
+
+// KHR_lights_punctual: the root's lights (checked: objects with a valid
+// type) and each node's light index.
+Status ReadLights(const json& doc, Scene& scene) {
+  auto ext = doc.find("extensions");
+  if (ext != doc.end() && ext->is_object()) {
+    auto khr = ext->find("KHR_lights_punctual");
+    if (khr != ext->end()) {
+      if (!khr->is_object() || !khr->contains("lights") || !(*khr)["lights"].is_array()) {
+        return InvalidInput("extensions.KHR_lights_punctual.lights must be an array");
+      }
+      const json& lights = (*khr)["lights"];
+      for (size_t i = 0; i < lights.size(); ++i) {
+        const json& light = lights[i];
+        const std::string where = "extensions.KHR_lights_punctual.lights[" + std::to_string(i) + "]";
+        if (!light.is_object() || !light.contains("type") || !light["type"].is_string()) {
+          return InvalidInput(where + " has no type");
+        }
+        const std::string type = light["type"].get<std::string>();
+        if (type != "directional" && type != "point" && type != "spot") {
+          return InvalidInput(where + ".type \"" + type + "\" is not directional, point or spot");
+        }
+      }
+      scene.lights_json = lights.dump();
+      scene.light_count = lights.size();
+    }
+  }
+  auto nodes = doc.find("nodes");
+  if (nodes == doc.end() || !nodes->is_array()) return Status::Ok();
+  for (size_t i = 0; i < nodes->size() && i < scene.nodes.size(); ++i) {
+    const json& node = (*nodes)[i];
+    if (!node.is_object() || !node.contains("extensions") || !node["extensions"].is_object()) continue;
+    auto khr = node["extensions"].find("KHR_lights_punctual");
+    if (khr == node["extensions"].end()) continue;
+    const std::string where = "nodes[" + std::to_string(i) + "].extensions.KHR_lights_punctual.light";
+    if (!khr->is_object() || !khr->contains("light") || !(*khr)["light"].is_number_integer()) {
+      return InvalidInput(where + " must be an integer");
+    }
+    const int64_t light = (*khr)["light"].get<int64_t>();
+    if (light < 0 || static_cast<uint64_t>(light) >= scene.light_count) {
+      return InvalidInput(where + " " + std::to_string(light) + " does not exist");
+    }
+    scene.nodes[i].light = static_cast<int32_t>(light);
+  }
+  return Status::Ok();
 }
 
 // Nesting depth of JSON text, counted outside strings. tinygltf converts
@@ -496,6 +554,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
     Mesh mesh;
     mesh.name = model.meshes[m].name;
     mesh.weights = model.meshes[m].weights;
+    mesh.extras_json = ExtrasOf(doc, "meshes", m);
     for (size_t k = 0; k < model.meshes[m].primitives.size(); ++k) {
       const json* raw_prim = &empty_array;
       if (raw_meshes.is_array() && m < raw_meshes.size() && raw_meshes[m].contains("primitives") &&
@@ -506,11 +565,15 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
         CarriedPrimitive carried;
         carried.slot = static_cast<uint32_t>(k);
         MS_RETURN_IF_ERROR(ReadCarriedPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), carrier, carried));
+        if (raw_prim->is_object() && raw_prim->contains("extras")) carried.extras_json = (*raw_prim)["extras"].dump();
         mesh.carried.push_back(std::move(carried));
         continue;
       }
       Primitive prim;
       MS_RETURN_IF_ERROR(ReadPrimitive(model, *raw_prim, model.meshes[m].primitives[k], Where(m, k), scene, budget, prim));
+      if (raw_prim->is_object() && raw_prim->contains("extras")) {
+        scene.warnings.push_back(Where(m, k) + ": extras of a refined primitive dropped (its mesh's extras are kept)");
+      }
       scene.source_vertices += prim.vertex_count();
       mesh.primitives.push_back(std::move(prim));
     }
@@ -524,6 +587,7 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
     const std::string where = "nodes[" + std::to_string(i) + "]";
     Node node;
     node.name = tn.name;
+    node.extras_json = ExtrasOf(doc, "nodes", i);
     node.mesh = tn.mesh;
     if (tn.mesh < -1 || tn.mesh >= static_cast<int>(scene.meshes.size())) {
       return InvalidInput(where + ".mesh " + std::to_string(tn.mesh) + " does not exist");
@@ -559,10 +623,17 @@ StatusOr<Scene> Convert(const tg::Model& model, const json& doc, const std::stri
     scene.nodes.push_back(std::move(node));
   }
   MS_RETURN_IF_ERROR(CheckNodeForest(scene));
+  MS_RETURN_IF_ERROR(ReadLights(doc, scene));
   MS_RETURN_IF_ERROR(ReadSkinsAndAnimations(model, carrier, scene));
-  for (const tg::Scene& ts : model.scenes) {
+  for (size_t k = 0; k < scene.skins.size(); ++k) scene.skins[k].extras_json = ExtrasOf(doc, "skins", k);
+  for (size_t k = 0; k < scene.animations.size(); ++k) {
+    scene.animations[k].extras_json = ExtrasOf(doc, "animations", k);
+  }
+  for (size_t k = 0; k < model.scenes.size(); ++k) {
+    const tg::Scene& ts = model.scenes[k];
     SceneRoot root;
     root.name = ts.name;
+    root.extras_json = ExtrasOf(doc, "scenes", k);
     for (int n : ts.nodes) {
       if (n < 0 || static_cast<size_t>(n) >= scene.nodes.size()) {
         return InvalidInput("scenes names node " + std::to_string(n) + ", which does not exist");

@@ -155,6 +155,11 @@ Status ValidateCarried(const Scene& scene) {
     }
   }
   for (size_t i = 0; i < scene.nodes.size(); ++i) {
+    const int32_t light = scene.nodes[i].light;
+    if (light < -1 || (light >= 0 && static_cast<size_t>(light) >= scene.light_count)) {
+      return InvalidInput("nodes[" + std::to_string(i) + "].extensions.KHR_lights_punctual.light " +
+                          std::to_string(light) + " does not exist");
+    }
     const int32_t skin = scene.nodes[i].skin;
     if (skin < -1 || skin >= static_cast<int32_t>(scene.skins.size())) {
       return InvalidInput("nodes[" + std::to_string(i) + "].skin " + std::to_string(skin) + " does not exist");
@@ -244,7 +249,9 @@ Scene SceneFromPrimitive(Primitive primitive, std::string name) {
   node.name = std::move(name);
   node.mesh = 0;
   scene.nodes.push_back(node);
-  scene.scenes.push_back(SceneRoot{"", {0}});
+  SceneRoot root;
+  root.nodes = {0};
+  scene.scenes.push_back(std::move(root));
   scene.default_scene = 0;
   return scene;
 }

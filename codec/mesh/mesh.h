@@ -77,6 +77,7 @@ struct CarriedPrimitive {
   int32_t indices = -1;                    // carried accessor, -1: none
   std::vector<CarriedAttributes> targets;  // morph targets
   int32_t material = -1;
+  std::string extras_json;                 // its glTF "extras" as JSON text, empty when none
 };
 
 struct Mesh {
@@ -84,6 +85,7 @@ struct Mesh {
   std::vector<Primitive> primitives;       // refined: triangle lists
   std::vector<CarriedPrimitive> carried;   // carried through, ascending slots
   std::vector<double> weights;             // default morph target weights
+  std::string extras_json;                 // glTF "extras" (e.g. targetNames) as JSON text, empty when none
 
   struct Ref {
     bool carried;
@@ -106,6 +108,8 @@ struct Node {
   Vec3d scale = {1, 1, 1};
   int32_t skin = -1;            // index into Scene::skins
   std::vector<double> weights;  // morph weights of its mesh's targets, or empty
+  int32_t light = -1;           // KHR_lights_punctual: index into Scene::lights_json, -1: none
+  std::string extras_json;      // glTF "extras" as JSON text, empty when none
 };
 
 struct Skin {
@@ -113,6 +117,7 @@ struct Skin {
   int32_t inverse_bind_matrices = -1;  // carried accessor (MAT4), -1: identity
   int32_t skeleton = -1;               // node, -1: none
   std::vector<int32_t> joints;         // nodes
+  std::string extras_json;             // glTF "extras" as JSON text, empty when none
 };
 
 struct AnimationSampler {
@@ -131,11 +136,13 @@ struct Animation {
   std::string name;
   std::vector<AnimationSampler> samplers;
   std::vector<AnimationChannel> channels;
+  std::string extras_json;  // glTF "extras" as JSON text, empty when none
 };
 
 struct SceneRoot {
   std::string name;
   std::vector<int32_t> nodes;
+  std::string extras_json;  // glTF "extras" as JSON text, empty when none
 };
 
 // An image carried as bytes; meshstream never decodes images.
@@ -157,6 +164,10 @@ struct Scene {
   std::string textures_json = "[]";
   std::string samplers_json = "[]";
   std::string cameras_json = "[]";
+  // KHR_lights_punctual: the root extension's "lights" array ("[]" when
+  // absent); nodes name them by index (Node::light).
+  std::string lights_json = "[]";
+  size_t light_count = 0;  // elements of lights_json (so ValidateScene can check Node::light)
   std::vector<Image> images;
   // Carried through with their raw data; objects refer to them by index.
   std::vector<CarriedAccessor> carried_accessors;

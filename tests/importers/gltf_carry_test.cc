@@ -177,28 +177,6 @@ TEST(GltfCarry, ProgressiveEncodeStoresCarriedDataAsPlainGltfAtEveryLevel) {
 // refuses such a document whole ("invalid string: ill-formed UTF-8 byte");
 // the importer repairs the text with ToValidUtf8 first and says so.
 
-std::vector<uint8_t> GlbOf(std::string text, const std::vector<uint8_t>& bin) {
-  while (text.size() % 4) text.push_back(' ');
-  std::vector<uint8_t> out;
-  auto u32 = [&out](uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
-  };
-  const size_t padded = (bin.size() + 3) & ~size_t{3};
-  u32(0x46546C67);
-  u32(2);
-  u32(static_cast<uint32_t>(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + padded)));
-  u32(static_cast<uint32_t>(text.size()));
-  u32(0x4E4F534A);
-  out.insert(out.end(), text.begin(), text.end());
-  if (!bin.empty()) {
-    u32(static_cast<uint32_t>(padded));
-    u32(0x004E4942);
-    out.insert(out.end(), bin.begin(), bin.end());
-    out.resize(out.size() + padded - bin.size(), 0);
-  }
-  return out;
-}
-
 TEST(GltfCarry, InvalidUtf8NamesAreRepairedWithAWarning) {
   TempDir dir;
   Scene source = MustImport(ModelPath(kSimpleSkin));
