@@ -26,6 +26,7 @@ enum class StatusCode {
   kResourceExhausted,  // a size cap was hit (input too large, count too big)
   kInvalidArgument,    // the caller passed a bad parameter (usage error)
   kInternal,           // a bug or a library failure we could not classify
+  kDataLoss,           // stored bytes do not match their digest or recorded size
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -62,6 +63,7 @@ inline Status IoError(std::string m) { return Status(StatusCode::kIoError, std::
 inline Status ResourceExhausted(std::string m) { return Status(StatusCode::kResourceExhausted, std::move(m)); }
 inline Status InvalidArgument(std::string m) { return Status(StatusCode::kInvalidArgument, std::move(m)); }
 inline Status Internal(std::string m) { return Status(StatusCode::kInternal, std::move(m)); }
+inline Status DataLoss(std::string m) { return Status(StatusCode::kDataLoss, std::move(m)); }
 
 // Either a value or a non-OK Status.
 template <typename T>

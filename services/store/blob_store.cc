@@ -1,0 +1,218 @@
+#include "services/store/blob_store.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+
+#include <fcntl.h>
+#include <sodium.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace meshstream {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+Status Errno(const std::string& what) { return IoError(what + ": " + std::strerror(errno)); }
+
+// sodium_init() once per process; it is thread-safe and idempotent.
+Status InitSodium() {
+  static const int result = sodium_init();
+  if (result < 0) return Internal("libsodium could not be initialized");
+  return Status::Ok();
+}
+
+std::string ToHex(const unsigned char* bytes, size_t n) {
+  static const char kDigits[] = "0123456789abcdef";
+  std::string out(2 * n, '0');
+  for (size_t i = 0; i < n; ++i) {
+    out[2 * i] = kDigits[bytes[i] >> 4];
+    out[2 * i + 1] = kDigits[bytes[i] & 15];
+  }
+  return out;
+}
+
+Status MakeFolder(const std::string& path) {
+  if (mkdir(path.c_str(), 0750) != 0 && errno != EEXIST) return Errno(path);
+  struct stat st {};
+  if (stat(path.c_str(), &st) != 0) return Errno(path);
+  if (!S_ISDIR(st.st_mode)) return IoError(path + ": exists and is not a folder");
+  return Status::Ok();
+}
+
+Status SyncFolder(const std::string& path) {
+  const int fd = open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return Errno(path);
+  const int rc = fsync(fd);
+  close(fd);
+  if (rc != 0) return Errno(path + ": fsync");
+  return Status::Ok();
+}
+
+Status WriteAll(int fd, const uint8_t* data, size_t size, const std::string& path) {
+  while (size > 0) {
+    const ssize_t n = write(fd, data, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return Errno(path);
+    }
+    data += n;
+    size -= static_cast<size_t>(n);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+std::string Sha256Hex(const uint8_t* data, size_t size) {
+  if (!InitSodium().ok()) return "";
+  unsigned char digest[crypto_hash_sha256_BYTES];
+  crypto_hash_sha256(digest, data, size);
+  return ToHex(digest, sizeof digest);
+}
+
+bool IsSha256Hex(const std::string& digest) {
+  if (digest.size() != 64) return false;
+  for (char c : digest) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
+
+struct BlobWriter::State {
+  std::string root;      // <dir>/blobs
+  std::string temp;      // its temporary file
+  int fd = -1;
+  uint64_t size = 0;
+  crypto_hash_sha256_state hash;
+  bool committed = false;
+
+  ~State() {
+    if (fd >= 0) close(fd);
+    if (!committed && !temp.empty()) unlink(temp.c_str());
+  }
+};
+
+BlobWriter::BlobWriter(std::unique_ptr<State> state) : state_(std::move(state)) {}
+BlobWriter::BlobWriter(BlobWriter&&) noexcept = default;
+BlobWriter& BlobWriter::operator=(BlobWriter&&) noexcept = default;
+BlobWriter::~BlobWriter() = default;
+
+uint64_t BlobWriter::size() const { return state_ ? state_->size : 0; }
+
+Status BlobWriter::Append(const uint8_t* data, size_t size) {
+  if (!state_ || state_->fd < 0) return Internal("blob writer: append after commit");
+  MS_RETURN_IF_ERROR(WriteAll(state_->fd, data, size, state_->temp));
+  crypto_hash_sha256_update(&state_->hash, data, size);
+  state_->size += size;
+  return Status::Ok();
+}
+
+StatusOr<std::string> BlobWriter::Commit(const std::string& expected_sha256) {
+  if (!state_ || state_->fd < 0) return Internal("blob writer: committed twice");
+  unsigned char digest_bytes[crypto_hash_sha256_BYTES];
+  crypto_hash_sha256_final(&state_->hash, digest_bytes);
+  const std::string digest = ToHex(digest_bytes, sizeof digest_bytes);
+  if (!expected_sha256.empty() && expected_sha256 != digest) {
+    return DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 + " announced; nothing stored");
+  }
+  if (fsync(state_->fd) != 0) return Errno(state_->temp + ": fsync");
+  close(state_->fd);
+  state_->fd = -1;
+  const std::string folder = state_->root + "/" + digest.substr(0, 2);
+  MS_RETURN_IF_ERROR(MakeFolder(folder));
+  const std::string target = folder + "/" + digest;
+  if (rename(state_->temp.c_str(), target.c_str()) != 0) return Errno(target);
+  state_->committed = true;
+  MS_RETURN_IF_ERROR(SyncFolder(folder));
+  MS_RETURN_IF_ERROR(SyncFolder(state_->root));
+  return digest;
+}
+
+StatusOr<FileBlobStore> FileBlobStore::Open(const std::string& dir) {
+  MS_RETURN_IF_ERROR(InitSodium());
+  FileBlobStore store;
+  MS_RETURN_IF_ERROR(MakeFolder(dir));
+  store.root_ = dir + "/blobs";
+  MS_RETURN_IF_ERROR(MakeFolder(store.root_));
+  MS_RETURN_IF_ERROR(MakeFolder(store.root_ + "/tmp"));
+  // What a crash left behind: never visible under a digest, safe to remove.
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(store.root_ + "/tmp", ec)) {
+    if (entry.path().extension() == ".part" && fs::remove(entry.path(), ec)) ++store.removed_temporary_;
+  }
+  if (ec) return IoError(store.root_ + "/tmp: " + ec.message());
+  return store;
+}
+
+std::string FileBlobStore::PathOf(const std::string& digest) const {
+  return root_ + "/" + digest.substr(0, 2) + "/" + digest;
+}
+
+StatusOr<BlobWriter> FileBlobStore::NewWriter() const {
+  auto state = std::make_unique<BlobWriter::State>();
+  state->root = root_;
+  unsigned char random[16];
+  randombytes_buf(random, sizeof random);
+  state->temp = root_ + "/tmp/" + ToHex(random, sizeof random) + ".part";
+  state->fd = open(state->temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+  if (state->fd < 0) return Errno(state->temp);
+  crypto_hash_sha256_init(&state->hash);
+  return BlobWriter(std::move(state));
+}
+
+StatusOr<std::string> FileBlobStore::Put(const uint8_t* data, size_t size) const {
+  MS_ASSIGN_OR_RETURN(BlobWriter writer, NewWriter());
+  MS_RETURN_IF_ERROR(writer.Append(data, size));
+  return writer.Commit();
+}
+
+bool FileBlobStore::Contains(const std::string& digest) const {
+  struct stat st {};
+  return IsSha256Hex(digest) && stat(PathOf(digest).c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+StatusOr<std::vector<uint8_t>> FileBlobStore::Get(const std::string& digest, uint64_t max_bytes) const {
+  if (!IsSha256Hex(digest)) return InvalidArgument("blob name '" + digest + "' is not a SHA-256 in hex");
+  const std::string path = PathOf(digest);
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return errno == ENOENT ? NotFound("blob " + digest + " does not exist") : Errno(path);
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    close(fd);
+    return IoError(path + ": not a regular file");
+  }
+  if (static_cast<uint64_t>(st.st_size) > max_bytes) {
+    close(fd);
+    return ResourceExhausted("blob " + digest + " has " + std::to_string(st.st_size) + " bytes, more than " +
+                             std::to_string(max_bytes));
+  }
+  std::vector<uint8_t> bytes(static_cast<size_t>(st.st_size));
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = read(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<size_t>(n);
+  }
+  close(fd);
+  if (done != bytes.size()) return DataLoss("blob " + digest + " is shorter than its file size");
+  if (Sha256Hex(bytes.data(), bytes.size()) != digest) {
+    return DataLoss("blob " + digest + " does not match its digest (the stored bytes are damaged)");
+  }
+  return bytes;
+}
+
+Status FileBlobStore::Remove(const std::string& digest) const {
+  if (!IsSha256Hex(digest)) return InvalidArgument("blob name '" + digest + "' is not a SHA-256 in hex");
+  if (unlink(PathOf(digest).c_str()) != 0) {
+    return errno == ENOENT ? NotFound("blob " + digest + " does not exist") : Errno(PathOf(digest));
+  }
+  return Status::Ok();
+}
+
+}  // namespace meshstream
