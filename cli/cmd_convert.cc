@@ -35,7 +35,6 @@ int RunConvert(ConvertArgs& args) {
   }
   auto scene = ImportFile(args.in);
   if (!scene.ok()) return ReportError("convert", scene.status());
-  MakeNamesValidUtf8(scene.value());
   const Status written = ExportGltfFile(scene.value(), args.out, args.options);
   if (!written.ok()) return ReportError("convert", written);  // one line: the warnings only on success
   for (const std::string& w : scene->warnings) {

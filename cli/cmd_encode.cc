@@ -54,7 +54,6 @@ int RunEncode(EncodeArgs& args) {
   const std::string& in = args.in;
   auto scene = ImportFile(in);
   if (!scene.ok()) return ReportError("encode", scene.status());
-  MakeNamesValidUtf8(scene.value());
 
   const auto start = std::chrono::steady_clock::now();
   ProgressiveGlbReport report;

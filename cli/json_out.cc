@@ -20,16 +20,4 @@ void PrintJson(const nlohmann::json& j) {
   std::puts(text.c_str());
 }
 
-void MakeNamesValidUtf8(Scene& scene) {
-  for (Mesh& m : scene.meshes) m.name = ToValidUtf8(m.name);
-  for (Node& n : scene.nodes) n.name = ToValidUtf8(n.name);
-  for (SceneRoot& s : scene.scenes) s.name = ToValidUtf8(s.name);
-  for (Image& i : scene.images) {
-    i.name = ToValidUtf8(i.name);
-    i.mime_type = ToValidUtf8(i.mime_type);
-  }
-  for (std::string& e : scene.extensions_used) e = ToValidUtf8(e);
-  for (std::string& w : scene.warnings) w = ToValidUtf8(w);
-}
-
 }  // namespace meshstream::cli

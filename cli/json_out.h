@@ -24,12 +24,6 @@ std::vector<std::string> Utf8(const std::vector<std::string>& v);
 // One JSON object on stdout, on one line; never throws on any string content.
 void PrintJson(const nlohmann::json& j);
 
-// Makes every name the scene carries (meshes, nodes, scenes, images,
-// warnings) valid UTF-8, so that writing the scene as glTF JSON cannot fail
-// on a name from a hostile file or file name. The importers are meant to
-// deliver valid names already; this is the CLI's own guard.
-void MakeNamesValidUtf8(Scene& scene);
-
 }  // namespace meshstream::cli
 
 #endif  // MESHSTREAM_CLI_JSON_OUT_H_

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "codec/mesh/quantization.h"
+#include "importers/gltf_accessors.h"
 #include "importers/gltf_limits.h"
 #include "importers/import.h"
 #include "importers/exception_boundary.h"
@@ -24,7 +25,6 @@ constexpr int kUnsignedInt = 5125;
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 
-// Builds the document and the single binary buffer.
 // Sets object["extras"] from carried JSON text ("" when there were none;
 // text that does not parse, which only a hand-built Scene could hold, is left out).
 void SetExtras(json& object, const std::string& extras_json) {
@@ -33,6 +33,7 @@ void SetExtras(json& object, const std::string& extras_json) {
   if (!extras.is_discarded()) object["extras"] = std::move(extras);
 }
 
+// Builds the document and the single binary buffer.
 class DocumentBuilder {
  public:
   explicit DocumentBuilder(const ExportOptions& options) : options_(options) {}
@@ -215,16 +216,7 @@ void CarriedBounds(const CarriedAccessor& a, json& accessor) {
   std::vector<double> lo(n, std::numeric_limits<double>::infinity()), hi(n, -std::numeric_limits<double>::infinity());
   for (uint64_t i = 0; i < a.count; ++i) {
     for (size_t c = 0; c < n; ++c) {
-      const uint8_t* p = a.bytes.data() + (i * n + c) * csize;
-      double v = 0;
-      switch (a.component_type) {
-        case 5120: v = static_cast<int8_t>(p[0]); break;
-        case 5121: v = p[0]; break;
-        case 5122: { int16_t x; std::memcpy(&x, p, 2); v = x; break; }
-        case 5123: { uint16_t x; std::memcpy(&x, p, 2); v = x; break; }
-        case 5125: { uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
-        default: { float x; std::memcpy(&x, p, 4); v = x; break; }
-      }
+      const double v = gltf::ReadComponent(a.bytes.data() + (i * n + c) * csize, a.component_type, false);
       lo[c] = std::min(lo[c], v);
       hi[c] = std::max(hi[c], v);
     }
@@ -431,10 +423,6 @@ void AppendU32(std::vector<uint8_t>& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
 }
 
-}  // namespace
-
-namespace {
-
 StatusOr<std::vector<uint8_t>> ExportGlbUnguarded(const Scene& scene, const ExportOptions& options) {
   DocumentBuilder builder(options);
   MS_ASSIGN_OR_RETURN(json doc, builder.Build(scene));
@@ -458,14 +446,6 @@ StatusOr<std::vector<uint8_t>> ExportGlbUnguarded(const Scene& scene, const Expo
   }
   return out;
 }
-
-}  // namespace
-
-StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
-  return CatchExceptions(std::string("glTF export"), [&] { return ExportGlbUnguarded(scene, options); });
-}
-
-namespace {
 
 Status ExportGltfFileUnguarded(const Scene& scene, const std::string& path, const ExportOptions& options) {
   const std::string ext = FileExtension(path);
@@ -494,6 +474,10 @@ Status ExportGltfFileUnguarded(const Scene& scene, const std::string& path, cons
 }
 
 }  // namespace
+
+StatusOr<std::vector<uint8_t>> ExportGlb(const Scene& scene, const ExportOptions& options) {
+  return CatchExceptions("glTF export", [&] { return ExportGlbUnguarded(scene, options); });
+}
 
 Status ExportGltfFile(const Scene& scene, const std::string& path, const ExportOptions& options) {
   return CatchExceptions(path, [&] { return ExportGltfFileUnguarded(scene, path, options); });
