@@ -37,6 +37,7 @@
 #include "codec/mesh/mesh.h"
 #include "importers/srgb.h"
 #include "importers/text_scan.h"
+#include "importers/exception_boundary.h"
 
 namespace meshstream {
 namespace mesh_io {
@@ -225,26 +226,22 @@ class OpenMeshQuiet {
 std::mutex& OpenMeshMutex();
 
 // Runs `read` (a call into an OpenMesh reader returning its bool) under the
-// OpenMesh lock, turning every exception into a Status.
+// OpenMesh lock. A RecorderLimit (our importer refusing what the library
+// reads) names the file; every other exception goes through the importers'
+// one boundary (exception_boundary.h).
 template <typename ReadFn>
 Status RunOpenMeshReader(const std::string& path, const char* format, ReadFn read) {
-  try {
-    std::lock_guard<std::mutex> lock(OpenMeshMutex());
-    OpenMeshQuiet quiet;
-    if (!read()) {
-      return Bad(path, std::string("OpenMesh's ") + format + " reader could not read the file");
+  return CatchExceptions(path + ": OpenMesh's " + format + " reader", [&]() -> Status {
+    try {
+      std::lock_guard<std::mutex> lock(OpenMeshMutex());
+      OpenMeshQuiet quiet;
+      if (!read()) return Bad(path, std::string("OpenMesh's ") + format + " reader could not read the file");
+    } catch (const RecorderLimit& e) {
+      return Bad(path, e.message + " (the file changed while it was read, or the library read it "
+                                   "differently from our check)");
     }
-  } catch (const RecorderLimit& e) {
-    return Bad(path, e.message + " (the file changed while it was read, or the library read it "
-                                 "differently from our check)");
-  } catch (const std::bad_alloc&) {
-    return ResourceExhausted(path + ": out of memory while reading the " + format + " data");
-  } catch (const std::exception& e) {
-    return Internal(path + ": OpenMesh's " + format + " reader failed: " + e.what());
-  } catch (...) {
-    return Internal(path + ": OpenMesh's " + format + " reader failed with an unknown exception");
-  }
-  return Status::Ok();
+    return Status::Ok();
+  });
 }
 
 // Faces of the recorder fanned into triangles, every index checked; moves
