@@ -406,8 +406,12 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
 
   std::vector<std::string> used = scene.extensions_used;
   used.insert(used.end(), extra_extensions_.begin(), extra_extensions_.end());
-  const json lights = ParseCarried(scene.lights_json);
-  if (!lights.empty()) {
+  if (!scene.lights.empty()) {
+    json lights = json::array();
+    for (const std::string& light : scene.lights) {
+      json parsed = json::parse(light, nullptr, false);  // only a hand-built Scene holds text that fails
+      lights.push_back(parsed.is_object() ? std::move(parsed) : json::object());
+    }
     doc["extensions"]["KHR_lights_punctual"] = {{"lights", lights}};
     used.push_back("KHR_lights_punctual");
   }

@@ -90,8 +90,7 @@ Status ReadLights(const json& doc, Scene& scene) {
           return InvalidInput(where + ".type \"" + type + "\" is not directional, point or spot");
         }
       }
-      scene.lights_json = lights.dump();
-      scene.light_count = lights.size();
+      for (const json& light : lights) scene.lights.push_back(light.dump());
     }
   }
   auto nodes = doc.find("nodes");
@@ -106,7 +105,7 @@ Status ReadLights(const json& doc, Scene& scene) {
       return InvalidInput(where + " must be an integer");
     }
     const int64_t light = (*khr)["light"].get<int64_t>();
-    if (light < 0 || static_cast<uint64_t>(light) >= scene.light_count) {
+    if (light < 0 || static_cast<uint64_t>(light) >= scene.lights.size()) {
       return InvalidInput(where + " " + std::to_string(light) + " does not exist");
     }
     scene.nodes[i].light = static_cast<int32_t>(light);

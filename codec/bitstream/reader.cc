@@ -89,19 +89,20 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
   std::vector<StaticModel> models;
   for (size_t k = 0; k < slots; ++k) {
-    const std::string slot = where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k) + ")";
+    // Named only when something is wrong (no string work per slot otherwise).
+    auto slot = [&] { return where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k) + ")"; };
     auto flag = r.U8("model flag");
-    if (!flag.ok()) return flag.status().WithContext(slot);
+    if (!flag.ok()) return flag.status().WithContext(slot());
     const uint8_t fresh = flag.value();
-    if (fresh > 1) return InvalidInput(slot + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
+    if (fresh > 1) return InvalidInput(slot() + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
     if (fresh) {
       // Wings and ring offsets are below the maximum valence; signed values
       // have kSignedSymbols symbols. A larger alphabet names nothing.
       auto m = StaticModel::Parse(r, k < 2 ? kWingAlphabet : kSignedSymbols);
-      if (!m.ok()) return m.status().WithContext(slot);
+      if (!m.ok()) return m.status().WithContext(slot());
       models.push_back(std::move(m).value());
     } else {
-      if (models_.size() != slots) return InvalidInput(slot + ": model flag 0 reuses a model that was never sent");
+      if (models_.size() != slots) return InvalidInput(slot() + ": model flag 0 reuses a model that was never sent");
       models.push_back(models_[k]);
     }
   }

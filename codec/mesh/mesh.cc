@@ -156,7 +156,7 @@ Status ValidateCarried(const Scene& scene) {
   }
   for (size_t i = 0; i < scene.nodes.size(); ++i) {
     const int32_t light = scene.nodes[i].light;
-    if (light < -1 || (light >= 0 && static_cast<size_t>(light) >= scene.light_count)) {
+    if (light < -1 || (light >= 0 && static_cast<size_t>(light) >= scene.lights.size())) {
       return InvalidInput("nodes[" + std::to_string(i) + "].extensions.KHR_lights_punctual.light " +
                           std::to_string(light) + " does not exist");
     }

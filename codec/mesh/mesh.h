@@ -108,7 +108,7 @@ struct Node {
   Vec3d scale = {1, 1, 1};
   int32_t skin = -1;            // index into Scene::skins
   std::vector<double> weights;  // morph weights of its mesh's targets, or empty
-  int32_t light = -1;           // KHR_lights_punctual: index into Scene::lights_json, -1: none
+  int32_t light = -1;           // KHR_lights_punctual: index into Scene::lights, -1: none
   std::string extras_json;      // glTF "extras" as JSON text, empty when none
 };
 
@@ -164,10 +164,9 @@ struct Scene {
   std::string textures_json = "[]";
   std::string samplers_json = "[]";
   std::string cameras_json = "[]";
-  // KHR_lights_punctual: the root extension's "lights" array ("[]" when
-  // absent); nodes name them by index (Node::light).
-  std::string lights_json = "[]";
-  size_t light_count = 0;  // elements of lights_json (so ValidateScene can check Node::light)
+  // KHR_lights_punctual: the root extension's lights, each as the JSON text
+  // of its object; nodes name them by index (Node::light).
+  std::vector<std::string> lights;
   std::vector<Image> images;
   // Carried through with their raw data; objects refer to them by index.
   std::vector<CarriedAccessor> carried_accessors;

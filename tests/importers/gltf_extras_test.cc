@@ -31,7 +31,8 @@ using test_util::TempDir;
 // Every extras and light a Scene holds, parsed, for comparing two scenes.
 json ExtrasSummary(const Scene& scene) {
   auto parsed = [](const std::string& text) { return text.empty() ? json() : json::parse(text); };
-  json out = {{"lights", json::parse(scene.lights_json)}};
+  json out = {{"lights", json::array()}};
+  for (const std::string& light : scene.lights) out["lights"].push_back(json::parse(light));
   for (const Mesh& m : scene.meshes) {
     json carried = json::array();
     for (const CarriedPrimitive& p : m.carried) carried.push_back(parsed(p.extras_json));
