@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Checks that every #include points the way docs/architecture.md draws it.
 
-- codec/ includes only the C++ standard library and codec/ itself, and its
+- codec/ includes only the C++ standard library (none of its files, clocks
+  or threads) and codec/ itself, and its
   folders depend on each other in one direction (CODEC_DEPENDS below, the
   order docs/architecture.md writes down; what a folder may use includes what
   its dependencies may use);
@@ -31,6 +32,9 @@ LAYER_FORBIDDEN = {
     "services": ["sdk", "cli", "bench", "tests"],
     "sdk": ["services", "cli", "bench", "tests"],
 }
+# The pure library does no I/O, keeps no clock and starts no thread.
+CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",
+                       "condition_variable", "future", "atomic", "chrono", "ctime"}
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]')
 
 
@@ -79,6 +83,8 @@ def main(root):
                         # The standard library only: no third-party header in the pure library.
                         if "/" in target or target.endswith((".h", ".hpp")):
                             errors.append(f"{where}: codec/ uses no third-party or C header")
+                        elif target in CODEC_FORBIDDEN_STD:
+                            errors.append(f"{where}: codec/ has no files, clocks or threads")
                         continue
                     if head != "codec":
                         errors.append(f"{where}: codec/ includes only codec/")
