@@ -27,6 +27,12 @@ enum class StatusCode {
   kInvalidArgument,    // the caller passed a bad parameter (usage error)
   kInternal,           // a bug or a library failure we could not classify
   kDataLoss,           // stored bytes do not match their digest or recorded size
+  kFailedPrecondition, // the object is not in the state the operation needs
+  kUnauthenticated,    // no credentials, or credentials that are not valid
+  kPermissionDenied,   // valid credentials that may not do this
+  kUnavailable,        // a service or database cannot be reached now; retry later
+  kAborted,            // lost a race (a job lease taken over); the caller stops
+  kAlreadyExists,      // an object with this name exists and may not be replaced
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -64,6 +70,12 @@ inline Status ResourceExhausted(std::string m) { return Status(StatusCode::kReso
 inline Status InvalidArgument(std::string m) { return Status(StatusCode::kInvalidArgument, std::move(m)); }
 inline Status Internal(std::string m) { return Status(StatusCode::kInternal, std::move(m)); }
 inline Status DataLoss(std::string m) { return Status(StatusCode::kDataLoss, std::move(m)); }
+inline Status FailedPrecondition(std::string m) { return Status(StatusCode::kFailedPrecondition, std::move(m)); }
+inline Status Unauthenticated(std::string m) { return Status(StatusCode::kUnauthenticated, std::move(m)); }
+inline Status PermissionDenied(std::string m) { return Status(StatusCode::kPermissionDenied, std::move(m)); }
+inline Status Unavailable(std::string m) { return Status(StatusCode::kUnavailable, std::move(m)); }
+inline Status Aborted(std::string m) { return Status(StatusCode::kAborted, std::move(m)); }
+inline Status AlreadyExists(std::string m) { return Status(StatusCode::kAlreadyExists, std::move(m)); }
 
 // Either a value or a non-OK Status.
 template <typename T>

@@ -1,0 +1,248 @@
+// The versioned store of the asset service (docs/store.md): one interface,
+// two backends. `SqliteStore` (services/store/sqlite_store.h) is the embedded
+// default: SQLite in WAL mode for metadata and a FileBlobStore folder for
+// blobs. `PgStore` (services/store/pg_store.h) keeps metadata and blobs
+// (chunked bytea rows) in PostgreSQL, so several servers share one database.
+// OpenStore (services/store/open_store.h) picks one by the --store spec.
+//
+// What is stored:
+//   - blobs: immutable bytes named by their SHA-256 (sources, artifacts);
+//   - assets of a tenant, each with versions 1, 2, 3 ... (immutable once
+//     READY or FAILED; only the processing result is filled in, once);
+//   - one job per version (import + encode), claimed by workers under a
+//     lease with a heartbeat, taken over when the lease expires;
+//   - the artifact cache: (source digests, options, encoder) -> the result,
+//     so the same file with the same options is encoded once;
+//   - resumable uploads: bytes of an unfinished upload, kept for a while;
+//   - API tokens (only their hash).
+//
+// Ordering: a row that names a blob is committed after the blob, so a row
+// never names a missing blob; RemoveOrphanBlobs removes blobs no row names.
+//
+// Contract: every string argument is untrusted unless stated (the store
+// checks names, digests and page tokens itself and answers InvalidArgument);
+// reads of another tenant's objects are NotFound, never a hint that they
+// exist. Thread safety: every method may be called from any thread at once;
+// the backends serialize or pool connections themselves.
+#ifndef MESHSTREAM_SERVICES_STORE_STORE_H_
+#define MESHSTREAM_SERVICES_STORE_STORE_H_
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+// Names: assets and upload ids are [A-Za-z0-9._-]{1,128}; tenants the same.
+bool IsValidName(const std::string& name);
+// InvalidArgument naming `field` when `name` is not valid.
+Status CheckName(const std::string& field, const std::string& name);
+
+enum class VersionState { kProcessing = 1, kReady = 2, kFailed = 3 };
+enum class JobState { kPending = 1, kRunning = 2, kSucceeded = 3, kFailed = 4 };
+
+// One file of an upload: the main file (its filename) or an external file of
+// a .gltf (its relative path inside the upload).
+struct SourceFile {
+  std::string name;
+  std::string sha256;
+  uint64_t size = 0;
+};
+
+// What processing a source produced: the progressive .glb and its figures.
+// `layout_json` locates each primitive's base mesh and stream inside the
+// artifact (services/pipeline/stream_layout.h), so a session reads them
+// without decoding anything.
+struct ArtifactSummary {
+  std::string artifact_sha256;  // the progressive .glb
+  uint64_t progressive_bytes = 0;
+  std::string encoder;          // "meshstream-progressive/<format version> <build>"
+  int64_t vertices = 0;
+  int64_t faces = 0;
+  int32_t levels = 0;
+  std::vector<int64_t> level_vertices;
+  uint64_t reliable_bytes = 0;
+  uint64_t unreliable_bytes = 0;
+  std::string layout_json;
+  std::string warnings_json;    // the importer's warnings, a JSON array of strings
+};
+
+struct AssetRecord {
+  std::string tenant;
+  std::string name;
+  int64_t latest_version = 0;
+  int64_t updated_ms = 0;  // Unix time in milliseconds
+};
+
+struct VersionRecord {
+  std::string tenant;
+  std::string asset;
+  int64_t version = 0;
+  VersionState state = VersionState::kProcessing;
+  SourceFile source;                 // the main file
+  std::vector<SourceFile> resources; // external files of a .gltf
+  std::string options_json;          // the encode options, canonical JSON
+  std::string comment;
+  std::map<std::string, std::string> labels;
+  int64_t created_ms = 0;
+  std::string job_id;
+  std::string error;                 // the job's message when FAILED
+  ArtifactSummary artifact;          // filled when READY
+};
+
+struct JobRecord {
+  std::string id;
+  std::string tenant;
+  std::string asset;
+  int64_t version = 0;
+  JobState state = JobState::kPending;
+  double progress = 0.0;  // 0..1
+  std::string message;
+  int32_t attempts = 0;   // claims so far
+  std::string lease_owner;
+  int64_t lease_expires_ms = 0;
+  int64_t created_ms = 0;
+  int64_t updated_ms = 0;
+};
+
+// What an ingest commits, after its blobs are durable.
+struct NewVersion {
+  std::string tenant;
+  std::string asset;
+  SourceFile source;
+  std::vector<SourceFile> resources;
+  std::string options_json;
+  std::string comment;
+  std::map<std::string, std::string> labels;
+};
+
+struct TokenRecord {
+  std::string id;       // public handle for list and revoke (16 hex digits)
+  std::string tenant;
+  bool read_only = false;
+  int64_t created_ms = 0;
+  bool revoked = false;
+};
+
+template <typename T>
+struct Page {
+  std::vector<T> items;
+  std::string next_page_token;  // empty on the last page
+};
+
+// Page sizes: 0 means kDefaultPageSize; above kMaxPageSize is clamped;
+// negative is InvalidArgument.
+constexpr int32_t kDefaultPageSize = 50;
+constexpr int32_t kMaxPageSize = 1000;
+
+// Chunked writing of one blob. Nothing is visible under a digest until
+// Commit succeeds; a sink destroyed without Commit leaves nothing behind.
+class BlobSink {
+ public:
+  virtual ~BlobSink() = default;
+  virtual Status Append(const uint8_t* data, size_t size) = 0;
+  virtual uint64_t size() const = 0;
+  // Makes the blob durable and returns its digest; with a non-empty
+  // `expected_sha256`, a different digest is DataLoss and nothing is stored.
+  virtual StatusOr<std::string> Commit(const std::string& expected_sha256 = "") = 0;
+};
+
+class Store {
+ public:
+  virtual ~Store() = default;
+
+  // "sqlite" or "postgresql", for logs and benchmarks.
+  virtual std::string backend() const = 0;
+
+  // --- blobs -------------------------------------------------------------
+  virtual StatusOr<std::unique_ptr<BlobSink>> NewBlob() = 0;
+  // The bytes, re-hashed: NotFound when absent, ResourceExhausted above
+  // `max_bytes` (before allocating), DataLoss when they do not match.
+  virtual StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) = 0;
+  virtual StatusOr<bool> HasBlob(const std::string& sha256) = 0;
+  // Removes blobs that no version, artifact-cache row or upload names and
+  // that are older than `min_age_ms` (so that a blob another server has just
+  // committed, before its row, survives). Returns how many were removed.
+  virtual StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms) = 0;
+
+  // --- resumable uploads (per tenant; ids are names) -----------------------
+  // Durable bytes of the upload: NotFound when it does not exist.
+  virtual StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id) = 0;
+  // Appends at `offset`, which must equal the durable size (0 creates the
+  // upload); any other offset is FailedPrecondition naming both sizes. The
+  // bytes are durable when this returns.
+  virtual Status AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset,
+                              const uint8_t* data, size_t size) = 0;
+  // Turns the upload into a blob (checked against `expected_sha256` when not
+  // empty: DataLoss and the upload is discarded) and removes the upload.
+  virtual StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
+                                             const std::string& expected_sha256) = 0;
+  virtual Status DiscardUpload(const std::string& tenant, const std::string& upload_id) = 0;
+  // Removes uploads not written to for `max_idle_ms`. Returns how many.
+  virtual StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms) = 0;
+
+  // --- assets and versions -----------------------------------------------
+  // In one transaction: creates the asset when new, gives the version the
+  // next number, and a PENDING job. Every blob named must exist
+  // (FailedPrecondition otherwise).
+  virtual StatusOr<VersionRecord> CreateVersion(const NewVersion& version) = 0;
+  // version 0: the latest (any state). NotFound for an unknown asset or version.
+  virtual StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset,
+                                             int64_t version) = 0;
+  // The latest READY version: NotFound when there is none.
+  virtual StatusOr<VersionRecord> GetLatestReadyVersion(const std::string& tenant, const std::string& asset) = 0;
+  // Ascending by name; tokens are opaque (services/store/page_token.h), a
+  // malformed one is InvalidArgument.
+  virtual StatusOr<Page<AssetRecord>> ListAssets(const std::string& tenant, int32_t page_size,
+                                                 const std::string& page_token) = 0;
+  // Ascending by version number; NotFound for an unknown asset.
+  virtual StatusOr<Page<VersionRecord>> ListVersions(const std::string& tenant, const std::string& asset,
+                                                     int32_t page_size, const std::string& page_token) = 0;
+
+  // --- jobs ----------------------------------------------------------------
+  virtual StatusOr<JobRecord> GetJob(const std::string& tenant, const std::string& job_id) = 0;
+  // Claims the oldest PENDING job, or a RUNNING one whose lease expired
+  // before `now_ms` (its server died), for `worker` until now_ms + lease_ms.
+  // PostgreSQL: FOR UPDATE SKIP LOCKED, so concurrent claimers never get the
+  // same job. nullopt when there is nothing to do.
+  virtual StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms,
+                                                      int64_t lease_ms) = 0;
+  // Extends the lease and records progress; Aborted when `worker` no longer
+  // holds the lease (it expired and another worker took the job).
+  virtual Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,
+                            int64_t lease_ms, double progress, const std::string& message) = 0;
+  // Job SUCCEEDED and version READY with `summary`, in one transaction;
+  // Aborted when `worker` no longer holds the lease. The artifact blob must exist.
+  virtual Status CompleteJob(const std::string& job_id, const std::string& worker,
+                             const ArtifactSummary& summary) = 0;
+  // Job FAILED and version FAILED with `message`; Aborted as above.
+  virtual Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) = 0;
+  // Jobs neither SUCCEEDED nor FAILED (for drain and tests).
+  virtual StatusOr<int64_t> CountUnfinishedJobs() = 0;
+
+  // --- the artifact cache -----------------------------------------------
+  virtual StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) = 0;
+  // Inserts, or keeps the existing row (the same key gives the same result).
+  virtual Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) = 0;
+
+  // --- API tokens (the store never sees a token, only its hash) ------------
+  virtual StatusOr<TokenRecord> CreateToken(const std::string& tenant, bool read_only,
+                                            const std::string& token_hash) = 0;
+  // The live (not revoked) token with this hash: NotFound otherwise.
+  virtual StatusOr<TokenRecord> FindToken(const std::string& token_hash) = 0;
+  virtual StatusOr<std::vector<TokenRecord>> ListTokens() = 0;
+  // NotFound for an unknown id; revoking twice is OK.
+  virtual Status RevokeToken(const std::string& id) = 0;
+};
+
+// Milliseconds since the Unix epoch (the store's clock for created/updated).
+int64_t NowMs();
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STORE_STORE_H_
