@@ -75,6 +75,23 @@ std::string Sha256Hex(const uint8_t* data, size_t size) {
   return ToHex(digest, sizeof digest);
 }
 
+static_assert(sizeof(crypto_hash_sha256_state) <= 128, "Sha256Hasher::state_ is too small");
+
+Sha256Hasher::Sha256Hasher() {
+  (void)InitSodium();
+  crypto_hash_sha256_init(reinterpret_cast<crypto_hash_sha256_state*>(state_));
+}
+
+void Sha256Hasher::Update(const uint8_t* data, size_t size) {
+  crypto_hash_sha256_update(reinterpret_cast<crypto_hash_sha256_state*>(state_), data, size);
+}
+
+std::string Sha256Hasher::FinishHex() {
+  unsigned char digest[crypto_hash_sha256_BYTES];
+  crypto_hash_sha256_final(reinterpret_cast<crypto_hash_sha256_state*>(state_), digest);
+  return ToHex(digest, sizeof digest);
+}
+
 bool IsSha256Hex(const std::string& digest) {
   if (digest.size() != 64) return false;
   for (char c : digest) {
@@ -88,7 +105,7 @@ struct BlobWriter::State {
   std::string temp;      // its temporary file
   int fd = -1;
   uint64_t size = 0;
-  crypto_hash_sha256_state hash;
+  Sha256Hasher hash;
   bool committed = false;
 
   ~State() {
@@ -107,16 +124,14 @@ uint64_t BlobWriter::size() const { return state_ ? state_->size : 0; }
 Status BlobWriter::Append(const uint8_t* data, size_t size) {
   if (!state_ || state_->fd < 0) return Internal("blob writer: append after commit");
   MS_RETURN_IF_ERROR(WriteAll(state_->fd, data, size, state_->temp));
-  crypto_hash_sha256_update(&state_->hash, data, size);
+  state_->hash.Update(data, size);
   state_->size += size;
   return Status::Ok();
 }
 
 StatusOr<std::string> BlobWriter::Commit(const std::string& expected_sha256) {
   if (!state_ || state_->fd < 0) return Internal("blob writer: committed twice");
-  unsigned char digest_bytes[crypto_hash_sha256_BYTES];
-  crypto_hash_sha256_final(&state_->hash, digest_bytes);
-  const std::string digest = ToHex(digest_bytes, sizeof digest_bytes);
+  const std::string digest = state_->hash.FinishHex();
   if (!expected_sha256.empty() && expected_sha256 != digest) {
     return DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 + " announced; nothing stored");
   }
@@ -161,7 +176,6 @@ StatusOr<BlobWriter> FileBlobStore::NewWriter() const {
   state->temp = root_ + "/tmp/" + ToHex(random, sizeof random) + ".part";
   state->fd = open(state->temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
   if (state->fd < 0) return Errno(state->temp);
-  crypto_hash_sha256_init(&state->hash);
   return BlobWriter(std::move(state));
 }
 

@@ -36,6 +36,18 @@ std::string Sha256Hex(const uint8_t* data, size_t size);
 // True when `digest` is 64 lower-case hex digits.
 bool IsSha256Hex(const std::string& digest);
 
+// Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
+class Sha256Hasher {
+ public:
+  Sha256Hasher();
+  void Update(const uint8_t* data, size_t size);
+  // The digest as 64 lower-case hex digits; the hasher is spent afterwards.
+  std::string FinishHex();
+
+ private:
+  alignas(16) unsigned char state_[128];  // crypto_hash_sha256_state (checked in the .cc)
+};
+
 class FileBlobStore;
 
 // Writes one blob in chunks (an upload), hashing as it goes. Nothing is
@@ -55,7 +67,19 @@ class BlobWriter {
   StatusOr<std::string> Commit(const std::string& expected_sha256 = "");
 
  private:
-  friend class FileBlobStore;
+  friend // Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
+class Sha256Hasher {
+ public:
+  Sha256Hasher();
+  void Update(const uint8_t* data, size_t size);
+  // The digest as 64 lower-case hex digits; the hasher is spent afterwards.
+  std::string FinishHex();
+
+ private:
+  alignas(16) unsigned char state_[128];  // crypto_hash_sha256_state (checked in the .cc)
+};
+
+class FileBlobStore;
   struct State;
   explicit BlobWriter(std::unique_ptr<State> state);
   std::unique_ptr<State> state_;

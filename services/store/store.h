@@ -222,6 +222,10 @@ class Store {
                              const ArtifactSummary& summary) = 0;
   // Job FAILED and version FAILED with `message`; Aborted as above.
   virtual Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) = 0;
+  // Sets every RUNNING job back to PENDING (its lease forgotten). Only for a
+  // store that one process owns (the embedded one, at startup: the jobs of a
+  // process that died resume at once instead of after their lease).
+  virtual StatusOr<int64_t> ReleaseAllLeases() = 0;
   // Jobs neither SUCCEEDED nor FAILED (for drain and tests).
   virtual StatusOr<int64_t> CountUnfinishedJobs() = 0;
 

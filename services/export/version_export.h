@@ -1,0 +1,44 @@
+// Export of a stored version in a format: what the Export RPC and
+// `meshstream export` deliver. Exports are cached as blobs (the artifact cache
+// keyed by artifact digest, format and lod), so the second export of the same
+// version and format costs one verified blob read.
+//
+// Contract: tenant, asset and version come from the request (untrusted);
+// version 0 is the latest READY version; a version that is not READY is
+// FailedPrecondition naming its state (and the job's message when FAILED).
+// Thread safety: stateless; callable from any thread.
+#ifndef MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
+#define MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "services/pipeline/export_version.h"
+#include "services/store/store.h"
+
+namespace meshstream {
+
+struct ExportedVersion {
+  VersionRecord version;
+  std::vector<uint8_t> bytes;
+  std::string sha256;
+  bool cached = false;  // served from the export cache
+};
+
+// The version an export or a session of `asset` at `version` reads: version
+// 0 is the latest READY one.
+StatusOr<VersionRecord> ResolveReadyVersion(Store& store, const std::string& tenant, const std::string& asset,
+                                            int64_t version);
+
+StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant, const std::string& asset,
+                                        int64_t version, ExportFormat format, std::optional<int> lod,
+                                        uint64_t max_bytes);
+
+const char* ExportFormatName(ExportFormat format);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_

@@ -1,0 +1,218 @@
+#include "services/ingest/ingest_upload.h"
+
+#include <algorithm>
+#include <cctype>
+#include <set>
+#include <utility>
+
+#include "codec/core/utf8.h"
+#include "importers/import.h"
+#include "services/pipeline/resource_path.h"
+
+namespace meshstream {
+
+namespace {
+
+// Lower-cases an announced digest; InvalidArgument naming `field` unless it
+// is empty or 64 hex digits.
+StatusOr<std::string> NormalizeDigest(const std::string& field, const std::string& digest) {
+  std::string lower = digest;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (!lower.empty() && !IsSha256Hex(lower)) return InvalidArgument(field + ": expected 64 hex digits (SHA-256)");
+  return lower;
+}
+
+std::string Bytes(uint64_t n) { return std::to_string(n) + " bytes"; }
+
+}  // namespace
+
+IngestUpload::IngestUpload(Store* store, Principal principal, IngestLimits limits)
+    : store_(store), principal_(std::move(principal)), limits_(limits) {}
+
+IngestUpload::~IngestUpload() = default;
+
+Status IngestUpload::Begin(const IngestMeta& meta) {
+  if (begun_) return InvalidArgument("metadata: sent twice (only the first message is metadata)");
+  meta_ = meta;
+  Status s = CheckName("asset", meta.asset);
+  if (!s.ok()) return s;
+  s = CheckMainFilename(meta.filename);
+  if (!s.ok()) return s;
+  if (meta.size == 0) return InvalidArgument("size: the size of the file in bytes is required");
+  if (meta.size > limits_.max_upload_bytes) {
+    return ResourceExhausted("size: " + Bytes(meta.size) + " is above the server's --max-upload of " +
+                             Bytes(limits_.max_upload_bytes));
+  }
+  auto digest = NormalizeDigest("sha256", meta.sha256);
+  if (!digest.ok()) return digest.status();
+  meta_.sha256 = digest.value();
+  auto settings = ResolveSettings(meta.options);
+  if (!settings.ok()) return settings.status();
+  options_json_ = CanonicalJson(settings.value());
+  if (meta.comment.size() > limits_.max_comment_bytes) {
+    return InvalidArgument("comment: " + Bytes(meta.comment.size()) + ", at most " + Bytes(limits_.max_comment_bytes));
+  }
+  if (!IsValidUtf8(meta.comment)) return InvalidArgument("comment: not valid UTF-8");
+  if (meta.labels.size() > limits_.max_labels) {
+    return InvalidArgument("labels: " + std::to_string(meta.labels.size()) + " labels, at most " +
+                           std::to_string(limits_.max_labels));
+  }
+  for (const auto& [key, value] : meta.labels) {
+    if (key.empty() || key.size() > limits_.max_label_key_bytes || !IsValidUtf8(key)) {
+      return InvalidArgument("labels: a key must be 1 to " + std::to_string(limits_.max_label_key_bytes) +
+                             " bytes of UTF-8");
+    }
+    if (value.size() > limits_.max_label_value_bytes || !IsValidUtf8(value)) {
+      return InvalidArgument("labels[" + key + "]: at most " + std::to_string(limits_.max_label_value_bytes) +
+                             " bytes of UTF-8");
+    }
+  }
+  if (!meta.upload_id.empty()) {
+    s = CheckName("upload_id", meta.upload_id);
+    if (!s.ok()) return s;
+    if (meta.write_offset > meta.size) {
+      return InvalidArgument("write_offset: " + std::to_string(meta.write_offset) + " is beyond size " +
+                             std::to_string(meta.size));
+    }
+    auto committed = store_->UploadSize(principal_.tenant, meta.upload_id);
+    if (!committed.ok() && committed.status().code() != StatusCode::kNotFound) return committed.status();
+    const uint64_t have = committed.ok() ? committed.value() : 0;
+    if (!committed.ok() && meta.write_offset > 0) {
+      return NotFound("upload_id " + meta.upload_id + ": no such upload (never started, finished or expired)");
+    }
+    if (meta.write_offset != have) {
+      return FailedPrecondition("write_offset: " + std::to_string(meta.write_offset) + ", but upload " +
+                                meta.upload_id + " has committed_size " + std::to_string(have) +
+                                " (QueryUpload, then resume there)");
+    }
+    if (meta.write_offset == 0) main_.hasher = std::make_unique<Sha256Hasher>();
+  } else {
+    if (meta.write_offset != 0) return InvalidArgument("write_offset: only meaningful with an upload_id");
+    auto sink = store_->NewBlob();
+    if (!sink.ok()) return sink.status();
+    main_.sink = std::move(sink).value();
+    main_.hasher = std::make_unique<Sha256Hasher>();
+  }
+  main_.file = SourceFile{meta.filename, meta_.sha256, meta.size};
+  total_bytes_ = meta.size;
+  begun_ = true;
+  return Status::Ok();
+}
+
+Status IngestUpload::CheckPartComplete(const Part& part, const std::string& what) const {
+  const uint64_t offset = (&part == &main_) ? meta_.write_offset : 0;
+  const uint64_t have = offset + part.received;
+  if (have != part.file.size) {
+    return DataLoss(what + ": size says " + Bytes(part.file.size) + ", received " + Bytes(have) + "; nothing stored");
+  }
+  return Status::Ok();
+}
+
+Status IngestUpload::BeginResource(const ResourceMeta& resource) {
+  if (!begun_) return InvalidArgument("the first message must be metadata");
+  if (FileExtension(meta_.filename) != ".gltf") {
+    return InvalidArgument("resource: only a .gltf has external files (filename is " + meta_.filename + ")");
+  }
+  Status s = CheckResourceName(resource.name);
+  if (!s.ok()) return s;
+  if (resources_.size() >= limits_.max_resources) {
+    return InvalidArgument("resource: more than " + std::to_string(limits_.max_resources) + " external files");
+  }
+  for (const Part& r : resources_) {
+    if (r.file.name == resource.name) return InvalidArgument("resource '" + resource.name + "': sent twice");
+  }
+  s = CheckPartComplete(resources_.empty() ? main_ : resources_.back(),
+                        resources_.empty() ? meta_.filename : "resource '" + resources_.back().file.name + "'");
+  if (!s.ok()) return s;
+  if (resource.size > limits_.max_upload_bytes - total_bytes_) {
+    return ResourceExhausted("resource '" + resource.name + "': the upload would exceed the server's --max-upload of " +
+                             Bytes(limits_.max_upload_bytes));
+  }
+  auto digest = NormalizeDigest("resource '" + resource.name + "': sha256", resource.sha256);
+  if (!digest.ok()) return digest.status();
+  Part part;
+  part.file = SourceFile{resource.name, digest.value(), resource.size};
+  auto sink = store_->NewBlob();
+  if (!sink.ok()) return sink.status();
+  part.sink = std::move(sink).value();
+  part.hasher = std::make_unique<Sha256Hasher>();
+  total_bytes_ += resource.size;
+  resources_.push_back(std::move(part));
+  return Status::Ok();
+}
+
+Status IngestUpload::Chunk(const uint8_t* data, size_t size) {
+  if (!begun_) return InvalidArgument("the first message must be metadata");
+  if (size > limits_.max_chunk_bytes) {
+    return InvalidArgument("chunk: " + Bytes(size) + ", at most " + Bytes(limits_.max_chunk_bytes));
+  }
+  const bool is_main = resources_.empty();
+  Part& part = is_main ? main_ : resources_.back();
+  const uint64_t offset = (is_main ? meta_.write_offset : 0) + part.received;
+  if (size > part.file.size - offset) {
+    const std::string what = is_main ? meta_.filename : "resource '" + part.file.name + "'";
+    return DataLoss(what + ": more bytes than its size of " + Bytes(part.file.size) + "; nothing stored");
+  }
+  if (part.hasher) part.hasher->Update(data, size);
+  if (part.sink) {
+    Status s = part.sink->Append(data, size);
+    if (!s.ok()) return s;
+  } else {
+    Status s = store_->AppendUpload(principal_.tenant, meta_.upload_id, offset, data, size);
+    if (!s.ok()) return s;
+  }
+  part.received += size;
+  return Status::Ok();
+}
+
+StatusOr<VersionRecord> IngestUpload::Finish() {
+  if (!begun_) return InvalidArgument("the first message must be metadata");
+  if (finished_) return Internal("Finish called twice");
+  finished_ = true;
+  // Everything is checked before anything is committed.
+  Status s = CheckPartComplete(main_, meta_.filename);
+  if (!s.ok()) return s;
+  for (const Part& r : resources_) {
+    s = CheckPartComplete(r, "resource '" + r.file.name + "'");
+    if (!s.ok()) return s;
+  }
+  if (main_.hasher) main_.sha256 = main_.hasher->FinishHex();
+  if (!main_.sha256.empty() && !main_.file.sha256.empty() && main_.sha256 != main_.file.sha256) {
+    if (!meta_.upload_id.empty()) (void)store_->DiscardUpload(principal_.tenant, meta_.upload_id);
+    return DataLoss(meta_.filename + ": the bytes have SHA-256 " + main_.sha256 + ", not the announced " +
+                    main_.file.sha256 + "; nothing stored");
+  }
+  for (Part& r : resources_) {
+    r.sha256 = r.hasher->FinishHex();
+    if (!r.file.sha256.empty() && r.sha256 != r.file.sha256) {
+      return DataLoss("resource '" + r.file.name + "': the bytes have SHA-256 " + r.sha256 + ", not the announced " +
+                      r.file.sha256 + "; nothing stored");
+    }
+  }
+  // The main file: a resumed upload is checked by the store against the
+  // announced digest (the earlier bytes were hashed by no one here).
+  if (main_.sink) {
+    auto digest = main_.sink->Commit(main_.sha256);
+    if (!digest.ok()) return digest.status();
+  } else {
+    auto digest = store_->CommitUpload(principal_.tenant, meta_.upload_id,
+                                       main_.sha256.empty() ? main_.file.sha256 : main_.sha256);
+    if (!digest.ok()) return digest.status().WithContext(meta_.filename);
+    main_.sha256 = digest.value();
+  }
+  NewVersion version;
+  version.tenant = principal_.tenant;
+  version.asset = meta_.asset;
+  version.source = SourceFile{meta_.filename, main_.sha256, main_.file.size};
+  for (Part& r : resources_) {
+    auto digest = r.sink->Commit(r.sha256);
+    if (!digest.ok()) return digest.status().WithContext("resource '" + r.file.name + "'");
+    version.resources.push_back(SourceFile{r.file.name, r.sha256, r.file.size});
+  }
+  version.options_json = options_json_;
+  version.comment = meta_.comment;
+  version.labels = meta_.labels;
+  return store_->CreateVersion(version);
+}
+
+}  // namespace meshstream

@@ -1,0 +1,232 @@
+#include "services/server/server.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
+#include <sodium.h>
+
+#include "importers/import.h"
+#include "services/api/asset_service.h"
+#include "services/auth/authenticator.h"
+#include "services/jobs/worker_pool.h"
+#include "services/store/open_store.h"
+
+namespace meshstream {
+
+namespace {
+
+// Adds the reflection plugin to one builder only (grpc's own
+// InitProtoReflectionServerBuilderPlugin turns it on for every server of the
+// process).
+class ReflectionOption final : public grpc::ServerBuilderOption {
+ public:
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
+  }
+};
+
+std::string HostOf(const std::string& listen) {
+  if (listen.rfind("unix:", 0) == 0) return "unix";
+  if (!listen.empty() && listen[0] == '[') {
+    const size_t end = listen.find(']');
+    return end == std::string::npos ? listen : listen.substr(1, end - 1);
+  }
+  const size_t colon = listen.rfind(':');
+  return colon == std::string::npos ? listen : listen.substr(0, colon);
+}
+
+std::string DefaultServerId() {
+  char host[256] = {0};
+  if (gethostname(host, sizeof host - 1) != 0) host[0] = 0;
+  uint8_t random[4];
+  if (sodium_init() >= 0) randombytes_buf(random, sizeof random);
+  char hex[9];
+  sodium_bin2hex(hex, sizeof hex, random, sizeof random);
+  return std::string(host[0] ? host : "meshstream") + "-" + std::to_string(getpid()) + "-" + hex;
+}
+
+StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(const ServerOptions& o) {
+  if (o.tls_cert.empty() != o.tls_key.empty()) {
+    return InvalidArgument("--tls-cert and --tls-key: give both or neither");
+  }
+  if (o.tls_cert.empty()) return grpc::InsecureServerCredentials();
+  auto cert = ReadFileBytes(o.tls_cert, 1 << 20);
+  if (!cert.ok()) return cert.status().WithContext("--tls-cert");
+  auto key = ReadFileBytes(o.tls_key, 1 << 20);
+  if (!key.ok()) return key.status().WithContext("--tls-key");
+  grpc::SslServerCredentialsOptions ssl;
+  ssl.pem_key_cert_pairs.push_back({std::string(key->begin(), key->end()), std::string(cert->begin(), cert->end())});
+  return grpc::SslServerCredentials(ssl);
+}
+
+}  // namespace
+
+bool IsLoopbackListen(const std::string& listen) {
+  const std::string host = HostOf(listen);
+  return host == "unix" || host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
+struct Server::Impl {
+  ServerOptions options;
+  std::function<void(const std::string&)> log;
+  std::unique_ptr<Store> store;
+  std::unique_ptr<Authenticator> auth;
+  std::unique_ptr<WorkerPool> pool;
+  std::unique_ptr<AssetServiceImpl> service;
+  std::unique_ptr<grpc::Server> server;
+  std::string address;
+  std::atomic<bool> draining{false};
+
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stopping = false;
+  std::thread maintenance;
+
+  void Maintain() {
+    std::unique_lock<std::mutex> lock(mutex);
+    while (!stopping) {
+      wake.wait_for(lock, std::chrono::minutes(10));
+      if (stopping) break;
+      lock.unlock();
+      auto expired = store->ExpireUploads(options.upload_ttl_ms);
+      if (!expired.ok()) log("upload expiry failed: " + expired.status().ToString());
+      else if (expired.value() > 0) log("removed " + std::to_string(expired.value()) + " expired uploads");
+      lock.lock();
+    }
+  }
+};
+
+Server::Server(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+Server::~Server() {
+  if (!impl_) return;
+  Drain();
+  Wait();
+}
+
+const std::string& Server::address() const { return impl_->address; }
+
+StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->options = options;
+  impl->log = options.log ? options.log : [](const std::string& line) {
+    std::fprintf(stderr, "meshstream serve: %s\n", line.c_str());
+    std::fflush(stderr);
+  };
+  const bool loopback = IsLoopbackListen(options.listen);
+  if (!loopback && !options.auth) {
+    if (!options.insecure) {
+      return InvalidArgument("--listen " + options.listen +
+                             ": not a loopback address, so --auth is required (or --insecure to serve anyone)");
+    }
+    impl->log("warning: --insecure: serving " + options.listen + " without authentication; anyone who reaches it "
+              "can read and write every asset");
+  }
+  if (!loopback && options.auth && options.tls_cert.empty()) {
+    impl->log("warning: tokens travel in clear text on " + options.listen + " (give --tls-cert and --tls-key)");
+  }
+  auto credentials = Credentials(options);
+  if (!credentials.ok()) return credentials.status();
+
+  auto store = OpenStore(options.store);
+  if (!store.ok()) return store.status().WithContext("--store " + options.store);
+  impl->store = std::move(store).value();
+  impl->log("store: " + impl->store->backend() + " at " + options.store);
+  // An embedded store belongs to this process alone (its lock): nothing
+  // another writer could be about to name, so orphans go at once. A shared
+  // one waits an hour, longer than any ingest between blob and row.
+  const bool shared = impl->store->backend() != "sqlite";
+  auto orphans = impl->store->RemoveOrphanBlobs(shared ? 3600 * 1000 : 0);
+  if (!orphans.ok()) return orphans.status().WithContext("removing orphan blobs");
+  if (orphans.value() > 0) impl->log("removed " + std::to_string(orphans.value()) + " orphan blobs");
+  if (!shared) {
+    auto released = impl->store->ReleaseAllLeases();
+    if (!released.ok()) return released.status();
+    if (released.value() > 0) impl->log("resuming " + std::to_string(released.value()) + " interrupted jobs");
+  }
+  auto expired = impl->store->ExpireUploads(options.upload_ttl_ms);
+  if (!expired.ok()) return expired.status();
+
+  impl->auth = std::make_unique<Authenticator>(impl->store.get(), options.auth);
+  WorkerPoolOptions pool_options;
+  pool_options.workers = options.workers > 0 ? options.workers : std::max(1u, std::thread::hardware_concurrency());
+  pool_options.worker_id = options.server_id.empty() ? DefaultServerId() : options.server_id;
+  pool_options.lease_ms = options.lease_ms;
+  pool_options.log = impl->log;
+  impl->pool = std::make_unique<WorkerPool>(impl->store.get(), pool_options);
+
+  AssetServiceOptions service_options;
+  service_options.ingest.max_upload_bytes = options.max_upload_bytes;
+  Impl* raw = impl.get();
+  impl->service = std::make_unique<AssetServiceImpl>(impl->store.get(), impl->auth.get(), service_options,
+                                                     [raw] { raw->pool->Wake(); }, &impl->draining);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(options.listen, credentials.value(), &port);
+  builder.RegisterService(impl->service.get());
+  // Chunks are at most 1 MiB; a message is a chunk and a little framing.
+  builder.SetMaxReceiveMessageSize(2 << 20);
+  builder.SetMaxSendMessageSize(2 << 20);
+  const bool reflection = options.reflection.value_or(loopback);
+  if (reflection) builder.SetOption(std::make_unique<ReflectionOption>());
+  impl->server = builder.BuildAndStart();
+  if (!impl->server || (port == 0 && options.listen.rfind("unix:", 0) != 0)) {
+    return Unavailable("--listen " + options.listen + ": cannot listen there (address in use, or not this host's)");
+  }
+  if (options.listen.rfind("unix:", 0) == 0) {
+    impl->address = options.listen;
+  } else {
+    const size_t colon = options.listen.rfind(':');
+    impl->address = options.listen.substr(0, colon) + ":" + std::to_string(port);
+  }
+  impl->server->GetHealthCheckService()->SetServingStatus(true);
+  impl->pool->Start();
+  impl->maintenance = std::thread([raw] { raw->Maintain(); });
+  impl->log("listening on " + impl->address + (options.tls_cert.empty() ? "" : " (TLS)") +
+            (options.auth ? ", tokens required" : ", no authentication (loopback)") + ", " +
+            std::to_string(pool_options.workers) + " workers" + (reflection ? ", reflection on" : ""));
+  return std::unique_ptr<Server>(new Server(std::move(impl)));
+}
+
+void Server::Drain() {
+  Impl& s = *impl_;
+  if (s.draining.exchange(true)) return;
+  s.log("draining: health NOT_SERVING, finishing running requests within " +
+        std::to_string(s.options.grace_period_s) + " s");
+  s.server->GetHealthCheckService()->SetServingStatus(false);
+  const auto deadline = std::chrono::system_clock::now() +
+                        std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
+  s.server->Shutdown(deadline);
+  s.pool->Drain(deadline);
+  {
+    std::lock_guard<std::mutex> lock(s.mutex);
+    s.stopping = true;
+  }
+  s.wake.notify_all();
+}
+
+void Server::Wait() {
+  Impl& s = *impl_;
+  s.server->Wait();
+  if (s.maintenance.joinable()) s.maintenance.join();
+  s.pool->Stop();
+  s.log("stopped");
+}
+
+}  // namespace meshstream

@@ -1,0 +1,67 @@
+// `meshstream serve`: the gRPC server with its store, its worker pool and the
+// standard services (grpc.health.v1; reflection when asked or on loopback).
+//
+// Secure by default: without authentication the server listens only on a
+// loopback address (or a unix: socket); any other address is refused unless
+// `insecure` is set, which logs a warning. TLS with a certificate and key
+// in PEM files. SIGTERM (Drain) turns health to NOT_SERVING, stops claiming
+// jobs, lets running requests finish within the grace period, then cancels
+// the rest; unfinished jobs are taken up again by the next start (or by
+// another server sharing the PostgreSQL store) (docs/deploy.md).
+//
+// Thread safety: Start, then Drain from any thread (a signal handler thread),
+// and Wait from one.
+#ifndef MESHSTREAM_SERVICES_SERVER_SERVER_H_
+#define MESHSTREAM_SERVICES_SERVER_SERVER_H_
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1:7600";  // host:port, [v6]:port or unix:/path; port 0 picks a free one
+  std::string store = "./meshstream-data";  // a folder, or postgresql://...
+  int workers = 0;                        // 0: the core count
+  bool auth = false;
+  bool insecure = false;                  // allow a non-loopback address without auth
+  std::string tls_cert, tls_key;          // PEM files; both or neither
+  std::optional<bool> reflection;         // unset: on only on loopback
+  uint64_t max_upload_bytes = uint64_t{1} << 30;
+  double grace_period_s = 20.0;
+  int64_t upload_ttl_ms = int64_t{24} * 3600 * 1000;  // resumable uploads idle this long are removed
+  int64_t lease_ms = 30000;               // job lease; the worker renews it every third of it
+  std::string server_id;                  // for job leases and logs; empty: host-pid-random
+  // Log lines ("meshstream serve: ..."); default: stderr.
+  std::function<void(const std::string&)> log;
+};
+
+// True for 127.0.0.0/8, ::1, localhost and unix: sockets.
+bool IsLoopbackListen(const std::string& listen);
+
+class Server {
+ public:
+  static StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options);
+  ~Server();
+
+  // The address really bound ("127.0.0.1:41234" when port 0 was asked).
+  const std::string& address() const;
+  // Health NOT_SERVING, stop claiming, finish within the grace period.
+  void Drain();
+  // Blocks until the server has shut down (after Drain).
+  void Wait();
+
+ private:
+  struct Impl;
+  explicit Server(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_SERVER_SERVER_H_
