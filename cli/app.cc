@@ -35,7 +35,7 @@ class HelpFormatter : public CLI::Formatter {
 const char kRootFooter[] =
     "Inputs: .gltf .glb .obj .ply .off .stl. Outputs: .gltf .glb (decode also .obj .ply).\n"
     "Run 'meshstream VERB --help' for the options of a verb.\n"
-    "Exit status: 0 success, 1 bad input, 2 bad usage.\n"
+    "Exit status: 0 success, 1 bad input (or refused by the server), 2 bad usage, 3 server unreachable.\n"
     "Options marked Env may also be set from that environment variable (docs/cli.md).\n"
     "\n"
     "Example:\n"
@@ -112,7 +112,9 @@ int Main(int argc, char** argv) {
   root.set_version_flag("--version", std::string("meshstream ") + MESHSTREAM_VERSION, "print the version and exit");
   root.require_subcommand(1);
   root.footer(kRootFooter);
-  const std::vector<Verb> verbs = {AddInfo(root), AddConvert(root), AddCompare(root), AddEncode(root), AddDecode(root)};
+  const std::vector<Verb> verbs = {AddInfo(root),  AddConvert(root),  AddCompare(root), AddEncode(root),
+                                   AddDecode(root), AddServe(root),    AddIngest(root),  AddVersions(root),
+                                   AddAssets(root), AddExport(root),   AddToken(root)};
 
   try {
     root.parse(argc, argv);
@@ -132,7 +134,7 @@ int Main(int argc, char** argv) {
     if (verb.empty() && argc >= 2 && argv[1][0] != '-') {
       message = std::string("unknown verb '") + argv[1] + "'";
     } else if (verb.empty() && argc < 2) {
-      message = "a verb is required: info, convert, compare, encode or decode";
+      message = "a verb is required: info, convert, compare, encode, decode, serve, ingest, versions, assets, export or token";
     }
     return ReportError(verb, InvalidArgument(message));
   }

@@ -3,6 +3,7 @@
 //   1  bad input: the file is missing, malformed, unsupported or too large;
 //      also an internal error (an exception that should not have happened)
 //   2  bad usage: unknown verb or option, missing or out-of-range argument
+//   3  the server cannot be reached or is shutting down (retry later)
 // Every failure prints exactly one line on stderr.
 #ifndef MESHSTREAM_CLI_EXIT_CODES_H_
 #define MESHSTREAM_CLI_EXIT_CODES_H_
@@ -17,10 +18,13 @@ namespace meshstream::cli {
 constexpr int kExitOk = 0;
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
+constexpr int kExitUnavailable = 3;
 
 inline int ExitCodeFor(const Status& status) {
   if (status.ok()) return kExitOk;
-  return status.code() == StatusCode::kInvalidArgument ? kExitUsage : kExitBadInput;
+  if (status.code() == StatusCode::kInvalidArgument) return kExitUsage;
+  if (status.code() == StatusCode::kUnavailable) return kExitUnavailable;
+  return kExitBadInput;
 }
 
 inline std::string OneLine(std::string message) {

@@ -14,6 +14,12 @@ Verb AddConvert(CLI::App& root);
 Verb AddCompare(CLI::App& root);
 Verb AddEncode(CLI::App& root);
 Verb AddDecode(CLI::App& root);
+Verb AddServe(CLI::App& root);
+Verb AddIngest(CLI::App& root);
+Verb AddVersions(CLI::App& root);
+Verb AddAssets(CLI::App& root);
+Verb AddExport(CLI::App& root);
+Verb AddToken(CLI::App& root);
 
 }  // namespace meshstream::cli
 

@@ -166,6 +166,10 @@ grpc::Status AssetServiceImpl::Export(grpc::ServerContext* context, const v1::Ex
   do {
     const size_t n = std::min(options_.export_chunk_bytes, bytes.size() - offset);
     v1::ExportChunk chunk;
+    if (offset == 0) {
+      chunk.set_version(exported->version.version);
+      chunk.set_total_size(bytes.size());
+    }
     chunk.set_data(bytes.data() + offset, n);
     offset += n;
     if (offset == bytes.size()) chunk.set_sha256(exported->sha256);

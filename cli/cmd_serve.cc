@@ -1,0 +1,97 @@
+// meshstream serve [--listen 127.0.0.1:7600] [--store S] [--workers N] [--auth] ...
+#include <signal.h>
+
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+#include "cli/exit_codes.h"
+#include "cli/verbs.h"
+#include "services/server/server.h"
+
+namespace meshstream::cli {
+
+namespace {
+
+const char kDetails[] =
+    "Serves meshstream.v1.AssetService (docs/api.md) with grpc.health.v1, on an embedded store\n"
+    "(a folder: SQLite + blobs) or a shared one (postgresql://...: several servers, one database).\n"
+    "Without --auth it listens only on loopback; on any other address --auth (or --insecure) is\n"
+    "required. SIGTERM or SIGINT drains: health NOT_SERVING, running requests finish within\n"
+    "--grace-period, unfinished jobs resume at the next start. The first line on stdout is\n"
+    "'listening on HOST:PORT' (port 0 picks a free port). docs/deploy.md has the details.\n"
+    "\n"
+    "Examples:\n"
+    "  meshstream serve --store ./meshstream-data\n"
+    "  meshstream serve --listen 0.0.0.0:7600 --auth --tls-cert cert.pem --tls-key key.pem \\\n"
+    "                   --store postgresql://meshstream@db/meshstream";
+
+struct ServeArgs {
+  ServerOptions options;
+  bool reflection = false;
+  bool no_reflection = false;
+};
+
+int RunServe(ServeArgs& args) {
+  if (args.reflection && args.no_reflection) {
+    return ReportError("serve", InvalidArgument("--reflection and --no-reflection: choose one"));
+  }
+  if (args.reflection) args.options.reflection = true;
+  if (args.no_reflection) args.options.reflection = false;
+  // The signals are taken by one thread (sigwait), so they are blocked in
+  // every thread the server starts.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  auto server = Server::Start(args.options);
+  if (!server.ok()) return ReportError("serve", server.status());
+  std::printf("listening on %s\n", (*server)->address().c_str());
+  std::fflush(stdout);
+  Server* raw = server->get();
+  std::thread waiter([raw, signals] {
+    int signal = 0;
+    sigwait(&signals, &signal);
+    raw->Drain();
+  });
+  raw->Wait();
+  waiter.join();
+  return kExitOk;
+}
+
+}  // namespace
+
+Verb AddServe(CLI::App& root) {
+  auto args = std::make_shared<ServeArgs>();
+  CLI::App* cmd = AddVerb(root, "serve", "Runs the asset service (gRPC) on an embedded or a PostgreSQL store.", kDetails);
+  ServerOptions& o = args->options;
+  FromEnv(cmd->add_option("--listen", o.listen, "HOST:PORT, [V6]:PORT or unix:PATH"))->capture_default_str();
+  FromEnv(cmd->add_option("--store", o.store, "a folder (embedded) or postgresql://... (shared)"))->capture_default_str();
+  FromEnv(cmd->add_option("--workers", o.workers, "processing threads (0: the core count)")->check(CLI::Range(0, 256)))
+      ->capture_default_str();
+  FromEnv(cmd->add_flag("--auth", o.auth, "require 'authorization: Bearer TOKEN' (meshstream token create)"));
+  FromEnv(cmd->add_flag("--insecure", o.insecure, "allow a non-loopback --listen without --auth (not recommended)"));
+  FromEnv(cmd->add_option("--tls-cert", o.tls_cert, "PEM certificate chain (with --tls-key)")->check(CLI::ExistingFile));
+  FromEnv(cmd->add_option("--tls-key", o.tls_key, "PEM private key (with --tls-cert)")->check(CLI::ExistingFile));
+  FromEnv(cmd->add_flag("--reflection", args->reflection, "serve gRPC reflection (default: only on loopback)"));
+  FromEnv(cmd->add_flag("--no-reflection", args->no_reflection, "never serve gRPC reflection"));
+  FromEnv(cmd->add_option("--max-upload", o.max_upload_bytes,
+                          "largest upload, file and resources together (bytes, or 512M, 1G, ...)")
+              ->transform(CLI::AsSizeValue(false))
+              ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--grace-period", o.grace_period_s, "seconds running requests get on SIGTERM")
+              ->check(NumberIn(0, 3600)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--upload-ttl", o.upload_ttl_ms, "milliseconds an unfinished resumable upload is kept")
+              ->check(CLI::Range(int64_t{1000}, int64_t{30} * 24 * 3600 * 1000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--lease", o.lease_ms, "milliseconds of a job lease (renewed every third)")
+              ->check(CLI::Range(int64_t{300}, int64_t{3600} * 1000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
+  return {cmd, [args] { return RunServe(*args); }};
+}
+
+}  // namespace meshstream::cli
