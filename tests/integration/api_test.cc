@@ -1,0 +1,490 @@
+// The asset service end to end: a real `meshstream serve` on an embedded
+// store, driven over loopback gRPC by the generated C++ client. Every shared
+// model is ingested once (the fixture), then exported in every format; the
+// glTF outputs pass the Khronos validator and the progressive export decodes
+// on the grid of its source. Then pagination, resumable uploads, the cache,
+// and every error code of docs/api.md, with the server still healthy after.
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/common/asset_client.h"
+#include "tests/common/cli_util.h"
+#include "tests/common/grpc_probe.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::AssetClient;
+using test_util::ServeProcess;
+using test_util::UploadFile;
+namespace fs = std::filesystem;
+
+struct Model {
+  std::string asset;
+  std::string path;                   // the main file
+  std::vector<UploadFile> resources;  // the other files of its folder (.gltf)
+  bool triangles_only = true;         // compare on the grid after a decode
+};
+
+std::vector<Model> SharedModels() {
+  std::vector<Model> models;
+  for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {
+    std::string asset = name;
+    asset = asset.substr(0, asset.find('.'));
+    models.push_back({asset, test_util::ModelPath(name), {}, true});
+  }
+  models.push_back({"BoxTextured", test_util::ModelPath("gltf/BoxTextured.glb"), {}, true});
+  models.push_back({"2CylinderEngine", test_util::ModelPath("gltf/2CylinderEngine.glb"), {}, true});
+  for (const char* folder : {"AnimatedMorphCube", "simple_skin", "draco-2CylinderEngine"}) {
+    Model m;
+    m.asset = std::string("gltf-") + folder;
+    m.triangles_only = false;
+    for (const auto& entry : fs::directory_iterator(test_util::ModelPath(std::string("gltf/") + folder))) {
+      const std::string file = entry.path().filename().string();
+      if (entry.path().extension() == ".gltf") {
+        m.path = entry.path().string();
+      } else {
+        m.resources.push_back(AssetClient::Load(entry.path().string(), file));
+      }
+    }
+    models.push_back(m);
+  }
+  return models;
+}
+
+struct Ingested {
+  Model model;
+  v1::IngestResponse response;
+  v1::Job job;
+  v1::Version version;
+};
+
+class AssetApi : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test_util::TempDir();
+    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = server.value().release();
+    client_ = new AssetClient(server_->address());
+    // Every model is sent first, then every job followed: the pool works on
+    // them in parallel while the uploads go on.
+    ingested_ = new std::vector<Ingested>();
+    for (const Model& m : SharedModels()) {
+      Ingested in;
+      in.model = m;
+      const UploadFile main = AssetClient::Load(m.path, fs::path(m.path).filename().string());
+      const grpc::Status s = client_->Ingest(m.asset, main, &in.response, m.resources);
+      ASSERT_TRUE(s.ok()) << m.asset << ": " << s.error_message();
+      ingested_->push_back(std::move(in));
+    }
+    for (Ingested& in : *ingested_) {
+      ASSERT_TRUE(client_->Watch(in.response.job_id(), &in.job).ok()) << in.model.asset;
+      ASSERT_TRUE(client_->GetVersion(in.model.asset, in.response.version(), &in.version).ok()) << in.model.asset;
+    }
+  }
+  static void TearDownTestSuite() {
+    if (server_ != nullptr) EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    delete client_;
+    delete server_;
+    delete ingested_;
+    delete dir_;
+  }
+
+  static grpc::Status Unary(std::function<grpc::Status(grpc::ClientContext*)> call) {
+    grpc::ClientContext context;
+    client_->Prepare(context);
+    return call(&context);
+  }
+
+  static void ExpectHealthy() {
+    const auto health = test_util::CheckHealth(client_->channel());
+    EXPECT_TRUE(health.status.ok()) << health.status.error_message();
+    EXPECT_EQ(health.serving_status, 1) << "health is not SERVING";
+  }
+
+  static inline test_util::TempDir* dir_ = nullptr;
+  static inline ServeProcess* server_ = nullptr;
+  static inline AssetClient* client_ = nullptr;
+  static inline std::vector<Ingested>* ingested_ = nullptr;
+};
+
+UploadFile SmallObj(const std::string& name, int variant = 0) {
+  const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 " + std::to_string(1 + variant) +
+                           "\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+  return UploadFile{name, std::vector<uint8_t>(text.begin(), text.end())};
+}
+
+TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
+  ASSERT_EQ(ingested_->size(), SharedModels().size());
+  for (const Ingested& in : *ingested_) {
+    SCOPED_TRACE(in.model.asset);
+    EXPECT_EQ(in.response.asset(), in.model.asset);
+    EXPECT_EQ(in.response.version(), 1);
+    const UploadFile main = AssetClient::Load(in.model.path, "x");
+    EXPECT_EQ(in.response.sha256(), Sha256Hex(main.bytes.data(), main.bytes.size()));
+    EXPECT_EQ(in.job.state(), v1::JOB_STATE_SUCCEEDED) << in.job.message();
+    EXPECT_DOUBLE_EQ(in.job.progress(), 1.0);
+    EXPECT_EQ(in.version.state(), v1::VERSION_STATE_READY) << in.version.error();
+    EXPECT_EQ(in.version.source_sha256(), in.response.sha256());
+    EXPECT_EQ(in.version.source_size(), main.bytes.size());
+    EXPECT_EQ(static_cast<size_t>(in.version.resources_size()), in.model.resources.size());
+    EXPECT_GT(in.version.vertices(), 0);
+    EXPECT_GT(in.version.faces(), 0);
+    EXPECT_GT(in.version.progressive_bytes(), 0u);
+    EXPECT_FALSE(in.version.encoder().empty());
+    EXPECT_GT(in.version.options().qp(), 0) << "the stored options are the effective ones";
+    if (in.model.triangles_only) {
+      EXPECT_GE(in.version.levels(), 1);
+      ASSERT_EQ(in.version.level_vertices_size(), in.version.levels() + 1);
+      EXPECT_LT(in.version.level_vertices(0), in.version.vertices());
+      EXPECT_GT(in.version.unreliable_bytes(), 0u);
+    }
+  }
+}
+
+TEST_F(AssetApi, WatchJobReportsProgressUpToSucceeded) {
+  // A fresh version of the bunny (another packing, so not from the cache).
+  const UploadFile main = AssetClient::Load(test_util::ModelPath("stanford-bunny.obj"), "bunny.obj");
+  auto messages = AssetClient::UploadMessages("bunny-watch", main);
+  messages[0].mutable_metadata()->mutable_options()->set_packing("bundled");
+  v1::IngestResponse response;
+  ASSERT_TRUE(client_->IngestRaw(messages, &response).ok());
+  v1::Job last;
+  std::vector<v1::Job> all;
+  ASSERT_TRUE(client_->Watch(response.job_id(), &last, &all).ok());
+  EXPECT_EQ(last.state(), v1::JOB_STATE_SUCCEEDED);
+  ASSERT_GE(all.size(), 2u) << "at least one state before SUCCEEDED";
+  for (size_t i = 1; i < all.size(); ++i) EXPECT_GE(all[i].progress(), all[i - 1].progress());
+  v1::Job got;
+  ASSERT_TRUE(Unary([&](grpc::ClientContext* c) {
+                v1::GetJobRequest r;
+                r.set_job_id(response.job_id());
+                return client_->stub().GetJob(c, r, &got);
+              }).ok());
+  EXPECT_EQ(got.state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(got.asset(), "bunny-watch");
+  EXPECT_EQ(got.version(), 1);
+  v1::Version version;
+  ASSERT_TRUE(client_->GetVersion("bunny-watch", 1, &version).ok());
+  EXPECT_EQ(version.options().packing(), "bundled");
+}
+
+TEST_F(AssetApi, ExportsEveryFormatThatValidatesAndDecodesOnTheGrid) {
+  test_util::TempDir out;
+  std::vector<std::string> gltf_files;
+  for (const Ingested& in : *ingested_) {
+    SCOPED_TRACE(in.model.asset);
+    const std::map<v1::Format, std::string> formats = {{v1::FORMAT_GLB, ".plain.glb"},
+                                                       {v1::FORMAT_DRACO_GLB, ".draco.glb"},
+                                                       {v1::FORMAT_PROGRESSIVE_GLB, ".progressive.glb"},
+                                                       {v1::FORMAT_OBJ, ".obj"},
+                                                       {v1::FORMAT_PLY, ".ply"}};
+    for (const auto& [format, suffix] : formats) {
+      const auto e = client_->Export(in.model.asset, 0, format);
+      ASSERT_TRUE(e.status.ok()) << v1::Format_Name(format) << ": " << e.status.error_message();
+      EXPECT_EQ(e.version, 1);
+      EXPECT_EQ(e.sha256, Sha256Hex(e.bytes.data(), e.bytes.size())) << "the last chunk carries the digest";
+      EXPECT_LE(e.largest_chunk, size_t{1} << 20);
+      ASSERT_FALSE(e.bytes.empty());
+      const std::string file = out.File(in.model.asset + suffix);
+      ASSERT_TRUE(WriteFileBytes(file, e.bytes).ok());
+      if (suffix.find(".glb") != std::string::npos) gltf_files.push_back(file);
+    }
+    if (!in.model.triangles_only) continue;
+    // The progressive export, decoded at full detail, is the source on the grid.
+    const std::string full = out.File(in.model.asset + ".full.glb");
+    const auto decoded = test_util::RunCommand(test_util::Cli() + " decode " +
+                                               test_util::Quote(out.File(in.model.asset + ".progressive.glb")) +
+                                               " -o " + test_util::Quote(full));
+    ASSERT_EQ(decoded.exit_code, 0) << decoded.err;
+    const nlohmann::json c = test_util::RunCliJson("compare --json --qp " + std::to_string(in.version.options().qp()) +
+                                                   " " + test_util::Quote(in.model.path) + " " + test_util::Quote(full));
+    EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+  }
+  for (const nlohmann::json& report : test_util::ValidateGltf(gltf_files)) {
+    EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  }
+}
+
+TEST_F(AssetApi, ExportAtALevelOfDetailAndInChunks) {
+  const auto full = client_->Export("horse", 0, v1::FORMAT_GLB);
+  const auto base = client_->Export("horse", 1, v1::FORMAT_GLB, 0);
+  ASSERT_TRUE(full.status.ok() && base.status.ok()) << base.status.error_message();
+  EXPECT_LT(base.bytes.size(), full.bytes.size());
+  EXPECT_GT(full.chunks, 1u) << "the horse's GLB is larger than one 1 MiB chunk";
+  EXPECT_LE(full.largest_chunk, size_t{1} << 20);
+  const auto again = client_->Export("horse", 0, v1::FORMAT_GLB);
+  EXPECT_EQ(again.sha256, full.sha256) << "an export is deterministic (and cached)";
+  v1::Version v;
+  ASSERT_TRUE(client_->GetVersion("horse", 1, &v).ok());
+  const auto beyond = client_->Export("horse", 1, v1::FORMAT_GLB, v.levels() + 1);
+  EXPECT_EQ(beyond.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(beyond.status.error_message().find("lod"), std::string::npos) << beyond.status.error_message();
+}
+
+TEST_F(AssetApi, VersionsAreNumberedAndTheSameSourceIsEncodedOnce) {
+  v1::IngestResponse first, second;
+  const UploadFile spot = AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj");
+  ASSERT_TRUE(client_->Ingest("spot", spot, &first).ok());
+  EXPECT_EQ(first.version(), 2) << "the fixture made version 1";
+  ASSERT_TRUE(client_->Ingest("spot", spot, &second).ok());
+  EXPECT_EQ(second.version(), 3);
+  v1::Job job;
+  ASSERT_TRUE(client_->Watch(second.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_NE(job.message().find("reused"), std::string::npos) << "identical source and options: " << job.message();
+  const auto a = client_->Export("spot", 1, v1::FORMAT_PROGRESSIVE_GLB);
+  const auto b = client_->Export("spot", 3, v1::FORMAT_PROGRESSIVE_GLB);
+  EXPECT_EQ(a.sha256, b.sha256);
+  v1::Version latest;
+  ASSERT_TRUE(client_->GetVersion("spot", 0, &latest).ok());
+  EXPECT_EQ(latest.version(), 3);
+}
+
+TEST_F(AssetApi, PaginationVisitsEveryVersionAndAssetOnce) {
+  for (int i = 0; i < 5; ++i) {
+    v1::IngestResponse r;
+    ASSERT_TRUE(client_->Ingest("paged", SmallObj("tet.obj", i), &r).ok());
+    EXPECT_EQ(r.version(), i + 1);
+  }
+  for (int page_size : {1, 2, 3, 100}) {
+    std::vector<int64_t> seen;
+    std::string token;
+    int pages = 0;
+    do {
+      v1::ListVersionsResponse response;
+      ASSERT_TRUE(Unary([&](grpc::ClientContext* c) {
+                    v1::ListVersionsRequest r;
+                    r.set_asset("paged");
+                    r.set_page_size(page_size);
+                    r.set_page_token(token);
+                    return client_->stub().ListVersions(c, r, &response);
+                  }).ok());
+      EXPECT_LE(response.versions_size(), page_size);
+      for (const auto& v : response.versions()) seen.push_back(v.version());
+      token = response.next_page_token();
+      ASSERT_LT(++pages, 20);
+    } while (!token.empty());
+    EXPECT_EQ(seen, (std::vector<int64_t>{1, 2, 3, 4, 5})) << "page_size " << page_size;
+  }
+  std::set<std::string> assets;
+  std::string token;
+  size_t listed = 0;
+  do {
+    v1::ListAssetsResponse response;
+    ASSERT_TRUE(Unary([&](grpc::ClientContext* c) {
+                  v1::ListAssetsRequest r;
+                  r.set_page_size(2);
+                  r.set_page_token(token);
+                  return client_->stub().ListAssets(c, r, &response);
+                }).ok());
+    for (const auto& a : response.assets()) {
+      assets.insert(a.name());
+      ++listed;
+      if (a.name() == "paged") EXPECT_EQ(a.latest_version(), 5);
+    }
+    token = response.next_page_token();
+  } while (!token.empty());
+  EXPECT_EQ(listed, assets.size()) << "no asset twice";
+  for (const Ingested& in : *ingested_) EXPECT_EQ(assets.count(in.model.asset), 1u) << in.model.asset;
+  // A huge page size is clamped, not refused.
+  v1::ListVersionsResponse huge;
+  EXPECT_TRUE(Unary([&](grpc::ClientContext* c) {
+                v1::ListVersionsRequest r;
+                r.set_asset("paged");
+                r.set_page_size(2000000000);
+                return client_->stub().ListVersions(c, r, &huge);
+              }).ok());
+  EXPECT_EQ(huge.versions_size(), 5);
+}
+
+TEST_F(AssetApi, AnInterruptedUploadResumesAtCommittedSize) {
+  const UploadFile horse = AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply");
+  auto messages = AssetClient::UploadMessages("resumed", horse, {}, 256 << 10);
+  messages[0].mutable_metadata()->set_upload_id("resume-test-1");
+  {
+    // Half the chunks, then the client goes away.
+    grpc::ClientContext context;
+    client_->Prepare(context);
+    v1::IngestResponse response;
+    auto writer = client_->stub().Ingest(&context, &response);
+    for (size_t i = 0; i < messages.size() / 2; ++i) ASSERT_TRUE(writer->Write(messages[i]));
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    context.TryCancel();
+    EXPECT_FALSE(writer->Finish().ok());
+  }
+  v1::UploadStatus status;
+  ASSERT_TRUE(Unary([&](grpc::ClientContext* c) {
+                v1::QueryUploadRequest r;
+                r.set_upload_id("resume-test-1");
+                return client_->stub().QueryUpload(c, r, &status);
+              }).ok());
+  const uint64_t committed = status.committed_size();
+  EXPECT_GT(committed, 0u);
+  EXPECT_LT(committed, horse.bytes.size());
+  EXPECT_EQ(committed % (256 << 10), 0u) << "whole chunks only";
+  // A wrong offset is refused with the committed size in the message.
+  auto wrong = messages;
+  wrong[0].mutable_metadata()->set_write_offset(committed + 1);
+  v1::IngestResponse refused;
+  const grpc::Status w = client_->IngestRaw({wrong[0]}, &refused);
+  EXPECT_EQ(w.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(w.error_message().find(std::to_string(committed)), std::string::npos) << w.error_message();
+  // The rest, from committed_size.
+  std::vector<v1::IngestRequest> rest = {messages[0]};
+  rest[0].mutable_metadata()->set_write_offset(committed);
+  std::vector<uint8_t> tail(horse.bytes.begin() + static_cast<long>(committed), horse.bytes.end());
+  AssetClient::AppendChunks(tail, 256 << 10, rest);
+  v1::IngestResponse response;
+  const grpc::Status ok = client_->IngestRaw(rest, &response);
+  ASSERT_TRUE(ok.ok()) << ok.error_message();
+  EXPECT_EQ(response.sha256(), Sha256Hex(horse.bytes.data(), horse.bytes.size()));
+  v1::Job job;
+  ASSERT_TRUE(client_->Watch(response.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  // The upload is gone once it became a version.
+  const grpc::Status gone = Unary([&](grpc::ClientContext* c) {
+    v1::QueryUploadRequest r;
+    r.set_upload_id("resume-test-1");
+    return client_->stub().QueryUpload(c, r, &status);
+  });
+  EXPECT_EQ(gone.error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST_F(AssetApi, ABadFileFailsItsJobAndNotTheServer) {
+  const std::string junk = "this is not an OBJ\nf 1 2 3\nv nan nan\n";
+  v1::IngestResponse r;
+  ASSERT_TRUE(client_->Ingest("junk", UploadFile{"junk.obj", std::vector<uint8_t>(junk.begin(), junk.end())}, &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client_->Watch(r.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_FAILED);
+  EXPECT_NE(job.message().find("junk.obj"), std::string::npos) << "the importer's message: " << job.message();
+  v1::Version v;
+  ASSERT_TRUE(client_->GetVersion("junk", r.version(), &v).ok());
+  EXPECT_EQ(v.state(), v1::VERSION_STATE_FAILED);
+  EXPECT_EQ(v.error(), job.message());
+  const auto e = client_->Export("junk", r.version(), v1::FORMAT_GLB);
+  EXPECT_EQ(e.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  const auto latest = client_->Export("junk", 0, v1::FORMAT_GLB);
+  EXPECT_EQ(latest.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << "no READY version";
+  ExpectHealthy();
+}
+
+// Hostile and wrong requests: each gets its code and a message naming the
+// field, nothing is stored, and the server stays healthy.
+TEST_F(AssetApi, EveryErrorHasItsCode) {
+  const UploadFile tet = SmallObj("tet.obj");
+  auto expect = [](const grpc::Status& s, grpc::StatusCode code, const std::string& words) {
+    EXPECT_EQ(s.error_code(), code) << s.error_message();
+    EXPECT_NE(s.error_message().find(words), std::string::npos) << "'" << words << "' in: " << s.error_message();
+  };
+  v1::IngestResponse r;
+  {  // the first message is a chunk
+    v1::IngestRequest chunk;
+    chunk.set_chunk("v 0 0 0\n");
+    expect(client_->IngestRaw({chunk}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
+  }
+  expect(client_->IngestRaw({}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
+  {
+    auto m = AssetClient::UploadMessages("../etc", tet);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
+    m = AssetClient::UploadMessages(std::string(129, 'a'), tet);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
+  }
+  {
+    auto m = AssetClient::UploadMessages("txt", UploadFile{"notes.txt", tet.bytes});
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "filename");
+  }
+  {  // lying sizes and digests: DATA_LOSS and no version
+    auto m = AssetClient::UploadMessages("liar", tet);
+    m[0].mutable_metadata()->set_size(tet.bytes.size() + 10);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "size");
+    m[0].mutable_metadata()->set_size(tet.bytes.size() - 10);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "size");
+    m = AssetClient::UploadMessages("liar", tet);
+    m[0].mutable_metadata()->set_sha256(std::string(64, 'a'));
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "SHA-256");
+    m[0].mutable_metadata()->set_sha256("xyz");
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "sha256");
+    v1::Version v;
+    expect(client_->GetVersion("liar", 0, &v), grpc::StatusCode::NOT_FOUND, "liar");
+  }
+  {  // options out of range
+    auto m = AssetClient::UploadMessages("opts", tet);
+    m[0].mutable_metadata()->mutable_options()->set_qp(99);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "qp");
+    m = AssetClient::UploadMessages("opts", tet);
+    m[0].mutable_metadata()->mutable_options()->set_packing("zip");
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "packing");
+  }
+  {  // resources: only for a .gltf, and only relative paths inside the upload
+    const UploadFile gltf{"scene.gltf", std::vector<uint8_t>{'{', '}'}};
+    for (const char* name : {"../secret.bin", "/etc/passwd", "a/../../b.bin", "a\\b.bin", ""}) {
+      auto m = AssetClient::UploadMessages("traversal", gltf, {UploadFile{name, {1, 2, 3}}});
+      expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "resource");
+    }
+    auto m = AssetClient::UploadMessages("traversal", tet, {UploadFile{"x.bin", {1, 2, 3}}});
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, ".gltf");
+  }
+  {  // a chunk over 1 MiB
+    std::vector<uint8_t> big((1 << 20) + 1, ' ');
+    auto m = AssetClient::UploadMessages("big", UploadFile{"big.obj", big}, {}, big.size());
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "chunk");
+  }
+  v1::Version v;
+  expect(client_->GetVersion("no-such-asset", 0, &v), grpc::StatusCode::NOT_FOUND, "no-such-asset");
+  expect(client_->GetVersion("spot", 999, &v), grpc::StatusCode::NOT_FOUND, "999");
+  expect(client_->GetVersion("spot", -1, &v), grpc::StatusCode::INVALID_ARGUMENT, "version");
+  expect(client_->Export("no-such-asset", 0, v1::FORMAT_GLB).status, grpc::StatusCode::NOT_FOUND, "no-such-asset");
+  expect(client_->Export("spot", 1, v1::FORMAT_UNSPECIFIED).status, grpc::StatusCode::INVALID_ARGUMENT, "format");
+  expect(client_->Export("spot", 1, v1::FORMAT_PROGRESSIVE_GLB, 1).status, grpc::StatusCode::INVALID_ARGUMENT, "lod");
+  v1::Job job;
+  expect(Unary([&](grpc::ClientContext* c) {
+           v1::GetJobRequest q;
+           q.set_job_id("0123456789abcdef");
+           return client_->stub().GetJob(c, q, &job);
+         }),
+         grpc::StatusCode::NOT_FOUND, "job");
+  v1::ListAssetsResponse la;
+  expect(Unary([&](grpc::ClientContext* c) {
+           v1::ListAssetsRequest q;
+           q.set_page_size(-1);
+           return client_->stub().ListAssets(c, q, &la);
+         }),
+         grpc::StatusCode::INVALID_ARGUMENT, "page_size");
+  expect(Unary([&](grpc::ClientContext* c) {
+           v1::ListAssetsRequest q;
+           q.set_page_token("not-a-token");
+           return client_->stub().ListAssets(c, q, &la);
+         }),
+         grpc::StatusCode::INVALID_ARGUMENT, "page_token");
+  v1::UploadStatus us;
+  expect(Unary([&](grpc::ClientContext* c) {
+           v1::QueryUploadRequest q;
+           q.set_upload_id("never-started");
+           return client_->stub().QueryUpload(c, q, &us);
+         }),
+         grpc::StatusCode::NOT_FOUND, "never-started");
+  ExpectHealthy();
+}
+
+TEST_F(AssetApi, HealthAndReflectionOnLoopback) {
+  ExpectHealthy();
+  const auto [status, bytes] = test_util::ListServicesByReflection(client_->channel());
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(bytes.find("meshstream.v1.AssetService"), std::string::npos) << "reflection is on by default on loopback";
+}
+
+}  // namespace
+}  // namespace meshstream
