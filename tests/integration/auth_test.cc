@@ -1,0 +1,173 @@
+// Secure by default: tokens, tenants, read-only tokens, revocation, the
+// loopback rule without --auth, TLS with a certificate made by openssl, and
+// the upload size limit. Real `meshstream serve` processes; tokens are made
+// with `meshstream token create` while the server runs.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/common/asset_client.h"
+#include "tests/common/grpc_probe.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::AssetClient;
+using test_util::RunCommand;
+using test_util::ServeProcess;
+using test_util::UploadFile;
+
+UploadFile Tet() {
+  const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+  return UploadFile{"tet.obj", std::vector<uint8_t>(text.begin(), text.end())};
+}
+
+// The token: the last line of `meshstream token create`'s stdout.
+std::string CreateToken(const std::string& store, const std::string& tenant, bool read_only = false) {
+  const auto r = RunCommand(test_util::Cli() + " token create --store " + test_util::Quote(store) + " --tenant " +
+                            tenant + (read_only ? " --read-only" : ""));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::string out = r.out;
+  while (!out.empty() && out.back() == '\n') out.pop_back();
+  const size_t nl = out.rfind('\n');
+  return nl == std::string::npos ? out : out.substr(nl + 1);
+}
+
+std::string TokenId(const std::string& store, const std::string& tenant) {
+  const auto r = RunCommand(test_util::Cli() + " token list --json --store " + test_util::Quote(store));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out, nullptr, false);
+  for (const auto& t : j["tokens"]) {
+    if (t["tenant"] == tenant) return t["id"].get<std::string>();
+  }
+  return "";
+}
+
+TEST(AuthAndTls, TenantsSeeOnlyTheirOwnAssets) {
+  test_util::TempDir dir;
+  const std::string store = dir.File("store");
+  auto server = ServeProcess::Start({"--store", store, "--auth", "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  const std::string a = CreateToken(store, "studio-a");
+  const std::string a_read = CreateToken(store, "studio-a", true);
+  const std::string b = CreateToken(store, "studio-b");
+  ASSERT_EQ(a.rfind("mst_", 0), 0u) << a;
+  const std::string address = (*server)->address();
+
+  AssetClient none(address), bad(address, "mst_" + std::string(64, '0')), junk(address, "hello");
+  AssetClient client_a(address, a), reader_a(address, a_read), client_b(address, b);
+  v1::IngestResponse r;
+  EXPECT_EQ(none.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(bad.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(junk.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  v1::Version v;
+  EXPECT_EQ(none.GetVersion("tet", 0, &v).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+
+  ASSERT_TRUE(client_a.Ingest("tet", Tet(), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client_a.Watch(r.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+
+  // Tenant B: the asset, its version, its job and its export do not exist.
+  const grpc::Status other = client_b.GetVersion("tet", 1, &v);
+  EXPECT_EQ(other.error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::Version missing;
+  const grpc::Status truly_missing = client_b.GetVersion("never-made", 1, &missing);
+  EXPECT_EQ(truly_missing.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(client_b.Export("tet", 0, v1::FORMAT_GLB).status.error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::Job other_job;
+  EXPECT_EQ(client_b.Watch(r.job_id(), &other_job).error_code(), grpc::StatusCode::NOT_FOUND);
+  {
+    grpc::ClientContext c;
+    client_b.Prepare(c);
+    v1::ListAssetsResponse assets;
+    ASSERT_TRUE(client_b.stub().ListAssets(&c, v1::ListAssetsRequest(), &assets).ok());
+    EXPECT_EQ(assets.assets_size(), 0);
+  }
+  // B's own asset of the same name is its version 1, not A's version 2.
+  v1::IngestResponse rb;
+  ASSERT_TRUE(client_b.Ingest("tet", Tet(), &rb).ok());
+  EXPECT_EQ(rb.version(), 1);
+
+  // Read-only: reads and exports, never ingests.
+  EXPECT_TRUE(reader_a.GetVersion("tet", 1, &v).ok());
+  EXPECT_TRUE(reader_a.Export("tet", 1, v1::FORMAT_GLB).status.ok());
+  EXPECT_EQ(reader_a.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+
+  // Revocation takes effect at the next request.
+  const std::string id = TokenId(store, "studio-b");
+  ASSERT_FALSE(id.empty());
+  const auto revoked = RunCommand(test_util::Cli() + " token revoke --store " + test_util::Quote(store) + " " + id);
+  ASSERT_EQ(revoked.exit_code, 0) << revoked.err;
+  EXPECT_EQ(client_b.GetVersion("tet", 1, &v).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  const auto list = RunCommand(test_util::Cli() + " token list --store " + test_util::Quote(store));
+  EXPECT_EQ(list.out.find(b), std::string::npos) << "token list never shows a secret";
+  EXPECT_NE(list.out.find("revoked"), std::string::npos) << list.out;
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST(AuthAndTls, OnlyLoopbackWithoutAuth) {
+  test_util::TempDir dir;
+  const auto refused = RunCommand(test_util::Cli() + " serve --listen 0.0.0.0:0 --store " +
+                                  test_util::Quote(dir.File("store")));
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_NE(refused.err.find("--auth"), std::string::npos) << refused.err;
+  auto insecure = ServeProcess::Start({"--listen", "0.0.0.0:0", "--insecure", "--store", dir.File("store")});
+  ASSERT_TRUE(insecure.ok()) << insecure.status().ToString();
+  EXPECT_NE((*insecure)->log().find("warning"), std::string::npos) << (*insecure)->log();
+  EXPECT_EQ((*insecure)->Terminate(), 0);
+}
+
+TEST(AuthAndTls, TlsWithACertificateFromOpenssl) {
+  test_util::TempDir dir;
+  const std::string cert = dir.File("cert.pem"), key = dir.File("key.pem");
+  const auto made = RunCommand("openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days 2 "
+                               "-subj /CN=localhost -addext subjectAltName=DNS:localhost,IP:127.0.0.1 -keyout " +
+                               test_util::Quote(key) + " -out " + test_util::Quote(cert));
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--tls-cert", cert, "--tls-key", key});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = test_util::ReadText(cert);
+  grpc::ChannelArguments args;
+  args.SetSslTargetNameOverride("localhost");
+  AssetClient tls((*server)->address(), "", grpc::SslCredentials(ssl), args);
+  v1::IngestResponse r;
+  ASSERT_TRUE(tls.Ingest("tet", Tet(), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(tls.Watch(r.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED);
+  // A plaintext client gets nowhere.
+  AssetClient plain((*server)->address());
+  v1::Version v;
+  EXPECT_EQ(plain.GetVersion("tet", 1, &v).error_code(), grpc::StatusCode::UNAVAILABLE);
+  // The CLI over TLS.
+  const auto versions = RunCommand(test_util::Cli() + " versions tet --json --server " + (*server)->address() +
+                                   " --tls-ca " + test_util::Quote(cert));
+  EXPECT_EQ(versions.exit_code, 0) << versions.err;
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
+TEST(AuthAndTls, UploadsAboveMaxUploadAreRefusedBeforeAnyByte) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--max-upload", "1K", "--no-reflection"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  std::vector<uint8_t> big(4096, ' ');
+  v1::IngestResponse r;
+  const grpc::Status s = client.Ingest("big", UploadFile{"big.obj", big}, &r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("--max-upload"), std::string::npos) << s.error_message();
+  // Reflection off when asked.
+  const auto [status, bytes] = test_util::ListServicesByReflection(client.channel());
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNIMPLEMENTED) << bytes;
+  EXPECT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
+}  // namespace
+}  // namespace meshstream

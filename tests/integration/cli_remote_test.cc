@@ -1,0 +1,140 @@
+// The client verbs of the CLI against a real server: ingest (with --wait and
+// --json, a multi-file .gltf, resuming an upload the server already holds
+// part of), versions, assets, export in every format, the environment
+// variables, and exit code 3 when no server answers.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/common/asset_client.h"
+#include "tests/common/cli_util.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using nlohmann::json;
+using test_util::AssetClient;
+using test_util::Cli;
+using test_util::ModelPath;
+using test_util::Quote;
+using test_util::RunCommand;
+using test_util::ServeProcess;
+
+class CliRemote : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test_util::TempDir();
+    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = server.value().release();
+  }
+  static void TearDownTestSuite() {
+    if (server_ != nullptr) EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    delete server_;
+    delete dir_;
+  }
+  static std::string Remote() { return " --server " + server_->address(); }
+  static inline test_util::TempDir* dir_ = nullptr;
+  static inline ServeProcess* server_ = nullptr;
+};
+
+TEST_F(CliRemote, IngestWaitVersionsAndExportEveryFormat) {
+  const json in = test_util::RunCliJson("ingest --json --wait --asset fandisk --comment first --label team=cad " +
+                                        Quote(ModelPath("fandisk.obj")) + Remote());
+  EXPECT_EQ(in["asset"], "fandisk");
+  EXPECT_EQ(in["version"], 1);
+  EXPECT_EQ(in["sha256"].get<std::string>().size(), 64u);
+  ASSERT_TRUE(in.contains("job")) << in.dump();
+  EXPECT_EQ(in["job"]["state"], "JOB_STATE_SUCCEEDED") << in.dump();
+
+  const json versions = test_util::RunCliJson("versions --json fandisk" + Remote());
+  ASSERT_EQ(versions["versions"].size(), 1u) << versions.dump();
+  const json& v = versions["versions"][0];
+  EXPECT_EQ(v["state"], "VERSION_STATE_READY");
+  EXPECT_EQ(v["comment"], "first");
+  EXPECT_EQ(v["labels"]["team"], "cad");
+  EXPECT_EQ(v["vertices"], 6475);
+  EXPECT_EQ(v["source_filename"], "fandisk.obj");
+
+  test_util::TempDir out;
+  for (const char* format : {"glb", "draco", "progressive", "obj", "ply"}) {
+    const std::string file = out.File(std::string("fandisk.") + format + (std::string(format) == "obj"   ? ".obj"
+                                                                           : std::string(format) == "ply" ? ".ply"
+                                                                                                          : ".glb"));
+    const json e = test_util::RunCliJson("export --json fandisk -o " + Quote(file) + " --format " + format + Remote());
+    EXPECT_EQ(e["version"], 1) << format;
+    const auto bytes = ReadFileBytes(file, 1 << 30);
+    ASSERT_TRUE(bytes.ok()) << format;
+    EXPECT_EQ(e["sha256"], Sha256Hex(bytes->data(), bytes->size())) << format;
+  }
+  // The OBJ export is the mesh on the grid of the stored qp.
+  const json c = test_util::RunCliJson("compare --json --qp " + std::to_string(v["options"]["qp"].get<int>()) + " " +
+                                       Quote(ModelPath("fandisk.obj")) + " " + Quote(out.File("fandisk.obj.obj")));
+  EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+  const json assets = test_util::RunCliJson("assets --json" + Remote());
+  EXPECT_EQ(assets["assets"].size(), 1u) << assets.dump();
+}
+
+TEST_F(CliRemote, AMultiFileGltfTravelsWithItsResources) {
+  const std::string gltf = ModelPath("gltf/draco-2CylinderEngine/2CylinderEngine.gltf");
+  const json in = test_util::RunCliJson("ingest --json --wait --asset engine " + Quote(gltf) + Remote());
+  EXPECT_EQ(in["job"]["state"], "JOB_STATE_SUCCEEDED") << in.dump();
+  const json versions = test_util::RunCliJson("versions --json engine" + Remote());
+  ASSERT_EQ(versions["versions"][0]["resources"].size(), 1u) << versions.dump();
+  EXPECT_EQ(versions["versions"][0]["resources"][0]["name"], "2CylinderEngine.bin");
+}
+
+TEST_F(CliRemote, IngestResumesAnUploadTheServerHoldsPartOf) {
+  // What an interrupted `meshstream ingest` leaves: the first 512 KiB under
+  // the CLI's upload id (docs/cli.md: "cli-" + 48 hex digits of
+  // SHA-256(asset + "\n" + file digest)).
+  const std::vector<uint8_t> horse = ReadFileBytes(ModelPath("horse.ply"), 1 << 30).value();
+  const std::string digest = Sha256Hex(horse.data(), horse.size());
+  const std::string key = "horse\n" + digest;
+  const std::string upload_id =
+      "cli-" + Sha256Hex(reinterpret_cast<const uint8_t*>(key.data()), key.size()).substr(0, 48);
+  AssetClient client(server_->address());
+  auto messages = AssetClient::UploadMessages("horse", test_util::UploadFile{"horse.ply", horse}, {}, 512 << 10);
+  messages.resize(2);  // metadata and the first chunk only
+  messages[0].mutable_metadata()->set_upload_id(upload_id);
+  {
+    grpc::ClientContext context;
+    client.Prepare(context);
+    v1::IngestResponse response;
+    auto writer = client.stub().Ingest(&context, &response);
+    ASSERT_TRUE(writer->Write(messages[0]) && writer->Write(messages[1]));
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    context.TryCancel();
+    writer->Finish();
+  }
+  const json in = test_util::RunCliJson("ingest --json --asset horse " + Quote(ModelPath("horse.ply")) + Remote());
+  EXPECT_EQ(in.value("resumed_from", 0), 512 << 10) << in.dump();
+  EXPECT_EQ(in["sha256"], digest);
+}
+
+TEST_F(CliRemote, ServerAndTokenFromTheEnvironment) {
+  const auto r = RunCommand("MESHSTREAM_SERVER=" + server_->address() + " " + Cli() + " assets --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST_F(CliRemote, ExitCodesForAMissingServerAndRefusedRequests) {
+  const auto unreachable = RunCommand(Cli() + " versions x --server 127.0.0.1:1 --timeout 5");
+  EXPECT_EQ(unreachable.exit_code, 3) << unreachable.err;
+  EXPECT_NE(unreachable.err.find("127.0.0.1:1"), std::string::npos) << unreachable.err;
+  const auto missing = RunCommand(Cli() + " versions no-such-asset" + Remote());
+  EXPECT_EQ(missing.exit_code, 1) << missing.err;
+  const auto bad_name = RunCommand(Cli() + " export '../x' -o /tmp/x.glb" + Remote());
+  EXPECT_EQ(bad_name.exit_code, 2) << bad_name.err;
+  const auto failed = RunCommand("printf 'junk\\n' > " + Quote(dir_->File("junk.obj")) + " && " + Cli() +
+                                 " ingest --wait " + Quote(dir_->File("junk.obj")) + Remote());
+  EXPECT_EQ(failed.exit_code, 1) << failed.err;
+  EXPECT_NE(failed.err.find("failed"), std::string::npos) << failed.err;
+}
+
+}  // namespace
+}  // namespace meshstream
