@@ -114,6 +114,7 @@ v1::Version ToProto(const VersionRecord& v) {
   out.set_source_filename(v.source.name);
   out.set_job_id(v.job_id);
   out.set_error(v.error);
+  out.set_artifact_sha256(a.artifact_sha256);
   for (const SourceFile& r : v.resources) {
     v1::IngestResource* res = out.add_resources();
     res->set_name(r.name);

@@ -1,0 +1,167 @@
+// Durability: `meshstream serve` is killed with SIGKILL at random moments
+// while clients ingest and jobs run, then restarted on the same embedded
+// store. Every version whose Ingest returned OK must exist with the
+// acknowledged digest, its job must finish, its export must carry its
+// digest, and no orphan blob may remain. Also: SIGTERM drains (health goes
+// NOT_SERVING, watches end with UNAVAILABLE, the process exits 0) and the
+// interrupted job resumes at the next start.
+#include <atomic>
+#include <filesystem>
+#include <mutex>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/common/asset_client.h"
+#include "tests/common/grpc_probe.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::AssetClient;
+using test_util::ServeProcess;
+using test_util::UploadFile;
+namespace fs = std::filesystem;
+
+struct Ack {
+  std::string asset;
+  int64_t version;
+  std::string sha256;
+  std::string job_id;
+};
+
+uint32_t Seed() {
+  const char* env = std::getenv("MESHSTREAM_DURABILITY_SEED");
+  return env ? static_cast<uint32_t>(std::strtoul(env, nullptr, 10)) : 20261201u;
+}
+
+// Blobs committed under the store (names), and leftover temporary files.
+std::set<std::string> BlobFiles(const std::string& store, size_t* temporary) {
+  std::set<std::string> names;
+  *temporary = 0;
+  std::error_code ec;
+  for (const auto& entry : fs::recursive_directory_iterator(store + "/blobs", ec)) {
+    if (!entry.is_regular_file()) continue;
+    if (entry.path().parent_path().filename() == "tmp") {
+      ++*temporary;
+    } else {
+      names.insert(entry.path().filename().string());
+    }
+  }
+  return names;
+}
+
+TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
+  test_util::TempDir dir;
+  const std::string store = dir.File("store");
+  std::vector<UploadFile> files;
+  for (const char* name : {"spot.obj", "fandisk.obj", "rocker-arm.obj", "horse.ply"}) {
+    files.push_back(AssetClient::Load(test_util::ModelPath(name), name));
+  }
+  std::mt19937 rng(Seed());
+  std::vector<Ack> acked;
+  std::mutex mutex;
+  const int rounds = 5;
+  for (int round = 0; round < rounds; ++round) {
+    auto server = ServeProcess::Start({"--store", store, "--workers", "2"});
+    ASSERT_TRUE(server.ok()) << "round " << round << ": " << server.status().ToString();
+    std::atomic<bool> stop{false};
+    std::vector<std::thread> clients;
+    for (int c = 0; c < 2; ++c) {
+      clients.emplace_back([&, c] {
+        AssetClient client((*server)->address());
+        for (size_t i = c; !stop; ++i) {
+          const UploadFile& f = files[i % files.size()];
+          // A small change per upload, so that not every job is a cache hit.
+          UploadFile changed = f;
+          const std::string comment = "# round " + std::to_string(round) + " upload " + std::to_string(i) + "\n";
+          if (f.name.find(".obj") != std::string::npos) changed.bytes.insert(changed.bytes.begin(), comment.begin(), comment.end());
+          v1::IngestResponse r;
+          const std::string asset = "m-" + fs::path(f.name).stem().string();
+          if (client.Ingest(asset, changed, &r).ok()) {
+            std::lock_guard<std::mutex> lock(mutex);
+            acked.push_back({r.asset(), r.version(), r.sha256(), r.job_id()});
+          }
+        }
+      });
+    }
+    std::uniform_int_distribution<int> when(300, 2500);
+    std::this_thread::sleep_for(std::chrono::milliseconds(when(rng)));
+    (*server)->Kill();
+    stop = true;
+    for (std::thread& t : clients) t.join();
+  }
+  ASSERT_GT(acked.size(), 3u) << "the clients got few ingests through; the test proves little";
+
+  auto server = ServeProcess::Start({"--store", store, "--workers", "2"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  // Startup removed what the crashes left: every blob file is named by a
+  // version (source, resources, artifact), and no temporary file is left.
+  std::set<std::string> referenced;
+  for (const Ack& a : acked) {
+    SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
+    v1::Version v;
+    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok()) << "an acknowledged version is missing";
+    EXPECT_EQ(v.source_sha256(), a.sha256);
+    referenced.insert(v.source_sha256());
+    if (!v.artifact_sha256().empty()) referenced.insert(v.artifact_sha256());
+  }
+  size_t temporary = 0;
+  for (const std::string& blob : BlobFiles(store, &temporary)) {
+    EXPECT_EQ(referenced.count(blob), 1u) << "orphan blob " << blob;
+  }
+  EXPECT_EQ(temporary, 0u);
+  // Every job finishes and every version exports with its digest.
+  for (const Ack& a : acked) {
+    SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
+    v1::Job job;
+    ASSERT_TRUE(client.Watch(a.job_id, &job).ok());
+    EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+    v1::Version v;
+    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok());
+    const auto e = client.Export(a.asset, a.version, v1::FORMAT_PROGRESSIVE_GLB);
+    ASSERT_TRUE(e.status.ok()) << e.status.error_message();
+    EXPECT_EQ(e.sha256, v.artifact_sha256());
+  }
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
+  test_util::TempDir dir;
+  const std::string store = dir.File("store");
+  auto server = ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  // Watch from another thread while the server drains.
+  grpc::Status watch_status;
+  v1::Job last;
+  std::thread watcher([&] { watch_status = client.Watch(r.job_id(), &last); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill((*server)->pid(), SIGTERM);
+  const int code = (*server)->Terminate(30);
+  watcher.join();
+  EXPECT_EQ(code, 0) << (*server)->log();
+  EXPECT_NE((*server)->log().find("draining"), std::string::npos) << (*server)->log();
+  if (last.state() != v1::JOB_STATE_SUCCEEDED) {
+    EXPECT_EQ(watch_status.error_code(), grpc::StatusCode::UNAVAILABLE) << watch_status.error_message();
+  }
+  auto again = ServeProcess::Start({"--store", store, "--workers", "1"});
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  AssetClient second((*again)->address());
+  v1::Job job;
+  ASSERT_TRUE(second.Watch(r.job_id(), &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  EXPECT_EQ((*again)->Terminate(), 0);
+}
+
+}  // namespace
+}  // namespace meshstream
