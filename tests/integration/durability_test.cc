@@ -104,14 +104,29 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   AssetClient client((*server)->address());
   // Startup removed what the crashes left: every blob file is named by a
   // version (source, resources, artifact), and no temporary file is left.
-  std::set<std::string> referenced;
   for (const Ack& a : acked) {
     SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
     v1::Version v;
     ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok()) << "an acknowledged version is missing";
     EXPECT_EQ(v.source_sha256(), a.sha256);
-    referenced.insert(v.source_sha256());
-    if (!v.artifact_sha256().empty()) referenced.insert(v.artifact_sha256());
+  }
+  // Every version (also those committed just before a kill, whose answer
+  // never reached the client) names its blobs.
+  std::set<std::string> referenced;
+  for (const char* asset : {"m-spot", "m-fandisk", "m-rocker-arm", "m-horse"}) {
+    grpc::ClientContext c;
+    client.Prepare(c);
+    v1::ListVersionsRequest q;
+    q.set_asset(asset);
+    q.set_page_size(1000);
+    v1::ListVersionsResponse versions;
+    const grpc::Status s = client.stub().ListVersions(&c, q, &versions);
+    if (s.error_code() == grpc::StatusCode::NOT_FOUND) continue;
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    for (const v1::Version& v : versions.versions()) {
+      referenced.insert(v.source_sha256());
+      if (!v.artifact_sha256().empty()) referenced.insert(v.artifact_sha256());
+    }
   }
   size_t temporary = 0;
   for (const std::string& blob : BlobFiles(store, &temporary)) {
