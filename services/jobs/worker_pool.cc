@@ -138,15 +138,23 @@ void WorkerPool::WorkerLoop(int index) {
         JobRun run;
         run.job = std::move(**claim);
         run.worker = worker;
+        // Listed for Drain while it runs, unlisted however this scope is left.
+        struct Listed {
+          WorkerPool& pool;
+          JobRun& run;
+          ~Listed() {
+            std::lock_guard<std::mutex> lock(pool.mu_);
+            pool.running_.erase(&run);
+          }
+        };
         {
           std::lock_guard<std::mutex> lock(mu_);
           running_.insert(&run);
           // Claimed while a drain gave up: leave it to its lease at once.
           if (gave_up_) run.abandoned = true;
         }
+        const Listed listed{*this, run};
         RunJob(run);
-        std::lock_guard<std::mutex> lock(mu_);
-        running_.erase(&run);
       }
     } catch (...) {
       // A store that throws; RunJob itself catches everything of a job.
@@ -177,6 +185,11 @@ void WorkerPool::RunJob(JobRun& run) {
   };
   try {
     outcome = ProcessJob(run);
+  } catch (const std::system_error&) {
+    // No thread for the heartbeat, say: the machine's trouble, not the
+    // source's. Left to its lease and tried again (max_attempts bounds it).
+    outcome = Outcome::kLeftToLease;
+    ++store_errors_;
   } catch (const std::bad_alloc&) {
     outcome = fail_safely("out of memory while processing the source");
   } catch (const std::exception& e) {

@@ -17,7 +17,8 @@
 // a bad name, a corrupt blob) fails the job with the importer's message
 // (FailJob); so does any exception, std::bad_alloc included, thrown while
 // processing it: the pool never dies from a bad file. A store that is
-// unavailable leaves the job to its lease (it expires and the job is claimed
+// unavailable (Unavailable, IoError), or a std::system_error (no thread),
+// leaves the job to its lease (it expires and the job is claimed
 // again); a job claimed more than max_attempts times fails with a message
 // saying so, so that a file that kills its server is not retried forever.
 // Aborted from RenewLease, CompleteJob or FailJob means another worker holds
@@ -73,7 +74,7 @@ struct WorkerPoolCounters {
   uint64_t cache_hits = 0;
   uint64_t lost_leases = 0;  // another worker took the job
   uint64_t abandoned = 0;    // left to their lease by Drain/Stop, or by a store error
-  uint64_t store_errors = 0; // store calls that failed (other than Aborted)
+  uint64_t store_errors = 0; // store calls that failed (other than Aborted), and system errors
 };
 
 // The message of a job completed from the artifact cache.

@@ -5,6 +5,7 @@
 #include "services/pipeline/process_source.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <random>
 #include <string>
 #include <vector>
@@ -109,6 +110,35 @@ TEST(PipelineProcess, FiguresAreWhatTheEncoderReports) {
       if (p.progress[i].first > 0.1 && p.progress[i].first < 0.95) ++encoding;
     }
     EXPECT_GT(encoding, 2u);
+  }
+}
+
+// The reference: `meshstream encode --json` with the same flags (skipped
+// when the CLI is not built; services_tests does not depend on it).
+TEST(PipelineProcess, FiguresEqualTheCliJson) {
+  if (!std::filesystem::exists(MESHSTREAM_CLI)) GTEST_SKIP() << "no CLI at " << MESHSTREAM_CLI;
+  TempDir dir;
+  const EncodeSettings settings = Resolved(EncodeSettings{13, 9, 11, "bundled", 400, 0.05});
+  for (const std::string name : {"spot.obj", "gltf/2CylinderEngine.glb"}) {
+    const std::string out = dir.File("cli.glb");
+    const auto run = test_util::RunCommand(
+        "env -u MESHSTREAM_LEVELS -u MESHSTREAM_QC -u MESHSTREAM_CL " + test_util::Cli() + " encode --json --qp 13 --qn 9 --qt 11 " +
+        "--packing bundled --packet-bytes 400 --base-ratio 0.05 " + test_util::Quote(ModelPath(name)) + " -o " +
+        test_util::Quote(out));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const nlohmann::json j = nlohmann::json::parse(run.out);
+    const Processed p = MustProcess(ModelPath(name), settings);
+    const ArtifactSummary& s = p.result.summary;
+    EXPECT_EQ(s.vertices, j["vertices"].get<int64_t>()) << name;
+    EXPECT_EQ(s.faces, j["faces"].get<int64_t>()) << name;
+    EXPECT_EQ(s.levels, j["levels"].get<int32_t>()) << name;
+    EXPECT_EQ(s.level_vertices, j["level_vertices"].get<std::vector<int64_t>>()) << name;
+    EXPECT_EQ(s.reliable_bytes, j["reliable_bytes"].get<uint64_t>()) << name;
+    EXPECT_EQ(s.unreliable_bytes, j["unreliable_bytes"].get<uint64_t>()) << name;
+    EXPECT_EQ(s.progressive_bytes, j["file_bytes"].get<uint64_t>()) << name;
+    auto cli_glb = ReadFileBytes(out, uint64_t{1} << 30);
+    ASSERT_TRUE(cli_glb.ok());
+    EXPECT_EQ(cli_glb.value(), p.result.glb) << name;
   }
 }
 
