@@ -90,6 +90,10 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_option("--lease", o.lease_ms, "milliseconds of a job lease (renewed every third)")
               ->check(CLI::Range(int64_t{300}, int64_t{3600} * 1000)))
       ->capture_default_str();
+  FromEnv(cmd->add_option("--max-attempts", o.max_attempts,
+                          "claims of a job before it fails (a file that keeps killing servers)")
+              ->check(CLI::Range(1, 1000)))
+      ->capture_default_str();
   FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
   return {cmd, [args] { return RunServe(*args); }};
 }

@@ -163,11 +163,12 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
 
   impl->auth = std::make_unique<Authenticator>(impl->store.get(), options.auth);
   WorkerPoolOptions pool_options;
-  pool_options.workers = options.workers > 0 ? options.workers : std::max(1u, std::thread::hardware_concurrency());
-  pool_options.worker_id = options.server_id.empty() ? DefaultServerId() : options.server_id;
+  pool_options.workers = options.workers > 0 ? options.workers : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  pool_options.worker_id_prefix = options.server_id.empty() ? DefaultServerId() : options.server_id;
   pool_options.lease_ms = options.lease_ms;
-  pool_options.log = impl->log;
-  impl->pool = std::make_unique<WorkerPool>(impl->store.get(), pool_options);
+  pool_options.max_source_bytes = options.max_upload_bytes;
+  pool_options.max_attempts = options.max_attempts;
+  impl->pool = std::make_unique<WorkerPool>(*impl->store, pool_options);
 
   AssetServiceOptions service_options;
   service_options.ingest.max_upload_bytes = options.max_upload_bytes;
@@ -196,7 +197,8 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     impl->address = options.listen.substr(0, colon) + ":" + std::to_string(port);
   }
   impl->server->GetHealthCheckService()->SetServingStatus(true);
-  impl->pool->Start();
+  Status started = impl->pool->Start();
+  if (!started.ok()) return started;
   impl->maintenance = std::thread([raw] { raw->Maintain(); });
   impl->log("listening on " + impl->address + (options.tls_cert.empty() ? "" : " (TLS)") +
             (options.auth ? ", tokens required" : ", no authentication (loopback)") + ", " +
@@ -210,10 +212,13 @@ void Server::Drain() {
   s.log("draining: health NOT_SERVING, finishing running requests within " +
         std::to_string(s.options.grace_period_s) + " s");
   s.server->GetHealthCheckService()->SetServingStatus(false);
-  const auto deadline = std::chrono::system_clock::now() +
-                        std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
-  s.server->Shutdown(deadline);
-  s.pool->Drain(deadline);
+  const auto grace = std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
+  const auto steady_deadline = std::chrono::steady_clock::now() + grace;
+  s.server->Shutdown(std::chrono::system_clock::now() + grace);
+  const int64_t abandoned = s.pool->Drain(steady_deadline);
+  if (abandoned > 0) {
+    s.log("left " + std::to_string(abandoned) + " running jobs to the next start (or to another server)");
+  }
   {
     std::lock_guard<std::mutex> lock(s.mutex);
     s.stopping = true;

@@ -67,19 +67,7 @@ class BlobWriter {
   StatusOr<std::string> Commit(const std::string& expected_sha256 = "");
 
  private:
-  friend // Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
-class Sha256Hasher {
- public:
-  Sha256Hasher();
-  void Update(const uint8_t* data, size_t size);
-  // The digest as 64 lower-case hex digits; the hasher is spent afterwards.
-  std::string FinishHex();
-
- private:
-  alignas(16) unsigned char state_[128];  // crypto_hash_sha256_state (checked in the .cc)
-};
-
-class FileBlobStore;
+  friend class FileBlobStore;
   struct State;
   explicit BlobWriter(std::unique_ptr<State> state);
   std::unique_ptr<State> state_;

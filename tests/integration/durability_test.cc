@@ -69,7 +69,8 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   std::mutex mutex;
   const int rounds = 5;
   for (int round = 0; round < rounds; ++round) {
-    auto server = ServeProcess::Start({"--store", store, "--workers", "2"});
+    // Every kill may interrupt a job: more attempts than rounds.
+    auto server = ServeProcess::Start({"--store", store, "--workers", "2", "--max-attempts", "20"});
     ASSERT_TRUE(server.ok()) << "round " << round << ": " << server.status().ToString();
     std::atomic<bool> stop{false};
     std::vector<std::thread> clients;
@@ -99,7 +100,7 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   }
   ASSERT_GT(acked.size(), 3u) << "the clients got few ingests through; the test proves little";
 
-  auto server = ServeProcess::Start({"--store", store, "--workers", "2"});
+  auto server = ServeProcess::Start({"--store", store, "--workers", "2", "--max-attempts", "20"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
   // Startup removed what the crashes left: every blob file is named by a
