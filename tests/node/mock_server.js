@@ -28,11 +28,11 @@ function makeGlb(json) {
   return out;
 }
 
-// Starts the mock on 127.0.0.1 (a free port). With `token`, every AssetService
+// Starts the mock on `address` (default 127.0.0.1 and a free port). With `token`, every AssetService
 // call needs "authorization: Bearer <token>" (health needs none). With
 // `wrongExportDigest`, Export's last chunk carries a wrong SHA-256 (a fault the
 // client test must catch). Resolves with { address, stop() }.
-function startMockServer({ token = '', wrongExportDigest = false } = {}) {
+function startMockServer({ address = '127.0.0.1:0', token = '', wrongExportDigest = false } = {}) {
   const { AssetService, Health } = loadProtos();
   const assets = new Map();   // name -> [version records]
   const jobs = new Map();     // id -> job
@@ -187,11 +187,11 @@ function startMockServer({ token = '', wrongExportDigest = false } = {}) {
     },
   });
   return new Promise((resolve, reject) => {
-    server.bindAsync('127.0.0.1:0', grpc.ServerCredentials.createInsecure(), (err, port) => {
+    server.bindAsync(address, grpc.ServerCredentials.createInsecure(), (err, port) => {
       if (err) return reject(err);
       // grpc-js 1.10+ serves once bound (start() is deprecated).
       return resolve({
-        address: `127.0.0.1:${port}`,
+        address: `${address.replace(/:\d+$/, '')}:${port}`,
         stop: () => new Promise((done) => server.tryShutdown(() => done())),
       });
     });
