@@ -45,7 +45,6 @@ namespace fs = std::filesystem;
 #define MS_SUMMARY_COLUMNS                                                                            \
   "artifact_sha256, progressive_bytes, encoder, vertices, faces, levels, level_vertices_json, "        \
   "reliable_bytes, unreliable_bytes, layout_json, warnings_json"
-constexpr int kSummaryColumnCount = 11;
 
 // Schema version 1. States are the integer values of VersionState and
 // JobState. uint64 figures are stored as the int64 with the same bits.
@@ -426,10 +425,10 @@ StatusOr<ArtifactSummary> ReadSummary(const Stmt& s, int col) {
   return a;
 }
 
-constexpr char kVersionColumns[] =
-    "tenant, asset, version, state, source_name, source_sha256, source_size, options_json, comment, "
-    "labels_json, created_ms, job_id, error, " MS_SUMMARY_COLUMNS;
-constexpr int kVersionSummaryColumn = 13;
+#define MS_VERSION_COLUMNS                                                                            \
+  "tenant, asset, version, state, source_name, source_sha256, source_size, options_json, comment, "   \
+  "labels_json, created_ms, job_id, error, " MS_SUMMARY_COLUMNS
+constexpr int kVersionSummaryColumn = 13;  // where MS_SUMMARY_COLUMNS start in MS_VERSION_COLUMNS
 
 StatusOr<VersionRecord> ReadVersionRow(const Stmt& s) {
   VersionRecord v;
@@ -452,9 +451,9 @@ StatusOr<VersionRecord> ReadVersionRow(const Stmt& s) {
   return v;
 }
 
-constexpr char kJobColumns[] =
-    "id, tenant, asset, version, state, progress, message, attempts, lease_owner, lease_expires_ms, "
-    "created_ms, updated_ms";
+#define MS_JOB_COLUMNS                                                                               \
+  "id, tenant, asset, version, state, progress, message, attempts, lease_owner, lease_expires_ms, "   \
+  "created_ms, updated_ms"
 
 StatusOr<JobRecord> ReadJobRow(const Stmt& s) {
   JobRecord j;
@@ -475,7 +474,7 @@ StatusOr<JobRecord> ReadJobRow(const Stmt& s) {
   return j;
 }
 
-constexpr char kTokenColumns[] = "id, tenant, read_only, created_ms, revoked";
+#define MS_TOKEN_COLUMNS "id, tenant, read_only, created_ms, revoked"
 
 TokenRecord ReadTokenRow(const Stmt& s) {
   TokenRecord t;
@@ -486,8 +485,6 @@ TokenRecord ReadTokenRow(const Stmt& s) {
   t.revoked = s.Int(4) != 0;
   return t;
 }
-
-std::string Sql(const std::string& a, const char* b, const std::string& c = "") { return a + b + c; }
 
 // The blob sink of the embedded store: a FileBlobStore writer.
 class FileBlobSink final : public BlobSink {
@@ -913,7 +910,7 @@ StatusOr<VersionRecord> SqliteStore::ReadVersionLocked(const std::string& tenant
                                                        int64_t version) {
   VersionRecord record;
   {
-    Stmt s(db_, Sql("SELECT ", kVersionColumns, " FROM versions WHERE tenant = ? AND asset = ? AND version = ?").c_str());
+    Stmt s(db_, "SELECT " MS_VERSION_COLUMNS " FROM versions WHERE tenant = ? AND asset = ? AND version = ?");
     s.Bind(tenant, asset, version);
     MS_ASSIGN_OR_RETURN(const bool row, s.Step());
     if (!row) {
@@ -1104,7 +1101,7 @@ StatusOr<JobRecord> SqliteStore::GetJob(const std::string& tenant, const std::st
   MS_RETURN_IF_ERROR(CheckName("tenant", tenant));
   MS_RETURN_IF_ERROR(CheckName("job_id", job_id));
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt s(db_, Sql("SELECT ", kJobColumns, " FROM jobs WHERE id = ? AND tenant = ?").c_str());
+  Stmt s(db_, "SELECT " MS_JOB_COLUMNS " FROM jobs WHERE id = ? AND tenant = ?");
   s.Bind(job_id, tenant);
   MS_ASSIGN_OR_RETURN(const bool row, s.Step());
   if (!row) return NotFound(JobNotFound(job_id));
@@ -1137,7 +1134,7 @@ StatusOr<std::optional<JobRecord>> SqliteStore::ClaimJob(const std::string& work
   }
   JobRecord job;
   {
-    Stmt s(db_, Sql("SELECT ", kJobColumns, " FROM jobs WHERE seq = ?").c_str());
+    Stmt s(db_, "SELECT " MS_JOB_COLUMNS " FROM jobs WHERE seq = ?");
     s.Bind(seq);
     MS_ASSIGN_OR_RETURN(const bool row, s.Step());
     if (!row) return Internal("a claimed job vanished inside its transaction");
@@ -1148,7 +1145,7 @@ StatusOr<std::optional<JobRecord>> SqliteStore::ClaimJob(const std::string& work
 }
 
 Status SqliteStore::CheckLeaseLocked(const std::string& job_id, const std::string& worker, JobRecord* job) {
-  Stmt s(db_, Sql("SELECT ", kJobColumns, " FROM jobs WHERE id = ?").c_str());
+  Stmt s(db_, "SELECT " MS_JOB_COLUMNS " FROM jobs WHERE id = ?");
   s.Bind(job_id);
   MS_ASSIGN_OR_RETURN(const bool row, s.Step());
   if (!row) return NotFound(JobNotFound(job_id));
@@ -1259,7 +1256,7 @@ Status SqliteStore::PutArtifact(const std::string& cache_key, const ArtifactSumm
     return FailedPrecondition("summary.artifact_sha256: blob " + summary.artifact_sha256 +
                               " does not exist (store the artifact first)");
   }
-  static_assert(kSummaryColumnCount == 11, "the placeholders below");
+  // cache_key, the 11 summary columns, created_ms.
   Stmt s(db_, "INSERT OR IGNORE INTO artifacts (cache_key, " MS_SUMMARY_COLUMNS
               ", created_ms) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   s.Bind(cache_key);
@@ -1300,7 +1297,7 @@ StatusOr<TokenRecord> SqliteStore::CreateToken(const std::string& tenant, bool r
 StatusOr<TokenRecord> SqliteStore::FindToken(const std::string& token_hash) {
   MS_RETURN_IF_ERROR(CheckKey("token_hash", token_hash));
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt s(db_, Sql("SELECT ", kTokenColumns, " FROM tokens WHERE token_hash = ? AND revoked = 0").c_str());
+  Stmt s(db_, "SELECT " MS_TOKEN_COLUMNS " FROM tokens WHERE token_hash = ? AND revoked = 0");
   s.Bind(token_hash);
   MS_ASSIGN_OR_RETURN(const bool row, s.Step());
   if (!row) return NotFound("no live token has this hash");
@@ -1309,7 +1306,7 @@ StatusOr<TokenRecord> SqliteStore::FindToken(const std::string& token_hash) {
 
 StatusOr<std::vector<TokenRecord>> SqliteStore::ListTokens() {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt s(db_, Sql("SELECT ", kTokenColumns, " FROM tokens ORDER BY created_ms, id").c_str());
+  Stmt s(db_, "SELECT " MS_TOKEN_COLUMNS " FROM tokens ORDER BY created_ms, id");
   std::vector<TokenRecord> tokens;
   for (;;) {
     MS_ASSIGN_OR_RETURN(const bool row, s.Step());
