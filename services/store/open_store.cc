@@ -17,7 +17,7 @@ bool IsPostgresSpec(const std::string& spec) {
   return spec.rfind("postgresql://", 0) == 0 || spec.rfind("postgres://", 0) == 0;
 }
 
-StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec) {
+StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec, StoreLock lock) {
   if (spec.empty()) return InvalidArgument("store: must not be empty (a folder or a postgresql:// URI)");
   if (IsPostgresSpec(spec)) {
 #if MESHSTREAM_HAS_PG_STORE
@@ -28,7 +28,7 @@ StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec) {
     return Unsupported("store: the PostgreSQL backend is not built into this meshstream");
 #endif
   }
-  auto sqlite = SqliteStore::Open(spec);
+  auto sqlite = SqliteStore::Open(spec, lock);
   if (!sqlite.ok()) return sqlite.status();
   return std::unique_ptr<Store>(std::move(sqlite).value());
 }

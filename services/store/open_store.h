@@ -6,6 +6,12 @@
 //   anything else                           a folder for the embedded store
 //       (SqliteStore, services/store/sqlite_store.h), created when missing.
 //
+// `lock` matters to the embedded store only: kExclusive (the default) is for
+// `meshstream serve`, the one process that owns the folder; kShared is for a
+// tool beside a running server (the token verbs), which may read metadata and
+// manage tokens (services/store/sqlite_store.h). A PostgreSQL store is shared
+// by design and ignores it.
+//
 // Contract: the spec comes from the operator (a flag or a config file); an
 // empty one is InvalidArgument. Errors are those of the backend's Open: for
 // example Unavailable when another process holds the folder or the database
@@ -19,6 +25,7 @@
 #include <string>
 
 #include "codec/core/status.h"
+#include "services/store/sqlite_store.h"  // StoreLock
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -26,7 +33,7 @@ namespace meshstream {
 // True when `spec` names a PostgreSQL database rather than a folder.
 bool IsPostgresSpec(const std::string& spec);
 
-StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec);
+StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec, StoreLock lock = StoreLock::kExclusive);
 
 }  // namespace meshstream
 

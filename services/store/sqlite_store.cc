@@ -501,8 +501,9 @@ class FileBlobSink final : public BlobSink {
   BlobWriter writer_;
 };
 
-// Opens the database, sets the connection up and migrates the schema.
-Status SetUpDatabase(sqlite3* db, const std::string& path) {
+// Sets the connection up and migrates the schema (when `may_migrate`; else an
+// older schema is FailedPrecondition).
+Status SetUpDatabase(sqlite3* db, const std::string& path, bool may_migrate) {
   sqlite3_extended_result_codes(db, 1);
   if (const int rc = sqlite3_busy_timeout(db, kBusyTimeoutMs); rc != SQLITE_OK) return SqlError(db, rc, path);
   {
@@ -527,6 +528,12 @@ Status SetUpDatabase(sqlite3* db, const std::string& path) {
                               " this meshstream knows; run a newer meshstream");
   }
   if (version < 0) return DataLoss(path + ": schema version " + std::to_string(version));
+  if (version < SqliteStore::kSchemaVersion && !may_migrate) {
+    return FailedPrecondition(path + ": schema version " + std::to_string(version) + " is older than the " +
+                              std::to_string(SqliteStore::kSchemaVersion) +
+                              " this meshstream writes, and the server that has the store open migrates it "
+                              "(restart that server with this meshstream first)");
+  }
   for (int64_t step = version; step < SqliteStore::kSchemaVersion; ++step) {
     Txn txn(db);
     MS_RETURN_IF_ERROR(txn.Begin());
@@ -544,15 +551,16 @@ Status SetUpDatabase(sqlite3* db, const std::string& path) {
 
 // --- opening and closing -------------------------------------------------------
 
-SqliteStore::SqliteStore(std::string dir, int lock_fd, sqlite3* db, FileBlobStore blobs)
-    : dir_(std::move(dir)), lock_fd_(lock_fd), blobs_(std::move(blobs)), db_(db) {}
+SqliteStore::SqliteStore(std::string dir, StoreLock lock, int lock_fd, sqlite3* db,
+                         std::optional<FileBlobStore> blobs)
+    : dir_(std::move(dir)), lock_(lock), lock_fd_(lock_fd), blobs_(std::move(blobs)), db_(db) {}
 
 SqliteStore::~SqliteStore() {
   sqlite3_close_v2(db_);
   close(lock_fd_);  // releases the flock
 }
 
-StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& dir) {
+StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& dir, StoreLock lock) {
   if (dir.empty()) return InvalidArgument("store folder: must not be empty");
   if (sodium_init() < 0) return Internal("libsodium could not be initialized");
   std::error_code ec;
@@ -566,15 +574,21 @@ StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& dir)
   const std::string lock_path = root + "/LOCK";
   const int lock_fd = open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0640);
   if (lock_fd < 0) return Errno(lock_path);
-  if (flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
+  // A shared store takes the lock too when it is free (no server runs), but
+  // only to migrate the schema safely; it lets go before returning.
+  bool locked = flock(lock_fd, LOCK_EX | LOCK_NB) == 0;
+  if (!locked) {
     const int error = errno;
-    const std::string holder = LockHolder(lock_fd);
-    close(lock_fd);
-    if (error == EWOULDBLOCK) {
+    if (error != EWOULDBLOCK) {
+      close(lock_fd);
+      errno = error;
+      return Errno(lock_path + ": flock");
+    }
+    if (lock == StoreLock::kExclusive) {
+      const std::string holder = LockHolder(lock_fd);
+      close(lock_fd);
       return Unavailable(root + " is in use by another meshstream process (pid " + holder + ")");
     }
-    errno = error;
-    return Errno(lock_path + ": flock");
   }
   // From here on, closing lock_fd releases the lock.
   auto fail = [&](const Status& status, sqlite3* db) {
@@ -582,22 +596,38 @@ StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& dir)
     close(lock_fd);
     return status;
   };
-  const std::string pid = std::to_string(getpid()) + "\n";
-  if (ftruncate(lock_fd, 0) != 0 || pwrite(lock_fd, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
-    return fail(Errno(lock_path), nullptr);
+  if (locked) {
+    const std::string pid = std::to_string(getpid()) + "\n";
+    if (ftruncate(lock_fd, 0) != 0 ||
+        pwrite(lock_fd, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
+      return fail(Errno(lock_path), nullptr);
+    }
   }
 
-  auto blobs = FileBlobStore::Open(root);
-  if (!blobs.ok()) return fail(blobs.status(), nullptr);
-  if (auto made = MakeFolder(root + "/uploads"); !made.ok()) return fail(made.status(), nullptr);
+  // Only the server opens the blob folder: opening it removes temporary
+  // files, which beside a running server would be its uploads in progress.
+  std::optional<FileBlobStore> blobs;
+  if (lock == StoreLock::kExclusive) {
+    auto opened = FileBlobStore::Open(root);
+    if (!opened.ok()) return fail(opened.status(), nullptr);
+    blobs.emplace(std::move(opened).value());
+    if (auto made = MakeFolder(root + "/uploads"); !made.ok()) return fail(made.status(), nullptr);
+  }
 
   const std::string path = root + "/meta.sqlite3";
   sqlite3* db = nullptr;
   const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
                                  nullptr);
   if (rc != SQLITE_OK) return fail(SqlError(db, rc, path), db);
-  if (Status set_up = SetUpDatabase(db, path); !set_up.ok()) return fail(set_up, db);
-  return std::unique_ptr<SqliteStore>(new SqliteStore(root, lock_fd, db, std::move(blobs).value()));
+  if (Status set_up = SetUpDatabase(db, path, locked); !set_up.ok()) return fail(set_up, db);
+  if (lock == StoreLock::kShared && locked) flock(lock_fd, LOCK_UN);  // a server may start beside this tool
+  return std::unique_ptr<SqliteStore>(new SqliteStore(root, lock, lock_fd, db, std::move(blobs)));
+}
+
+Status SqliteStore::CheckExclusive(const char* operation) const {
+  if (lock_ == StoreLock::kExclusive) return Status::Ok();
+  return FailedPrecondition(std::string(operation) + ": " + dir_ +
+                            " is open shared (beside its server), which may only read metadata and manage tokens");
 }
 
 StatusOr<SqliteStore::Settings> SqliteStore::ReadSettings() {
@@ -622,29 +652,33 @@ StatusOr<SqliteStore::Settings> SqliteStore::ReadSettings() {
 // --- blobs -------------------------------------------------------------------
 
 StatusOr<std::unique_ptr<BlobSink>> SqliteStore::NewBlob() {
-  MS_ASSIGN_OR_RETURN(BlobWriter writer, blobs_.NewWriter());
+  MS_RETURN_IF_ERROR(CheckExclusive("NewBlob"));
+  MS_ASSIGN_OR_RETURN(BlobWriter writer, blobs_->NewWriter());
   return std::unique_ptr<BlobSink>(new FileBlobSink(std::move(writer)));
 }
 
 StatusOr<std::vector<uint8_t>> SqliteStore::GetBlob(const std::string& sha256, uint64_t max_bytes) {
+  MS_RETURN_IF_ERROR(CheckExclusive("GetBlob"));
   MS_RETURN_IF_ERROR(CheckDigest("sha256", sha256));
-  return blobs_.Get(sha256, max_bytes);
+  return blobs_->Get(sha256, max_bytes);
 }
 
 StatusOr<bool> SqliteStore::HasBlob(const std::string& sha256) {
+  MS_RETURN_IF_ERROR(CheckExclusive("HasBlob"));
   MS_RETURN_IF_ERROR(CheckDigest("sha256", sha256));
-  return blobs_.Contains(sha256);
+  return blobs_->Contains(sha256);
 }
 
 StatusOr<uint64_t> SqliteStore::RemoveOrphanBlobs(int64_t min_age_ms) {
+  MS_RETURN_IF_ERROR(CheckExclusive("RemoveOrphanBlobs"));
   if (min_age_ms < 0) return InvalidArgument("min_age_ms: must not be negative");
   // Walk the folder without the lock: blobs old enough to go if no row names them.
   std::vector<std::string> candidates;
   const int64_t cutoff_ms = NowMs() - min_age_ms;
-  MS_ASSIGN_OR_RETURN(const std::vector<std::string> prefixes, ListFolder(blobs_.root()));
+  MS_ASSIGN_OR_RETURN(const std::vector<std::string> prefixes, ListFolder(blobs_->root()));
   for (const std::string& prefix : prefixes) {
     if (prefix.size() != 2) continue;  // the prefix folders, not tmp/
-    const std::string folder = blobs_.root() + "/" + prefix;
+    const std::string folder = blobs_->root() + "/" + prefix;
     struct stat st {};
     if (stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) continue;
     MS_ASSIGN_OR_RETURN(const std::vector<std::string> names, ListFolder(folder));
@@ -677,9 +711,9 @@ StatusOr<uint64_t> SqliteStore::RemoveOrphanBlobs(int64_t min_age_ms) {
     if (named.count(digest) != 0) continue;
     // A writer of the same bytes may have renamed a fresh copy over it since.
     struct stat st {};
-    const std::string path = blobs_.root() + "/" + digest.substr(0, 2) + "/" + digest;
+    const std::string path = blobs_->root() + "/" + digest.substr(0, 2) + "/" + digest;
     if (stat(path.c_str(), &st) != 0 || MtimeMs(st) > cutoff_ms) continue;
-    const Status status = blobs_.Remove(digest);
+    const Status status = blobs_->Remove(digest);
     if (status.ok()) {
       ++removed;
     } else if (status.code() != StatusCode::kNotFound) {
@@ -731,6 +765,7 @@ StatusOr<uint64_t> SqliteStore::UploadSize(const std::string& tenant, const std:
 
 Status SqliteStore::AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset,
                                  const uint8_t* data, size_t size) {
+  MS_RETURN_IF_ERROR(CheckExclusive("AppendUpload"));
   MS_RETURN_IF_ERROR(CheckUploadNames(tenant, upload_id));
   if (data == nullptr && size > 0) return InvalidArgument("data: null with " + std::to_string(size) + " bytes");
   if (offset > static_cast<uint64_t>(INT64_MAX) - size) return ResourceExhausted("upload " + upload_id + ": too large");
@@ -780,6 +815,7 @@ Status SqliteStore::AppendUpload(const std::string& tenant, const std::string& u
 
 StatusOr<std::string> SqliteStore::CommitUpload(const std::string& tenant, const std::string& upload_id,
                                                 const std::string& expected_sha256) {
+  MS_RETURN_IF_ERROR(CheckExclusive("CommitUpload"));
   MS_RETURN_IF_ERROR(CheckUploadNames(tenant, upload_id));
   if (!expected_sha256.empty()) MS_RETURN_IF_ERROR(CheckDigest("expected_sha256", expected_sha256));
   std::lock_guard<std::mutex> upload_lock(UploadLock(tenant, upload_id));
@@ -793,7 +829,7 @@ StatusOr<std::string> SqliteStore::CommitUpload(const std::string& tenant, const
   // FileBlobStore has no way to adopt a file, so the bytes are copied into a
   // blob writer, which hashes them and makes the blob durable.
   const std::string path = UploadPath(tenant, upload_id);
-  MS_ASSIGN_OR_RETURN(BlobWriter writer, blobs_.NewWriter());
+  MS_ASSIGN_OR_RETURN(BlobWriter writer, blobs_->NewWriter());
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
   Status copied = Status::Ok();
   if (fd < 0) copied = errno == ENOENT ? DataLoss("upload " + upload_id + ": its file is missing") : Errno(path);
@@ -830,6 +866,7 @@ StatusOr<std::string> SqliteStore::CommitUpload(const std::string& tenant, const
 }
 
 Status SqliteStore::DiscardUpload(const std::string& tenant, const std::string& upload_id) {
+  MS_RETURN_IF_ERROR(CheckExclusive("DiscardUpload"));
   MS_RETURN_IF_ERROR(CheckUploadNames(tenant, upload_id));
   std::lock_guard<std::mutex> upload_lock(UploadLock(tenant, upload_id));
   {
@@ -842,6 +879,7 @@ Status SqliteStore::DiscardUpload(const std::string& tenant, const std::string& 
 }
 
 StatusOr<uint64_t> SqliteStore::ExpireUploads(int64_t max_idle_ms) {
+  MS_RETURN_IF_ERROR(CheckExclusive("ExpireUploads"));
   if (max_idle_ms < 0) return InvalidArgument("max_idle_ms: must not be negative");
   const int64_t cutoff_ms = NowMs() - max_idle_ms;
   std::vector<std::pair<std::string, std::string>> idle;
@@ -932,6 +970,7 @@ StatusOr<VersionRecord> SqliteStore::ReadVersionLocked(const std::string& tenant
 }
 
 StatusOr<VersionRecord> SqliteStore::CreateVersion(const NewVersion& v) {
+  MS_RETURN_IF_ERROR(CheckExclusive("CreateVersion"));
   MS_RETURN_IF_ERROR(CheckName("tenant", v.tenant));
   MS_RETURN_IF_ERROR(CheckName("asset", v.asset));
   MS_RETURN_IF_ERROR(CheckDigest("source.sha256", v.source.sha256));
@@ -954,11 +993,11 @@ StatusOr<VersionRecord> SqliteStore::CreateVersion(const NewVersion& v) {
 
   std::lock_guard<std::mutex> lock(mu_);
   // Blobs are checked under the lock that RemoveOrphanBlobs takes to remove.
-  if (!blobs_.Contains(v.source.sha256)) {
+  if (!blobs_->Contains(v.source.sha256)) {
     return FailedPrecondition("source.sha256: blob " + v.source.sha256 + " does not exist (store the bytes first)");
   }
   for (size_t i = 0; i < v.resources.size(); ++i) {
-    if (!blobs_.Contains(v.resources[i].sha256)) {
+    if (!blobs_->Contains(v.resources[i].sha256)) {
       return FailedPrecondition("resources[" + std::to_string(i) + "].sha256: blob " + v.resources[i].sha256 +
                                 " does not exist (store the bytes first)");
     }
@@ -1110,6 +1149,7 @@ StatusOr<JobRecord> SqliteStore::GetJob(const std::string& tenant, const std::st
 
 StatusOr<std::optional<JobRecord>> SqliteStore::ClaimJob(const std::string& worker, int64_t now_ms,
                                                          int64_t lease_ms) {
+  MS_RETURN_IF_ERROR(CheckExclusive("ClaimJob"));
   MS_RETURN_IF_ERROR(CheckLeaseArguments(worker, now_ms, lease_ms));
   std::lock_guard<std::mutex> lock(mu_);
   Txn txn(db_);
@@ -1159,6 +1199,7 @@ Status SqliteStore::CheckLeaseLocked(const std::string& job_id, const std::strin
 
 Status SqliteStore::RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,
                                int64_t lease_ms, double progress, const std::string& message) {
+  MS_RETURN_IF_ERROR(CheckExclusive("RenewLease"));
   MS_RETURN_IF_ERROR(CheckName("job_id", job_id));
   MS_RETURN_IF_ERROR(CheckLeaseArguments(worker, now_ms, lease_ms));
   if (!(progress >= 0.0 && progress <= 1.0)) return InvalidArgument("progress: must be between 0 and 1");
@@ -1177,6 +1218,7 @@ Status SqliteStore::RenewLease(const std::string& job_id, const std::string& wor
 
 Status SqliteStore::FinishJob(const std::string& job_id, const std::string& worker, const ArtifactSummary* summary,
                               const std::string& message) {
+  MS_RETURN_IF_ERROR(CheckExclusive(summary != nullptr ? "CompleteJob" : "FailJob"));
   MS_RETURN_IF_ERROR(CheckName("job_id", job_id));
   MS_RETURN_IF_ERROR(CheckKey("worker", worker));
   if (summary != nullptr) MS_RETURN_IF_ERROR(CheckDigest("summary.artifact_sha256", summary->artifact_sha256));
@@ -1185,7 +1227,7 @@ Status SqliteStore::FinishJob(const std::string& job_id, const std::string& work
   MS_RETURN_IF_ERROR(txn.Begin());
   JobRecord job;
   MS_RETURN_IF_ERROR(CheckLeaseLocked(job_id, worker, &job));
-  if (summary != nullptr && !blobs_.Contains(summary->artifact_sha256)) {
+  if (summary != nullptr && !blobs_->Contains(summary->artifact_sha256)) {
     return FailedPrecondition("summary.artifact_sha256: blob " + summary->artifact_sha256 +
                               " does not exist (store the artifact first)");
   }
@@ -1228,6 +1270,17 @@ Status SqliteStore::FailJob(const std::string& job_id, const std::string& worker
   return FinishJob(job_id, worker, nullptr, message);
 }
 
+StatusOr<int64_t> SqliteStore::ReleaseAllLeases() {
+  MS_RETURN_IF_ERROR(CheckExclusive("ReleaseAllLeases"));
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt s(db_,
+         "UPDATE jobs SET state = ?, lease_owner = '', lease_expires_ms = 0, updated_ms = ? "
+         "WHERE state IN (1, 2) AND state = ?");
+  s.Bind(static_cast<int64_t>(JobState::kPending), NowMs(), static_cast<int64_t>(JobState::kRunning));
+  MS_RETURN_IF_ERROR(s.Run());
+  return static_cast<int64_t>(s.Changes());
+}
+
 StatusOr<int64_t> SqliteStore::CountUnfinishedJobs() {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt s(db_, "SELECT count(*) FROM jobs WHERE state IN (1, 2)");
@@ -1249,10 +1302,11 @@ StatusOr<std::optional<ArtifactSummary>> SqliteStore::FindArtifact(const std::st
 }
 
 Status SqliteStore::PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) {
+  MS_RETURN_IF_ERROR(CheckExclusive("PutArtifact"));
   MS_RETURN_IF_ERROR(CheckKey("cache_key", cache_key));
   MS_RETURN_IF_ERROR(CheckDigest("summary.artifact_sha256", summary.artifact_sha256));
   std::lock_guard<std::mutex> lock(mu_);
-  if (!blobs_.Contains(summary.artifact_sha256)) {
+  if (!blobs_->Contains(summary.artifact_sha256)) {
     return FailedPrecondition("summary.artifact_sha256: blob " + summary.artifact_sha256 +
                               " does not exist (store the artifact first)");
   }

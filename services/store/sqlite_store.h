@@ -6,16 +6,24 @@
 //   <dir>/blobs/...         content-addressed blobs (FileBlobStore)
 //   <dir>/uploads/<tenant>/<upload_id>.part   bytes of resumable uploads
 //
-// One process per folder: Open takes an exclusive flock on <dir>/LOCK and
-// answers Unavailable "<dir> is in use by another meshstream process (pid N)"
-// while another open store (in this process or another) holds it. The kernel
-// drops the lock when its holder exits or is killed, so a store opened after
-// a crash or SIGKILL needs no cleanup.
+// One server per folder: an exclusive Open takes an exclusive flock on
+// <dir>/LOCK (close-on-exec) and answers Unavailable "<dir> is in use by
+// another meshstream process (pid N)" while another exclusive store (in this
+// process or another) holds it. The kernel drops the lock when its holder
+// exits or is killed, so a store opened after a crash or SIGKILL needs no
+// cleanup. A shared Open (StoreLock::kShared, for tools such as the token
+// verbs beside a running server) takes no lock and may only read metadata and
+// manage tokens: blobs, uploads and job changes belong to the server and are
+// FailedPrecondition there. SQLite's own locking (busy_timeout) orders the
+// two processes' transactions.
 //
 // Durability: a method that returns OK has committed its change with
 // synchronous=FULL (the WAL is fsync'd on every commit), and blobs and upload
 // bytes are fsync'd before the rows that name them are written; so what an OK
 // promised survives SIGKILL and power loss.
+//
+// Schema: Open migrates an older database; a shared Open does so only while
+// no server holds the folder (it takes the lock for the migration).
 //
 // Thread safety: every method may be called from any thread at once. There is
 // one SQLite connection, guarded by one mutex (metadata operations run one at
@@ -43,6 +51,13 @@ struct sqlite3;
 
 namespace meshstream {
 
+// How an embedded store is opened (OpenStore passes it on; a PostgreSQL store
+// is always shared by design and ignores it).
+enum class StoreLock {
+  kExclusive,  // a server: the only process with the folder open
+  kShared,     // a tool beside a running server: metadata reads and tokens only
+};
+
 class SqliteStore final : public Store {
  public:
   // The schema this code writes (PRAGMA user_version). Open migrates an older
@@ -51,7 +66,8 @@ class SqliteStore final : public Store {
   static constexpr int64_t kSchemaVersion = 1;
 
   // Opens (creating when needed) the store in folder `dir`.
-  static StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& dir);
+  static StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& dir,
+                                                     StoreLock lock = StoreLock::kExclusive);
   ~SqliteStore() override;
   SqliteStore(const SqliteStore&) = delete;
   SqliteStore& operator=(const SqliteStore&) = delete;
@@ -95,6 +111,7 @@ class SqliteStore final : public Store {
                     double progress, const std::string& message) override;
   Status CompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
   Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
+  StatusOr<int64_t> ReleaseAllLeases() override;
   StatusOr<int64_t> CountUnfinishedJobs() override;
 
   StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) override;
@@ -106,7 +123,10 @@ class SqliteStore final : public Store {
   Status RevokeToken(const std::string& id) override;
 
  private:
-  SqliteStore(std::string dir, int lock_fd, sqlite3* db, FileBlobStore blobs);
+  SqliteStore(std::string dir, StoreLock lock, int lock_fd, sqlite3* db, std::optional<FileBlobStore> blobs);
+
+  // OK for an exclusive store; FailedPrecondition naming `operation` for a shared one.
+  Status CheckExclusive(const char* operation) const;
 
   // Runs with mu_ held.
   StatusOr<VersionRecord> ReadVersionLocked(const std::string& tenant, const std::string& asset, int64_t version);
@@ -125,8 +145,9 @@ class SqliteStore final : public Store {
   Status RemoveUploadFile(const std::string& tenant, const std::string& upload_id) const;
 
   const std::string dir_;
+  const StoreLock lock_;
   const int lock_fd_;
-  const FileBlobStore blobs_;
+  const std::optional<FileBlobStore> blobs_;  // absent in a shared store
   std::mutex mu_;  // guards db_
   sqlite3* const db_;
   std::array<std::mutex, 16> upload_locks_;
