@@ -15,6 +15,8 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -205,6 +207,123 @@ TEST(SqliteStore, TheLockDiesWithItsProcessEvenBySigkill) {
   auto store = MustOpen(dir.path());
   ASSERT_NE(store, nullptr);
   EXPECT_EQ(test_util::ReadText(dir.File("LOCK")), std::to_string(getpid()) + "\n");
+}
+
+// --- a tool beside the server (StoreLock::kShared) -----------------------------
+
+TEST(SqliteStore, ASharedStoreBesideTheServerReadsMetadataAndManagesTokensOnly) {
+  TempDir dir;
+  auto server = MustOpen(dir.path());
+  ASSERT_NE(server, nullptr);
+  auto sink = server->NewBlob();
+  ASSERT_TRUE(sink.ok());
+  MS_ASSERT_OK(sink.value()->Append(Data("source"), 6));
+  MS_ASSERT_OK_AND_ASSIGN(const std::string src, sink.value()->Commit());
+  NewVersion nv;
+  nv.tenant = "acme";
+  nv.asset = "chair";
+  nv.source = SourceFile{"chair.glb", src, 6};
+  MS_ASSERT_OK_AND_ASSIGN(const VersionRecord v, server->CreateVersion(nv));
+  MS_ASSERT_OK(server->AppendUpload("acme", "up", 0, Data("abc"), 3));
+  // A blob being written while the tool opens: the tool must leave its temporary file alone.
+  auto in_flight = server->NewBlob();
+  ASSERT_TRUE(in_flight.ok());
+  MS_ASSERT_OK(in_flight.value()->Append(Data("in flight"), 9));
+
+  auto opened = OpenStore(dir.path(), StoreLock::kShared);
+  ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+  Store& tool = *opened.value();
+  MS_EXPECT_OK(in_flight.value()->Commit(Sha("in flight")));
+
+  // Tokens written by the tool are seen by the server at its next read, and back.
+  MS_ASSERT_OK_AND_ASSIGN(const TokenRecord token, tool.CreateToken("acme", false, Sha("token")));
+  EXPECT_EQ(server->FindToken(Sha("token")).value().id, token.id);
+  MS_ASSERT_OK(tool.RevokeToken(token.id));
+  EXPECT_EQ(server->FindToken(Sha("token")).status().code(), StatusCode::kNotFound);
+  MS_ASSERT_OK(server->CreateToken("globex", true, Sha("other")));
+  EXPECT_EQ(tool.ListTokens().value().size(), 2u);
+  // Metadata reads work.
+  EXPECT_EQ(tool.GetVersion("acme", "chair", 0).value().job_id, v.job_id);
+  EXPECT_EQ(tool.ListAssets("acme", 0, "").value().items.size(), 1u);
+  EXPECT_EQ(tool.GetJob("acme", v.job_id).value().state, JobState::kPending);
+  EXPECT_EQ(tool.CountUnfinishedJobs().value(), 1);
+  EXPECT_EQ(tool.UploadSize("acme", "up").value(), 3u);
+  // What belongs to the server is refused, naming the operation.
+  const std::vector<std::pair<std::string, Status>> refused = {
+      {"NewBlob", StatusOf(tool.NewBlob())},
+      {"GetBlob", StatusOf(tool.GetBlob(src, 100))},
+      {"HasBlob", StatusOf(tool.HasBlob(src))},
+      {"RemoveOrphanBlobs", StatusOf(tool.RemoveOrphanBlobs(0))},
+      {"AppendUpload", tool.AppendUpload("acme", "up", 3, Data("d"), 1)},
+      {"CommitUpload", StatusOf(tool.CommitUpload("acme", "up", ""))},
+      {"DiscardUpload", tool.DiscardUpload("acme", "up")},
+      {"ExpireUploads", StatusOf(tool.ExpireUploads(0))},
+      {"CreateVersion", StatusOf(tool.CreateVersion(nv))},
+      {"ClaimJob", StatusOf(tool.ClaimJob("tool", NowMs(), 1000))},
+      {"RenewLease", tool.RenewLease(v.job_id, "tool", NowMs(), 1000, 0.5, "")},
+      {"CompleteJob", tool.CompleteJob(v.job_id, "tool", ArtifactSummary{})},
+      {"FailJob", tool.FailJob(v.job_id, "tool", "no")},
+      {"ReleaseAllLeases", StatusOf(tool.ReleaseAllLeases())},
+      {"PutArtifact", tool.PutArtifact("key", ArtifactSummary{})},
+  };
+  for (const auto& [operation, status] : refused) {
+    EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition) << operation << ": " << status.ToString();
+    EXPECT_EQ(status.message().rfind(operation + ": ", 0), 0u) << status.message();
+  }
+  EXPECT_EQ(server->UploadSize("acme", "up").value(), 3u);
+  EXPECT_EQ(server->GetJob("acme", v.job_id).value().state, JobState::kPending);
+  // The tool holds no lock: the server can stop and start while it is open.
+  server.reset();
+  server = MustOpen(dir.path());
+  EXPECT_NE(server, nullptr);
+}
+
+TEST(SqliteStore, ASharedStoreWorksBesideAServerInAnotherProcess) {
+  TempDir dir;
+  Child holder([&] {
+    auto store = SqliteStore::Open(dir.path());
+    if (!store.ok()) return store.status().ToString();
+    store.value().release();
+    return std::string("HOLD");
+  });
+  ASSERT_GT(holder.pid(), 0);
+  ASSERT_EQ(holder.ReadLine(), "HOLD");
+  {
+    auto tool = SqliteStore::Open(dir.path(), StoreLock::kShared);
+    ASSERT_TRUE(tool.ok()) << tool.status().ToString();
+    MS_ASSERT_OK(tool.value()->CreateToken("acme", false, Sha("token")));
+    EXPECT_EQ(SqliteStore::Open(dir.path()).status().code(), StatusCode::kUnavailable);  // the server still has it
+  }
+  holder.Kill();
+  auto server = MustOpen(dir.path());
+  ASSERT_NE(server, nullptr);
+  EXPECT_EQ(server->FindToken(Sha("token")).value().tenant, "acme");
+}
+
+TEST(SqliteStore, ASharedStoreMigratesOnlyWhileNoServerHoldsTheFolder) {
+  TempDir dir;
+  const std::string db = dir.File("meta.sqlite3");
+  {
+    // Nobody holds the folder: the tool may set the store up, and lets go of the lock.
+    auto tool = SqliteStore::Open(dir.path(), StoreLock::kShared);
+    ASSERT_TRUE(tool.ok()) << tool.status().ToString();
+    EXPECT_EQ(tool.value()->ReadSettings().value().schema_version, SqliteStore::kSchemaVersion);
+    EXPECT_NE(MustOpen(dir.path()), nullptr);
+  }
+  auto server = MustOpen(dir.path());
+  ASSERT_NE(server, nullptr);
+  // An older schema under a running server (set behind its back here): the tool leaves it to the server.
+  ASSERT_EQ(RawSql(db, "PRAGMA user_version = 0"), "");
+  auto older = SqliteStore::Open(dir.path(), StoreLock::kShared);
+  ASSERT_FALSE(older.ok());
+  EXPECT_EQ(older.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(older.status().message().find("schema version 0 is older"), std::string::npos) << older.status().message();
+  EXPECT_EQ(RawSql(db, "PRAGMA user_version"), "0");
+  // A newer one is refused as it is for a server.
+  ASSERT_EQ(RawSql(db, "PRAGMA user_version = " + std::to_string(SqliteStore::kSchemaVersion + 1)), "");
+  EXPECT_EQ(SqliteStore::Open(dir.path(), StoreLock::kShared).status().code(), StatusCode::kFailedPrecondition);
+  ASSERT_EQ(RawSql(db, "PRAGMA user_version = " + std::to_string(SqliteStore::kSchemaVersion)), "");
+  MS_EXPECT_OK(SqliteStore::Open(dir.path(), StoreLock::kShared));
 }
 
 // --- durability ----------------------------------------------------------------

@@ -716,6 +716,37 @@ TEST_P(StoreSuite, AnExpiredLeaseIsTakenOverAndTheFirstWorkerIsAborted) {
   EXPECT_EQ(store().GetVersion("acme", "chair", 1).value().state, VersionState::kReady);
 }
 
+TEST_P(StoreSuite, ReleaseAllLeasesReturnsRunningJobsToPending) {
+  MS_ASSERT_OK_AND_ASSIGN(const std::string src, PutBlob(store(), "source"));
+  MS_ASSERT_OK_AND_ASSIGN(const std::string art, PutBlob(store(), "artifact"));
+  std::vector<VersionRecord> v;
+  for (int i = 0; i < 3; ++i) {
+    MS_ASSERT_OK_AND_ASSIGN(const VersionRecord created, store().CreateVersion(MakeVersion("acme", "chair", src)));
+    v.push_back(created);
+  }
+  const int64_t now = NowMs();
+  EXPECT_EQ(store().ReleaseAllLeases().value(), 0);
+  ASSERT_EQ(store().ClaimJob("w1", now, kLease).value()->id, v[0].job_id);
+  ASSERT_EQ(store().ClaimJob("w1", now, kLease).value()->id, v[1].job_id);
+  MS_ASSERT_OK(store().CompleteJob(v[1].job_id, "w1", MakeSummary(art)));
+  EXPECT_EQ(store().ReleaseAllLeases().value(), 1);  // v[0]; v[1] is finished, v[2] pending
+
+  MS_ASSERT_OK_AND_ASSIGN(const JobRecord released, store().GetJob("acme", v[0].job_id));
+  EXPECT_EQ(released.state, JobState::kPending);
+  EXPECT_EQ(released.lease_owner, "");
+  EXPECT_EQ(released.attempts, 1);
+  EXPECT_EQ(store().RenewLease(v[0].job_id, "w1", now, kLease, 0.5, "").code(), StatusCode::kAborted);
+  EXPECT_EQ(store().GetJob("acme", v[1].job_id).value().state, JobState::kSucceeded);
+  // Claimable again at once, oldest first, without waiting for the lease.
+  MS_ASSERT_OK_AND_ASSIGN(const std::optional<JobRecord> again, store().ClaimJob("w2", now, kLease));
+  ASSERT_TRUE(again.has_value());
+  EXPECT_EQ(again->id, v[0].job_id);
+  EXPECT_EQ(again->attempts, 2);
+  EXPECT_EQ(store().ClaimJob("w2", now, kLease).value()->id, v[2].job_id);
+  EXPECT_FALSE(store().ClaimJob("w2", now, kLease).value().has_value());
+  EXPECT_EQ(store().CountUnfinishedJobs().value(), 2);
+}
+
 TEST_P(StoreSuite, CompleteJobMakesTheVersionReadyWithItsSummary) {
   MS_ASSERT_OK_AND_ASSIGN(const std::string src, PutBlob(store(), "source"));
   MS_ASSERT_OK_AND_ASSIGN(const std::string art, PutBlob(store(), "a progressive glb"));
