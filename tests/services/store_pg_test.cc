@@ -442,6 +442,16 @@ TEST_F(PgStoreUploads, MismatchedDigestDiscardsTheUpload) {
   EXPECT_CODE(store_->CommitUpload("acme", "u", "xyz").status(), kInvalidArgument);
 }
 
+TEST_F(PgStoreUploads, AMissingChunkIsDataLossAtCommit) {
+  const std::string bytes = RandomBytes(2 * kMiB + 1, 13);
+  ASSERT_TRUE(store_->AppendUpload("acme", "holey", 0, Bytes(bytes), bytes.size()).ok());
+  Sql("DELETE FROM meshstream.upload_chunks WHERE byte_offset = " + std::to_string(kMiB));
+  auto digest = store_->CommitUpload("acme", "holey", "");
+  ASSERT_FALSE(digest.ok());
+  EXPECT_EQ(digest.status().code(), StatusCode::kDataLoss) << digest.status().ToString();
+  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
+}
+
 TEST_F(PgStoreUploads, ConcurrentAppendersFromTwoServersNeverOverlap) {
   auto other = OpenAnother();
   ASSERT_NE(other, nullptr);
@@ -939,6 +949,40 @@ TEST_F(PgStoreOrphans, ManyOrphansAreRemovedInBatches) {
   ASSERT_TRUE(removed.ok()) << removed.status().ToString();
   EXPECT_EQ(*removed, 1200u);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
+}
+
+TEST_F(PgStoreOrphans, ASweepRacingAnIngestNeverLeavesARowWithoutItsBlob) {
+  auto other = OpenAnother();
+  ASSERT_NE(other, nullptr);
+  int named = 0, removed_first = 0;
+  for (int i = 0; i < 30; ++i) {
+    const std::string source = "racing source " + std::to_string(i);
+    PutBlob(source);
+    Sql("UPDATE meshstream.blobs SET created_ms = created_ms - 3600000");
+    StatusOr<uint64_t> swept = uint64_t{0};
+    StatusOr<VersionRecord> version = Internal("not run");
+    std::thread sweeper([&] { swept = store_->RemoveOrphanBlobs(600000); });
+    std::thread ingester([&] { version = other->CreateVersion(MakeVersion("acme", "race", source)); });
+    sweeper.join();
+    ingester.join();
+    ASSERT_TRUE(swept.ok()) << swept.status().ToString();
+    auto has = store_->HasBlob(Digest(source));
+    ASSERT_TRUE(has.ok());
+    if (version.ok()) {
+      ++named;
+      EXPECT_TRUE(*has) << i;
+      EXPECT_TRUE(store_->GetBlob(Digest(source), 1 << 20).ok()) << i;
+    } else {
+      ++removed_first;
+      EXPECT_EQ(version.status().code(), StatusCode::kFailedPrecondition) << version.status().ToString();
+      EXPECT_FALSE(*has) << i;
+    }
+  }
+  EXPECT_EQ(named + removed_first, 30);
+  // Every version's blobs exist, whoever won each race.
+  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.versions v WHERE NOT EXISTS "
+                   "(SELECT 1 FROM meshstream.blobs b WHERE b.sha256 = v.source_sha256)"),
+            0);
 }
 
 // --- connections ----------------------------------------------------------
