@@ -552,9 +552,11 @@ auto PgStore::Run(const std::string& what, F&& fn) {
     } catch (const pqxx::sql_error& e) {
       const std::string state = e.sqlstate();
       const std::string cls = state.substr(0, 2);
-      if (cls == "08" || cls == "57") {  // connection exception, operator intervention (shutdown, terminate)
+      if (cls == "08" || state.rfind("57P", 0) == 0) {  // connection exception; shutdown, terminated session
         lost_connection = true;
         error = Unavailable(what + ": PostgreSQL closed the session: " + Trimmed(e.what()));
+      } else if (state == "57014" || state == "55P03") {  // statement_timeout, lock_timeout: not retried here
+        error = Unavailable(what + ": PostgreSQL cancelled the statement: " + Trimmed(e.what()));
       } else if (cls == "40") {
         conflict = true;
         error = Aborted(what + ": gave up after " + std::to_string(options_.conflict_attempts) +

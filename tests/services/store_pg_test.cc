@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -1030,6 +1031,24 @@ TEST_F(PgStoreConnections, TerminatedSessionsAreReplaced) {
     };
     for (size_t i = 0; i < calls.size(); ++i) calls[(i + static_cast<size_t>(round)) % calls.size()]();
   }
+}
+
+TEST_F(PgStoreConnections, ALockTimeoutIsUnavailableNotRetried) {
+  ASSERT_TRUE(store_->AppendUpload("acme", "locked", 0, Bytes("x"), 1).ok());
+  auto impatient = OpenPgStore(conninfo_ + " options='-c lock_timeout=200'");
+  ASSERT_TRUE(impatient.ok()) << impatient.status().ToString();
+  {
+    pqxx::connection holder(conninfo_);
+    pqxx::work tx(holder);
+    tx.exec("SELECT 1 FROM meshstream.uploads WHERE upload_id = 'locked' FOR UPDATE");
+    const auto start = std::chrono::steady_clock::now();
+    const Status s = (*impatient)->AppendUpload("acme", "locked", 1, Bytes("y"), 1);
+    const auto waited = std::chrono::steady_clock::now() - start;
+    EXPECT_EQ(s.code(), StatusCode::kUnavailable) << s.ToString();
+    EXPECT_NE(s.message().find("cancelled"), std::string::npos) << s.ToString();
+    EXPECT_LT(waited, std::chrono::milliseconds(2000));
+  }
+  EXPECT_TRUE((*impatient)->AppendUpload("acme", "locked", 1, Bytes("y"), 1).ok());
 }
 
 TEST_F(PgStoreConnections, AGoneDatabaseIsUnavailable) {
