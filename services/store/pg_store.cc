@@ -1266,6 +1266,18 @@ Status PgStore::FailJob(const std::string& job_id, const std::string& worker, co
   });
 }
 
+StatusOr<int64_t> PgStore::ReleaseAllLeases() {
+  return Run("releasing all leases", [&](pqxx::connection& c) -> StatusOr<int64_t> {
+    pqxx::work tx(c);
+    const pqxx::result r = tx.exec_params(
+        "UPDATE meshstream.jobs SET state = $1, lease_owner = '', lease_expires_ms = 0, updated_ms = $2 "
+        "WHERE state = $3",
+        kPending, NowMs(), kRunning);
+    tx.commit();
+    return static_cast<int64_t>(r.affected_rows());
+  });
+}
+
 StatusOr<int64_t> PgStore::CountUnfinishedJobs() {
   return Run("counting unfinished jobs", [&](pqxx::connection& c) -> StatusOr<int64_t> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips

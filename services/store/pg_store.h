@@ -82,6 +82,12 @@ class PgStore final : public Store {
   Status CompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
   Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
   StatusOr<int64_t> CountUnfinishedJobs() override;
+  // Sets every RUNNING job back to PENDING, its lease forgotten (main's
+  // store.h declares it virtual; `override` is left off so this compiles
+  // against the store.h of this branch too). Only for a database that one
+  // process uses: on a shared one it takes the running jobs of the other
+  // servers, whose workers then get Aborted and the jobs run again.
+  StatusOr<int64_t> ReleaseAllLeases();
 
   StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) override;
   Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;

@@ -835,6 +835,29 @@ TEST_F(PgStoreJobs, FailJobFailsTheVersion) {
   EXPECT_CODE(store_->FailJob((*job)->id, "w", "again"), kAborted);
 }
 
+TEST_F(PgStoreJobs, ReleaseAllLeasesReturnsRunningJobsToPending) {
+  const std::string source = "source";
+  PutBlob(source);
+  auto v1 = store_->CreateVersion(MakeVersion("acme", "x", source));
+  auto v2 = store_->CreateVersion(MakeVersion("acme", "y", source));
+  ASSERT_TRUE(v1.ok() && v2.ok());
+  auto running = store_->ClaimJob("w1", NowMs(), 3600000);
+  ASSERT_TRUE(running.ok() && running->has_value());
+  auto released = static_cast<PgStore*>(store_.get())->ReleaseAllLeases();
+  ASSERT_TRUE(released.ok()) << released.status().ToString();
+  EXPECT_EQ(*released, 1);
+  auto job = store_->GetJob("acme", (*running)->id);
+  ASSERT_TRUE(job.ok());
+  EXPECT_EQ(job->state, JobState::kPending);
+  EXPECT_EQ(job->lease_owner, "");
+  EXPECT_CODE(store_->RenewLease((*running)->id, "w1", NowMs(), 1000, 0.1, ""), kAborted);
+  // Claimable again at once, oldest first, without waiting for the lease.
+  auto again = store_->ClaimJob("w2", NowMs(), 1000);
+  ASSERT_TRUE(again.ok() && again->has_value());
+  EXPECT_EQ((*again)->id, (*running)->id);
+  EXPECT_EQ((*again)->attempts, 2);
+}
+
 TEST_F(PgStoreJobs, ArgumentsAreChecked) {
   EXPECT_CODE(store_->ClaimJob("", NowMs(), 1000).status(), kInvalidArgument);
   EXPECT_CODE(store_->ClaimJob("w", NowMs(), 0).status(), kInvalidArgument);
