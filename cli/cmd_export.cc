@@ -11,6 +11,7 @@
 #include "cli/verbs.h"
 #include "importers/import.h"
 #include "services/store/blob_store.h"
+#include "services/store/store.h"
 
 namespace meshstream::cli {
 

@@ -17,6 +17,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
+#include "services/store/store.h"
 #include "importers/import.h"
 #include "services/pipeline/resource_path.h"
 #include "services/store/blob_store.h"
@@ -365,7 +366,7 @@ Verb AddIngest(CLI::App& root) {
   cmd->add_option("FILE", args->file, "the file to upload")->required();
   cmd->add_option("--asset", args->asset, "the asset, [A-Za-z0-9._-]{1,128} (default: the file's stem)");
   cmd->add_option("--comment", args->comment, "a note stored with the version");
-  cmd->add_option("--label", args->labels, "KEY=VALUE stored with the version (repeatable)");
+  cmd->add_option("--label", args->labels, "KEY=VALUE stored with the version (repeatable)")->expected(1)->allow_extra_args(false)->take_all();
   FromEnv(cmd->add_option("--qp", args->qp, "position quantization bits (0: server default)"));
   FromEnv(cmd->add_option("--qn", args->qn, "normal quantization bits (0: server default)"));
   FromEnv(cmd->add_option("--qt", args->qt, "texture coordinate bits (0: server default)"));

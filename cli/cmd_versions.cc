@@ -8,6 +8,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
+#include "services/store/store.h"
 
 namespace meshstream::cli {
 

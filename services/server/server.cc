@@ -28,15 +28,29 @@ namespace meshstream {
 
 namespace {
 
-// Adds the reflection plugin to one builder only (grpc's own
-// InitProtoReflectionServerBuilderPlugin turns it on for every server of the
-// process).
+// Turns reflection on or off for one builder. Linking grpc++_reflection
+// registers its plugin for every server of the process (a static
+// initializer), so "off" removes it and "on" adds it only when missing.
 class ReflectionOption final : public grpc::ServerBuilderOption {
  public:
+  explicit ReflectionOption(bool enabled) : enabled_(enabled) {}
   void UpdateArguments(grpc::ChannelArguments*) override {}
   void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
-    plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
+    const std::string name = grpc::reflection::ProtoServerReflectionPlugin().name();
+    bool present = false;
+    for (auto it = plugins->begin(); it != plugins->end();) {
+      if ((*it)->name() == name && (!enabled_ || present)) {
+        it = plugins->erase(it);
+        continue;
+      }
+      present = present || (*it)->name() == name;
+      ++it;
+    }
+    if (enabled_ && !present) plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
   }
+
+ private:
+  bool enabled_;
 };
 
 std::string HostOf(const std::string& listen) {
@@ -90,6 +104,7 @@ struct Server::Impl {
   std::unique_ptr<grpc::Server> server;
   std::string address;
   std::atomic<bool> draining{false};
+  std::atomic<bool> waited{false};
 
   std::mutex mutex;
   std::condition_variable wake;
@@ -185,7 +200,7 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   builder.SetMaxReceiveMessageSize(2 << 20);
   builder.SetMaxSendMessageSize(2 << 20);
   const bool reflection = options.reflection.value_or(loopback);
-  if (reflection) builder.SetOption(std::make_unique<ReflectionOption>());
+  builder.SetOption(std::make_unique<ReflectionOption>(reflection));
   impl->server = builder.BuildAndStart();
   if (!impl->server || (port == 0 && options.listen.rfind("unix:", 0) != 0)) {
     return Unavailable("--listen " + options.listen + ": cannot listen there (address in use, or not this host's)");
@@ -209,8 +224,9 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
 void Server::Drain() {
   Impl& s = *impl_;
   if (s.draining.exchange(true)) return;
-  s.log("draining: health NOT_SERVING, finishing running requests within " +
-        std::to_string(s.options.grace_period_s) + " s");
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%g", s.options.grace_period_s);
+  s.log(std::string("draining: health NOT_SERVING, finishing running requests within ") + seconds + " s");
   s.server->GetHealthCheckService()->SetServingStatus(false);
   const auto grace = std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
   const auto steady_deadline = std::chrono::steady_clock::now() + grace;
@@ -228,6 +244,7 @@ void Server::Drain() {
 
 void Server::Wait() {
   Impl& s = *impl_;
+  if (s.waited.exchange(true)) return;
   s.server->Wait();
   if (s.maintenance.joinable()) s.maintenance.join();
   s.pool->Stop();

@@ -4,12 +4,7 @@
 
 #include "services/store/sqlite_store.h"
 
-#if __has_include("services/store/pg_store.h")
 #include "services/store/pg_store.h"
-#define MESHSTREAM_HAS_PG_STORE 1
-#else
-#define MESHSTREAM_HAS_PG_STORE 0
-#endif
 
 namespace meshstream {
 
@@ -20,13 +15,9 @@ bool IsPostgresSpec(const std::string& spec) {
 StatusOr<std::unique_ptr<Store>> OpenStore(const std::string& spec, StoreLock lock) {
   if (spec.empty()) return InvalidArgument("store: must not be empty (a folder or a postgresql:// URI)");
   if (IsPostgresSpec(spec)) {
-#if MESHSTREAM_HAS_PG_STORE
     auto pg = OpenPgStore(spec);
     if (!pg.ok()) return pg.status();
     return std::unique_ptr<Store>(std::move(pg).value());
-#else
-    return Unsupported("store: the PostgreSQL backend is not built into this meshstream");
-#endif
   }
   auto sqlite = SqliteStore::Open(spec, lock);
   if (!sqlite.ok()) return sqlite.status();

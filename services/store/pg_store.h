@@ -87,7 +87,7 @@ class PgStore final : public Store {
   // against the store.h of this branch too). Only for a database that one
   // process uses: on a shared one it takes the running jobs of the other
   // servers, whose workers then get Aborted and the jobs run again.
-  StatusOr<int64_t> ReleaseAllLeases();
+  StatusOr<int64_t> ReleaseAllLeases() override;
 
   StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) override;
   Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;

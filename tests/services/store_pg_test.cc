@@ -27,22 +27,10 @@
 #include "services/store/pg_schema.h"
 #include "tests/common/pg_cluster.h"
 
-#if __has_include("tests/services/store_suite.h")
 #include "tests/services/store_suite.h"
-#define MESHSTREAM_HAVE_STORE_SUITE 1
-#endif
 
 namespace meshstream {
 
-#ifndef MESHSTREAM_HAVE_STORE_SUITE
-// The shape tests/services/store_suite.h declares (it arrives with the
-// store-sqlite branch; this copy is compiled only until then).
-struct StoreBackend {
-  std::string name;
-  std::function<StatusOr<std::unique_ptr<Store>>()> open;
-  std::function<StatusOr<std::unique_ptr<Store>>()> reopen;
-};
-#endif
 
 namespace {
 
@@ -1139,4 +1127,10 @@ TEST(PgStoreBackend, OpenMakesAFreshDatabaseAndReopenKeepsIt) {
 }
 
 }  // namespace
+// The backend-independent suite (tests/services/store_suite_test.cc) on PostgreSQL.
+INSTANTIATE_TEST_SUITE_P(Postgres, StoreSuite,
+                         ::testing::Values(std::make_shared<StoreBackendFactory>(StoreBackendFactory{
+                             "Postgres", []() -> StatusOr<StoreBackend> { return PgBackend(); }})),
+                         StoreBackendName);
+
 }  // namespace meshstream

@@ -204,6 +204,7 @@ class FakeStore : public Store {
     ++failures;
     return Status::Ok();
   }
+  StatusOr<int64_t> ReleaseAllLeases() override { return Unsupported("not used by the pool"); }
   StatusOr<int64_t> CountUnfinishedJobs() override {
     std::lock_guard<std::mutex> lock(mu_);
     int64_t n = 0;
