@@ -29,19 +29,26 @@ TEST(CliOptions, VersionPrintsTheProjectVersion) {
 }
 
 TEST(CliOptions, EveryVerbsHelpSaysWhatItDoesAndGivesAnExample) {
-  for (const char* verb : {"info", "convert", "compare", "encode", "decode"}) {
+  const std::vector<const char*> verbs = {"info",   "convert",  "compare", "encode", "decode", "serve",
+                                          "ingest", "versions", "assets",  "export", "token"};
+  for (const char* verb : verbs) {
     const auto r = RunCommand(Cli() + " " + verb + " --help");
     EXPECT_EQ(r.exit_code, 0) << verb;
     EXPECT_EQ(r.out.rfind(std::string("usage: meshstream ") + verb, 0), 0u) << r.out;
-    EXPECT_NE(r.out.find(std::string("Example:\n  meshstream ") + verb), std::string::npos) << r.out;
+    const bool example = r.out.find(std::string("Example:\n  meshstream ") + verb) != std::string::npos ||
+                         r.out.find(std::string("Examples:\n  meshstream ") + verb) != std::string::npos;
+    EXPECT_TRUE(example) << r.out;
     EXPECT_TRUE(r.err.empty()) << r.err;
     // The top-level help lists the verb with its sentence.
   }
   const auto top = RunCommand(Cli() + " --help");
-  for (const char* verb : {"info", "convert", "compare", "encode", "decode"}) {
+  for (const char* verb : verbs) {
     EXPECT_NE(top.out.find(std::string("  ") + verb + " "), std::string::npos) << verb << "\n" << top.out;
   }
-  EXPECT_NE(top.out.find("Exit status: 0 success, 1 bad input, 2 bad usage"), std::string::npos);
+  EXPECT_NE(top.out.find("Exit status: 0 success, 1 bad input (or refused by the server), 2 bad usage, 3 server "
+                         "unreachable"),
+            std::string::npos)
+      << top.out;
 }
 
 // Each bad value is a usage error: exit 2, one line on stderr that names the
