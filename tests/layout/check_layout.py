@@ -9,7 +9,8 @@
 - importers/ uses codec/ and third-party libraries, never services/, sdk/,
   cli/, bench/ or tests/;
 - services/ and sdk/ never include cli/, bench/ or tests/; sdk/ never
-  includes services/.
+  includes services/; the folders of services/ depend on each other in one
+  direction too (SERVICES_DEPENDS, as docs/architecture.md writes it).
 Exits 1 naming every include that points the wrong way.
 """
 import os
@@ -26,6 +27,17 @@ CODEC_DEPENDS = {
     "bitstream": ["recovery"],
     "loss": ["bitstream"],
 }
+SERVICES_DEPENDS = {
+    "store": [],
+    "auth": ["store"],
+    "pipeline": ["store"],
+    "jobs": ["pipeline"],
+    "ingest": ["auth", "pipeline"],
+    "export": ["pipeline"],
+    "api": ["ingest", "export"],
+    "server": ["api", "jobs"],
+}
+FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
     "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "proto"],
     "importers": ["services", "sdk", "cli", "bench", "tests"],
@@ -38,12 +50,12 @@ CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", 
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]')
 
 
-def closure(folder, seen=None):
+def closure(folder, depends=CODEC_DEPENDS, seen=None):
     seen = set() if seen is None else seen
-    for dep in CODEC_DEPENDS[folder]:
+    for dep in depends[folder]:
         if dep not in seen:
             seen.add(dep)
-            closure(dep, seen)
+            closure(dep, depends, seen)
     return seen
 
 
@@ -61,9 +73,10 @@ def main(root):
         for path in sources(root, top):
             rel = os.path.relpath(path, root)
             parts = rel.split(os.sep)
-            folder = parts[1] if top == "codec" and len(parts) > 2 else None
-            if top == "codec" and folder not in CODEC_DEPENDS:
-                errors.append(f"{rel}: codec/ file outside the folders docs/architecture.md names")
+            depends = FOLDER_DEPENDS.get(top)
+            folder = parts[1] if depends is not None and len(parts) > 2 else None
+            if depends is not None and folder not in depends:
+                errors.append(f"{rel}: {top}/ file outside the folders docs/architecture.md names")
                 continue
             with open(path, encoding="utf-8", errors="replace") as f:
                 for number, line in enumerate(f, 1):
@@ -77,6 +90,13 @@ def main(root):
                     head = target.split("/")[0]
                     if kind == '"' and head in forbidden:
                         errors.append(f"{where}: {top}/ may not depend on {head}/")
+                    if top == "services" and kind == '"' and head == "services":
+                        dep = target.split("/")[1] if target.count("/") >= 2 else None
+                        if dep not in SERVICES_DEPENDS:
+                            errors.append(f"{where}: not a services/ folder")
+                        elif dep != folder and dep not in closure(folder, SERVICES_DEPENDS):
+                            errors.append(f"{where}: services/{folder}/ may not use services/{dep}/ "
+                                          f"(order in docs/architecture.md)")
                     if top != "codec":
                         continue
                     if kind == "<":
