@@ -16,12 +16,12 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/impl/server_builder_option.h>
-#include <sodium.h>
 
 #include "importers/import.h"
 #include "services/api/asset_service.h"
 #include "services/auth/authenticator.h"
 #include "services/jobs/worker_pool.h"
+#include "services/store/blob_store.h"
 #include "services/store/open_store.h"
 
 namespace meshstream {
@@ -66,11 +66,7 @@ std::string HostOf(const std::string& listen) {
 std::string DefaultServerId() {
   char host[256] = {0};
   if (gethostname(host, sizeof host - 1) != 0) host[0] = 0;
-  uint8_t random[4];
-  if (sodium_init() >= 0) randombytes_buf(random, sizeof random);
-  char hex[9];
-  sodium_bin2hex(hex, sizeof hex, random, sizeof random);
-  return std::string(host[0] ? host : "meshstream") + "-" + std::to_string(getpid()) + "-" + hex;
+  return std::string(host[0] ? host : "meshstream") + "-" + std::to_string(getpid()) + "-" + RandomHex(4);
 }
 
 StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(const ServerOptions& o) {

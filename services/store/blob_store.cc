@@ -26,7 +26,9 @@ Status InitSodium() {
   return Status::Ok();
 }
 
-std::string ToHex(const unsigned char* bytes, size_t n) {
+}  // namespace
+
+std::string ToHex(const uint8_t* bytes, size_t n) {
   static const char kDigits[] = "0123456789abcdef";
   std::string out(2 * n, '0');
   for (size_t i = 0; i < n; ++i) {
@@ -35,6 +37,15 @@ std::string ToHex(const unsigned char* bytes, size_t n) {
   }
   return out;
 }
+
+std::string RandomHex(size_t bytes) {
+  (void)InitSodium();
+  std::vector<uint8_t> random(bytes);
+  randombytes_buf(random.data(), random.size());
+  return ToHex(random.data(), random.size());
+}
+
+namespace {
 
 Status MakeFolder(const std::string& path) {
   if (mkdir(path.c_str(), 0750) != 0 && errno != EEXIST) return Errno(path);
@@ -171,9 +182,7 @@ std::string FileBlobStore::PathOf(const std::string& digest) const {
 StatusOr<BlobWriter> FileBlobStore::NewWriter() const {
   auto state = std::make_unique<BlobWriter::State>();
   state->root = root_;
-  unsigned char random[16];
-  randombytes_buf(random, sizeof random);
-  state->temp = root_ + "/tmp/" + ToHex(random, sizeof random) + ".part";
+  state->temp = root_ + "/tmp/" + RandomHex(16) + ".part";
   state->fd = open(state->temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
   if (state->fd < 0) return Errno(state->temp);
   return BlobWriter(std::move(state));

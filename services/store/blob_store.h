@@ -35,6 +35,10 @@ namespace meshstream {
 std::string Sha256Hex(const uint8_t* data, size_t size);
 // True when `digest` is 64 lower-case hex digits.
 bool IsSha256Hex(const std::string& digest);
+// Lower-case hex of `size` bytes.
+std::string ToHex(const uint8_t* data, size_t size);
+// `bytes` random bytes from libsodium, as hex (ids, temporary names, tokens).
+std::string RandomHex(size_t bytes);
 
 // Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
 class Sha256Hasher {

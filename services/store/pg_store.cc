@@ -109,16 +109,6 @@ StatusOr<int64_t> ToBigint(const std::string& field, uint64_t value) {
 // ---------------------------------------------------------------------------
 // Bytes, digests and ids.
 
-std::string ToHex(const unsigned char* bytes, size_t n) {
-  static const char kDigits[] = "0123456789abcdef";
-  std::string out(2 * n, '0');
-  for (size_t i = 0; i < n; ++i) {
-    out[2 * i] = kDigits[bytes[i] >> 4];
-    out[2 * i + 1] = kDigits[bytes[i] & 15];
-  }
-  return out;
-}
-
 int HexNibble(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -135,18 +125,6 @@ bool DecodeHex(const char* hex, size_t n, uint8_t* out) {
     out[i / 2] = static_cast<uint8_t>(hi * 16 + lo);
   }
   return true;
-}
-
-std::string FinalHex(crypto_hash_sha256_state* state) {
-  unsigned char digest[crypto_hash_sha256_BYTES];
-  crypto_hash_sha256_final(state, digest);
-  return ToHex(digest, sizeof digest);
-}
-
-std::string RandomHex(size_t bytes) {
-  std::vector<unsigned char> random(bytes);
-  randombytes_buf(random.data(), random.size());
-  return ToHex(random.data(), random.size());
 }
 
 // A bytea parameter sent in binary (no escaping, no doubling on the wire).
@@ -596,7 +574,7 @@ auto PgStore::Run(const std::string& what, F&& fn) {
 
 class PgBlobSink final : public BlobSink {
  public:
-  explicit PgBlobSink(PgStore* store) : store_(store) { crypto_hash_sha256_init(&hash_); }
+  explicit PgBlobSink(PgStore* store) : store_(store) {}
 
   Status Append(const uint8_t* data, size_t size) override {
     if (done_) return FailedPrecondition("blob sink: append after commit");
@@ -611,7 +589,7 @@ class PgBlobSink final : public BlobSink {
         std::vector<uint8_t>& chunk = chunks_.back();
         const size_t n = std::min(size, kChunkBytes - chunk.size());
         chunk.insert(chunk.end(), data, data + n);
-        crypto_hash_sha256_update(&hash_, data, n);
+        hash_.Update(data, n);
         size_ += n;
         data += n;
         size -= n;
@@ -630,7 +608,7 @@ class PgBlobSink final : public BlobSink {
     if (done_) return FailedPrecondition("blob sink: committed twice, or after a failed append");
     done_ = true;
     if (!expected_sha256.empty()) MS_RETURN_IF_ERROR(CheckDigest("expected_sha256", expected_sha256));
-    const std::string digest = FinalHex(&hash_);
+    const std::string digest = hash_.FinishHex();
     if (!expected_sha256.empty() && expected_sha256 != digest) {
       chunks_.clear();
       return DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 + " announced; nothing stored");
@@ -643,7 +621,7 @@ class PgBlobSink final : public BlobSink {
 
  private:
   PgStore* store_;
-  crypto_hash_sha256_state hash_;
+  Sha256Hasher hash_;
   std::vector<std::vector<uint8_t>> chunks_;  // each kChunkBytes but the last
   uint64_t size_ = 0;
   bool done_ = false;
@@ -694,8 +672,7 @@ StatusOr<std::vector<uint8_t>> PgStore::GetBlob(const std::string& sha256, uint6
                                std::to_string(max_bytes));
     }
     std::vector<uint8_t> bytes(static_cast<size_t>(size));
-    crypto_hash_sha256_state hash;
-    crypto_hash_sha256_init(&hash);
+    Sha256Hasher hash;
     size_t done = 0;
     // Chunk by chunk: the client holds the blob and one chunk, never the
     // whole result set of the blob as text.
@@ -715,7 +692,7 @@ StatusOr<std::vector<uint8_t>> PgStore::GetBlob(const std::string& sha256, uint6
       if (!DecodeHex(field.c_str(), field.size(), bytes.data() + done)) {
         return Internal("blob " + sha256 + ": PostgreSQL returned malformed hex for chunk " + std::to_string(seq));
       }
-      crypto_hash_sha256_update(&hash, bytes.data() + done, n);
+      hash.Update(bytes.data() + done, n);
       done += n;
     }
     tx.commit();
@@ -723,7 +700,7 @@ StatusOr<std::vector<uint8_t>> PgStore::GetBlob(const std::string& sha256, uint6
       return DataLoss("blob " + sha256 + ": its chunks hold " + std::to_string(done) + " bytes, the recorded size is " +
                       std::to_string(size));
     }
-    if (FinalHex(&hash) != sha256) {
+    if (hash.FinishHex() != sha256) {
       return DataLoss("blob " + sha256 + " does not match its digest (the stored bytes are damaged)");
     }
     return bytes;
@@ -864,8 +841,7 @@ StatusOr<std::string> PgStore::CommitUpload(const std::string& tenant, const std
 
     // Hash the bytes, window by window, checking that the chunks tile
     // [0, size) exactly.
-    crypto_hash_sha256_state hash;
-    crypto_hash_sha256_init(&hash);
+    Sha256Hasher hash;
     std::vector<uint8_t> buffer;
     int64_t next = 0, chunks = 0;
     while (next < size) {
@@ -889,12 +865,12 @@ StatusOr<std::string> PgStore::CommitUpload(const std::string& tenant, const std
         if (!DecodeHex(field.c_str(), field.size(), buffer.data())) {
           return Internal("upload '" + upload_id + "': PostgreSQL returned malformed hex");
         }
-        crypto_hash_sha256_update(&hash, buffer.data(), n);
+        hash.Update(buffer.data(), n);
         next += static_cast<int64_t>(n);
         ++chunks;
       }
     }
-    const std::string digest = FinalHex(&hash);
+    const std::string digest = hash.FinishHex();
     const std::string remove =
         "DELETE FROM meshstream.uploads WHERE tenant = $1 AND upload_id = $2";  // its chunks cascade
     if (!expected_sha256.empty() && digest != expected_sha256) {

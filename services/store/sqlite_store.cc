@@ -300,18 +300,6 @@ int64_t MtimeMs(const struct stat& st) {
   return static_cast<int64_t>(st.st_mtim.tv_sec) * 1000 + st.st_mtim.tv_nsec / 1000000;
 }
 
-std::string RandomHex(size_t bytes) {
-  static const char kDigits[] = "0123456789abcdef";
-  std::vector<unsigned char> random(bytes);
-  randombytes_buf(random.data(), random.size());
-  std::string out;
-  for (unsigned char b : random) {
-    out.push_back(kDigits[b >> 4]);
-    out.push_back(kDigits[b & 15]);
-  }
-  return out;
-}
-
 // Reads the pid the holder of the lock wrote into it ("unknown" when none yet).
 std::string LockHolder(int fd) {
   char buf[32] = {};
