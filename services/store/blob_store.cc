@@ -11,13 +11,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "services/store/file_util.h"
+
 namespace meshstream {
 
 namespace {
 
 namespace fs = std::filesystem;
-
-Status Errno(const std::string& what) { return IoError(what + ": " + std::strerror(errno)); }
 
 // sodium_init() once per process; it is thread-safe and idempotent.
 Status InitSodium() {
@@ -46,36 +46,6 @@ std::string RandomHex(size_t bytes) {
 }
 
 namespace {
-
-Status MakeFolder(const std::string& path) {
-  if (mkdir(path.c_str(), 0750) != 0 && errno != EEXIST) return Errno(path);
-  struct stat st {};
-  if (stat(path.c_str(), &st) != 0) return Errno(path);
-  if (!S_ISDIR(st.st_mode)) return IoError(path + ": exists and is not a folder");
-  return Status::Ok();
-}
-
-Status SyncFolder(const std::string& path) {
-  const int fd = open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return Errno(path);
-  const int rc = fsync(fd);
-  close(fd);
-  if (rc != 0) return Errno(path + ": fsync");
-  return Status::Ok();
-}
-
-Status WriteAll(int fd, const uint8_t* data, size_t size, const std::string& path) {
-  while (size > 0) {
-    const ssize_t n = write(fd, data, size);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return Errno(path);
-    }
-    data += n;
-    size -= static_cast<size_t>(n);
-  }
-  return Status::Ok();
-}
 
 }  // namespace
 
@@ -150,7 +120,7 @@ StatusOr<std::string> BlobWriter::Commit(const std::string& expected_sha256) {
   close(state_->fd);
   state_->fd = -1;
   const std::string folder = state_->root + "/" + digest.substr(0, 2);
-  MS_RETURN_IF_ERROR(MakeFolder(folder));
+  MS_RETURN_IF_ERROR(MakeFolder(folder).status());
   const std::string target = folder + "/" + digest;
   if (rename(state_->temp.c_str(), target.c_str()) != 0) return Errno(target);
   state_->committed = true;
@@ -162,10 +132,10 @@ StatusOr<std::string> BlobWriter::Commit(const std::string& expected_sha256) {
 StatusOr<FileBlobStore> FileBlobStore::Open(const std::string& dir) {
   MS_RETURN_IF_ERROR(InitSodium());
   FileBlobStore store;
-  MS_RETURN_IF_ERROR(MakeFolder(dir));
+  MS_RETURN_IF_ERROR(MakeFolder(dir).status());
   store.root_ = dir + "/blobs";
-  MS_RETURN_IF_ERROR(MakeFolder(store.root_));
-  MS_RETURN_IF_ERROR(MakeFolder(store.root_ + "/tmp"));
+  MS_RETURN_IF_ERROR(MakeFolder(store.root_).status());
+  MS_RETURN_IF_ERROR(MakeFolder(store.root_ + "/tmp").status());
   // What a crash left behind: never visible under a digest, safe to remove.
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(store.root_ + "/tmp", ec)) {

@@ -371,18 +371,6 @@ std::string Trimmed(const char* what) {
   return s;
 }
 
-bool ParseVersionCursor(const std::string& cursor, int64_t* out) {
-  if (cursor.empty() || cursor.size() > 18) return false;
-  int64_t v = 0;
-  for (const char c : cursor) {
-    if (c < '0' || c > '9') return false;
-    v = v * 10 + (c - '0');
-  }
-  if (v < 1) return false;
-  *out = v;
-  return true;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -1055,11 +1043,7 @@ StatusOr<Page<AssetRecord>> PgStore::ListAssets(const std::string& tenant, int32
                                                 const std::string& page_token) {
   MS_RETURN_IF_ERROR(CheckName("tenant", tenant));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
-  std::string after;
-  if (!page_token.empty()) {
-    MS_ASSIGN_OR_RETURN(after, DecodePageToken("assets", page_token));
-    if (!IsValidName(after)) return InvalidArgument("page_token: malformed");
-  }
+  MS_ASSIGN_OR_RETURN(const std::string after, DecodeAssetsPageToken(page_token));
   return Run("listing assets", [&](pqxx::connection& c) -> StatusOr<Page<AssetRecord>> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows = tx.exec_params(
@@ -1070,7 +1054,7 @@ StatusOr<Page<AssetRecord>> PgStore::ListAssets(const std::string& tenant, int32
     Page<AssetRecord> page;
     for (const pqxx::row& row : rows) {
       if (page.items.size() == static_cast<size_t>(size)) {
-        page.next_page_token = EncodePageToken("assets", page.items.back().name);
+        page.next_page_token = EncodeAssetsPageToken(page.items.back().name);
         break;
       }
       AssetRecord a;
@@ -1089,11 +1073,7 @@ StatusOr<Page<VersionRecord>> PgStore::ListVersions(const std::string& tenant, c
   MS_RETURN_IF_ERROR(CheckName("tenant", tenant));
   MS_RETURN_IF_ERROR(CheckName("asset", asset));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
-  int64_t after = 0;
-  if (!page_token.empty()) {
-    MS_ASSIGN_OR_RETURN(const std::string cursor, DecodePageToken("versions", page_token));
-    if (!ParseVersionCursor(cursor, &after)) return InvalidArgument("page_token: malformed");
-  }
+  MS_ASSIGN_OR_RETURN(const int64_t after, DecodeVersionsPageToken(page_token));
   return Run("listing versions of asset " + asset, [&](pqxx::connection& c) -> StatusOr<Page<VersionRecord>> {
     pqxx::transaction<pqxx::repeatable_read, pqxx::read_only> tx(c);
     if (tx.exec_params("SELECT 1 FROM meshstream.assets WHERE tenant = $1 AND name = $2", tenant, asset).empty()) {
@@ -1106,7 +1086,7 @@ StatusOr<Page<VersionRecord>> PgStore::ListVersions(const std::string& tenant, c
     Page<VersionRecord> page;
     for (const pqxx::row& row : rows) {
       if (page.items.size() == static_cast<size_t>(size)) {
-        page.next_page_token = EncodePageToken("versions", std::to_string(page.items.back().version));
+        page.next_page_token = EncodeVersionsPageToken(page.items.back().version);
         break;
       }
       page.items.push_back(ReadVersion(row));

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "services/store/file_util.h"
 #include "services/store/page_token.h"
 
 namespace meshstream {
@@ -255,46 +256,6 @@ class Txn {
 };
 
 // --- files -----------------------------------------------------------------
-
-Status Errno(const std::string& what) { return IoError(what + ": " + std::strerror(errno)); }
-
-// Creates `path` (one level); true when it did not exist.
-StatusOr<bool> MakeFolder(const std::string& path) {
-  if (mkdir(path.c_str(), 0750) == 0) return true;
-  if (errno != EEXIST) return Errno(path);
-  struct stat st {};
-  if (stat(path.c_str(), &st) != 0) return Errno(path);
-  if (!S_ISDIR(st.st_mode)) return IoError(path + ": exists and is not a folder");
-  return false;
-}
-
-Status SyncFolder(const std::string& path) {
-  const int fd = open(path.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return Errno(path);
-  const int rc = fsync(fd);
-  close(fd);
-  if (rc != 0) return Errno(path + ": fsync");
-  return Status::Ok();
-}
-
-// The names in folder `path` but "." and ".." (readdir: no exceptions).
-StatusOr<std::vector<std::string>> ListFolder(const std::string& path) {
-  DIR* dir = opendir(path.c_str());
-  if (dir == nullptr) return Errno(path);
-  std::vector<std::string> names;
-  errno = 0;
-  while (const dirent* entry = readdir(dir)) {
-    const std::string name = entry->d_name;
-    if (name != "." && name != "..") names.push_back(name);
-  }
-  const int error = errno;
-  closedir(dir);
-  if (error != 0) {
-    errno = error;
-    return Errno(path);
-  }
-  return names;
-}
 
 int64_t MtimeMs(const struct stat& st) {
   return static_cast<int64_t>(st.st_mtim.tv_sec) * 1000 + st.st_mtim.tv_nsec / 1000000;
