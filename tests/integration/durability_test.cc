@@ -103,14 +103,28 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   auto server = ServeProcess::Start({"--store", store, "--workers", "2", "--max-attempts", "20"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
-  // Startup removed what the crashes left: every blob file is named by a
-  // version (source, resources, artifact), and no temporary file is left.
+  // Every acknowledged version exists with its digest.
   for (const Ack& a : acked) {
     SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
     v1::Version v;
     ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok()) << "an acknowledged version is missing";
     EXPECT_EQ(v.source_sha256(), a.sha256);
   }
+  // Every job finishes and every version exports with its digest.
+  for (const Ack& a : acked) {
+    SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
+    v1::Job job;
+    ASSERT_TRUE(client.Watch(a.job_id, &job).ok());
+    EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+    v1::Version v;
+    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok());
+    const auto e = client.Export(a.asset, a.version, v1::FORMAT_PROGRESSIVE_GLB);
+    ASSERT_TRUE(e.status.ok()) << e.status.error_message();
+    EXPECT_EQ(e.sha256, v.artifact_sha256());
+  }
+  // Once the jobs are done (a running job has its artifact's temporary file
+  // open), the store holds exactly what the versions name: startup removed
+  // what the crashes left.
   // Every version (also those committed just before a kill, whose answer
   // never reached the client) names its blobs.
   std::set<std::string> referenced;
@@ -134,18 +148,6 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
     EXPECT_EQ(referenced.count(blob), 1u) << "orphan blob " << blob;
   }
   EXPECT_EQ(temporary, 0u);
-  // Every job finishes and every version exports with its digest.
-  for (const Ack& a : acked) {
-    SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
-    v1::Job job;
-    ASSERT_TRUE(client.Watch(a.job_id, &job).ok());
-    EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
-    v1::Version v;
-    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok());
-    const auto e = client.Export(a.asset, a.version, v1::FORMAT_PROGRESSIVE_GLB);
-    ASSERT_TRUE(e.status.ok()) << e.status.error_message();
-    EXPECT_EQ(e.sha256, v.artifact_sha256());
-  }
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 
