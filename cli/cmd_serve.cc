@@ -2,6 +2,7 @@
 #include <signal.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <thread>
 
@@ -50,13 +51,18 @@ int RunServe(ServeArgs& args) {
   std::printf("listening on %s\n", (*server)->address().c_str());
   std::fflush(stdout);
   Server* raw = server->get();
+  // The first signal drains (in its own thread); a second one while it
+  // drains ends the process at once.
   std::thread waiter([raw, signals] {
     int signal = 0;
     sigwait(&signals, &signal);
-    raw->Drain();
+    std::thread([raw] { raw->Drain(); }).detach();
+    sigwait(&signals, &signal);
+    std::fprintf(stderr, "meshstream serve: second signal: exiting without waiting\n");
+    std::_Exit(128 + signal);
   });
+  waiter.detach();
   raw->Wait();
-  waiter.join();
   return kExitOk;
 }
 
@@ -89,6 +95,14 @@ Verb AddServe(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--lease", o.lease_ms, "milliseconds of a job lease (renewed every third)")
               ->check(CLI::Range(int64_t{300}, int64_t{3600} * 1000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--max-threads", o.max_threads, "gRPC threads; calls beyond them are RESOURCE_EXHAUSTED")
+              ->check(CLI::Range(4, 100000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--max-watchers", o.max_watchers, "concurrent WatchJob streams")->check(CLI::Range(1, 100000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--max-exports", o.max_exports, "concurrent exports that decode (0: the worker count)")
+              ->check(CLI::Range(0, 1024)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--max-attempts", o.max_attempts,
                           "claims of a job before it fails (a file that keeps killing servers)")

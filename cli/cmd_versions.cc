@@ -27,7 +27,7 @@ const char kAssetsDetails[] =
     "Example:\n"
     "  meshstream assets --json";
 
-constexpr int32_t kPage = 200;
+constexpr int32_t kPage = 50;
 
 struct ListArgs {
   std::string asset;

@@ -9,6 +9,7 @@
 #include "services/api/grpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/export/version_export.h"
+#include "services/store/page_token.h"
 
 namespace meshstream {
 
@@ -25,7 +26,13 @@ bool Finished(const JobRecord& job) { return job.state == JobState::kSucceeded |
 
 AssetServiceImpl::AssetServiceImpl(Store* store, const Authenticator* auth, AssetServiceOptions options,
                                    std::function<void()> on_ingested, const std::atomic<bool>* draining)
-    : store_(store), auth_(auth), options_(options), on_ingested_(std::move(on_ingested)), draining_(draining) {}
+    : store_(store),
+      auth_(auth),
+      options_(options),
+      on_ingested_(std::move(on_ingested)),
+      draining_(draining),
+      watchers_(options.max_watchers),
+      exports_(options.max_exports) {}
 
 StatusOr<Principal> AssetServiceImpl::Authenticate(const grpc::ServerContext& context) const {
   std::optional<std::string> header;
@@ -93,7 +100,13 @@ grpc::Status AssetServiceImpl::WatchJob(grpc::ServerContext* context, const v1::
                                         grpc::ServerWriter<v1::Job>* writer) {
   auto principal = Authenticate(*context);
   if (!principal.ok()) return ToGrpcStatus(principal.status());
+  CallLimit::Slot slot = watchers_.Acquire(std::chrono::milliseconds(0));
+  if (!slot) {
+    return ToGrpcStatus(ResourceExhausted("WatchJob: " + std::to_string(watchers_.limit()) +
+                                          " watches are running on this server; use GetJob, or retry later"));
+  }
   std::optional<v1::Job> last;
+  int poll_ms = options_.watch_poll_ms;
   for (;;) {
     auto job = store_->GetJob(principal->tenant, request->job_id());
     if (!job.ok()) return ToGrpcStatus(job.status());
@@ -101,13 +114,16 @@ grpc::Status AssetServiceImpl::WatchJob(grpc::ServerContext* context, const v1::
     if (!last || !SameJob(*last, message)) {
       if (!writer->Write(message)) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
       last = message;
+      poll_ms = options_.watch_poll_ms;
+    } else {
+      poll_ms = std::min(options_.watch_poll_max_ms, poll_ms * 3 / 2);
     }
     if (Finished(job.value())) return grpc::Status::OK;
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
     if (draining_ != nullptr && draining_->load()) {
       return ToGrpcStatus(Unavailable("the server is shutting down; watch the job again (it continues)"));
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(options_.watch_poll_ms));
+    std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
   }
 }
 
@@ -130,8 +146,20 @@ grpc::Status AssetServiceImpl::ListVersions(grpc::ServerContext* context, const 
   if (!s.ok()) return ToGrpcStatus(s);
   auto page = store_->ListVersions(principal->tenant, request->asset(), request->page_size(), request->page_token());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  for (const VersionRecord& v : page->items) *response->add_versions() = ToProto(v);
+  // A page stops early at kMaxPageBytes: a version may carry ~230 KB of
+  // labels, comment and resource names, and a message is at most 2 MiB.
   response->set_next_page_token(page->next_page_token);
+  size_t bytes = 0;
+  for (size_t i = 0; i < page->items.size(); ++i) {
+    v1::Version v = ToProto(page->items[i]);
+    const size_t size = v.ByteSizeLong();
+    if (i > 0 && bytes + size > kMaxPageBytes) {
+      response->set_next_page_token(EncodeVersionsPageToken(page->items[i - 1].version));
+      break;
+    }
+    bytes += size;
+    *response->add_versions() = std::move(v);
+  }
   return grpc::Status::OK;
 }
 
@@ -158,9 +186,18 @@ grpc::Status AssetServiceImpl::Export(grpc::ServerContext* context, const v1::Ex
   if (!format.ok()) return ToGrpcStatus(format.status());
   std::optional<int> lod;
   if (request->has_lod()) lod = request->lod();
+  // Exports that decode hold a scene in memory: a few at a time.
+  const bool decodes = format.value() != ExportFormat::kProgressiveGlb;
+  CallLimit::Slot slot;
+  if (decodes) {
+    slot = exports_.Acquire(std::chrono::milliseconds(options_.export_wait_ms));
+    if (!slot) return ToGrpcStatus(ResourceExhausted("Export: the server is busy with other exports; retry later"));
+  }
+  if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
   auto exported = ExportVersion(*store_, principal->tenant, request->asset(), request->version(), format.value(), lod,
                                 options_.max_export_bytes);
   if (!exported.ok()) return ToGrpcStatus(exported.status());
+  slot = CallLimit::Slot();
   const std::vector<uint8_t>& bytes = exported->bytes;
   size_t offset = 0;
   do {

@@ -13,17 +13,26 @@
 #include <functional>
 
 #include "meshstream/v1/asset_service.grpc.pb.h"
+#include "services/api/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/ingest/ingest_upload.h"
 #include "services/store/store.h"
 
 namespace meshstream {
 
+// The most bytes of versions one ListVersions answer holds (it may return
+// fewer than page_size, with a next_page_token).
+constexpr size_t kMaxPageBytes = size_t{1} << 20;
+
 struct AssetServiceOptions {
   IngestLimits ingest;
   uint64_t max_export_bytes = uint64_t{4} << 30;  // the largest artifact or export read into memory
   size_t export_chunk_bytes = size_t{1} << 20;    // 1 MiB
-  int watch_poll_ms = 100;                        // how often WatchJob looks at the store
+  int watch_poll_ms = 100;                        // WatchJob looks at the store this often after a change,
+  int watch_poll_max_ms = 1000;                   // backing off to this while nothing changes
+  int max_watchers = 128;                         // concurrent WatchJob streams
+  int max_exports = 2;                            // concurrent exports that decode (others wait)
+  int export_wait_ms = 30000;                     // how long an export waits for its turn
 };
 
 class AssetServiceImpl final : public v1::AssetService::Service {
@@ -58,6 +67,8 @@ class AssetServiceImpl final : public v1::AssetService::Service {
   AssetServiceOptions options_;
   std::function<void()> on_ingested_;
   const std::atomic<bool>* draining_;
+  CallLimit watchers_;
+  CallLimit exports_;
 };
 
 }  // namespace meshstream

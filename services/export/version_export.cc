@@ -16,7 +16,7 @@ const char* StateName(VersionState state) {
 }
 
 std::string ExportCacheKey(const std::string& artifact_sha256, ExportFormat format, std::optional<int> lod) {
-  const std::string text = "meshstream-export/1\n" + artifact_sha256 + "\n" + ExportFormatName(format) + "\n" +
+  const std::string text = "meshstream-export/" + std::to_string(kExporterRevision) + "\n" + artifact_sha256 + "\n" + ExportFormatName(format) + "\n" +
                            (lod ? std::to_string(*lod) : std::string("full"));
   return Sha256Hex(reinterpret_cast<const uint8_t*>(text.data()), text.size());
 }
@@ -65,8 +65,11 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
   out.version = std::move(record).value();
   const std::string& artifact = out.version.artifact.artifact_sha256;
   const bool as_stored = format == ExportFormat::kProgressiveGlb && !lod.has_value();
-  const std::string key = as_stored ? "" : ExportCacheKey(artifact, format, lod);
-  if (!as_stored) {
+  // Only full-detail exports are cached: one blob per format, not one per
+  // level a client may ask for.
+  const bool cacheable = !as_stored && !lod.has_value();
+  const std::string key = cacheable ? ExportCacheKey(artifact, format, lod) : "";
+  if (cacheable) {
     auto cached = store.FindArtifact(key);
     if (!cached.ok()) return cached.status();
     if (cached->has_value()) {
@@ -91,6 +94,15 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
   auto exported = ExportArtifact(glb.value(), format, lod);
   if (!exported.ok()) return exported.status();
   out.bytes = std::move(exported).value();
+  if (out.bytes.size() > max_bytes) {
+    return ResourceExhausted("the " + std::string(ExportFormatName(format)) + " export has " +
+                             std::to_string(out.bytes.size()) + " bytes, more than the server's limit of " +
+                             std::to_string(max_bytes));
+  }
+  if (!cacheable) {
+    out.sha256 = Sha256Hex(out.bytes.data(), out.bytes.size());
+    return out;
+  }
   auto sink = store.NewBlob();
   if (!sink.ok()) return sink.status();
   Status s = (*sink)->Append(out.bytes.data(), out.bytes.size());

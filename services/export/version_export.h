@@ -1,7 +1,9 @@
 // Export of a stored version in a format: what the Export RPC and
-// `meshstream export` deliver. Exports are cached as blobs (the artifact cache
-// keyed by artifact digest, format and lod), so the second export of the same
-// version and format costs one verified blob read.
+// `meshstream export` deliver. Full-detail exports are cached as blobs (the
+// artifact cache keyed by artifact digest, format and exporter revision), so
+// the second export of the same version and format costs one verified blob
+// read; exports at a level of detail are made each time. An export larger
+// than `max_bytes` is ResourceExhausted.
 //
 // Contract: tenant, asset and version come from the request (untrusted);
 // version 0 is the latest READY version; a version that is not READY is
@@ -20,6 +22,9 @@
 #include "services/store/store.h"
 
 namespace meshstream {
+
+// Bumped when an export format's output changes (the export cache key holds it).
+constexpr int kExporterRevision = 1;
 
 struct ExportedVersion {
   VersionRecord version;

@@ -52,19 +52,20 @@ Status IngestUpload::Begin(const IngestMeta& meta) {
   if (meta.comment.size() > limits_.max_comment_bytes) {
     return InvalidArgument("comment: " + Bytes(meta.comment.size()) + ", at most " + Bytes(limits_.max_comment_bytes));
   }
-  if (!IsValidUtf8(meta.comment)) return InvalidArgument("comment: not valid UTF-8");
+  auto has_nul = [](const std::string& text) { return text.find('\0') != std::string::npos; };
+  if (!IsValidUtf8(meta.comment) || has_nul(meta.comment)) return InvalidArgument("comment: not valid UTF-8 without NUL");
   if (meta.labels.size() > limits_.max_labels) {
     return InvalidArgument("labels: " + std::to_string(meta.labels.size()) + " labels, at most " +
                            std::to_string(limits_.max_labels));
   }
   for (const auto& [key, value] : meta.labels) {
-    if (key.empty() || key.size() > limits_.max_label_key_bytes || !IsValidUtf8(key)) {
+    if (key.empty() || key.size() > limits_.max_label_key_bytes || !IsValidUtf8(key) || has_nul(key)) {
       return InvalidArgument("labels: a key must be 1 to " + std::to_string(limits_.max_label_key_bytes) +
-                             " bytes of UTF-8");
+                             " bytes of UTF-8 without NUL");
     }
-    if (value.size() > limits_.max_label_value_bytes || !IsValidUtf8(value)) {
+    if (value.size() > limits_.max_label_value_bytes || !IsValidUtf8(value) || has_nul(value)) {
       return InvalidArgument("labels[" + key + "]: at most " + std::to_string(limits_.max_label_value_bytes) +
-                             " bytes of UTF-8");
+                             " bytes of UTF-8 without NUL");
     }
   }
   if (!meta.upload_id.empty()) {
@@ -108,6 +109,26 @@ Status IngestUpload::CheckPartComplete(const Part& part, const std::string& what
   return Status::Ok();
 }
 
+// A resource whose bytes are complete is checked and committed at once, so
+// that one upload holds at most two open files (the main file and the
+// current resource), not one per resource.
+Status IngestUpload::FinishResource(Part& r) {
+  if (!r.sink) return Status::Ok();  // committed already
+  const std::string what = "resource '" + r.file.name + "'";
+  Status s = CheckPartComplete(r, what);
+  if (!s.ok()) return s;
+  r.sha256 = r.hasher->FinishHex();
+  if (!r.file.sha256.empty() && r.sha256 != r.file.sha256) {
+    return DataLoss(what + ": the bytes have SHA-256 " + r.sha256 + ", not the announced " + r.file.sha256 +
+                    "; nothing stored");
+  }
+  auto digest = r.sink->Commit(r.sha256);
+  if (!digest.ok()) return digest.status().WithContext(what);
+  r.sink.reset();
+  r.hasher.reset();
+  return Status::Ok();
+}
+
 Status IngestUpload::BeginResource(const ResourceMeta& resource) {
   if (!begun_) return InvalidArgument("the first message must be metadata");
   if (FileExtension(meta_.filename) != ".gltf") {
@@ -118,11 +139,24 @@ Status IngestUpload::BeginResource(const ResourceMeta& resource) {
   if (resources_.size() >= limits_.max_resources) {
     return InvalidArgument("resource: more than " + std::to_string(limits_.max_resources) + " external files");
   }
+  auto is_folder_of = [](const std::string& folder, const std::string& file) {
+    return file.size() > folder.size() && file.compare(0, folder.size(), folder) == 0 && file[folder.size()] == '/';
+  };
+  if (resource.name == meta_.filename || is_folder_of(resource.name, meta_.filename)) {
+    return InvalidArgument("resource '" + resource.name + "': collides with the main file " + meta_.filename);
+  }
   for (const Part& r : resources_) {
     if (r.file.name == resource.name) return InvalidArgument("resource '" + resource.name + "': sent twice");
+    if (is_folder_of(r.file.name, resource.name) || is_folder_of(resource.name, r.file.name)) {
+      return InvalidArgument("resource '" + resource.name + "': collides with resource '" + r.file.name +
+                             "' (one would be the other's folder)");
+    }
   }
-  s = CheckPartComplete(resources_.empty() ? main_ : resources_.back(),
-                        resources_.empty() ? meta_.filename : "resource '" + resources_.back().file.name + "'");
+  if (resources_.empty()) {
+    s = CheckPartComplete(main_, meta_.filename);
+  } else {
+    s = FinishResource(resources_.back());
+  }
   if (!s.ok()) return s;
   if (resource.size > limits_.max_upload_bytes - total_bytes_) {
     return ResourceExhausted("resource '" + resource.name + "': the upload would exceed the server's --max-upload of " +
@@ -182,12 +216,9 @@ StatusOr<VersionRecord> IngestUpload::Finish() {
     return DataLoss(meta_.filename + ": the bytes have SHA-256 " + main_.sha256 + ", not the announced " +
                     main_.file.sha256 + "; nothing stored");
   }
-  for (Part& r : resources_) {
-    r.sha256 = r.hasher->FinishHex();
-    if (!r.file.sha256.empty() && r.sha256 != r.file.sha256) {
-      return DataLoss("resource '" + r.file.name + "': the bytes have SHA-256 " + r.sha256 + ", not the announced " +
-                      r.file.sha256 + "; nothing stored");
-    }
+  if (!resources_.empty()) {
+    s = FinishResource(resources_.back());
+    if (!s.ok()) return s;
   }
   // The main file: a resumed upload is checked by the store against the
   // announced digest (the earlier bytes were hashed by no one here).
@@ -204,11 +235,7 @@ StatusOr<VersionRecord> IngestUpload::Finish() {
   version.tenant = principal_.tenant;
   version.asset = meta_.asset;
   version.source = SourceFile{meta_.filename, main_.sha256, main_.file.size};
-  for (Part& r : resources_) {
-    auto digest = r.sink->Commit(r.sha256);
-    if (!digest.ok()) return digest.status().WithContext("resource '" + r.file.name + "'");
-    version.resources.push_back(SourceFile{r.file.name, r.sha256, r.file.size});
-  }
+  for (Part& r : resources_) version.resources.push_back(SourceFile{r.file.name, r.sha256, r.file.size});
   version.options_json = options_json_;
   version.comment = meta_.comment;
   version.labels = meta_.labels;

@@ -6,8 +6,11 @@
 // Contract: every field is untrusted. Sizes are checked against the limits
 // before any byte is stored, every chunk against what was announced (more
 // bytes than `size` is DataLoss at once), and at Finish every size and digest
-// (DataLoss, and nothing becomes visible: digests are computed as the bytes
-// arrive, so a mismatch is known before any blob is committed). An upload
+// (DataLoss, and no version is made: digests are computed as the bytes
+// arrive; each resource is committed as soon as its bytes are complete and
+// checked, so that an upload holds at most two open files; if the upload
+// fails after that, those blobs are orphans that the periodic sweep of
+// RemoveOrphanBlobs removes). An upload
 // with an upload_id appends the main file's bytes to a resumable upload of
 // the store, durable chunk by chunk; a stream that breaks off keeps them for
 // QueryUpload. Not thread-safe: one object per call.
@@ -81,6 +84,7 @@ class IngestUpload {
     std::unique_ptr<Sha256Hasher> hasher;
   };
   Status CheckPartComplete(const Part& part, const std::string& what) const;
+  Status FinishResource(Part& resource);
 
   Store* store_;
   Principal principal_;

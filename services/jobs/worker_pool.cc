@@ -232,7 +232,7 @@ WorkerPool::Outcome WorkerPool::ProcessJob(JobRun& run) {
   }
   StatusOr<EncodeSettings> settings = ParseSettingsJson(version->options_json);
   if (!settings.ok()) return Fail(run, settings.status().message());
-  const std::string key = ArtifactCacheKey(version->source, version->resources, settings.value());
+  const std::string key = ArtifactCacheKey(version->tenant, version->source, version->resources, settings.value());
 
   StatusOr<std::optional<ArtifactSummary>> cached = store_.FindArtifact(key);
   if (!cached.ok()) {
@@ -344,7 +344,7 @@ WorkerPool::Outcome WorkerPool::Finish(JobRun& run, const ArtifactSummary& summa
 WorkerPool::Outcome WorkerPool::Fail(JobRun& run, const std::string& message) {
   if (run.lost) return Outcome::kLost;
   if (run.abandoned) return Outcome::kAbandoned;
-  const Status failed = store_.FailJob(run.job.id, run.worker, message);
+  const Status failed = store_.FailJob(run.job.id, run.worker, TruncateMessage(message));
   if (failed.code() == StatusCode::kAborted) return Outcome::kLost;
   if (!failed.ok()) return OnStoreError(failed);
   return Outcome::kFailed;

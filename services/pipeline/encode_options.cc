@@ -169,11 +169,12 @@ std::string EncoderId() {
          " draco/" + draco::kDracoVersion + " pipeline/" + std::to_string(kPipelineRevision);
 }
 
-std::string ArtifactCacheKey(const SourceFile& main, const std::vector<SourceFile>& resources,
-                             const EncodeSettings& settings) {
+std::string ArtifactCacheKey(const std::string& tenant, const SourceFile& main,
+                             const std::vector<SourceFile>& resources, const EncodeSettings& settings) {
   auto resolved = ResolveSettings(settings);
   std::string s;
-  AppendField(s, "meshstream-artifact-key/1");
+  AppendField(s, "meshstream-artifact-key/2");
+  AppendField(s, tenant);
   AppendField(s, EncoderId());
   AppendField(s, FixedParameters());
   AppendField(s, CanonicalJson(resolved.ok() ? resolved.value() : settings));

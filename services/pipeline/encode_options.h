@@ -84,13 +84,14 @@ std::string EncoderId();
 constexpr int kPipelineRevision = 1;
 
 // The artifact cache key: SHA-256 (hex) over an unambiguous serialization
-// (every field length-prefixed) of EncoderId(), the fixed encoder parameters
+// (every field length-prefixed) of the tenant (a cache hit must not tell one
+// tenant that another uploaded the same file), EncoderId(), the fixed encoder parameters
 // the service does not expose, CanonicalJson(resolved settings), the main
 // file's name and digest and each resource's name and digest (sorted by
 // name, so the order of upload does not matter). Settings that do not
 // resolve are keyed as given (they never reach an encode).
-std::string ArtifactCacheKey(const SourceFile& main, const std::vector<SourceFile>& resources,
-                             const EncodeSettings& settings);
+std::string ArtifactCacheKey(const std::string& tenant, const SourceFile& main,
+                             const std::vector<SourceFile>& resources, const EncodeSettings& settings);
 
 }  // namespace meshstream
 

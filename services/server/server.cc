@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -16,6 +17,7 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/impl/server_builder_option.h>
+#include <grpcpp/resource_quota.h>
 
 #include "importers/import.h"
 #include "services/api/asset_service.h"
@@ -85,6 +87,9 @@ StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(const ServerOptio
 
 }  // namespace
 
+// Longer than any ingest between its first blob and its version row.
+constexpr int64_t kOrphanAgeMs = int64_t{3600} * 1000;
+
 bool IsLoopbackListen(const std::string& listen) {
   const std::string host = HostOf(listen);
   return host == "unix" || host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
@@ -104,9 +109,12 @@ struct Server::Impl {
 
   std::mutex mutex;
   std::condition_variable wake;
-  bool stopping = false;
+  bool stopping = false;    // the maintenance thread ends
+  bool drain_done = false;  // Drain has returned (Wait waits for it)
   std::thread maintenance;
 
+  // Every 10 minutes: expired uploads, and blobs no row names that are older
+  // than an hour (what a failed upload or a crash left behind).
   void Maintain() {
     std::unique_lock<std::mutex> lock(mutex);
     while (!stopping) {
@@ -116,6 +124,9 @@ struct Server::Impl {
       auto expired = store->ExpireUploads(options.upload_ttl_ms);
       if (!expired.ok()) log("upload expiry failed: " + expired.status().ToString());
       else if (expired.value() > 0) log("removed " + std::to_string(expired.value()) + " expired uploads");
+      auto orphans = store->RemoveOrphanBlobs(kOrphanAgeMs);
+      if (!orphans.ok()) log("orphan removal failed: " + orphans.status().ToString());
+      else if (orphans.value() > 0) log("removed " + std::to_string(orphans.value()) + " orphan blobs");
       lock.lock();
     }
   }
@@ -161,7 +172,7 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   // another writer could be about to name, so orphans go at once. A shared
   // one waits an hour, longer than any ingest between blob and row.
   const bool shared = impl->store->backend() != "sqlite";
-  auto orphans = impl->store->RemoveOrphanBlobs(shared ? 3600 * 1000 : 0);
+  auto orphans = impl->store->RemoveOrphanBlobs(shared ? kOrphanAgeMs : 0);
   if (!orphans.ok()) return orphans.status().WithContext("removing orphan blobs");
   if (orphans.value() > 0) impl->log("removed " + std::to_string(orphans.value()) + " orphan blobs");
   if (!shared) {
@@ -179,10 +190,21 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   pool_options.lease_ms = options.lease_ms;
   pool_options.max_source_bytes = options.max_upload_bytes;
   pool_options.max_attempts = options.max_attempts;
+  if (!shared) {
+    // Work folders of the embedded store live in it, so what a killed
+    // process left there is removed at the next start (nobody else uses it).
+    pool_options.work_dir = options.store + "/work";
+    std::error_code ec;
+    std::filesystem::remove_all(pool_options.work_dir, ec);
+    std::filesystem::create_directories(pool_options.work_dir, ec);
+    if (ec) return IoError(pool_options.work_dir + ": " + ec.message());
+  }
   impl->pool = std::make_unique<WorkerPool>(*impl->store, pool_options);
 
   AssetServiceOptions service_options;
   service_options.ingest.max_upload_bytes = options.max_upload_bytes;
+  service_options.max_watchers = options.max_watchers;
+  service_options.max_exports = options.max_exports > 0 ? options.max_exports : pool_options.workers;
   Impl* raw = impl.get();
   impl->service = std::make_unique<AssetServiceImpl>(impl->store.get(), impl->auth.get(), service_options,
                                                      [raw] { raw->pool->Wake(); }, &impl->draining);
@@ -193,6 +215,11 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   builder.AddListeningPort(options.listen, credentials.value(), &port);
   builder.RegisterService(impl->service.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
+  // A bounded number of threads: calls beyond it are RESOURCE_EXHAUSTED
+  // instead of a thread each (a flood of WatchJob streams).
+  grpc::ResourceQuota quota("meshstream-serve");
+  quota.SetMaxThreads(options.max_threads);
+  builder.SetResourceQuota(quota);
   builder.SetMaxReceiveMessageSize(2 << 20);
   builder.SetMaxSendMessageSize(2 << 20);
   const bool reflection = options.reflection.value_or(loopback);
@@ -224,6 +251,11 @@ void Server::Drain() {
   std::snprintf(seconds, sizeof seconds, "%g", s.options.grace_period_s);
   s.log(std::string("draining: health NOT_SERVING, finishing running requests within ") + seconds + " s");
   s.server->GetHealthCheckService()->SetServingStatus(false);
+  {
+    std::lock_guard<std::mutex> lock(s.mutex);
+    s.stopping = true;
+  }
+  s.wake.notify_all();
   const auto grace = std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
   const auto steady_deadline = std::chrono::steady_clock::now() + grace;
   s.server->Shutdown(std::chrono::system_clock::now() + grace);
@@ -231,10 +263,8 @@ void Server::Drain() {
   if (abandoned > 0) {
     s.log("left " + std::to_string(abandoned) + " running jobs to the next start (or to another server)");
   }
-  {
-    std::lock_guard<std::mutex> lock(s.mutex);
-    s.stopping = true;
-  }
+  std::lock_guard<std::mutex> lock(s.mutex);
+  s.drain_done = true;
   s.wake.notify_all();
 }
 
@@ -242,6 +272,11 @@ void Server::Wait() {
   Impl& s = *impl_;
   if (s.waited.exchange(true)) return;
   s.server->Wait();
+  {
+    // Shutdown (so Wait) returns inside Drain: let Drain finish first.
+    std::unique_lock<std::mutex> lock(s.mutex);
+    s.wake.wait(lock, [&s] { return s.drain_done; });
+  }
   if (s.maintenance.joinable()) s.maintenance.join();
   s.pool->Stop();
   s.log("stopped");

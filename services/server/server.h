@@ -36,7 +36,10 @@ struct ServerOptions {
   double grace_period_s = 20.0;
   int64_t upload_ttl_ms = int64_t{24} * 3600 * 1000;  // resumable uploads idle this long are removed
   int64_t lease_ms = 30000;               // job lease; the worker renews it every third of it
-  int32_t max_attempts = 3;               // a job claimed this often fails (a file that kills servers)
+  int32_t max_attempts = 3;
+  int max_threads = 256;                  // gRPC threads; calls beyond them are RESOURCE_EXHAUSTED
+  int max_watchers = 128;                 // concurrent WatchJob streams
+  int max_exports = 0;                    // concurrent exports that decode (0: the worker count)               // a job claimed this often fails (a file that kills servers)
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.
   std::function<void(const std::string&)> log;

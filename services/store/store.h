@@ -244,6 +244,13 @@ class Store {
   virtual Status RevokeToken(const std::string& id) = 0;
 };
 
+// A job's message (and so a version's error) is kept to this many bytes: it
+// travels in every GetJob, WatchJob, GetVersion and ListVersions answer, and
+// an importer's message may quote what a client sent.
+constexpr size_t kMaxJobMessageBytes = 1024;
+// `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
+std::string TruncateMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
+
 // Milliseconds since the Unix epoch (the store's clock for created/updated).
 int64_t NowMs();
 

@@ -168,7 +168,7 @@ TEST(PipelineOptions, CacheKeyChangesWithEveryOptionAndSourceAndNothingElse) {
   const SourceFile main = File("scene.gltf", "{}");
   const std::vector<SourceFile> resources = {File("scene.bin", "bin"), File("textures/wood.png", "png")};
   const EncodeSettings base = DefaultSettings();
-  const std::string key = ArtifactCacheKey(main, resources, base);
+  const std::string key = ArtifactCacheKey("acme", main, resources, base);
   EXPECT_TRUE(IsSha256Hex(key)) << key;
 
   std::set<std::string> keys = {key};
@@ -183,28 +183,29 @@ TEST(PipelineOptions, CacheKeyChangesWithEveryOptionAndSourceAndNothingElse) {
   options[3].packing = "bundled";
   options[4].packet_bytes = 1000;
   options[5].base_ratio = 0.03;
-  for (size_t i = 0; i < options.size(); ++i) differs("option " + std::to_string(i), ArtifactCacheKey(main, resources, options[i]));
+  for (size_t i = 0; i < options.size(); ++i) differs("option " + std::to_string(i), ArtifactCacheKey("acme", main, resources, options[i]));
 
-  differs("main digest", ArtifactCacheKey(File("scene.gltf", "{ }"), resources, base));
-  differs("main name", ArtifactCacheKey(File("other.gltf", "{}"), resources, base));
-  differs("resource digest", ArtifactCacheKey(main, {File("scene.bin", "BIN"), resources[1]}, base));
-  differs("resource name", ArtifactCacheKey(main, {File("scene2.bin", "bin"), resources[1]}, base));
-  differs("resource added", ArtifactCacheKey(main, {resources[0], resources[1], File("extra.bin", "")}, base));
-  differs("resource removed", ArtifactCacheKey(main, {resources[0]}, base));
+  differs("tenant", ArtifactCacheKey("other-tenant", main, resources, base));
+  differs("main digest", ArtifactCacheKey("acme", File("scene.gltf", "{ }"), resources, base));
+  differs("main name", ArtifactCacheKey("acme", File("other.gltf", "{}"), resources, base));
+  differs("resource digest", ArtifactCacheKey("acme", main, {File("scene.bin", "BIN"), resources[1]}, base));
+  differs("resource name", ArtifactCacheKey("acme", main, {File("scene2.bin", "bin"), resources[1]}, base));
+  differs("resource added", ArtifactCacheKey("acme", main, {resources[0], resources[1], File("extra.bin", "")}, base));
+  differs("resource removed", ArtifactCacheKey("acme", main, {resources[0]}, base));
   // Moving a character between the name and the digest is another key (the
   // fields are length-prefixed).
   SourceFile shifted = main;
   shifted.name = main.name + main.sha256.substr(0, 1);
   shifted.sha256 = main.sha256.substr(1);
-  differs("shifted fields", ArtifactCacheKey(shifted, resources, base));
+  differs("shifted fields", ArtifactCacheKey("acme", shifted, resources, base));
 
   // Not otherwise: defaults given as 0, the order of the resources, sizes.
-  EXPECT_EQ(ArtifactCacheKey(main, resources, EncodeSettings{}), key);
-  EXPECT_EQ(ArtifactCacheKey(main, {resources[1], resources[0]}, base), key);
+  EXPECT_EQ(ArtifactCacheKey("acme", main, resources, EncodeSettings{}), key);
+  EXPECT_EQ(ArtifactCacheKey("acme", main, {resources[1], resources[0]}, base), key);
   SourceFile resized = main;
   resized.size = 12345;
-  EXPECT_EQ(ArtifactCacheKey(resized, resources, base), key);
-  EXPECT_EQ(ArtifactCacheKey(main, resources, base), key);
+  EXPECT_EQ(ArtifactCacheKey("acme", resized, resources, base), key);
+  EXPECT_EQ(ArtifactCacheKey("acme", main, resources, base), key);
 }
 
 }  // namespace

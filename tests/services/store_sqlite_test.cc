@@ -516,8 +516,11 @@ TEST(SqliteStore, UploadFilesStayInsideTheUploadsFolder) {
     EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << status.ToString();
     EXPECT_NE(status.message().find("tenant"), std::string::npos) << status.message();
   }
-  MS_ASSERT_OK(store->AppendUpload("acme", "..", 0, Data("x"), 1));  // a file named "...part"
-  EXPECT_TRUE(fs::is_regular_file(dir.File("uploads/acme/...part")));
+  // "." and ".." are no names at all (store.h, IsValidName).
+  const Status dots = store->AppendUpload("acme", "..", 0, Data("x"), 1);
+  EXPECT_EQ(dots.code(), StatusCode::kInvalidArgument) << dots.ToString();
+  MS_ASSERT_OK(store->AppendUpload("acme", "...", 0, Data("x"), 1));  // a file named "....part"
+  EXPECT_TRUE(fs::is_regular_file(dir.File("uploads/acme/....part")));
   EXPECT_FALSE(fs::exists(dir.File("meta.part")));
   EXPECT_FALSE(fs::exists(dir.File("uploads/meta.part")));
 }
