@@ -141,10 +141,40 @@ PgMigration Migration1() {
   return m;
 }
 
+// Version 2: where a blob sink puts its bytes while they arrive, so that a
+// sink holds one chunk in memory instead of the whole blob (pg_store.h,
+// PgBlobSink). Rows are keyed by the sink's random staging id (32 hex
+// digits) and the chunk's number; Commit moves them into blob_chunks in the
+// transaction that inserts the blobs row. `created_ms` is when the chunk was
+// written: a staging id whose newest chunk is old enough is a leftover of a
+// process that died, removed by RemoveOrphanBlobs and ExpireUploads.
+//
+// UNLOGGED: staging bytes are written once more when they are committed (to
+// blob_chunks, which is logged), so logging them here too would double the
+// WAL of every blob for nothing a crash needs; after a crash of the
+// database PostgreSQL empties the table, and a sink whose rows are gone
+// fails its Commit (it counts what it moves). STORAGE EXTERNAL: staged bytes
+// are read once, so they are not compressed on the way in.
+PgMigration Migration2() {
+  PgMigration m;
+  m.version = 2;
+  m.description = "blob_staging: chunks of blobs being written";
+  m.statements = {
+      R"sql(CREATE UNLOGGED TABLE meshstream.blob_staging (
+        staging_id text COLLATE "C" NOT NULL CHECK (staging_id ~ '^[0-9a-f]{32}$'),
+        seq        integer NOT NULL CHECK (seq >= 0),
+        data       bytea   NOT NULL CHECK (octet_length(data) <= 1048576),
+        created_ms bigint  NOT NULL,
+        PRIMARY KEY (staging_id, seq)))sql",
+      R"sql(ALTER TABLE meshstream.blob_staging ALTER COLUMN data SET STORAGE EXTERNAL)sql",
+  };
+  return m;
+}
+
 }  // namespace
 
 const std::vector<PgMigration>& PgMigrations() {
-  static const std::vector<PgMigration> migrations = {Migration1()};
+  static const std::vector<PgMigration> migrations = {Migration1(), Migration2()};
   return migrations;
 }
 

@@ -24,8 +24,8 @@ namespace meshstream {
 
 namespace {
 
-// A blob or upload row holds at most this many bytes (the schema checks it).
-constexpr size_t kChunkBytes = size_t{1} << 20;
+// A blob, staging or upload row holds at most this many bytes (the schema checks it).
+constexpr size_t kChunkBytes = PgBlobSink::kChunkBytes;
 // CommitUpload reads the upload back in windows of this many bytes.
 constexpr int64_t kReadWindowBytes = 4 * static_cast<int64_t>(kChunkBytes);
 // RemoveOrphanBlobs deletes at most this many blobs per transaction.
@@ -560,60 +560,83 @@ auto PgStore::Run(const std::string& what, F&& fn) {
 // ---------------------------------------------------------------------------
 // Blobs.
 
-class PgBlobSink final : public BlobSink {
- public:
-  explicit PgBlobSink(PgStore* store) : store_(store) {}
+PgBlobSink::PgBlobSink(PgStore* store) : store_(store), staging_id_(RandomHex(16)) {}
 
-  Status Append(const uint8_t* data, size_t size) override {
-    if (done_) return FailedPrecondition("blob sink: append after commit");
-    if (size == 0) return Status::Ok();
-    if (data == nullptr) return InvalidArgument("blob sink: no data for " + std::to_string(size) + " bytes");
-    try {
-      while (size > 0) {
-        if (chunks_.empty() || chunks_.back().size() == kChunkBytes) {
-          chunks_.emplace_back();
-          chunks_.back().reserve(std::min(size, kChunkBytes));
+PgBlobSink::~PgBlobSink() { DropStaged(); }
+
+Status PgBlobSink::Append(const uint8_t* data, size_t size) {
+  if (done_) return FailedPrecondition("blob sink: append after commit, or after a failed append");
+  if (size == 0) return Status::Ok();
+  if (data == nullptr) return InvalidArgument("blob sink: no data for " + std::to_string(size) + " bytes");
+  try {
+    while (size > 0) {
+      // A full buffer is written out only when more bytes come, so that the
+      // last chunk (and a blob of one chunk) goes straight to blob_chunks.
+      if (buffer_.size() == kChunkBytes) {
+        const Status flushed = Flush();
+        if (!flushed.ok()) {
+          done_ = true;  // a chunk is missing from staging: refuse to commit
+          DropStaged();
+          std::vector<uint8_t>().swap(buffer_);
+          return flushed;
         }
-        std::vector<uint8_t>& chunk = chunks_.back();
-        const size_t n = std::min(size, kChunkBytes - chunk.size());
-        chunk.insert(chunk.end(), data, data + n);
-        hash_.Update(data, n);
-        size_ += n;
-        data += n;
-        size -= n;
       }
-    } catch (const std::bad_alloc&) {
-      done_ = true;  // the hash and the chunks may disagree now: refuse to commit
-      chunks_.clear();
-      return ResourceExhausted("blob sink: out of memory after " + std::to_string(size_) + " bytes");
+      const size_t n = std::min(size, kChunkBytes - buffer_.size());
+      if (buffer_.capacity() < buffer_.size() + n) {
+        // Grow geometrically, but never past one chunk.
+        buffer_.reserve(std::min(kChunkBytes, std::max(buffer_.size() + n, 2 * buffer_.capacity())));
+      }
+      buffer_.insert(buffer_.end(), data, data + n);
+      hash_.Update(data, n);
+      size_ += n;
+      data += n;
+      size -= n;
     }
-    return Status::Ok();
+  } catch (const std::bad_alloc&) {
+    done_ = true;  // the hash and the bytes may disagree now: refuse to commit
+    DropStaged();
+    std::vector<uint8_t>().swap(buffer_);
+    return ResourceExhausted("blob sink: out of memory after " + std::to_string(size_) + " bytes");
   }
+  return Status::Ok();
+}
 
-  uint64_t size() const override { return size_; }
+Status PgBlobSink::Flush() {
+  maybe_staged_rows_ = true;  // before the INSERT: it may commit even when it reports an error
+  MS_RETURN_IF_ERROR(store_->StageChunk(staging_id_, staged_, buffer_.data(), buffer_.size()));
+  ++staged_;
+  buffer_.clear();  // keeps the capacity for the next chunk
+  return Status::Ok();
+}
 
-  StatusOr<std::string> Commit(const std::string& expected_sha256) override {
-    if (done_) return FailedPrecondition("blob sink: committed twice, or after a failed append");
-    done_ = true;
-    if (!expected_sha256.empty()) MS_RETURN_IF_ERROR(CheckDigest("expected_sha256", expected_sha256));
-    const std::string digest = hash_.FinishHex();
-    if (!expected_sha256.empty() && expected_sha256 != digest) {
-      chunks_.clear();
-      return DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 + " announced; nothing stored");
-    }
-    const Status stored = store_->StoreBlob(digest, chunks_, size_);
-    std::vector<std::vector<uint8_t>>().swap(chunks_);
-    if (!stored.ok()) return stored;
-    return digest;
+void PgBlobSink::DropStaged() {
+  if (!maybe_staged_rows_) return;
+  // Best effort: rows left behind (the database is unreachable) are removed
+  // later by the age rule of RemoveOrphanBlobs and ExpireUploads.
+  if (store_->DropStaging(staging_id_).ok()) maybe_staged_rows_ = false;
+}
+
+StatusOr<std::string> PgBlobSink::Commit(const std::string& expected_sha256) {
+  if (done_) return FailedPrecondition("blob sink: committed twice, or after a failed append");
+  done_ = true;
+  Status checked = Status::Ok();
+  if (!expected_sha256.empty()) checked = CheckDigest("expected_sha256", expected_sha256);
+  const std::string digest = hash_.FinishHex();
+  if (checked.ok() && !expected_sha256.empty() && expected_sha256 != digest) {
+    checked = DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 +
+                       " announced; nothing stored");
   }
-
- private:
-  PgStore* store_;
-  Sha256Hasher hash_;
-  std::vector<std::vector<uint8_t>> chunks_;  // each kChunkBytes but the last
-  uint64_t size_ = 0;
-  bool done_ = false;
-};
+  Status stored = checked;
+  if (stored.ok()) stored = store_->CommitStaged(digest, size_, staging_id_, staged_, buffer_);
+  if (stored.ok()) {
+    maybe_staged_rows_ = false;  // moved into blob_chunks, or deleted
+  } else {
+    DropStaged();
+  }
+  std::vector<uint8_t>().swap(buffer_);
+  if (!stored.ok()) return stored;
+  return digest;
+}
 
 PgStore::PgStore(std::unique_ptr<PgPool> pool, PgStoreOptions options)
     : pool_(std::move(pool)), options_(options) {}
@@ -629,17 +652,82 @@ StatusOr<std::unique_ptr<BlobSink>> PgStore::NewBlob() {
   return std::unique_ptr<BlobSink>(std::make_unique<PgBlobSink>(this));
 }
 
-Status PgStore::StoreBlob(const std::string& sha256, const std::vector<std::vector<uint8_t>>& chunks, uint64_t size) {
+Status PgStore::StageChunk(const std::string& staging_id, int64_t seq, const uint8_t* data, size_t size) {
+  return Run("staging chunk " + std::to_string(seq) + " of a blob", [&](pqxx::connection& c) -> Status {
+    // One statement in autocommit: no connection is held between chunks.
+    // Run retries it once after a lost connection, when it may have been
+    // applied already: the row is then the same bytes, so DO NOTHING.
+    pqxx::nontransaction tx(c);
+    tx.exec_params(
+        "INSERT INTO meshstream.blob_staging (staging_id, seq, data, created_ms) VALUES ($1, $2, $3, $4) "
+        "ON CONFLICT (staging_id, seq) DO NOTHING",
+        staging_id, seq, Bytea(data, size), NowMs());
+    tx.commit();
+    return Status::Ok();
+  });
+}
+
+Status PgStore::CommitStaged(const std::string& sha256, uint64_t size, const std::string& staging_id, int64_t staged,
+                             const std::vector<uint8_t>& tail) {
   MS_ASSIGN_OR_RETURN(const int64_t size64, ToBigint("blob size", size));
+  const int64_t chunks = staged + (tail.empty() ? 0 : 1);
+  const int64_t staged_bytes = staged * static_cast<int64_t>(kChunkBytes);
+  if (staged_bytes + static_cast<int64_t>(tail.size()) != size64) {
+    return Internal("blob " + sha256 + ": " + std::to_string(staged) + " staged chunks and a tail of " +
+                    std::to_string(tail.size()) + " bytes do not make " + std::to_string(size) + " bytes");
+  }
   return Run("storing blob " + sha256, [&](pqxx::connection& c) -> Status {
     pqxx::work tx(c);
-    MS_ASSIGN_OR_RETURN(const bool inserted, InsertBlobRow(tx, sha256, size64, static_cast<int64_t>(chunks.size())));
-    if (inserted) {
-      for (size_t seq = 0; seq < chunks.size(); ++seq) {
-        tx.exec_params("INSERT INTO meshstream.blob_chunks (sha256, seq, data) VALUES ($1, $2, $3)", sha256,
-                       static_cast<int64_t>(seq), Bytea(chunks[seq].data(), chunks[seq].size()));
+    MS_ASSIGN_OR_RETURN(const bool inserted, InsertBlobRow(tx, sha256, size64, chunks));
+    if (!inserted) {
+      // The same bytes are stored: ours are not needed.
+      if (staged > 0) tx.exec_params("DELETE FROM meshstream.blob_staging WHERE staging_id = $1", staging_id);
+      tx.commit();
+      return Status::Ok();
+    }
+    if (staged > 0) {
+      // Moved inside the server, and counted: the DELETE locks each row it
+      // takes, so a concurrent sweep of the same rows either took them first
+      // (then they are missing here) or waits and finds them gone.
+      const pqxx::row moved = tx.exec_params1(
+          "WITH moved AS (DELETE FROM meshstream.blob_staging WHERE staging_id = $1 RETURNING seq, data), "
+          "copied AS (INSERT INTO meshstream.blob_chunks (sha256, seq, data) SELECT $2, seq, data FROM moved "
+          "RETURNING seq, octet_length(data) AS n) "
+          "SELECT count(*), coalesce(sum(n), 0)::bigint, coalesce(max(seq), -1) FROM copied",
+          staging_id, sha256);
+      const int64_t rows = moved[0].as<int64_t>(), bytes = moved[1].as<int64_t>(), last = moved[2].as<int64_t>();
+      if (rows != staged || bytes != staged_bytes || last != staged - 1) {
+        return Aborted("blob " + sha256 + ": " + std::to_string(staged - rows) + " of its " + std::to_string(staged) +
+                       " staged chunks are gone (removed as idle, or the database restarted); nothing stored");
       }
     }
+    if (!tail.empty()) {
+      tx.exec_params("INSERT INTO meshstream.blob_chunks (sha256, seq, data) VALUES ($1, $2, $3)", sha256, staged,
+                     Bytea(tail.data(), tail.size()));
+    }
+    tx.commit();
+    return Status::Ok();
+  });
+}
+
+Status PgStore::DropStaging(const std::string& staging_id) {
+  return Run("dropping a blob's staged chunks", [&](pqxx::connection& c) -> Status {
+    pqxx::nontransaction tx(c);
+    tx.exec_params("DELETE FROM meshstream.blob_staging WHERE staging_id = $1", staging_id);
+    tx.commit();
+    return Status::Ok();
+  });
+}
+
+Status PgStore::RemoveIdleStaging(int64_t cutoff_ms) {
+  return Run("removing idle blob staging", [&](pqxx::connection& c) -> Status {
+    // The age of a staging id is that of its newest chunk: a live sink
+    // writes one at least every chunk of bytes it gets.
+    pqxx::nontransaction tx(c);
+    tx.exec_params(
+        "DELETE FROM meshstream.blob_staging WHERE staging_id IN (SELECT staging_id FROM meshstream.blob_staging "
+        "GROUP BY staging_id HAVING max(created_ms) <= $1)",
+        cutoff_ms);
     tx.commit();
     return Status::Ok();
   });
@@ -714,6 +802,9 @@ StatusOr<uint64_t> PgStore::RemoveOrphanBlobs(int64_t min_age_ms) {
       "AND NOT EXISTS (SELECT 1 FROM meshstream.versions v WHERE v.artifact_sha256 = b.sha256) "
       "AND NOT EXISTS (SELECT 1 FROM meshstream.version_resources r WHERE r.sha256 = b.sha256) "
       "AND NOT EXISTS (SELECT 1 FROM meshstream.artifacts a WHERE a.artifact_sha256 = b.sha256)";
+  // Bytes of blobs that were never committed (their sink's process died)
+  // fall under the same age rule: another server's live sink is younger.
+  MS_RETURN_IF_ERROR(RemoveIdleStaging(cutoff));
   uint64_t removed = 0;
   for (;;) {
     // Two statements: the SELECT locks old unnamed blobs, skipping those a
@@ -903,6 +994,9 @@ StatusOr<uint64_t> PgStore::ExpireUploads(int64_t max_idle_ms) {
   if (max_idle_ms < 0) return InvalidArgument("max_idle_ms: " + std::to_string(max_idle_ms) + " is negative");
   const int64_t now = NowMs();
   const int64_t cutoff = max_idle_ms > now ? std::numeric_limits<int64_t>::min() : now - max_idle_ms;
+  // The periodic sweep also takes idle staging rows (see RemoveOrphanBlobs),
+  // so that a dead server's leftovers go even when no server restarts.
+  MS_RETURN_IF_ERROR(RemoveIdleStaging(cutoff));
   return Run("expiring uploads", [&](pqxx::connection& c) -> StatusOr<uint64_t> {
     pqxx::work tx(c);
     const pqxx::result r = tx.exec_params("DELETE FROM meshstream.uploads WHERE updated_ms <= $1", cutoff);

@@ -2,6 +2,8 @@
 // shared store (PostgreSQL)"), so that any number of `meshstream serve`
 // processes work on one database. Blobs are rows of at most 1 MiB of bytea
 // under their SHA-256; the schema is migrated at open (services/store/pg_schema.h).
+// A blob being written is staged in the database chunk by chunk (PgBlobSink
+// below), so a sink holds at most one chunk in memory whatever the blob's size.
 //
 // Concurrency: every guarantee of store.h holds across processes, not just
 // threads, because it is enforced by PostgreSQL: version numbers come from a
@@ -31,6 +33,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "services/store/blob_store.h"
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -42,7 +45,59 @@ struct PgStoreOptions {
 };
 
 class PgPool;
-class PgBlobSink;
+class PgStore;
+
+// The sink PgStore::NewBlob returns. Append hashes the bytes and gathers
+// them in one buffer of at most kChunkBytes; when the buffer is full and
+// more bytes arrive, it is written as one row of meshstream.blob_staging
+// under the sink's random staging id (an autocommit INSERT on a pooled
+// connection, held only for that statement), and reused. Nothing under a
+// digest exists until Commit, which in one transaction inserts the blobs
+// row, moves the staged rows into blob_chunks (checking that all of them are
+// still there) and inserts the buffered tail, or, when the bytes are stored
+// already, only deletes the staged rows. A blob of at most one chunk never
+// touches the staging table.
+//
+// Leftovers: a mismatching digest, a failed Commit and the destructor
+// without Commit delete the sink's staged rows (best effort: an error is
+// ignored); the rows of a process that died are removed by the age rule of
+// RemoveOrphanBlobs and ExpireUploads. A sink idle for longer than that age
+// between chunks loses its rows, and its Commit is then ABORTED, never a
+// blob with bytes missing.
+class PgBlobSink final : public BlobSink {
+ public:
+  static constexpr size_t kChunkBytes = size_t{1} << 20;
+
+  explicit PgBlobSink(PgStore* store);
+  ~PgBlobSink() override;
+  PgBlobSink(const PgBlobSink&) = delete;
+  PgBlobSink& operator=(const PgBlobSink&) = delete;
+
+  Status Append(const uint8_t* data, size_t size) override;
+  uint64_t size() const override { return size_; }
+  StatusOr<std::string> Commit(const std::string& expected_sha256 = "") override;
+
+  // For tests: bytes of memory the sink holds for data (its buffer's
+  // capacity), at most kChunkBytes; and the chunks written to staging.
+  size_t buffered_bytes() const { return buffer_.capacity(); }
+  int64_t staged_chunks() const { return staged_; }
+  const std::string& staging_id() const { return staging_id_; }
+
+ private:
+  // Writes the full buffer as staging row `staged_` and empties it.
+  Status Flush();
+  // Deletes the staged rows, when there may be any.
+  void DropStaged();
+
+  PgStore* store_;
+  const std::string staging_id_;  // 32 random hex digits
+  Sha256Hasher hash_;
+  std::vector<uint8_t> buffer_;   // the bytes after the staged chunks, at most kChunkBytes
+  int64_t staged_ = 0;            // chunks written to staging: seq 0 .. staged_ - 1
+  bool maybe_staged_rows_ = false;  // rows of staging_id_ may exist (cleared once they are deleted or moved)
+  uint64_t size_ = 0;
+  bool done_ = false;
+};
 
 class PgStore final : public Store {
  public:
@@ -57,6 +112,8 @@ class PgStore final : public Store {
   StatusOr<std::unique_ptr<BlobSink>> NewBlob() override;
   StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) override;
   StatusOr<bool> HasBlob(const std::string& sha256) override;
+  // Also removes the staging rows (PgBlobSink) of every staging id whose
+  // newest chunk is at least `min_age_ms` old (not counted in the result).
   StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms) override;
 
   StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id) override;
@@ -65,6 +122,8 @@ class PgStore final : public Store {
   StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
                                      const std::string& expected_sha256) override;
   Status DiscardUpload(const std::string& tenant, const std::string& upload_id) override;
+  // Also removes staging rows idle for `max_idle_ms`, as RemoveOrphanBlobs
+  // does (not counted), so that a dead server's leftovers go without a restart.
   StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms) override;
 
   StatusOr<VersionRecord> CreateVersion(const NewVersion& version) override;
@@ -104,8 +163,19 @@ class PgStore final : public Store {
 
   // Brings the schema to this build's version (services/store/pg_schema.h).
   Status Migrate();
-  // For the blob sink: stores `chunks` (each at most 1 MiB) as blob `sha256`.
-  Status StoreBlob(const std::string& sha256, const std::vector<std::vector<uint8_t>>& chunks, uint64_t size);
+  // For the blob sink: writes staging row (staging_id, seq) in its own
+  // short autocommit statement (idempotent, so a retry after a lost
+  // connection is safe).
+  Status StageChunk(const std::string& staging_id, int64_t seq, const uint8_t* data, size_t size);
+  // Stores blob `sha256` of `size` bytes: its chunks 0 .. staged - 1 from
+  // staging `staging_id` and then `tail` (when not empty), in one transaction
+  // that also deletes the staging rows. ABORTED when staged rows are missing.
+  Status CommitStaged(const std::string& sha256, uint64_t size, const std::string& staging_id, int64_t staged,
+                      const std::vector<uint8_t>& tail);
+  Status DropStaging(const std::string& staging_id);
+  // Deletes the staging rows of staging ids whose newest row has created_ms
+  // at or before `cutoff_ms`.
+  Status RemoveIdleStaging(int64_t cutoff_ms);
 
   // Runs `fn(connection)` (which opens and commits its own transaction) on a
   // pooled connection, mapping every exception to a Status named by `what`.
