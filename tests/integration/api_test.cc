@@ -384,7 +384,50 @@ TEST_F(AssetApi, ABadFileFailsItsJobAndNotTheServer) {
   EXPECT_EQ(e.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   const auto latest = client_->Export("junk", 0, v1::FORMAT_GLB);
   EXPECT_EQ(latest.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << "no READY version";
+  // A message quoting a huge URI is cut: the version stays readable.
+  const std::string uri(3 << 20, 'x');
+  const std::string gltf = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":4,\"uri\":\"../" + uri + "\"}]}";
+  v1::IngestResponse big;
+  ASSERT_TRUE(client_->Ingest("long-uri", UploadFile{"long.gltf", std::vector<uint8_t>(gltf.begin(), gltf.end())}, &big).ok());
+  v1::Job failed;
+  ASSERT_TRUE(client_->Watch(big.job_id(), &failed).ok());
+  EXPECT_EQ(failed.state(), v1::JOB_STATE_FAILED);
+  EXPECT_LE(failed.message().size(), 1024u);
+  v1::Version readable;
+  EXPECT_TRUE(client_->GetVersion("long-uri", 1, &readable).ok());
   ExpectHealthy();
+}
+
+TEST_F(AssetApi, AListVersionsPageStaysUnderTheMessageLimit) {
+  // 30 versions of ~67 KB of labels each: 2 MiB in one page would not fit.
+  std::map<std::string, std::string> labels;
+  for (int i = 0; i < 64; ++i) labels["label-" + std::to_string(i)] = std::string(1024, 'a' + i % 26);
+  for (int i = 0; i < 30; ++i) {
+    auto m = AssetClient::UploadMessages("labelled", SmallObj("tet.obj", i % 3));
+    for (const auto& [k, v] : labels) (*m[0].mutable_metadata()->mutable_labels())[k] = v;
+    v1::IngestResponse r;
+    ASSERT_TRUE(client_->IngestRaw(m, &r).ok());
+  }
+  std::vector<int64_t> seen;
+  std::string token;
+  int pages = 0;
+  do {
+    v1::ListVersionsResponse response;
+    const grpc::Status s = Unary([&](grpc::ClientContext* c) {
+      v1::ListVersionsRequest q;
+      q.set_asset("labelled");
+      q.set_page_size(1000);
+      q.set_page_token(token);
+      return client_->stub().ListVersions(c, q, &response);
+    });
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    for (const auto& v : response.versions()) seen.push_back(v.version());
+    token = response.next_page_token();
+    ++pages;
+  } while (!token.empty() && pages < 100);
+  EXPECT_GT(pages, 1) << "the answer was split";
+  ASSERT_EQ(seen.size(), 30u);
+  for (size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], static_cast<int64_t>(i + 1));
 }
 
 // Hostile and wrong requests: each gets its code and a message naming the
@@ -442,6 +485,18 @@ TEST_F(AssetApi, EveryErrorHasItsCode) {
     }
     auto m = AssetClient::UploadMessages("traversal", tet, {UploadFile{"x.bin", {1, 2, 3}}});
     expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, ".gltf");
+    m = AssetClient::UploadMessages("collide", gltf, {UploadFile{"scene.gltf", {1}}});
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
+    m = AssetClient::UploadMessages("collide", gltf, {UploadFile{"a", {1}}, UploadFile{"a/b.bin", {2}}});
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
+  }
+  {  // NUL in a comment or a label
+    auto m = AssetClient::UploadMessages("nul", tet);
+    m[0].mutable_metadata()->set_comment(std::string("a\0b", 3));
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "comment");
+    m = AssetClient::UploadMessages("nul", tet);
+    (*m[0].mutable_metadata()->mutable_labels())["k"] = std::string("a\0b", 3);
+    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "labels");
   }
   {  // a chunk over 1 MiB
     std::vector<uint8_t> big((1 << 20) + 1, ' ');

@@ -3,6 +3,7 @@
 // the upload size limit. Real `meshstream serve` processes; tokens are made
 // with `meshstream token create` while the server runs.
 #include <memory>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -89,10 +90,39 @@ TEST(AuthAndTls, TenantsSeeOnlyTheirOwnAssets) {
     ASSERT_TRUE(client_b.stub().ListAssets(&c, v1::ListAssetsRequest(), &assets).ok());
     EXPECT_EQ(assets.assets_size(), 0);
   }
-  // B's own asset of the same name is its version 1, not A's version 2.
+  // B's own asset of the same name is its version 1, not A's version 2, and
+  // the same bytes are encoded again for B: a cache hit would tell B that
+  // another tenant has this file.
   v1::IngestResponse rb;
   ASSERT_TRUE(client_b.Ingest("tet", Tet(), &rb).ok());
   EXPECT_EQ(rb.version(), 1);
+  v1::Job job_b;
+  ASSERT_TRUE(client_b.Watch(rb.job_id(), &job_b).ok());
+  EXPECT_EQ(job_b.state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(job_b.message().find("reused"), std::string::npos) << job_b.message();
+  // ... while A's own second upload of it is a cache hit.
+  v1::IngestResponse ra2;
+  ASSERT_TRUE(client_a.Ingest("tet", Tet(), &ra2).ok());
+  v1::Job job_a2;
+  ASSERT_TRUE(client_a.Watch(ra2.job_id(), &job_a2).ok());
+  EXPECT_NE(job_a2.message().find("reused"), std::string::npos) << job_a2.message();
+  // Uploads and jobs are per tenant too.
+  {
+    grpc::ClientContext c;
+    client_b.Prepare(c);
+    v1::GetJobRequest q;
+    q.set_job_id(r.job_id());
+    v1::Job j;
+    const grpc::Status s = client_b.stub().GetJob(&c, q, &j);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  }
+  // The CLI with its token from the environment.
+  const auto env_ok = RunCommand("MESHSTREAM_TOKEN=" + a + " " + test_util::Cli() + " assets --json --server " + address);
+  EXPECT_EQ(env_ok.exit_code, 0) << env_ok.err;
+  EXPECT_NE(env_ok.out.find("\"tet\""), std::string::npos) << env_ok.out;
+  const auto no_token = RunCommand(test_util::Cli() + " assets --server " + address);
+  EXPECT_EQ(no_token.exit_code, 1) << no_token.err;
+  EXPECT_NE(no_token.err.find("MESHSTREAM_TOKEN"), std::string::npos) << no_token.err;
 
   // Read-only: reads and exports, never ingests.
   EXPECT_TRUE(reader_a.GetVersion("tet", 1, &v).ok());
@@ -167,6 +197,29 @@ TEST(AuthAndTls, UploadsAboveMaxUploadAreRefusedBeforeAnyByte) {
   const auto [status, bytes] = test_util::ListServicesByReflection(client.channel());
   EXPECT_EQ(status.error_code(), grpc::StatusCode::UNIMPLEMENTED) << bytes;
   EXPECT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
+TEST(AuthAndTls, WatchStreamsAreCapped) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-watchers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  v1::Job first_last;
+  grpc::Status first;
+  std::thread watcher([&] { first = client.Watch(r.job_id(), &first_last); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  v1::Job second_last;
+  const grpc::Status second = client.Watch(r.job_id(), &second_last);
+  watcher.join();
+  if (first_last.state() == v1::JOB_STATE_SUCCEEDED && second.ok()) {
+    GTEST_SKIP() << "the job ended before the second watch began; nothing was measured";
+  }
+  EXPECT_EQ(second.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << second.error_message();
+  EXPECT_TRUE(first.ok()) << first.error_message();
+  EXPECT_EQ(first_last.state(), v1::JOB_STATE_SUCCEEDED);
   EXPECT_EQ((*server)->Terminate(), 0);
 }
 
