@@ -1,6 +1,7 @@
 // meshstream token create|list|revoke --store S
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <memory>
 
 #include "cli/exit_codes.h"
@@ -41,7 +42,16 @@ std::string Date(int64_t ms) {
   return text;
 }
 
-StatusOr<std::unique_ptr<Store>> Open(const TokenArgs& args) {
+// `create` may make a new embedded store (tokens before the first start of
+// the server), and says so; `list` and `revoke` never do (a mistyped --store
+// would otherwise look like a store without tokens).
+StatusOr<std::unique_ptr<Store>> Open(const TokenArgs& args, bool may_create) {
+  if (!IsPostgresSpec(args.store)) {
+    std::error_code ec;
+    const bool exists = std::filesystem::exists(args.store + "/meta.sqlite3", ec);
+    if (!exists && !may_create) return NotFound("--store " + args.store + ": no meshstream store there");
+    if (!exists) std::fprintf(stderr, "meshstream token: note: no store at %s yet; creating it\n", args.store.c_str());
+  }
   auto store = OpenStore(args.store, StoreLock::kShared);
   if (!store.ok()) return store.status().WithContext("--store " + args.store);
   return store;
@@ -50,7 +60,7 @@ StatusOr<std::unique_ptr<Store>> Open(const TokenArgs& args) {
 int RunCreate(const TokenArgs& args) {
   Status s = CheckName("--tenant", args.tenant);
   if (!s.ok()) return ReportError("token create", s);
-  auto store = Open(args);
+  auto store = Open(args, true);
   if (!store.ok()) return ReportError("token create", store.status());
   const std::string token = NewApiToken();
   if (!LooksLikeApiToken(token)) return ReportError("token create", Internal("no random bytes for a token"));
@@ -66,7 +76,7 @@ int RunCreate(const TokenArgs& args) {
 }
 
 int RunList(const TokenArgs& args) {
-  auto store = Open(args);
+  auto store = Open(args, false);
   if (!store.ok()) return ReportError("token list", store.status());
   auto tokens = (*store)->ListTokens();
   if (!tokens.ok()) return ReportError("token list", tokens.status());
@@ -88,7 +98,7 @@ int RunList(const TokenArgs& args) {
 }
 
 int RunRevoke(const TokenArgs& args) {
-  auto store = Open(args);
+  auto store = Open(args, false);
   if (!store.ok()) return ReportError("token revoke", store.status());
   Status s = (*store)->RevokeToken(args.id);
   if (!s.ok()) return ReportError("token revoke", s);

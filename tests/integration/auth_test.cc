@@ -141,6 +141,18 @@ TEST(AuthAndTls, TenantsSeeOnlyTheirOwnAssets) {
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 
+TEST(AuthAndTls, TokenVerbsNeverMistakeATypoForAnEmptyStore) {
+  test_util::TempDir dir;
+  const auto list = RunCommand(test_util::Cli() + " token list --store " + test_util::Quote(dir.File("typo")));
+  EXPECT_EQ(list.exit_code, 1) << list.err;
+  EXPECT_NE(list.err.find("no meshstream store"), std::string::npos) << list.err;
+  const auto revoke = RunCommand(test_util::Cli() + " token revoke 0123456789abcdef --store " + test_util::Quote(dir.File("typo")));
+  EXPECT_EQ(revoke.exit_code, 1) << revoke.err;
+  // create makes the store (tokens before the server's first start), and says so.
+  EXPECT_EQ(CreateToken(dir.File("new"), "studio").rfind("mst_", 0), 0u);
+  EXPECT_EQ(RunCommand(test_util::Cli() + " token list --store " + test_util::Quote(dir.File("new"))).exit_code, 0);
+}
+
 TEST(AuthAndTls, OnlyLoopbackWithoutAuth) {
   test_util::TempDir dir;
   const auto refused = RunCommand(test_util::Cli() + " serve --listen 0.0.0.0:0 --store " +
