@@ -129,7 +129,7 @@ StatusOr<ProcessResult> ProcessUnguarded(const std::string& main_path, const Enc
   ProcessResult result;
   StatusOr<std::vector<uint8_t>> glb = EncodeProgressiveGlb(scene.value(), glb_options, &result.report);
   if (cancel_seen) return kCancelled;
-  if (!glb.ok()) return scrub.Scrub(glb.status().WithContext(scrub.name()));
+  if (!glb.ok()) return scrub.Scrub(glb.status());  // Scrub names the file once
   result.glb = std::move(glb).value();
 
   MS_ASSIGN_OR_RETURN(StreamLayout layout, ComputeStreamLayout(result.glb.data(), result.glb.size()));
