@@ -90,6 +90,10 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_option("--grace-period", o.grace_period_s, "seconds running requests get on SIGTERM")
               ->check(NumberIn(0, 3600)))
       ->capture_default_str();
+  FromEnv(cmd->add_option("--drain-delay", o.drain_delay_s,
+                          "seconds health says NOT_SERVING before new calls are refused (behind a load balancer: 5)")
+              ->check(NumberIn(0, 600)))
+      ->capture_default_str();
   FromEnv(cmd->add_option("--upload-ttl", o.upload_ttl_ms, "milliseconds an unfinished resumable upload is kept")
               ->check(CLI::Range(int64_t{1000}, int64_t{30} * 24 * 3600 * 1000)))
       ->capture_default_str();

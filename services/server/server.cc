@@ -251,6 +251,9 @@ void Server::Drain() {
   std::snprintf(seconds, sizeof seconds, "%g", s.options.grace_period_s);
   s.log(std::string("draining: health NOT_SERVING, finishing running requests within ") + seconds + " s");
   s.server->GetHealthCheckService()->SetServingStatus(false);
+  if (s.options.drain_delay_s > 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int64_t>(s.options.drain_delay_s * 1000)));
+  }
   {
     std::lock_guard<std::mutex> lock(s.mutex);
     s.stopping = true;

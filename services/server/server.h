@@ -34,6 +34,9 @@ struct ServerOptions {
   std::optional<bool> reflection;         // unset: on only on loopback
   uint64_t max_upload_bytes = uint64_t{1} << 30;
   double grace_period_s = 20.0;
+  // After health turns NOT_SERVING, keep serving this long before refusing
+  // new calls, so that load balancers see the state and move traffic away.
+  double drain_delay_s = 0.0;
   int64_t upload_ttl_ms = int64_t{24} * 3600 * 1000;  // resumable uploads idle this long are removed
   int64_t lease_ms = 30000;               // job lease; the worker renews it every third of it
   int32_t max_attempts = 3;

@@ -97,6 +97,13 @@ class ServeProcess {
   int Terminate(double timeout_s = 60) {
     if (!running()) return exit_code_;
     kill(pid_, SIGTERM);
+    return WaitForExit(timeout_s);
+  }
+
+  // The exit code once the process ends by itself; SIGKILL after `timeout_s`
+  // (returns -1 then).
+  int WaitForExit(double timeout_s) {
+    if (!running()) return exit_code_;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
     while (std::chrono::steady_clock::now() < deadline) {
       int status = 0;

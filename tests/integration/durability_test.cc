@@ -159,9 +159,11 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
 TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   test_util::TempDir dir;
   const std::string store = dir.File("store");
-  auto server = ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "1"});
+  auto server =
+      ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "1", "--drain-delay", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
+  ASSERT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
   v1::IngestResponse r;
   ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   // Watch from another thread while the server drains.
@@ -170,7 +172,14 @@ TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   std::thread watcher([&] { watch_status = client.Watch(r.job_id(), &last); });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill((*server)->pid(), SIGTERM);
-  const int code = (*server)->Terminate(30);
+  // During --drain-delay the server still answers, and says NOT_SERVING.
+  int serving = 1;
+  for (int i = 0; i < 50 && serving == 1; ++i) {
+    serving = test_util::CheckHealth(client.channel()).serving_status;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(serving, 2) << "health did not turn NOT_SERVING while draining";
+  const int code = (*server)->WaitForExit(30);  // one signal: a second one would exit at once
   watcher.join();
   EXPECT_EQ(code, 0) << (*server)->log();
   EXPECT_NE((*server)->log().find("draining"), std::string::npos) << (*server)->log();
@@ -183,6 +192,9 @@ TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   v1::Job job;
   ASSERT_TRUE(second.Watch(r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  if (last.state() != v1::JOB_STATE_SUCCEEDED) {
+    EXPECT_GE(job.attempts(), 2) << "the interrupted job ran again at the next start";
+  }
   EXPECT_EQ((*again)->Terminate(), 0);
 }
 
