@@ -55,11 +55,17 @@ bench: build
 	$(BUILD)/bin/meshstream_loss_bench --out docs/bench/loss.json $(LOSS_BENCH_ARGS)
 	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
 
+# libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
+# service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.
 fuzz: deps
 	@[ -f build-fuzz/build.ninja ] || CXX=clang++ cmake -S . -B build-fuzz -G Ninja \
 	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_FUZZ=ON -DMESHSTREAM_ONLY_IMPORTERS=ON
 	cmake --build build-fuzz -j $(JOBS)
+	@[ -f build-fuzz-services/build.ninja ] || CXX=clang++ cmake -S . -B build-fuzz-services -G Ninja \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_FUZZ=ON $(CMAKE_FLAGS)
+	cmake --build build-fuzz-services -j $(JOBS) --target service_fuzzers
 	@echo "run e.g.: build-fuzz/bin/fuzz_gltf tests/fuzz/corpus/gltf -max_total_time=60"
+	@echo "      or: build-fuzz-services/bin/fuzz_service_ingest tests/fuzz/corpus/service_ingest -max_total_time=60"
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz
+	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz build-fuzz-services

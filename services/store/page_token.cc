@@ -49,6 +49,13 @@ std::string EncodePageToken(const std::string& kind, const std::string& cursor) 
 StatusOr<std::string> DecodePageToken(const std::string& kind, const std::string& token) {
   if (token.empty()) return std::string();
   if (token.size() > kMaxPageTokenChars) return NotOurs();
+  // Only base64url characters: libsodium 1.0.18 reads every byte >= 0x80 as
+  // '_', so a token would otherwise have many spellings (found by
+  // fuzz_service_page_token).
+  for (const char c : token) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+    if (!ok) return NotOurs();
+  }
   std::vector<unsigned char> bytes(token.size());
   size_t length = 0;
   const char* end = nullptr;

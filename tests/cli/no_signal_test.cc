@@ -122,6 +122,9 @@ TEST(NoSignal, EveryVerbOnEveryCorpusFile) {
   for (const fs::directory_entry& corpus : fs::directory_iterator(corpus_root)) {
     if (!corpus.is_directory()) continue;
     const std::string name = corpus.path().filename().string();
+    // The service's corpora are gRPC messages, names and page tokens, not
+    // files any verb reads (their own replays run them).
+    if (name.rfind("service_", 0) == 0) continue;
     std::vector<fs::path> files;
     for (const fs::directory_entry& f : fs::directory_iterator(corpus.path())) {
       if (f.is_regular_file()) files.push_back(f.path());
