@@ -24,7 +24,7 @@
 //   - every refusal is InvalidArgument with a message that is valid UTF-8
 //     without control characters (the name is quoted made printable);
 //     PrintableName always gives such text;
-//   - IsValidName is [A-Za-z0-9._-]{1,128} and CheckName agrees with it;
+//   - IsValidName is [A-Za-z0-9._-]{1,128} but "." and "..", and CheckName agrees with it;
 //   - settings that parse are resolved (every field in range, ResolveSettings
 //     returns them unchanged), and CanonicalJson of them parses back to
 //     them; settings that resolve do the same;
@@ -256,7 +256,7 @@ void CheckMainFilename(const std::string& name) {
 }
 
 void CheckNames(const std::string& name) {
-  bool expected = !name.empty() && name.size() <= 128;
+  bool expected = !name.empty() && name.size() <= 128 && name != "." && name != "..";
   for (const char c : name) {
     expected = expected && ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' ||
                             c == '_' || c == '-');
