@@ -941,12 +941,20 @@ int main(int argc, char** argv) {
     const int per_client = std::max(args.min_calls, args.calls / clients);
     const int per_round = std::max(1, per_client / args.rounds);
     std::vector<ms::bench::LoadResult> merged(targets.size());
+    struct Cpu {
+      double process_s = 0;
+      uint64_t busy = 0, total = 0;
+    };
+    std::vector<Cpu> cpu(targets.size());
     for (int round = 0; round < args.rounds; ++round) {
       for (size_t t = 0; t < targets.size(); ++t) {
         std::fprintf(stderr, "meshstream_bench_service: %3d clients, round %d: %s %s\n", clients, round + 1,
                      targets[t].backend.empty() ? "echo server" : targets[t].backend.c_str(),
                      targets[t].rpc.c_str());
         ms::bench::LoadResult r = ms::bench::RunLoad(targets[t].target, clients, per_round, 3);
+        cpu[t].process_s += r.process_cpu_s;
+        cpu[t].busy += r.machine_busy;
+        cpu[t].total += r.machine_total;
         ms::bench::LoadResult& m = merged[t];
         m.clients = clients;
         m.calls_per_client += r.calls_per_client;
@@ -969,6 +977,12 @@ int main(int argc, char** argv) {
       if (!r.first_error.empty()) entry["first_error"] = r.first_error;
       entry["wall_s"] = r.wall_s;
       entry["throughput_cps"] = r.wall_s > 0 ? static_cast<double>(r.latencies_us.size()) / r.wall_s : 0;
+      // CPU while the timed calls ran: the machine's busy share of its cores
+      // (every process), and this process's CPU (clients and servers) per call.
+      const double calls = static_cast<double>(r.calls_per_client) * clients;
+      entry["cpu"] = {{"machine_busy", cpu[t].total ? static_cast<double>(cpu[t].busy) / cpu[t].total : 0.0},
+                      {"process_s", cpu[t].process_s},
+                      {"process_us_per_call", calls > 0 ? cpu[t].process_s * 1e6 / calls : 0.0}};
       if (r.failed > 0) {
         std::fprintf(stderr, "meshstream_bench_service: %s %s, %d clients: %llu calls FAILED: %s\n",
                      entry["backend"].get<std::string>().c_str(), targets[t].rpc.c_str(), clients,

@@ -1,7 +1,11 @@
 #include "bench/service_load.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <sstream>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -103,8 +107,13 @@ LoadResult RunLoad(const UnaryTarget& target, int clients, int calls_per_client,
     start = Clock::now();
     go = true;
   }
+  const CpuSample before = SampleCpu();
   cv.notify_all();
   for (std::thread& t : threads) t.join();
+  const CpuSample after = SampleCpu();
+  result.process_cpu_s = after.process_s - before.process_s;
+  result.machine_busy = after.machine_busy - before.machine_busy;
+  result.machine_total = after.machine_total - before.machine_total;
 
   Clock::time_point last = start;
   for (int c = 0; c < clients; ++c) {
@@ -117,6 +126,27 @@ LoadResult RunLoad(const UnaryTarget& target, int clients, int calls_per_client,
   }
   result.wall_s = std::chrono::duration<double>(last - start).count();
   return result;
+}
+
+CpuSample SampleCpu() {
+  CpuSample s;
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) {
+    s.process_s = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                  static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) / 1e6;
+  }
+  std::ifstream stat("/proc/stat");
+  std::string line;
+  if (std::getline(stat, line)) {
+    std::istringstream in(line);
+    std::string cpu;
+    in >> cpu;  // "cpu": the sum over all cores
+    uint64_t v[8] = {0};
+    for (uint64_t& x : v) in >> x;  // user nice system idle iowait irq softirq steal
+    s.machine_total = v[0] + v[1] + v[2] + v[3] + v[4] + v[5] + v[6] + v[7];
+    s.machine_busy = s.machine_total - v[3] - v[4];
+  }
+  return s;
 }
 
 }  // namespace meshstream::bench

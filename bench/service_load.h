@@ -41,9 +41,21 @@ struct LoadResult {
   std::string first_error;
   double wall_s = 0;                 // from the start signal to the last call's end
   uint64_t warmup_failed = 0;
+  // CPU from the start signal until every client is done (SampleCpu).
+  double process_cpu_s = 0;
+  uint64_t machine_busy = 0, machine_total = 0;
 };
 
 LoadResult RunLoad(const UnaryTarget& target, int clients, int calls_per_client, int warmup_calls);
+
+// CPU time so far: this process's (user + system, every thread: clients and
+// in-process servers) and the machine's busy and total jiffies from
+// /proc/stat (every process: also PostgreSQL's backends and other users).
+struct CpuSample {
+  double process_s = 0;
+  uint64_t machine_busy = 0, machine_total = 0;
+};
+CpuSample SampleCpu();
 
 }  // namespace meshstream::bench
 
