@@ -14,8 +14,8 @@
 //     plain and resumable), time to READY (IngestResponse until WatchJob
 //     reports SUCCEEDED; also from the store's own job stamps), a cache hit,
 //     and the references beside them: the same messages streamed into the
-//     echo server's sink, the bytes written and fsync'd into a file, the
-//     job's import + encode (ProcessSource) run in this process;
+//     echo server's sink, the bytes written and fsync'd into a file, their
+//     SHA-256, the job's import + encode (ProcessSource) run in this process;
 //   - GetVersion, ListVersions (page_size 50 over an asset with 100
 //     versions) and the server's health Check with 1, 10 and 100 concurrent
 //     clients beside an echo of the trivial server, measured the same way
@@ -776,7 +776,7 @@ int main(int argc, char** argv) {
   const int ref_repeat = std::max(args.repeat, 3);
   const auto settings = Check(ms::ResolveSettings(ms::EncodeSettings{}), "default encode settings");
   for (const Model& m : models) {
-    std::vector<double> encode, sink, disk;
+    std::vector<double> encode, sink, disk, sha;
     const auto messages = UploadMessages(m, m.bytes, VariantOptions(m, 0), "");
     std::vector<grpc::ByteBuffer> buffers;
     uint64_t message_bytes = 0;
@@ -800,18 +800,25 @@ int main(int argc, char** argv) {
       sink.push_back(Ms(t0, Clock::now()));
       if (!s.ok() || received != message_bytes) Die("the echo sink failed: " + StatusText(s));
       disk.push_back(DiskWriteFsyncMs(disk_dir, m.bytes));
+      t0 = Clock::now();
+      const std::string digest = ms::Sha256Hex(m.bytes.data(), m.bytes.size());
+      sha.push_back(Ms(t0, Clock::now()));
+      if (digest.size() != 64) Die("Sha256Hex failed");
     }
     json e = ms::bench::RunsSummary(encode);
     json k = ms::bench::RunsSummary(sink);
     k["MBps"] = MBps(m.bytes.size(), k["median_ms"].get<double>());
     json d = ms::bench::RunsSummary(disk);
     d["MBps"] = MBps(m.bytes.size(), d["median_ms"].get<double>());
+    json h = ms::bench::RunsSummary(sha);
+    h["MBps"] = MBps(m.bytes.size(), h["median_ms"].get<double>());
     ref_models[m.name] = {{"file", m.file},
                           {"bytes", m.bytes.size()},
                           {"figures", figures},
                           {"encode_inprocess", e},
                           {"transport_sink", k},
-                          {"disk_write_fsync", d}};
+                          {"disk_write_fsync", d},
+                          {"sha256", h}};
   }
   references["models"] = ref_models;
   {
