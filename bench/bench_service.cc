@@ -820,6 +820,52 @@ int main(int argc, char** argv) {
                           {"disk_write_fsync", d},
                           {"sha256", h}};
   }
+  // PostgreSQL's side of a blob: the file inserted as one bytea value into a
+  // table like blob_chunks (storage EXTENDED: TOAST compresses it with the
+  // cluster's default, pglz) and into one with storage EXTERNAL (no
+  // compression), timed inside the backend (the commit's WAL flush not
+  // included): what compression costs the shared store's ingest.
+  for (Backend* b : backends) {
+    if (!b->pg) continue;
+    const std::string setup =
+        "CREATE TABLE bench_toast_x (d bytea); CREATE TABLE bench_toast_e (d bytea); "
+        "ALTER TABLE bench_toast_e ALTER d SET STORAGE EXTERNAL; "
+        "CREATE FUNCTION bench_insert_ms(tbl text, path text) RETURNS double precision AS $f$ "
+        "DECLARE t0 timestamptz; BEGIN t0 := clock_timestamp(); "
+        "EXECUTE format('INSERT INTO %I SELECT pg_read_binary_file(%L)', tbl, path); "
+        "RETURN extract(epoch FROM clock_timestamp() - t0) * 1000; END $f$ LANGUAGE plpgsql; SELECT 'ok'";
+    if (b->pg->Query(setup) != "ok") {
+      std::fprintf(stderr, "meshstream_bench_service: the PostgreSQL bytea reference could not be set up; skipped\n");
+      break;
+    }
+    for (const Model& m : models) {
+      std::error_code ec;
+      const std::string path = fs::canonical(m.path, ec).string();
+      std::vector<double> compressed, external;
+      for (int i = 0; i < ref_repeat; ++i) {
+        for (const char* table : {"bench_toast_x", "bench_toast_e"}) {
+          const std::string v =
+              b->pg->Query(std::string("SELECT bench_insert_ms('") + table + "', '" + path + "')");
+          char* end = nullptr;
+          const double ms_taken = std::strtod(v.c_str(), &end);
+          if (v.empty() || end == v.c_str()) continue;
+          (table[12] == 'x' ? compressed : external).push_back(ms_taken);
+        }
+      }
+      if (compressed.empty() || external.empty()) continue;  // e.g. the file is not readable by postgres
+      const std::string stored = b->pg->Query("SELECT sum(pg_column_size(d)) || ' ' || sum(octet_length(d)) FROM "
+                                              "bench_toast_x");
+      b->pg->Query("TRUNCATE bench_toast_x, bench_toast_e");
+      json r = {{"compressed", ms::bench::RunsSummary(compressed)}, {"uncompressed", ms::bench::RunsSummary(external)}};
+      const size_t space = stored.find(' ');
+      if (space != std::string::npos) {
+        const double a = std::strtod(stored.c_str(), nullptr), t = std::strtod(stored.c_str() + space, nullptr);
+        if (t > 0) r["compressed_stored_fraction"] = a / t;
+      }
+      ref_models[m.name]["pg_bytea_insert"] = r;
+    }
+    b->pg->Query("DROP TABLE bench_toast_x, bench_toast_e; DROP FUNCTION bench_insert_ms; SELECT 'ok'");
+  }
   references["models"] = ref_models;
   {
     std::error_code ec;

@@ -290,6 +290,26 @@ def markdown(data, prefix):
                "upload twice: the ingest's digest check and the blob's own name). fsync of 4 KiB on that disk: p50 %s, p99 %s."
                % (fmt_us(data["references"]["fsync_4k"]["p50_us"]), fmt_us(data["references"]["fsync_4k"]["p99_us"])))
     out.append("")
+    pg_rows = [(m, refs[m]["pg_bytea_insert"]) for m in models(data) if "pg_bytea_insert" in refs[m]]
+    if pg_rows:
+        out.append("PostgreSQL's share, measured in the same cluster: the file inserted as one `bytea` value into "
+                   "a table like `blob_chunks` (storage EXTENDED, so TOAST compresses it with `pglz`) and into one "
+                   "with storage EXTERNAL (no compression), timed inside the backend (the commit's WAL flush not "
+                   "included); medians.")
+        out.append("")
+        out.append("| model | bytes | compressed insert ms | uncompressed insert ms | stored after compression "
+                   "| PostgreSQL Ingest ms |")
+        out.append("|---|---:|---:|---:|---:|---:|")
+        for m, r in pg_rows:
+            s_pg = backend(data, "postgresql")["ingest"][m]["summary"] if "postgresql" in names else None
+            out.append("| %s | %s | %s | %s | %s | %s |" % (
+                short(m), fmt_int(refs[m]["bytes"]), fmt_ms(r["compressed"]["median_ms"]),
+                fmt_ms(r["uncompressed"]["median_ms"]),
+                "%.0f %%" % (100 * r["compressed_stored_fraction"]) if "compressed_stored_fraction" in r else "-",
+                fmt_ms(s_pg["upload_ms"]) if s_pg else "-"))
+        out.append("")
+        out.append("(100 %: pglz gave up, the value is stored as it was; the compression was tried all the same.)")
+        out.append("")
     out.append("### Time to READY (median of the fresh uploads; cache hit: median of %d)" % st["cache_repeat"])
     out.append("")
     out.append("| model | vertices | backend | upload ms | READY ms (store) | READY ms (WatchJob) | encode in-process ms "

@@ -79,7 +79,7 @@ BenchPgCluster::~BenchPgCluster() {
 }
 
 std::string BenchPgCluster::Query(const std::string& sql) const {
-  return FirstLineOf(runas_ + bin_ + "/psql -X -At -h " + ShellQuote(dir_) + " -U postgres -d postgres -c " +
+  return FirstLineOf(runas_ + bin_ + "/psql -X -q -At -h " + ShellQuote(dir_) + " -U postgres -d postgres -c " +
                      ShellQuote(sql) + " 2>/dev/null </dev/null");
 }
 

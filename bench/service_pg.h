@@ -30,7 +30,8 @@ class BenchPgCluster {
   std::string uri() const { return "postgresql:///postgres?host=" + dir_ + "&user=postgres"; }
   const std::string& dir() const { return dir_; }
 
-  // The first line psql prints for `sql` (-At), "" on failure.
+  // The first line psql prints for `sql` (-qAt: rows only, no command tags);
+  // "" on failure.
   std::string Query(const std::string& sql) const;
   // version(), and the settings that decide what a commit costs.
   std::map<std::string, std::string> Describe() const;
