@@ -54,6 +54,17 @@ bench: build
 	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
 	$(BUILD)/bin/meshstream_loss_bench --out docs/bench/loss.json $(LOSS_BENCH_ARGS)
 	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
+	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
+	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
+
+# Only the asset service's benchmark (docs/service-benchmarks.md): `meshstream serve` in-process
+# on SQLite and on a PostgreSQL cluster it starts (fsync on); SERVICE_BENCH_ARGS e.g. "--quick".
+SERVICE_BENCH_ARGS ?=
+.PHONY: bench-service
+bench-service: build
+	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
+	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
 
 # libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
 # service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.
