@@ -263,7 +263,12 @@ TEST_F(PgStoreSchema, AVersion1DatabaseGainsTheUnloggedStagingTable) {
 
   auto store = OpenPgStore(conninfo_);
   ASSERT_TRUE(store.ok()) << store.status().ToString();
-  EXPECT_EQ(SqlInt("SELECT max(version) FROM meshstream.meshstream_schema"), 2);
+  EXPECT_EQ(SqlInt("SELECT max(version) FROM meshstream.meshstream_schema"), PgSchemaVersion());
+  // Version 3: chunks are stored uncompressed ('e': external).
+  EXPECT_EQ(Sql("SELECT attstorage FROM pg_attribute WHERE attrelid = 'meshstream.blob_chunks'::regclass AND "
+                "attname = 'data'")[0][0]
+                .as<std::string>(),
+            "e");
   EXPECT_EQ(Sql("SELECT relpersistence FROM pg_class WHERE oid = 'meshstream.blob_staging'::regclass")[0][0]
                 .as<std::string>(),
             "u");
