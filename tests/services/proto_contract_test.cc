@@ -10,6 +10,8 @@
 
 #include "meshstream/v1/asset_service.grpc.pb.h"
 #include "meshstream/v1/asset_service.pb.h"
+#include "meshstream/v1/stream.grpc.pb.h"
+#include "meshstream/v1/stream.pb.h"
 
 namespace meshstream {
 namespace {
@@ -93,6 +95,43 @@ TEST(ProtoContract, EnumsHaveTheContractValues) {
   };
   for (const auto& [e, values] : expected) {
     for (const std::string& v : values) EXPECT_NE(e->FindValueByName(v), nullptr) << e->name() << "." << v;
+  }
+}
+
+}  // namespace
+}  // namespace meshstream
+
+namespace meshstream {
+namespace {
+
+// The streaming issue's contract: StreamService.Open, a stream both ways of
+// ClientMessage and ServerMessage (proto/meshstream/v1/stream.proto).
+TEST(ProtoContract, StreamServiceOpensOneBidirectionalStream) {
+  ASSERT_NE(meshstream::v1::ClientMessage::descriptor(), nullptr);
+  const pb::ServiceDescriptor* service =
+      pb::DescriptorPool::generated_pool()->FindServiceByName("meshstream.v1.StreamService");
+  ASSERT_NE(service, nullptr);
+  EXPECT_STREQ(meshstream::v1::StreamService::service_full_name(), "meshstream.v1.StreamService");
+  const pb::MethodDescriptor* open = service->FindMethodByName("Open");
+  ASSERT_NE(open, nullptr);
+  EXPECT_EQ(open->input_type()->full_name(), "meshstream.v1.ClientMessage");
+  EXPECT_EQ(open->output_type()->full_name(), "meshstream.v1.ServerMessage");
+  EXPECT_TRUE(open->client_streaming());
+  EXPECT_TRUE(open->server_streaming());
+  // The client names asset, version, max level and transport; the server
+  // answers with the session (id, headers, base meshes, UDP endpoint, keys).
+  for (const char* field : {"asset", "version", "max_level", "transport"}) {
+    EXPECT_NE(meshstream::v1::OpenRequest::descriptor()->FindFieldByName(field), nullptr) << field;
+  }
+  for (const char* field : {"session_id", "primitives", "udp", "udp_session_id", "client_to_server_key",
+                            "server_to_client_key"}) {
+    EXPECT_NE(meshstream::v1::SessionStart::descriptor()->FindFieldByName(field), nullptr) << field;
+  }
+  for (const char* field : {"session", "control", "refinement_end", "datagram", "end"}) {
+    EXPECT_NE(meshstream::v1::ServerMessage::descriptor()->FindFieldByName(field), nullptr) << field;
+  }
+  for (const char* field : {"open", "report", "done"}) {
+    EXPECT_NE(meshstream::v1::ClientMessage::descriptor()->FindFieldByName(field), nullptr) << field;
   }
 }
 
