@@ -34,8 +34,9 @@ SERVICES_DEPENDS = {
     "jobs": ["pipeline"],
     "ingest": ["auth", "pipeline"],
     "export": ["pipeline"],
+    "streaming": ["pipeline"],
     "api": ["ingest", "export"],
-    "server": ["api", "jobs"],
+    "server": ["api", "jobs", "streaming"],
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {

@@ -1,0 +1,55 @@
+// What a streaming session sends, in which order, as byte ranges of the
+// stored artifact (docs/streaming-protocol.md): per primitive its stream
+// header and base mesh first (the session start), then the refinements
+// level by level across the primitives (refinement 0 of every primitive,
+// then refinement 1, ...), each as its control block followed by its data
+// datagrams. Built from the version's stored layout without decoding
+// anything (services/pipeline/stream_layout.h).
+//
+// Contract: the artifact bytes and the layout JSON come from the store
+// (verified blob, JSON written by the pipeline) but are still checked: a
+// layout that does not fit the bytes is DataLoss. `max_level` < 0 means
+// every refinement; otherwise at most that many per primitive.
+// Thread safety: pure.
+#ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
+#define MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "services/pipeline/stream_layout.h"
+
+namespace meshstream {
+
+struct PlannedPrimitive {
+  uint32_t stream = 0;  // the stream number in its datagrams' headers
+  uint32_t mesh = 0;
+  uint32_t mesh_primitive = 0;
+  ByteRange header;
+  ByteRange base;
+  uint32_t refinements = 0;  // in this session
+};
+
+struct PlannedRefinement {
+  uint32_t primitive = 0;  // index into SessionPlan::primitives
+  uint32_t refinement = 0;
+  ByteRange control;
+  std::vector<ByteRange> datagrams;
+};
+
+struct SessionPlan {
+  std::vector<PlannedPrimitive> primitives;
+  std::vector<PlannedRefinement> refinements;  // in sending order
+  uint64_t reliable_bytes = 0;    // headers, base meshes and control blocks
+  uint64_t unreliable_bytes = 0;  // datagrams
+  uint32_t levels = 0;            // the most refinements of any primitive in this session
+};
+
+StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
+                                  int32_t max_level);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
