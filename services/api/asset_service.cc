@@ -6,6 +6,7 @@
 #include <thread>
 #include <utility>
 
+#include "services/api/call_auth.h"
 #include "services/api/grpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/export/version_export.h"
@@ -35,11 +36,7 @@ AssetServiceImpl::AssetServiceImpl(Store* store, const Authenticator* auth, Asse
       exports_(options.max_exports) {}
 
 StatusOr<Principal> AssetServiceImpl::Authenticate(const grpc::ServerContext& context) const {
-  std::optional<std::string> header;
-  const auto& metadata = context.client_metadata();
-  const auto it = metadata.find("authorization");
-  if (it != metadata.end()) header = std::string(it->second.data(), it->second.size());
-  return auth_->Authenticate(header);
+  return AuthenticateCall(*auth_, context);
 }
 
 grpc::Status AssetServiceImpl::Ingest(grpc::ServerContext* context, grpc::ServerReader<v1::IngestRequest>* reader,

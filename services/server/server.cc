@@ -21,6 +21,7 @@
 
 #include "importers/import.h"
 #include "services/api/asset_service.h"
+#include "services/api/stream_service.h"
 #include "services/auth/authenticator.h"
 #include "services/jobs/worker_pool.h"
 #include "services/store/blob_store.h"
@@ -102,6 +103,7 @@ struct Server::Impl {
   std::unique_ptr<Authenticator> auth;
   std::unique_ptr<WorkerPool> pool;
   std::unique_ptr<AssetServiceImpl> service;
+  std::unique_ptr<StreamServiceImpl> streams;
   std::unique_ptr<grpc::Server> server;
   std::string address;
   std::atomic<bool> draining{false};
@@ -214,6 +216,9 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   int port = 0;
   builder.AddListeningPort(options.listen, credentials.value(), &port);
   builder.RegisterService(impl->service.get());
+  impl->streams = std::make_unique<StreamServiceImpl>(impl->store.get(), impl->auth.get(), StreamServiceOptions{},
+                                                      &impl->draining);
+  builder.RegisterService(impl->streams.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
   // A bounded number of threads: calls beyond it are RESOURCE_EXHAUSTED
   // instead of a thread each (a flood of WatchJob streams).

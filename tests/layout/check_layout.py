@@ -35,8 +35,8 @@ SERVICES_DEPENDS = {
     "ingest": ["auth", "pipeline"],
     "export": ["pipeline"],
     "streaming": ["pipeline"],
-    "api": ["ingest", "export"],
-    "server": ["api", "jobs", "streaming"],
+    "api": ["ingest", "export", "streaming"],
+    "server": ["api", "jobs"],
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
