@@ -63,6 +63,7 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
     out.set_header(Slice(bytes, p.header));
     out.set_base_mesh(Slice(bytes, p.base));
     out.set_refinements(p.refinements);
+    for (const auto& [name, id] : p.draco_attributes) (*out.mutable_draco_attributes())[name] = id;
   }
   if (!stream->Write(message)) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
   for (const PlannedRefinement& r : plan->refinements) {

@@ -1,9 +1,56 @@
 #include "services/streaming/session_plan.h"
 
 #include <algorithm>
+#include <cstring>
 #include <utility>
 
+#include <nlohmann/json.hpp>
+
 namespace meshstream {
+
+namespace {
+
+// The glTF JSON of a .glb (its first chunk), or null when there is none.
+nlohmann::json GlbJson(const std::vector<uint8_t>& glb) {
+  if (glb.size() < 20) return nullptr;
+  uint32_t length = 0, type = 0;
+  std::memcpy(&length, glb.data() + 12, 4);
+  std::memcpy(&type, glb.data() + 16, 4);
+  if (type != 0x4E4F534Au || length > glb.size() - 20) return nullptr;
+  return nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + length, nullptr, false);
+}
+
+// KHR_draco_mesh_compression.attributes of meshes[mesh].primitives[primitive].
+StatusOr<std::map<std::string, int32_t>> DracoAttributes(const nlohmann::json& doc, uint32_t mesh, uint32_t primitive) {
+  const std::string where = "meshes[" + std::to_string(mesh) + "].primitives[" + std::to_string(primitive) + "]";
+  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array() || mesh >= doc["meshes"].size()) {
+    return DataLoss("the artifact has no " + where);
+  }
+  const nlohmann::json& m = doc["meshes"][mesh];
+  if (!m.is_object() || !m.contains("primitives") || !m["primitives"].is_array() || primitive >= m["primitives"].size()) {
+    return DataLoss("the artifact has no " + where);
+  }
+  const nlohmann::json& p = m["primitives"][primitive];
+  const nlohmann::json* attributes = nullptr;
+  if (p.is_object() && p.contains("extensions") && p["extensions"].is_object() &&
+      p["extensions"].contains("KHR_draco_mesh_compression")) {
+    const nlohmann::json& draco = p["extensions"]["KHR_draco_mesh_compression"];
+    if (draco.is_object() && draco.contains("attributes") && draco["attributes"].is_object()) {
+      attributes = &draco["attributes"];
+    }
+  }
+  if (attributes == nullptr) return DataLoss(where + ": no KHR_draco_mesh_compression attributes");
+  std::map<std::string, int32_t> out;
+  for (const auto& [name, id] : attributes->items()) {
+    if (!id.is_number_integer() || id.get<int64_t>() < 0 || id.get<int64_t>() > 1000) {
+      return DataLoss(where + ": Draco attribute " + name + " has no valid id");
+    }
+    out[name] = id.get<int32_t>();
+  }
+  return out;
+}
+
+}  // namespace
 
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
                                   int32_t max_level) {
@@ -15,6 +62,7 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
   }
   SessionPlan plan;
   std::vector<StreamBlocks> blocks;
+  const nlohmann::json doc = layout->primitives.empty() ? nlohmann::json() : GlbJson(artifact);
   for (const PrimitiveLayout& entry : layout->primitives) {
     auto located = LocateStreamBlocks(artifact.data(), artifact.size(), entry);
     if (!located.ok()) return located.status().WithContext("stream " + std::to_string(entry.stream));
@@ -26,6 +74,9 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     p.base = located->base;
     const uint32_t available = static_cast<uint32_t>(located->control.size());
     p.refinements = max_level < 0 ? available : std::min(available, static_cast<uint32_t>(max_level));
+    auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
+    if (!attributes.ok()) return attributes.status();
+    p.draco_attributes = std::move(attributes).value();
     plan.reliable_bytes += p.header.length + p.base.length;
     plan.levels = std::max(plan.levels, p.refinements);
     plan.primitives.push_back(p);

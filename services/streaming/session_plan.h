@@ -15,6 +15,7 @@
 #define MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@ struct PlannedPrimitive {
   ByteRange header;
   ByteRange base;
   uint32_t refinements = 0;  // in this session
+  std::map<std::string, int32_t> draco_attributes;  // semantic -> Draco attribute id of the base mesh
 };
 
 struct PlannedRefinement {

@@ -46,6 +46,7 @@ TEST(SessionPlan, EveryBlockIsTheStreamsOwnInLevelOrder) {
     ASSERT_TRUE(stream.ok()) << stream.status().ToString();
     EXPECT_EQ(Bytes(p.glb, plan->primitives[i].header), stream->header);
     EXPECT_EQ(plan->primitives[i].refinements, stream->control.size());
+    EXPECT_EQ(plan->primitives[i].draco_attributes.count("POSITION"), 1u) << "the base mesh's Draco ids";
     for (const PlannedRefinement& r : plan->refinements) {
       if (r.primitive != i) continue;
       EXPECT_EQ(Bytes(p.glb, r.control), stream->control[r.refinement]);
