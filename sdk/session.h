@@ -1,0 +1,88 @@
+// A streaming session of the SDK: opens StreamService.Open for an asset
+// version, and refines the mesh as the session's blocks arrive
+// (docs/streaming-protocol.md). Poll model: the host calls Poll on its own
+// thread and gets events; no callback ever runs on an internal thread.
+//
+// Events, in order: kBaseReady (every primitive's base mesh decoded), then
+// kLevelReady for level 1, 2, ... (every primitive refined to that level,
+// or to all it has), then kComplete; or kError with the status, after which
+// the session is over.
+//
+// Thread safety and ownership: a Session is used from one thread (Poll, the
+// mesh accessors, Cancel may also be called from another thread). Mesh
+// views stay valid until the next Poll. The Client must outlive the
+// session. Internally one thread reads the gRPC stream into a queue; the
+// decoding runs inside Poll, on the caller's thread.
+#ifndef MESHSTREAM_SDK_SESSION_H_
+#define MESHSTREAM_SDK_SESSION_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "codec/mesh/mesh.h"
+#include "sdk/client.h"
+
+namespace meshstream::sdk {
+
+struct SessionOptions {
+  std::string asset;
+  int64_t version = 0;    // 0: the latest READY version
+  int32_t max_level = -1; // refinements per primitive; -1: all
+  bool tcp_only = false;  // ask for the datagrams over gRPC
+};
+
+enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
+
+struct Event {
+  EventType type = EventType::kNone;
+  int32_t level = 0;  // kBaseReady: 0; kLevelReady: the level now shown everywhere
+  Status status;      // kError: why
+};
+
+struct SessionStats {
+  uint64_t reliable_bytes = 0;      // headers, base meshes, control blocks
+  uint64_t unreliable_bytes = 0;    // datagram payloads
+  uint64_t datagrams_received = 0;
+  uint64_t datagrams_rejected = 0;  // malformed or not fitting their stream
+  double time_to_base_ms = 0;
+  double time_to_full_ms = 0;
+  std::string transport;            // "grpc" or "udp"
+};
+
+class Session {
+ public:
+  static StatusOr<std::unique_ptr<Session>> Open(const Client& client, const SessionOptions& options);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  // Processes what arrived, waiting at most `timeout_ms` for something, and
+  // returns the next event (kNone when the time ran out first).
+  Event Poll(int32_t timeout_ms);
+  // Stops the session (the server frees it); Poll then returns kError
+  // (cancelled) once.
+  void Cancel();
+
+  size_t primitive_count() const;
+  // The current mesh of a primitive (dequantized), and per vertex 1 where
+  // the value was predicted rather than decoded (the reconstructor's
+  // reliability bits).
+  StatusOr<Primitive> Mesh(size_t primitive) const;
+  StatusOr<std::vector<uint8_t>> Predicted(size_t primitive) const;
+  // Where the primitive sits in the asset's glTF (mesh, primitive index).
+  std::pair<uint32_t, uint32_t> GltfPosition(size_t primitive) const;
+  int32_t levels() const;  // the most refinements any primitive has in this session
+  const SessionStats& stats() const;
+
+ private:
+  struct Impl;
+  explicit Session(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace meshstream::sdk
+
+#endif  // MESHSTREAM_SDK_SESSION_H_

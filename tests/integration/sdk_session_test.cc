@@ -1,0 +1,129 @@
+// The C++ SDK against a real `meshstream serve`: a session polls to
+// kComplete through kBaseReady and every kLevelReady in order; at each event
+// every primitive has the vertex count of that level; the final mesh is what
+// decoding the stored progressive file gives, vertex for vertex; max_level
+// stops early; a missing asset is kError with NOT_FOUND.
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "codec/bitstream/format.h"
+#include "importers/progressive_glb.h"
+#include "sdk/client.h"
+#include "sdk/session.h"
+#include "tests/common/asset_client.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::AssetClient;
+using test_util::ServeProcess;
+
+std::vector<sdk::Event> PollToEnd(sdk::Session& session) {
+  std::vector<sdk::Event> events;
+  for (int i = 0; i < 100000; ++i) {
+    const sdk::Event e = session.Poll(10000);
+    if (e.type == sdk::EventType::kNone) continue;
+    events.push_back(e);
+    if (e.type == sdk::EventType::kComplete || e.type == sdk::EventType::kError) break;
+  }
+  return events;
+}
+
+TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "2"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  for (const char* model : {"stanford-bunny.obj", "gltf/2CylinderEngine.glb"}) {
+    SCOPED_TRACE(model);
+    const std::string name = model;
+    v1::IngestResponse r;
+    ASSERT_TRUE(client.Ingest("m", AssetClient::Load(test_util::ModelPath(model), "m" + name.substr(name.rfind('.'))), &r).ok());
+    v1::Job job;
+    ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+    ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+    const auto exported = client.Export("m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
+    ASSERT_TRUE(exported.status.ok());
+
+    auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+    ASSERT_TRUE(sdk_client.ok());
+    auto session = sdk::Session::Open(**sdk_client, {"m", 0, -1, true});
+    ASSERT_TRUE(session.ok()) << session.status().ToString();
+    const std::vector<sdk::Event> events = PollToEnd(**session);
+    ASSERT_FALSE(events.empty());
+    ASSERT_EQ(events.front().type, sdk::EventType::kBaseReady);
+    ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
+    const int32_t levels = (*session)->levels();
+    ASSERT_GT(levels, 0);
+    std::vector<int32_t> level_events;
+    for (const sdk::Event& e : events) {
+      if (e.type == sdk::EventType::kLevelReady) level_events.push_back(e.level);
+    }
+    ASSERT_EQ(static_cast<int32_t>(level_events.size()), levels) << "one kLevelReady per level, in order";
+    for (int32_t k = 0; k < levels; ++k) EXPECT_EQ(level_events[static_cast<size_t>(k)], k + 1);
+    EXPECT_EQ((*session)->stats().transport, "grpc");
+    EXPECT_GT((*session)->stats().datagrams_received, 0u);
+    EXPECT_EQ((*session)->stats().datagrams_rejected, 0u);
+
+    // The final meshes are what decoding the stored file gives.
+    ProgressiveDecodeReport report;
+    auto decoded = DecodeProgressiveGlb(exported.bytes, ProgressiveDecodeOptions{}, &report);
+    ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+    size_t vertices = 0;
+    for (size_t i = 0; i < (*session)->primitive_count(); ++i) {
+      auto mesh = (*session)->Mesh(i);
+      ASSERT_TRUE(mesh.ok());
+      const auto [m, p] = (*session)->GltfPosition(i);
+      ASSERT_LT(m, decoded->meshes.size());
+      const std::vector<Mesh::Ref> order = decoded->meshes[m].Order();
+      ASSERT_LT(p, order.size());
+      const Primitive& expected = decoded->meshes[m].primitives[order[p].index];
+      ASSERT_EQ(mesh->positions.size(), expected.positions.size()) << "primitive " << i;
+      EXPECT_EQ(mesh->indices, expected.indices) << "primitive " << i;
+      bool same = true;
+      for (size_t v = 0; v < expected.positions.size() && same; ++v) {
+        same = mesh->positions[v] == expected.positions[v];
+      }
+      EXPECT_TRUE(same) << "primitive " << i << ": positions differ from the file's decode";
+      auto predicted = (*session)->Predicted(i);
+      ASSERT_TRUE(predicted.ok());
+      for (uint8_t f : *predicted) EXPECT_EQ(f, 0) << "nothing is predicted without loss";
+      vertices += mesh->positions.size();
+    }
+    EXPECT_EQ(static_cast<int64_t>(vertices), report.level_vertices.empty() ? 0 : report.level_vertices.back());
+  }
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST(SdkSession, MaxLevelAndErrors) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("spot", AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(sdk_client.ok());
+  auto three = sdk::Session::Open(**sdk_client, {"spot", 0, 3, true});
+  ASSERT_TRUE(three.ok());
+  const auto events = PollToEnd(**three);
+  ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
+  EXPECT_EQ(events.back().level, 3);
+  EXPECT_EQ((*three)->levels(), 3);
+  auto missing = sdk::Session::Open(**sdk_client, {"no-such-asset", 0, -1, true});
+  ASSERT_TRUE(missing.ok()) << "the error comes with the first poll";
+  const auto failed = PollToEnd(**missing);
+  ASSERT_EQ(failed.size(), 1u);
+  EXPECT_EQ(failed[0].type, sdk::EventType::kError);
+  EXPECT_EQ(failed[0].status.code(), StatusCode::kNotFound) << failed[0].status.ToString();
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+}  // namespace
+}  // namespace meshstream
