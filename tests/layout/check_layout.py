@@ -8,6 +8,8 @@
   its dependencies may use);
 - importers/ uses codec/ and third-party libraries, never services/, sdk/,
   cli/, bench/ or tests/;
+- net/ uses codec/ and third-party libraries, never services/, sdk/, cli/,
+  bench/ or tests/;
 - services/ and sdk/ never include cli/, bench/ or tests/; sdk/ never
   includes services/; the folders of services/ depend on each other in one
   direction too (SERVICES_DEPENDS, as docs/architecture.md writes it).
@@ -42,6 +44,7 @@ FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
     "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "proto"],
     "importers": ["services", "sdk", "cli", "bench", "tests"],
+    "net": ["services", "sdk", "cli", "bench", "tests"],
     "services": ["sdk", "cli", "bench", "tests"],
     "sdk": ["services", "cli", "bench", "tests"],
 }
