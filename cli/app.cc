@@ -114,7 +114,7 @@ int Main(int argc, char** argv) {
   root.footer(kRootFooter);
   const std::vector<Verb> verbs = {AddInfo(root),  AddConvert(root),  AddCompare(root), AddEncode(root),
                                    AddDecode(root), AddServe(root),    AddIngest(root),  AddVersions(root),
-                                   AddAssets(root), AddExport(root),   AddToken(root)};
+                                   AddAssets(root), AddExport(root),   AddToken(root),   AddFetch(root)};
 
   try {
     root.parse(argc, argv);
@@ -134,7 +134,7 @@ int Main(int argc, char** argv) {
     if (verb.empty() && argc >= 2 && argv[1][0] != '-') {
       message = std::string("unknown verb '") + argv[1] + "'";
     } else if (verb.empty() && argc < 2) {
-      message = "a verb is required: info, convert, compare, encode, decode, serve, ingest, versions, assets, export or token";
+      message = "a verb is required: info, convert, compare, encode, decode, serve, ingest, versions, assets, export, token or fetch";
     }
     return ReportError(verb, InvalidArgument(message));
   }

@@ -20,6 +20,7 @@ Verb AddVersions(CLI::App& root);
 Verb AddAssets(CLI::App& root);
 Verb AddExport(CLI::App& root);
 Verb AddToken(CLI::App& root);
+Verb AddFetch(CLI::App& root);
 
 }  // namespace meshstream::cli
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <thread>
 #include <utility>
@@ -11,6 +12,7 @@
 #include "codec/bitstream/reader.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
+#include "importers/gltf_export.h"
 #include "meshstream/v1/stream.grpc.pb.h"
 
 namespace meshstream::sdk {
@@ -306,6 +308,45 @@ std::pair<uint32_t, uint32_t> Session::GltfPosition(size_t primitive) const {
 }
 
 int32_t Session::levels() const { return impl_->levels; }
+
+int32_t Session::level_shown() const { return impl_->level_shown; }
+
+uint64_t Session::predicted_vertices() const {
+  uint64_t n = 0;
+  for (const PrimitiveState& p : impl_->primitives) n += p.reader->unreliable_vertices();
+  return n;
+}
+
+Scene Session::CurrentScene() const {
+  Scene scene;
+  std::map<uint32_t, std::map<uint32_t, size_t>> by_mesh;  // glTF mesh -> primitive index -> ours
+  for (size_t i = 0; i < impl_->primitives.size(); ++i) {
+    const v1::PrimitiveStart& p = impl_->primitives[i].start;
+    by_mesh[p.mesh()][p.mesh_primitive()] = i;
+  }
+  SceneRoot root;
+  for (const auto& [mesh_index, primitives] : by_mesh) {
+    meshstream::Mesh mesh;
+    mesh.name = "mesh " + std::to_string(mesh_index);
+    for (const auto& [primitive_index, ours] : primitives) {
+      mesh.primitives.push_back(DequantizeMesh(impl_->primitives[ours].reader->Mesh(), -1));
+    }
+    Node node;
+    node.name = mesh.name;
+    node.mesh = static_cast<int32_t>(scene.meshes.size());
+    root.nodes.push_back(static_cast<int32_t>(scene.nodes.size()));
+    scene.nodes.push_back(node);
+    scene.meshes.push_back(std::move(mesh));
+  }
+  scene.scenes.push_back(root);
+  scene.default_scene = 0;
+  return scene;
+}
+
+Status Session::Export(const std::string& path) const {
+  if (impl_->level_shown < 0) return FailedPrecondition("export: the base mesh has not arrived yet");
+  return ExportGltfFile(CurrentScene(), path, ExportOptions{});
+}
 
 const SessionStats& Session::stats() const { return impl_->stats; }
 

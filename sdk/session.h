@@ -75,6 +75,16 @@ class Session {
   // Where the primitive sits in the asset's glTF (mesh, primitive index).
   std::pair<uint32_t, uint32_t> GltfPosition(size_t primitive) const;
   int32_t levels() const;  // the most refinements any primitive has in this session
+  // The level every primitive has reached (-1 before kBaseReady).
+  int32_t level_shown() const;
+  // Vertices, over all primitives, whose value was predicted.
+  uint64_t predicted_vertices() const;
+  // The current meshes as a scene: one glTF mesh per mesh the asset's
+  // refined primitives belong to, each at its primitive index, one node per
+  // mesh, no materials (the session does not carry the asset's scene yet).
+  Scene CurrentScene() const;
+  // CurrentScene written as .glb or .gltf (by the extension), through importers/.
+  Status Export(const std::string& path) const;
   const SessionStats& stats() const;
 
  private:

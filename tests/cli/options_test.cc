@@ -30,7 +30,7 @@ TEST(CliOptions, VersionPrintsTheProjectVersion) {
 
 TEST(CliOptions, EveryVerbsHelpSaysWhatItDoesAndGivesAnExample) {
   const std::vector<const char*> verbs = {"info",   "convert",  "compare", "encode", "decode", "serve",
-                                          "ingest", "versions", "assets",  "export", "token"};
+                                          "ingest", "versions", "assets",  "export", "token", "fetch"};
   for (const char* verb : verbs) {
     const auto r = RunCommand(Cli() + " " + verb + " --help");
     EXPECT_EQ(r.exit_code, 0) << verb;

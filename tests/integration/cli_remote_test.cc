@@ -80,6 +80,33 @@ TEST_F(CliRemote, IngestWaitVersionsAndExportEveryFormat) {
   EXPECT_EQ(assets["assets"].size(), 1u) << assets.dump();
 }
 
+TEST_F(CliRemote, FetchStreamsTheFullMeshOnTheGrid) {
+  const json in = test_util::RunCliJson("ingest --json --wait --asset spot-fetch " + Quote(ModelPath("spot.obj")) + Remote());
+  ASSERT_EQ(in["job"]["state"], "JOB_STATE_SUCCEEDED") << in.dump();
+  test_util::TempDir out;
+  const std::string file = out.File("spot.glb");
+  const json f = test_util::RunCliJson("fetch --json spot-fetch -o " + Quote(file) + Remote());
+  for (const char* key : {"vertices", "faces", "levels_applied", "transport", "datagrams_received", "datagrams_lost",
+                          "datagrams_rejected", "predicted_vertices", "reliable_bytes", "unreliable_bytes",
+                          "time_to_base_ms", "time_to_full_ms"}) {
+    EXPECT_TRUE(f.contains(key)) << key << " in " << f.dump();
+  }
+  EXPECT_EQ(f["vertices"], 3225);
+  EXPECT_EQ(f["transport"], "grpc");
+  EXPECT_EQ(f["datagrams_rejected"], 0);
+  EXPECT_EQ(f["predicted_vertices"], 0);
+  EXPECT_GT(f["datagrams_received"].get<int>(), 0);
+  const json c = test_util::RunCliJson("compare --json --qp 11 " + Quote(ModelPath("spot.obj")) + " " + Quote(file));
+  EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+  for (const json& report : test_util::ValidateGltf({file})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  // --lod stops early.
+  const json base = test_util::RunCliJson("fetch --json spot-fetch --lod 0 -o " + Quote(out.File("base.glb")) + Remote());
+  EXPECT_EQ(base["levels_applied"], 0);
+  EXPECT_LT(base["vertices"].get<int>(), 3225);
+  const auto missing = RunCommand(Cli() + " fetch no-such -o " + Quote(out.File("x.glb")) + Remote());
+  EXPECT_EQ(missing.exit_code, 1) << missing.err;
+}
+
 TEST_F(CliRemote, AMultiFileGltfTravelsWithItsResources) {
   const std::string gltf = ModelPath("gltf/draco-2CylinderEngine/2CylinderEngine.gltf");
   const json in = test_util::RunCliJson("ingest --json --wait --asset engine " + Quote(gltf) + Remote());
