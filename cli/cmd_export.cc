@@ -50,20 +50,10 @@ StatusOr<v1::Format> ParseFormat(const std::string& format, const std::string& o
 }
 
 int RunExport(const ExportArgs& args) {
-  std::string asset = args.target;
-  int64_t version = 0;
-  const size_t at = asset.find('@');
-  if (at != std::string::npos) {
-    const std::string number = asset.substr(at + 1);
-    asset = asset.substr(0, at);
-    char* end = nullptr;
-    version = std::strtoll(number.c_str(), &end, 10);
-    if (number.empty() || *end != '\0' || version < 0) {
-      return ReportError("export", InvalidArgument(args.target + ": expected ASSET or ASSET@VERSION (a number >= 0)"));
-    }
-  }
-  Status s = CheckName("ASSET", asset);
-  if (!s.ok()) return ReportError("export", s);
+  auto target = ParseAssetVersion(args.target);
+  if (!target.ok()) return ReportError("export", target.status());
+  const std::string asset = target->asset;
+  const int64_t version = target->version;
   auto format = ParseFormat(args.format, args.out);
   if (!format.ok()) return ReportError("export", format.status());
   auto stub = Connect(args.remote);
@@ -100,7 +90,7 @@ int RunExport(const ExportArgs& args) {
     return ReportError("export", DataLoss("the bytes received have SHA-256 " + actual + ", the server announced '" +
                                           sha256 + "'; nothing written"));
   }
-  s = WriteFileBytes(args.out, bytes);
+  const Status s = WriteFileBytes(args.out, bytes);
   if (!s.ok()) return ReportError("export", s);
   if (args.json) {
     PrintJson({{"asset", asset}, {"version", exported_version}, {"format", v1::Format_Name(format.value())},

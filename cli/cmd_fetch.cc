@@ -36,20 +36,10 @@ struct FetchArgs {
 };
 
 int RunFetch(const FetchArgs& args) {
-  std::string asset = args.target;
-  int64_t version = 0;
-  const size_t at = asset.find('@');
-  if (at != std::string::npos) {
-    const std::string number = asset.substr(at + 1);
-    asset = asset.substr(0, at);
-    char* end = nullptr;
-    version = std::strtoll(number.c_str(), &end, 10);
-    if (number.empty() || *end != '\0' || version < 0) {
-      return ReportError("fetch", InvalidArgument(args.target + ": expected ASSET or ASSET@VERSION (a number >= 0)"));
-    }
-  }
-  Status s = CheckName("ASSET", asset);
-  if (!s.ok()) return ReportError("fetch", s);
+  auto target = ParseAssetVersion(args.target);
+  if (!target.ok()) return ReportError("fetch", target.status());
+  const std::string asset = target->asset;
+  const int64_t version = target->version;
   const std::string ext = FileExtension(args.out);
   if (ext != ".glb" && ext != ".gltf") return ReportError("fetch", InvalidArgument(args.out + ": the output is .glb or .gltf"));
   sdk::ClientOptions client_options;
@@ -89,7 +79,7 @@ int RunFetch(const FetchArgs& args) {
     if (e.type == sdk::EventType::kComplete) break;
   }
   progress.Clear();
-  s = (*session)->Export(args.out);
+  const Status s = (*session)->Export(args.out);
   if (!s.ok()) return ReportError("fetch", s);
   uint64_t vertices = 0, faces = 0;
   const Scene scene = (*session)->CurrentScene();

@@ -9,6 +9,7 @@
 #include "cli/json_out.h"
 #include "importers/import.h"
 #include "services/api/grpc_status.h"
+#include "services/store/store.h"
 
 namespace meshstream::cli {
 
@@ -59,6 +60,24 @@ Status RemoteError(const grpc::Status& status, const RemoteOptions& o) {
     return Unauthenticated(s.message() + " (give --token or MESHSTREAM_TOKEN)");
   }
   return s;
+}
+
+StatusOr<AssetVersion> ParseAssetVersion(const std::string& target) {
+  AssetVersion out;
+  out.asset = target;
+  const size_t at = target.find('@');
+  if (at != std::string::npos) {
+    const std::string number = target.substr(at + 1);
+    out.asset = target.substr(0, at);
+    char* end = nullptr;
+    out.version = std::strtoll(number.c_str(), &end, 10);
+    if (number.empty() || *end != '\0' || out.version < 0) {
+      return InvalidArgument(target + ": expected ASSET or ASSET@VERSION (a number >= 0)");
+    }
+  }
+  Status s = CheckName("ASSET", out.asset);
+  if (!s.ok()) return s;
+  return out;
 }
 
 const char* ShortState(v1::JobState state) {

@@ -37,6 +37,14 @@ void PrepareContext(grpc::ClientContext& context, const RemoteOptions& options, 
 // server says where it looked.
 Status RemoteError(const grpc::Status& status, const RemoteOptions& options);
 
+// "ASSET" or "ASSET@VERSION" (a number >= 0; 0 and none: the latest READY),
+// the asset checked as a name. InvalidArgument naming the argument otherwise.
+struct AssetVersion {
+  std::string asset;
+  int64_t version = 0;
+};
+StatusOr<AssetVersion> ParseAssetVersion(const std::string& target);
+
 nlohmann::json JobJson(const v1::Job& job);
 nlohmann::json VersionJson(const v1::Version& version);
 const char* ShortState(v1::JobState state);
