@@ -1,5 +1,5 @@
-// Probes of the standard gRPC services a server offers, through the generic
-// stub (no generated code needed): grpc.health.v1.Health/Check and
+// Probes of the standard gRPC services a server offers, through
+// grpc::GenericStub (calls by method name, so no generated code is needed): grpc.health.v1.Health/Check and
 // grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo. The two
 // messages are encoded by hand: HealthCheckRequest{service} is field 1
 // (string), HealthCheckResponse{status} field 1 (varint, SERVING = 1,

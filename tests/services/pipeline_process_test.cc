@@ -113,10 +113,10 @@ TEST(PipelineProcess, FiguresAreWhatTheEncoderReports) {
   }
 }
 
-// The reference: `meshstream encode --json` with the same flags (skipped
-// when the CLI is not built; services_tests does not depend on it).
+// The reference: `meshstream encode --json` with the same flags
+// (services_tests depends on the CLI's target, so it is always built).
 TEST(PipelineProcess, FiguresEqualTheCliJson) {
-  if (!std::filesystem::exists(MESHSTREAM_CLI)) GTEST_SKIP() << "no CLI at " << MESHSTREAM_CLI;
+  ASSERT_TRUE(std::filesystem::exists(MESHSTREAM_CLI)) << "no CLI at " << MESHSTREAM_CLI;
   TempDir dir;
   const EncodeSettings settings = Resolved(EncodeSettings{13, 9, 11, "bundled", 400, 0.05});
   for (const std::string name : {"spot.obj", "gltf/2CylinderEngine.glb"}) {
