@@ -50,7 +50,6 @@
 #include "bench/bench_util.h"
 #include "bench/service_echo.h"
 #include "bench/service_load.h"
-#include "bench/service_pg.h"
 #include "bench/service_stats.h"
 #include "importers/import.h"
 #include "meshstream/v1/asset_service.grpc.pb.h"
@@ -59,6 +58,7 @@
 #include "services/server/server.h"
 #include "services/store/blob_store.h"
 #include "tests/common/asset_client.h"
+#include "tests/common/pg_cluster.h"
 
 namespace {
 
@@ -338,7 +338,7 @@ struct Backend {
   std::string name;   // "sqlite" or "postgresql"
   std::string store;  // the --store value
   std::string folder; // the temporary folder of the SQLite store
-  std::unique_ptr<ms::bench::BenchPgCluster> pg;
+  std::unique_ptr<ms::test_util::PgCluster> pg;
   std::unique_ptr<ms::Server> server;
   std::unique_ptr<AssetClient> client;
   json failures = json::array();
@@ -363,7 +363,7 @@ void StartBackend(Backend& b, const Args& args) {
     b.folder = pattern;
     b.store = pattern + "/store";
   } else {
-    b.pg = Check(ms::bench::BenchPgCluster::Start(args.work_dir, args.pg_fsync), "PostgreSQL cluster");
+    b.pg = Check(ms::test_util::PgCluster::Start({args.work_dir, args.pg_fsync}), "PostgreSQL cluster");
     b.store = b.pg->uri();
   }
   ms::ServerOptions o;
@@ -677,6 +677,17 @@ std::string MakeLatencyAsset(Backend& b, const Model& spot, const std::string& a
   return second;
 }
 
+// version(), and the settings that decide what a commit costs.
+std::map<std::string, std::string> DescribePostgres(const ms::test_util::PgCluster& pg) {
+  std::map<std::string, std::string> out;
+  out["version"] = pg.Query("SELECT version()");
+  for (const char* name : {"fsync", "synchronous_commit", "full_page_writes", "wal_sync_method", "shared_buffers",
+                           "max_connections", "default_toast_compression"}) {
+    out[name] = pg.Query(std::string("SHOW ") + name);
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -712,7 +723,7 @@ int main(int argc, char** argv) {
   for (Backend* b : backends) {
     json info = {{"address", b->server->address()}, {"workers", args.workers}};
     if (b->pg) {
-      info["postgresql"] = b->pg->Describe();
+      info["postgresql"] = DescribePostgres(*b->pg);
       info["pool_size"] = 4;
       info["store"] = "postgresql:///postgres?host=<cluster folder>&user=postgres (Unix socket)";
     } else {

@@ -22,9 +22,17 @@
 
 namespace meshstream::test_util {
 
+struct PgClusterOptions {
+  std::string parent;  // where the cluster's folder is made ("": the system's temporary folder)
+  // Tests run with fsync off (nothing must survive a power cut there); the
+  // service benchmark turns it on, with synchronous_commit and
+  // full_page_writes, to measure what a deployment pays.
+  bool fsync = false;
+};
+
 class PgCluster {
  public:
-  static StatusOr<std::unique_ptr<PgCluster>> Start() {
+  static StatusOr<std::unique_ptr<PgCluster>> Start(const PgClusterOptions& options = {}) {
     namespace fs = std::filesystem;
     std::string bin;
     std::error_code ec;
@@ -34,7 +42,8 @@ class PgCluster {
     if (bin.empty()) return NotFound("no PostgreSQL server under /usr/lib/postgresql (apt-get install postgresql)");
     const passwd* pg = getpwnam("postgres");
     if (pg == nullptr) return NotFound("no 'postgres' user (the postgresql package creates it)");
-    std::string pattern = (fs::temp_directory_path() / "meshstream-pg-XXXXXX").string();
+    const fs::path parent = options.parent.empty() ? fs::temp_directory_path() : fs::path(options.parent);
+    std::string pattern = (parent / "meshstream-pg-XXXXXX").string();
     if (mkdtemp(pattern.data()) == nullptr) return IoError("mkdtemp failed");
     auto cluster = std::unique_ptr<PgCluster>(new PgCluster());
     cluster->dir_ = pattern;
@@ -50,7 +59,10 @@ class PgCluster {
     if (init.exit_code != 0) return Internal("initdb failed: " + init.err);
     auto start = RunCommand(cluster->runas_ + bin + "/pg_ctl -D " + Quote(data) + " -w -t 60 -l " +
                             Quote(cluster->dir_ + "/server.log") + " -o " +
-                            Quote("-c listen_addresses='' -k " + cluster->dir_ + " -c fsync=off") + " start");
+                            Quote("-c listen_addresses='' -k " + cluster->dir_ +
+                                  (options.fsync ? " -c fsync=on -c synchronous_commit=on -c full_page_writes=on"
+                                                 : " -c fsync=off")) +
+                            " start");
     if (start.exit_code != 0) {
       return Internal("pg_ctl start failed: " + start.err + " " + ReadText(cluster->dir_ + "/server.log"));
     }
@@ -69,6 +81,14 @@ class PgCluster {
     return "host=" + dir_ + " user=postgres dbname=" + database;
   }
   const std::string& socket_dir() const { return dir_; }
+  // The URI `meshstream serve --store` takes.
+  std::string uri() const { return "postgresql:///postgres?host=" + dir_ + "&user=postgres"; }
+  // The first line psql prints for `sql` (rows only, no command tags); "" on failure.
+  std::string Query(const std::string& sql) const {
+    const auto r = RunCommand(runas_ + bin_ + "/psql -X -q -At -h " + Quote(dir_) + " -U postgres -d postgres -c " +
+                              Quote(sql));
+    return r.out.substr(0, r.out.find('\n'));
+  }
 
  private:
   PgCluster() = default;
