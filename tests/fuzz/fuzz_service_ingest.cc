@@ -62,6 +62,7 @@
 #include <google/protobuf/stubs/logging.h>
 
 #include "codec/core/status.h"
+#include "tests/fuzz/fuzz_service_util.h"
 #include "meshstream/v1/asset_service.pb.h"
 #include "services/api/proto_convert.h"
 #include "services/auth/authenticator.h"
@@ -80,6 +81,9 @@ using meshstream::Status;
 using meshstream::StatusCode;
 
 constexpr char kTarget[] = "fuzz_service_ingest";
+[[noreturn]] void Bug(const std::string& what) { meshstream::fuzz::FuzzBug(kTarget, what); }
+using meshstream::fuzz::TempRoot;
+using meshstream::fuzz::RemoveStaleFolders;
 constexpr size_t kMaxInputBytes = size_t{256} << 10;
 constexpr uint64_t kResetRuns = 500;
 constexpr uint8_t kKeepGoing = 1, kOtherTenant = 2;
@@ -103,11 +107,6 @@ void Trace(const char* what, const Status& s) {
   if (on) std::fprintf(stderr, "%s: %s: %s\n", kTarget, what, s.ToString().c_str());
 }
 
-[[noreturn]] void Bug(const std::string& what) {
-  std::fprintf(stderr, "%s: %s\n", kTarget, what.c_str());
-  __builtin_trap();
-}
-
 std::string Sha(const std::string& bytes) {
   return meshstream::Sha256Hex(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
 }
@@ -120,26 +119,6 @@ std::string Lower(std::string s) {
 }
 
 // --- the temporary store ---------------------------------------------------
-
-std::string TempRoot() {
-  if (access("/dev/shm", W_OK) == 0) return "/dev/shm";
-  const char* tmp = std::getenv("TMPDIR");
-  return tmp != nullptr && *tmp != '\0' ? tmp : "/tmp";
-}
-
-// Removes the folders of earlier runs of this target whose process is gone
-// (a crash skips the atexit handler).
-void RemoveStaleFolders(const std::string& root, const std::string& prefix) {
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(root, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.compare(0, prefix.size(), prefix) != 0) continue;
-    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
-    if (pid <= 0 || pid == static_cast<long>(getpid())) continue;
-    if (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
-    fs::remove_all(entry.path(), ec);
-  }
-}
 
 struct Fixture {
   std::string dir;

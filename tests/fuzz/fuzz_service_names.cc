@@ -53,6 +53,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "tests/fuzz/fuzz_service_util.h"
 #include "codec/core/utf8.h"
 #include "codec/mesh/quantization.h"
 #include "codec/bitstream/format.h"
@@ -70,6 +71,10 @@ using meshstream::Status;
 using meshstream::StatusCode;
 
 constexpr char kTarget[] = "fuzz_service_names";
+[[noreturn]] void Bug(const std::string& what) { meshstream::fuzz::FuzzBug(kTarget, what); }
+using meshstream::fuzz::Shown;
+using meshstream::fuzz::TempRoot;
+using meshstream::fuzz::RemoveStaleFolders;
 constexpr size_t kMaxInputBytes = 8192;
 constexpr size_t kMaxPieces = 8;
 
@@ -79,25 +84,6 @@ const std::string kReadOnlyToken = "mst_fedcba9876543210fedcba9876543210fedcba98
 const std::string kRevokedToken = "mst_00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff";
 constexpr char kReadWriteTenant[] = "fuzz-rw";
 constexpr char kReadOnlyTenant[] = "fuzz-ro";
-
-[[noreturn]] void Bug(const std::string& what) {
-  std::fprintf(stderr, "%s: %s\n", kTarget, what.c_str());
-  __builtin_trap();
-}
-
-std::string Shown(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s.substr(0, 80)) {
-    if (c >= 0x20 && c < 0x7f && c != '\\') {
-      out.push_back(static_cast<char>(c));
-    } else {
-      char hex[5];
-      std::snprintf(hex, sizeof hex, "\\x%02x", c);
-      out += hex;
-    }
-  }
-  return s.size() > 80 ? out + "..." : out;
-}
 
 bool IsControl(unsigned char c) { return c < 0x20 || c == 0x7f; }
 
@@ -120,26 +106,6 @@ void CheckRefusal(const char* what, const Status& status, const std::string& inp
 }
 
 // --- the temporary store ---------------------------------------------------
-
-std::string TempRoot() {
-  if (access("/dev/shm", W_OK) == 0) return "/dev/shm";
-  const char* tmp = std::getenv("TMPDIR");
-  return tmp != nullptr && *tmp != '\0' ? tmp : "/tmp";
-}
-
-// Removes the folders of earlier runs of this target whose process is gone
-// (a crash skips the atexit handler).
-void RemoveStaleFolders(const std::string& root, const std::string& prefix) {
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(root, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.compare(0, prefix.size(), prefix) != 0) continue;
-    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
-    if (pid <= 0 || pid == static_cast<long>(getpid())) continue;
-    if (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
-    fs::remove_all(entry.path(), ec);
-  }
-}
 
 struct Fixture {
   std::string dir;

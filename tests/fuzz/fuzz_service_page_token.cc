@@ -28,6 +28,7 @@
 #include <string>
 
 #include "codec/core/status.h"
+#include "tests/fuzz/fuzz_service_util.h"
 #include "services/store/page_token.h"
 #include "services/store/store.h"
 
@@ -36,27 +37,10 @@ namespace {
 using meshstream::StatusCode;
 
 constexpr char kTarget[] = "fuzz_service_page_token";
+[[noreturn]] void Bug(const std::string& what) { meshstream::fuzz::FuzzBug(kTarget, what); }
+using meshstream::fuzz::Shown;
 constexpr size_t kMaxInputBytes = 4096;  // tokens above kMaxPageTokenChars are refused unread
 constexpr char kOtherKind[] = "jobs";    // a kind no listing issues
-
-[[noreturn]] void Bug(const std::string& what) {
-  std::fprintf(stderr, "%s: %s\n", kTarget, what.c_str());
-  __builtin_trap();
-}
-
-std::string Shown(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s.substr(0, 80)) {
-    if (c >= 0x20 && c < 0x7f && c != '\\') {
-      out.push_back(static_cast<char>(c));
-    } else {
-      char hex[5];
-      std::snprintf(hex, sizeof hex, "\\x%02x", c);
-      out += hex;
-    }
-  }
-  return s.size() > 80 ? out + "..." : out;
-}
 
 // A refusal must be the one documented message, never another error.
 void CheckRefusal(const meshstream::Status& status, const std::string& token) {

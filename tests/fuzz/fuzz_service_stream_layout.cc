@@ -45,6 +45,7 @@
 
 #include "codec/bitstream/format.h"
 #include "codec/core/status.h"
+#include "tests/fuzz/fuzz_service_util.h"
 #include "codec/mesh/mesh.h"
 #include "importers/progressive_glb.h"
 #include "services/pipeline/stream_layout.h"
@@ -60,13 +61,9 @@ using meshstream::StreamBlocks;
 using meshstream::StreamLayout;
 
 constexpr char kTarget[] = "fuzz_service_stream_layout";
+[[noreturn]] void Bug(const std::string& what) { meshstream::fuzz::FuzzBug(kTarget, what); }
 constexpr size_t kMaxInputBytes = size_t{1} << 20;
 constexpr size_t kMaxLocated = 64;  // primitives of a parsed layout walked per input
-
-[[noreturn]] void Bug(const std::string& what) {
-  std::fprintf(stderr, "%s: %s\n", kTarget, what.c_str());
-  __builtin_trap();
-}
 
 std::string Str(const ByteRange& r) {
   return "[" + std::to_string(r.offset) + ", +" + std::to_string(r.length) + ")";
