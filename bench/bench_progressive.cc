@@ -185,46 +185,13 @@ uint64_t FileSize(const std::string& path) {
   return f ? static_cast<uint64_t>(f.tellg()) : 0;
 }
 
-std::string CpuModel() {
-  std::ifstream f("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      const size_t c = line.find(':');
-      if (c != std::string::npos) {
-        size_t s = c + 1;
-        while (s < line.size() && line[s] == ' ') ++s;
-        return line.substr(s);
-      }
-    }
-  }
-  return "unknown";
-}
-
-// The first three fields of /proc/loadavg: other work on the machine skews timings.
-std::string LoadAverage() {
-  std::ifstream f("/proc/loadavg");
-  std::string a, b, c;
-  if (!(f >> a >> b >> c)) return "unknown";
-  return a + " " + b + " " + c;
-}
-
-std::string UtcNow() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 json MachineInfo(const Args& args) {
   json m = {
       {"nproc", std::thread::hardware_concurrency()},
-      {"cpu", CpuModel()},
-      {"date", UtcNow()},
+      {"cpu", ms::bench::CpuModel()},
+      {"date", ms::bench::UtcNow()},
       {"kernel", ms::bench::KernelName()},
-      {"loadavg_at_start", LoadAverage()},
+      {"loadavg_at_start", ms::bench::LoadAverage()},
       {"compiler", __VERSION__},
       {"build_type", MESHSTREAM_BUILD_TYPE},
       {"draco", draco::kDracoVersion},
@@ -856,7 +823,7 @@ int main(int argc, char** argv) {
     }
   }
   out["targets"] = targets;
-  out["machine"]["loadavg_at_end"] = LoadAverage();
+  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
   out["elapsed_s"] = {{"timed_part", timed_s}, {"total", Ms(bench_start, Clock::now()) / 1000.0}};
 
   // Console summary.

@@ -191,41 +191,13 @@ Args ParseArgs(int argc, char** argv) {
 
 // ------------------------------------------------------------ the machine
 
-std::string LoadAverage() {
-  std::ifstream f("/proc/loadavg");
-  std::string a, b, c;
-  if (!(f >> a >> b >> c)) return "unknown";
-  return a + " " + b + " " + c;
-}
-
-std::string CpuModel() {
-  std::ifstream f("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      const size_t c = line.find(':');
-      if (c != std::string::npos) return line.substr(line.find_first_not_of(' ', c + 1));
-    }
-  }
-  return "unknown";
-}
-
-std::string UtcNow() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 json MachineInfo(const Args& args) {
   json m = {
       {"nproc", std::thread::hardware_concurrency()},
-      {"cpu", CpuModel()},
-      {"date", UtcNow()},
+      {"cpu", ms::bench::CpuModel()},
+      {"date", ms::bench::UtcNow()},
       {"kernel", ms::bench::KernelName()},
-      {"loadavg_at_start", LoadAverage()},
+      {"loadavg_at_start", ms::bench::LoadAverage()},
       {"compiler", __VERSION__},
       {"build_type", MESHSTREAM_BUILD_TYPE},
       {"grpc", grpc::Version()},
@@ -1107,7 +1079,7 @@ int main(int argc, char** argv) {
   out["latency"] = latency;
   out["ratios"] = ratios;
   out["failures"] = {{"ingest_and_export", failures}, {"latency_calls", failed_calls}};
-  out["machine"]["loadavg_at_end"] = LoadAverage();
+  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
   out["machine"]["run_seconds"] = Ms(run_start, Clock::now()) / 1000;
 
   for (auto& b : owned) StopBackend(*b);

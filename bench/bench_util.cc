@@ -7,6 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <string>
 #include <sstream>
 
 #include "importers/draco_base_coder.h"
@@ -142,6 +145,38 @@ ProgressiveEncoded EncodeWithDracoBase(const Primitive& prim, const ProgressiveE
                                    return EncodeDracoBase(base, method, 7, ids);
                                  }),
                what + ": EncodeProgressive");
+}
+
+std::string CpuModel() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const size_t c = line.find(':');
+      if (c != std::string::npos) {
+        size_t s = c + 1;
+        while (s < line.size() && line[s] == ' ') ++s;
+        return line.substr(s);
+      }
+    }
+  }
+  return "unknown";
+}
+
+std::string LoadAverage() {
+  std::ifstream f("/proc/loadavg");
+  std::string a, b, c;
+  if (!(f >> a >> b >> c)) return "unknown";
+  return a + " " + b + " " + c;
+}
+
+std::string UtcNow() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
 }
 
 }  // namespace meshstream::bench

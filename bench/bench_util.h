@@ -69,6 +69,11 @@ std::string FirstLineOf(const std::string& cmd);
 
 // "<sysname> <release>" from uname, e.g. "Linux 6.1.0".
 std::string KernelName();
+// The CPU's model name (/proc/cpuinfo), the load average (/proc/loadavg) and
+// the time now (UTC, ISO 8601): what every benchmark's JSON records.
+std::string CpuModel();
+std::string LoadAverage();
+std::string UtcNow();
 
 // The short commit hash of the checkout at `dir`; "" when git cannot tell.
 std::string GitShortCommit(const std::string& dir);
