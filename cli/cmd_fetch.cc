@@ -20,9 +20,11 @@ namespace {
 const char kDetails[] =
     "Streams a version through a session (docs/streaming-protocol.md) with the SDK: the base\n"
     "mesh first, then each level as it arrives, and writes the mesh reached (.glb or .gltf).\n"
-    "ASSET alone or ASSET@0 is the latest READY version; --lod K stops after K levels. Today the\n"
-    "datagrams travel over the gRPC stream (transport \"grpc\"); UDP comes next. On a terminal a\n"
-    "line per level shows the progress.\n"
+    "ASSET alone or ASSET@0 is the latest READY version; --lod K stops after K levels. The\n"
+    "refinement datagrams travel over UDP (authenticated, paced; what is lost is predicted, not\n"
+    "sent again) unless --tcp-only asks for them on the gRPC stream, or UDP is blocked (the server\n"
+    "then falls back to gRPC after its HELLO timeout). On a terminal a line per level shows the\n"
+    "progress.\n"
     "\n"
     "Example:\n"
     "  meshstream fetch bunny -o bunny.glb --json";
@@ -94,13 +96,17 @@ int RunFetch(const FetchArgs& args) {
                       {"levels_applied", (*session)->level_shown()},
                       {"transport", st.transport},
                       {"datagrams_received", st.datagrams_received},
-                      {"datagrams_lost", 0},
+                      {"datagrams_lost", st.datagrams_lost},
+                      {"datagrams_duplicate", st.datagrams_duplicate},
                       {"datagrams_rejected", st.datagrams_rejected},
                       {"predicted_vertices", (*session)->predicted_vertices()},
                       {"reliable_bytes", st.reliable_bytes},
                       {"unreliable_bytes", st.unreliable_bytes},
                       {"time_to_base_ms", st.time_to_base_ms},
-                      {"time_to_full_ms", st.time_to_full_ms}};
+                      {"time_to_full_ms", st.time_to_full_ms},
+                      {"hello_rtt_ms", st.hello_rtt_ms},
+                      {"fallback_reason", st.fallback_reason},
+                      {"end_reason", st.end_reason}};
   if (args.json) {
     PrintJson(j);
   } else {
@@ -119,7 +125,7 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_option("ASSET", args->target, "ASSET or ASSET@VERSION")->required();
   cmd->add_option("-o,--output", args->out, "the file to write, .glb or .gltf")->required();
   cmd->add_option("--lod", args->lod, "stop after K levels (default: all)")->check(CLI::Range(0, 1 << 20));
-  cmd->add_flag("--tcp-only", args->tcp_only, "ask for the datagrams over gRPC (the only transport today)");
+  cmd->add_flag("--tcp-only", args->tcp_only, "the datagrams over the gRPC stream instead of UDP (firewalls)");
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);
   return {cmd, [args] { return RunFetch(*args); }};

@@ -29,6 +29,9 @@ const char kDetails[] =
 
 struct ServeArgs {
   ServerOptions options;
+  double max_rate_mbps = 1000;
+  double max_session_rate_mbps = 400;
+  double idle_timeout_s = 30;
   bool reflection = false;
   bool no_reflection = false;
 };
@@ -38,6 +41,9 @@ int RunServe(ServeArgs& args) {
     return ReportError("serve", InvalidArgument("--reflection and --no-reflection: choose one"));
   }
   if (args.reflection) args.options.reflection = true;
+  args.options.max_rate_bps = args.max_rate_mbps * 1e6;
+  args.options.max_session_rate_bps = args.max_session_rate_mbps * 1e6;
+  args.options.session_idle_timeout_ms = static_cast<int64_t>(args.idle_timeout_s * 1000);
   if (args.no_reflection) args.options.reflection = false;
   // The signals are taken by one thread (sigwait), so they are blocked in
   // every thread the server starts.
@@ -49,6 +55,7 @@ int RunServe(ServeArgs& args) {
   auto server = Server::Start(args.options);
   if (!server.ok()) return ReportError("serve", server.status());
   std::printf("listening on %s\n", (*server)->address().c_str());
+  if (!(*server)->udp_address().empty()) std::printf("udp on %s\n", (*server)->udp_address().c_str());
   std::fflush(stdout);
   Server* raw = server->get();
   // The first signal drains (in its own thread); a second one while it
@@ -111,6 +118,28 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_option("--max-attempts", o.max_attempts,
                           "claims of a job before it fails (a file that keeps killing servers)")
               ->check(CLI::Range(1, 1000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--udp-listen", o.udp_listen,
+                          "UDP HOST:PORT of the sessions' datagrams (default: the --listen host and the next port; "
+                          "off: every session over gRPC)"));
+  FromEnv(cmd->add_option("--udp-advertise", o.udp_advertise,
+                          "the UDP HOST:PORT clients are told (NAT, load balancers, relays; default: the bound one)"));
+  FromEnv(cmd->add_option("--max-rate", args->max_rate_mbps, "Mbit/s of UDP datagrams of all sessions together (0: no cap)")
+              ->check(CLI::Range(0.0, 1e6)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--max-session-rate", args->max_session_rate_mbps, "Mbit/s of one session at most")
+              ->check(CLI::Range(0.064, 1e6)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--max-sessions", o.max_sessions, "concurrent streaming sessions; then RESOURCE_EXHAUSTED")
+              ->check(CLI::Range(1, 100000)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--hello-timeout", o.hello_timeout_ms,
+                          "milliseconds a session waits for the client's UDP HELLO before it falls back to gRPC")
+              ->check(CLI::Range(int64_t{10}, int64_t{60000})))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
+                          "seconds a session may go without a message from its client")
+              ->check(CLI::Range(0.1, 86400.0)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
   return {cmd, [args] { return RunServe(*args); }};

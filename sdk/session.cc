@@ -9,7 +9,12 @@
 #include <thread>
 #include <utility>
 
+#include "codec/bitstream/format.h"
 #include "codec/bitstream/reader.h"
+#include "codec/core/byte_io.h"
+#include "codec/loss/reconstructor.h"
+#include "net/udp_socket.h"
+#include "sdk/udp_receiver.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
 #include "importers/gltf_export.h"
@@ -67,34 +72,71 @@ StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
   return ids;
 }
 
+// What the client tracks of one refinement for its report.
+struct RefinementTrack {
+  bool has_control = false;
+  uint32_t datagrams = 0;          // data datagrams the server sends
+  uint64_t first_packet_number = 0;
+  std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
+  uint64_t bytes = 0;
+  uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
+  bool reported = false;
+};
+
 struct PrimitiveState {
   v1::PrimitiveStart start;
-  std::unique_ptr<StreamReader> reader;
+  std::unique_ptr<StreamReconstructor> reconstructor;
+  std::vector<RefinementTrack> tracks;  // per refinement of this session
+  size_t reported = 0;                  // refinements reported
 };
+
+uint64_t NowUs() {
+  return static_cast<uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
+}
+
+// The host part of "HOST:PORT" / "[V6]:PORT" / "dns:///HOST:PORT".
+std::string HostOfTarget(std::string target) {
+  const size_t scheme = target.find(":///");
+  if (scheme != std::string::npos) target = target.substr(scheme + 4);
+  std::string host;
+  uint16_t port = 0;
+  if (SplitHostPort(target, &host, &port).ok()) return host;
+  return target;
+}
 
 }  // namespace
 
 struct Session::Impl {
   SessionOptions options;
+  std::string server_target;
   grpc::ClientContext context;
   std::unique_ptr<v1::StreamService::Stub> stub;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>> stream;
   std::thread reader;
   Clock::time_point opened = Clock::now();
 
-  // Filled by the reader thread.
+  // Filled by the reader thread and the UDP receiver.
   std::mutex mutex;
   std::condition_variable arrived;
   std::deque<v1::ServerMessage> queue;
+  std::deque<UdpPacket> packets;
   bool finished = false;  // the stream ended (status below)
   Status final_status;
 
   // Owned by the Poll thread.
+  std::unique_ptr<UdpReceiver> udp;
   std::vector<PrimitiveState> primitives;
-  size_t current = SIZE_MAX;  // the primitive whose refinement is open
+  std::map<uint32_t, size_t> by_stream;  // stream id -> index in primitives
   int32_t levels = 0;
   int32_t level_shown = -1;   // -1: not even the base
+  int32_t level_announced = -1;
+  bool session_end = false;   // SessionEnd arrived (or a budget ran out)
+  uint64_t session_end_us = 0;
+  bool writes_done = false;
   bool over = false;
+  bool rtt_reported = false;
+  std::deque<Event> events;
   SessionStats stats;
 
   void ReadAll() {
@@ -111,20 +153,38 @@ struct Session::Impl {
     arrived.notify_one();
   }
 
+  void Deliver(UdpPacket&& p) {
+    std::lock_guard<std::mutex> lock(mutex);
+    // Bounded: the reconstructors bound what they buffer; this queue only
+    // bridges to the Poll thread. Beyond it the datagram counts as lost.
+    if (packets.size() >= kMaxQueuedPackets) return;
+    packets.push_back(std::move(p));
+    arrived.notify_one();
+  }
+  static constexpr size_t kMaxQueuedPackets = 65536;
+
   // The level every primitive has reached (a primitive with fewer
   // refinements counts as done once it has all of its own).
   int32_t LevelEverywhere() const {
     int32_t level = levels;
     for (const PrimitiveState& p : primitives) {
       const int32_t own = static_cast<int32_t>(p.start.refinements());
-      const int32_t applied = static_cast<int32_t>(p.reader->applied());
+      const int32_t applied = static_cast<int32_t>(p.reconstructor->applied());
       if (applied < own) level = std::min(level, applied);
     }
     return level;
   }
 
+  bool AllDone() const {
+    for (const PrimitiveState& p : primitives) {
+      if (p.reconstructor->applied() < p.start.refinements()) return false;
+    }
+    return true;
+  }
+
   Event Fail(Status s) {
     over = true;
+    udp.reset();
     context.TryCancel();
     Event e;
     e.type = EventType::kError;
@@ -132,106 +192,246 @@ struct Session::Impl {
     return e;
   }
 
-  // Handles one message; an event when it completes one.
-  Event Handle(const v1::ServerMessage& m) {
-    Event none;
+  void Finish(const std::string& reason) {
+    if (!writes_done) {
+      v1::ClientMessage done;
+      done.mutable_done()->set_reason(reason);
+      stream->Write(done);
+      stream->WritesDone();
+      writes_done = true;
+    }
+  }
+
+  StatusOr<size_t> PrimitiveOf(uint32_t stream_id) const {
+    auto it = by_stream.find(stream_id);
+    if (it == by_stream.end()) return InvalidInput("a block for unknown primitive " + std::to_string(stream_id));
+    return it->second;
+  }
+
+  Status Start(const v1::SessionStart& start) {
+    stats.transport = start.transport() == v1::TRANSPORT_UDP ? "udp" : "grpc";
+    ReconstructorOptions ro;
+    ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options.straggler_timeout_ms)) * 1000;
+    for (const v1::PrimitiveStart& p : start.primitives()) {
+      const std::string where = "primitive " + std::to_string(p.primitive());
+      if (by_stream.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
+      PrimitiveState state;
+      state.start = p;
+      ro.lod = static_cast<int>(p.refinements());
+      auto reconstructor = StreamReconstructor::Create(reinterpret_cast<const uint8_t*>(p.header().data()),
+                                                       p.header().size(), p.primitive(), ro);
+      if (!reconstructor.ok()) return reconstructor.status().WithContext(where);
+      state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor).value());
+      if (p.refinements() > state.reconstructor->reader().refinement_count()) {
+        return InvalidInput(where + ": more refinements announced than its header has");
+      }
+      auto ids = IdsOf(p);
+      if (!ids.ok()) return ids.status();
+      auto base = DecodeDracoBase(reinterpret_cast<const uint8_t*>(p.base_mesh().data()), p.base_mesh().size(),
+                                  ids.value(), state.reconstructor->reader().header().grids);
+      if (!base.ok()) return base.status().WithContext(where);
+      Status s = state.reconstructor->SetBase(std::move(base).value());
+      if (!s.ok()) return s.WithContext(where);
+      state.tracks.resize(p.refinements());
+      levels = std::max(levels, static_cast<int32_t>(p.refinements()));
+      stats.reliable_bytes += p.header().size() + p.base_mesh().size();
+      by_stream[p.primitive()] = primitives.size();
+      primitives.push_back(std::move(state));
+    }
+    if (start.transport() == v1::TRANSPORT_UDP) {
+      if (start.client_to_server_key().size() != kPacketKeyBytes || start.server_to_client_key().size() != kPacketKeyBytes) {
+        return InvalidInput("session start: the UDP keys are not 32 bytes each");
+      }
+      std::string host = start.udp().host();
+      if (host.empty() || host == "0.0.0.0" || host == "::") host = HostOfTarget(server_target);
+      if (start.udp().port() == 0 || start.udp().port() > 65535) return InvalidInput("session start: no UDP port");
+      auto endpoint = SocketAddress::Resolve(host, static_cast<uint16_t>(start.udp().port()));
+      if (!endpoint.ok()) return endpoint.status().WithContext("the session's UDP endpoint");
+      SessionKeys keys;
+      std::copy(start.client_to_server_key().begin(), start.client_to_server_key().end(), keys.client_to_server.begin());
+      std::copy(start.server_to_client_key().begin(), start.server_to_client_key().end(), keys.server_to_client.begin());
+      auto receiver = UdpReceiver::Start(endpoint.value(), start.udp_session_id(), keys,
+                                         [this](UdpPacket&& p) { Deliver(std::move(p)); });
+      if (!receiver.ok()) return receiver.status();
+      udp = std::move(receiver).value();
+    }
+    stats.time_to_base_ms = MsSince(opened);
+    level_shown = 0;
+    return Status::Ok();
+  }
+
+  // A datagram of either channel, to its primitive's reconstructor.
+  void OfferDatagram(const uint8_t* data, size_t size, const UdpPacket* udp_packet, uint64_t now) {
+    ByteReader r(data, size);
+    auto h = DatagramHeader::Parse(r);
+    if (!h.ok() || by_stream.count(h->stream) == 0) {
+      ++stats.datagrams_rejected;
+      return;
+    }
+    PrimitiveState& p = primitives[by_stream[h->stream]];
+    if (h->refinement < p.tracks.size()) {
+      RefinementTrack& t = p.tracks[h->refinement];
+      if (h->kind == DatagramKind::kEnd) {
+        if (t.end_time_us == 0) t.end_time_us = now;
+      } else {
+        t.bytes += size;
+        if (udp_packet != nullptr && t.packet_numbers.size() < 4 * (size_t{1} << 16)) {
+          t.packet_numbers.push_back(udp_packet->packet_number);
+        }
+      }
+    }
+    if (h->kind != DatagramKind::kEnd) stats.unreliable_bytes += size;
+    p.reconstructor->OnDatagram(data, size, now);
+  }
+
+  // Handles one message of the gRPC stream.
+  Status Handle(const v1::ServerMessage& m, uint64_t now) {
     switch (m.kind_case()) {
       case v1::ServerMessage::kSession: {
-        const v1::SessionStart& start = m.session();
-        stats.transport = start.transport() == v1::TRANSPORT_UDP ? "udp" : "grpc";
-        for (const v1::PrimitiveStart& p : start.primitives()) {
-          PrimitiveState state;
-          state.start = p;
-          auto reader = StreamReader::Create(reinterpret_cast<const uint8_t*>(p.header().data()), p.header().size(),
-                                             p.primitive());
-          if (!reader.ok()) return Fail(reader.status().WithContext("primitive " + std::to_string(p.primitive())));
-          state.reader = std::make_unique<StreamReader>(std::move(reader).value());
-          auto ids = IdsOf(p);
-          if (!ids.ok()) return Fail(ids.status());
-          auto base = DecodeDracoBase(reinterpret_cast<const uint8_t*>(p.base_mesh().data()), p.base_mesh().size(),
-                                      ids.value(), state.reader->header().grids);
-          if (!base.ok()) return Fail(base.status().WithContext("primitive " + std::to_string(p.primitive())));
-          Status s = state.reader->SetBase(std::move(base).value());
-          if (!s.ok()) return Fail(s.WithContext("primitive " + std::to_string(p.primitive())));
-          if (p.refinements() > state.reader->refinement_count()) {
-            return Fail(InvalidInput("primitive " + std::to_string(p.primitive()) + ": more refinements announced than its header has"));
-          }
-          levels = std::max(levels, static_cast<int32_t>(p.refinements()));
-          stats.reliable_bytes += p.header().size() + p.base_mesh().size();
-          primitives.push_back(std::move(state));
-        }
-        stats.time_to_base_ms = MsSince(opened);
-        level_shown = 0;
+        if (level_shown >= 0) return InvalidInput("a second session start");
+        Status s = Start(m.session());
+        if (!s.ok()) return s;
         Event e;
         e.type = EventType::kBaseReady;
-        e.level = 0;
-        return e;
+        events.push_back(e);
+        level_announced = 0;
+        return Status::Ok();
+      }
+      case v1::ServerMessage::kTransportChange: {
+        if (m.transport_change().transport() == v1::TRANSPORT_GRPC) {
+          udp.reset();
+          stats.transport = "grpc";
+          stats.fallback_reason = m.transport_change().reason();
+        }
+        return Status::Ok();
       }
       case v1::ServerMessage::kControl: {
         const v1::ControlBlock& c = m.control();
-        current = SIZE_MAX;
-        for (size_t i = 0; i < primitives.size(); ++i) {
-          if (primitives[i].start.primitive() == c.primitive()) current = i;
+        auto index = PrimitiveOf(c.primitive());
+        if (!index.ok()) return index.status();
+        PrimitiveState& p = primitives[index.value()];
+        if (c.refinement() < p.tracks.size()) {
+          RefinementTrack& t = p.tracks[c.refinement()];
+          t.has_control = true;
+          t.datagrams = c.datagrams();
+          t.first_packet_number = c.first_packet_number();
         }
-        if (current == SIZE_MAX) return Fail(InvalidInput("a control block for unknown primitive " + std::to_string(c.primitive())));
-        StreamReader& r = *primitives[current].reader;
-        if (c.refinement() != r.applied()) {
-          return Fail(InvalidInput("primitive " + std::to_string(c.primitive()) + ": refinement " +
-                                   std::to_string(c.refinement()) + " arrived, " + std::to_string(r.applied()) +
-                                   " was next"));
-        }
-        Status s = r.BeginRefinement(reinterpret_cast<const uint8_t*>(c.control().data()), c.control().size());
-        if (!s.ok()) return Fail(s.WithContext("primitive " + std::to_string(c.primitive())));
         stats.reliable_bytes += c.control().size();
-        return none;
+        Status s = p.reconstructor->OnControl(reinterpret_cast<const uint8_t*>(c.control().data()), c.control().size(), now);
+        return s.ok() ? s : s.WithContext("primitive " + std::to_string(c.primitive()));
       }
       case v1::ServerMessage::kDatagram: {
         const std::string& d = m.datagram().payload();
-        stats.unreliable_bytes += d.size();
-        if (current == SIZE_MAX ||
-            !primitives[current].reader->OfferDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size())) {
-          ++stats.datagrams_rejected;
-        } else {
-          ++stats.datagrams_received;
-        }
-        return none;
+        OfferDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size(), nullptr, now);
+        return Status::Ok();
       }
-      case v1::ServerMessage::kRefinementEnd: {
-        if (current == SIZE_MAX) return Fail(InvalidInput("a refinement end without its control block"));
-        Status s = primitives[current].reader->FinishRefinement(Recovery::kPredict);
-        if (!s.ok()) return Fail(s.WithContext("primitive " + std::to_string(primitives[current].start.primitive())));
-        current = SIZE_MAX;
-        const int32_t level = LevelEverywhere();
-        if (level > level_shown) {
-          level_shown = level;
-          Event e;
-          e.type = EventType::kLevelReady;
-          e.level = level;
-          return e;
-        }
-        return none;
-      }
+      case v1::ServerMessage::kRefinementEnd: return Status::Ok();  // the END datagram is what the reconstructor waits for
       case v1::ServerMessage::kEnd: {
-        over = true;
-        stats.time_to_full_ms = MsSince(opened);
-        v1::ClientMessage done;
-        done.mutable_done()->set_reason("complete");
-        stream->Write(done);
-        stream->WritesDone();
-        Event e;
-        e.type = EventType::kComplete;
-        e.level = level_shown;
-        return e;
+        session_end = true;
+        session_end_us = now;
+        stats.end_reason = m.end().reason();
+        return Status::Ok();
       }
-      default: return none;
+      default: return Status::Ok();
     }
   }
+
+  // Reports every refinement decoded since the last report.
+  void Report() {
+    for (PrimitiveState& p : primitives) {
+      while (p.reported < p.reconstructor->applied() && p.reported < p.tracks.size()) {
+        RefinementTrack& t = p.tracks[p.reported];
+        v1::ClientMessage m;
+        v1::ClientReport& r = *m.mutable_report();
+        r.set_primitive(p.start.primitive());
+        r.set_refinement(static_cast<uint32_t>(p.reported));
+        std::vector<uint8_t> got(t.datagrams, 0);
+        uint32_t received = 0;
+        if (stats.transport == "udp" && !t.packet_numbers.empty()) {
+          for (uint64_t pn : t.packet_numbers) {
+            const uint64_t ordinal = pn - t.first_packet_number;
+            if (ordinal < t.datagrams && !got[ordinal]) {
+              got[ordinal] = 1;
+              ++received;
+            }
+          }
+        } else if (stats.transport != "udp" || t.datagrams == 0) {
+          received = t.datagrams;  // over gRPC nothing is lost
+          std::fill(got.begin(), got.end(), 1);
+        }
+        for (uint32_t k = 0; k < t.datagrams; ++k) {
+          if (!got[k]) r.add_missing(k);
+        }
+        stats.datagrams_lost += t.datagrams - received;
+        r.set_datagrams_received(received);
+        r.set_bytes_received(t.bytes);
+        r.set_end_received(t.end_time_us != 0);
+        const uint64_t sent_at = NowUs();  // after the decode: the hold covers it
+        r.set_hold_us(t.end_time_us != 0 && sent_at > t.end_time_us ? sent_at - t.end_time_us : 0);
+        if (!rtt_reported && udp && udp->hello_rtt_us() > 0) {
+          r.add_rtt_samples_us(static_cast<uint32_t>(std::min<uint64_t>(udp->hello_rtt_us(), UINT32_MAX)));
+          rtt_reported = true;
+        }
+        if (!writes_done) stream->Write(m);
+        t.packet_numbers.clear();
+        t.packet_numbers.shrink_to_fit();
+        ++p.reported;
+      }
+    }
+  }
+
+  // Decodes what is ready, reports it and queues the events it makes.
+  Status Advance(uint64_t now, bool flush) {
+    for (PrimitiveState& p : primitives) {
+      if (flush) {
+        Status s = p.reconstructor->Flush();
+        if (!s.ok()) return s.WithContext("primitive " + std::to_string(p.start.primitive()));
+      } else {
+        auto n = p.reconstructor->Poll(now);
+        if (!n.ok()) return n.status().WithContext("primitive " + std::to_string(p.start.primitive()));
+      }
+    }
+    Report();
+    const int32_t level = LevelEverywhere();
+    while (level_announced >= 0 && level_announced < level) {
+      ++level_announced;
+      Event e;
+      e.type = EventType::kLevelReady;
+      e.level = level_announced;
+      events.push_back(e);
+    }
+    level_shown = std::max(level_shown, level);
+    return Status::Ok();
+  }
+
+  void UpdateStats() {
+    uint64_t accepted = 0, rejected = 0, duplicates = 0;
+    for (const PrimitiveState& p : primitives) {
+      const ReconstructorStats& r = p.reconstructor->stats();
+      accepted += r.accepted;
+      rejected += r.rejected + r.overflow;
+      duplicates += r.duplicates + r.late;
+    }
+    stats.datagrams_received = accepted;
+    stats.datagrams_duplicate = duplicates;
+    uint64_t udp_drops = udp_drops_seen;
+    if (udp) {
+      udp_drops = udp->counters().dropped();
+      udp_drops_seen = udp_drops;
+      stats.hellos_sent = udp->hellos_sent();
+      if (udp->hello_rtt_us() > 0) stats.hello_rtt_ms = udp->hello_rtt_us() / 1000.0;
+    }
+    stats.datagrams_rejected = rejected + stray_rejected + udp_drops;
+  }
+  uint64_t udp_drops_seen = 0;
+  uint64_t stray_rejected = 0;
 };
 
 Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 Session::~Session() {
   if (!impl_) return;
+  impl_->udp.reset();
   impl_->context.TryCancel();
   if (impl_->reader.joinable()) impl_->reader.join();
 }
@@ -239,8 +439,13 @@ Session::~Session() {
 StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const SessionOptions& options) {
   if (options.asset.empty()) return InvalidArgument("asset: must not be empty");
   if (options.max_level < -1) return InvalidArgument("max_level: -1 (all) or a level >= 0");
+  if (options.time_budget_ms < 0) return InvalidArgument("time_budget_ms: not negative (0: none)");
+  if (options.straggler_timeout_ms < 1 || options.straggler_timeout_ms > 60000) {
+    return InvalidArgument("straggler_timeout_ms: 1..60000");
+  }
   auto impl = std::make_unique<Impl>();
   impl->options = options;
+  impl->server_target = client.options().server;
   client.Authorize(impl->context);
   impl->stub = v1::StreamService::NewStub(client.channel());
   impl->stream = impl->stub->Open(&impl->context);
@@ -261,24 +466,90 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
 Event Session::Poll(int32_t timeout_ms) {
   Impl& s = *impl_;
   Event none;
-  if (s.over) return none;
   const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
   for (;;) {
-    v1::ServerMessage m;
+    if (!s.events.empty()) {
+      Event e = s.events.front();
+      s.events.pop_front();
+      return e;
+    }
+    if (s.over) return none;
+    const uint64_t now = NowUs();
+    // A budget ran out: stop here with what arrived.
+    if (!s.session_end && s.level_shown >= 0) {
+      const bool bytes_out = s.options.byte_budget > 0 && s.stats.reliable_bytes + s.stats.unreliable_bytes >= s.options.byte_budget;
+      const bool time_out = s.options.time_budget_ms > 0 && MsSince(s.opened) >= static_cast<double>(s.options.time_budget_ms);
+      if (bytes_out || time_out) {
+        s.session_end = true;
+        s.session_end_us = now;
+        s.stats.end_reason = bytes_out ? "byte_budget" : "time_budget";
+        s.Finish(s.stats.end_reason);
+        Status st = s.Advance(now, true);
+        if (!st.ok()) return s.Fail(st);
+      }
+    }
+    if (s.session_end && s.level_shown >= 0) {
+      // Everything is decoded, or the stragglers had their time.
+      const bool late = now > s.session_end_us + 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
+      if (s.AllDone() || late || s.stats.end_reason == "byte_budget" || s.stats.end_reason == "time_budget") {
+        if (!s.AllDone()) {
+          Status st = s.Advance(now, true);
+          if (!st.ok()) return s.Fail(st);
+        }
+        s.UpdateStats();
+        s.stats.time_to_full_ms = MsSince(s.opened);
+        s.Finish("complete");
+        s.udp.reset();
+        s.over = true;
+        Event e;
+        e.type = EventType::kComplete;
+        e.level = s.level_shown;
+        s.events.push_back(e);
+        continue;
+      }
+    }
+    std::deque<v1::ServerMessage> messages;
+    std::deque<UdpPacket> packets;
+    bool finished = false;
+    Status final_status;
     {
       std::unique_lock<std::mutex> lock(s.mutex);
-      s.arrived.wait_until(lock, deadline, [&s] { return !s.queue.empty() || s.finished; });
-      if (s.queue.empty()) {
-        if (!s.finished) return none;  // timed out
-        lock.unlock();
-        Status status = s.final_status.ok() ? Unavailable("the server ended the session before its end") : s.final_status;
-        return s.Fail(std::move(status));
-      }
-      m = std::move(s.queue.front());
-      s.queue.pop_front();
+      // Wake at least every 10 ms: refinements become ready by the clock too.
+      const auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
+      s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
+      messages.swap(s.queue);
+      packets.swap(s.packets);
+      finished = s.finished;
+      final_status = s.final_status;
     }
-    Event e = s.Handle(m);
-    if (e.type != EventType::kNone) return e;
+    const uint64_t t = NowUs();
+    // Decoding as the blocks arrive keeps the reconstructors' buffers (a
+    // window of refinements) for what is really ahead.
+    for (const v1::ServerMessage& m : messages) {
+      Status st = s.Handle(m, t);
+      if (!st.ok()) return s.Fail(st);
+      if (s.level_shown >= 0 && m.kind_case() != v1::ServerMessage::kSession) {
+        st = s.Advance(t, false);
+        if (!st.ok()) return s.Fail(st);
+      }
+    }
+    for (const UdpPacket& p : packets) {
+      s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
+      if (p.payload.size() < 32) {  // an END datagram (data datagrams are larger): its refinement may be ready
+        Status st = s.Advance(p.time_us, false);
+        if (!st.ok()) return s.Fail(st);
+      }
+    }
+    if (s.level_shown >= 0) {
+      Status st = s.Advance(t, false);
+      if (!st.ok()) return s.Fail(st);
+      s.UpdateStats();
+    }
+    if (finished && messages.empty() && packets.empty() && !s.session_end) {
+      Status status = final_status.ok() ? Unavailable("the server ended the session before its end") : final_status;
+      return s.Fail(std::move(status));
+    }
+    if (s.events.empty() && Clock::now() >= deadline) return none;
   }
 }
 
@@ -288,12 +559,12 @@ size_t Session::primitive_count() const { return impl_->primitives.size(); }
 
 StatusOr<Primitive> Session::Mesh(size_t primitive) const {
   if (primitive >= impl_->primitives.size()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
-  return DequantizeMesh(impl_->primitives[primitive].reader->Mesh(), -1);
+  return DequantizeMesh(impl_->primitives[primitive].reconstructor->reader().Mesh(), -1);
 }
 
 StatusOr<std::vector<uint8_t>> Session::Predicted(size_t primitive) const {
   if (primitive >= impl_->primitives.size()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
-  const StreamReader& r = *impl_->primitives[primitive].reader;
+  const StreamReader& r = impl_->primitives[primitive].reconstructor->reader();
   const size_t n = r.Mesh().vertex_count();
   std::vector<uint8_t> predicted(n, 0);
   const std::vector<uint8_t>& reliable = r.reliable();
@@ -313,7 +584,7 @@ int32_t Session::level_shown() const { return impl_->level_shown; }
 
 uint64_t Session::predicted_vertices() const {
   uint64_t n = 0;
-  for (const PrimitiveState& p : impl_->primitives) n += p.reader->unreliable_vertices();
+  for (const PrimitiveState& p : impl_->primitives) n += p.reconstructor->reader().unreliable_vertices();
   return n;
 }
 
@@ -329,7 +600,7 @@ Scene Session::CurrentScene() const {
     meshstream::Mesh mesh;
     mesh.name = "mesh " + std::to_string(mesh_index);
     for (const auto& [primitive_index, ours] : primitives) {
-      mesh.primitives.push_back(DequantizeMesh(impl_->primitives[ours].reader->Mesh(), -1));
+      mesh.primitives.push_back(DequantizeMesh(impl_->primitives[ours].reconstructor->reader().Mesh(), -1));
     }
     Node node;
     node.name = mesh.name;

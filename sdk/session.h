@@ -8,11 +8,24 @@
 // or to all it has), then kComplete; or kError with the status, after which
 // the session is over.
 //
+// Transport: UDP unless tcp_only (or the server has UDP off, or no HELLO
+// got through: the server then says so and the datagrams come over gRPC).
+// Over UDP what the network loses is predicted (codec/loss), never asked
+// for again; a refinement is decoded when its END datagram and every
+// datagram it announces have arrived, or `straggler_timeout_ms` after its
+// control block.
+//
+// Budgets: max_level stops the server early; byte_budget (bytes received
+// on both channels) and time_budget_ms (since Open) stop the session on the
+// client's side: it tells the server it is done, decodes what arrived, and
+// Poll returns kComplete at the level reached.
+//
 // Thread safety and ownership: a Session is used from one thread (Poll, the
-// mesh accessors, Cancel may also be called from another thread). Mesh
+// mesh accessors); Cancel may also be called from another thread. Mesh
 // views stay valid until the next Poll. The Client must outlive the
-// session. Internally one thread reads the gRPC stream into a queue; the
-// decoding runs inside Poll, on the caller's thread.
+// session. Internally one thread reads the gRPC stream and one the UDP
+// socket, each into a queue; the decoding runs inside Poll, on the
+// caller's thread.
 #ifndef MESHSTREAM_SDK_SESSION_H_
 #define MESHSTREAM_SDK_SESSION_H_
 
@@ -32,6 +45,9 @@ struct SessionOptions {
   int64_t version = 0;    // 0: the latest READY version
   int32_t max_level = -1; // refinements per primitive; -1: all
   bool tcp_only = false;  // ask for the datagrams over gRPC
+  uint64_t byte_budget = 0;       // 0: none
+  int64_t time_budget_ms = 0;     // 0: none
+  int32_t straggler_timeout_ms = 100;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
@@ -45,11 +61,17 @@ struct Event {
 struct SessionStats {
   uint64_t reliable_bytes = 0;      // headers, base meshes, control blocks
   uint64_t unreliable_bytes = 0;    // datagram payloads
-  uint64_t datagrams_received = 0;
-  uint64_t datagrams_rejected = 0;  // malformed or not fitting their stream
+  uint64_t datagrams_received = 0;  // data datagrams that brought something new
+  uint64_t datagrams_lost = 0;      // data datagrams sent and never received (predicted instead)
+  uint64_t datagrams_rejected = 0;  // malformed, forged, replayed, or not fitting their stream
+  uint64_t datagrams_duplicate = 0; // copies, and datagrams of refinements already decoded
+  uint64_t hellos_sent = 0;
+  double hello_rtt_ms = 0;
+  std::string fallback_reason;      // why the session left UDP, if it did
   double time_to_base_ms = 0;
   double time_to_full_ms = 0;
   std::string transport;            // "grpc" or "udp"
+  std::string end_reason;           // the server's SessionEnd reason, or "byte_budget" / "time_budget"
 };
 
 class Session {

@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -26,6 +27,8 @@
 #include "services/jobs/worker_pool.h"
 #include "services/store/blob_store.h"
 #include "services/store/open_store.h"
+#include "net/udp_socket.h"
+#include "services/streaming/udp_endpoint.h"
 
 namespace meshstream {
 
@@ -96,6 +99,58 @@ bool IsLoopbackListen(const std::string& listen) {
   return host == "unix" || host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
 }
 
+struct StreamingSetup {
+  std::optional<SocketAddress> udp_listen;  // unset: UDP off
+  StreamServiceOptions service;
+};
+
+// The streaming flags checked and turned into the service's options.
+StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
+                                          const std::function<void(const std::string&)>& log) {
+  (void)loopback;
+  StreamingSetup setup;
+  if (o.max_sessions < 1) return InvalidArgument("--max-sessions: at least 1");
+  if (o.hello_timeout_ms < 10 || o.hello_timeout_ms > 60000) return InvalidArgument("--hello-timeout: 10..60000 ms");
+  if (o.session_idle_timeout_ms < 100) return InvalidArgument("--session-idle-timeout: at least 100 ms");
+  if (o.max_session_rate_bps < 64e3) return InvalidArgument("--max-session-rate: at least 0.064 Mbit/s");
+  if (o.max_rate_bps < 0) return InvalidArgument("--max-rate: not negative (0: no server cap)");
+  setup.service.max_sessions = o.max_sessions;
+  setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
+  setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);
+  setup.service.rate.max_bps = o.max_session_rate_bps;
+  setup.service.rate.initial_bps = std::min(setup.service.rate.initial_bps, o.max_session_rate_bps);
+  if (o.max_rate_bps > 0) {
+    setup.service.rate.max_bps = std::min(setup.service.rate.max_bps, o.max_rate_bps);
+    setup.service.rate.initial_bps = std::min(setup.service.rate.initial_bps, o.max_rate_bps);
+  }
+  setup.service.log = log;
+  std::string listen = o.udp_listen;
+  if (listen == "off") return setup;
+  if (listen.empty()) {
+    if (o.listen.rfind("unix:", 0) == 0) return setup;  // no host to derive it from
+    std::string host;
+    uint16_t port = 0;
+    Status s = SplitHostPort(o.listen, &host, &port);
+    if (!s.ok()) return s.WithContext("--listen");
+    if (port == 65535) return InvalidArgument("--listen port 65535 leaves no next port for UDP: give --udp-listen");
+    const std::string bracketed = host.find(':') != std::string::npos ? "[" + host + "]" : host;
+    listen = bracketed + ":" + std::to_string(port == 0 ? 0 : port + 1);
+  }
+  auto address = SocketAddress::Parse(listen);
+  if (!address.ok()) return address.status().WithContext("--udp-listen");
+  setup.udp_listen = address.value();
+  if (!o.udp_advertise.empty()) {
+    std::string host;
+    uint16_t port = 0;
+    Status s = SplitHostPort(o.udp_advertise, &host, &port);
+    if (!s.ok()) return s.WithContext("--udp-advertise");
+    if (port == 0) return InvalidArgument("--udp-advertise: the port must not be 0");
+    setup.service.udp_advertise_host = host;
+    setup.service.udp_advertise_port = port;
+  }
+  return setup;
+}
+
 struct Server::Impl {
   ServerOptions options;
   std::function<void(const std::string&)> log;
@@ -103,9 +158,12 @@ struct Server::Impl {
   std::unique_ptr<Authenticator> auth;
   std::unique_ptr<WorkerPool> pool;
   std::unique_ptr<AssetServiceImpl> service;
+  std::unique_ptr<UdpEndpoint> udp;   // before streams: sessions use it until they end
+  std::unique_ptr<RateShare> share;
   std::unique_ptr<StreamServiceImpl> streams;
   std::unique_ptr<grpc::Server> server;
   std::string address;
+  std::string streams_advertise;
   std::atomic<bool> draining{false};
   std::atomic<bool> waited{false};
 
@@ -216,7 +274,23 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   int port = 0;
   builder.AddListeningPort(options.listen, credentials.value(), &port);
   builder.RegisterService(impl->service.get());
-  impl->streams = std::make_unique<StreamServiceImpl>(impl->store.get(), impl->auth.get(), StreamServiceOptions{},
+  auto stream_options = StreamingOptions(options, loopback, impl->log);
+  if (!stream_options.ok()) return stream_options.status();
+  if (stream_options->udp_listen.has_value()) {
+    auto udp = UdpEndpoint::Start(*stream_options->udp_listen);
+    if (!udp.ok()) return udp.status();
+    impl->udp = std::move(udp).value();
+    stream_options->service.udp = impl->udp.get();
+    if (stream_options->service.udp_advertise_port == 0) {
+      stream_options->service.udp_advertise_port = impl->udp->local().port();
+      if (!impl->udp->local().IsUnspecified()) stream_options->service.udp_advertise_host = impl->udp->local().host();
+    }
+  }
+  if (options.max_rate_bps > 0) {
+    impl->share = std::make_unique<RateShare>(options.max_rate_bps);
+    stream_options->service.server_share = impl->share.get();
+  }
+  impl->streams = std::make_unique<StreamServiceImpl>(impl->store.get(), impl->auth.get(), stream_options->service,
                                                       &impl->draining);
   builder.RegisterService(impl->streams.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
@@ -246,8 +320,18 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   impl->log("listening on " + impl->address + (options.tls_cert.empty() ? "" : " (TLS)") +
             (options.auth ? ", tokens required" : ", no authentication (loopback)") + ", " +
             std::to_string(pool_options.workers) + " workers" + (reflection ? ", reflection on" : ""));
+  if (impl->udp) {
+    impl->streams_advertise = stream_options->service.udp_advertise_host.empty()
+                                  ? std::string()
+                                  : stream_options->service.udp_advertise_host + ":" +
+                                        std::to_string(stream_options->service.udp_advertise_port);
+    impl->log("udp on " + impl->udp->local().ToString() + ", advertised as " +
+              (impl->streams_advertise.empty() ? "the client's server host" : impl->streams_advertise));
+  }
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }
+
+std::string Server::udp_address() const { return impl_->udp ? impl_->udp->local().ToString() : std::string(); }
 
 void Server::Drain() {
   Impl& s = *impl_;
@@ -287,6 +371,21 @@ void Server::Wait() {
   }
   if (s.maintenance.joinable()) s.maintenance.join();
   s.pool->Stop();
+  if (s.udp) {
+    const UdpEndpointStats u = s.udp->stats();
+    std::string drops;
+    for (size_t r = 1; r < kDropReasonCount; ++r) {
+      if (u.received.by_reason[r] > 0) {
+        drops += std::string(drops.empty() ? "" : ", ") + DropReasonName(static_cast<DropReason>(r)) + "=" +
+                 std::to_string(u.received.by_reason[r]);
+      }
+    }
+    s.log("udp: " + std::to_string(u.received.accepted()) + " datagrams accepted, " +
+          std::to_string(u.received.dropped()) + " dropped" + (drops.empty() ? "" : " (" + drops + ")") + ", " +
+          std::to_string(u.addresses_refused) + " addresses refused, " + std::to_string(u.hello_acks_sent) +
+          " HELLO_ACKs and " + std::to_string(u.data_sent) + " DATA sent, " + std::to_string(u.send_errors) +
+          " send errors");
+  }
   s.log("stopped");
 }
 

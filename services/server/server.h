@@ -43,6 +43,17 @@ struct ServerOptions {
   int max_threads = 256;                  // gRPC threads; calls beyond them are RESOURCE_EXHAUSTED
   int max_watchers = 128;                 // concurrent WatchJob streams
   int max_exports = 0;                    // concurrent exports that decode (0: the worker count)               // a job claimed this often fails (a file that kills servers)
+  // Streaming sessions (docs/streaming-protocol.md). udp_listen empty: the
+  // --listen host and the next port (port 0: any free one); "off": every
+  // session over gRPC. udp_advertise empty: the bound address, or only its
+  // port when it is 0.0.0.0 / :: (clients then use the host they connected to).
+  std::string udp_listen;
+  std::string udp_advertise;
+  double max_rate_bps = 1e9;              // all sessions together (--max-rate)
+  double max_session_rate_bps = 400e6;    // one session
+  int max_sessions = 256;
+  int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
+  int64_t session_idle_timeout_ms = 30000;
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.
   std::function<void(const std::string&)> log;
@@ -58,6 +69,8 @@ class Server {
 
   // The address really bound ("127.0.0.1:41234" when port 0 was asked).
   const std::string& address() const;
+  // The UDP endpoint bound ("127.0.0.1:41235"), empty when UDP is off.
+  std::string udp_address() const;
   // Health NOT_SERVING, stop claiming, finish within the grace period.
   void Drain();
   // Blocks until the server has shut down (after Drain).

@@ -34,7 +34,9 @@ class CliRemote : public ::testing::Test {
     server_ = server.value().release();
   }
   static void TearDownTestSuite() {
-    if (server_ != nullptr) EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    if (server_ != nullptr) {
+      EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    }
     delete server_;
     delete dir_;
   }
@@ -92,13 +94,20 @@ TEST_F(CliRemote, FetchStreamsTheFullMeshOnTheGrid) {
     EXPECT_TRUE(f.contains(key)) << key << " in " << f.dump();
   }
   EXPECT_EQ(f["vertices"], 3225);
-  EXPECT_EQ(f["transport"], "grpc");
+  EXPECT_EQ(f["transport"], "udp");
   EXPECT_EQ(f["datagrams_rejected"], 0);
+  EXPECT_EQ(f["datagrams_lost"], 0) << "loopback, paced: nothing lost";
   EXPECT_EQ(f["predicted_vertices"], 0);
   EXPECT_GT(f["datagrams_received"].get<int>(), 0);
   const json c = test_util::RunCliJson("compare --json --qp 11 " + Quote(ModelPath("spot.obj")) + " " + Quote(file));
   EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
   for (const json& report : test_util::ValidateGltf({file})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  // --tcp-only: the same mesh over the gRPC stream.
+  const json tcp = test_util::RunCliJson("fetch --json --tcp-only spot-fetch -o " + Quote(out.File("tcp.glb")) + Remote());
+  EXPECT_EQ(tcp["transport"], "grpc");
+  EXPECT_EQ(tcp["vertices"], 3225);
+  const json same = test_util::RunCliJson("compare --json --qp 11 " + Quote(file) + " " + Quote(out.File("tcp.glb")));
+  EXPECT_EQ(same.value("hausdorff_vertex", 1.0), 0.0) << same.dump();
   // --lod stops early.
   const json base = test_util::RunCliJson("fetch --json spot-fetch --lod 0 -o " + Quote(out.File("base.glb")) + Remote());
   EXPECT_EQ(base["levels_applied"], 0);

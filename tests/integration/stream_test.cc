@@ -1,9 +1,11 @@
 // The reliable half of a streaming session against a real `meshstream
 // serve`: StreamService.Open sends the session start (every primitive's
 // stream header and base mesh), then per refinement its control block, its
-// datagrams (over gRPC, the protocol's fallback transport) and its end, then
-// the session end. What arrives is byte for byte the stored artifact's
-// streams; max_level cuts it; errors have their codes.
+// datagrams (over gRPC, the protocol's fallback transport) with the codec's
+// END datagram and its end, then the session end. What arrives is byte for
+// byte the stored artifact's streams; max_level cuts it; a client that asks
+// for UDP and never sends a HELLO gets the fallback after the HELLO timeout;
+// errors have their codes.
 #include <map>
 #include <memory>
 #include <string>
@@ -34,10 +36,13 @@ struct Received {
   std::vector<std::pair<uint32_t, uint32_t>> order;                        // refinements as they came
   std::string end_reason;
   bool ends_match = true;
+  std::vector<v1::TransportChange> changes;
+  size_t controls_before_change = 0;
 };
 
 Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::string& asset, int64_t version,
-                     int32_t max_level, const std::string& token = "") {
+                     int32_t max_level, const std::string& token = "",
+                     v1::Transport transport = v1::TRANSPORT_GRPC) {
   auto stub = v1::StreamService::NewStub(channel);
   grpc::ClientContext context;
   if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
@@ -47,7 +52,7 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
   open.mutable_open()->set_asset(asset);
   open.mutable_open()->set_version(version);
   open.mutable_open()->set_max_level(max_level);
-  open.mutable_open()->set_transport(v1::TRANSPORT_UDP);
+  open.mutable_open()->set_transport(transport);
   Received r;
   stream->Write(open);
   v1::ServerMessage m;
@@ -55,6 +60,10 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
   while (stream->Read(&m)) {
     switch (m.kind_case()) {
       case v1::ServerMessage::kSession: r.start = m.session(); break;
+      case v1::ServerMessage::kTransportChange:
+        r.changes.push_back(m.transport_change());
+        r.controls_before_change = r.order.size();
+        break;
       case v1::ServerMessage::kControl:
         current = {m.control().primitive(), m.control().refinement()};
         r.control[current] = m.control().control();
@@ -64,7 +73,7 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
       case v1::ServerMessage::kRefinementEnd:
         r.ends_match = r.ends_match && m.refinement_end().primitive() == current.first &&
                        m.refinement_end().refinement() == current.second &&
-                       m.refinement_end().datagrams_sent() == r.datagrams[current].size();
+                       m.refinement_end().datagrams_sent() + 1 == r.datagrams[current].size();
         break;
       case v1::ServerMessage::kEnd: {
         r.end_reason = m.end().reason();
@@ -104,7 +113,10 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     const Received got = OpenSession(client.channel(), "m", 0, -1);
     ASSERT_TRUE(got.status.ok()) << got.status.error_message();
     EXPECT_EQ(got.start.version(), r.version());
-    EXPECT_EQ(got.start.transport(), v1::TRANSPORT_GRPC) << "UDP is not served yet: the server says so";
+    EXPECT_EQ(got.start.transport(), v1::TRANSPORT_GRPC) << "the client asked for gRPC";
+    EXPECT_EQ(got.start.udp_session_id(), 0u);
+    EXPECT_TRUE(got.start.client_to_server_key().empty()) << "no UDP keys for a gRPC session";
+    EXPECT_TRUE(got.changes.empty());
     EXPECT_EQ(got.start.session_id().size(), 32u);
     EXPECT_EQ(got.end_reason, "complete");
     EXPECT_TRUE(got.ends_match) << "every refinement's end follows its datagrams";
@@ -127,8 +139,10 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
         const auto it = got.datagrams.find(key);
         const std::vector<std::string> none;
         const std::vector<std::string>& datagrams = it == got.datagrams.end() ? none : it->second;
-        ASSERT_EQ(datagrams.size(), stream->datagrams[k].size());
-        for (size_t d = 0; d < datagrams.size(); ++d) EXPECT_EQ(datagrams[d], AsString(stream->datagrams[k][d]));
+        // The stored datagrams, then the END datagram the sender makes.
+        ASSERT_EQ(datagrams.size(), stream->datagrams[k].size() + 1);
+        for (size_t d = 0; d + 1 < datagrams.size(); ++d) EXPECT_EQ(datagrams[d], AsString(stream->datagrams[k][d]));
+        EXPECT_EQ(datagrams.back(), AsString(MakeEndDatagram(p.primitive(), k, static_cast<uint32_t>(stream->datagrams[k].size()))));
         ++refinements;
       }
     }
@@ -140,6 +154,39 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     EXPECT_EQ(two.end_reason, "max_level");
     for (const auto& [key, control] : two.control) EXPECT_LT(key.second, 2u);
   }
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST(StreamSession, WithoutAHelloTheDatagramsFallBackToTheStream) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--hello-timeout", "300"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("m", AssetClient::Load(test_util::ModelPath("spot.obj"), "m.obj"), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  const auto begin = std::chrono::steady_clock::now();
+  const Received got = OpenSession(client.channel(), "m", 0, -1, "", v1::TRANSPORT_UDP);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+  ASSERT_TRUE(got.status.ok()) << got.status.error_message();
+  // The server offered UDP with an endpoint and two distinct keys ...
+  EXPECT_EQ(got.start.transport(), v1::TRANSPORT_UDP);
+  EXPECT_NE(got.start.udp().port(), 0u);
+  EXPECT_NE(got.start.udp_session_id(), 0u);
+  EXPECT_EQ(got.start.client_to_server_key().size(), 32u);
+  EXPECT_EQ(got.start.server_to_client_key().size(), 32u);
+  EXPECT_NE(got.start.client_to_server_key(), got.start.server_to_client_key());
+  // ... and, with no HELLO, changed to gRPC before the first refinement.
+  ASSERT_EQ(got.changes.size(), 1u);
+  EXPECT_EQ(got.changes[0].transport(), v1::TRANSPORT_GRPC);
+  EXPECT_NE(got.changes[0].reason().find("HELLO"), std::string::npos) << got.changes[0].reason();
+  EXPECT_EQ(got.controls_before_change, 0u);
+  EXPECT_GE(ms, 300.0) << "the fallback waits for the HELLO timeout";
+  EXPECT_EQ(got.end_reason, "complete");
+  EXPECT_TRUE(got.ends_match);
+  EXPECT_FALSE(got.datagrams.empty());
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 

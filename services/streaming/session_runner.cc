@@ -1,0 +1,174 @@
+#include "services/streaming/session_runner.h"
+
+#include <algorithm>
+#include <thread>
+
+#include "codec/bitstream/format.h"
+
+namespace meshstream {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+uint64_t NowUs() {
+  return static_cast<uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
+}
+
+// Sleeps until `due_us`, waking every few milliseconds to see whether the
+// session was cancelled; false when it was.
+bool SleepUntil(uint64_t due_us, const std::function<bool()>& cancelled) {
+  for (;;) {
+    const uint64_t now = NowUs();
+    if (now >= due_us) return true;
+    if (cancelled()) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(std::min<uint64_t>(due_us - now, 5000)));
+  }
+}
+
+}  // namespace
+
+SessionRunner::SessionRunner(const SessionPlan& plan, const std::vector<uint8_t>& artifact, int32_t max_level,
+                             SessionRunnerOptions options)
+    : plan_(plan), artifact_(artifact), max_level_(max_level), options_(options),
+      pacer_(options.rate.initial_bps, std::max<size_t>(1, options.burst_datagrams) * kMaxDatagramBytes),
+      controller_(options.rate) {}
+
+void SessionRunner::OnReport(const ClientReportInfo& report) {
+  const uint64_t now = NowUs();
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.reports;
+  stats_.reported_received += report.received;
+  stats_.reported_missing += report.missing;
+  for (uint64_t sample : report.rtt_samples_us) {
+    if (sample > 0 && sample < 60000000) controller_.OnRttSample(sample);
+  }
+  uint64_t rtt = 0;
+  auto it = end_sent_us_.find({report.stream, report.refinement});
+  if (it != end_sent_us_.end()) {
+    if (report.end_received && now > it->second + report.hold_us) rtt = now - it->second - report.hold_us;
+    end_sent_us_.erase(it);
+  } else {
+    return;  // not a refinement this session sent over UDP (or reported twice)
+  }
+  controller_.OnReport(now, report.received, report.missing, rtt);
+}
+
+SessionRunnerStats SessionRunner::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SessionRunnerStats s = stats_;
+  s.final_rate_bps = controller_.rate_bps();
+  s.rate_decreases = controller_.decreases();
+  s.min_rtt_us = controller_.min_rtt_us();
+  s.srtt_us = controller_.srtt_us();
+  return s;
+}
+
+bool SessionRunner::SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink) {
+  const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
+  if (!sink.Control(r, stream, count, 0)) return false;
+  for (const ByteRange& d : r.datagrams) {
+    if (!sink.Datagram(artifact_.data() + d.offset, d.length)) return false;
+  }
+  const std::vector<uint8_t> end = MakeEndDatagram(stream, r.refinement, count);
+  if (!sink.Datagram(end.data(), end.size())) return false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.datagrams_sent += count + 1;
+  }
+  return sink.RefinementEnd(stream, r.refinement, count);
+}
+
+bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t stream, SessionSink& sink,
+                                      const std::function<bool()>& cancelled) {
+  const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
+  const uint64_t first = udp_->ReservePacketNumbers(count + 1);
+  if (!sink.Control(r, stream, count, first)) return false;
+  const std::vector<uint8_t> end = MakeEndDatagram(stream, r.refinement, count);
+  std::vector<std::pair<const uint8_t*, size_t>> all;
+  all.reserve(count + 1);
+  for (const ByteRange& d : r.datagrams) all.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+  all.emplace_back(end.data(), end.size());
+
+  Pacer& pacer = pacer_;
+  size_t next = 0;
+  uint64_t bytes = 0;
+  while (next < all.size()) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      pacer.SetRate(controller_.rate_bps());
+    }
+    // The next batch: as many datagrams as are due together (at most a burst).
+    const size_t take = std::min(options_.burst_datagrams, all.size() - next);
+    size_t batch_bytes = 0;
+    for (size_t i = 0; i < take; ++i) batch_bytes += all[next + i].second + kPacketOverheadBytes;
+    uint64_t due = pacer.DueUs(NowUs(), batch_bytes);
+    if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(NowUs(), batch_bytes));
+    if (!SleepUntil(due, cancelled)) return false;
+    std::vector<std::pair<const uint8_t*, size_t>> batch(all.begin() + static_cast<long>(next),
+                                                         all.begin() + static_cast<long>(next + take));
+    const Status s = udp_->SendData(batch, first + next);
+    if (!s.ok()) return false;
+    pacer.OnSent(NowUs(), batch_bytes);
+    for (const auto& p : batch) bytes += p.second;
+    next += take;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.datagrams_sent += all.size();
+    stats_.bytes_sent += bytes;
+    end_sent_us_[{stream, r.refinement}] = NowUs();
+    // Entries of refinements never reported stay bounded by the plan's size.
+  }
+  return sink.RefinementEnd(stream, r.refinement, count);
+}
+
+StatusOr<std::string> SessionRunner::Run(SessionSink& sink, const std::function<bool()>& cancelled) {
+  SessionTransport transport = SessionTransport::kGrpc;
+  if (options_.want_udp && options_.udp != nullptr) {
+    auto session = options_.udp->RegisterSession();
+    if (session.ok()) {
+      udp_ = std::move(session).value();
+      transport = SessionTransport::kUdp;
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.transport = transport;
+  }
+  if (!sink.Start(transport, udp_.get())) return Aborted("the client went away");
+  if (transport == SessionTransport::kUdp) {
+    const auto deadline = Clock::now() + options_.hello_timeout;
+    bool proven = false;
+    while (!proven && Clock::now() < deadline && !cancelled()) {
+      proven = udp_->WaitProven(std::min<std::chrono::milliseconds>(
+          std::chrono::milliseconds(20),
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()) + std::chrono::milliseconds(1)));
+    }
+    if (cancelled()) return Aborted("cancelled");
+    if (!proven) {
+      transport = SessionTransport::kGrpc;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        stats_.transport = transport;
+      }
+      const std::string reason = "no HELLO proved a UDP address within " +
+                                 std::to_string(options_.hello_timeout.count()) + " ms";
+      if (!sink.TransportChanged(transport, reason)) return Aborted("the client went away");
+      udp_.reset();
+    }
+  }
+  for (const PlannedRefinement& r : plan_.refinements) {
+    if (cancelled()) return Aborted("cancelled");
+    const uint32_t stream = plan_.primitives[r.primitive].stream;
+    const bool ok = transport == SessionTransport::kUdp ? SendRefinementUdp(r, stream, sink, cancelled)
+                                                        : SendRefinementGrpc(r, stream, sink);
+    if (!ok) return cancelled() ? Aborted("cancelled") : Aborted("the client went away");
+  }
+  const std::string reason = max_level_ >= 0 ? "max_level" : "complete";
+  if (!sink.End(reason)) return Aborted("the client went away");
+  return reason;
+}
+
+}  // namespace meshstream

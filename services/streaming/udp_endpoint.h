@@ -1,0 +1,114 @@
+// The server's UDP half of the streaming sessions (docs/streaming-protocol.md,
+// "HELLO and address validation", "Receiving"): one socket, one receiving
+// thread that answers HELLOs, and the table of live sessions.
+//
+// A session registers (RegisterSession) before its SessionStart is sent and
+// gets its id and keys; its client's HELLOs then prove an address, and the
+// session sends its DATA to that address only (SendData). Every datagram
+// that fails a step of "Receiving" is dropped and counted, never answered.
+// Towards an address that is not proven the endpoint sends only HELLO_ACKs,
+// and never more bytes than it received from that address in authenticated
+// HELLOs (net/amplification_limit.h).
+//
+// Contract: safe on any bytes arriving at the socket. A session accepts at
+// most kMaxAddressesPerSession addresses (HELLOs from more are dropped and
+// counted as addresses_refused). Memory: per session a fixed amount.
+// Thread safety: every method may be called from any thread; a session's
+// handle is used by its own sending thread.
+#ifndef MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
+#define MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "net/amplification_limit.h"
+#include "net/drop_reason.h"
+#include "net/hello.h"
+#include "net/packet_crypto.h"
+#include "net/replay_window.h"
+#include "net/udp_socket.h"
+
+namespace meshstream {
+
+struct UdpEndpointStats {
+  DropCounters received;          // every datagram that arrived, by what became of it
+  uint64_t addresses_refused = 0; // authenticated HELLOs from one address too many
+  uint64_t hello_acks_sent = 0;
+  uint64_t data_sent = 0;         // DATA datagrams
+  uint64_t data_bytes_sent = 0;
+  uint64_t send_errors = 0;       // datagrams the kernel refused (buffer full)
+};
+
+class UdpEndpoint {
+ public:
+  static constexpr size_t kMaxAddressesPerSession = 4;
+
+  class Session;
+
+  static StatusOr<std::unique_ptr<UdpEndpoint>> Start(const SocketAddress& listen);
+  ~UdpEndpoint();  // stops the thread; live sessions' sends fail from then on
+  UdpEndpoint(const UdpEndpoint&) = delete;
+  UdpEndpoint& operator=(const UdpEndpoint&) = delete;
+
+  const SocketAddress& local() const { return socket_.local(); }
+  // A new session with fresh keys and a random id; it stays in the table
+  // until the handle is destroyed.
+  StatusOr<std::shared_ptr<Session>> RegisterSession();
+  UdpEndpointStats stats() const;
+  size_t session_count() const;
+
+ private:
+  struct SessionState;
+  explicit UdpEndpoint(UdpSocket socket) : socket_(std::move(socket)) {}
+  void Run();
+  void Handle(const IncomingDatagram& d);
+  void Unregister(uint64_t id);
+
+  UdpSocket socket_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+  mutable std::shared_mutex table_mutex_;
+  std::unordered_map<uint64_t, std::shared_ptr<SessionState>> table_;
+  mutable std::mutex stats_mutex_;
+  UdpEndpointStats stats_;
+  friend class Session;
+};
+
+class UdpEndpoint::Session {
+ public:
+  ~Session();
+  uint64_t id() const;
+  const SessionKeys& keys() const;
+  // Waits until a client address is proven (true) or the time runs out.
+  bool WaitProven(std::chrono::milliseconds timeout);
+  bool proven() const;
+  SocketAddress address() const;  // the proven address (empty before)
+  // `count` consecutive packet numbers of this session's server->client
+  // counter, for one refinement's DATA (the first is returned).
+  uint64_t ReservePacketNumbers(uint64_t count);
+  // Seals each payload as DATA with packet numbers first, first + 1, ... and
+  // sends them to the proven address in one batch. FailedPrecondition
+  // before an address is proven.
+  Status SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads, uint64_t first_packet_number);
+  // Microseconds (steady clock) when an authenticated HELLO last arrived.
+  uint64_t last_hello_us() const;
+
+ private:
+  friend class UdpEndpoint;
+  Session(UdpEndpoint* endpoint, std::shared_ptr<SessionState> state) : endpoint_(endpoint), state_(std::move(state)) {}
+  UdpEndpoint* endpoint_;
+  std::shared_ptr<SessionState> state_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
