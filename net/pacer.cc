@@ -6,20 +6,22 @@ namespace meshstream {
 
 void Pacer::SetRate(double rate_bps) { rate_bps_ = std::max(1000.0, rate_bps); }
 
+double Pacer::BacklogAt(uint64_t now_us) const {
+  if (now_us <= updated_us_) return backlog_bytes_;
+  const double drained = static_cast<double>(now_us - updated_us_) * rate_bps_ / 8e6;
+  return std::max(0.0, backlog_bytes_ - drained);
+}
+
 uint64_t Pacer::DueUs(uint64_t now_us, size_t bytes) const {
-  // The bucket holds burst_bytes: a datagram may go as soon as the backlog
-  // ahead of it is at most the burst.
-  const double burst_us = static_cast<double>(burst_bytes_) * 8e6 / rate_bps_;
-  const double due = next_us_ - burst_us + static_cast<double>(bytes) * 8e6 / rate_bps_;
-  if (due <= static_cast<double>(now_us)) return now_us;
-  return static_cast<uint64_t>(due);
+  // A datagram may go when the backlog ahead of it leaves room for it in the burst.
+  const double excess = BacklogAt(now_us) + static_cast<double>(bytes) - static_cast<double>(burst_bytes_);
+  if (excess <= 0) return now_us;
+  return now_us + static_cast<uint64_t>(excess * 8e6 / rate_bps_ + 0.999);
 }
 
 void Pacer::OnSent(uint64_t now_us, size_t bytes) {
-  // next_us_ - now is the backlog; after an idle spell it is zero, never
-  // less (credit would allow more than one burst).
-  next_us_ = std::max(next_us_, static_cast<double>(now_us));
-  next_us_ += static_cast<double>(bytes) * 8e6 / rate_bps_;
+  backlog_bytes_ = BacklogAt(now_us) + static_cast<double>(bytes);
+  updated_us_ = std::max(updated_us_, now_us);
 }
 
 uint64_t RateShare::Reserve(uint64_t now_us, size_t bytes) {

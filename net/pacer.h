@@ -1,6 +1,7 @@
 // Spaces a sender's datagrams at a rate (docs/streaming-protocol.md,
-// "Pacing and congestion control"): a token bucket in virtual time. Each
-// datagram is due when the previous ones have drained at the rate; a burst
+// "Pacing and congestion control"): a leaky bucket of bytes that drains at
+// the rate. Each datagram is due when the backlog ahead of it leaves room
+// for it within `burst_bytes`, so a rate change applies at once; a burst
 // of at most `burst_bytes` may go at once after an idle spell, so that the
 // sender can batch a few datagrams per system call without building a queue
 // in the network.
@@ -28,9 +29,11 @@ class Pacer {
   void OnSent(uint64_t now_us, size_t bytes);
 
  private:
+  double BacklogAt(uint64_t now_us) const;
   double rate_bps_ = 0;
   size_t burst_bytes_ = 0;
-  double next_us_ = 0;  // when the bucket is empty again (virtual time)
+  double backlog_bytes_ = 0;  // at updated_us_
+  uint64_t updated_us_ = 0;
 };
 
 // One budget shared by every session of a server (--max-rate): a pacer in
