@@ -11,7 +11,7 @@ StatusOr<std::unique_ptr<Client>> Client::Create(const ClientOptions& options) {
     credentials = grpc::SslCredentials(ssl);
   }
   grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(64 << 20);  // a session start holds every base mesh
+  args.SetMaxReceiveMessageSize(256 << 20);  // a session start holds every base mesh and the scene
   auto channel = grpc::CreateCustomChannel(options.server, credentials, args);
   if (!channel) return InvalidArgument("server " + options.server + ": not an address");
   return std::unique_ptr<Client>(new Client(options, std::move(channel)));

@@ -18,6 +18,7 @@
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
 #include "importers/gltf_export.h"
+#include "importers/gltf_import.h"
 #include "meshstream/v1/stream.grpc.pb.h"
 
 namespace meshstream::sdk {
@@ -127,6 +128,8 @@ struct Session::Impl {
   // Owned by the Poll thread.
   std::unique_ptr<UdpReceiver> udp;
   std::vector<PrimitiveState> primitives;
+  Scene scene;            // the asset's scene at level 0 (SessionStart.scene_glb)
+  bool has_scene = false;
   std::map<uint32_t, size_t> by_stream;  // stream id -> index in primitives
   int32_t levels = 0;
   int32_t level_shown = -1;   // -1: not even the base
@@ -212,6 +215,11 @@ struct Session::Impl {
     stats.transport = start.transport() == v1::TRANSPORT_UDP ? "udp" : "grpc";
     ReconstructorOptions ro;
     ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options.straggler_timeout_ms)) * 1000;
+    // UDP may run ahead of the gRPC stream by many refinements (a loaded
+    // client, a TCP queue): buffer datagrams for any refinement of the
+    // stream, within the byte budget, rather than drop them for the window.
+    ro.window = kMaxRefinements;
+    ro.max_buffered_bytes = size_t{64} << 20;
     for (const v1::PrimitiveStart& p : start.primitives()) {
       const std::string where = "primitive " + std::to_string(p.primitive());
       if (by_stream.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
@@ -237,6 +245,19 @@ struct Session::Impl {
       stats.reliable_bytes += p.header().size() + p.base_mesh().size();
       by_stream[p.primitive()] = primitives.size();
       primitives.push_back(std::move(state));
+    }
+    if (!start.scene_glb().empty()) {
+      const std::vector<uint8_t> glb(start.scene_glb().begin(), start.scene_glb().end());
+      auto scene_or = ImportGltfBytes(glb, "", "the session's scene", ImportOptions{});
+      if (!scene_or.ok()) return scene_or.status();
+      scene = std::move(scene_or).value();
+      for (const PrimitiveState& p : primitives) {
+        if (p.start.mesh() >= scene.meshes.size() || p.start.mesh_primitive() >= scene.meshes[p.start.mesh()].primitives.size()) {
+          return InvalidInput("primitive " + std::to_string(p.start.primitive()) + ": the scene has no mesh " +
+                              std::to_string(p.start.mesh()) + " primitive " + std::to_string(p.start.mesh_primitive()));
+        }
+      }
+      has_scene = true;
     }
     if (start.transport() == v1::TRANSPORT_UDP) {
       if (start.client_to_server_key().size() != kPacketKeyBytes || start.server_to_client_key().size() != kPacketKeyBytes) {
@@ -589,6 +610,17 @@ uint64_t Session::predicted_vertices() const {
 }
 
 Scene Session::CurrentScene() const {
+  if (impl_->has_scene) {
+    // The asset's scene, its refined primitives at the level reached (the
+    // material and everything else of the primitive as the scene has it).
+    Scene scene = impl_->scene;
+    for (const PrimitiveState& p : impl_->primitives) {
+      Primitive& slot = scene.meshes[p.start.mesh()].primitives[p.start.mesh_primitive()];
+      const int32_t material = slot.material;
+      slot = DequantizeMesh(p.reconstructor->reader().Mesh(), material);
+    }
+    return scene;
+  }
   Scene scene;
   std::map<uint32_t, std::map<uint32_t, size_t>> by_mesh;  // glTF mesh -> primitive index -> ours
   for (size_t i = 0; i < impl_->primitives.size(); ++i) {

@@ -101,9 +101,10 @@ class Session {
   int32_t level_shown() const;
   // Vertices, over all primitives, whose value was predicted.
   uint64_t predicted_vertices() const;
-  // The current meshes as a scene: one glTF mesh per mesh the asset's
-  // refined primitives belong to, each at its primitive index, one node per
-  // mesh, no materials (the session does not carry the asset's scene yet).
+  // The asset's scene (nodes, materials, textures, animations, carried
+  // primitives: SessionStart.scene_glb) with every refined primitive at the
+  // level reached. From a server that sends no scene: one glTF mesh per
+  // mesh of the refined primitives, one node each, no materials.
   Scene CurrentScene() const;
   // CurrentScene written as .glb or .gltf (by the extension), through importers/.
   Status Export(const std::string& path) const;

@@ -31,8 +31,9 @@ v1::Transport ToProto(SessionTransport t) {
 class GrpcSink final : public SessionSink {
  public:
   GrpcSink(grpc::ServerReaderWriter<v1::ServerMessage, v1::ClientMessage>* stream, const SessionPlan& plan,
-           const std::vector<uint8_t>& artifact, const VersionRecord& version, const StreamServiceOptions& options)
-      : stream_(stream), plan_(plan), artifact_(artifact), version_(version), options_(options) {}
+           const std::vector<uint8_t>& artifact, const VersionRecord& version, const StreamServiceOptions& options,
+           const std::vector<uint8_t>& scene)
+      : stream_(stream), plan_(plan), artifact_(artifact), version_(version), options_(options), scene_(scene) {}
 
   bool Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
     v1::ServerMessage message;
@@ -42,6 +43,7 @@ class GrpcSink final : public SessionSink {
     start.set_version(version_.version);
     start.set_transport(ToProto(transport));
     start.set_max_datagram_bytes(static_cast<uint32_t>(kMaxDatagramBytes));
+    start.set_scene_glb(reinterpret_cast<const char*>(scene_.data()), scene_.size());
     if (udp != nullptr) {
       start.mutable_udp()->set_host(options_.udp_advertise_host);
       start.mutable_udp()->set_port(options_.udp_advertise_port);
@@ -106,6 +108,7 @@ class GrpcSink final : public SessionSink {
   const std::vector<uint8_t>& artifact_;
   const VersionRecord& version_;
   const StreamServiceOptions& options_;
+  const std::vector<uint8_t>& scene_;
 };
 
 }  // namespace
@@ -188,6 +191,8 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   if (!artifact.ok()) return ToGrpcStatus(artifact.status());
   auto plan = PlanSession(artifact.value(), version->artifact.layout_json, open.max_level());
   if (!plan.ok()) return ToGrpcStatus(plan.status());
+  auto scene = scenes_.Get(version->artifact.artifact_sha256, artifact.value());
+  if (!scene.ok()) return ToGrpcStatus(scene.status());
 
   SessionRunnerOptions runner_options;
   runner_options.want_udp = open.transport() != v1::TRANSPORT_GRPC;
@@ -231,7 +236,7 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
     }
     reader_finished = true;
   });
-  GrpcSink sink(stream, plan.value(), artifact.value(), version.value(), options_);
+  GrpcSink sink(stream, plan.value(), artifact.value(), version.value(), options_, *scene.value());
   const auto cancelled = [&] { return context->IsCancelled() || client_done.load(); };
   StatusOr<std::string> result = runner.Run(sink, cancelled);
   // After SessionEnd the client half-closes (or sends done); give it

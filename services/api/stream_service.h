@@ -31,6 +31,7 @@
 #include "services/api/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/store/store.h"
+#include "services/streaming/session_scene.h"
 #include "services/streaming/udp_endpoint.h"
 
 namespace meshstream {
@@ -68,6 +69,7 @@ class StreamServiceImpl final : public v1::StreamService::Service {
   StreamServiceOptions options_;
   const std::atomic<bool>* draining_;
   CallLimit sessions_;
+  SessionSceneCache scenes_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;

@@ -300,7 +300,10 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   quota.SetMaxThreads(options.max_threads);
   builder.SetResourceQuota(quota);
   builder.SetMaxReceiveMessageSize(2 << 20);
-  builder.SetMaxSendMessageSize(2 << 20);
+  // A session's start carries every base mesh and the scene at level 0:
+  // far more than a chunk for a large asset (the client's receive limit
+  // is what protects it; the SDK allows 256 MiB).
+  builder.SetMaxSendMessageSize(256 << 20);
   const bool reflection = options.reflection.value_or(loopback);
   builder.SetOption(std::make_unique<ReflectionOption>(reflection));
   impl->server = builder.BuildAndStart();

@@ -223,6 +223,50 @@ TEST_F(AssetApi, ExportsEveryFormatThatValidatesAndDecodesOnTheGrid) {
   }
 }
 
+// A streaming session of every shared model (meshstream fetch through the
+// SDK): over UDP nothing is lost on loopback and the mesh is the source on
+// the grid; --tcp-only gives the same mesh vertex for vertex.
+TEST_F(AssetApi, EveryModelStreamsOverUdpAndOverTcpToTheSameMesh) {
+  test_util::TempDir out;
+  std::vector<std::string> gltf_files;
+  const std::string remote = " --server " + server_->address();
+  for (const Ingested& in : *ingested_) {
+    SCOPED_TRACE(in.model.asset);
+    const std::string udp_file = out.File(in.model.asset + ".udp.glb");
+    const std::string tcp_file = out.File(in.model.asset + ".tcp.glb");
+    const nlohmann::json udp = test_util::RunCliJson("fetch --json " + in.model.asset + " -o " + test_util::Quote(udp_file) + remote);
+    const nlohmann::json tcp =
+        test_util::RunCliJson("fetch --json --tcp-only " + in.model.asset + " -o " + test_util::Quote(tcp_file) + remote);
+    EXPECT_EQ(udp["transport"], "udp") << udp.dump();
+    EXPECT_EQ(tcp["transport"], "grpc") << tcp.dump();
+    EXPECT_EQ(udp["datagrams_lost"], 0) << udp.dump();
+    EXPECT_EQ(udp["datagrams_rejected"], 0) << udp.dump();
+    EXPECT_EQ(udp["predicted_vertices"], 0) << udp.dump();
+    EXPECT_EQ(udp["datagrams_received"], tcp["datagrams_received"]);
+    EXPECT_EQ(udp["unreliable_bytes"], tcp["unreliable_bytes"]);
+    EXPECT_EQ(udp["vertices"], tcp["vertices"]);
+    EXPECT_EQ(udp["faces"], tcp["faces"]);
+    // The session exports the asset's scene: its structure is the source's.
+    const nlohmann::json source = test_util::RunCliJson("info --json " + test_util::Quote(in.model.path));
+    const nlohmann::json fetched = test_util::RunCliJson("info --json " + test_util::Quote(udp_file));
+    for (const char* key : {"scenes", "nodes", "meshes", "materials", "textures", "images", "skins", "animations",
+                            "carried_primitives", "primitives"}) {
+      EXPECT_EQ(fetched[key], source[key]) << key << ": " << fetched.dump();
+    }
+    gltf_files.push_back(udp_file);
+    if (udp["vertices"] == 0) continue;  // nothing refined (every primitive carried as it is)
+    const nlohmann::json same = test_util::RunCliJson("compare --json " + test_util::Quote(udp_file) + " " + test_util::Quote(tcp_file));
+    EXPECT_EQ(same.value("hausdorff_vertex", 1.0), 0.0) << same.dump();
+    if (!in.model.triangles_only) continue;
+    const nlohmann::json c = test_util::RunCliJson("compare --json --qp " + std::to_string(in.version.options().qp()) + " " +
+                                                   test_util::Quote(in.model.path) + " " + test_util::Quote(udp_file));
+    EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
+  }
+  for (const nlohmann::json& report : test_util::ValidateGltf(gltf_files)) {
+    EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
+  }
+}
+
 TEST_F(AssetApi, ExportAtALevelOfDetailAndInChunks) {
   const auto full = client_->Export("horse", 0, v1::FORMAT_GLB);
   const auto base = client_->Export("horse", 1, v1::FORMAT_GLB, 0);

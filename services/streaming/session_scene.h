@@ -1,0 +1,44 @@
+// The scene a session's client builds on (SessionStart.scene_glb,
+// docs/streaming-protocol.md "Sessions"): the asset's glTF at level 0, as a
+// plain .glb: nodes, materials, textures, skins, animations, the carried
+// primitives, and every refined primitive as its base mesh, at the same
+// mesh and primitive index. The client replaces the refined primitives by
+// what it decodes, so that an export of the session is the asset's scene.
+//
+// Made by decoding the stored progressive .glb at lod 0 (no refinement is
+// touched) and exporting it; SessionSceneCache keeps the last few by the
+// artifact's digest, since every session of a version needs the same bytes.
+//
+// Thread safety: MakeSessionScene is pure; the cache is thread-safe.
+#ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_SCENE_H_
+#define MESHSTREAM_SERVICES_STREAMING_SESSION_SCENE_H_
+
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "codec/core/status.h"
+
+namespace meshstream {
+
+StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact);
+
+class SessionSceneCache {
+ public:
+  explicit SessionSceneCache(size_t max_entries = 16) : max_entries_(max_entries) {}
+  StatusOr<std::shared_ptr<const std::vector<uint8_t>>> Get(const std::string& artifact_sha256,
+                                                            const std::vector<uint8_t>& artifact);
+
+ private:
+  size_t max_entries_;
+  std::mutex mutex_;
+  std::list<std::pair<std::string, std::shared_ptr<const std::vector<uint8_t>>>> entries_;  // most recent first
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STREAMING_SESSION_SCENE_H_
