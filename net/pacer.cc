@@ -14,9 +14,12 @@ double Pacer::BacklogAt(uint64_t now_us) const {
 
 uint64_t Pacer::DueUs(uint64_t now_us, size_t bytes) const {
   // A datagram may go when the backlog ahead of it leaves room for it in the burst.
-  const double excess = BacklogAt(now_us) + static_cast<double>(bytes) - static_cast<double>(burst_bytes_);
+  // The bucket's latest state may lie ahead of now (RateShare reserves
+  // future slots): judge from whichever is later.
+  const uint64_t from = std::max(now_us, updated_us_);
+  const double excess = BacklogAt(from) + static_cast<double>(bytes) - static_cast<double>(burst_bytes_);
   if (excess <= 0) return now_us;
-  return now_us + static_cast<uint64_t>(excess * 8e6 / rate_bps_ + 0.999);
+  return from + static_cast<uint64_t>(excess * 8e6 / rate_bps_ + 0.999);
 }
 
 void Pacer::OnSent(uint64_t now_us, size_t bytes) {

@@ -80,6 +80,13 @@ class ServeProcess {
     const std::string prefix = "listening on ";
     if (line.rfind(prefix, 0) != 0) return Internal("unexpected first line of serve: " + line);
     p->address_ = line.substr(prefix.size(), line.find('\n') - prefix.size());
+    // serve writes "udp on HOST:PORT" in the same flush, when UDP is on.
+    const std::string udp_prefix = "udp on ";
+    const size_t second = line.find('\n') + 1;
+    if (line.compare(second, udp_prefix.size(), udp_prefix) == 0) {
+      const size_t end = line.find('\n', second);
+      p->udp_address_ = line.substr(second + udp_prefix.size(), end == std::string::npos ? std::string::npos : end - second - udp_prefix.size());
+    }
     return p;
   }
 
@@ -89,6 +96,8 @@ class ServeProcess {
   }
 
   const std::string& address() const { return address_; }
+  // The UDP endpoint of the sessions ("127.0.0.1:PORT"), empty when UDP is off.
+  const std::string& udp_address() const { return udp_address_; }
   pid_t pid() const { return pid_; }
   bool running() const { return pid_ > 0 && !exited_; }
   std::string log() const { return ReadText(log_path_); }
@@ -138,6 +147,7 @@ class ServeProcess {
   TempDir dir_;
   std::string log_path_;
   std::string address_;
+  std::string udp_address_;
   pid_t pid_ = -1;
   int stdout_fd_ = -1;
   bool exited_ = false;

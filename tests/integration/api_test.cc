@@ -96,7 +96,9 @@ class AssetApi : public ::testing::Test {
     }
   }
   static void TearDownTestSuite() {
-    if (server_ != nullptr) EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    if (server_ != nullptr) {
+      EXPECT_EQ(server_->Terminate(), 0) << server_->log();
+    }
     delete client_;
     delete server_;
     delete ingested_;
@@ -342,7 +344,9 @@ TEST_F(AssetApi, PaginationVisitsEveryVersionAndAssetOnce) {
     for (const auto& a : response.assets()) {
       assets.insert(a.name());
       ++listed;
-      if (a.name() == "paged") EXPECT_EQ(a.latest_version(), 5);
+      if (a.name() == "paged") {
+        EXPECT_EQ(a.latest_version(), 5);
+      }
     }
     token = response.next_page_token();
   } while (!token.empty());

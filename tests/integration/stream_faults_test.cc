@@ -1,0 +1,214 @@
+// Streaming sessions over real UDP on loopback under load and faults, against
+// real `meshstream serve` processes: 100 concurrent sessions complete with
+// the full mesh and the server's memory per session stays bounded; a server
+// killed mid-session gives the client a clear error, not a hang; a client
+// that stops (SIGSTOP: its sockets stay open, it just says nothing) is cut
+// off after the idle timeout and its slot is free again.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "sdk/client.h"
+#include "sdk/session.h"
+#include "tests/common/asset_client.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::AssetClient;
+using test_util::ServeProcess;
+using Clock = std::chrono::steady_clock;
+
+// Resident memory of a process in KiB (VmRSS).
+int64_t RssKiB(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  while (in >> key) {
+    if (key == "VmRSS:") {
+      int64_t kib = 0;
+      in >> kib;
+      return kib;
+    }
+    std::getline(in, key);
+  }
+  return -1;
+}
+
+void Ingest(const ServeProcess& server, const std::string& asset, const std::string& model) {
+  AssetClient client(server.address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest(asset, AssetClient::Load(test_util::ModelPath(model), model.substr(model.rfind('/') + 1)), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+}
+
+struct Outcome {
+  sdk::EventType last = sdk::EventType::kNone;
+  Status status;
+  size_t vertices = 0;
+  sdk::SessionStats stats;
+};
+
+Outcome RunSession(const sdk::Client& client, const sdk::SessionOptions& options, int timeout_ms = 120000) {
+  Outcome o;
+  auto session = sdk::Session::Open(client, options);
+  if (!session.ok()) {
+    o.last = sdk::EventType::kError;
+    o.status = session.status();
+    return o;
+  }
+  const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  while (Clock::now() < deadline) {
+    const sdk::Event e = (*session)->Poll(1000);
+    if (e.type == sdk::EventType::kComplete || e.type == sdk::EventType::kError) {
+      o.last = e.type;
+      o.status = e.status;
+      break;
+    }
+  }
+  for (size_t i = 0; i < (*session)->primitive_count(); ++i) o.vertices += (*session)->Mesh(i)->vertex_count();
+  o.stats = (*session)->stats();
+  return o;
+}
+
+TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
+  test_util::TempDir dir;
+  // 40 Mbit/s per session: the sessions overlap for a while.
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "40"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  Ingest(**server, "bunny", "stanford-bunny.obj");
+  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(client.ok());
+  const Outcome one = RunSession(**client, {"bunny", 0, -1, false});
+  ASSERT_EQ(one.last, sdk::EventType::kComplete) << one.status.ToString();
+  const int64_t before = RssKiB((*server)->pid());
+  ASSERT_GT(before, 0);
+
+  constexpr int kSessions = 100;
+  std::vector<Outcome> outcomes(kSessions);
+  std::atomic<bool> running{true};
+  std::atomic<int64_t> peak{before};
+  std::thread sampler([&] {
+    while (running) {
+      const int64_t rss = RssKiB((*server)->pid());
+      if (rss > peak) peak = rss;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kSessions; ++i) {
+    threads.emplace_back([&, i] { outcomes[static_cast<size_t>(i)] = RunSession(**client, {"bunny", 0, -1, false}); });
+  }
+  for (std::thread& t : threads) t.join();
+  running = false;
+  sampler.join();
+  uint64_t lost = 0, received = 0;
+  for (int i = 0; i < kSessions; ++i) {
+    const Outcome& o = outcomes[static_cast<size_t>(i)];
+    ASSERT_EQ(o.last, sdk::EventType::kComplete) << "session " << i << ": " << o.status.ToString();
+    EXPECT_EQ(o.vertices, one.vertices) << "session " << i << " has the lossless vertex count";
+    EXPECT_EQ(o.stats.transport, "udp") << "session " << i << ": " << o.stats.fallback_reason;
+    EXPECT_EQ(o.stats.datagrams_rejected, 0u);
+    lost += o.stats.datagrams_lost;
+    received += o.stats.datagrams_received;
+  }
+  std::printf("100 sessions: %llu datagrams received, %llu lost; server RSS %lld KiB before, %lld KiB at the peak\n",
+              static_cast<unsigned long long>(received), static_cast<unsigned long long>(lost),
+              static_cast<long long>(before), static_cast<long long>(peak.load()));
+  // Bounded: a session holds its artifact, plan and gRPC buffers, nothing
+  // that grows with time; 8 MiB each is far above that and far below a leak
+  // of the datagrams or a copy per client.
+  EXPECT_LT((peak - before) / kSessions, 8 * 1024) << "KiB per session";
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST(StreamFaults, AServerKilledMidSessionGivesTheClientAnErrorNotAHang) {
+  test_util::TempDir dir;
+  // 0.5 Mbit/s: the horse takes seconds, so the kill lands mid-session.
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "0.5"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  Ingest(**server, "horse", "horse.ply");
+  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(client.ok());
+  auto session = sdk::Session::Open(**client, {"horse", 0, -1, false});
+  ASSERT_TRUE(session.ok());
+  sdk::Event e = (*session)->Poll(10000);
+  ASSERT_EQ(e.type, sdk::EventType::kBaseReady) << e.status.ToString();
+  (*server)->Kill();
+  const auto killed = Clock::now();
+  for (int i = 0; i < 200; ++i) {
+    e = (*session)->Poll(100);
+    if (e.type == sdk::EventType::kError || e.type == sdk::EventType::kComplete) break;
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - killed).count();
+  ASSERT_EQ(e.type, sdk::EventType::kError) << "seconds after the kill: " << seconds;
+  EXPECT_EQ(e.status.code(), StatusCode::kUnavailable) << e.status.ToString();
+  EXPECT_LT(seconds, 10.0);
+  EXPECT_LT((*session)->level_shown(), (*session)->levels()) << "the kill came before the end";
+  // Poll after the error: no event, no hang.
+  EXPECT_EQ((*session)->Poll(10).type, sdk::EventType::kNone);
+}
+
+TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-sessions", "1",
+                                     "--session-idle-timeout", "1", "--max-session-rate", "0.3"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  Ingest(**server, "horse", "horse.ply");
+  // A real client process: meshstream fetch, slow enough to be mid-session.
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const int null = open("/dev/null", O_WRONLY);
+    dup2(null, STDOUT_FILENO);
+    dup2(null, STDERR_FILENO);
+    const std::string out = dir.File("stopped.glb");
+    execl(MESHSTREAM_CLI, MESHSTREAM_CLI, "fetch", "horse", "-o", out.c_str(), "--server", (*server)->address().c_str(),
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(client.ok());
+  // The child's session holds the only slot.
+  bool busy = false;
+  for (int i = 0; i < 100 && !busy; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const Outcome o = RunSession(**client, {"horse", 0, 0, false}, 5000);
+    busy = o.last == sdk::EventType::kError && o.status.code() == StatusCode::kResourceExhausted;
+  }
+  ASSERT_TRUE(busy) << "the fetch never held the session slot";
+  kill(child, SIGSTOP);
+  const auto stopped = Clock::now();
+  // Within the idle timeout and the watchdog's period the slot is free again.
+  Outcome o;
+  while (Clock::now() - stopped < std::chrono::seconds(15)) {
+    o = RunSession(**client, {"horse", 0, 0, false}, 5000);
+    if (o.last == sdk::EventType::kComplete) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - stopped).count();
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  ASSERT_EQ(o.last, sdk::EventType::kComplete) << o.status.ToString();
+  EXPECT_GE(seconds, 0.9) << "not before the idle timeout";
+  EXPECT_LT(seconds, 8.0);
+  EXPECT_EQ((*server)->Terminate(), 0);
+  EXPECT_NE((*server)->log().find("ended (timeout)"), std::string::npos) << (*server)->log();
+}
+
+}  // namespace
+}  // namespace meshstream
