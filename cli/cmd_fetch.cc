@@ -34,6 +34,7 @@ struct FetchArgs {
   std::optional<int> lod;
   bool tcp_only = false;
   bool json = false;
+  std::string udp_via;
   RemoteOptions remote;
 };
 
@@ -60,6 +61,7 @@ int RunFetch(const FetchArgs& args) {
   options.version = version;
   options.max_level = args.lod ? *args.lod : -1;
   options.tcp_only = args.tcp_only;
+  options.udp_via = args.udp_via;
   auto session = sdk::Session::Open(**client, options);
   if (!session.ok()) return ReportError("fetch", session.status());
   ProgressLine progress(!args.json);
@@ -126,6 +128,9 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_option("-o,--output", args->out, "the file to write, .glb or .gltf")->required();
   cmd->add_option("--lod", args->lod, "stop after K levels (default: all)")->check(CLI::Range(0, 1 << 20));
   cmd->add_flag("--tcp-only", args->tcp_only, "the datagrams over the gRPC stream instead of UDP (firewalls)");
+  cmd->add_option("--udp-via", args->udp_via,
+                  "HOST:PORT to send the session's UDP through instead of the server's advertised endpoint "
+                  "(a relay that shapes the link; debugging)");
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);
   return {cmd, [args] { return RunFetch(*args); }};

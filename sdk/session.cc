@@ -266,7 +266,8 @@ struct Session::Impl {
       std::string host = start.udp().host();
       if (host.empty() || host == "0.0.0.0" || host == "::") host = HostOfTarget(server_target);
       if (start.udp().port() == 0 || start.udp().port() > 65535) return InvalidInput("session start: no UDP port");
-      auto endpoint = SocketAddress::Resolve(host, static_cast<uint16_t>(start.udp().port()));
+      auto endpoint = options.udp_via.empty() ? SocketAddress::Resolve(host, static_cast<uint16_t>(start.udp().port()))
+                                              : SocketAddress::Parse(options.udp_via);
       if (!endpoint.ok()) return endpoint.status().WithContext("the session's UDP endpoint");
       SessionKeys keys;
       std::copy(start.client_to_server_key().begin(), start.client_to_server_key().end(), keys.client_to_server.begin());
@@ -275,6 +276,7 @@ struct Session::Impl {
                                          [this](UdpPacket&& p) { Deliver(std::move(p)); });
       if (!receiver.ok()) return receiver.status();
       udp = std::move(receiver).value();
+      stats.udp_local = udp->local().ToString();
     }
     stats.time_to_base_ms = MsSince(opened);
     level_shown = 0;

@@ -48,6 +48,10 @@ struct SessionOptions {
   uint64_t byte_budget = 0;       // 0: none
   int64_t time_budget_ms = 0;     // 0: none
   int32_t straggler_timeout_ms = 100;
+  // "HOST:PORT": send the HELLO (so the whole UDP half) there instead of the
+  // endpoint the server advertises: a relay that shapes the link, a tunnel,
+  // debugging. Empty: the advertised endpoint.
+  std::string udp_via;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
@@ -72,6 +76,7 @@ struct SessionStats {
   double time_to_full_ms = 0;
   std::string transport;            // "grpc" or "udp"
   std::string end_reason;           // the server's SessionEnd reason, or "byte_budget" / "time_budget"
+  std::string udp_local;            // the client's UDP socket ("0.0.0.0:PORT"), empty without UDP
 };
 
 class Session {
