@@ -14,6 +14,7 @@
 #include "codec/core/byte_io.h"
 #include "codec/loss/reconstructor.h"
 #include "net/udp_socket.h"
+#include "net/steady_clock.h"
 #include "sdk/udp_receiver.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
@@ -91,10 +92,7 @@ struct PrimitiveState {
   size_t reported = 0;                  // refinements reported
 };
 
-uint64_t NowUs() {
-  return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
-}
+uint64_t NowUs() { return SteadyNowUs(); }
 
 // The host part of "HOST:PORT" / "[V6]:PORT" / "dns:///HOST:PORT".
 std::string HostOfTarget(std::string target) {

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "net/hello.h"
+#include "net/steady_clock.h"
 #include "net/packet_header.h"
 #include "net/replay_window.h"
 
@@ -10,11 +11,7 @@ namespace meshstream::sdk {
 
 namespace {
 
-uint64_t NowUs() {
-  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
-                                   std::chrono::steady_clock::now().time_since_epoch())
-                                   .count());
-}
+uint64_t NowUs() { return SteadyNowUs(); }
 
 }  // namespace
 

@@ -4,6 +4,7 @@
 #include <thread>
 
 #include "codec/bitstream/format.h"
+#include "net/steady_clock.h"
 
 namespace meshstream {
 
@@ -11,10 +12,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-uint64_t NowUs() {
-  return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
-}
+uint64_t NowUs() { return SteadyNowUs(); }
 
 // Sleeps until `due_us`, waking every few milliseconds to see whether the
 // session was cancelled; false when it was.

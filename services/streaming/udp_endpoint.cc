@@ -3,16 +3,14 @@
 #include <cstring>
 
 #include "codec/core/byte_io.h"
+#include "net/steady_clock.h"
 #include "services/store/blob_store.h"
 
 namespace meshstream {
 
 namespace {
 
-uint64_t NowUs() {
-  return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
-}
+uint64_t NowUs() { return SteadyNowUs(); }
 
 uint64_t RandomSessionId() {
   const std::string hex = RandomHex(8);
