@@ -13,6 +13,7 @@
 #include "sdk/client.h"
 #include "sdk/session.h"
 #include "tests/common/asset_client.h"
+#include "tests/common/sdk_options.h"
 #include "tests/common/serve_process.h"
 #include "tests/common/test_util.h"
 
@@ -51,7 +52,7 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
 
     auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
     ASSERT_TRUE(sdk_client.ok());
-    auto session = sdk::Session::Open(**sdk_client, {"m", 0, -1, true});
+    auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("m", 0, -1, true));
     ASSERT_TRUE(session.ok()) << session.status().ToString();
     const std::vector<sdk::Event> events = PollToEnd(**session);
     ASSERT_FALSE(events.empty());
@@ -110,13 +111,13 @@ TEST(SdkSession, MaxLevelAndErrors) {
   ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
   auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(sdk_client.ok());
-  auto three = sdk::Session::Open(**sdk_client, {"spot", 0, 3, true});
+  auto three = sdk::Session::Open(**sdk_client, test_util::SessionFor("spot", 0, 3, true));
   ASSERT_TRUE(three.ok());
   const auto events = PollToEnd(**three);
   ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
   EXPECT_EQ(events.back().level, 3);
   EXPECT_EQ((*three)->levels(), 3);
-  auto missing = sdk::Session::Open(**sdk_client, {"no-such-asset", 0, -1, true});
+  auto missing = sdk::Session::Open(**sdk_client, test_util::SessionFor("no-such-asset", 0, -1, true));
   ASSERT_TRUE(missing.ok()) << "the error comes with the first poll";
   const auto failed = PollToEnd(**missing);
   ASSERT_EQ(failed.size(), 1u);

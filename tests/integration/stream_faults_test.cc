@@ -22,6 +22,7 @@
 #include "sdk/client.h"
 #include "sdk/session.h"
 #include "tests/common/asset_client.h"
+#include "tests/common/sdk_options.h"
 #include "tests/common/serve_process.h"
 #include "tests/common/test_util.h"
 
@@ -93,7 +94,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   Ingest(**server, "bunny", "stanford-bunny.obj");
   auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(client.ok());
-  const Outcome one = RunSession(**client, {"bunny", 0, -1, false});
+  const Outcome one = RunSession(**client, test_util::SessionFor("bunny", 0, -1, false));
   ASSERT_EQ(one.last, sdk::EventType::kComplete) << one.status.ToString();
   const int64_t before = RssKiB((*server)->pid());
   ASSERT_GT(before, 0);
@@ -111,7 +112,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   });
   std::vector<std::thread> threads;
   for (int i = 0; i < kSessions; ++i) {
-    threads.emplace_back([&, i] { outcomes[static_cast<size_t>(i)] = RunSession(**client, {"bunny", 0, -1, false}); });
+    threads.emplace_back([&, i] { outcomes[static_cast<size_t>(i)] = RunSession(**client, test_util::SessionFor("bunny", 0, -1, false)); });
   }
   for (std::thread& t : threads) t.join();
   running = false;
@@ -144,7 +145,7 @@ TEST(StreamFaults, AServerKilledMidSessionGivesTheClientAnErrorNotAHang) {
   Ingest(**server, "horse", "horse.ply");
   auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(client.ok());
-  auto session = sdk::Session::Open(**client, {"horse", 0, -1, false});
+  auto session = sdk::Session::Open(**client, test_util::SessionFor("horse", 0, -1, false));
   ASSERT_TRUE(session.ok());
   sdk::Event e = (*session)->Poll(10000);
   ASSERT_EQ(e.type, sdk::EventType::kBaseReady) << e.status.ToString();
@@ -187,7 +188,7 @@ TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
   bool busy = false;
   for (int i = 0; i < 100 && !busy; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    const Outcome o = RunSession(**client, {"horse", 0, 0, false}, 5000);
+    const Outcome o = RunSession(**client, test_util::SessionFor("horse", 0, 0, false), 5000);
     busy = o.last == sdk::EventType::kError && o.status.code() == StatusCode::kResourceExhausted;
   }
   ASSERT_TRUE(busy) << "the fetch never held the session slot";
@@ -196,7 +197,7 @@ TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
   // Within the idle timeout and the watchdog's period the slot is free again.
   Outcome o;
   while (Clock::now() - stopped < std::chrono::seconds(15)) {
-    o = RunSession(**client, {"horse", 0, 0, false}, 5000);
+    o = RunSession(**client, test_util::SessionFor("horse", 0, 0, false), 5000);
     if (o.last == sdk::EventType::kComplete) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
