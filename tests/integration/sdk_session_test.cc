@@ -3,7 +3,9 @@
 // every primitive has the vertex count of that level; the final mesh is what
 // decoding the stored progressive file gives, vertex for vertex; max_level
 // stops early; a missing asset is kError with NOT_FOUND.
+#include <chrono>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -123,6 +125,81 @@ TEST(SdkSession, MaxLevelAndErrors) {
   ASSERT_EQ(failed.size(), 1u);
   EXPECT_EQ(failed[0].type, sdk::EventType::kError);
   EXPECT_EQ(failed[0].status.code(), StatusCode::kNotFound) << failed[0].status.ToString();
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+// Budgets end a session on the client's side with what arrived decoded;
+// Cancel ends it with an error; both free the server's slot.
+TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
+  test_util::TempDir dir;
+  // 1 Mbit/s: the horse takes more than a second over UDP.
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "1",
+                                     "--max-sessions", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(sdk_client.ok());
+
+  sdk::SessionOptions bytes = test_util::SessionFor("horse");
+  bytes.byte_budget = 60000;
+  auto by_bytes = sdk::Session::Open(**sdk_client, bytes);
+  ASSERT_TRUE(by_bytes.ok());
+  auto events = PollToEnd(**by_bytes);
+  ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
+  const sdk::SessionStats& b = (*by_bytes)->stats();
+  EXPECT_EQ(b.end_reason, "byte_budget");
+  EXPECT_LT((*by_bytes)->level_shown(), (*by_bytes)->levels());
+  EXPECT_GE(b.reliable_bytes + b.unreliable_bytes, 60000u);
+  EXPECT_LT(b.reliable_bytes + b.unreliable_bytes, 60000u + 64 * 1024) << "it stops soon after the budget";
+  by_bytes->reset();
+
+  sdk::SessionOptions time = test_util::SessionFor("horse");
+  time.time_budget_ms = 300;
+  std::unique_ptr<sdk::Session> by_time;
+  // The previous session's slot frees when the server sees its done.
+  for (int i = 0; i < 50 && !by_time; ++i) {
+    auto s = sdk::Session::Open(**sdk_client, time);
+    ASSERT_TRUE(s.ok());
+    events = PollToEnd(**s);
+    if (events.back().type == sdk::EventType::kError && events.back().status.code() == StatusCode::kResourceExhausted) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
+    by_time = std::move(s).value();
+  }
+  ASSERT_TRUE(by_time);
+  ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
+  EXPECT_EQ(by_time->stats().end_reason, "time_budget");
+  EXPECT_LT(by_time->level_shown(), by_time->levels());
+  EXPECT_GE(by_time->stats().time_to_full_ms, 300.0);
+  EXPECT_LT(by_time->stats().time_to_full_ms, 2000.0);
+  by_time.reset();
+
+  std::unique_ptr<sdk::Session> cancelled;
+  sdk::Event e;
+  for (int i = 0; i < 50 && !cancelled; ++i) {
+    auto s = sdk::Session::Open(**sdk_client, test_util::SessionFor("horse"));
+    ASSERT_TRUE(s.ok());
+    e = (*s)->Poll(10000);
+    if (e.type == sdk::EventType::kError && e.status.code() == StatusCode::kResourceExhausted) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
+    cancelled = std::move(s).value();
+  }
+  ASSERT_TRUE(cancelled);
+  ASSERT_EQ(e.type, sdk::EventType::kBaseReady) << e.status.ToString();
+  cancelled->Cancel();
+  for (int i = 0; i < 100; ++i) {
+    e = cancelled->Poll(100);
+    if (e.type == sdk::EventType::kError || e.type == sdk::EventType::kComplete) break;
+  }
+  EXPECT_EQ(e.type, sdk::EventType::kError);
+  EXPECT_EQ(e.status.code(), StatusCode::kAborted) << e.status.ToString();
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 
