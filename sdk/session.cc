@@ -434,10 +434,14 @@ struct Session::Impl {
       duplicates += r.duplicates + r.late;
     }
     stats.datagrams_received = accepted;
-    stats.datagrams_duplicate = duplicates;
+    stats.datagrams_duplicate = duplicates + udp_replays_seen;
     uint64_t udp_drops = udp_drops_seen;
     if (udp) {
-      udp_drops = udp->counters().dropped();
+      // A repeated packet number is a copy the network made (or a replay:
+      // the two look alike); it counts with the duplicates, not as rejected.
+      const DropCounters c = udp->counters();
+      udp_replays_seen = c.Get(DropReason::kReplayed);
+      udp_drops = c.dropped() - udp_replays_seen;
       udp_drops_seen = udp_drops;
       stats.hellos_sent = udp->hellos_sent();
       if (udp->hello_rtt_us() > 0) stats.hello_rtt_ms = udp->hello_rtt_us() / 1000.0;
@@ -445,6 +449,7 @@ struct Session::Impl {
     stats.datagrams_rejected = rejected + stray_rejected + udp_drops;
   }
   uint64_t udp_drops_seen = 0;
+  uint64_t udp_replays_seen = 0;
   uint64_t stray_rejected = 0;
 };
 

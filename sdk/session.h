@@ -68,7 +68,7 @@ struct SessionStats {
   uint64_t datagrams_received = 0;  // data datagrams that brought something new
   uint64_t datagrams_lost = 0;      // data datagrams sent and never received (predicted instead)
   uint64_t datagrams_rejected = 0;  // malformed, forged, replayed, or not fitting their stream
-  uint64_t datagrams_duplicate = 0; // copies, and datagrams of refinements already decoded
+  uint64_t datagrams_duplicate = 0; // copies (a packet number seen before), and datagrams of refinements already decoded
   uint64_t hellos_sent = 0;
   double hello_rtt_ms = 0;
   std::string fallback_reason;      // why the session left UDP, if it did
