@@ -118,7 +118,7 @@ struct Session::Impl {
   // Filled by the reader thread and the UDP receiver.
   std::mutex mutex;
   std::condition_variable arrived;
-  std::deque<v1::ServerMessage> queue;
+  std::deque<std::pair<uint64_t, v1::ServerMessage>> queue;  // with when it arrived
   std::deque<UdpPacket> packets;
   bool finished = false;  // the stream ended (status below)
   Status final_status;
@@ -143,8 +143,9 @@ struct Session::Impl {
   void ReadAll() {
     v1::ServerMessage m;
     while (stream->Read(&m)) {
+      const uint64_t at = NowUs();
       std::lock_guard<std::mutex> lock(mutex);
-      queue.push_back(std::move(m));
+      queue.emplace_back(at, std::move(m));
       arrived.notify_one();
     }
     const grpc::Status s = stream->Finish();
@@ -525,7 +526,7 @@ Event Session::Poll(int32_t timeout_ms) {
         s.UpdateStats();
         s.stats.time_to_full_ms = MsSince(s.opened);
         s.Finish("complete");
-        s.udp.reset();
+        if (s.udp) s.udp->RequestStop();  // joined when the session is destroyed
         s.over = true;
         Event e;
         e.type = EventType::kComplete;
@@ -534,7 +535,7 @@ Event Session::Poll(int32_t timeout_ms) {
         continue;
       }
     }
-    std::deque<v1::ServerMessage> messages;
+    std::deque<std::pair<uint64_t, v1::ServerMessage>> messages;
     std::deque<UdpPacket> packets;
     bool finished = false;
     Status final_status;
@@ -548,26 +549,16 @@ Event Session::Poll(int32_t timeout_ms) {
       finished = s.finished;
       final_status = s.final_status;
     }
-    const uint64_t t = NowUs();
-    // Decoding as the blocks arrive keeps the reconstructors' buffers (a
-    // window of refinements) for what is really ahead.
-    for (const v1::ServerMessage& m : messages) {
-      Status st = s.Handle(m, t);
+    // Everything that arrived is handed over, stamped with when it arrived,
+    // before anything is decided by the clock: a busy host thread must not
+    // time a refinement out while its datagrams wait in this batch.
+    for (const auto& [at, m] : messages) {
+      Status st = s.Handle(m, at);
       if (!st.ok()) return s.Fail(st);
-      if (s.level_shown >= 0 && m.kind_case() != v1::ServerMessage::kSession) {
-        st = s.Advance(t, false);
-        if (!st.ok()) return s.Fail(st);
-      }
     }
-    for (const UdpPacket& p : packets) {
-      s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
-      if (p.payload.size() < 32) {  // an END datagram (data datagrams are larger): its refinement may be ready
-        Status st = s.Advance(p.time_us, false);
-        if (!st.ok()) return s.Fail(st);
-      }
-    }
+    for (const UdpPacket& p : packets) s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
     if (s.level_shown >= 0) {
-      Status st = s.Advance(t, false);
+      Status st = s.Advance(NowUs(), false);
       if (!st.ok()) return s.Fail(st);
       s.UpdateStats();
     }

@@ -46,7 +46,9 @@ class UdpReceiver {
   static StatusOr<std::unique_ptr<UdpReceiver>> Start(const SocketAddress& server, uint64_t session_id,
                                                       const SessionKeys& keys,
                                                       std::function<void(UdpPacket&&)> deliver);
-  ~UdpReceiver();
+  ~UdpReceiver();  // stops and joins the thread
+  // Asks the thread to stop without waiting for it (the destructor joins).
+  void RequestStop() { stop_ = true; }
   UdpReceiver(const UdpReceiver&) = delete;
   UdpReceiver& operator=(const UdpReceiver&) = delete;
 
