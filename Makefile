@@ -43,7 +43,8 @@ demo: build
 
 # Benchmarks (never part of `make test`): meshstream against Draco in one binary, gltfpack
 # LODs; JSON, PNG plots and the tables of docs/benchmarks.md. BENCH_ARGS e.g. "--model spot".
-# Then the loss experiments (docs/loss-results.md); LOSS_BENCH_ARGS e.g. "--quick".
+# Then the loss experiments (docs/loss-results.md); LOSS_BENCH_ARGS e.g. "--quick". Then the
+# asset service's and the streaming sessions' benchmarks (bench-service, bench-stream below).
 PYTHON ?= $(shell [ -x /usr/bin/python3 ] && echo /usr/bin/python3 || echo python3)
 BENCH_ARGS ?=
 LOSS_BENCH_ARGS ?=
@@ -56,6 +57,8 @@ bench: build
 	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
 	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
 	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
+	$(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
+	$(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
 
 # Only the asset service's benchmark (docs/service-benchmarks.md): `meshstream serve` in-process
 # on SQLite and on a PostgreSQL cluster it starts (fsync on); SERVICE_BENCH_ARGS e.g. "--quick".
@@ -65,6 +68,16 @@ bench-service: build
 	@mkdir -p docs/bench
 	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
 	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
+
+# Only the streaming sessions' benchmark (docs/stream-benchmarks.md): `meshstream serve` in-process
+# on SQLite, SDK sessions over UDP and gRPC beside the Draco GLB export, the server's datagram rate
+# beside a sendmmsg loop; STREAM_BENCH_ARGS e.g. "--quick".
+STREAM_BENCH_ARGS ?=
+.PHONY: bench-stream
+bench-stream: build
+	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
+	$(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
 
 # libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
 # service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.

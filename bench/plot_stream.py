@@ -1,0 +1,405 @@
+#!/usr/bin/env python3
+"""Plots and tables from the streaming benchmark's JSON (bench/bench_stream.cc).
+
+usage: bench/plot_stream.py [STREAM.json] [--out DIR] [--doc docs/stream-benchmarks.md]
+
+Writes into DIR (default: the JSON's folder):
+  stream-time.png       per model: time to the full mesh (above) and to the
+                        base mesh (below), p50 and p99, against the number of
+                        concurrent sessions, over UDP and over gRPC (tcp_only),
+                        beside the Draco GLB export of the same server (time to
+                        the last byte)
+  stream-datagrams.png  the server's DATA datagrams per second (wall, per
+                        CPU-second of the process, and without the sessions'
+                        decoding threads) beside the sendmmsg loopback limit
+and replaces the text between "<!-- bench:stream:begin -->" and
+"<!-- bench:stream:end -->" in the --doc file with the tables (when the
+markers are there). Works headless (Agg backend).
+"""
+import argparse
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_common import load, output_dir, plt, save_figure, style_axes, update_doc  # noqa: E402
+
+BEGIN = "<!-- bench:stream:begin -->"
+END = "<!-- bench:stream:end -->"
+KINDS = [("udp", "UDP", "C0", "o"), ("tcp_only", "TCP only (gRPC stream)", "C1", "s"),
+         ("draco_export", "Draco GLB export (last byte)", "k", "x")]
+
+
+def short(name):
+    return name.replace("stanford-", "")
+
+
+def models(data):
+    return [m["name"] for m in data["settings"]["models"]]
+
+
+def model_info(data, name):
+    return next(m for m in data["settings"]["models"] if m["name"] == name)
+
+
+def row(data, model, transport, concurrency):
+    for r in data["sessions"]:
+        if r["model"] == model and r["transport"] == transport and r["concurrency"] == concurrency:
+            return r
+    return None
+
+
+def times(r, what):
+    """The summary of `what` ("full" or "base") of a row; the export's time to the last byte for both."""
+    if r is None:
+        return None
+    if r["transport"] == "draco_export":
+        s = r.get("time_to_last_byte_ms")
+    else:
+        s = r.get("time_to_full_ms" if what == "full" else "time_to_base_ms")
+    return s if s and "p50_ms" in s else None
+
+
+def fmt_ms(v):
+    if v is None:
+        return "-"
+    if v < 10:
+        return "%.2f" % v
+    if v < 100:
+        return "%.1f" % v
+    return "%.0f" % v
+
+
+def fmt_int(v):
+    return "{:,}".format(int(round(v)))
+
+
+def fmt_ratio(v):
+    if v is None:
+        return "-"
+    if v < 10:
+        return "%.2f" % v
+    return "%.0f" % v
+
+
+def fmt_rate(v):
+    if v >= 1e6:
+        return "%.2f M" % (v / 1e6)
+    if v >= 1e3:
+        return "%.1f k" % (v / 1e3)
+    return "%.0f" % v
+
+
+# ------------------------------------------------------------------ plots
+
+def plot_times(data, path):
+    ms = models(data)
+    conc = data["settings"]["concurrency"]
+    fig, axes = plt.subplots(2, len(ms), figsize=(6.5 * len(ms), 9), squeeze=False)
+    for col, m in enumerate(ms):
+        for line, what in enumerate(("full", "base")):
+            ax = axes[line][col]
+            for kind, label, color, marker in KINDS:
+                pts = [(c, times(row(data, m, kind, c), what)) for c in conc]
+                pts = [(c, s) for c, s in pts if s]
+                if not pts:
+                    continue
+                xs = [c for c, _ in pts]
+                ax.plot(xs, [s["p50_ms"] for _, s in pts], marker=marker, color=color, linestyle="-",
+                        label="%s p50" % label)
+                ax.plot(xs, [s["p99_ms"] for _, s in pts], marker=marker, color=color, linestyle="--", alpha=0.55,
+                        label="%s p99" % label)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xticks(conc)
+            ax.set_xticklabels([str(c) for c in conc])
+            title = "%s: time to the %s mesh" % (short(m), "full" if what == "full" else "base")
+            style_axes(ax, xlabel="concurrent sessions (threads of one process)",
+                       ylabel="ms from Open (log)", title=title, legend_size=7, which="both")
+    fig.suptitle("Sessions on 127.0.0.1, server and clients in one process on %d cores; the Draco reference "
+                 "does not decode" % data["machine"]["nproc"])
+    save_figure(fig, path, 100, rect=(0, 0, 1, 0.97))
+
+
+def plot_datagrams(data, path):
+    dr = data["datagram_rate"]
+    m = dr["meshstream"]
+    lb = dr["loopback_sendmmsg"]
+    groups = ["per second of wall time",
+              "per CPU-second of the sender\n(server process / the loop's sending thread)",
+              "per CPU-second of both ends\n(server + client processes / the loop's process)"]
+    bars = [
+        ("meshstream: DATA the server sent, %d UDP sessions at a time (%s)" % (m["concurrent_sessions"],
+                                                                              short(m["model"])), "C0",
+         [m["datagrams_per_s_wall"], m["datagrams_per_server_cpu_s"], m["datagrams_per_cpu_s_both"]]),
+        ("sendmmsg loop on 127.0.0.1: 1200 B x 64 per call, recvmmsg receiver (mean of 2 runs)", "0.35",
+         [lb["datagrams_per_s_wall"], lb["sent_per_sender_cpu_s"], lb["datagrams_per_cpu_s"]]),
+    ]
+    fig, ax = plt.subplots(figsize=(12, 5.5))
+    w = 0.8 / len(bars)
+    top = 0
+    for i, (label, color, vals) in enumerate(bars):
+        xs = [j - 0.4 + w * i + w / 2 for j in range(len(groups))]
+        ax.bar(xs, vals, w, color=color, label=label)
+        for x, v in zip(xs, vals):
+            ax.text(x, v * 1.1, fmt_rate(v), ha="center", fontsize=8)
+        top = max(top, max(vals))
+    ax.set_yscale("log")
+    ax.set_ylim(top=top * 12)
+    ax.set_xticks(range(len(groups)))
+    ax.set_xticklabels(groups, fontsize=8)
+    style_axes(ax, ylabel="datagrams (log)", title="Datagrams per second: the server beside the loopback's limit",
+               legend_size=8, axis="y", which="both")
+    save_figure(fig, path, 100)
+
+
+# ----------------------------------------------------------------- tables
+
+def ratio(r, key):
+    v = r.get("vs_draco_export") if r else None
+    return v.get(key) if v else None
+
+
+def headline(data):
+    out = []
+    conc = data["settings"]["concurrency"]
+    out.append("| model | sessions | UDP full p50 / p99 ms | TCP-only full p50 / p99 ms | Draco export p50 / p99 ms "
+               "| UDP full / Draco (p50, p99) | UDP base / Draco (p50, p99) | datagrams lost per UDP session "
+               "(mean, max) |")
+    out.append("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for m in models(data):
+        for c in conc:
+            u, t, d = row(data, m, "udp", c), row(data, m, "tcp_only", c), row(data, m, "draco_export", c)
+            fu, ft, fd = times(u, "full"), times(t, "full"), times(d, "full")
+            if not (fu or ft or fd):
+                continue
+
+            def pp(s):
+                return "%s / %s" % (fmt_ms(s["p50_ms"]), fmt_ms(s["p99_ms"])) if s else "-"
+
+            lost = u["datagrams"] if u else None
+            out.append("| %s | %d | %s | %s | %s | %s, %s | %s, %s | %s |" % (
+                short(m), c, pp(fu), pp(ft), pp(fd), fmt_ratio(ratio(u, "full_p50")), fmt_ratio(ratio(u, "full_p99")),
+                fmt_ratio(ratio(u, "base_p50")), fmt_ratio(ratio(u, "base_p99")),
+                "%.2f, %d" % (lost["lost_per_session_mean"], lost["lost_per_session_max"]) if lost else "-"))
+    return out
+
+
+def session_table(data):
+    out = []
+    conc = data["settings"]["concurrency"]
+    out.append("| model | sessions | transport | n | failed | base p50 / p99 ms | full p50 / p99 ms "
+               "| base / Draco p50, p99 | full / Draco p50, p99 | Open to kComplete p50 / p99 ms | CPU ms per session |")
+    out.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m in models(data):
+        for c in conc:
+            for kind, label, _, _ in KINDS:
+                r = row(data, m, kind, c)
+                if r is None:
+                    continue
+                fb, ff = times(r, "base"), times(r, "full")
+                cpu = r["cpu"]["process_ms_per_session"]
+                if kind == "draco_export":
+                    out.append("| %s | %d | Draco export | %d | %d | - | %s / %s (last byte) | - | - | - | %.1f |" % (
+                        short(m), c, r["completed"], r["failures"], fmt_ms(ff["p50_ms"]) if ff else "-",
+                        fmt_ms(ff["p99_ms"]) if ff else "-", cpu))
+                    continue
+                oc = r.get("open_to_complete_ms", {})
+                out.append("| %s | %d | %s | %d | %d | %s / %s | **%s** / %s | %s, %s | %s, %s | %s / %s | %.1f |" % (
+                    short(m), c, "UDP" if kind == "udp" else "TCP only", r["completed"], r["failures"],
+                    fmt_ms(fb["p50_ms"]) if fb else "-", fmt_ms(fb["p99_ms"]) if fb else "-",
+                    fmt_ms(ff["p50_ms"]) if ff else "-", fmt_ms(ff["p99_ms"]) if ff else "-",
+                    fmt_ratio(ratio(r, "base_p50")), fmt_ratio(ratio(r, "base_p99")),
+                    fmt_ratio(ratio(r, "full_p50")), fmt_ratio(ratio(r, "full_p99")), fmt_ms(oc.get("p50_ms")),
+                    fmt_ms(oc.get("p99_ms")), cpu))
+    return out
+
+
+def loss_table(data):
+    out = []
+    conc = data["settings"]["concurrency"]
+    out.append("| model | sessions | transport | datagrams sent per session | lost per session mean / max "
+               "| sessions with loss | rejected (sessions) | late or duplicate (sessions) "
+               "| sessions ending with predicted vertices (mean per session) | full p50 ms without / with them "
+               "| kernel RcvbufErrors | server rate decreases (sessions) | fallbacks to gRPC |")
+    out.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m in models(data):
+        verts = model_info(data, m)["vertices"]
+        for c in conc:
+            for kind in ("udp", "tcp_only"):
+                r = row(data, m, kind, c)
+                if r is None or "datagrams" not in r:
+                    continue
+                d, p, s = r["datagrams"], r["predicted_vertices"], r["server"]
+                k = r.get("kernel_udp", {})
+                wo, wi = p.get("time_to_full_ms_without", {}), p.get("time_to_full_ms_with", {})
+                out.append("| %s | %d | %s | %d | %.2f / %d | %d of %d | %d (%d) | %d (%d) | %d (%s of %s vertices) "
+                           "| %s / %s | %s | %d (%d) | %d |" % (
+                               short(m), c, "UDP" if kind == "udp" else "TCP only",
+                               s["datagrams_sent_total"] / s["sessions_logged"] if s["sessions_logged"] else 0,
+                               d["lost_per_session_mean"], d["lost_per_session_max"], d["sessions_with_loss"],
+                               r["completed"], d["rejected_total"], d["sessions_with_rejected"], d["duplicate_total"],
+                               d["sessions_with_duplicate"], p["sessions_with_predicted"],
+                               fmt_int(p["per_session_mean"]), fmt_int(verts),
+                               fmt_ms(wo.get("p50_ms")), fmt_ms(wi.get("p50_ms")), k.get("RcvbufErrors", "-"), s["rate_decreases_total"],
+                               s["sessions_with_rate_decrease"], r["fallbacks"]))
+    return out
+
+
+def markdown(data, prefix):
+    mach = data["machine"]
+    st = data["settings"]
+    out = []
+    out.append("Measured %s on %d x %s (%s), %s build, gRPC %s, SQLite %s; store on %s (%s); "
+               "net.core.rmem_max %s. Load average at start %s, at end %s; the run took %.0f s%s." % (
+                   mach["date"], mach["nproc"], mach["cpu"], mach.get("kernel", ""), mach.get("build_type", ""),
+                   mach["grpc"], mach["sqlite"], mach["work_dir"], " ".join(mach.get("work_dir_filesystem", "").split()),
+                   mach.get("net_core_rmem_max", "?"), mach["loadavg_at_start"], mach.get("loadavg_at_end", "?"),
+                   mach.get("run_seconds", 0), " (`--quick`)" if st.get("quick") else ""))
+    if mach.get("git_commit"):
+        out.append("Source: commit %s." % mach["git_commit"])
+    srv = st["server"]
+    out.append("Server: %d workers, --max-rate %.0f Mbit/s, --max-session-rate %.0f Mbit/s, --max-sessions %d "
+               "(the defaults but the workers); UDP on %s." % (
+                   st["workers"], srv["max_rate_bps"] / 1e6, srv["max_session_rate_bps"] / 1e6, srv["max_sessions"],
+                   srv["udp"]))
+    out.append("Models (ingested once, default encode options): " + "; ".join(
+        "%s (%s, %s bytes; %s vertices, %d levels; %s reliable + %s unreliable bytes)" % (
+            m["name"], "/".join(m["roles"]), fmt_int(m["bytes"]), fmt_int(m["vertices"]), m["levels"],
+            fmt_int(m["reliable_bytes"]), fmt_int(m["unreliable_bytes"])) for m in st["models"]) + ".")
+    out.append("Failures (kError, not the full mesh, timeouts, failed exports; counted, never timed): %d." %
+               data["failures"])
+    for r in data["sessions"]:
+        for e in r.get("errors", []):
+            out.append("- %s %s x%d: %s" % (r["model"], r["transport"], r["concurrency"], e))
+    for e in data.get("warmup_failures", []):
+        out.append("- warm-up: %s" % e)
+    out.append("")
+    out.append("### Headline")
+    out.append("")
+    out.extend(headline(data))
+    out.append("")
+    out.append("Ratios: the session's time (to the full mesh, to the base mesh) over the Draco GLB export's time "
+               "to the last byte, at the same percentile and the same number of concurrent clients, measured in "
+               "the same rounds. Below 1, meshstream is there first.")
+    out.append("")
+    out.append("### Time to base and full mesh")
+    out.append("")
+    rounds = sorted({(r["concurrency"], r["rounds"]) for r in data["sessions"]})
+    out.extend(session_table(data))
+    out.append("")
+    out.append("Rounds per row (sessions x rounds = n): %s. `base` and `full`: the SDK's `time_to_base_ms` and "
+               "`time_to_full_ms`. `Open to kComplete`: measured by the benchmark around the same session, from "
+               "before `Session::Open` until `Poll` returned `kComplete` (what the application sees). `CPU ms per "
+               "session`: this process's CPU (server and clients together) over the rounds of the row, per "
+               "session." % ", ".join("%d x %d" % (c, n) for c, n in rounds))
+    out.append("")
+    out.append("![time to base and full mesh](%sstream-time.png)" % prefix)
+    out.append("")
+    out.append("The Draco reference per model: the first export (decode the artifact, encode with Draco, store it "
+               "in the export cache: what the first client of a version waits), the GLB's size, and what its "
+               "client would pay after the last byte, decoding it (importers/, one thread, median of 10):")
+    out.append("")
+    out.append("| model | Draco GLB bytes | first export ms | client decode ms | progressive artifact bytes |")
+    out.append("|---|---:|---:|---:|---:|")
+    for m in models(data):
+        ref = data["draco_reference"][m]
+        out.append("| %s | %s | %s | %s | %s |" % (short(m), fmt_int(ref["bytes"]), fmt_ms(ref["first_call_ms"]),
+                                                fmt_ms(ref["client_decode"]["median_ms"]),
+                                                fmt_int(model_info(data, m)["progressive_bytes"])))
+    out.append("")
+    out.append("### Losses over loopback")
+    out.append("")
+    out.extend(loss_table(data))
+    out.append("")
+    out.append("`lost`: the SDK's `datagrams_lost` (announced by the control block, not there when the refinement "
+               "was decoded). `rejected`: `datagrams_rejected` (malformed, forged, replayed, or not fitting: a "
+               "datagram beyond the reconstructor's window is counted here). `late or duplicate`: "
+               "`datagrams_duplicate` (copies, and datagrams of refinements already decoded). `predicted "
+               "vertices`: `Session::predicted_vertices()` at kComplete. `kernel RcvbufErrors`: the delta of "
+               "/proc/net/snmp over the rows' rounds: datagrams the kernel dropped because a socket's receive "
+               "buffer was full (every socket of the machine; the benchmark is the only UDP user). `rate "
+               "decreases`: the server's rate controller backing off (its session log lines).")
+    out.append("")
+    dr = data["datagram_rate"]
+    m = dr["meshstream"]
+    lb = dr["loopback_sendmmsg"]
+    out.append("### Datagrams per second")
+    out.append("")
+    cl = m["client"]
+    out.append("| | datagrams | wall s | **datagrams/s** | sender CPU s | **per sender CPU-s** | CPU s, both ends "
+               "| per CPU-s, both ends |")
+    out.append("|---|---:|---:|---:|---:|---:|---:|---:|")
+    out.append("| meshstream: %d UDP sessions of %s at a time, for %.1f s | %s DATA sent | %.2f | **%s** | %.2f (server "
+               "process) | **%s** | %.2f (+ clients %.2f) | %s |" % (
+                   m["concurrent_sessions"], short(m["model"]), m["seconds_asked"], fmt_int(m["data_datagrams_sent"]),
+                   m["wall_s"], fmt_rate(m["datagrams_per_s_wall"]), m["server_cpu_s"],
+                   fmt_rate(m["datagrams_per_server_cpu_s"]), m["server_cpu_s"] + m["client_cpu_s"], m["client_cpu_s"],
+                   fmt_rate(m["datagrams_per_cpu_s_both"])))
+    for when in ("before", "after"):
+        r = lb[when]
+        out.append("| sendmmsg loop, %s the sessions | %s sent, %s received | %.2f | %s | %.2f (sending thread) | %s "
+                   "| %.2f | %s |" % (
+                       when, fmt_int(r["sent"]), fmt_int(r["received"]), r["wall_s"],
+                       fmt_rate(r["datagrams_per_s_wall"]), r["sender_thread_cpu_s"],
+                       fmt_rate(r["sent_per_sender_cpu_s"]), r["process_cpu_s"], fmt_rate(r["datagrams_per_cpu_s"])))
+    ra = dr["ratios"]
+    out.append("| **meshstream / loop** | | | **%.4f** | | **%.4f** | | %.4f |" % (
+        ra["wall"], ra["server_cpu_vs_sender_cpu"], ra["both_ends_cpu"]))
+    out.append("")
+    out.append("The run: %d sessions opened in the client process (%d failed, %d fell back to gRPC, %d ended with "
+               "predicted vertices), --max-rate and --max-session-rate %.0f Gbit/s. DATA datagrams (data and END) "
+               "as the server's session log lines count them for the sessions of the window; the endpoint's own "
+               "total at shutdown, warm-up sessions included: `%s`. The clients received %s and counted %s lost "
+               "(%s rejected); the kernel's UDP counters over the window: %s; the server's rate controller backed "
+               "off %d times. CPU: getrusage of each process over the window: the server's (its gRPC threads "
+               "running the sessions: plan, artifact read, pacing, sealing, sendmmsg; its UDP endpoint thread; "
+               "gRPC) and the client process's (%.2f s of its %.2f s on the threads that call `Poll`, where the "
+               "SDK decodes). The machine was %.0f %% busy. The loop's *datagrams/s* counts what the receiver "
+               "got; its sending thread's CPU includes the kernel's loopback delivery into the receiving socket, "
+               "which runs in the sender's system call." % (
+                   cl["sessions_opened"], cl["sessions_failed"], cl["sessions_fallback_grpc"],
+                   cl["sessions_with_predicted_vertices"], dr["server_options"]["max_rate_bps"] / 1e9,
+                   m.get("server_udp_totals_line", "-"), fmt_int(cl["datagrams_received"]),
+                   fmt_int(cl["datagrams_lost"]), fmt_int(cl["datagrams_rejected"]),
+                   ", ".join("%s %d" % (k, v) for k, v in m.get("kernel_udp", {}).items()),
+                   m["server_rate_decreases"], cl["session_threads_cpu_s"], cl["process_cpu_s"],
+                   100 * m["machine_busy"]))
+    out.append("")
+    out.append("![datagram rate](%sstream-datagrams.png)" % prefix)
+    out.append("")
+    notable = data.get("server", {}).get("log_notable", [])
+    odd = [l for l in notable if l.startswith("session ")]
+    if odd:
+        out.append("Server log lines of sessions that did not end `complete` (first %d):" % len(odd))
+        out.append("")
+        out.append("```")
+        out.extend(odd)
+        out.append("```")
+        out.append("")
+    return "\n".join(out)
+
+
+def main():
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(here)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("results", nargs="?", default=os.path.join(root, "docs", "bench", "stream.json"))
+    ap.add_argument("--out", default=None, help="folder for the PNGs (default: the JSON's folder)")
+    ap.add_argument("--doc", default=os.path.join(root, "docs", "stream-benchmarks.md"),
+                    help="Markdown file whose marked section receives the tables ('' to skip)")
+    a = ap.parse_args()
+    data = load(a.results)
+    out = output_dir(a.out, a.results)
+    plot_times(data, os.path.join(out, "stream-time.png"))
+    plot_datagrams(data, os.path.join(out, "stream-datagrams.png"))
+    if a.doc and os.path.exists(a.doc):
+        if update_doc(a.doc, BEGIN, END, out, lambda prefix: markdown(data, prefix)):
+            print("plot_stream.py: updated %s" % a.doc)
+        else:
+            print("plot_stream.py: %s has no %s ... %s markers; left alone" % (a.doc, BEGIN, END))
+    print("plot_stream.py: wrote 2 plots into %s" % out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
