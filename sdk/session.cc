@@ -77,6 +77,8 @@ StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
 // What the client tracks of one refinement for its report.
 struct RefinementTrack {
   bool has_control = false;
+  std::string control;             // held until the refinement's END arrives (then given to the reconstructor)
+  bool end_seen = false;           // its END datagram or its RefinementEnd arrived
   uint32_t datagrams = 0;          // data datagrams the server sends
   uint64_t first_packet_number = 0;
   std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
@@ -90,6 +92,7 @@ struct PrimitiveState {
   std::unique_ptr<StreamReconstructor> reconstructor;
   std::vector<RefinementTrack> tracks;  // per refinement of this session
   size_t reported = 0;                  // refinements reported
+  size_t given = 0;                     // control blocks given to the reconstructor (in order)
 };
 
 uint64_t NowUs() { return SteadyNowUs(); }
@@ -283,18 +286,44 @@ struct Session::Impl {
   }
 
   // A datagram of either channel, to its primitive's reconstructor.
-  void OfferDatagram(const uint8_t* data, size_t size, const UdpPacket* udp_packet, uint64_t now) {
+  // Gives the reconstructor the held control blocks of `p`, in order, up to
+  // refinement `last` (inclusive) as far as they have arrived. A control
+  // block is held until its refinement's END arrives on either channel, so
+  // that the straggler timeout counts from the end of the sending (a paced
+  // refinement may take longer to send than the timeout), not from its start.
+  Status GiveControls(PrimitiveState& p, size_t last, uint64_t now) {
+    while (p.given < p.tracks.size() && p.given <= last && p.tracks[p.given].has_control) {
+      RefinementTrack& t = p.tracks[p.given];
+      Status s = p.reconstructor->OnControl(reinterpret_cast<const uint8_t*>(t.control.data()), t.control.size(), now);
+      if (!s.ok()) return s.WithContext("primitive " + std::to_string(p.start.primitive()));
+      t.control.clear();
+      t.control.shrink_to_fit();
+      ++p.given;
+    }
+    return Status::Ok();
+  }
+
+  Status GiveAllControls(uint64_t now) {
+    for (PrimitiveState& p : primitives) {
+      Status s = GiveControls(p, SIZE_MAX, now);
+      if (!s.ok()) return s;
+    }
+    return Status::Ok();
+  }
+
+  Status OfferDatagram(const uint8_t* data, size_t size, const UdpPacket* udp_packet, uint64_t now) {
     ByteReader r(data, size);
     auto h = DatagramHeader::Parse(r);
     if (!h.ok() || by_stream.count(h->stream) == 0) {
       ++stats.datagrams_rejected;
-      return;
+      return Status::Ok();
     }
     PrimitiveState& p = primitives[by_stream[h->stream]];
     if (h->refinement < p.tracks.size()) {
       RefinementTrack& t = p.tracks[h->refinement];
       if (h->kind == DatagramKind::kEnd) {
         if (t.end_time_us == 0) t.end_time_us = now;
+        t.end_seen = true;
       } else {
         t.bytes += size;
         if (udp_packet != nullptr && t.packet_numbers.size() < 4 * (size_t{1} << 16)) {
@@ -304,6 +333,8 @@ struct Session::Impl {
     }
     if (h->kind != DatagramKind::kEnd) stats.unreliable_bytes += size;
     p.reconstructor->OnDatagram(data, size, now);
+    if (h->kind == DatagramKind::kEnd) return GiveControls(p, h->refinement, now);
+    return Status::Ok();
   }
 
   // Handles one message of the gRPC stream.
@@ -332,22 +363,35 @@ struct Session::Impl {
         auto index = PrimitiveOf(c.primitive());
         if (!index.ok()) return index.status();
         PrimitiveState& p = primitives[index.value()];
-        if (c.refinement() < p.tracks.size()) {
-          RefinementTrack& t = p.tracks[c.refinement()];
-          t.has_control = true;
-          t.datagrams = c.datagrams();
-          t.first_packet_number = c.first_packet_number();
+        if (c.refinement() >= p.tracks.size() || p.tracks[c.refinement()].has_control) {
+          return InvalidInput("primitive " + std::to_string(c.primitive()) + ": a control block for refinement " +
+                              std::to_string(c.refinement()) + " it does not expect");
         }
+        RefinementTrack& t = p.tracks[c.refinement()];
+        t.has_control = true;
+        t.control = c.control();
+        t.datagrams = c.datagrams();
+        t.first_packet_number = c.first_packet_number();
         stats.reliable_bytes += c.control().size();
-        Status s = p.reconstructor->OnControl(reinterpret_cast<const uint8_t*>(c.control().data()), c.control().size(), now);
-        return s.ok() ? s : s.WithContext("primitive " + std::to_string(c.primitive()));
+        return t.end_seen ? GiveControls(p, c.refinement(), now) : Status::Ok();
       }
       case v1::ServerMessage::kDatagram: {
         const std::string& d = m.datagram().payload();
-        OfferDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size(), nullptr, now);
-        return Status::Ok();
+        return OfferDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size(), nullptr, now);
       }
-      case v1::ServerMessage::kRefinementEnd: return Status::Ok();  // the END datagram is what the reconstructor waits for
+      case v1::ServerMessage::kRefinementEnd: {
+        // The reliable copy of the END: the refinement is complete once its
+        // announced datagrams are in, even when the END datagram was lost.
+        const v1::RefinementEnd& e = m.refinement_end();
+        auto index = PrimitiveOf(e.primitive());
+        if (!index.ok()) return index.status();
+        PrimitiveState& p = primitives[index.value()];
+        if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
+        p.tracks[e.refinement()].end_seen = true;
+        const std::vector<uint8_t> end = MakeEndDatagram(e.primitive(), e.refinement(), e.datagrams_sent());
+        p.reconstructor->OnDatagram(end.data(), end.size(), now);
+        return GiveControls(p, e.refinement(), now);
+      }
       case v1::ServerMessage::kEnd: {
         session_end = true;
         session_end_us = now;
@@ -404,6 +448,10 @@ struct Session::Impl {
 
   // Decodes what is ready, reports it and queues the events it makes.
   Status Advance(uint64_t now, bool flush) {
+    if (flush) {
+      Status s = GiveAllControls(now);
+      if (!s.ok()) return s;
+    }
     for (PrimitiveState& p : primitives) {
       if (flush) {
         Status s = p.reconstructor->Flush();
@@ -556,7 +604,10 @@ Event Session::Poll(int32_t timeout_ms) {
       Status st = s.Handle(m, at);
       if (!st.ok()) return s.Fail(st);
     }
-    for (const UdpPacket& p : packets) s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
+    for (const UdpPacket& p : packets) {
+      Status st = s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
+      if (!st.ok()) return s.Fail(st);
+    }
     if (s.level_shown >= 0) {
       Status st = s.Advance(NowUs(), false);
       if (!st.ok()) return s.Fail(st);

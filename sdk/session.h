@@ -11,9 +11,9 @@
 // Transport: UDP unless tcp_only (or the server has UDP off, or no HELLO
 // got through: the server then says so and the datagrams come over gRPC).
 // Over UDP what the network loses is predicted (codec/loss), never asked
-// for again; a refinement is decoded when its END datagram and every
-// datagram it announces have arrived, or `straggler_timeout_ms` after its
-// control block.
+// for again; a refinement is decoded when its END (the datagram or its
+// reliable copy, RefinementEnd) and every datagram it announces have
+// arrived, or `straggler_timeout_ms` after the first of its ENDs arrived.
 //
 // Budgets: max_level stops the server early; byte_budget (bytes received
 // on both channels) and time_budget_ms (since Open) stop the session on the
@@ -47,7 +47,7 @@ struct SessionOptions {
   bool tcp_only = false;  // ask for the datagrams over gRPC
   uint64_t byte_budget = 0;       // 0: none
   int64_t time_budget_ms = 0;     // 0: none
-  int32_t straggler_timeout_ms = 100;
+  int32_t straggler_timeout_ms = 50;  // after a refinement's END: reordering and jitter
   // "HOST:PORT": send the HELLO (so the whole UDP half) there instead of the
   // endpoint the server advertises: a relay that shapes the link, a tunnel,
   // debugging. Empty: the advertised endpoint.
