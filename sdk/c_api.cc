@@ -205,7 +205,7 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
     options.max_level = config->max_level;
     options.tcp_only = config->tcp_only != 0;
     auto session = meshstream::sdk::Session::Open(*client->client, options);
-    if (!session.ok()) return Fail(session.status().WithContext("asset " + options.asset));
+    if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();
     handle->client = client->client;
     handle->session = std::move(session).value();
