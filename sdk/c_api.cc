@@ -78,17 +78,28 @@ ms_status Fail(const Status& status) { return Fail(ToC(status.code()), status.To
 
 ms_status Null(const char* what) { return Fail(MS_ERR_INVALID_ARGUMENT, std::string(what) + ": must not be NULL"); }
 
+// The message of an exception caught at the boundary; building it may fail
+// too (no memory), and then the message is empty rather than a throw.
+ms_status FailNoThrow(ms_status status, const char* function, const char* what) noexcept {
+  try {
+    last_error = std::string(function) + ": " + what;
+  } catch (...) {
+    last_error.clear();
+  }
+  return status;
+}
+
 // Runs `body`, turning any exception into MS_ERR_INTERNAL.
 template <typename F>
 ms_status Guard(const char* function, F&& body) noexcept {
   try {
     return body();
   } catch (const std::bad_alloc&) {
-    return Fail(MS_ERR_INTERNAL, std::string(function) + ": out of memory");
+    return FailNoThrow(MS_ERR_INTERNAL, function, "out of memory");
   } catch (const std::exception& e) {
-    return Fail(MS_ERR_INTERNAL, std::string(function) + ": " + e.what());
+    return FailNoThrow(MS_ERR_INTERNAL, function, e.what());
   } catch (...) {
-    return Fail(MS_ERR_INTERNAL, std::string(function) + ": an unknown exception");
+    return FailNoThrow(MS_ERR_INTERNAL, function, "an unknown exception");
   }
 }
 
@@ -235,7 +246,7 @@ ms_status ms_session_poll(ms_session* session, int32_t timeout_ms, ms_event* out
 
 uint32_t ms_session_primitive_count(const ms_session* session) {
   if (session == nullptr) {
-    Null("session");
+    Guard("ms_session_primitive_count", [] { return Null("session"); });
     return 0;
   }
   return static_cast<uint32_t>(session->session->primitive_count());

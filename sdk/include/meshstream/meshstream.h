@@ -76,12 +76,12 @@ typedef struct ms_session ms_session;
 /* Outcomes. The values are fixed; no new value will be added. */
 typedef enum {
   MS_OK = 0,
-  MS_ERR_INVALID_ARGUMENT, /* a bad argument, or a call that is not valid in this state */
+  MS_ERR_INVALID_ARGUMENT, /* a bad argument, a call not valid in this state, or data that is not valid */
   MS_ERR_NOT_FOUND,        /* the asset or version does not exist (for this token) */
   MS_ERR_UNAUTHENTICATED,  /* no token, a token that is not valid, or one that may not do this */
   MS_ERR_UNAVAILABLE,      /* the server cannot be reached, is busy, or ended the session early; retry */
   MS_ERR_TIMEOUT,          /* a deadline ran out (reserved: the SDK reports none today, see docs/c-api.md) */
-  MS_ERR_INTERNAL          /* anything else: bad data from the server, a failed file write, a bug */
+  MS_ERR_INTERNAL          /* anything else: a file that cannot be written, damaged data, a bug */
 } ms_status;
 
 typedef struct {
@@ -201,7 +201,10 @@ MS_API void ms_session_close(ms_session* session);
 
 /* This thread's last error: the message of the last call on this thread
  * that returned something other than MS_OK, "" after a call that returned
- * MS_OK. Never NULL; valid until the next call on this thread. */
+ * MS_OK. It starts with the SDK's code ("NOT_FOUND: asset bunny does not
+ * exist") except for the argument checks of this API. The functions that
+ * return no ms_status leave it alone, except ms_session_primitive_count(NULL),
+ * which sets it. Never NULL; valid until the next ms_* call on this thread. */
 MS_API const char* ms_last_error(void);
 
 /* The library's version, "MAJOR.MINOR.PATCH" (the project's version). */
