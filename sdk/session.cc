@@ -126,6 +126,10 @@ struct Session::Impl {
   bool finished = false;  // the stream ended (status below)
   Status final_status;
 
+  // Owned by the Poll thread: what was taken from the queues and not yet handled.
+  std::deque<std::pair<uint64_t, v1::ServerMessage>> local_messages;
+  std::deque<UdpPacket> local_packets;
+
   // Owned by the Poll thread.
   std::unique_ptr<UdpReceiver> udp;
   std::vector<PrimitiveState> primitives;
@@ -462,12 +466,14 @@ struct Session::Impl {
       }
     }
     Report();
+    // One event for the level reached, even when several completed at once
+    // (a viewer wants the latest, and the views show it).
     const int32_t level = LevelEverywhere();
-    while (level_announced >= 0 && level_announced < level) {
-      ++level_announced;
+    if (level_announced >= 0 && level_announced < level) {
+      level_announced = level;
       Event e;
       e.type = EventType::kLevelReady;
-      e.level = level_announced;
+      e.level = level;
       events.push_back(e);
     }
     level_shown = std::max(level_shown, level);
@@ -583,37 +589,57 @@ Event Session::Poll(int32_t timeout_ms) {
         continue;
       }
     }
-    std::deque<std::pair<uint64_t, v1::ServerMessage>> messages;
-    std::deque<UdpPacket> packets;
     bool finished = false;
     Status final_status;
     {
       std::unique_lock<std::mutex> lock(s.mutex);
-      // Wake at least every 10 ms: refinements become ready by the clock too.
-      const auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
-      s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
-      messages.swap(s.queue);
-      packets.swap(s.packets);
+      if (s.local_messages.empty() && s.local_packets.empty()) {
+        // Wake at least every 10 ms: refinements become ready by the clock too.
+        const auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
+        s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
+      }
+      for (auto& m : s.queue) s.local_messages.push_back(std::move(m));
+      for (auto& p : s.packets) s.local_packets.push_back(std::move(p));
+      s.queue.clear();
+      s.packets.clear();
       finished = s.finished;
       final_status = s.final_status;
     }
-    // Everything that arrived is handed over, stamped with when it arrived,
-    // before anything is decided by the clock: a busy host thread must not
-    // time a refinement out while its datagrams wait in this batch.
-    for (const auto& [at, m] : messages) {
-      Status st = s.Handle(m, at);
+    // The arrivals of both channels in the order they arrived, each decided
+    // on with its own arrival time (a busy host thread must not time a
+    // refinement out while its datagrams wait here), until one makes an
+    // event: the rest waits for the next poll, so the views match the event.
+    while (s.events.empty() && (!s.local_messages.empty() || !s.local_packets.empty())) {
+      const bool message = !s.local_messages.empty() &&
+                           (s.local_packets.empty() || s.local_messages.front().first <= s.local_packets.front().time_us);
+      uint64_t at;
+      Status st;
+      if (message) {
+        at = s.local_messages.front().first;
+        const v1::ServerMessage m = std::move(s.local_messages.front().second);
+        s.local_messages.pop_front();
+        st = s.Handle(m, at);
+      } else {
+        const UdpPacket p = std::move(s.local_packets.front());
+        s.local_packets.pop_front();
+        at = p.time_us;
+        st = s.OfferDatagram(p.payload.data(), p.payload.size(), &p, at);
+      }
       if (!st.ok()) return s.Fail(st);
+      if (s.level_shown >= 0 && s.events.empty()) {
+        st = s.Advance(at, false);
+        if (!st.ok()) return s.Fail(st);
+      }
     }
-    for (const UdpPacket& p : packets) {
-      Status st = s.OfferDatagram(p.payload.data(), p.payload.size(), &p, p.time_us);
-      if (!st.ok()) return s.Fail(st);
-    }
+    const bool drained = s.local_messages.empty() && s.local_packets.empty();
     if (s.level_shown >= 0) {
-      Status st = s.Advance(NowUs(), false);
-      if (!st.ok()) return s.Fail(st);
+      if (drained && s.events.empty()) {
+        Status st = s.Advance(NowUs(), false);
+        if (!st.ok()) return s.Fail(st);
+      }
       s.UpdateStats();
     }
-    if (finished && messages.empty() && packets.empty() && !s.session_end) {
+    if (finished && drained && !s.session_end) {
       Status status = final_status.ok() ? Unavailable("the server ended the session before its end") : final_status;
       return s.Fail(std::move(status));
     }

@@ -4,9 +4,11 @@
 // thread and gets events; no callback ever runs on an internal thread.
 //
 // Events, in order: kBaseReady (every primitive's base mesh decoded), then
-// kLevelReady for level 1, 2, ... (every primitive refined to that level,
-// or to all it has), then kComplete; or kError with the status, after which
-// the session is over.
+// kLevelReady with the level every primitive has reached (or all it has),
+// increasing, one event per poll that reaches a new level (levels completed
+// together come as one event for the highest), then kComplete; or kError with
+// the status, after which the session is over. At each event the meshes are
+// at the event's level (arrivals after it wait for the next poll).
 //
 // Transport: UDP unless tcp_only (or the server has UDP off, or no HELLO
 // got through: the server then says so and the datagrams come over gRPC).

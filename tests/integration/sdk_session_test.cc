@@ -1,5 +1,5 @@
 // The C++ SDK against a real `meshstream serve`: a session polls to
-// kComplete through kBaseReady and every kLevelReady in order; at each event
+// kComplete through kBaseReady and kLevelReady with increasing levels; at each event
 // every primitive has the vertex count of that level; the final mesh is what
 // decoding the stored progressive file gives, vertex for vertex; max_level
 // stops early; a missing asset is kError with NOT_FOUND.
@@ -66,8 +66,11 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
     for (const sdk::Event& e : events) {
       if (e.type == sdk::EventType::kLevelReady) level_events.push_back(e.level);
     }
-    ASSERT_EQ(static_cast<int32_t>(level_events.size()), levels) << "one kLevelReady per level, in order";
-    for (int32_t k = 0; k < levels; ++k) EXPECT_EQ(level_events[static_cast<size_t>(k)], k + 1);
+    // Increasing levels up to the last (levels completed in one poll come as one event).
+    ASSERT_FALSE(level_events.empty());
+    ASSERT_LE(static_cast<int32_t>(level_events.size()), levels);
+    for (size_t k = 1; k < level_events.size(); ++k) EXPECT_GT(level_events[k], level_events[k - 1]);
+    EXPECT_EQ(level_events.back(), levels);
     EXPECT_EQ((*session)->stats().transport, "grpc");
     EXPECT_GT((*session)->stats().datagrams_received, 0u);
     EXPECT_EQ((*session)->stats().datagrams_rejected, 0u);

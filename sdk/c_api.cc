@@ -1,0 +1,375 @@
+// The C API (sdk/include/meshstream/meshstream.h, docs/c-api.md): a thin
+// translation onto sdk::Client and sdk::Session. What this file adds is only
+// what C needs: argument checks, the struct_size rule, Status -> ms_status,
+// the thread's last error, no exception across the boundary, and buffers
+// that keep a mesh view alive until the next poll.
+#include "meshstream/meshstream.h"
+
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "sdk/client.h"
+#include "sdk/session.h"
+
+#ifndef MESHSTREAM_VERSION
+#error "MESHSTREAM_VERSION must be defined by the build (the project's version)"
+#endif
+
+struct ms_client {
+  std::shared_ptr<meshstream::sdk::Client> client;
+};
+
+struct ms_session {
+  // Declared before `session`, so destroyed after it: the session's channel
+  // stays alive even when ms_client_destroy came first.
+  std::shared_ptr<meshstream::sdk::Client> client;
+  std::unique_ptr<meshstream::sdk::Session> session;
+  uint64_t generation = 1;  // bumped by every poll; a view is valid within one generation
+  struct View {
+    uint64_t generation = 0;  // 0: never filled
+    std::vector<float> positions, normals, texcoords, colors;
+    std::vector<uint32_t> indices;
+    std::vector<uint8_t> predicted;
+  };
+  std::vector<View> views;
+  mutable std::string transport;  // what ms_stats.transport points to
+};
+
+namespace {
+
+using meshstream::Status;
+using meshstream::StatusCode;
+
+thread_local std::string last_error;
+
+ms_status Ok() {
+  last_error.clear();
+  return MS_OK;
+}
+
+ms_status Fail(ms_status status, std::string message) {
+  last_error = std::move(message);
+  return status;
+}
+
+ms_status ToC(StatusCode code) {
+  switch (code) {
+    case StatusCode::kOk: return MS_OK;
+    case StatusCode::kInvalidArgument:
+    case StatusCode::kInvalidInput:
+    case StatusCode::kFailedPrecondition: return MS_ERR_INVALID_ARGUMENT;
+    case StatusCode::kNotFound: return MS_ERR_NOT_FOUND;
+    case StatusCode::kUnauthenticated:
+    case StatusCode::kPermissionDenied: return MS_ERR_UNAUTHENTICATED;
+    case StatusCode::kUnavailable:
+    case StatusCode::kResourceExhausted:
+    case StatusCode::kAborted: return MS_ERR_UNAVAILABLE;
+    default: return MS_ERR_INTERNAL;
+  }
+}
+
+ms_status Fail(const Status& status) { return Fail(ToC(status.code()), status.ToString()); }
+
+ms_status Null(const char* what) { return Fail(MS_ERR_INVALID_ARGUMENT, std::string(what) + ": must not be NULL"); }
+
+// The message of an exception caught at the boundary; building it may fail
+// too (no memory), and then the message is empty rather than a throw.
+ms_status FailNoThrow(ms_status status, const char* function, const char* what) noexcept {
+  try {
+    last_error = std::string(function) + ": " + what;
+  } catch (...) {
+    last_error.clear();
+  }
+  return status;
+}
+
+// Runs `body`, turning any exception into MS_ERR_INTERNAL.
+template <typename F>
+ms_status Guard(const char* function, F&& body) noexcept {
+  try {
+    return body();
+  } catch (const std::bad_alloc&) {
+    return FailNoThrow(MS_ERR_INTERNAL, function, "out of memory");
+  } catch (const std::exception& e) {
+    return FailNoThrow(MS_ERR_INTERNAL, function, e.what());
+  } catch (...) {
+    return FailNoThrow(MS_ERR_INTERNAL, function, "an unknown exception");
+  }
+}
+
+// The struct_size rule: at least the first version, and a field is read
+// only when it fits entirely.
+ms_status CheckSize(size_t struct_size, size_t v0, const char* what) {
+  if (struct_size >= v0) return MS_OK;
+  return Fail(MS_ERR_INVALID_ARGUMENT, std::string(what) + "->struct_size: " + std::to_string(struct_size) +
+                                           " is smaller than the first version of the struct (" +
+                                           std::to_string(v0) + " bytes); set it to sizeof the struct");
+}
+
+bool Fits(size_t struct_size, size_t offset, size_t size) { return offset + size <= struct_size; }
+
+#define MS_FIELD_FITS(object, type, field) Fits((object)->struct_size, offsetof(type, field), sizeof((object)->field))
+
+ms_event_type ToC(meshstream::sdk::EventType type) {
+  switch (type) {
+    case meshstream::sdk::EventType::kBaseReady: return MS_EVENT_BASE_READY;
+    case meshstream::sdk::EventType::kLevelReady: return MS_EVENT_LEVEL_READY;
+    case meshstream::sdk::EventType::kComplete: return MS_EVENT_COMPLETE;
+    case meshstream::sdk::EventType::kError: return MS_EVENT_ERROR;
+    default: return MS_EVENT_NONE;
+  }
+}
+
+ms_status CheckPrimitive(const ms_session* session, uint32_t primitive) {
+  const size_t count = session->session->primitive_count();
+  if (primitive < count) return MS_OK;
+  return Fail(MS_ERR_INVALID_ARGUMENT, "primitive: " + std::to_string(primitive) + " does not exist (the session has " +
+                                           std::to_string(count) + " primitives now)");
+}
+
+template <typename T, size_t N>
+void Flatten(const std::vector<std::array<T, N>>& in, std::vector<T>& out) {
+  out.resize(in.size() * N);
+  for (size_t i = 0; i < in.size(); ++i) {
+    for (size_t k = 0; k < N; ++k) out[i * N + k] = in[i][k];
+  }
+}
+
+// The view buffers of a primitive, filled once per poll generation.
+ms_status Fill(ms_session* session, uint32_t primitive, ms_session::View** out) {
+  if (session->views.size() < session->session->primitive_count()) {
+    session->views.resize(session->session->primitive_count());
+  }
+  ms_session::View& view = session->views[primitive];
+  if (view.generation != session->generation) {
+    auto mesh = session->session->Mesh(primitive);
+    if (!mesh.ok()) return Fail(mesh.status());
+    auto predicted = session->session->Predicted(primitive);
+    if (!predicted.ok()) return Fail(predicted.status());
+    Flatten(mesh->positions, view.positions);
+    Flatten(mesh->normals, view.normals);
+    if (mesh->texcoords.empty()) {
+      view.texcoords.clear();
+    } else {
+      Flatten(mesh->texcoords[0], view.texcoords);
+    }
+    Flatten(mesh->colors, view.colors);
+    view.indices = std::move(mesh->indices);
+    view.predicted = std::move(predicted).value();
+    view.predicted.resize(mesh->positions.size(), 0);
+    view.generation = session->generation;
+  }
+  *out = &view;
+  return MS_OK;
+}
+
+template <typename T>
+const T* DataOrNull(const std::vector<T>& v) {
+  return v.empty() ? nullptr : v.data();
+}
+
+}  // namespace
+
+extern "C" {
+
+ms_status ms_client_create(const ms_client_config* config, ms_client** out) {
+  return Guard("ms_client_create", [&] {
+    if (out != nullptr) *out = nullptr;
+    if (config == nullptr) return Null("config");
+    if (out == nullptr) return Null("out");
+    if (CheckSize(config->struct_size, MS_CLIENT_CONFIG_V0_SIZE, "config") != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    meshstream::sdk::ClientOptions options;
+    if (config->server != nullptr) options.server = config->server;
+    if (config->token != nullptr) options.token = config->token;
+    if (MS_FIELD_FITS(config, ms_client_config, tls)) options.tls = config->tls != 0;
+    if (MS_FIELD_FITS(config, ms_client_config, tls_ca_pem) && config->tls_ca_pem != nullptr) {
+      options.tls_ca_pem = config->tls_ca_pem;
+    }
+    auto client = meshstream::sdk::Client::Create(options);
+    if (!client.ok()) return Fail(client.status());
+    auto handle = std::make_unique<ms_client>();
+    handle->client = std::shared_ptr<meshstream::sdk::Client>(std::move(client).value());
+    *out = handle.release();
+    return Ok();
+  });
+}
+
+void ms_client_destroy(ms_client* client) { delete client; }
+
+ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms_session** out) {
+  return Guard("ms_session_open", [&] {
+    if (out != nullptr) *out = nullptr;
+    if (client == nullptr) return Null("client");
+    if (config == nullptr) return Null("config");
+    if (out == nullptr) return Null("out");
+    if (CheckSize(config->struct_size, MS_SESSION_CONFIG_V0_SIZE, "config") != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    if (config->asset == nullptr) return Null("config->asset");
+    meshstream::sdk::SessionOptions options;
+    options.asset = config->asset;
+    options.version = config->version;
+    options.max_level = config->max_level;
+    options.tcp_only = config->tcp_only != 0;
+    if (MS_FIELD_FITS(config, ms_session_config, byte_budget)) options.byte_budget = config->byte_budget;
+    if (MS_FIELD_FITS(config, ms_session_config, time_budget_ms)) {
+      if (config->time_budget_ms < 0) return Fail(MS_ERR_INVALID_ARGUMENT, "config->time_budget_ms: not negative (0: none)");
+      options.time_budget_ms = config->time_budget_ms;
+    }
+    if (MS_FIELD_FITS(config, ms_session_config, udp_via) && config->udp_via != nullptr) options.udp_via = config->udp_via;
+    auto session = meshstream::sdk::Session::Open(*client->client, options);
+    if (!session.ok()) return Fail(session.status());
+    auto handle = std::make_unique<ms_session>();
+    handle->client = client->client;
+    handle->session = std::move(session).value();
+    *out = handle.release();
+    return Ok();
+  });
+}
+
+ms_status ms_session_poll(ms_session* session, int32_t timeout_ms, ms_event* out) {
+  return Guard("ms_session_poll", [&] {
+    if (out != nullptr) *out = ms_event{MS_EVENT_NONE, 0, MS_ERR_INVALID_ARGUMENT};
+    if (session == nullptr) return Null("session");
+    if (out == nullptr) return Null("out");
+    ++session->generation;  // the views of the last poll end here, whatever happens next
+    const meshstream::sdk::Event e = session->session->Poll(timeout_ms);
+    out->type = ToC(e.type);
+    out->level = e.level;
+    out->status = MS_OK;
+    if (e.type == meshstream::sdk::EventType::kError) {
+      out->status = ToC(e.status.code());
+      if (out->status == MS_OK) out->status = MS_ERR_INTERNAL;  // an error event always carries an error
+      return Fail(out->status, e.status.ToString());
+    }
+    return Ok();
+  });
+}
+
+uint32_t ms_session_primitive_count(const ms_session* session) {
+  if (session == nullptr) {
+    Guard("ms_session_primitive_count", [] { return Null("session"); });
+    return 0;
+  }
+  return static_cast<uint32_t>(session->session->primitive_count());
+}
+
+ms_status ms_session_mesh(ms_session* session, uint32_t primitive, ms_mesh_view* out) {
+  return Guard("ms_session_mesh", [&] {
+    if (session == nullptr) return Null("session");
+    if (out == nullptr) return Null("out");
+    *out = ms_mesh_view{};
+    if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    ms_session::View* view = nullptr;
+    const ms_status s = Fill(session, primitive, &view);
+    if (s != MS_OK) return s;
+    out->vertex_count = view->positions.size() / 3;
+    out->positions = DataOrNull(view->positions);
+    out->normals = DataOrNull(view->normals);
+    out->texcoords = DataOrNull(view->texcoords);
+    out->index_count = view->indices.size();
+    out->indices = DataOrNull(view->indices);
+    out->predicted = DataOrNull(view->predicted);
+    return Ok();
+  });
+}
+
+ms_status ms_session_mesh_colors(ms_session* session, uint32_t primitive, const float** out_rgba) {
+  return Guard("ms_session_mesh_colors", [&] {
+    if (session == nullptr) return Null("session");
+    if (out_rgba == nullptr) return Null("out_rgba");
+    *out_rgba = nullptr;
+    if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    ms_session::View* view = nullptr;
+    const ms_status s = Fill(session, primitive, &view);
+    if (s != MS_OK) return s;
+    *out_rgba = DataOrNull(view->colors);
+    return Ok();
+  });
+}
+
+ms_status ms_session_gltf_position(const ms_session* session, uint32_t primitive, uint32_t* mesh,
+                                   uint32_t* mesh_primitive) {
+  return Guard("ms_session_gltf_position", [&] {
+    if (session == nullptr) return Null("session");
+    if (mesh == nullptr) return Null("mesh");
+    if (mesh_primitive == nullptr) return Null("mesh_primitive");
+    if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    const auto [m, p] = session->session->GltfPosition(primitive);
+    *mesh = m;
+    *mesh_primitive = p;
+    return Ok();
+  });
+}
+
+ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
+  return Guard("ms_session_stats", [&] {
+    if (session == nullptr) return Null("session");
+    if (out == nullptr) return Null("out");
+    if (CheckSize(out->struct_size, MS_STATS_V0_SIZE, "out") != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    const meshstream::sdk::Session& s = *session->session;
+    const meshstream::sdk::SessionStats& stats = s.stats();
+    // Every field of the first version fits (checked above); later ones go
+    // through MS_FIELD_FITS.
+    out->reliable_bytes = stats.reliable_bytes;
+    out->unreliable_bytes = stats.unreliable_bytes;
+    out->datagrams_received = stats.datagrams_received;
+    out->datagrams_rejected = stats.datagrams_rejected;
+    out->time_to_base_ms = stats.time_to_base_ms;
+    out->time_to_full_ms = stats.time_to_full_ms;
+    // The string lives in the session; it changes only within a poll.
+    session->transport = stats.transport;
+    out->transport = session->transport.c_str();
+    out->predicted_vertices = s.predicted_vertices();
+    out->levels = s.levels();
+    out->level_shown = s.level_shown();
+    out->primitive_count = static_cast<uint32_t>(s.primitive_count());
+    if (MS_FIELD_FITS(out, ms_stats, datagrams_lost)) out->datagrams_lost = stats.datagrams_lost;
+    if (MS_FIELD_FITS(out, ms_stats, datagrams_duplicate)) out->datagrams_duplicate = stats.datagrams_duplicate;
+    if (MS_FIELD_FITS(out, ms_stats, hello_rtt_ms)) out->hello_rtt_ms = stats.hello_rtt_ms;
+    return Ok();
+  });
+}
+
+ms_status ms_session_export(ms_session* session, const char* path) {
+  return Guard("ms_session_export", [&] {
+    if (session == nullptr) return Null("session");
+    if (path == nullptr) return Null("path");
+    const Status s = session->session->Export(path);
+    if (!s.ok()) return Fail(s);
+    return Ok();
+  });
+}
+
+ms_status ms_session_cancel(ms_session* session) {
+  return Guard("ms_session_cancel", [&] {
+    if (session == nullptr) return Null("session");
+    session->session->Cancel();
+    return Ok();
+  });
+}
+
+void ms_session_close(ms_session* session) { delete session; }
+
+const char* ms_last_error(void) { return last_error.c_str(); }
+
+const char* ms_version(void) { return MESHSTREAM_VERSION; }
+
+const char* ms_status_name(ms_status status) {
+  switch (status) {
+    case MS_OK: return "MS_OK";
+    case MS_ERR_INVALID_ARGUMENT: return "MS_ERR_INVALID_ARGUMENT";
+    case MS_ERR_NOT_FOUND: return "MS_ERR_NOT_FOUND";
+    case MS_ERR_UNAUTHENTICATED: return "MS_ERR_UNAUTHENTICATED";
+    case MS_ERR_UNAVAILABLE: return "MS_ERR_UNAVAILABLE";
+    case MS_ERR_TIMEOUT: return "MS_ERR_TIMEOUT";
+    case MS_ERR_INTERNAL: return "MS_ERR_INTERNAL";
+  }
+  return "MS_ERR_UNKNOWN";
+}
+
+}  // extern "C"

@@ -1,0 +1,853 @@
+// The C API (libmeshstream, sdk/include/meshstream/meshstream.h) against a
+// real `meshstream serve`: events in order, the mesh views of every level
+// equal to decoding the stored progressive file to that level, nothing
+// predicted over a clean transport, the argument errors and their messages,
+// NOT_FOUND / UNAVAILABLE / UNAUTHENTICATED from the server, the per-thread
+// last error, struct_size versioning, cancel, export, and the C example
+// (sdk/examples/stream_mesh.c) as CMake builds it and as `cc` builds it with
+// pkg-config from the build tree and from an installed tree.
+//
+// Its own executable, linked against the shared library and no generated
+// proto code: libmeshstream registers meshstream/v1/*.proto with the
+// process's protobuf, and a second copy in the same process aborts
+// (docs/c-api.md, "One copy per process"). So the assets go in through the
+// CLI (`meshstream ingest`, `export`) rather than tests/common/asset_client.h.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "importers/import.h"
+#include "importers/progressive_glb.h"
+#include "meshstream/meshstream.h"
+#include "tests/common/cli_util.h"
+#include "tests/common/serve_process.h"
+#include "tests/common/test_util.h"
+
+namespace meshstream {
+namespace {
+
+using test_util::Quote;
+using test_util::RunCommand;
+using test_util::ServeProcess;
+
+struct ClientDeleter {
+  void operator()(ms_client* c) const { ms_client_destroy(c); }
+};
+struct SessionDeleter {
+  void operator()(ms_session* s) const { ms_session_close(s); }
+};
+using ClientPtr = std::unique_ptr<ms_client, ClientDeleter>;
+using SessionPtr = std::unique_ptr<ms_session, SessionDeleter>;
+
+ms_client_config ClientConfig(const std::string& server, const char* token = nullptr) {
+  ms_client_config c;
+  std::memset(&c, 0, sizeof c);
+  c.struct_size = sizeof c;
+  c.server = server.c_str();
+  c.token = token;
+  return c;
+}
+
+ms_session_config SessionConfig(const char* asset, int32_t max_level = -1) {
+  ms_session_config c;
+  std::memset(&c, 0, sizeof c);
+  c.struct_size = sizeof c;
+  c.asset = asset;
+  c.max_level = max_level;
+  c.tcp_only = 0;  // UDP, the product's path (loopback: nothing lost)
+  return c;
+}
+
+ms_stats Stats(const ms_session* session) {
+  ms_stats s;
+  std::memset(&s, 0, sizeof s);
+  s.struct_size = sizeof s;
+  EXPECT_EQ(ms_session_stats(session, &s), MS_OK) << ms_last_error();
+  return s;
+}
+
+// A poll's result: what it returned, the event, ms_last_error after it.
+struct Polled {
+  ms_status returned;
+  ms_event event;
+  std::string error;
+};
+
+// Polls to COMPLETE or ERROR; `at_event` runs after every other event.
+template <typename F>
+std::vector<Polled> PollToEnd(ms_session* session, F&& at_event) {
+  std::vector<Polled> events;
+  for (int i = 0; i < 100000; ++i) {
+    Polled p;
+    p.returned = ms_session_poll(session, 10000, &p.event);
+    p.error = ms_last_error();
+    if (p.returned == MS_OK && p.event.type == MS_EVENT_NONE) continue;
+    events.push_back(p);
+    if (p.event.type == MS_EVENT_COMPLETE || p.event.type == MS_EVENT_ERROR || p.returned != MS_OK) break;
+    at_event(p.event);
+  }
+  return events;
+}
+std::vector<Polled> PollToEnd(ms_session* session) {
+  return PollToEnd(session, [](const ms_event&) {});
+}
+
+// The first error of a session that cannot start: from ms_session_open, or
+// (when the open was only buffered) from its first poll.
+std::pair<ms_status, std::string> FirstError(ms_client* client, const ms_session_config& config) {
+  ms_session* session = nullptr;
+  const ms_status opened = ms_session_open(client, &config, &session);
+  if (opened != MS_OK) {
+    EXPECT_EQ(session, nullptr);
+    return {opened, ms_last_error()};
+  }
+  SessionPtr owned(session);
+  const std::vector<Polled> events = PollToEnd(session);
+  EXPECT_EQ(events.size(), 1u);
+  if (events.empty()) return {MS_OK, ""};
+  EXPECT_EQ(events[0].event.type, MS_EVENT_ERROR);
+  EXPECT_EQ(events[0].event.status, events[0].returned);
+  return {events[0].returned, events[0].error};
+}
+
+// Sums over a session's primitives, from their mesh views.
+struct Totals {
+  size_t vertices = 0, faces = 0, predicted = 0;
+};
+Totals Sum(ms_session* session) {
+  Totals t;
+  for (uint32_t i = 0; i < ms_session_primitive_count(session); ++i) {
+    ms_mesh_view v;
+    EXPECT_EQ(ms_session_mesh(session, i, &v), MS_OK) << ms_last_error();
+    t.vertices += v.vertex_count;
+    t.faces += v.index_count / 3;
+    for (size_t k = 0; k < v.vertex_count; ++k) t.predicted += v.predicted[k];
+  }
+  return t;
+}
+
+// The decoded primitive that sits where the session's primitive `i` sits.
+const Primitive* DecodedAt(const Scene& decoded, const ms_session* session, uint32_t i) {
+  uint32_t mesh = 0, primitive = 0;
+  EXPECT_EQ(ms_session_gltf_position(session, i, &mesh, &primitive), MS_OK) << ms_last_error();
+  if (mesh >= decoded.meshes.size()) return nullptr;
+  const std::vector<Mesh::Ref> order = decoded.meshes[mesh].Order();
+  if (primitive >= order.size()) return nullptr;
+  return &decoded.meshes[mesh].primitives[order[primitive].index];
+}
+
+// The session's current meshes are the decoded scene's, value for value.
+void ExpectSameMeshes(ms_session* session, const Scene& decoded, const std::string& where) {
+  SCOPED_TRACE(where);
+  for (uint32_t i = 0; i < ms_session_primitive_count(session); ++i) {
+    const Primitive* expected = DecodedAt(decoded, session, i);
+    ASSERT_NE(expected, nullptr) << "primitive " << i;
+    ms_mesh_view v;
+    ASSERT_EQ(ms_session_mesh(session, i, &v), MS_OK) << ms_last_error();
+    ASSERT_EQ(v.vertex_count, expected->positions.size()) << "primitive " << i;
+    ASSERT_EQ(v.index_count, expected->indices.size()) << "primitive " << i;
+    EXPECT_TRUE(std::equal(expected->indices.begin(), expected->indices.end(), v.indices)) << "primitive " << i;
+    // Each array equals the decoded attribute, value for value (NULL when it has none).
+    auto same = [&](const float* got, const auto& expected_values, size_t components) {
+      if (got == nullptr) return expected_values.empty();
+      if (expected_values.size() != v.vertex_count) return false;
+      for (size_t k = 0; k < v.vertex_count; ++k) {
+        for (size_t c = 0; c < components; ++c) {
+          if (got[components * k + c] != expected_values[k][c]) return false;
+        }
+      }
+      return true;
+    };
+    EXPECT_TRUE(same(v.positions, expected->positions, 3)) << "primitive " << i << ": positions differ from the file's decode";
+    EXPECT_TRUE(same(v.normals, expected->normals, 3)) << "primitive " << i << ": normals differ";
+    EXPECT_EQ(v.normals != nullptr, !expected->normals.empty()) << "primitive " << i;
+    const std::vector<Vec2f> no_texcoords;
+    EXPECT_TRUE(same(v.texcoords, expected->texcoords.empty() ? no_texcoords : expected->texcoords[0], 2))
+        << "primitive " << i << ": texcoords differ";
+    EXPECT_EQ(v.texcoords != nullptr, !expected->texcoords.empty()) << "primitive " << i;
+    const float* colors = nullptr;
+    ASSERT_EQ(ms_session_mesh_colors(session, i, &colors), MS_OK) << ms_last_error();
+    EXPECT_TRUE(same(colors, expected->colors, 4)) << "primitive " << i << ": colors differ";
+    EXPECT_EQ(colors != nullptr, !expected->colors.empty()) << "primitive " << i;
+    ASSERT_NE(v.predicted, nullptr);
+    for (size_t k = 0; k < v.vertex_count; ++k) ASSERT_EQ(v.predicted[k], 0) << "primitive " << i << " vertex " << k;
+  }
+}
+
+size_t SceneVertices(const Scene& scene) {
+  size_t n = 0;
+  for (const Mesh& m : scene.meshes) {
+    for (const Primitive& p : m.primitives) n += p.positions.size();
+  }
+  return n;
+}
+
+// One stored asset: its progressive file as the server exports it, decoded.
+struct Stored {
+  std::string name;
+  std::vector<uint8_t> progressive;
+  Scene decoded;
+  ProgressiveDecodeReport report;
+};
+
+class CApi : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test_util::TempDir();
+    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = server.value().release();
+    // spot: one primitive with UVs; engine: 34 primitives with normals;
+    // box: a primitive too small to have refinements.
+    stored_ = new std::vector<Stored>();
+    for (const auto& [name, file] : {std::pair<std::string, std::string>{"spot", "spot.obj"},
+                                     {"engine", "gltf/2CylinderEngine.glb"},
+                                     {"box", "gltf/BoxTextured.glb"}}) {
+      Ingest(*server_, name, test_util::ModelPath(file));
+      Stored s;
+      s.name = name;
+      const std::string path = dir_->File(name + ".progressive.glb");
+      test_util::RunCliJson("export --json " + name + " -o " + Quote(path) + " --format progressive --server " +
+                            server_->address());
+      auto bytes = ReadFileBytes(path, uint64_t{1} << 30);
+      ASSERT_TRUE(bytes.ok()) << bytes.status().ToString();
+      s.progressive = std::move(bytes).value();
+      auto decoded = DecodeProgressiveGlb(s.progressive, ProgressiveDecodeOptions{}, &s.report);
+      ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+      s.decoded = std::move(decoded).value();
+      ASSERT_EQ(s.report.level_vertices.size(), s.report.levels + 1) << name;
+      stored_->push_back(std::move(s));
+    }
+  }
+  static void TearDownTestSuite() {
+    if (server_ != nullptr) { EXPECT_EQ(server_->Terminate(), 0) << server_->log(); }
+    delete server_;
+    delete stored_;
+    delete dir_;
+    server_ = nullptr;
+  }
+
+  static void Ingest(const ServeProcess& server, const std::string& asset, const std::string& file,
+                     const std::string& token = "") {
+    const nlohmann::json j = test_util::RunCliJson("ingest --json --wait --asset " + asset + " " + Quote(file) +
+                                                   " --server " + server.address() +
+                                                   (token.empty() ? "" : " --token " + token));
+    ASSERT_EQ(j["job"]["state"], "JOB_STATE_SUCCEEDED") << j.dump();
+  }
+
+  static const Stored& Asset(const std::string& name) {
+    for (const Stored& s : *stored_) {
+      if (s.name == name) return s;
+    }
+    ADD_FAILURE() << name << " was not stored";
+    return stored_->front();
+  }
+
+  static ClientPtr NewClient() {
+    const ms_client_config config = ClientConfig(server_->address());
+    ms_client* client = nullptr;
+    EXPECT_EQ(ms_client_create(&config, &client), MS_OK) << ms_last_error();
+    return ClientPtr(client);
+  }
+
+  static SessionPtr Open(ms_client* client, const ms_session_config& config) {
+    ms_session* session = nullptr;
+    EXPECT_EQ(ms_session_open(client, &config, &session), MS_OK) << ms_last_error();
+    return SessionPtr(session);
+  }
+
+  static inline test_util::TempDir* dir_ = nullptr;
+  static inline ServeProcess* server_ = nullptr;
+  static inline std::vector<Stored>* stored_ = nullptr;
+};
+
+TEST_F(CApi, EventsInOrderWithTheMeshesOfEachLevel) {
+  ClientPtr client = NewClient();
+  ASSERT_NE(client, nullptr);
+  for (const Stored& stored : *stored_) {
+    SCOPED_TRACE(stored.name);
+    SessionPtr session = Open(client.get(), SessionConfig(stored.name.c_str()));
+    ASSERT_NE(session, nullptr);
+    EXPECT_EQ(ms_session_primitive_count(session.get()), 0u) << "nothing before the base";
+    std::vector<size_t> vertices_at;  // per event
+    const std::vector<Polled> events = PollToEnd(session.get(), [&](const ms_event& e) {
+      const Totals t = Sum(session.get());
+      vertices_at.push_back(t.vertices);
+      EXPECT_EQ(t.predicted, 0u) << "nothing is predicted without loss (level " << e.level << ")";
+    });
+    ASSERT_FALSE(events.empty());
+    ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+    EXPECT_EQ(events.back().returned, MS_OK);
+    ASSERT_EQ(events.front().event.type, MS_EVENT_BASE_READY);
+    EXPECT_EQ(events.front().event.level, 0);
+    const int32_t levels = static_cast<int32_t>(stored.report.levels);
+    // BASE_READY, LEVEL_READY with increasing levels (levels completed in
+    // one poll come as one event), the last at every level, COMPLETE.
+    ASSERT_GE(events.size(), levels > 0 ? 3u : 2u);
+    ASSERT_LE(events.size(), static_cast<size_t>(levels) + 2);
+    int32_t previous = 0;
+    for (size_t k = 1; k + 1 < events.size(); ++k) {
+      const Polled& p = events[k];
+      EXPECT_EQ(p.event.type, MS_EVENT_LEVEL_READY) << k;
+      EXPECT_GT(p.event.level, previous);
+      previous = p.event.level;
+      EXPECT_EQ(p.event.status, MS_OK);
+      EXPECT_EQ(p.returned, MS_OK);
+      EXPECT_EQ(p.error, "") << "a call that returned MS_OK leaves no error";
+    }
+    EXPECT_EQ(previous, levels);
+    EXPECT_EQ(events.back().event.level, levels);
+    // At every event the views hold what the file has at the event's level.
+    ASSERT_EQ(vertices_at.size(), events.size() - 1);
+    for (size_t k = 0; k + 1 < events.size(); ++k) {
+      const int32_t level = events[k].event.level;
+      EXPECT_EQ(vertices_at[k], stored.report.level_vertices[static_cast<size_t>(level)]) << "level " << level;
+    }
+    ExpectSameMeshes(session.get(), stored.decoded, "final");
+    size_t refined = 0;
+    for (const Mesh& m : stored.decoded.meshes) refined += m.primitives.size();
+    EXPECT_EQ(ms_session_primitive_count(session.get()), refined);
+    const ms_stats stats = Stats(session.get());
+    EXPECT_EQ(stats.levels, levels);
+    EXPECT_EQ(stats.level_shown, levels);
+    EXPECT_EQ(stats.primitive_count, ms_session_primitive_count(session.get()));
+    EXPECT_GT(stats.primitive_count, 0u);
+    EXPECT_STREQ(stats.transport, "udp");
+    EXPECT_GT(stats.reliable_bytes, 0u);
+    EXPECT_EQ(stats.predicted_vertices, 0u);
+    EXPECT_EQ(stats.datagrams_rejected, 0u);
+    if (levels > 0) { EXPECT_GT(stats.datagrams_received, 0u); }
+    EXPECT_GT(stats.time_to_base_ms, 0.0);
+    EXPECT_GE(stats.time_to_full_ms, stats.time_to_base_ms);
+    // Over: the next poll returns at once with nothing.
+    ms_event after;
+    EXPECT_EQ(ms_session_poll(session.get(), 5000, &after), MS_OK);
+    EXPECT_EQ(after.type, MS_EVENT_NONE);
+  }
+  const Stored& engine = Asset("engine");
+  size_t primitives = 0;
+  for (const Mesh& m : engine.decoded.meshes) primitives += m.primitives.size();
+  EXPECT_GT(primitives, 1u) << "the engine is the multi-primitive case";
+}
+
+TEST_F(CApi, EveryLevelIsTheStoredFileDecodedToThatLevel) {
+  const Stored& spot = Asset("spot");
+  ClientPtr client = NewClient();
+  SessionPtr session = Open(client.get(), SessionConfig("spot"));
+  ASSERT_NE(session, nullptr);
+  int checked = 0;
+  const auto events = PollToEnd(session.get(), [&](const ms_event& e) {
+    ProgressiveDecodeOptions options;
+    options.lod = e.level;
+    auto decoded = DecodeProgressiveGlb(spot.progressive, options, nullptr);
+    ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+    ExpectSameMeshes(session.get(), *decoded, "level " + std::to_string(e.level));
+    // Asking again before the next poll gives the same arrays.
+    ms_mesh_view a, b;
+    ASSERT_EQ(ms_session_mesh(session.get(), 0, &a), MS_OK);
+    ASSERT_EQ(ms_session_mesh(session.get(), 0, &b), MS_OK);
+    EXPECT_EQ(a.positions, b.positions);
+    EXPECT_EQ(a.indices, b.indices);
+    EXPECT_EQ(a.predicted, b.predicted);
+    ++checked;
+  });
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  EXPECT_EQ(checked, static_cast<int>(events.size()) - 1) << "every event but COMPLETE was checked";
+  EXPECT_GE(checked, 2);
+}
+
+TEST_F(CApi, MaxLevelStopsEarly) {
+  ClientPtr client = NewClient();
+  for (int32_t max_level : {0, 3}) {
+    SCOPED_TRACE(max_level);
+    SessionPtr session = Open(client.get(), SessionConfig("spot", max_level));
+    ASSERT_NE(session, nullptr);
+    const auto events = PollToEnd(session.get());
+    ASSERT_LE(events.size(), static_cast<size_t>(max_level) + 2);
+    ASSERT_GE(events.size(), max_level == 0 ? 2u : 3u);
+    EXPECT_EQ(events.front().event.type, MS_EVENT_BASE_READY);
+    ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+    EXPECT_EQ(events.back().event.level, max_level);
+    EXPECT_EQ(Stats(session.get()).levels, max_level);
+    EXPECT_EQ(Sum(session.get()).vertices, Asset("spot").report.level_vertices[static_cast<size_t>(max_level)]);
+  }
+}
+
+// The fields after the first version: a byte budget ends the session early
+// with COMPLETE; over clean loopback UDP nothing is lost and the HELLO round
+// trip is measured.
+TEST_F(CApi, ByteBudgetAndTheCountersAfterTheFirstVersion) {
+  ClientPtr client = NewClient();
+  ms_session_config budget = SessionConfig("engine", -1);
+  budget.byte_budget = 20000;
+  SessionPtr cut = Open(client.get(), budget);
+  ASSERT_NE(cut, nullptr);
+  auto events = PollToEnd(cut.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  const ms_stats b = Stats(cut.get());
+  EXPECT_LT(b.level_shown, b.levels) << "the budget stopped it early";
+  EXPECT_GE(b.reliable_bytes + b.unreliable_bytes, 20000u);
+
+  SessionPtr full = Open(client.get(), SessionConfig("spot", -1));
+  ASSERT_NE(full, nullptr);
+  events = PollToEnd(full.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  const ms_stats f = Stats(full.get());
+  EXPECT_STREQ(f.transport, "udp");
+  EXPECT_EQ(f.datagrams_lost, 0u);
+  EXPECT_GT(f.hello_rtt_ms, 0.0);
+  EXPECT_GT(f.datagrams_received, 0u);
+  // A negative time budget is refused, naming the field.
+  ms_session_config bad = SessionConfig("spot", -1);
+  bad.time_budget_ms = -1;
+  ms_session* none = nullptr;
+  EXPECT_EQ(ms_session_open(client.get(), &bad, &none), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(ms_last_error()).find("time_budget_ms"), std::string::npos) << ms_last_error();
+}
+
+// Every argument error: its status, and a message naming the argument.
+TEST_F(CApi, ArgumentErrorsNameTheArgument) {
+  auto expect = [](ms_status got, const std::string& needle, const std::string& what) {
+    EXPECT_EQ(got, MS_ERR_INVALID_ARGUMENT) << what << ": " << ms_last_error();
+    EXPECT_NE(std::string(ms_last_error()).find(needle), std::string::npos)
+        << what << ": \"" << ms_last_error() << "\" does not name " << needle;
+  };
+  const std::string address = server_->address();
+  ms_client_config cc = ClientConfig(address);
+  ms_client* client = reinterpret_cast<ms_client*>(&cc);  // not NULL, to see that a failure resets *out
+  expect(ms_client_create(nullptr, &client), "config", "NULL config");
+  EXPECT_EQ(client, nullptr) << "*out is NULL after a failure";
+  expect(ms_client_create(&cc, nullptr), "out", "NULL out");
+  cc.struct_size = 0;
+  expect(ms_client_create(&cc, &client), "config->struct_size", "struct_size 0");
+  cc.struct_size = MS_CLIENT_CONFIG_V0_SIZE - 1;
+  expect(ms_client_create(&cc, &client), "config->struct_size", "struct_size below the first version");
+  cc = ClientConfig("");
+  EXPECT_EQ(ms_client_create(&cc, &client), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(ms_last_error()).find("server"), std::string::npos) << ms_last_error();
+
+  ClientPtr good = NewClient();
+  ms_session* session = nullptr;
+  ms_session_config sc = SessionConfig("spot");
+  expect(ms_session_open(nullptr, &sc, &session), "client", "NULL client");
+  expect(ms_session_open(good.get(), nullptr, &session), "config", "NULL session config");
+  expect(ms_session_open(good.get(), &sc, nullptr), "out", "NULL session out");
+  sc.struct_size = 0;
+  expect(ms_session_open(good.get(), &sc, &session), "config->struct_size", "session struct_size 0");
+  sc.struct_size = MS_SESSION_CONFIG_V0_SIZE - 1;
+  expect(ms_session_open(good.get(), &sc, &session), "config->struct_size", "session struct_size too small");
+  sc = SessionConfig(nullptr);
+  expect(ms_session_open(good.get(), &sc, &session), "config->asset", "NULL asset");
+  sc = SessionConfig("");
+  expect(ms_session_open(good.get(), &sc, &session), "asset", "empty asset");
+  sc = SessionConfig("spot", -2);
+  expect(ms_session_open(good.get(), &sc, &session), "max_level", "max_level -2");
+  EXPECT_EQ(session, nullptr);
+
+  ms_event e;
+  expect(ms_session_poll(nullptr, 0, &e), "session", "poll NULL session");
+  EXPECT_EQ(e.type, MS_EVENT_NONE);
+  EXPECT_EQ(e.status, MS_ERR_INVALID_ARGUMENT);
+  ms_mesh_view view;
+  expect(ms_session_mesh(nullptr, 0, &view), "session", "mesh NULL session");
+  const float* colors = nullptr;
+  expect(ms_session_mesh_colors(nullptr, 0, &colors), "session", "colors NULL session");
+  uint32_t m = 0, p = 0;
+  expect(ms_session_gltf_position(nullptr, 0, &m, &p), "session", "gltf_position NULL session");
+  ms_stats stats;
+  stats.struct_size = sizeof stats;
+  expect(ms_session_stats(nullptr, &stats), "session", "stats NULL session");
+  expect(ms_session_export(nullptr, "x.glb"), "session", "export NULL session");
+  expect(ms_session_cancel(nullptr), "session", "cancel NULL session");
+  EXPECT_EQ(ms_session_primitive_count(nullptr), 0u);
+  EXPECT_NE(std::string(ms_last_error()).find("session"), std::string::npos) << ms_last_error();
+  ms_session_close(nullptr);   // no-ops, like free(NULL)
+  ms_client_destroy(nullptr);
+
+  // On a live session: NULL outputs, primitives out of range, struct_size.
+  SessionPtr live = Open(good.get(), SessionConfig("spot"));
+  ASSERT_NE(live, nullptr);
+  view.vertex_count = 77;
+  expect(ms_session_mesh(live.get(), 0, &view), "primitive: 0", "mesh before the base");
+  EXPECT_EQ(view.vertex_count, 0u) << "the view is cleared";
+  expect(ms_session_export(live.get(), test_util::TempDir().File("early.glb").c_str()), "base",
+         "export before the base");
+  const auto events = PollToEnd(live.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  const uint32_t count = ms_session_primitive_count(live.get());
+  ASSERT_EQ(count, 1u);
+  expect(ms_session_poll(live.get(), 0, nullptr), "out", "poll NULL out");
+  expect(ms_session_mesh(live.get(), 0, nullptr), "out", "mesh NULL out");
+  expect(ms_session_mesh(live.get(), count, &view), "primitive: 1", "mesh out of range");
+  expect(ms_session_mesh(live.get(), UINT32_MAX, &view), "primitive: 4294967295", "mesh far out of range");
+  expect(ms_session_mesh_colors(live.get(), 0, nullptr), "out_rgba", "colors NULL out");
+  expect(ms_session_mesh_colors(live.get(), count, &colors), "primitive: 1", "colors out of range");
+  expect(ms_session_gltf_position(live.get(), count, &m, &p), "primitive: 1", "gltf_position out of range");
+  expect(ms_session_gltf_position(live.get(), 0, nullptr, &p), "mesh", "gltf_position NULL mesh");
+  expect(ms_session_gltf_position(live.get(), 0, &m, nullptr), "mesh_primitive", "gltf_position NULL mesh_primitive");
+  expect(ms_session_stats(live.get(), nullptr), "out", "stats NULL out");
+  stats.struct_size = 0;
+  expect(ms_session_stats(live.get(), &stats), "out->struct_size", "stats struct_size 0");
+  expect(ms_session_export(live.get(), nullptr), "path", "export NULL path");
+  // A path that cannot be written is the file's error, not a crash.
+  EXPECT_EQ(ms_session_export(live.get(), "/nonexistent-folder/x.glb"), MS_ERR_INTERNAL) << ms_last_error();
+  EXPECT_NE(std::string(ms_last_error()).find("/nonexistent-folder/x.glb"), std::string::npos) << ms_last_error();
+  // And a good call after all that clears the error.
+  EXPECT_EQ(ms_session_gltf_position(live.get(), 0, &m, &p), MS_OK);
+  EXPECT_STREQ(ms_last_error(), "");
+}
+
+TEST_F(CApi, UnknownAssetIsNotFoundNamingTheAsset) {
+  ClientPtr client = NewClient();
+  SessionPtr session = Open(client.get(), SessionConfig("no-such-asset"));
+  ASSERT_NE(session, nullptr) << "the server's answer comes with the first poll";
+  const auto events = PollToEnd(session.get());
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].returned, MS_ERR_NOT_FOUND) << events[0].error;
+  EXPECT_EQ(events[0].event.type, MS_EVENT_ERROR);
+  EXPECT_EQ(events[0].event.status, MS_ERR_NOT_FOUND);
+  EXPECT_NE(events[0].error.find("no-such-asset"), std::string::npos) << events[0].error;
+  ms_event after;
+  EXPECT_EQ(ms_session_poll(session.get(), 1000, &after), MS_OK) << "the session is over";
+  EXPECT_EQ(after.type, MS_EVENT_NONE);
+}
+
+TEST_F(CApi, UnreachableServerIsUnavailable) {
+  // A port nothing listens on: bound, then closed.
+  int port = 0;
+  {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof a;
+    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length), 0);
+    port = ntohs(a.sin_port);
+    close(fd);
+  }
+  const std::string address = "127.0.0.1:" + std::to_string(port);
+  const ms_client_config config = ClientConfig(address);
+  ms_client* raw = nullptr;
+  ASSERT_EQ(ms_client_create(&config, &raw), MS_OK) << "creating a client does not connect";
+  ClientPtr client(raw);
+  const auto [status, error] = FirstError(client.get(), SessionConfig("spot"));
+  EXPECT_EQ(status, MS_ERR_UNAVAILABLE) << error;
+  EXPECT_FALSE(error.empty());
+}
+
+TEST_F(CApi, TokensAndUnauthenticated) {
+  test_util::TempDir dir;
+  const std::string store = dir.File("store");
+  auto server = ServeProcess::Start({"--store", store, "--auth", "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  const auto created = RunCommand(test_util::Cli() + " token create --store " + Quote(store) + " --tenant studio");
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  std::string token = created.out;
+  while (!token.empty() && token.back() == '\n') token.pop_back();
+  token = token.substr(token.rfind('\n') == std::string::npos ? 0 : token.rfind('\n') + 1);
+  ASSERT_EQ(token.rfind("mst_", 0), 0u) << token;
+  Ingest(**server, "spot", test_util::ModelPath("spot.obj"), token);
+
+  for (const std::string& bad : {std::string(), "mst_" + std::string(64, '0')}) {
+    SCOPED_TRACE(bad.empty() ? "no token" : "a token the server does not know");
+    const ms_client_config config = ClientConfig((*server)->address(), bad.empty() ? nullptr : bad.c_str());
+    ms_client* raw = nullptr;
+    ASSERT_EQ(ms_client_create(&config, &raw), MS_OK);
+    ClientPtr client(raw);
+    const auto [status, error] = FirstError(client.get(), SessionConfig("spot"));
+    EXPECT_EQ(status, MS_ERR_UNAUTHENTICATED) << error;
+    EXPECT_FALSE(error.empty());
+  }
+  const ms_client_config config = ClientConfig((*server)->address(), token.c_str());
+  ms_client* raw = nullptr;
+  ASSERT_EQ(ms_client_create(&config, &raw), MS_OK);
+  ClientPtr client(raw);
+  SessionPtr session = Open(client.get(), SessionConfig("spot"));
+  const auto events = PollToEnd(session.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  EXPECT_EQ(Sum(session.get()).vertices, Asset("spot").report.level_vertices.back());
+  session.reset();
+  client.reset();
+
+  // The example: the token from MESHSTREAM_TOKEN, or --token; none fails.
+  const test_util::TempDir out;
+  const std::string base = Quote(MESHSTREAM_C_EXAMPLE) + " " + (*server)->address() + " spot ";
+  const auto from_env = RunCommand("MESHSTREAM_TOKEN=" + token + " " + base + Quote(out.File("a.glb")) + " --tcp-only");
+  EXPECT_EQ(from_env.exit_code, 0) << from_env.err;
+  const auto from_flag = RunCommand("MESHSTREAM_TOKEN=wrong " + base + Quote(out.File("b.glb")) + " --token " + token);
+  EXPECT_EQ(from_flag.exit_code, 0) << from_flag.err << " (--token wins over the environment)";
+  const auto none = RunCommand("env -u MESHSTREAM_TOKEN " + base + Quote(out.File("c.glb")));
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_NE(none.err.find("MS_ERR_UNAUTHENTICATED"), std::string::npos) << none.err;
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
+TEST_F(CApi, LastErrorIsPerThread) {
+  ms_event e;
+  ASSERT_EQ(ms_session_poll(nullptr, 0, &e), MS_ERR_INVALID_ARGUMENT);
+  const std::string here = ms_last_error();
+  ASSERT_NE(here.find("session"), std::string::npos);
+  std::string there_before, there_after;
+  std::thread other([&] {
+    there_before = ms_last_error();
+    ms_client_config cc = ClientConfig(server_->address());
+    cc.struct_size = 1;
+    ms_client* c = nullptr;
+    EXPECT_EQ(ms_client_create(&cc, &c), MS_ERR_INVALID_ARGUMENT);
+    there_after = ms_last_error();
+  });
+  other.join();
+  EXPECT_EQ(there_before, "") << "a new thread starts without an error";
+  EXPECT_NE(there_after.find("config->struct_size"), std::string::npos) << there_after;
+  EXPECT_EQ(ms_last_error(), here) << "the other thread's failure left this thread's error alone";
+}
+
+TEST_F(CApi, VersionAndStatusNames) {
+  EXPECT_STREQ(ms_version(), MESHSTREAM_PROJECT_VERSION);
+  const std::vector<std::pair<ms_status, const char*>> names = {
+      {MS_OK, "MS_OK"},
+      {MS_ERR_INVALID_ARGUMENT, "MS_ERR_INVALID_ARGUMENT"},
+      {MS_ERR_NOT_FOUND, "MS_ERR_NOT_FOUND"},
+      {MS_ERR_UNAUTHENTICATED, "MS_ERR_UNAUTHENTICATED"},
+      {MS_ERR_UNAVAILABLE, "MS_ERR_UNAVAILABLE"},
+      {MS_ERR_TIMEOUT, "MS_ERR_TIMEOUT"},
+      {MS_ERR_INTERNAL, "MS_ERR_INTERNAL"}};
+  for (size_t i = 0; i < names.size(); ++i) {
+    EXPECT_EQ(static_cast<int>(names[i].first), static_cast<int>(i)) << "the contract's values";
+    EXPECT_STREQ(ms_status_name(names[i].first), names[i].second);
+  }
+  EXPECT_STREQ(ms_status_name(static_cast<ms_status>(99)), "MS_ERR_UNKNOWN");
+  EXPECT_EQ(static_cast<int>(MS_EVENT_NONE), 0);
+  EXPECT_EQ(static_cast<int>(MS_EVENT_ERROR), 4);
+}
+
+TEST_F(CApi, StructSizeReadsOnlyWhatFits) {
+  // A caller built against the first version: struct_size ends at `token`,
+  // and what follows is not read (tls = 1 would make this session fail on a
+  // plaintext server).
+  struct {
+    ms_client_config config;
+    char tail[64];
+  } old_client;
+  std::memset(&old_client, 0, sizeof old_client);
+  old_client.config.struct_size = MS_CLIENT_CONFIG_V0_SIZE;
+  const std::string address = server_->address();
+  old_client.config.server = address.c_str();
+  old_client.config.tls = 1;
+  old_client.config.tls_ca_pem = "not a certificate";
+  ms_client* raw = nullptr;
+  ASSERT_EQ(ms_client_create(&old_client.config, &raw), MS_OK) << ms_last_error();
+  ClientPtr client(raw);
+  // A caller built against a later header: more fields than we know, ignored.
+  struct {
+    ms_session_config config;
+    int64_t future_field;
+  } new_session;
+  std::memset(&new_session, 0, sizeof new_session);
+  new_session.config = SessionConfig("spot", 2);
+  new_session.config.struct_size = sizeof new_session;
+  new_session.future_field = 12345;
+  ms_session* session = nullptr;
+  ASSERT_EQ(ms_session_open(client.get(), &new_session.config, &session), MS_OK) << ms_last_error();
+  SessionPtr owned(session);
+  const auto events = PollToEnd(session);
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  EXPECT_EQ(events.back().event.level, 2);
+  // The default: a NULL server is 127.0.0.1:7600 (no connection yet).
+  ms_client_config defaults = ClientConfig("");
+  defaults.server = nullptr;
+  ASSERT_EQ(ms_client_create(&defaults, &raw), MS_OK) << ms_last_error();
+  ms_client_destroy(raw);
+  // Stats write nothing past struct_size.
+  struct {
+    ms_stats stats;
+    unsigned char guard[32];
+  } out;
+  std::memset(&out, 0xAB, sizeof out);
+  out.stats.struct_size = MS_STATS_V0_SIZE;
+  ASSERT_EQ(ms_session_stats(session, &out.stats), MS_OK) << ms_last_error();
+  EXPECT_EQ(out.stats.level_shown, 2);
+  EXPECT_EQ(out.stats.primitive_count, 1u);
+  const unsigned char* bytes = reinterpret_cast<const unsigned char*>(&out);
+  for (size_t i = sizeof(ms_stats); i < sizeof out; ++i) {
+    EXPECT_EQ(bytes[i], 0xAB) << "byte " << i << " past the struct was written";
+  }
+  out.stats.struct_size = MS_STATS_V0_SIZE - 1;
+  EXPECT_EQ(ms_session_stats(session, &out.stats), MS_ERR_INVALID_ARGUMENT);
+}
+
+TEST_F(CApi, ClientMayGoBeforeItsSessions) {
+  ClientPtr client = NewClient();
+  SessionPtr session = Open(client.get(), SessionConfig("spot"));
+  ASSERT_NE(session, nullptr);
+  client.reset();  // the connection lives on in the session
+  const auto events = PollToEnd(session.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+}
+
+TEST_F(CApi, CancelEndsTheSessionAsUnavailable) {
+  ClientPtr client = NewClient();
+  SessionPtr session = Open(client.get(), SessionConfig("engine"));
+  ASSERT_NE(session, nullptr);
+  ASSERT_EQ(ms_session_cancel(session.get()), MS_OK);
+  const auto events = PollToEnd(session.get());
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().event.type, MS_EVENT_ERROR);
+  EXPECT_EQ(events.back().returned, MS_ERR_UNAVAILABLE) << events.back().error;
+  EXPECT_NE(events.back().error.find("cancelled"), std::string::npos) << events.back().error;
+}
+
+TEST_F(CApi, ExportWritesFilesTheImportersReadBack) {
+  ClientPtr client = NewClient();
+  for (const char* asset : {"spot", "engine"}) {
+    SCOPED_TRACE(asset);
+    SessionPtr session = Open(client.get(), SessionConfig(asset));
+    const auto events = PollToEnd(session.get());
+    ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+    const Totals totals = Sum(session.get());
+    test_util::TempDir out;
+    for (const char* name : {"out.glb", "out.gltf"}) {
+      const std::string path = out.File(name);
+      ASSERT_EQ(ms_session_export(session.get(), path.c_str()), MS_OK) << ms_last_error();
+      auto scene = ImportFile(path);
+      ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+      EXPECT_EQ(SceneVertices(*scene), totals.vertices) << name;
+      EXPECT_EQ(SceneVertices(*scene), SceneVertices(Asset(asset).decoded)) << name;
+    }
+  }
+}
+
+// The example's lines: "level K: V vertices, F faces, P predicted, T ms",
+// then "complete: ...".
+// Without --tcp-only the server picks the transport (UDP once it has it):
+// then neither the transport nor the predicted count is fixed.
+void ExpectExampleOutput(const test_util::CommandResult& r, const Stored& stored, const std::string& out,
+                         bool tcp_only) {
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::regex level_line(R"(level (\d+): (\d+) vertices, (\d+) faces, (\d+) predicted, (\d+) ms)");
+  std::vector<std::string> lines;
+  for (size_t start = 0; start < r.out.size();) {
+    const size_t end = std::min(r.out.find('\n', start), r.out.size());
+    lines.push_back(r.out.substr(start, end - start));
+    start = end + 1;
+  }
+  const size_t levels = stored.report.levels;
+  ASSERT_EQ(lines.size(), levels + 2) << r.out;
+  for (size_t k = 0; k <= levels; ++k) {
+    std::smatch m;
+    ASSERT_TRUE(std::regex_match(lines[k], m, level_line)) << lines[k];
+    EXPECT_EQ(std::stoul(m[1]), k);
+    EXPECT_EQ(std::stoul(m[2]), stored.report.level_vertices[k]) << lines[k];
+    if (tcp_only) { EXPECT_EQ(std::stoul(m[4]), 0u) << lines[k]; }
+  }
+  const std::string expected_end = "complete: level " + std::to_string(levels) + " of " + std::to_string(levels) +
+                                   ", " + std::to_string(stored.report.level_vertices.back()) + " vertices, ";
+  EXPECT_EQ(lines.back().rfind(expected_end, 0), 0u) << lines.back();
+  if (tcp_only) { EXPECT_NE(lines.back().find("transport grpc"), std::string::npos) << lines.back(); }
+  EXPECT_NE(lines.back().find("wrote " + out), std::string::npos) << lines.back();
+  auto scene = ImportFile(out);
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  EXPECT_EQ(SceneVertices(*scene), stored.report.level_vertices.back());
+}
+
+// The usage and failure exit codes of an example binary.
+void ExpectExampleFailures(const std::string& binary, const std::string& address, const std::string& run_env = "") {
+  const std::string run = run_env + (run_env.empty() ? "" : " ") + Quote(binary);
+  const auto usage = RunCommand(run);
+  EXPECT_EQ(usage.exit_code, 2);
+  EXPECT_NE(usage.err.find("usage: stream_mesh SERVER ASSET OUT.glb"), std::string::npos) << usage.err;
+  EXPECT_EQ(RunCommand(run + " a b c --bogus").exit_code, 2);
+  EXPECT_EQ(RunCommand(run + " a b c d").exit_code, 2);
+  EXPECT_EQ(RunCommand(run + " a b c --token").exit_code, 2);
+  const test_util::TempDir out;
+  const auto missing = RunCommand(run + " " + address + " no-such-asset " + Quote(out.File("x.glb")));
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("no-such-asset"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("MS_ERR_NOT_FOUND"), std::string::npos) << missing.err;
+  EXPECT_FALSE(std::filesystem::exists(out.File("x.glb")));
+}
+
+TEST_F(CApi, ExampleBuiltByCMakeStreamsAndExports) {
+  const test_util::TempDir out;
+  for (const char* transport : {" --tcp-only", ""}) {
+    const std::string file = out.File(std::string("spot") + (*transport ? "-tcp" : "") + ".glb");
+    const auto r = RunCommand(Quote(MESHSTREAM_C_EXAMPLE) + " " + server_->address() + " spot " + Quote(file) + transport);
+    ExpectExampleOutput(r, Asset("spot"), file, *transport != '\0');
+  }
+  ExpectExampleFailures(MESHSTREAM_C_EXAMPLE, server_->address());
+}
+
+// Compiles the example with the system's cc and pkg-config, and runs it.
+void BuildAndRunExample(const std::string& pkg_config_env, const std::string& run_env, const std::string& dir,
+                        const std::string& address, const Stored& spot) {
+  const std::string flags = "$(" + pkg_config_env + " pkg-config --cflags --libs meshstream)";
+  const std::string binary = dir + "/stream_mesh";
+  const auto cc = RunCommand("cc -std=c99 -Wall -Wextra -pedantic -Werror -o " + Quote(binary) + " " +
+                             Quote(MESHSTREAM_C_EXAMPLE_SOURCE) + " " + flags);
+  ASSERT_EQ(cc.exit_code, 0) << cc.out << cc.err;
+  const std::string file = dir + "/spot.glb";
+  ExpectExampleOutput(RunCommand(run_env + " " + Quote(binary) + " " + address + " spot " + Quote(file) + " --tcp-only"),
+                      spot, file, true);
+  ExpectExampleFailures(binary, address, run_env);
+}
+
+TEST_F(CApi, ExampleBuildsWithPkgConfigFromTheBuildTree) {
+  const test_util::TempDir dir;
+  const std::string env = "PKG_CONFIG_PATH=" + Quote(MESHSTREAM_PKG_CONFIG_PATH);
+  const auto libs = RunCommand(env + " pkg-config --cflags --libs meshstream");
+  ASSERT_EQ(libs.exit_code, 0) << libs.err;
+  EXPECT_NE(libs.out.find("-lmeshstream"), std::string::npos) << libs.out;
+  EXPECT_NE(libs.out.find("-I" + test_util::SourcePath("sdk/include")), std::string::npos) << libs.out;
+  const auto version = RunCommand(env + " pkg-config --modversion meshstream");
+  EXPECT_EQ(version.out, std::string(MESHSTREAM_PROJECT_VERSION) + "\n");
+  // No LD_LIBRARY_PATH: the build tree's .pc carries the rpath.
+  BuildAndRunExample(env, "env -u LD_LIBRARY_PATH", dir.path(), server_->address(), Asset("spot"));
+}
+
+TEST_F(CApi, ExampleBuildsWithPkgConfigFromAnInstalledTree) {
+  const test_util::TempDir dir;
+  const std::string prefix = dir.File("prefix");
+  const auto install = RunCommand(Quote(MESHSTREAM_CMAKE) + " --install " + Quote(MESHSTREAM_BUILD_DIR) +
+                                  " --component c_api --prefix " + Quote(prefix));
+  ASSERT_EQ(install.exit_code, 0) << install.out << install.err;
+  EXPECT_TRUE(std::filesystem::exists(prefix + "/include/meshstream/meshstream.h"));
+  std::string pc_dir, lib_dir;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(prefix)) {
+    const std::string name = entry.path().filename().string();
+    if (name == "meshstream.pc") pc_dir = entry.path().parent_path().string();
+    if (name == "libmeshstream.so.0") lib_dir = entry.path().parent_path().string();
+    EXPECT_EQ(name.find("uninstalled"), std::string::npos) << "installed: " << entry.path();
+  }
+  ASSERT_FALSE(pc_dir.empty()) << "no meshstream.pc installed";
+  ASSERT_FALSE(lib_dir.empty()) << "no libmeshstream.so.0 installed";
+  EXPECT_TRUE(std::filesystem::exists(lib_dir + "/libmeshstream.so")) << "the link-time name";
+  const std::string env = "PKG_CONFIG_PATH=" + Quote(pc_dir);
+  const auto cflags = RunCommand(env + " pkg-config --cflags meshstream");
+  ASSERT_EQ(cflags.exit_code, 0) << cflags.err;
+  ASSERT_EQ(cflags.out.rfind("-I", 0), 0u) << cflags.out;
+  std::string include = cflags.out.substr(2);
+  while (!include.empty() && (include.back() == '\n' || include.back() == ' ')) include.pop_back();
+  EXPECT_EQ(std::filesystem::weakly_canonical(include), std::filesystem::weakly_canonical(prefix + "/include"))
+      << "relocated to the prefix: " << cflags.out;
+  BuildAndRunExample(env, "LD_LIBRARY_PATH=" + Quote(lib_dir), dir.path(), server_->address(), Asset("spot"));
+  // It ran against the installed library, not the build tree's.
+  const auto ldd = RunCommand("LD_LIBRARY_PATH=" + Quote(lib_dir) + " ldd " + Quote(dir.File("stream_mesh")));
+  EXPECT_NE(ldd.out.find(lib_dir + "/libmeshstream.so.0"), std::string::npos) << ldd.out;
+}
+
+}  // namespace
+}  // namespace meshstream
