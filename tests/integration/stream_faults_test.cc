@@ -137,6 +137,36 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 
+// --max-rate caps all sessions together: two sessions of the horse at
+// 0.5 Mbit/s in all cannot both end before their bytes, less the share's
+// burst, have drained at that rate (a lower bound only: a slow machine
+// cannot make it fail).
+TEST(StreamFaults, TheServerRateCapHoldsForAllSessionsTogether) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-rate", "0.5"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  Ingest(**server, "horse", "horse.ply");
+  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  ASSERT_TRUE(client.ok());
+  Outcome a, b;
+  const auto begin = Clock::now();
+  std::thread other([&] { b = RunSession(**client, test_util::SessionFor("horse")); });
+  a = RunSession(**client, test_util::SessionFor("horse"));
+  other.join();
+  const double seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+  ASSERT_EQ(a.last, sdk::EventType::kComplete) << a.status.ToString();
+  ASSERT_EQ(b.last, sdk::EventType::kComplete) << b.status.ToString();
+  EXPECT_EQ(a.stats.transport, "udp");
+  EXPECT_EQ(b.stats.transport, "udp");
+  // Datagrams on the wire: payload plus 36 bytes of header and tag each.
+  const double bytes = static_cast<double>(a.stats.unreliable_bytes + b.stats.unreliable_bytes) +
+                       36.0 * static_cast<double>(a.stats.datagrams_received + b.stats.datagrams_received);
+  const double floor_s = (bytes - 64 * 1024) * 8 / 0.5e6;
+  ASSERT_GT(floor_s, 1.0) << "the assets are too small to see the cap";
+  EXPECT_GE(seconds, 0.9 * floor_s) << bytes << " bytes in " << seconds << " s: faster than 0.5 Mbit/s";
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
 TEST(StreamFaults, AServerKilledMidSessionGivesTheClientAnErrorNotAHang) {
   test_util::TempDir dir;
   // 0.5 Mbit/s: the horse takes seconds, so the kill lands mid-session.
