@@ -183,16 +183,18 @@ grpc::Status AssetServiceImpl::Export(grpc::ServerContext* context, const v1::Ex
   if (!format.ok()) return ToGrpcStatus(format.status());
   std::optional<int> lod;
   if (request->has_lod()) lod = request->lod();
-  // Exports that decode hold a scene in memory: a few at a time.
-  const bool decodes = format.value() != ExportFormat::kProgressiveGlb;
+  // Exports that decode hold a scene in memory: a few at a time. The stored
+  // file and the export cache's hits take no slot.
   CallLimit::Slot slot;
-  if (decodes) {
+  const auto take_slot = [&]() -> Status {
     slot = exports_.Acquire(std::chrono::milliseconds(options_.export_wait_ms));
-    if (!slot) return ToGrpcStatus(ResourceExhausted("Export: the server is busy with other exports; retry later"));
-  }
+    if (!slot) return ResourceExhausted("Export: the server is busy with other exports; retry later");
+    if (context->IsCancelled()) return Aborted("the client went away");
+    return Status::Ok();
+  };
   if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
   auto exported = ExportVersion(*store_, principal->tenant, request->asset(), request->version(), format.value(), lod,
-                                options_.max_export_bytes);
+                                options_.max_export_bytes, take_slot);
   if (!exported.ok()) return ToGrpcStatus(exported.status());
   slot = CallLimit::Slot();
   const std::vector<uint8_t>& bytes = exported->bytes;

@@ -58,7 +58,7 @@ StatusOr<VersionRecord> ResolveReadyVersion(Store& store, const std::string& ten
 
 StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant, const std::string& asset,
                                         int64_t version, ExportFormat format, std::optional<int> lod,
-                                        uint64_t max_bytes) {
+                                        uint64_t max_bytes, const std::function<Status()>& before_decode) {
   auto record = ResolveReadyVersion(store, tenant, asset, version);
   if (!record.ok()) return record.status();
   ExportedVersion out;
@@ -90,6 +90,10 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
     out.bytes = std::move(glb).value();
     out.sha256 = artifact;
     return out;
+  }
+  if (before_decode) {
+    Status gate = before_decode();
+    if (!gate.ok()) return gate;
   }
   auto exported = ExportArtifact(glb.value(), format, lod);
   if (!exported.ok()) return exported.status();

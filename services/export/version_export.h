@@ -13,6 +13,7 @@
 #define MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,9 +39,13 @@ struct ExportedVersion {
 StatusOr<VersionRecord> ResolveReadyVersion(Store& store, const std::string& tenant, const std::string& asset,
                                             int64_t version);
 
+// `before_decode`, when set, runs only when the export must decode (not for
+// the stored progressive file, nor for a hit in the export cache); an error
+// from it ends the export with that status (the service takes a slot of its
+// limit on concurrent decodes there).
 StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant, const std::string& asset,
                                         int64_t version, ExportFormat format, std::optional<int> lod,
-                                        uint64_t max_bytes);
+                                        uint64_t max_bytes, const std::function<Status()>& before_decode = {});
 
 const char* ExportFormatName(ExportFormat format);
 
