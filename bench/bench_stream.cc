@@ -139,7 +139,8 @@ const char kHelp[] =
     "  --work-dir DIR      where the store lives (default: $TMPDIR or /tmp)\n"
     "  --verbose           the server's log lines on stderr\n"
     "The shaped link (needs root: ip netns, nft, tc tbf):\n"
-    "  --shaped, --no-shaped  run it (default) or not; --only-shaped: only it\n"
+    "  --shaped, --no-shaped  run it (default) or not; --only-shaped: only it (into the --out file\n"
+    "                      of an earlier full run when there is one: its other parts are kept)\n"
     "  --shaped-runs N     runs per loss, model and kind (default 5; --quick: 2)\n"
     "  --shaped-rate MBIT  tbf rate on both veth ends (default 20)\n"
     "  --shaped-delay-ms MS  one-way delay of both channels: UDP relay and TCP proxy (default 20)\n"
@@ -2157,23 +2158,49 @@ int main(int argc, char** argv) {
   if (mkdtemp(folder.data()) == nullptr) Die(args.work_dir + ": mkdtemp failed");
   const std::string store = folder + "/store";
   uint64_t failures = 0;
+  bool merged = false;
   if (!args.only_shaped) {
     failures = RunLoopbackParts(args, models, store, out);
   } else {
-    json model_info = json::array();
-    for (const Model& m : models) model_info.push_back({{"name", m.name}, {"file", m.file}, {"roles", m.roles}});
-    out["settings"] = {{"models", model_info}, {"quick", args.quick}, {"only_shaped", true}};
+    // --only-shaped: into the --out file of an earlier full run when there
+    // is one (its loopback parts kept as they are), else on its own.
+    std::ifstream earlier(args.out);
+    json e = earlier ? json::parse(earlier, nullptr, false) : json();
+    if (e.is_object() && e.value("benchmark", std::string()) == "meshstream_bench_stream" && e.contains("sessions")) {
+      std::fprintf(stderr, "meshstream_bench_stream: --only-shaped: replacing the shaped part of %s\n",
+                   args.out.c_str());
+      out = std::move(e);
+      out.erase("shaped");
+      failures = out.value("failures", uint64_t{0});
+      merged = true;
+    } else {
+      json model_info = json::array();
+      for (const Model& m : models) model_info.push_back({{"name", m.name}, {"file", m.file}, {"roles", m.roles}});
+      out["settings"] = {{"models", model_info}, {"quick", args.quick}, {"only_shaped", true}};
+    }
   }
   // 3. The shaped link: a server of its own on the same store (the loopback
   // server has stopped), on the host side of a veth pair.
   uint64_t shaped_failures = 0;
   if (args.shaped) {
-    out["shaped"] = RunShaped(args, store, folder, models);
-    shaped_failures = out["shaped"].value("failures", uint64_t{0});
+    const auto shaped_start = Clock::now();
+    json machine = MachineInfo(args);
+    json shaped = RunShaped(args, store, folder, models);
+    machine["loadavg_at_end"] = ms::bench::LoadAverage();
+    machine["run_seconds"] = Ms(shaped_start, Clock::now()) / 1000;
+    shaped["machine"] = machine;  // the shaped part's own (a merged run's top-level machine is the earlier run's)
+    shaped["run"] = args.only_shaped ? (merged ? "only_shaped, merged into the JSON of an earlier full run"
+                                                : "only_shaped")
+                                     : "with the loopback parts";
+    shaped["quick"] = args.quick;
+    shaped_failures = shaped.value("failures", uint64_t{0});
+    out["shaped"] = std::move(shaped);
   }
   out["failures"] = failures;  // the loopback parts'; the shaped link's are out["shaped"]["failures"]
-  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
-  out["machine"]["run_seconds"] = Ms(run_start, Clock::now()) / 1000;
+  if (!merged) {
+    out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
+    out["machine"]["run_seconds"] = Ms(run_start, Clock::now()) / 1000;
+  }
   {
     std::error_code ec;
     fs::remove_all(folder, ec);
@@ -2185,7 +2212,7 @@ int main(int argc, char** argv) {
   f << out.dump(1) << "\n";
   if (!f) Die(args.out + ": cannot write");
   std::fprintf(stderr, "meshstream_bench_stream: wrote %s in %.0f s (%llu failures on loopback, %llu on the shaped link)\n",
-               args.out.c_str(), out["machine"]["run_seconds"].get<double>(), static_cast<unsigned long long>(failures),
+               args.out.c_str(), Ms(run_start, Clock::now()) / 1000, static_cast<unsigned long long>(failures),
                static_cast<unsigned long long>(shaped_failures));
   return 0;
 }

@@ -549,16 +549,23 @@ def shaped_markdown(data, prefix):
     hello_rtt = median_of(r["stats"]["hello_rtt_ms"] for r in runs if r.get("stats", {}).get("hello_rtt_ms", 0) > 0)
     snap_ms = {m: median_of(r.get("snapshot_ms") for r in runs if r["model"] == m and r["kind"] != "draco_export")
                for m in shaped_models(sh)}
-    if data["settings"].get("only_shaped"):
-        when = "a run of the shaped part alone (`--only-shaped`%s)" % (", `--quick`" if data["settings"].get("quick")
-                                                                      else "")
+    mach = sh.get("machine", mach)  # the shaped part's own, when it has one
+    quick = sh.get("quick", data["settings"].get("quick"))
+    run = sh.get("run", "only_shaped" if data["settings"].get("only_shaped") else "with the loopback parts")
+    if run.startswith("only_shaped"):
+        when = "a run of the shaped part alone (`--only-shaped`%s%s)" % (
+            ", `--quick`" if quick else "",
+            "; the loopback results below are those of the earlier full run" if "merged" in run else "")
     else:
-        when = "the same run as the loopback results below (%s)" % ("`--quick`" if data["settings"].get("quick")
-                                                                   else "default flags")
-    out.append("Measured %s in %s, on %d x %s; the shaped part took %.0f s (%.0f s of sessions and downloads, "
-               "%.0f s of distances: %d distinct meshes of %d snapshots). Failures: %d." % (
-                   mach["date"], when, mach["nproc"], mach["cpu"], sh["wall_s"], sh["sessions_s"], sh["distance_s"],
-                   sh["distinct_meshes_measured"], sh["snapshots"], sh["failures"]))
+        when = "the same run as the loopback results below (%s)" % ("`--quick`" if quick else "default flags")
+    out.append("Measured %s in %s, on %d x %s (%s), %s build; load average at start %s, at end %s%s; the shaped "
+               "part took %.0f s (%.0f s of sessions and downloads, %.0f s of distances: %d distinct meshes of %d "
+               "snapshots). Failures: %d." % (
+                   mach["date"], when, mach["nproc"], mach["cpu"], mach.get("kernel", ""),
+                   mach.get("build_type", ""), mach.get("loadavg_at_start", "?"), mach.get("loadavg_at_end", "?"),
+                   "; commit %s" % mach["git_commit"] if mach.get("git_commit") else "", sh["wall_s"],
+                   sh["sessions_s"], sh["distance_s"], sh["distinct_meshes_measured"], sh["snapshots"],
+                   sh["failures"]))
     out.append("Link: tbf %.0f Mbit/s on both veth ends, %.0f ms one way on both channels (UDP relay, TCP proxy), "
                "nftables drop of %s %% of what the namespace receives (TCP and UDP); %d runs per loss, model and kind; "
                "server HELLO timeout %d ms (the default); gRPC via %s, UDP via %s." % (
@@ -614,11 +621,14 @@ def shaped_markdown(data, prefix):
                 fmt_rel(u["final_hausdorff_rel_median"]), fmt_rel(u["final_hausdorff_rel_max"]),
                 fmt_int(u.get("predicted_vertices_median", 0)), u.get("fallbacks", 0), u["runs"] - u["failures"]))
     out.append("")
+    tcp_rows = [r for r in sh["summary"] if r["kind"] == "tcp_only" and r["runs"] > r["failures"]]
+    tcp_exact = sum(1 for r in tcp_rows if r["final_hausdorff_rel_max"] == 0)
     out.append("Medians over the runs, from the request (a warm gRPC channel: `WaitForConnected` before the clock "
                "starts) to what the application sees: meshstream's `kBaseReady` and `kComplete` as `Poll` returns "
                "them, Draco's last byte plus its decode (importers/, `ImportGltfBytes`). Ratios below 1: meshstream "
                "is there first. *Final distance*: the mesh at `kComplete` against the full lossless mesh (0: "
-               "identical); TCP only ends exact in every run, Draco at its quantization (table above).")
+               "identical); TCP only ends exact in every run of %d of its %d rows, Draco at its GLB's distance "
+               "(table above)." % (tcp_exact, len(tcp_rows)))
     out.append("")
     out.append("![quality over time](%sstream-shaped-quality.png)" % prefix)
     out.append("")
