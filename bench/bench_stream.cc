@@ -115,7 +115,8 @@ const char kHelp[] =
     "                               [--work-dir DIR] [--out FILE] [--verbose]\n"
     "                               [--shaped | --no-shaped | --only-shaped] [--shaped-runs N]\n"
     "                               [--shaped-rate MBIT] [--shaped-delay-ms MS] [--shaped-loss LIST]\n"
-    "                               [--shaped-snapshots N] [--shaped-samples N] [--shaped-timeout-s S]\n"
+    "                               [--shaped-loss-udp-only] [--shaped-snapshots N] [--shaped-samples N]\n"
+    "                               [--shaped-timeout-s S]\n"
     "\n"
     "Benchmarks the streaming sessions (meshstream serve, in this process, SQLite store) against\n"
     "the Draco GLB export of the same server and the loopback's sendmmsg limit, measured in the\n"
@@ -145,6 +146,7 @@ const char kHelp[] =
     "  --shaped-rate MBIT  tbf rate on both veth ends (default 20)\n"
     "  --shaped-delay-ms MS  one-way delay of both channels: UDP relay and TCP proxy (default 20)\n"
     "  --shaped-loss LIST  nftables drop percentages, TCP and UDP (default 0,2,5,12)\n"
+    "  --shaped-loss-udp-only  drop UDP only (an experiment: what TCP's losses cost the sessions)\n"
     "  --shaped-snapshots N  meshes kept per session for the distances, base and end included\n"
     "                      (default 12)\n"
     "  --shaped-samples N  surface samples per side of each Hausdorff distance (default 200000)\n"
@@ -176,6 +178,7 @@ struct Args {
   int shaped_snapshots = 12;
   int64_t shaped_samples = 200000;
   double shaped_timeout_s = 60;
+  bool shaped_udp_only_loss = false;
   std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/stream.json";
 };
 
@@ -250,6 +253,8 @@ Args ParseArgs(int argc, char** argv) {
       a.shaped_snapshots = static_cast<int>(ParseInt(next(), f, 2, 1000));
     } else if (f == "--shaped-samples") {
       a.shaped_samples = ParseInt(next(), f, 0, 100000000);
+    } else if (f == "--shaped-loss-udp-only") {
+      a.shaped_udp_only_loss = true;
     } else if (f == "--shaped-timeout-s") {
       a.shaped_timeout_s = ParseDouble(next(), f);
       if (a.shaped_timeout_s <= 0) Die("--shaped-timeout-s: positive");
@@ -1574,7 +1579,7 @@ json RunShaped(const Args& args, const std::string& store, const std::string& fo
   const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * 3;
   size_t done = 0;
   for (int loss : args.shaped_losses) {
-    const Status l = ns->SetLoss(loss, false);
+    const Status l = ns->SetLoss(loss, args.shaped_udp_only_loss);
     if (!l.ok()) Die("nft: " + l.message());
     const size_t proxy_before = proxy->closed().size();
     const ms::test_util::RelayCounters up0 = relay->to_server(), down0 = relay->to_client();
@@ -1904,7 +1909,11 @@ json RunShaped(const Args& args, const std::string& store, const std::string& fo
                                  {"max_session_rate_bps", so.max_session_rate_bps}}},
                      {"grpc_via", proxy->address()},
                      {"udp_via", udp_via},
-                     {"loss_rule", "nft, in the namespace's input hook: numgen random mod 100 < P drop (TCP and UDP)"},
+                     {"loss_udp_only", args.shaped_udp_only_loss},
+                     {"loss_rule", std::string("nft, in the namespace's input hook: ") +
+                                       (args.shaped_udp_only_loss ? "meta l4proto udp " : "") +
+                                       "numgen random mod 100 < P drop" +
+                                       (args.shaped_udp_only_loss ? " (UDP only)" : " (TCP and UDP)")},
                      {"rate_rule", "tc tbf on both veth ends: rate R burst 32kbit latency 100ms"}};
   out["models"] = model_info;
   out["runs"] = runs;

@@ -567,9 +567,10 @@ def shaped_markdown(data, prefix):
                    sh["sessions_s"], sh["distance_s"], sh["distinct_meshes_measured"], sh["snapshots"],
                    sh["failures"]))
     out.append("Link: tbf %.0f Mbit/s on both veth ends, %.0f ms one way on both channels (UDP relay, TCP proxy), "
-               "nftables drop of %s %% of what the namespace receives (TCP and UDP); %d runs per loss, model and kind; "
+               "nftables drop of %s %% of what the namespace receives (%s); %d runs per loss, model and kind; "
                "server HELLO timeout %d ms (the default); gRPC via %s, UDP via %s." % (
                    st["rate_mbit"], st["delay_ms_each_way"], ", ".join(str(l) for l in st["losses_percent"]),
+                   "UDP only: `--shaped-loss-udp-only`" if st.get("loss_udp_only") else "TCP and UDP",
                    st["runs"], st["server"]["hello_timeout_ms"], st["grpc_via"], st["udp_via"]))
     out.append("Measured round trips (medians): a unary gRPC call through the proxy %s ms, the SDK's UDP HELLO "
                "through the relay %s ms. Snapshots taken during a session (`CurrentScene()` at the events; "
