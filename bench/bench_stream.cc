@@ -123,7 +123,7 @@ const char kHelp[] =
     "same run, and then over a shaped, lossy link (a network namespace; skipped, with the reason,\n"
     "where namespaces cannot be made); writes one JSON object (default docs/bench/stream.json).\n"
     "  --quick             a short run: --samples 20 --min-rounds 1 --largest-rounds-at-100 1, 1 s\n"
-    "                      rate and loopback runs (about 25 s), --shaped-runs 2 (about 2 min)\n"
+    "                      rate and loopback runs (about 25 s), --shaped-runs 2 (about 80 s)\n"
     "  --models DIR        folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
     "  --model NAME        only this model (file stem, e.g. horse); repeatable\n"
     "  --concurrency LIST  concurrent sessions of the latency rows (default 1,10,100)\n"

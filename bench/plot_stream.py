@@ -474,6 +474,7 @@ def plot_shaped_quality(sh, path):
             style_axes(ax, xlabel="ms from the request (warm gRPC channel)",
                        ylabel="Hausdorff distance / bbox diagonal (log)",
                        title="%s, %d %% loss" % (short(m), loss), legend_size=7)
+            ax.legend(fontsize=7, loc="center right")  # clear of "nothing shown" and "exact"
     st = sh["settings"]
     fig.suptitle("What is shown over time on a shaped link: %.0f Mbit/s, %.0f ms each way, nftables drop on "
                  "TCP and UDP; client in a network namespace" % (st["rate_mbit"], st["delay_ms_each_way"]))
