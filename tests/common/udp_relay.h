@@ -79,15 +79,16 @@ struct Impairment {
 
 struct RelayOptions {
   SocketAddress upstream;              // the server's UDP endpoint
-  // Where the front listens and the upstream sockets are bound, "HOST:PORT"
-  // (port 0: any free one; the upstream sockets always take any free port on
-  // HOST). Empty: the loopback of the upstream's family, "127.0.0.1:0" or
-  // "[::1]:0". A namespace's clients need the host side of its veth.
-  std::string bind;
   Impairment to_server, to_client;
   size_t max_clients = 256;
   size_t max_queued = 1 << 16;         // delayed datagrams in flight, both ways
   size_t record = 0;                   // keep a copy of the first N datagrams passed to clients
+  // Where the front listens and the upstream sockets are bound, "HOST:PORT"
+  // (port 0: any free one; the upstream sockets always take any free port on
+  // HOST). Empty: the loopback of the upstream's family, "127.0.0.1:0" or
+  // "[::1]:0". A namespace's clients need the host side of its veth. Last,
+  // so that positional initialisers of the fields above keep their meaning.
+  std::string bind;
 };
 
 struct RelayCounters {
