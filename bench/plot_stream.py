@@ -12,9 +12,19 @@ Writes into DIR (default: the JSON's folder):
   stream-datagrams.png  the server's DATA datagrams per second (wall, per
                         CPU-second of the process, and without the sessions'
                         decoding threads) beside the sendmmsg loopback limit
+  stream-shaped-quality.png  the shaped link ("shaped" in the JSON): per model,
+                        at the first and the last loss level, the Hausdorff
+                        distance of what is shown to the full lossless mesh
+                        against time, every run, over UDP, TCP only and the
+                        Draco GLB
+  stream-shaped-times.png  the shaped link: time to the first visible mesh and
+                        to full quality against loss (median, min-max)
 and replaces the text between "<!-- bench:stream:begin -->" and
-"<!-- bench:stream:end -->" in the --doc file with the tables (when the
-markers are there). Works headless (Agg backend).
+"<!-- bench:stream:end -->" in the --doc file with the tables, and the text
+between "<!-- bench:stream-shaped:begin -->" and
+"<!-- bench:stream-shaped:end -->" with the shaped link's (when the markers
+are there; a JSON of --only-shaped refreshes only the latter). Works
+headless (Agg backend).
 """
 import argparse
 import os
@@ -379,6 +389,310 @@ def markdown(data, prefix):
     return "\n".join(out)
 
 
+
+# ------------------------------------------------------------ shaped link
+
+SHAPED_BEGIN = "<!-- bench:stream-shaped:begin -->"
+SHAPED_END = "<!-- bench:stream-shaped:end -->"
+SHAPED_KINDS = [("udp", "meshstream, UDP", "C0"), ("tcp_only", "meshstream, TCP only", "C1"),
+                ("draco_export", "Draco GLB over gRPC", "k")]
+FLOOR = 1e-6  # distances below it (0: the lossless mesh itself) are drawn on it
+
+
+def shaped(data):
+    s = data.get("shaped")
+    return s if s and "runs" in s else None
+
+
+def shaped_models(sh):
+    return [m["name"] for m in sh["models"]]
+
+
+def shaped_model(sh, name):
+    return next(m for m in sh["models"] if m["name"] == name)
+
+
+def shaped_row(sh, loss, model, kind):
+    for r in sh["summary"]:
+        if r["loss_percent"] == loss and r["model"] == model and r["kind"] == kind:
+            return r
+    return None
+
+
+def shaped_runs(sh, loss, model, kind):
+    return [r for r in sh["runs"] if r["loss_percent"] == loss and r["model"] == model and r["kind"] == kind]
+
+
+def med(s, key="median_ms"):
+    return s.get(key) if s else None
+
+
+def quality_steps(run, t_end):
+    """(xs, ys) of the step curve of one run: 1 (nothing shown) until the first mesh, then each snapshot's
+    Hausdorff distance (relative to the diagonal), held until the next, up to t_end."""
+    xs, ys = [0.0], [1.0]
+    for q in run.get("quality", []):
+        if "hausdorff_rel" not in q or "t_ms" not in q:
+            continue
+        xs.append(q["t_ms"])
+        ys.append(max(q["hausdorff_rel"], FLOOR))
+    xs.append(max(t_end, xs[-1]))
+    ys.append(ys[-1])
+    return xs, ys
+
+
+def plot_shaped_quality(sh, path):
+    losses = sh["settings"]["losses_percent"]
+    cols = [losses[0], losses[-1]] if len(losses) > 1 else losses
+    ms_ = shaped_models(sh)
+    fig, axes = plt.subplots(len(ms_), len(cols), figsize=(7 * len(cols), 4.2 * len(ms_)), squeeze=False)
+    for row_i, m in enumerate(ms_):
+        # One time axis per model: the slowest run of the model at these losses, plus a little.
+        t_end = 0
+        for loss in cols:
+            for kind, _, _ in SHAPED_KINDS:
+                for r in shaped_runs(sh, loss, m, kind):
+                    if r.get("ok"):
+                        t_end = max(t_end, r.get("full_ms", 0))
+        t_end *= 1.08
+        for col_i, loss in enumerate(cols):
+            ax = axes[row_i][col_i]
+            for kind, label, color in SHAPED_KINDS:
+                runs = [r for r in shaped_runs(sh, loss, m, kind) if r.get("ok")]
+                for i, r in enumerate(runs):
+                    xs, ys = quality_steps(r, t_end)
+                    ax.step(xs, ys, where="post", color=color, alpha=0.55, linewidth=1.3,
+                            label="%s (%d runs)" % (label, len(runs)) if i == 0 else None)
+            ax.set_yscale("log")
+            ax.set_ylim(FLOOR / 2, 1.6)
+            ax.set_xlim(0, t_end)
+            ax.axhline(1.0, color="0.6", linewidth=0.6, linestyle=":")
+            ax.text(t_end * 0.99, 1.1, "nothing shown", ha="right", fontsize=7, color="0.4")
+            ax.text(t_end * 0.99, FLOOR * 1.15, "exact (the full lossless mesh; Draco's GLB: %.1e)" %
+                    shaped_model(sh, m)["draco_vs_reference"].get("hausdorff_rel", 0), ha="right", fontsize=7,
+                    color="0.4")
+            style_axes(ax, xlabel="ms from the request (warm gRPC channel)",
+                       ylabel="Hausdorff distance / bbox diagonal (log)",
+                       title="%s, %d %% loss" % (short(m), loss), legend_size=7)
+            ax.legend(fontsize=7, loc="center right")  # clear of "nothing shown" and "exact"
+    st = sh["settings"]
+    fig.suptitle("What is shown over time on a shaped link: %.0f Mbit/s, %.0f ms each way, nftables drop on "
+                 "TCP and UDP; client in a network namespace" % (st["rate_mbit"], st["delay_ms_each_way"]))
+    save_figure(fig, path, 100, rect=(0, 0, 1, 0.97))
+
+
+def plot_shaped_times(sh, path):
+    losses = sh["settings"]["losses_percent"]
+    ms_ = shaped_models(sh)
+    fig, axes = plt.subplots(2, len(ms_), figsize=(6 * len(ms_), 8), squeeze=False)
+    for col, m in enumerate(ms_):
+        for line, (key, what) in enumerate((("first_ms", "first visible mesh"),
+                                            ("full_ms", "full mesh (kComplete; UDP with loss: not exact)"))):
+            ax = axes[line][col]
+            for k, (kind, label, color) in enumerate(SHAPED_KINDS):
+                xs, ys, lo, hi = [], [], [], []
+                for loss in losses:
+                    r = shaped_row(sh, loss, m, kind)
+                    s = r.get(key) if r else None
+                    if not s or "median_ms" not in s:
+                        continue
+                    xs.append(loss + (k - 1) * 0.25)
+                    ys.append(s["median_ms"])
+                    lo.append(s["median_ms"] - s["min_ms"])
+                    hi.append(s["max_ms"] - s["median_ms"])
+                if xs:
+                    ax.errorbar(xs, ys, yerr=[lo, hi], color=color, marker="o", capsize=3, label=label)
+            ax.set_xticks(losses)
+            ax.set_xticklabels(["%d %%" % l for l in losses])
+            ax.set_ylim(bottom=0)
+            style_axes(ax, xlabel="packets the namespace drops (TCP and UDP)",
+                       ylabel="ms from the request: median, min-max", title="%s: time to the %s" % (short(m), what),
+                       legend_size=7)
+    st = sh["settings"]
+    fig.suptitle("Shaped link, %.0f Mbit/s, %.0f ms each way, %d runs per point; Draco: last byte + decode" % (
+        st["rate_mbit"], st["delay_ms_each_way"], st["runs"]))
+    save_figure(fig, path, 100, rect=(0, 0, 1, 0.97))
+
+
+def fmt_rel(v):
+    if v is None:
+        return "-"
+    if v == 0:
+        return "0"
+    if v < 1e-4:
+        return "%.1e" % v
+    return "%.2f %%" % (100 * v) if v >= 1e-3 else "%.3f %%" % (100 * v)
+
+
+def fmt_span(s):
+    if not s or "median_ms" not in s:
+        return "-"
+    return "%s (%s-%s)" % (fmt_ms(s["median_ms"]), fmt_ms(s["min_ms"]), fmt_ms(s["max_ms"]))
+
+
+def shaped_markdown(data, prefix):
+    sh = data.get("shaped")
+    out = []
+    if not sh:
+        out.append("Not measured in this run (`--no-shaped`).")
+        return "\n".join(out)
+    if "skipped" in sh:
+        out.append("Skipped in this run: %s" % sh["skipped"])
+        return "\n".join(out)
+    st = sh["settings"]
+    mach = data["machine"]
+    runs = sh["runs"]
+
+    def median_of(values):
+        v = sorted(x for x in values if x is not None)
+        return v[len(v) // 2] if v else None
+    grpc_rtt = median_of(r.get("grpc_rtt_ms") for r in runs if r.get("grpc_rtt_ms", -1) > 0)
+    hello_rtt = median_of(r["stats"]["hello_rtt_ms"] for r in runs if r.get("stats", {}).get("hello_rtt_ms", 0) > 0)
+    snap_ms = {m: median_of(r.get("snapshot_ms") for r in runs if r["model"] == m and r["kind"] != "draco_export")
+               for m in shaped_models(sh)}
+    mach = sh.get("machine", mach)  # the shaped part's own, when it has one
+    quick = sh.get("quick", data["settings"].get("quick"))
+    run = sh.get("run", "only_shaped" if data["settings"].get("only_shaped") else "with the loopback parts")
+    if run.startswith("only_shaped"):
+        when = "a run of the shaped part alone (`--only-shaped`%s%s)" % (
+            ", `--quick`" if quick else "",
+            "; the loopback results below are those of the earlier full run" if "merged" in run else "")
+    else:
+        when = "the same run as the loopback results below (%s)" % ("`--quick`" if quick else "default flags")
+    out.append("Measured %s in %s, on %d x %s (%s), %s build; load average at start %s, at end %s%s; the shaped "
+               "part took %.0f s (%.0f s of sessions and downloads, %.0f s of distances: %d distinct meshes of %d "
+               "snapshots). Failures: %d." % (
+                   mach["date"], when, mach["nproc"], mach["cpu"], mach.get("kernel", ""),
+                   mach.get("build_type", ""), mach.get("loadavg_at_start", "?"), mach.get("loadavg_at_end", "?"),
+                   "; commit %s" % mach["git_commit"] if mach.get("git_commit") else "", sh["wall_s"],
+                   sh["sessions_s"], sh["distance_s"], sh["distinct_meshes_measured"], sh["snapshots"],
+                   sh["failures"]))
+    out.append("Link: tbf %.0f Mbit/s on both veth ends, %.0f ms one way on both channels (UDP relay, TCP proxy), "
+               "nftables drop of %s %% of what the namespace receives (%s); %d runs per loss, model and kind; "
+               "server HELLO timeout %d ms (the default); gRPC via %s, UDP via %s." % (
+                   st["rate_mbit"], st["delay_ms_each_way"], ", ".join(str(l) for l in st["losses_percent"]),
+                   "UDP only: `--shaped-loss-udp-only`" if st.get("loss_udp_only") else "TCP and UDP",
+                   st["runs"], st["server"]["hello_timeout_ms"], st["grpc_via"], st["udp_via"]))
+    out.append("Measured round trips (medians): a unary gRPC call through the proxy %s ms, the SDK's UDP HELLO "
+               "through the relay %s ms. Snapshots taken during a session (`CurrentScene()` at the events; "
+               "their time is part of the session's): median %s ms per session." % (
+                   fmt_ms(grpc_rtt), fmt_ms(hello_rtt),
+                   ", ".join("%s %s" % (short(m), fmt_ms(v)) for m, v in snap_ms.items())))
+    out.append("")
+    out.append("| model | vertices | levels | meshstream reliable + unreliable bytes | session bytes on the wire "
+               "at 0 %: TCP + UDP | Draco GLB bytes (on the wire) | Draco GLB vs full | source file vs full |")
+    out.append("|---|---:|---:|---:|---:|---:|---:|---:|")
+    loss0 = st["losses_percent"][0]
+    for m in sh["models"]:
+        def wire(kind):
+            rs = [r for r in shaped_runs(sh, loss0, m["name"], kind) if "wire" in r]
+            if not rs:
+                return "-"
+            t = sorted(r["wire"]["tcp"]["bytes_to_client"] for r in rs)[len(rs) // 2]
+            u = sorted(r["wire"]["udp"]["bytes_to_client"] for r in rs)[len(rs) // 2]
+            return "%s + %s" % (fmt_int(t), fmt_int(u)) if u else fmt_int(t)
+        out.append("| %s (%s) | %s | %d | %s + %s | UDP: %s; TCP only: %s | %s (%s) | %s | %s |" % (
+            short(m["name"]), "/".join(m["roles"]), fmt_int(m["vertices"]), m["levels"], fmt_int(m["reliable_bytes"]),
+            fmt_int(m["unreliable_bytes"]), wire("udp"), wire("tcp_only"), fmt_int(m["draco_glb_bytes"]),
+            wire("draco_export"), fmt_rel(m["draco_vs_reference"].get("hausdorff_rel")),
+            fmt_rel(m["source_vs_reference"].get("hausdorff_rel"))))
+    out.append("")
+    out.append("Bytes on the wire: what the TCP proxy passed to the client on the child's connections (the session "
+               "or download, its channel's set-up and two `GetVersion` probes) and what the UDP relay passed to it, "
+               "median of the runs at %d %% loss. *vs full*: Hausdorff distance to the full lossless mesh, over its "
+               "bounding-box diagonal." % loss0)
+    out.append("")
+    out.append("#### Time to the first visible mesh and to full quality")
+    out.append("")
+    out.append("| model | loss | first: UDP / TCP only / Draco ms | full: UDP / TCP only / Draco ms | UDP / Draco "
+               "(first, full) | TCP only / Draco (first, full) | UDP final distance: median (max) | UDP vertices "
+               "predicted (median) | UDP fallbacks to gRPC |")
+    out.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m in shaped_models(sh):
+        for loss in st["losses_percent"]:
+            u, t, d = (shaped_row(sh, loss, m, k) for k in ("udp", "tcp_only", "draco_export"))
+
+            def three(key):
+                return " / ".join(fmt_ms(med(r.get(key))) if r else "-" for r in (u, t, d))
+
+            def vs(r):
+                v = r.get("vs_draco") if r else None
+                return "%s, %s" % (fmt_ratio(v["first"]), fmt_ratio(v["full"])) if v else "-"
+            out.append("| %s | %d %% | %s | %s | %s | %s | %s (%s) | %s | %d of %d |" % (
+                short(m), loss, three("first_ms"), three("full_ms"), vs(u), vs(t),
+                fmt_rel(u["final_hausdorff_rel_median"]), fmt_rel(u["final_hausdorff_rel_max"]),
+                fmt_int(u.get("predicted_vertices_median", 0)), u.get("fallbacks", 0), u["runs"] - u["failures"]))
+    out.append("")
+    tcp_rows = [r for r in sh["summary"] if r["kind"] == "tcp_only" and r["runs"] > r["failures"]]
+    tcp_exact = sum(1 for r in tcp_rows if r["final_hausdorff_rel_max"] == 0)
+    out.append("Medians over the runs, from the request (a warm gRPC channel: `WaitForConnected` before the clock "
+               "starts) to what the application sees: meshstream's `kBaseReady` and `kComplete` as `Poll` returns "
+               "them, Draco's last byte plus its decode (importers/, `ImportGltfBytes`). Ratios below 1: meshstream "
+               "is there first. *Final distance*: the mesh at `kComplete` against the full lossless mesh (0: "
+               "identical); TCP only ends exact in every run of %d of its %d rows, Draco at its GLB's distance "
+               "(table above)." % (tcp_exact, len(tcp_rows)))
+    out.append("")
+    out.append("![quality over time](%sstream-shaped-quality.png)" % prefix)
+    out.append("")
+    out.append("![time to first and full vs loss](%sstream-shaped-times.png)" % prefix)
+    out.append("")
+    out.append("#### Every row")
+    out.append("")
+    out.append("| model | loss | kind | runs | failed | first ms: median (min-max) | full ms: median (min-max) "
+               "| within 1 % of the diagonal ms | within 0.1 % ms | final distance median (max) | datagrams lost "
+               "/ received (median) | server rate at the end, srtt, decreases (median) |")
+    out.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m in shaped_models(sh):
+        for loss in st["losses_percent"]:
+            for kind, label, _ in SHAPED_KINDS:
+                r = shaped_row(sh, loss, m, kind)
+                if r is None:
+                    continue
+                srv = "-"
+                dg = "-"
+                if kind != "draco_export":
+                    srv = "%.0f Mbit/s, %.0f ms, %.0f" % (r["server_final_rate_mbps_median"],
+                                                        r["server_srtt_ms_median"], r["server_rate_decreases_median"])
+                    if kind == "udp":
+                        dg = "%.0f / %.0f" % (r["datagrams_lost_median"], r["datagrams_received_median"])
+                out.append("| %s | %d %% | %s | %d | %d | %s | %s | %s | %s | %s (%s) | %s | %s |" % (
+                    short(m), loss, label, r["runs"], r["failures"], fmt_span(r["first_ms"]), fmt_span(r["full_ms"]),
+                    fmt_ms(med(r["within_1pct_ms"])), fmt_ms(med(r["within_0_1pct_ms"])),
+                    fmt_rel(r["final_hausdorff_rel_median"]), fmt_rel(r["final_hausdorff_rel_max"]), dg, srv))
+                for e in r.get("errors", []):
+                    out.append("| | | | | | %s | | | | | | |" % e.replace("|", "/"))
+    out.append("")
+    out.append("*within 1 %%* (*0.1 %%*): the first snapshot whose distance to the full lossless mesh is at most that "
+               "share of the diagonal (medians of the runs that got there; the snapshots are the base, at most %d "
+               "levels and `kComplete`, so this is the time of a snapshot, not of the exact level). The server's "
+               "figures come from its log line of each session: over TCP only its rate controller does not run "
+               "(the figure is its initial rate)." % (st["max_snapshots"] - 2))
+    out.append("")
+    out.append("#### The link, per loss level")
+    out.append("")
+    out.append("| loss | wall s | TCP connections | their srtt at close: median / max ms | segments the proxy "
+               "retransmitted to clients | bytes to clients over TCP | datagrams to clients over UDP |")
+    out.append("|---:|---:|---:|---:|---:|---:|---:|")
+    for p in sh["per_loss"]:
+        px, rl = p["proxy"], p["relay"]
+        out.append("| %d %% | %.1f | %d | %.1f / %.1f | %s | %s | %s |" % (
+            p["loss_percent"], p["wall_s"], px["connections_closed"], px["srtt_ms_median"], px["srtt_ms_max"],
+            fmt_int(px["segments_retransmitted"]), fmt_int(px["bytes_to_clients"]), fmt_int(rl["to_client_forwarded"])))
+    out.append("")
+    out.append("The srtt is the kernel's (TCP_INFO) for the connection between the proxy and the client, the one "
+               "that crosses the lossy link: it does not contain the proxy's %.0f ms each way (see above). Server "
+               "UDP totals: `%s`." % (st["delay_ms_each_way"], sh["server"].get("udp_totals_line", "-")))
+    odd = [l for l in sh["server"].get("log_notable", []) if l.startswith("session ")]
+    if odd:
+        out.append("")
+        out.append("Server log lines of sessions that did not end `complete`:")
+        out.append("")
+        out.append("```")
+        out.extend(odd)
+        out.append("```")
+    return "\n".join(out)
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     root = os.path.dirname(here)
@@ -386,18 +700,31 @@ def main():
     ap.add_argument("results", nargs="?", default=os.path.join(root, "docs", "bench", "stream.json"))
     ap.add_argument("--out", default=None, help="folder for the PNGs (default: the JSON's folder)")
     ap.add_argument("--doc", default=os.path.join(root, "docs", "stream-benchmarks.md"),
-                    help="Markdown file whose marked section receives the tables ('' to skip)")
+                    help="Markdown file whose marked sections receive the tables ('' to skip)")
     a = ap.parse_args()
     data = load(a.results)
     out = output_dir(a.out, a.results)
-    plot_times(data, os.path.join(out, "stream-time.png"))
-    plot_datagrams(data, os.path.join(out, "stream-datagrams.png"))
+    plots = 0
+    sections = []
+    if "sessions" in data:  # not there after --only-shaped
+        plot_times(data, os.path.join(out, "stream-time.png"))
+        plot_datagrams(data, os.path.join(out, "stream-datagrams.png"))
+        plots += 2
+        sections.append((BEGIN, END, lambda prefix: markdown(data, prefix)))
+    sh = shaped(data)
+    if sh:
+        plot_shaped_quality(sh, os.path.join(out, "stream-shaped-quality.png"))
+        plot_shaped_times(sh, os.path.join(out, "stream-shaped-times.png"))
+        plots += 2
+    if "shaped" in data:
+        sections.append((SHAPED_BEGIN, SHAPED_END, lambda prefix: shaped_markdown(data, prefix)))
     if a.doc and os.path.exists(a.doc):
-        if update_doc(a.doc, BEGIN, END, out, lambda prefix: markdown(data, prefix)):
-            print("plot_stream.py: updated %s" % a.doc)
-        else:
-            print("plot_stream.py: %s has no %s ... %s markers; left alone" % (a.doc, BEGIN, END))
-    print("plot_stream.py: wrote 2 plots into %s" % out)
+        for begin, end, render in sections:
+            if update_doc(a.doc, begin, end, out, render):
+                print("plot_stream.py: updated %s (%s)" % (a.doc, begin))
+            else:
+                print("plot_stream.py: %s has no %s ... %s markers; left alone" % (a.doc, begin, end))
+    print("plot_stream.py: wrote %d plots into %s" % (plots, out))
     return 0
 
 

@@ -5,7 +5,9 @@
 // or Gilbert-Elliott bursts), delay with jitter (so reordering), extra
 // reordering, duplicates. Every client address on the front gets its own
 // upstream socket, so the server sees one source per client and its replies
-// find their way back. One thread; all randomness from one seeded
+// find their way back. The front listens on loopback unless
+// RelayOptions::bind says where (the host side of a network namespace's
+// veth, for clients inside it). One thread; all randomness from one seeded
 // std::mt19937_64 per direction, so a run is reproducible for the same order
 // of arrivals.
 //
@@ -81,6 +83,12 @@ struct RelayOptions {
   size_t max_clients = 256;
   size_t max_queued = 1 << 16;         // delayed datagrams in flight, both ways
   size_t record = 0;                   // keep a copy of the first N datagrams passed to clients
+  // Where the front listens and the upstream sockets are bound, "HOST:PORT"
+  // (port 0: any free one; the upstream sockets always take any free port on
+  // HOST). Empty: the loopback of the upstream's family, "127.0.0.1:0" or
+  // "[::1]:0". A namespace's clients need the host side of its veth. Last,
+  // so that positional initialisers of the fields above keep their meaning.
+  std::string bind;
 };
 
 struct RelayCounters {
@@ -90,10 +98,17 @@ struct RelayCounters {
 class UdpRelay {
  public:
   static StatusOr<std::unique_ptr<UdpRelay>> Start(const RelayOptions& options) {
-    auto front = UdpSocket::Bind(*SocketAddress::Parse(options.upstream.family() == AF_INET6 ? "[::1]:0" : "127.0.0.1:0"));
+    const std::string bind =
+        !options.bind.empty() ? options.bind : options.upstream.family() == AF_INET6 ? "[::1]:0" : "127.0.0.1:0";
+    auto front_address = SocketAddress::Parse(bind);
+    if (!front_address.ok()) return front_address.status();
+    auto front = UdpSocket::Bind(*front_address);
     if (!front.ok()) return front.status();
     std::unique_ptr<UdpRelay> r(new UdpRelay(options));
     r->front_ = std::move(front).value();
+    // The upstream sockets: the front's host, any port.
+    r->upstream_bind_ = front_address->family() == AF_INET6 ? "[" + front_address->host() + "]:0"
+                                                            : front_address->host() + ":0";
     r->directions_[0].rng.seed(options.to_server.seed);
     r->directions_[1].rng.seed(options.to_client.seed ^ 0x9E3779B97F4A7C15ull);
     UdpRelay* raw = r.get();
@@ -239,8 +254,7 @@ class UdpRelay {
             }
             if (index == SIZE_MAX) {
               if (clients_.size() >= options_.max_clients) continue;
-              auto upstream = UdpSocket::Bind(*SocketAddress::Parse(
-                  options_.upstream.family() == AF_INET6 ? "[::1]:0" : "127.0.0.1:0"));
+              auto upstream = UdpSocket::Bind(*SocketAddress::Parse(upstream_bind_));
               if (!upstream.ok()) continue;
               clients_.push_back(std::make_unique<Client>(Client{batch[i].from, std::move(upstream).value()}));
               index = clients_.size() - 1;
@@ -255,6 +269,7 @@ class UdpRelay {
   }
 
   RelayOptions options_;
+  std::string upstream_bind_;  // "HOST:0", HOST the front's
   UdpSocket front_;
   std::thread thread_;
   std::atomic<bool> stop_{false};

@@ -1,7 +1,8 @@
 // The tests' UDP relay (tests/common/udp_relay.h) with real sockets: clean
 // forwarding both ways in order, Bernoulli loss near its rate and the same
 // losses for the same seed, Gilbert-Elliott bursts longer than Bernoulli's at
-// the same mean, duplicates, delay, and one upstream socket per client.
+// the same mean, duplicates, delay, one upstream socket per client, and a
+// front bound where asked (RelayOptions::bind).
 #include "tests/common/udp_relay.h"
 
 #include <gtest/gtest.h>
@@ -182,6 +183,32 @@ TEST(UdpRelay, EachClientHasItsOwnUpstreamSocket) {
   ASSERT_EQ(to_two.size(), 1u);
   EXPECT_EQ(NumberOf(to_two[0].data), 22u);
   EXPECT_TRUE(one.Receive(1, 100).empty());
+}
+
+TEST(UdpRelay, BindsTheFrontAndTheUpstreamSocketsWhereAsked) {
+  Endpoint server, client;
+  RelayOptions o;
+  o.upstream = server.socket.local();
+  o.bind = "127.0.0.2:0";  // any loopback address but the default
+  auto relay = UdpRelay::Start(o);
+  ASSERT_TRUE(relay.ok()) << relay.status().ToString();
+  EXPECT_EQ((*relay)->front().host(), "127.0.0.2");
+  EXPECT_NE((*relay)->front().port(), 0);
+  const std::vector<uint8_t> d = Numbered(7);
+  ASSERT_TRUE(client.socket.SendTo((*relay)->front(), d.data(), d.size()).ok());
+  const auto got = server.Receive(1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(NumberOf(got[0].data), 7u);
+  EXPECT_EQ(got[0].from.host(), "127.0.0.2") << "the upstream socket on the front's host";
+  const std::vector<uint8_t> reply = Numbered(8);
+  ASSERT_TRUE(server.socket.SendTo(got[0].from, reply.data(), reply.size()).ok());
+  const auto back = client.Receive(1);
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].from, (*relay)->front());
+
+  RelayOptions bad = o;
+  bad.bind = "not an address";
+  EXPECT_FALSE(UdpRelay::Start(bad).ok());
 }
 
 }  // namespace
