@@ -93,6 +93,7 @@ struct PrimitiveState {
   std::vector<RefinementTrack> tracks;  // per refinement of this session
   size_t reported = 0;                  // refinements reported
   size_t given = 0;                     // control blocks given to the reconstructor (in order)
+  size_t scene_slot = 0;                // index into its scene mesh's primitives
 };
 
 uint64_t NowUs() { return SteadyNowUs(); }
@@ -257,12 +258,17 @@ struct Session::Impl {
       auto scene_or = ImportGltfBytes(glb, "", "the session's scene", ImportOptions{});
       if (!scene_or.ok()) return scene_or.status();
       scene = std::move(scene_or).value();
-      for (const PrimitiveState& p : primitives) {
-        if (p.start.mesh() >= scene.meshes.size() || p.start.mesh_primitive() >= scene.meshes[p.start.mesh()].primitives.size()) {
-          return InvalidInput("primitive " + std::to_string(p.start.primitive()) + ": the scene has no mesh " +
-                              std::to_string(p.start.mesh()) + " primitive " + std::to_string(p.start.mesh_primitive()));
+      for (PrimitiveState& p : primitives) {
+        // The glTF primitive index counts carried primitives too (Mesh::Order).
+        const uint32_t m = p.start.mesh(), k = p.start.mesh_primitive();
+        const std::vector<Mesh::Ref> order = m < scene.meshes.size() ? scene.meshes[m].Order() : std::vector<Mesh::Ref>();
+        if (k >= order.size() || order[k].carried) {
+          return InvalidInput("primitive " + std::to_string(p.start.primitive()) + ": the scene has no refined mesh " +
+                              std::to_string(m) + " primitive " + std::to_string(k));
         }
+        p.scene_slot = order[k].index;
       }
+      stats.reliable_bytes += start.scene_glb().size();
       has_scene = true;
     }
     if (start.transport() == v1::TRANSPORT_UDP) {
@@ -688,7 +694,7 @@ Scene Session::CurrentScene() const {
     // material and everything else of the primitive as the scene has it).
     Scene scene = impl_->scene;
     for (const PrimitiveState& p : impl_->primitives) {
-      Primitive& slot = scene.meshes[p.start.mesh()].primitives[p.start.mesh_primitive()];
+      Primitive& slot = scene.meshes[p.start.mesh()].primitives[p.scene_slot];
       const int32_t material = slot.material;
       slot = DequantizeMesh(p.reconstructor->reader().Mesh(), material);
     }

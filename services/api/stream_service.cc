@@ -191,7 +191,9 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   if (!artifact.ok()) return ToGrpcStatus(artifact.status());
   auto plan = PlanSession(artifact.value(), version->artifact.layout_json, open.max_level());
   if (!plan.ok()) return ToGrpcStatus(plan.status());
-  auto scene = scenes_.Get(version->artifact.artifact_sha256, artifact.value());
+  std::vector<std::pair<uint32_t, uint32_t>> refined;
+  for (const PlannedPrimitive& p : plan->primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
+  auto scene = scenes_.Get(version->artifact.artifact_sha256, artifact.value(), refined);
   if (!scene.ok()) return ToGrpcStatus(scene.status());
 
   SessionRunnerOptions runner_options;

@@ -321,7 +321,7 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   if (!started.ok()) return started;
   impl->maintenance = std::thread([raw] { raw->Maintain(); });
   impl->log("listening on " + impl->address + (options.tls_cert.empty() ? "" : " (TLS)") +
-            (options.auth ? ", tokens required" : ", no authentication (loopback)") + ", " +
+            (options.auth ? ", tokens required" : loopback ? ", no authentication (loopback)" : ", no authentication (--insecure)") + ", " +
             std::to_string(pool_options.workers) + " workers" + (reflection ? ", reflection on" : ""));
   if (impl->udp) {
     impl->streams_advertise = stream_options->service.udp_advertise_host.empty()

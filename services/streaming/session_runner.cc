@@ -137,12 +137,25 @@ StatusOr<std::string> SessionRunner::Run(SessionSink& sink, const std::function<
   }
   if (!sink.Start(transport, udp_.get())) return Aborted("the client went away");
   if (transport == SessionTransport::kUdp) {
-    const auto deadline = Clock::now() + options_.hello_timeout;
+    // From when the start has been handed to the transport (a large start
+    // on a slow link takes a while to write), not from before it.
+    // An authenticated HELLO that has not proven the address yet means the
+    // round trip is under way (a lost HELLO_ACK, a slow path): the wait is
+    // extended from it, up to three timeouts in all.
+    const uint64_t registered_us = udp_->last_hello_us();
+    const auto first_deadline = Clock::now() + options_.hello_timeout;
+    const auto last_deadline = first_deadline + 2 * options_.hello_timeout;
+    auto deadline = first_deadline;
     bool proven = false;
     while (!proven && Clock::now() < deadline && !cancelled()) {
       proven = udp_->WaitProven(std::min<std::chrono::milliseconds>(
           std::chrono::milliseconds(20),
           std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()) + std::chrono::milliseconds(1)));
+      const uint64_t heard = udp_->last_hello_us();
+      if (!proven && heard > registered_us) {
+        const auto from_hello = Clock::now() - std::chrono::microseconds(NowUs() - heard) + options_.hello_timeout;
+        deadline = std::min(last_deadline, std::max(deadline, std::chrono::time_point_cast<Clock::duration>(from_hello)));
+      }
     }
     if (cancelled()) return Aborted("cancelled");
     if (!proven) {

@@ -5,17 +5,43 @@
 
 namespace meshstream {
 
-StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact) {
+namespace {
+
+template <typename T>
+void KeepThree(std::vector<T>& v) {
+  if (v.size() > 3) v.resize(3);
+}
+
+}  // namespace
+
+StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact,
+                                                const std::vector<std::pair<uint32_t, uint32_t>>& refined) {
   ProgressiveDecodeOptions options;
   options.lod = 0;
   ProgressiveDecodeReport report;
   auto scene = DecodeProgressiveGlb(artifact, options, &report);
   if (!scene.ok()) return scene.status().WithContext("the session's scene");
+  for (const auto& [mesh, primitive] : refined) {
+    if (mesh >= scene->meshes.size()) return DataLoss("the session's scene has no mesh " + std::to_string(mesh));
+    const std::vector<Mesh::Ref> order = scene->meshes[mesh].Order();
+    if (primitive >= order.size() || order[primitive].carried) {
+      return DataLoss("the session's scene has no refined primitive " + std::to_string(primitive) + " in mesh " +
+                      std::to_string(mesh));
+    }
+    Primitive& p = scene->meshes[mesh].primitives[order[primitive].index];
+    if (p.positions.size() < 3) continue;  // nothing to shrink
+    KeepThree(p.positions);
+    KeepThree(p.normals);
+    for (auto& set : p.texcoords) KeepThree(set);
+    KeepThree(p.colors);
+    p.indices = {0, 1, 2};
+  }
   return ExportGlb(scene.value(), ExportOptions{});
 }
 
 StatusOr<std::shared_ptr<const std::vector<uint8_t>>> SessionSceneCache::Get(const std::string& artifact_sha256,
-                                                                             const std::vector<uint8_t>& artifact) {
+                                                                             const std::vector<uint8_t>& artifact,
+                                                                             const std::vector<std::pair<uint32_t, uint32_t>>& refined) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (auto it = entries_.begin(); it != entries_.end(); ++it) {
@@ -26,7 +52,7 @@ StatusOr<std::shared_ptr<const std::vector<uint8_t>>> SessionSceneCache::Get(con
     }
   }
   // Made outside the lock: two sessions may make the same scene once each.
-  auto made = MakeSessionScene(artifact);
+  auto made = MakeSessionScene(artifact, refined);
   if (!made.ok()) return made.status();
   auto shared = std::make_shared<const std::vector<uint8_t>>(std::move(made).value());
   std::lock_guard<std::mutex> lock(mutex_);

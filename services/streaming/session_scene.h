@@ -1,9 +1,12 @@
 // The scene a session's client builds on (SessionStart.scene_glb,
 // docs/streaming-protocol.md "Sessions"): the asset's glTF at level 0, as a
 // plain .glb: nodes, materials, textures, skins, animations, the carried
-// primitives, and every refined primitive as its base mesh, at the same
-// mesh and primitive index. The client replaces the refined primitives by
-// what it decodes, so that an export of the session is the asset's scene.
+// primitives, and every refined primitive as a one-triangle placeholder
+// (its first three base vertices with their attributes, so the primitive
+// keeps its material and attribute set) at the same mesh and primitive
+// index. The base meshes themselves travel once, Draco-coded, in the
+// PrimitiveStarts; the client puts what it decodes in the placeholders, so
+// that an export of the session is the asset's scene.
 //
 // Made by decoding the stored progressive .glb at lod 0 (no refinement is
 // touched) and exporting it; SessionSceneCache keeps the last few by the
@@ -25,13 +28,16 @@
 
 namespace meshstream {
 
-StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact);
+// `refined`: the (glTF mesh, primitive index) of every refined primitive.
+StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact,
+                                                const std::vector<std::pair<uint32_t, uint32_t>>& refined);
 
 class SessionSceneCache {
  public:
   explicit SessionSceneCache(size_t max_entries = 16) : max_entries_(max_entries) {}
   StatusOr<std::shared_ptr<const std::vector<uint8_t>>> Get(const std::string& artifact_sha256,
-                                                            const std::vector<uint8_t>& artifact);
+                                                            const std::vector<uint8_t>& artifact,
+                                                            const std::vector<std::pair<uint32_t, uint32_t>>& refined);
 
  private:
   size_t max_entries_;

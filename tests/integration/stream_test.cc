@@ -147,6 +147,13 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
       }
     }
     EXPECT_EQ(got.order.size(), refinements);
+    // The scene carries placeholders for the refined primitives, not their
+    // base meshes a second time (they travel Draco-coded above): it stays
+    // small beside them.
+    size_t base_bytes = 0;
+    for (const v1::PrimitiveStart& p : got.start.primitives()) base_bytes += p.base_mesh().size();
+    EXPECT_FALSE(got.start.scene_glb().empty());
+    EXPECT_LT(got.start.scene_glb().size(), base_bytes / 2 + 8192) << base_bytes << " bytes of base meshes";
     for (size_t k = 1; k < got.order.size(); ++k) EXPECT_LE(got.order[k - 1].second, got.order[k].second);
     // max_level cuts every primitive.
     const Received two = OpenSession(client.channel(), "m", r.version(), 2);
