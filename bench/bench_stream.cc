@@ -73,6 +73,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/service_load.h"
+#include "bench/service_machine.h"
 #include "bench/service_stats.h"
 #include "bench/tcp_delay_proxy.h"
 #include "codec/mesh/scene_flatten.h"
@@ -278,29 +279,9 @@ Args ParseArgs(int argc, char** argv) {
 // ------------------------------------------------------------ the machine
 
 json MachineInfo(const Args& args) {
-  json m = {
-      {"nproc", std::thread::hardware_concurrency()},
-      {"cpu", ms::bench::CpuModel()},
-      {"date", ms::bench::UtcNow()},
-      {"kernel", ms::bench::KernelName()},
-      {"loadavg_at_start", ms::bench::LoadAverage()},
-      {"compiler", __VERSION__},
-      {"build_type", MESHSTREAM_BUILD_TYPE},
-      {"grpc", grpc::Version()},
-      {"protobuf", google::protobuf::internal::VersionString(GOOGLE_PROTOBUF_VERSION)},
-      {"sqlite", sqlite3_libversion()},
-      {"work_dir", args.work_dir},
-      {"work_dir_filesystem", FirstLineOf("findmnt -n -o FSTYPE,SOURCE --target " + ShellQuote(args.work_dir) +
-                                          " 2>/dev/null")},
-      {"net_core_rmem_max", FirstLineOf("cat /proc/sys/net/core/rmem_max 2>/dev/null")},
-      {"net_core_wmem_max", FirstLineOf("cat /proc/sys/net/core/wmem_max 2>/dev/null")},
-  };
-  const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
-  if (!commit.empty()) {
-    const std::string dirty = FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) +
-                                          " status --porcelain --untracked-files=no 2>/dev/null");
-    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
-  }
+  json m = ms::bench::ServiceMachineInfo(args.work_dir, MESHSTREAM_SOURCE_DIR, MESHSTREAM_BUILD_TYPE);
+  m["net_core_rmem_max"] = FirstLineOf("cat /proc/sys/net/core/rmem_max 2>/dev/null");
+  m["net_core_wmem_max"] = FirstLineOf("cat /proc/sys/net/core/wmem_max 2>/dev/null");
   return m;
 }
 
