@@ -84,7 +84,6 @@ struct RefinementTrack {
   std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
   uint64_t bytes = 0;
   uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
-  bool reported = false;
 };
 
 struct PrimitiveState {
@@ -96,7 +95,6 @@ struct PrimitiveState {
   size_t scene_slot = 0;                // index into its scene mesh's primitives
 };
 
-uint64_t NowUs() { return SteadyNowUs(); }
 
 // The host part of "HOST:PORT" / "[V6]:PORT" / "dns:///HOST:PORT".
 std::string HostOfTarget(std::string target) {
@@ -151,7 +149,7 @@ struct Session::Impl {
   void ReadAll() {
     v1::ServerMessage m;
     while (stream->Read(&m)) {
-      const uint64_t at = NowUs();
+      const uint64_t at = SteadyNowUs();
       std::lock_guard<std::mutex> lock(mutex);
       queue.emplace_back(at, std::move(m));
       arrived.notify_one();
@@ -325,10 +323,11 @@ struct Session::Impl {
     ByteReader r(data, size);
     auto h = DatagramHeader::Parse(r);
     if (!h.ok() || by_stream.count(h->stream) == 0) {
-      ++stats.datagrams_rejected;
+      ++stray_rejected;  // the reconstructors never see it
       return Status::Ok();
     }
-    PrimitiveState& p = primitives[by_stream[h->stream]];
+    touched = by_stream[h->stream];
+    PrimitiveState& p = primitives[touched];
     if (h->refinement < p.tracks.size()) {
       RefinementTrack& t = p.tracks[h->refinement];
       if (h->kind == DatagramKind::kEnd) {
@@ -372,6 +371,7 @@ struct Session::Impl {
         const v1::ControlBlock& c = m.control();
         auto index = PrimitiveOf(c.primitive());
         if (!index.ok()) return index.status();
+        touched = index.value();
         PrimitiveState& p = primitives[index.value()];
         if (c.refinement() >= p.tracks.size() || p.tracks[c.refinement()].has_control) {
           return InvalidInput("primitive " + std::to_string(c.primitive()) + ": a control block for refinement " +
@@ -395,6 +395,7 @@ struct Session::Impl {
         const v1::RefinementEnd& e = m.refinement_end();
         auto index = PrimitiveOf(e.primitive());
         if (!index.ok()) return index.status();
+        touched = index.value();
         PrimitiveState& p = primitives[index.value()];
         if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
         p.tracks[e.refinement()].end_seen = true;
@@ -442,7 +443,7 @@ struct Session::Impl {
         r.set_datagrams_received(received);
         r.set_bytes_received(t.bytes);
         r.set_end_received(t.end_time_us != 0);
-        const uint64_t sent_at = NowUs();  // after the decode: the hold covers it
+        const uint64_t sent_at = SteadyNowUs();  // after the decode: the hold covers it
         r.set_hold_us(t.end_time_us != 0 && sent_at > t.end_time_us ? sent_at - t.end_time_us : 0);
         if (!rtt_reported && udp && udp->hello_rtt_us() > 0) {
           r.add_rtt_samples_us(static_cast<uint32_t>(std::min<uint64_t>(udp->hello_rtt_us(), UINT32_MAX)));
@@ -472,8 +473,29 @@ struct Session::Impl {
       }
     }
     Report();
-    // One event for the level reached, even when several completed at once
-    // (a viewer wants the latest, and the views show it).
+    AnnounceLevel();
+    return Status::Ok();
+  }
+
+  // After one arrival: decodes what became ready in the primitive it
+  // touched (the others wait for the end of the batch, when every arrival
+  // has been handed over), and reports and announces only if it advanced.
+  Status AdvanceTouched(uint64_t now) {
+    if (touched == SIZE_MAX) return Status::Ok();
+    PrimitiveState& p = primitives[touched];
+    touched = SIZE_MAX;
+    const size_t before = p.reconstructor->applied();
+    auto n = p.reconstructor->Poll(now);
+    if (!n.ok()) return n.status().WithContext("primitive " + std::to_string(p.start.primitive()));
+    if (p.reconstructor->applied() == before) return Status::Ok();
+    Report();
+    AnnounceLevel();
+    return Status::Ok();
+  }
+
+  // One event for the level reached, even when several completed at once
+  // (a viewer wants the latest, and the views show it).
+  void AnnounceLevel() {
     const int32_t level = LevelEverywhere();
     if (level_announced >= 0 && level_announced < level) {
       level_announced = level;
@@ -483,7 +505,6 @@ struct Session::Impl {
       events.push_back(e);
     }
     level_shown = std::max(level_shown, level);
-    return Status::Ok();
   }
 
   void UpdateStats() {
@@ -511,7 +532,8 @@ struct Session::Impl {
   }
   uint64_t udp_drops_seen = 0;
   uint64_t udp_replays_seen = 0;
-  uint64_t stray_rejected = 0;
+  uint64_t stray_rejected = 0;   // datagrams no primitive's reconstructor could take
+  size_t touched = SIZE_MAX;     // the primitive the last arrival went to
 };
 
 Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -561,7 +583,7 @@ Event Session::Poll(int32_t timeout_ms) {
       return e;
     }
     if (s.over) return none;
-    const uint64_t now = NowUs();
+    const uint64_t now = SteadyNowUs();
     // A budget ran out: stop here with what arrived.
     if (!s.session_end && s.level_shown >= 0) {
       const bool bytes_out = s.options.byte_budget > 0 && s.stats.reliable_bytes + s.stats.unreliable_bytes >= s.options.byte_budget;
@@ -633,14 +655,14 @@ Event Session::Poll(int32_t timeout_ms) {
       }
       if (!st.ok()) return s.Fail(st);
       if (s.level_shown >= 0 && s.events.empty()) {
-        st = s.Advance(at, false);
+        st = s.AdvanceTouched(at);
         if (!st.ok()) return s.Fail(st);
       }
     }
     const bool drained = s.local_messages.empty() && s.local_packets.empty();
     if (s.level_shown >= 0) {
       if (drained && s.events.empty()) {
-        Status st = s.Advance(NowUs(), false);
+        Status st = s.Advance(SteadyNowUs(), false);
         if (!st.ok()) return s.Fail(st);
       }
       s.UpdateStats();

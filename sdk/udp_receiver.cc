@@ -9,12 +9,6 @@
 
 namespace meshstream::sdk {
 
-namespace {
-
-uint64_t NowUs() { return SteadyNowUs(); }
-
-}  // namespace
-
 class UdpReceiver::Window : public ReplayWindow {};
 
 StatusOr<std::unique_ptr<UdpReceiver>> UdpReceiver::Start(const SocketAddress& server, uint64_t session_id,
@@ -53,7 +47,7 @@ void UdpReceiver::SendHello() {
   auto sealed = SealPacket(PacketType::kHello, session_id_, next_packet_number_++, keys_.client_to_server,
                            payload.data(), payload.size());
   if (!sealed.ok()) return;
-  const uint64_t now = NowUs();
+  const uint64_t now = SteadyNowUs();
   if (first_hello_us_ == 0) first_hello_us_ = now;
   last_hello_us_ = now;
   if (socket_.SendTo(server_, sealed->data(), sealed->size()).ok()) ++hellos_sent_;
@@ -64,7 +58,7 @@ void UdpReceiver::Run() {
   SendHello();
   while (!stop_) {
     if (!have_data_ && hellos_sent_ < static_cast<uint64_t>(kMaxHellos) &&
-        NowUs() >= last_hello_us_ + static_cast<uint64_t>(kHelloIntervalMs) * 1000) {
+        SteadyNowUs() >= last_hello_us_ + static_cast<uint64_t>(kHelloIntervalMs) * 1000) {
       SendHello();
     }
     auto n = socket_.ReceiveBatch(&batch, kMaxDatagramBytes + 1, 20);
@@ -92,7 +86,7 @@ void UdpReceiver::Handle(const IncomingDatagram& d) {
     auto challenge = ParseHelloAckPayload(packet.payload);
     if (!challenge.ok()) return count(DropReason::kBadPayload);
     count(DropReason::kNone);
-    if (hello_rtt_us_ == 0) hello_rtt_us_ = NowUs() - last_hello_us_;
+    if (hello_rtt_us_ == 0) hello_rtt_us_ = SteadyNowUs() - last_hello_us_;
     echo_ = challenge.value();
     have_challenge_ = true;
     if (!have_data_) SendHello();
@@ -103,7 +97,7 @@ void UdpReceiver::Handle(const IncomingDatagram& d) {
   UdpPacket p;
   p.packet_number = packet.header.packet_number;
   p.payload = std::move(packet.payload);
-  p.time_us = NowUs();
+  p.time_us = SteadyNowUs();
   deliver_(std::move(p));
 }
 

@@ -117,7 +117,6 @@ struct StreamServiceImpl::Live {
   grpc::ServerContext* context = nullptr;
   std::atomic<int64_t> last_heard_ms{0};  // steady clock
   std::atomic<bool> timed_out{false};
-  const UdpEndpoint::Session* udp = nullptr;
 };
 
 namespace {

@@ -12,13 +12,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-uint64_t NowUs() { return SteadyNowUs(); }
 
 // Sleeps until `due_us`, waking every few milliseconds to see whether the
 // session was cancelled; false when it was.
 bool SleepUntil(uint64_t due_us, const std::function<bool()>& cancelled) {
   for (;;) {
-    const uint64_t now = NowUs();
+    const uint64_t now = SteadyNowUs();
     if (now >= due_us) return true;
     if (cancelled()) return false;
     std::this_thread::sleep_for(std::chrono::microseconds(std::min<uint64_t>(due_us - now, 5000)));
@@ -34,7 +33,7 @@ SessionRunner::SessionRunner(const SessionPlan& plan, const std::vector<uint8_t>
       controller_(options.rate) {}
 
 void SessionRunner::OnReport(const ClientReportInfo& report) {
-  const uint64_t now = NowUs();
+  const uint64_t now = SteadyNowUs();
   std::lock_guard<std::mutex> lock(mutex_);
   ++stats_.reports;
   stats_.reported_received += report.received;
@@ -101,14 +100,14 @@ bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t strea
     const size_t take = std::min(options_.burst_datagrams, all.size() - next);
     size_t batch_bytes = 0;
     for (size_t i = 0; i < take; ++i) batch_bytes += all[next + i].second + kPacketOverheadBytes;
-    uint64_t due = pacer.DueUs(NowUs(), batch_bytes);
-    if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(NowUs(), batch_bytes));
+    uint64_t due = pacer.DueUs(SteadyNowUs(), batch_bytes);
+    if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(SteadyNowUs(), batch_bytes));
     if (!SleepUntil(due, cancelled)) return false;
     std::vector<std::pair<const uint8_t*, size_t>> batch(all.begin() + static_cast<long>(next),
                                                          all.begin() + static_cast<long>(next + take));
     const Status s = udp_->SendData(batch, first + next);
     if (!s.ok()) return false;
-    pacer.OnSent(NowUs(), batch_bytes);
+    pacer.OnSent(SteadyNowUs(), batch_bytes);
     for (const auto& p : batch) bytes += p.second;
     next += take;
   }
@@ -116,7 +115,7 @@ bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t strea
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.datagrams_sent += all.size();
     stats_.bytes_sent += bytes;
-    end_sent_us_[{stream, r.refinement}] = NowUs();
+    end_sent_us_[{stream, r.refinement}] = SteadyNowUs();
     // Entries of refinements never reported stay bounded by the plan's size.
   }
   return sink.RefinementEnd(stream, r.refinement, count);
@@ -153,7 +152,7 @@ StatusOr<std::string> SessionRunner::Run(SessionSink& sink, const std::function<
           std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()) + std::chrono::milliseconds(1)));
       const uint64_t heard = udp_->last_hello_us();
       if (!proven && heard > registered_us) {
-        const auto from_hello = Clock::now() - std::chrono::microseconds(NowUs() - heard) + options_.hello_timeout;
+        const auto from_hello = Clock::now() - std::chrono::microseconds(SteadyNowUs() - heard) + options_.hello_timeout;
         deadline = std::min(last_deadline, std::max(deadline, std::chrono::time_point_cast<Clock::duration>(from_hello)));
       }
     }

@@ -1,11 +1,11 @@
 // The scene a session's client builds on (SessionStart.scene_glb,
 // docs/streaming-protocol.md "Sessions"): the asset's glTF at level 0, as a
 // plain .glb: nodes, materials, textures, skins, animations, the carried
-// primitives, and every refined primitive as a one-triangle placeholder
+// primitives, and every refined primitive as a one-triangle stand-in
 // (its first three base vertices with their attributes, so the primitive
 // keeps its material and attribute set) at the same mesh and primitive
 // index. The base meshes themselves travel once, Draco-coded, in the
-// PrimitiveStarts; the client puts what it decodes in the placeholders, so
+// PrimitiveStarts; the client puts what it decodes in the stand-ins, so
 // that an export of the session is the asset's scene.
 //
 // Made by decoding the stored progressive .glb at lod 0 (no refinement is

@@ -10,8 +10,6 @@ namespace meshstream {
 
 namespace {
 
-uint64_t NowUs() { return SteadyNowUs(); }
-
 uint64_t RandomSessionId() {
   const std::string hex = RandomHex(8);
   uint64_t id = 0;
@@ -59,7 +57,7 @@ StatusOr<std::shared_ptr<UdpEndpoint::Session>> UdpEndpoint::RegisterSession() {
   if (!keys.ok()) return keys.status();
   auto state = std::make_shared<SessionState>();
   state->keys = keys.value();
-  state->last_hello_us = NowUs();
+  state->last_hello_us = SteadyNowUs();
   std::unique_lock<std::shared_mutex> lock(table_mutex_);
   do {
     state->id = RandomSessionId();
@@ -127,7 +125,7 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
     lock.unlock();
     return drop(DropReason::kBadPayload);
   }
-  state->last_hello_us = NowUs();
+  state->last_hello_us = SteadyNowUs();
   SessionState::Address* entry = nullptr;
   for (SessionState::Address& a : state->addresses) {
     if (a.address == d.from) entry = &a;

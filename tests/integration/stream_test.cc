@@ -147,7 +147,7 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
       }
     }
     EXPECT_EQ(got.order.size(), refinements);
-    // The scene carries placeholders for the refined primitives, not their
+    // The scene carries one-triangle stand-ins for the refined primitives, not their
     // base meshes a second time (they travel Draco-coded above): it stays
     // small beside them.
     size_t base_bytes = 0;
