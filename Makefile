@@ -10,8 +10,11 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 # ccache, where installed, makes rebuilds in fresh clones (CI) and worktrees cheap.
 CCACHE := $(shell command -v ccache 2>/dev/null)
+# Paths under the checkout are hashed relative to it, so every clone shares the cache.
 ifneq ($(CCACHE),)
   CMAKE_FLAGS += -DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)
+  export CCACHE_BASEDIR := $(CURDIR)
+  export CCACHE_NOHASHDIR := 1
 endif
 
 .PHONY: all deps build test test-asan demo bench fuzz clean

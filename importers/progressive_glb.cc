@@ -17,8 +17,8 @@ namespace {
 using json = nlohmann::json;
 
 // The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
-// section 1): "bufferView" (an unsigned integer), "version" 1, and nothing
-// else but glTF's "extras" and "extensions".
+// section 1): "bufferView" (an unsigned integer), "version" 1 or 2, and
+// nothing else but glTF's "extras" and "extensions".
 Status CheckProgressiveExtension(const json& ext) {
   const std::string name = kProgressiveExtension;
   if (!ext.is_object()) return InvalidInput(name + " is not an object");
@@ -27,13 +27,14 @@ Status CheckProgressiveExtension(const json& ext) {
   }
   if (!ext.contains("version")) return InvalidInput(name + ".version is missing");
   const json& version = ext["version"];
-  if (!version.is_number_unsigned() || version.get<uint64_t>() != kStreamVersion) {
-    return Unsupported(name + ".version " + version.dump() + " is not 1");
+  if (!version.is_number_unsigned() || version.get<uint64_t>() < kOldestStreamVersion ||
+      version.get<uint64_t>() > kStreamVersion) {
+    return Unsupported(name + ".version " + version.dump() + " is not 1 or 2");
   }
   for (const auto& item : ext.items()) {
     const std::string& key = item.key();
     if (key != "bufferView" && key != "version" && key != "extras" && key != "extensions") {
-      return InvalidInput(name + "." + key + " is not defined by version 1");
+      return InvalidInput(name + "." + key + " is not defined by version " + version.dump());
     }
   }
   return Status::Ok();
@@ -103,6 +104,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
 
       pre.draco_bytes = encoded->base_bytes;
       pre.extension_name = kProgressiveExtension;
+      pre.extension_version = stream->version;
       pre.extension_bytes = stream->Serialize();
       export_options.precoded[m][k] = &pre;
 
@@ -177,6 +179,11 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       ProgressiveStream stream = std::move(parsed).value();
       auto header = StreamHeader::Parse(stream.header.data(), stream.header.size());
       if (!header.ok()) return header.status().WithContext(where);
+      if (stream.version != ext["version"].get<uint64_t>() || header->version != stream.version) {
+        return InvalidInput(where + ": " + kProgressiveExtension + ".version " + ext["version"].dump() +
+                            ", the stream blob's version " + std::to_string(stream.version) +
+                            " and its header's " + std::to_string(header->version) + " differ");
+      }
       Primitive& target = scene.meshes[m].primitives[k];
       auto base = QuantizeOnto(target, header->grids);
       if (!base.ok()) return base.status().WithContext(where);

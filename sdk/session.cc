@@ -399,7 +399,8 @@ struct Session::Impl {
         PrimitiveState& p = primitives[index.value()];
         if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
         p.tracks[e.refinement()].end_seen = true;
-        const std::vector<uint8_t> end = MakeEndDatagram(e.primitive(), e.refinement(), e.datagrams_sent());
+        const std::vector<uint8_t> end = MakeEndDatagram(e.primitive(), e.refinement(), e.datagrams_sent(),
+                                                         p.reconstructor->reader().header().version);
         p.reconstructor->OnDatagram(end.data(), end.size(), now);
         return GiveControls(p, e.refinement(), now);
       }

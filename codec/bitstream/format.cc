@@ -69,8 +69,9 @@ Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::ve
 }  // namespace
 
 void StreamHeader::Serialize(ByteWriter& w) const {
-  w.U8(kStreamVersion);
+  w.U8(version);
   w.U8(static_cast<uint8_t>(packing));
+  if (version >= 2) w.U8(tools);
   w.U8(static_cast<uint8_t>(quantization.qp));
   w.U8(static_cast<uint8_t>(quantization.qn));
   w.U8(static_cast<uint8_t>(quantization.qt));
@@ -96,10 +97,18 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   StreamHeader h;
   auto refuse = [](const std::string& what) { return InvalidInput("stream header: " + what); };
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream header: version"));
-  if (version != kStreamVersion) return Unsupported("stream header: version " + std::to_string(version) + " is not 1");
+  if (version < kOldestStreamVersion || version > kStreamVersion) {
+    return Unsupported("stream header: version " + std::to_string(version) + " is not 1 or 2");
+  }
+  h.version = version;
   MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("stream header: packing"));
   if (packing > 1) return refuse("packing " + std::to_string(packing) + " is reserved");
   h.packing = static_cast<Packing>(packing);
+  h.tools = 0;
+  if (version >= 2) {
+    MS_ASSIGN_OR_RETURN(h.tools, r.U8("stream header: tools"));
+    if ((h.tools & ~kDefinedTools) != 0) return refuse("tools " + std::to_string(h.tools) + " has reserved bits set");
+  }
   static const char* const kBitsNames[4] = {"qp", "qn", "qt", "qc"};
   uint8_t bits[4];
   for (int k = 0; k < 4; ++k) {
@@ -191,7 +200,7 @@ size_t ProgressiveStream::datagram_count() const {
 std::vector<uint8_t> ProgressiveStream::Serialize() const {
   ByteWriter w;
   for (uint8_t b : kBlobMagic) w.U8(b);
-  w.U8(kStreamVersion);
+  w.U8(version);
   w.Block(header);
   w.Varint(control.size());
   for (size_t i = 0; i < control.size(); ++i) {
@@ -209,8 +218,11 @@ StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t
     if (got != b) return InvalidInput("stream blob: magic is not MSPS (not a meshstream progressive stream)");
   }
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream blob: version"));
-  if (version != kStreamVersion) return Unsupported("stream blob: version " + std::to_string(version) + " is not 1");
+  if (version < kOldestStreamVersion || version > kStreamVersion) {
+    return Unsupported("stream blob: version " + std::to_string(version) + " is not 1 or 2");
+  }
   ProgressiveStream s;
+  s.version = version;
   size_t length = 0;
   MS_ASSIGN_OR_RETURN(const uint8_t* header, r.Block("stream blob: header", &length));
   s.header.assign(header, header + length);
@@ -234,7 +246,7 @@ StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t
 
 void DatagramHeader::Serialize(ByteWriter& w) const {
   w.U8(kDatagramMagic);
-  w.U8(kDatagramVersion);
+  w.U8(version);
   w.U8(static_cast<uint8_t>(kind));
   w.Varint(stream);
   w.Varint(refinement);
@@ -248,7 +260,10 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   MS_ASSIGN_OR_RETURN(uint8_t magic, r.U8("datagram: magic"));
   if (magic != kDatagramMagic) return InvalidInput("datagram: magic " + std::to_string(magic) + " is not 0x4D");
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram: version"));
-  if (version != kDatagramVersion) return Unsupported("datagram: version " + std::to_string(version) + " is not 1");
+  if (version < kOldestStreamVersion || version > kStreamVersion) {
+    return Unsupported("datagram: version " + std::to_string(version) + " is not 1 or 2");
+  }
+  h.version = version;
   MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram: kind"));
   if (kind > 3) return InvalidInput("datagram: kind " + std::to_string(kind) + " is reserved");
   h.kind = static_cast<DatagramKind>(kind);
@@ -277,7 +292,7 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
 }
 
 bool DatagramFits(const DatagramHeader& h, const StreamHeader& header) {
-  if (h.refinement >= header.split_counts.size()) return false;
+  if (h.version != header.version || h.refinement >= header.split_counts.size()) return false;
   const bool kind_ok = header.packing == Packing::kBundled
                            ? h.kind == DatagramKind::kBundled
                            : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;
@@ -285,8 +300,9 @@ bool DatagramFits(const DatagramHeader& h, const StreamHeader& header) {
   return kind_ok && h.offset + uint64_t(h.count - 1) * h.stride < header.split_counts[h.refinement];
 }
 
-std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams) {
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams, uint8_t version) {
   DatagramHeader h;
+  h.version = version;
   h.kind = DatagramKind::kEnd;
   h.stream = stream;
   h.refinement = refinement;

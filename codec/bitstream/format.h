@@ -21,14 +21,21 @@
 #include <vector>
 
 #include "codec/core/byte_io.h"
+#include "codec/progressive/coding_tools.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "codec/core/status.h"
 
 namespace meshstream {
 
-constexpr uint8_t kStreamVersion = 1;
+// Version 2 is what the encoder writes; version 1 streams (and their
+// datagrams) are still decoded: a version 1 stream is a version 2 stream
+// without coding tools (docs/progressive-format.md, section 10).
+constexpr uint8_t kStreamVersion = 2;
+constexpr uint8_t kOldestStreamVersion = 1;
 constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
-constexpr uint8_t kDatagramVersion = 1;
+constexpr uint8_t kDatagramVersion = kStreamVersion;  // a datagram carries its stream's version
+
+// The coding tools of a version 2 stream: codec/progressive/coding_tools.h.
 constexpr uint32_t kMinPacketBytes = 64;
 constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
 constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
@@ -50,6 +57,9 @@ enum class DatagramKind : uint8_t {
 
 // The reliable header of a stream.
 struct StreamHeader {
+  uint8_t version = kStreamVersion;
+  uint8_t tools = kAllTools;  // StreamTool bits; 0 in version 1
+  bool has(StreamTool t) const { return (tools & t) != 0; }
   Packing packing = Packing::kSplit;
   QuantizationParams quantization;
   QuantizedMesh grids;  // grids and layout only (no vertices)
@@ -77,6 +87,7 @@ struct StreamHeader {
 
 // Everything of one primitive's stream except the base mesh bytes.
 struct ProgressiveStream {
+  uint8_t version = kStreamVersion;  // the blob's version byte (the header repeats it)
   std::vector<uint8_t> header;                                // StreamHeader
   std::vector<std::vector<uint8_t>> control;                  // per refinement: split bits + models
   std::vector<std::vector<std::vector<uint8_t>>> datagrams;   // per refinement
@@ -91,6 +102,7 @@ struct ProgressiveStream {
 
 // The fixed part of a datagram, before its range-coded payload.
 struct DatagramHeader {
+  uint8_t version = kStreamVersion;  // 1 or 2: must be its stream's (DatagramFits)
   DatagramKind kind = DatagramKind::kBundled;
   uint32_t stream = 0;      // primitive within the asset
   uint32_t refinement = 0;
@@ -112,7 +124,8 @@ bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
 
 // The END datagram the sender puts on the unreliable channel after the data
 // datagrams of a refinement (docs/progressive-format.md, section 6).
-std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams);
+std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams,
+                                     uint8_t version = kStreamVersion);
 
 }  // namespace meshstream
 

@@ -106,6 +106,12 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
       models.push_back(models_[k]);
     }
   }
+  coding_ = SplitCoding{header_.tools, 0};
+  if (header_.has(kToolGeometryPrediction)) {
+    auto alpha = r.U8("alpha");
+    if (!alpha.ok()) return alpha.status().WithContext(where + ": control block");
+    coding_.alpha = alpha.value();
+  }
   if (r.remaining() != 0) {
     return InvalidInput(where + ": control block: " + std::to_string(r.remaining()) + " stray bytes after the models");
   }
@@ -117,6 +123,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   ref.attribute_delta.assign(k * ch, 0);
   has_structure_.assign(k, 0);
   has_geometry_.assign(k, 0);
+  coded_ = ref;
   current_ = std::move(ref);
   history_ = history_.Next(split);
   in_refinement_ = true;
@@ -163,12 +170,16 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   for (uint32_t i = 0; i < h.count; ++i) {
     const size_t j = h.offset + size_t(i) * h.stride;
     if (structure && !has_structure_[j]) {
+      coded_.wings[j] = wings[i];
       current_.wings[j] = wings[i];
       has_structure_[j] = 1;
       fresh = true;
     }
     if (geometry && !has_geometry_[j]) {
+      coded_.position_delta[j] = deltas[i];
       current_.position_delta[j] = deltas[i];
+      std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
+                coded_.attribute_delta.begin() + j * ch);
       std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
                 current_.attribute_delta.begin() + j * ch);
       has_geometry_[j] = 1;
@@ -187,8 +198,8 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
   for (size_t j = 0; j < current_.split_count(); ++j) {
-    MS_RETURN_IF_ERROR(RecoverSplit(current_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
-                                    &recovery_scratch_, &stats)
+    MS_RETURN_IF_ERROR(RecoverSplit(coded_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
+                                    &recovery_scratch_, &stats, coding_, &current_)
                            .WithContext(where));
   }
   recovery_stats_.Add(stats);

@@ -56,6 +56,8 @@ class StreamReader {
   // Within one stream every refinement must use the same recovery.
   Status FinishRefinement(Recovery recovery = Recovery::kPredict);
 
+  // The current refinement as decoded: split vectors (and wings) as they
+  // were applied (version 2 codes them relative to predictions).
   const Refinement& current() const { return current_; }
   const std::vector<uint8_t>& has_structure() const { return has_structure_; }
   const std::vector<uint8_t>& has_geometry() const { return has_geometry_; }
@@ -80,7 +82,9 @@ class StreamReader {
   size_t next_ = 0;          // refinements applied
   bool in_refinement_ = false;
   SplitHistory history_;
-  Refinement current_;
+  Refinement coded_;    // what the datagrams carry
+  Refinement current_;  // what was applied
+  SplitCoding coding_;
   std::vector<uint8_t> has_structure_, has_geometry_;
   std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
   DatagramStats stats_;

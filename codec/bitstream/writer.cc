@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "codec/entropy/range_coder.h"
+#include "codec/progressive/geometry_prediction.h"
+#include "codec/progressive/refinement_state.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/entropy/symbol_model.h"
 
@@ -103,6 +105,7 @@ std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Ref
     bool fits = true;
     for (size_t d = 0; d < stride && fits; ++d) {
       DatagramHeader h;
+      h.version = o.version;
       h.kind = kind;
       h.stream = o.stream_id;
       h.refinement = refinement;
@@ -126,6 +129,86 @@ std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Ref
   }
 }
 
+// The order-0 cost of a residual's three components with a model per
+// component (what the refinement's models will cost, up to their bytes).
+double ResidualBits(const std::vector<Vec3i>& residuals) {
+  double bits = 0;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<uint64_t> counts(kSignedSymbols, 0);
+    double raw = 0;
+    for (const Vec3i& r : residuals) {
+      ++counts[SignedSymbol(r[c])];
+      const uint32_t z = ZigZag(r[c]);
+      if (z >= kDirectSymbols) raw += (32 - __builtin_clz(z)) - 2;
+    }
+    const double n = double(residuals.size());
+    for (uint64_t k : counts)
+      if (k) bits -= double(k) * std::log2(double(k) / n);
+    bits += raw;
+  }
+  return bits;
+}
+
+// Refinement r with its split vectors replaced by their coded form under
+// the stream's tools (geometry_prediction.h), given the coarser mesh `state`
+// (which is then refined by r). Chooses the refinement's alpha.
+Refinement CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& state, SplitCoding* coding) {
+  Refinement coded = r;
+  coding->tools = tools;
+  coding->alpha = 0;
+  const size_t k = r.split_count();
+  struct Split {
+    size_t a_at, b_at, ring_at, degree;
+  };
+  std::vector<Split> splits(k);
+  std::vector<Vec3i> rings;  // every split's ring positions, back to back
+  std::vector<Vec3i> coarse(k);
+  state.ReserveSplits(k);
+  for (size_t j = 0; j < k; ++j) {
+    const uint32_t w = r.split_vertices[j];
+    std::vector<uint32_t>& ring = state.scratch_ring;
+    // The encoder's own hierarchy: every split vertex is a closed fan and its wings fit.
+    state.connectivity.CyclicRing(w, ring);
+    Split& s = splits[j];
+    WingPositions(ring, r.wings[j], &s.a_at, &s.b_at);
+    s.ring_at = rings.size();
+    s.degree = ring.size();
+    for (uint32_t x : ring) rings.push_back(state.positions[x]);
+    coarse[j] = state.positions[w];
+    state.ApplySplitAt(r, j, s.a_at, s.b_at);
+  }
+  auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
+    out->resize(k);
+    for (size_t j = 0; j < k; ++j) {
+      const Split& s = splits[j];
+      (*out)[j] = CodeSplitVector(c, r.position_delta[j], coarse[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at);
+    }
+  };
+  std::vector<Vec3i> residuals;
+  if (tools & kToolGeometryPrediction) {
+    // alpha by the cost of the residuals: a coarse scan, then its neighbours.
+    double best = 1e300;
+    uint32_t best_alpha = 0;
+    auto consider = [&](uint32_t alpha) {
+      SplitCoding c = *coding;
+      c.alpha = alpha;
+      code_all(c, &residuals);
+      const double bits = ResidualBits(residuals);
+      if (bits < best) {
+        best = bits;
+        best_alpha = alpha;
+      }
+    };
+    for (uint32_t alpha = 0; alpha <= 64; alpha += 8) consider(alpha);
+    const uint32_t centre = best_alpha;
+    for (uint32_t alpha = centre > 7 ? centre - 7 : 0; alpha <= centre + 7 && alpha <= 255; ++alpha)
+      if (alpha % 8 != 0) consider(alpha);
+    coding->alpha = best_alpha;
+  }
+  code_all(*coding, &coded.position_delta);
+  return coded;
+}
+
 }  // namespace
 
 StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const QuantizationParams& quantization,
@@ -139,6 +222,15 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   const int channels = pm.base.layout.channels();
 
   StreamHeader h;
+  h.version = o.version;
+  h.tools = o.version >= 2 ? o.tools : 0;
+  if (o.version < kOldestStreamVersion || o.version > kStreamVersion) {
+    return InvalidArgument("stream version " + std::to_string(o.version) + " is not 1 or 2");
+  }
+  if ((h.tools & ~kDefinedTools) != 0) return InvalidArgument("unknown coding tools " + std::to_string(h.tools));
+  // The local frame's rotation is exact for residuals below 2^28, which
+  // grids of at most 24 bits guarantee (local_frame.h).
+  if (quantization.qp > 24) h.tools &= static_cast<uint8_t>(~kToolLocalFrame);
   h.packing = o.packing;
   h.quantization = quantization;
   h.grids.position_grid = pm.base.position_grid;
@@ -150,6 +242,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   h.base_position_fix = e.base_position_fix;
   h.base_attribute_fix = e.base_attribute_fix;
   ProgressiveStream s;
+  s.version = h.version;
   ByteWriter hw;
   h.Serialize(hw);
   s.header = std::move(hw.bytes());
@@ -157,8 +250,14 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   SplitHistory history;
   history.vertices = static_cast<uint32_t>(pm.base.vertex_count());
   RefinementModels previous;
+  // The coarser mesh as the decoder will have it, for the tools that predict from it.
+  RefinementState state;
+  if (h.tools != 0) MS_RETURN_IF_ERROR(state.Reset(pm.base));
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
-    const Refinement& r = pm.refinements[i];
+    SplitCoding coding;
+    const Refinement coded =
+        h.tools != 0 ? CodeRefinement(pm.refinements[i], h.tools, state, &coding) : pm.refinements[i];
+    const Refinement& r = coded;
     // Split bits, then the models.
     std::vector<uint8_t> bits(r.vertices_before, 0);
     for (uint32_t v : r.split_vertices) bits[v] = 1;
@@ -166,6 +265,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     cw.Block(EncodeSplitBits(bits, history));
     history = history.Next(bits);
     const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
+    if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));
     s.control.push_back(std::move(cw.bytes()));
     previous = models;
 

@@ -26,6 +26,8 @@ struct StreamWriteOptions {
   Packing packing = Packing::kSplit;
   uint32_t packet_bytes = 1200;  // payload bytes of a datagram, header included
   uint32_t stream_id = 0;        // the primitive's index in the asset
+  uint8_t version = kStreamVersion;  // 1 writes the previous format (tools are then ignored)
+  uint8_t tools = kAllTools;         // StreamTool bits (coding_tools.h)
 };
 
 StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& encoded, const QuantizationParams& quantization,

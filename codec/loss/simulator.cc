@@ -85,7 +85,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
   for (size_t i = 0; i < refinements; ++i) {
     if (stream.datagrams[i].size() > UINT32_MAX) return InvalidArgument("too many datagrams in one refinement");
     t.end_datagrams.push_back(MakeEndDatagram(stream_id, static_cast<uint32_t>(i),
-                                              static_cast<uint32_t>(stream.datagrams[i].size())));
+                                              static_cast<uint32_t>(stream.datagrams[i].size()), stream.version));
   }
 
   std::mt19937_64 rng(model.seed);

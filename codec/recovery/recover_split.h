@@ -27,6 +27,7 @@
 
 #include "codec/core/status.h"
 #include "codec/core/vec.h"
+#include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
 #include "codec/recovery/prediction.h"
@@ -64,8 +65,13 @@ struct RecoveryScratch {
 // has_geometry); the rest is predicted or, with kLwop, the split is
 // abandoned. Errors (a split vertex that does not exist, or is not a closed
 // manifold fan where a prediction needs one) leave the state valid.
+// `r` holds the split's data as coded under `coding` (format version 2: the
+// split vector's residual; geometry_prediction.h); the values the split was
+// applied with are written to split j of `decoded`, which must be given
+// when coding has tools (it may be `r` itself for version 1).
 Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
-                    RefinementState* state, RecoveryScratch* scratch, RecoveryStats* stats);
+                    RefinementState* state, RecoveryScratch* scratch, RecoveryStats* stats,
+                    const SplitCoding& coding = {}, Refinement* decoded = nullptr);
 
 }  // namespace meshstream
 

@@ -223,7 +223,9 @@ StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const Prim
     if (got != b) return InvalidInput("stream blob: magic is not MSPS (not a meshstream progressive stream)");
   }
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream blob: version"));
-  if (version != kStreamVersion) return Unsupported("stream blob: version " + std::to_string(version) + " is not 1");
+  if (version < kOldestStreamVersion || version > kStreamVersion) {
+    return Unsupported("stream blob: version " + std::to_string(version) + " is not 1 or 2");
+  }
   StreamBlocks out;
   out.base = entry.base;
   auto range = [&](const uint8_t* p, size_t length) {

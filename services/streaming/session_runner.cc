@@ -62,13 +62,21 @@ SessionRunnerStats SessionRunner::stats() const {
   return s;
 }
 
+// The END datagram carries its stream's version: the first byte of the
+// stream header (docs/progressive-format.md, sections 3 and 6).
+std::vector<uint8_t> SessionRunner::EndDatagram(const PlannedRefinement& r, uint32_t stream, uint32_t count) const {
+  const ByteRange& header = plan_.primitives[r.primitive].header;
+  const uint8_t version = header.length > 0 ? artifact_[header.offset] : kStreamVersion;
+  return MakeEndDatagram(stream, r.refinement, count, version);
+}
+
 bool SessionRunner::SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink) {
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   if (!sink.Control(r, stream, count, 0)) return false;
   for (const ByteRange& d : r.datagrams) {
     if (!sink.Datagram(artifact_.data() + d.offset, d.length)) return false;
   }
-  const std::vector<uint8_t> end = MakeEndDatagram(stream, r.refinement, count);
+  const std::vector<uint8_t> end = EndDatagram(r, stream, count);
   if (!sink.Datagram(end.data(), end.size())) return false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -82,7 +90,7 @@ bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t strea
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   const uint64_t first = udp_->ReservePacketNumbers(count + 1);
   if (!sink.Control(r, stream, count, first)) return false;
-  const std::vector<uint8_t> end = MakeEndDatagram(stream, r.refinement, count);
+  const std::vector<uint8_t> end = EndDatagram(r, stream, count);
   std::vector<std::pair<const uint8_t*, size_t>> all;
   all.reserve(count + 1);
   for (const ByteRange& d : r.datagrams) all.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));

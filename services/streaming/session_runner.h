@@ -97,6 +97,7 @@ class SessionRunner {
                          const std::function<bool()>& cancelled);
   bool SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink);
 
+  std::vector<uint8_t> EndDatagram(const PlannedRefinement& r, uint32_t stream, uint32_t count) const;
   const SessionPlan& plan_;
   const std::vector<uint8_t>& artifact_;
   int32_t max_level_;

@@ -58,8 +58,8 @@ std::string HeaderError(const Bytes& header) {
 }
 
 // Header offsets of the vector (positions only, one-byte varints).
-constexpr size_t kPacking = 1, kQp = 2, kRange = 18, kHasNormals = 22, kSets = 23, kHasColors = 24, kBaseMethod = 27,
-                 kSplitCount = 29, kPositionFix = 30;
+constexpr size_t kPacking = 1, kTools = 2, kQp = 3, kRange = 19, kHasNormals = 23, kSets = 24, kHasColors = 25,
+                 kBaseMethod = 28, kSplitCount = 30, kPositionFix = 31;
 
 Bytes Patched(Bytes b, size_t at, uint8_t value) {
   b.at(at) = value;
@@ -77,7 +77,9 @@ TEST(FormatRefusal, TheVectorIsTheBlobStoredInTestData) {
 
 TEST(FormatRefusal, StreamHeaderFields) {
   const Bytes& h = TheVector().stream.header;
-  EXPECT_EQ(HeaderError(Patched(h, 0, 2)), "stream header: version 2 is not 1");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 3)), "stream header: version 3 is not 1 or 2");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1 or 2");
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x80)), "stream header: tools 128 has reserved bits set");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 255)), "stream header: packing 255 is reserved");
   const char* names[4] = {"qp", "qn", "qt", "qc"};
@@ -94,7 +96,7 @@ TEST(FormatRefusal, StreamHeaderFields) {
   EXPECT_EQ(HeaderError(zero), "stream header: position grid: range is not positive");
   EXPECT_EQ(HeaderError(Patched(Patched(h, kRange + 3, 0x7F), kRange + 2, 0xC0)),
             "stream header: position grid: range is not positive");
-  EXPECT_EQ(HeaderError(Patched(h, 6 + 3, 0x7F)).rfind("stream header: position grid", 0), 0u);  // origin x = NaN/inf
+  EXPECT_EQ(HeaderError(Patched(h, 7 + 3, 0x7F)).rfind("stream header: position grid", 0), 0u);  // origin x = NaN/inf
   for (int m = 2; m < 256; ++m) {
     EXPECT_EQ(HeaderError(Patched(h, kBaseMethod, static_cast<uint8_t>(m))),
               "stream header: base_method " + std::to_string(m) + " is reserved");
@@ -146,20 +148,23 @@ TEST(FormatRefusal, StreamBlob) {
   };
   EXPECT_EQ(error(blob), "accepted");
   EXPECT_EQ(error(Patched(blob, 0, 'X')), "stream blob: magic is not MSPS (not a meshstream progressive stream)");
-  EXPECT_EQ(error(Patched(blob, 4, 2)), "stream blob: version 2 is not 1");
+  EXPECT_EQ(error(Patched(blob, 4, 3)), "stream blob: version 3 is not 1 or 2");
   Bytes stray = blob;
   stray.push_back(0);
   EXPECT_EQ(error(stray), "stream blob: 1 stray bytes after the last refinement");
 }
 
 // The control block of refinement 0 cut into its parts: the split-bit block
-// (with its length) and per model slot its flag and model bytes.
+// (with its length), per model slot its flag and model bytes, and what
+// follows the slots (the alpha byte of version 2's geometry prediction).
 struct ControlParts {
   Bytes split_bits;
   std::vector<Bytes> slots;
+  Bytes tail;
   Bytes Join() const {
     Bytes out = split_bits;
     for (const Bytes& s : slots) out.insert(out.end(), s.begin(), s.end());
+    out.insert(out.end(), tail.begin(), tail.end());
     return out;
   }
 };
@@ -176,6 +181,7 @@ ControlParts Cut(const Bytes& control) {
     StaticModel::Parse(r).value();
     parts.slots.emplace_back(control.begin() + start, control.begin() + r.position());
   }
+  parts.tail.assign(control.begin() + r.position(), control.end());
   return parts;
 }
 
@@ -256,11 +262,11 @@ std::string DatagramError(const Bytes& d) {
 
 TEST(FormatRefusal, DatagramHeader) {
   const Bytes& d = TheVector().stream.datagrams[0][0];
-  // 4D 01 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
-  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 1, 0, 0, 0, 1, 0, 3}));
+  // 4D 02 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
+  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 2, 0, 0, 0, 1, 0, 3}));
   EXPECT_EQ(DatagramError(d), "accepted");
   EXPECT_EQ(DatagramError(Patched(d, 0, 0x4E)), "datagram: magic 78 is not 0x4D");
-  EXPECT_EQ(DatagramError(Patched(d, 1, 2)), "datagram: version 2 is not 1");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 3)), "datagram: version 3 is not 1 or 2");
   for (int k = 4; k < 256; ++k) {
     EXPECT_EQ(DatagramError(Patched(d, 2, static_cast<uint8_t>(k))), "datagram: kind " + std::to_string(k) + " is reserved");
   }
@@ -293,6 +299,7 @@ TEST(FormatRefusal, DatagramPayloadMustEndWithItsLastSplit) {
   EXPECT_FALSE(offer(stray));
   EXPECT_FALSE(offer(Bytes(d.begin(), d.end() - 1)));
   EXPECT_FALSE(offer(Patched(d, 2, 1)));  // a structure datagram in a bundled stream
+  EXPECT_FALSE(offer(Patched(d, 1, 1)));  // a version 1 datagram in a version 2 stream
 }
 
 std::string GlbError(const nlohmann::json& doc) {
@@ -312,13 +319,13 @@ TEST(FormatRefusal, ExtensionJson) {
   };
   const std::string where = "meshes[0].primitives[0]: MESHSTREAM_progressive.";
   EXPECT_EQ(with([](nlohmann::json& e) { e["extras"] = {{"note", 1}}; }), "accepted");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 2; }), where + "version 2 is not 1");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "1"; }), where + "version \"1\" is not 1");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 3; }), where + "version 3 is not 1 or 2");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1 or 2");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "2"; }), where + "version \"2\" is not 1 or 2");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1 or 2");
   EXPECT_EQ(with([](nlohmann::json& e) { e.erase("version"); }), where + "version is missing");
   EXPECT_EQ(with([](nlohmann::json& e) { e["bufferView"] = -1; }), where + "bufferView is missing or not an unsigned integer");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 1");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 2");
 }
 
 }  // namespace

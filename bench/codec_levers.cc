@@ -1,0 +1,484 @@
+// Measures the levers of codec version 2 before they are built into the
+// format: replays the encoder's hierarchy exactly as the decoder sees it and
+// estimates, per refinement (order-0 entropy with the format's binarization
+// of signed values), what each candidate predictor of a split's geometry,
+// structure and attributes would cost. Sizes only; the coder itself is
+// measured by meshstream_bench.
+// Usage: meshstream_codec_levers [--model NAME] [--qp N] [--out FILE.json]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/bench_util.h"
+#include "codec/entropy/symbol_model.h"
+#include "codec/progressive/refinement_state.h"
+#include "importers/import.h"
+
+namespace ms = meshstream;
+using ms::Vec3d;
+using ms::Vec3i;
+
+namespace {
+
+// Order-0 bits of signed values with the format's binarization (symbol +
+// raw bits), one model per refinement.
+struct SignedTally {
+  std::map<uint32_t, uint64_t> symbols;
+  double raw_bits = 0;
+  uint64_t n = 0;
+  void Add(int64_t v) {
+    v = std::clamp<int64_t>(v, INT32_MIN / 2, INT32_MAX / 2);
+    const uint32_t s = ms::SignedSymbol(static_cast<int32_t>(v));
+    ++symbols[s];
+    const uint32_t z = ms::ZigZag(static_cast<int32_t>(v));
+    if (z >= ms::kDirectSymbols) raw_bits += (32 - __builtin_clz(z)) - 2;
+    ++n;
+  }
+  double Bits() const {
+    double h = 0;
+    for (auto& [s, c] : symbols) h -= c * std::log2(double(c) / n);
+    return h + raw_bits;
+  }
+};
+
+struct BitTally {
+  std::map<uint32_t, uint64_t> symbols;
+  uint64_t n = 0;
+  void Add(uint32_t s) {
+    ++symbols[s];
+    ++n;
+  }
+  double Bits() const {
+    double h = 0;
+    for (auto& [s, c] : symbols) h -= c * std::log2(double(c) / n);
+    return h;
+  }
+};
+
+Vec3d Pos(const Vec3i& p) { return ms::ToDouble(p); }
+
+// The fan normal of w's ring (area-weighted).
+Vec3d FanNormal(const Vec3d& w, const std::vector<Vec3d>& ring) {
+  Vec3d n{0, 0, 0};
+  for (size_t k = 0; k < ring.size(); ++k) n = ms::Add(n, ms::Cross(ms::Sub(ring[k], w), ms::Sub(ring[(k + 1) % ring.size()], w)));
+  const double l = ms::Norm(n);
+  return l > 0 ? ms::Scale(n, 1 / l) : Vec3d{0, 0, 1};
+}
+
+// A tangent frame (t1, t2, n).
+void Frame(const Vec3d& n, Vec3d* t1, Vec3d* t2) {
+  const Vec3d ref = std::fabs(n[0]) < 0.6 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+  *t1 = ms::Cross(ref, n);
+  *t1 = ms::Scale(*t1, 1 / ms::Norm(*t1));
+  *t2 = ms::Cross(n, *t1);
+}
+
+struct Level {
+  // geometry: per predictor, per-split residual vectors are kept for alpha search
+  std::vector<Vec3d> d, side_diff, side_diff_strict, lap, normal, lap_guess;
+  BitTally wing_a, wing_k, rank_given_k, rank_pair, rank_geom, rank_l2[5];
+  SignedTally nrm_raw[2], nrm_pred[2];
+};
+
+double GeometryBits(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred, double alpha, int frame,
+                    const std::vector<Vec3d>& normals) {
+  SignedTally t[3];
+  for (size_t j = 0; j < d.size(); ++j) {
+    Vec3d r;
+    for (int c = 0; c < 3; ++c) r[c] = d[j][c] - std::round(alpha * pred[j][c]);
+    if (frame == 0) {
+      for (int c = 0; c < 3; ++c) t[c].Add(std::llround(r[c]));
+    } else if (frame == 1) {  // dominant axis of the normal is the normal component (shared tangential model)
+      const Vec3d& n = normals[j];
+      int ax = 0;
+      for (int c = 1; c < 3; ++c)
+        if (std::fabs(n[c]) > std::fabs(n[ax])) ax = c;
+      for (int c = 0; c < 3; ++c) (c == ax ? t[2] : t[0]).Add(std::llround(r[c]));
+    } else if (frame == 3) {  // t1 along the prediction's tangential part, t2 = n x t1 (estimate)
+      const Vec3d& n = normals[j];
+      Vec3d p = pred[j];
+      const double pn = ms::Dot(p, n);
+      p = ms::Sub(p, ms::Scale(n, pn));
+      const double l = ms::Norm(p);
+      Vec3d t1, t2;
+      if (l > 1e-9) {
+        t1 = ms::Scale(p, 1 / l);
+        t2 = ms::Cross(n, t1);
+      } else {
+        Frame(n, &t1, &t2);
+      }
+      t[0].Add(std::llround(ms::Dot(r, t1)));
+      t[1].Add(std::llround(ms::Dot(r, t2)));
+      t[2].Add(std::llround(ms::Dot(r, n)));
+    } else {  // exact rotation (estimate only: not a bijection on the grid)
+      Vec3d t1, t2;
+      Frame(normals[j], &t1, &t2);
+      t[0].Add(std::llround(ms::Dot(r, t1)));
+      t[0].Add(std::llround(ms::Dot(r, t2)));
+      t[2].Add(std::llround(ms::Dot(r, normals[j])));
+    }
+  }
+  return t[0].Bits() + t[1].Bits() + t[2].Bits();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_codec_levers");
+  std::vector<std::string> models = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
+  int qp = 11;
+  std::string out_path;
+  ms::bench::ParseFlags(argc, argv, "meshstream_codec_levers [--model NAME] [--qp N] [--out FILE]\n",
+                        [&](const std::string& f, const std::function<std::string()>& value) {
+                          if (f == "--model") models = {value()};
+                          else if (f == "--qp") qp = static_cast<int>(ms::bench::ParseInt(value(), f, 4, 20));
+                          else if (f == "--out") out_path = value();
+                          else return false;
+                          return true;
+                        });
+  nlohmann::json all = nlohmann::json::array();
+  for (const std::string& name : models) {
+    auto scene = ms::bench::Check(ms::ImportFile(std::string(MESHSTREAM_MODELS_DIR) + "/" + name), name);
+    ms::ProgressiveEncodeOptions options;
+    options.quantization.qp = qp;
+    ms::DracoAttributeIds ids;
+    const ms::ProgressiveEncoded e =
+        ms::bench::EncodeWithDracoBase(*ms::bench::Primitives(scene)[0], options, &ids, name);
+    const ms::ProgressiveMesh& pm = e.mesh;
+    ms::RefinementState st;
+    ms::bench::Check(st.Reset(pm.base).ok() ? ms::StatusOr<int>(0) : ms::StatusOr<int>(ms::Internal("reset")), "reset");
+    const int ch = pm.base.layout.channels();
+    const bool normals = pm.base.layout.has_normals;
+    const int qn = pm.base.layout.qn;
+    std::vector<Level> levels(pm.refinements.size());
+    uint64_t splits = 0;
+    // Split bits: adjacency that only reliable data define (base edges and
+    // (w, new vertex) edges, forgotten at a vertex once it splits).
+    std::vector<std::vector<uint32_t>> rel(pm.base.vertex_count());
+    for (size_t f = 0; f + 2 < pm.base.indices.size(); f += 3)
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t x = pm.base.indices[f + c], y = pm.base.indices[f + (c + 1) % 3];
+        rel[x].push_back(y);
+        rel[y].push_back(x);
+      }
+    for (auto& l : rel) {
+      std::sort(l.begin(), l.end());
+      l.erase(std::unique(l.begin(), l.end()), l.end());
+    }
+    double bits_now = 0, bits_inferred = 0;
+    uint64_t coded_now = 0, coded_inferred = 0;
+    std::vector<uint8_t> prev_bits;
+    std::vector<uint32_t> parent_of;  // per vertex created by the previous refinement: its parent
+    uint32_t prev_start = 0;
+    std::vector<Vec3d> ring;
+    for (size_t i = 0; i < pm.refinements.size(); ++i) {
+      const ms::Refinement& r = pm.refinements[i];
+      Level& L = levels[i];
+      {
+        const uint32_t nb = r.vertices_before;
+        std::vector<uint8_t> bits(nb, 0);
+        for (uint32_t v : r.split_vertices) bits[v] = 1;
+        // contexts as today: age (0 new in i-1, else 1) x related bit
+        std::map<int, std::array<uint64_t, 2>> now, inf;
+        for (uint32_t v = 0; v < nb; ++v) {
+          int ctx;
+          if (v >= prev_start && !parent_of.empty() && v - prev_start < parent_of.size()) ctx = 10 + bits[parent_of[v - prev_start]];
+          else ctx = 20 + (v < prev_bits.size() ? prev_bits[v] : 0);
+          ++now[ctx][bits[v]];
+          bool inferred = false;
+          for (uint32_t u : rel[v]) if (u < v && bits[u]) { inferred = true; break; }
+          if (inferred) {
+            if (bits[v]) ms::bench::Die("inference contradicts the strict rule");
+            continue;
+          }
+          // richer context: number of rel-neighbours (capped) not yet decided
+          ++inf[ctx][bits[v]];
+        }
+        auto H = [](const std::map<int, std::array<uint64_t, 2>>& t, uint64_t* n) {
+          double h = 0;
+          for (auto& [c, k] : t) {
+            const double total = double(k[0] + k[1]);
+            *n += k[0] + k[1];
+            for (int b = 0; b < 2; ++b) if (k[b]) h -= k[b] * std::log2(k[b] / total);
+          }
+          return h;
+        };
+        bits_now += H(now, &coded_now);
+        bits_inferred += H(inf, &coded_inferred);
+        // Reliable adjacency after the refinement.
+        std::vector<uint32_t> parents;
+        for (size_t j = 0; j < r.split_count(); ++j) {
+          const uint32_t w = r.split_vertices[j];
+          for (uint32_t x : rel[w]) {
+            auto& l = rel[x];
+            l.erase(std::remove(l.begin(), l.end(), w), l.end());
+          }
+          const uint32_t n = nb + static_cast<uint32_t>(j);
+          rel[w] = {n};
+          rel.push_back({w});
+          parents.push_back(w);
+        }
+        prev_bits = bits;
+        parent_of = parents;
+        prev_start = nb;
+      }
+      st.ReserveSplits(r.split_count());
+      for (size_t j = 0; j < r.split_count(); ++j) {
+        const uint32_t w = r.split_vertices[j];
+        std::vector<uint32_t>& ids_ring = st.scratch_ring;
+        if (!st.connectivity.CyclicRing(w, ids_ring)) ms::bench::Die("not a fan");
+        size_t a_at = 0, b_at = 0;
+        if (!ms::WingPositions(ids_ring, r.wings[j], &a_at, &b_at)) ms::bench::Die("wings");
+        const size_t d = ids_ring.size();
+        ring.clear();
+        for (uint32_t x : ids_ring) ring.push_back(Pos(st.positions[x]));
+        const Vec3d m = Pos(st.positions[w]);
+        const Vec3d n = FanNormal(m, ring);
+        // Geometry predictors. w keeps ring[a..b], the new vertex ring[b..a].
+        Vec3d sw{0, 0, 0}, sn{0, 0, 0}, sws{0, 0, 0}, sns{0, 0, 0};
+        size_t kw = 0, kn = 0, kws = 0, kns = 0;
+        for (size_t s = 0; s < d; ++s) {
+          const size_t k = (a_at + s) % d;
+          const size_t from_b = (k + d - b_at) % d;  // steps from b
+          const size_t path = (a_at + d - b_at) % d;  // b..a length
+          const bool on_n = from_b <= path;           // ring[b..a] inclusive
+          const bool on_w = from_b >= path || from_b == 0;  // ring[a..b] inclusive
+          if (on_n) { sn = ms::Add(sn, ring[k]); ++kn; }
+          if (on_w) { sw = ms::Add(sw, ring[k]); ++kw; }
+          if (on_n && !on_w) { sns = ms::Add(sns, ring[k]); ++kns; }
+          if (on_w && !on_n) { sws = ms::Add(sws, ring[k]); ++kws; }
+        }
+        const Vec3d mid_ab = ms::Scale(ms::Add(ring[a_at], ring[b_at]), 0.5);
+        const Vec3d cw = ms::Scale(sw, 1.0 / kw), cn = ms::Scale(sn, 1.0 / kn);
+        const Vec3d cws = kws ? ms::Scale(sws, 1.0 / kws) : mid_ab, cns = kns ? ms::Scale(sns, 1.0 / kns) : mid_ab;
+        const double D = double(kw + 1) * double(kn + 1) - 1;
+        Vec3d lap;
+        for (int c = 0; c < 3; ++c) lap[c] = (sw[c] * kn - sn[c] * kw) / D;
+        Vec3d dd;
+        for (int c = 0; c < 3; ++c) dd[c] = r.position_delta[j][c];
+        L.d.push_back(dd);
+        L.side_diff.push_back(ms::Sub(cw, cn));
+        L.side_diff_strict.push_back(ms::Sub(cws, cns));
+        L.lap.push_back(lap);
+        L.normal.push_back(n);
+        // Structure: current coding.
+        L.wing_a.Add(r.wings[j][0]);
+        L.wing_k.Add(r.wings[j][1]);
+        // Structure from ring geometry: K, then the rank of a among the d
+        // pairs (a, a + K) by the spread of the ring across the cut.
+        const size_t K = r.wings[j][1];
+        auto spread = [&](size_t x, size_t y) {
+          const Vec3d c = ms::Sub(ring[x], ring[y]);
+          Vec3d t = ms::Cross(n, c);
+          const double l = ms::Norm(t);
+          if (l <= 0) return 0.0;
+          t = ms::Scale(t, 1 / l);
+          double s = 0;
+          for (size_t k = 0; k < d; ++k) s += std::fabs(ms::Dot(ms::Sub(ring[k], m), t));
+          // The chord should pass through w: penalize its distance from m.
+          const double off = std::fabs(ms::Dot(ms::Sub(ring[x], m), t));
+          return s - 2.0 * off;
+        };
+        {
+          const double mine = spread(a_at, (a_at + K) % d);
+          uint32_t rank = 0;
+          for (size_t x = 0; x < d; ++x) {
+            if (x == a_at) continue;
+            const double s = spread(x, (x + K) % d);
+            if (s > mine || (s == mine && x < a_at)) ++rank;
+          }
+          L.wing_k.n += 0;  // K is coded as today
+          L.rank_given_k.Add(rank);
+        }
+        {
+          // The Laplacian prediction on the cut the ring's geometry favours.
+          double bs = -1e300;
+          size_t bx = 0, bk = 1;
+          for (size_t x = 0; x < d; ++x)
+            for (size_t k = 1; 2 * k <= d; ++k) {
+              const double sc = spread(x, (x + k) % d);
+              if (sc > bs) { bs = sc; bx = x; bk = k; }
+            }
+          const size_t ga = bx, gb = (bx + bk) % d;
+          Vec3d gsw{0, 0, 0}, gsn{0, 0, 0};
+          size_t gkw = 0, gkn = 0;
+          const size_t gpath = (ga + d - gb) % d;
+          for (size_t st2 = 0; st2 <= gpath; ++st2) { gsn = ms::Add(gsn, ring[(gb + st2) % d]); ++gkn; }
+          for (size_t st2 = 0; st2 <= d - gpath; ++st2) { gsw = ms::Add(gsw, ring[(ga + st2) % d]); ++gkw; }
+          const double gD = double(gkw + 1) * double(gkn + 1) - 1;
+          Vec3d gl;
+          for (int c = 0; c < 3; ++c) gl[c] = (gsw[c] * gkn - gsn[c] * gkw) / gD;
+          L.lap_guess.push_back(gl);
+        }
+        {
+          // The same with a quadratic spread (O(1) per pair after O(d)): the
+          // variance of the ring across the cut minus lambda times the chord's
+          // squared offset from w.
+          static const double kLambda[5] = {8, 16, 32, 64, 1e6};
+          for (int li = 0; li < 5; ++li) {
+            auto spread2 = [&](size_t x, size_t y) {
+              const Vec3d c = ms::Sub(ring[x], ring[y]);
+              Vec3d t = ms::Cross(n, c);
+              const double l = ms::Norm(t);
+              if (l <= 0) return -1e300;
+              t = ms::Scale(t, 1 / l);
+              double s2 = 0;
+              for (size_t k = 0; k < d; ++k) {
+                const double pr = ms::Dot(ms::Sub(ring[k], m), t);
+                s2 += pr * pr;
+              }
+              const double off = ms::Dot(ms::Sub(ring[x], m), t);
+              return s2 - kLambda[li] * off * off;
+            };
+            const double mine = spread2(a_at, b_at);
+            uint32_t rank = 0;
+            for (size_t x = 0; x < d; ++x)
+              for (size_t k = 1; 2 * k <= d; ++k) {
+                if (x == a_at && k == K) continue;
+                if (spread2(x, (x + k) % d) > mine) ++rank;
+              }
+            L.rank_l2[li].Add(std::min<uint32_t>(rank, 40));
+          }
+        }
+        {
+          // Pair rank among all (x, y) with steps 1..d/2 (the orientation rule).
+          const double mine = spread(a_at, b_at);
+          uint32_t rank = 0;
+          for (size_t x = 0; x < d; ++x)
+            for (size_t k = 1; 2 * k <= d; ++k) {
+              if (x == a_at && k == K) continue;
+              const double s = spread(x, (x + k) % d) - 0.0;
+              if (s > mine) ++rank;
+            }
+          L.rank_pair.Add(std::min<uint32_t>(rank, 40));
+        }
+        {
+          // Geometry first (bundled): the rank of the true (a, K) by how well
+          // the cut separates the ring between u and v.
+          Vec3d u, v;
+          for (int c = 0; c < 3; ++c) {
+            u[c] = std::floor((2 * m[c] + (int(dd[c]) & 1) + dd[c]) / 2);
+            v[c] = u[c] - dd[c];
+          }
+          const Vec3d dir = ms::Sub(v, u), mid = ms::Scale(ms::Add(u, v), 0.5);
+          std::vector<double> score(d);
+          for (size_t k = 0; k < d; ++k) score[k] = ms::Dot(ms::Sub(ring[k], mid), dir);
+          auto value = [&](size_t x, size_t k) {  // n takes ring[x+K .. x]... b = x + k steps from a = x
+            // new vertex takes ring[b..a]: b = (x + k) % d to a = x going forward
+            const size_t bb = (x + k) % d;
+            const size_t path = (x + d - bb) % d;
+            double s = score[x] + score[bb];
+            for (size_t t = 1; t < path; ++t) s += 2 * score[(bb + t) % d];
+            return s;
+          };
+          const double mine = value(a_at, K);
+          uint32_t rank = 0;
+          for (size_t x = 0; x < d; ++x)
+            for (size_t k = 1; k < d; ++k) {
+              if (x == a_at && k == K) continue;
+              if (value(x, k) > mine) ++rank;
+            }
+          L.rank_geom.Add(std::min<uint32_t>(rank, 40));
+        }
+        const uint32_t nv = st.ApplySplitAt(r, j, a_at, b_at);
+        // Normals: predicted from the split's geometry (vertex normals of u
+        // and v over their new triangles), in octahedral codes.
+        if (normals) {
+          auto vnormal = [&](uint32_t x) {
+            Vec3d acc{0, 0, 0};
+            for (uint32_t f : st.connectivity.faces_of(x)) {
+              const auto& F = st.connectivity.faces()[f];
+              const Vec3d p0 = Pos(st.positions[F[0]]), p1 = Pos(st.positions[F[1]]), p2 = Pos(st.positions[F[2]]);
+              acc = ms::Add(acc, ms::Cross(ms::Sub(p1, p0), ms::Sub(p2, p0)));
+            }
+            return acc;
+          };
+          auto oct = [&](Vec3d v, int out[2]) {
+            const double l = std::fabs(v[0]) + std::fabs(v[1]) + std::fabs(v[2]);
+            if (l <= 0) v = {0, 0, 1};
+            else v = ms::Scale(v, 1 / l);
+            double s = v[0], t = v[1];
+            if (v[2] < 0) {
+              s = (1 - std::fabs(v[1])) * (v[0] >= 0 ? 1 : -1);
+              t = (1 - std::fabs(v[0])) * (v[1] >= 0 ? 1 : -1);
+            }
+            const double M = (1 << qn) - 1;
+            out[0] = int(std::lround((s + 1) * 0.5 * M));
+            out[1] = int(std::lround((t + 1) * 0.5 * M));
+          };
+          int pu[2], pv[2];
+          oct(vnormal(w), pu);
+          oct(vnormal(nv), pv);
+          for (int c = 0; c < 2; ++c) {
+            const int32_t e = r.attribute_delta[j * ch + c];
+            L.nrm_raw[c].Add(e);
+            L.nrm_pred[c].Add(e - (pu[c] - pv[c]));
+          }
+        }
+      }
+      splits += r.split_count();
+    }
+    // Report per predictor: bits per split summed over levels, alpha per level optimal.
+    auto total = [&](auto fn) {
+      double bits = 0;
+      for (auto& L : levels) bits += fn(L);
+      return bits / double(splits);
+    };
+    auto best_alpha = [&](const std::vector<Vec3d>& d, const std::vector<Vec3d>& p, int frame,
+                          const std::vector<Vec3d>& nrm, double* alpha_out) {
+      double best = 1e300;
+      for (int k = 0; k <= 40; ++k) {
+        const double b = GeometryBits(d, p, k / 32.0, frame, nrm);
+        if (b < best) {
+          best = b;
+          if (alpha_out) *alpha_out = k / 32.0;
+        }
+      }
+      return best;
+    };
+    nlohmann::json j;
+    j["model"] = name;
+    j["qp"] = qp;
+    j["splits"] = splits;
+    j["geometry_raw"] = total([&](Level& L) { return GeometryBits(L.d, L.d, 0, 0, L.normal); });
+    j["geometry_raw_frame"] = total([&](Level& L) { return GeometryBits(L.d, L.d, 0, 1, L.normal); });
+    for (int frame = 0; frame < 4; ++frame) {
+      const std::string suffix = frame == 0 ? "" : frame == 1 ? "_axis" : frame == 2 ? "_rotated" : "_aligned";
+      j["geometry_sides" + suffix] = total([&](Level& L) { return best_alpha(L.d, L.side_diff, frame, L.normal, nullptr); });
+      j["geometry_strict_sides" + suffix] =
+          total([&](Level& L) { return best_alpha(L.d, L.side_diff_strict, frame, L.normal, nullptr); });
+      j["geometry_laplacian" + suffix] = total([&](Level& L) { return best_alpha(L.d, L.lap, frame, L.normal, nullptr); });
+    }
+    j["geometry_on_guessed_cut_rotated"] = total([&](Level& L) { return best_alpha(L.d, L.lap_guess, 2, L.normal, nullptr); });
+    std::vector<double> alphas;
+    for (auto& L : levels) {
+      double a = 0;
+      best_alpha(L.d, L.lap, 1, L.normal, &a);
+      alphas.push_back(a);
+    }
+    j["laplacian_alpha_per_level"] = alphas;
+    j["split_bits_now"] = bits_now / double(splits);
+    j["split_bits_inferred"] = bits_inferred / double(splits);
+    j["split_bits_coded_fraction"] = double(coded_inferred) / double(coded_now);
+    j["structure_now"] = total([&](Level& L) { return L.wing_a.Bits() + L.wing_k.Bits(); });
+    j["structure_k"] = total([&](Level& L) { return L.wing_k.Bits(); });
+    j["structure_k_then_rank"] = total([&](Level& L) { return L.wing_k.Bits() + L.rank_given_k.Bits(); });
+    j["structure_pair_rank"] = total([&](Level& L) { return L.rank_pair.Bits(); });
+    for (int li = 0; li < 5; ++li)
+      j["structure_pair_rank_l2_" + std::to_string(li)] = total([&](Level& L) { return L.rank_l2[li].Bits(); });
+    j["structure_geometry_first_rank"] = total([&](Level& L) { return L.rank_geom.Bits(); });
+    if (normals) {
+      j["normals_raw"] = total([&](Level& L) { return L.nrm_raw[0].Bits() + L.nrm_raw[1].Bits(); });
+      j["normals_predicted"] = total([&](Level& L) { return L.nrm_pred[0].Bits() + L.nrm_pred[1].Bits(); });
+    }
+    std::printf("%s\n", j.dump(1).c_str());
+    all.push_back(j);
+  }
+  if (!out_path.empty()) std::ofstream(out_path) << all.dump(1) << "\n";
+  return 0;
+}

@@ -1,0 +1,24 @@
+// The coding tools of a version 2 stream: the bits of the stream header's
+// `tools` byte (docs/progressive-format.md, section 3). The encoder uses all
+// of them; each can be turned off (`meshstream encode --tools`) to measure
+// what it saves (docs/codec.md). A version 1 stream has no tools.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
+
+#include <cstdint>
+
+namespace meshstream {
+
+enum StreamTool : uint8_t {
+  kToolGeometryPrediction = 1,  // split vectors predicted from the ring, residual coded
+  kToolLocalFrame = 2,          // residual components ordered (tangential, tangential, normal)
+  kToolWingRank = 4,            // cut edges coded as a rank in an order the ring's geometry predicts
+  kToolAttributePrediction = 8, // normals predicted from the decoded geometry
+  kToolSplitInference = 16,     // no split bit where reliable adjacency forces a 0
+};
+constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame;
+constexpr uint8_t kDefinedTools = kToolGeometryPrediction | kToolLocalFrame;
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_

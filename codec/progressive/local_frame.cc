@@ -1,0 +1,123 @@
+#include "codec/progressive/local_frame.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace meshstream {
+
+namespace {
+
+constexpr int kFixedBits = 16;
+
+__int128 Abs(__int128 v) { return v < 0 ? -v : v; }
+
+// round(a / b) for b > 0, halves away from zero.
+int64_t RoundDiv(int64_t a, int64_t b) {
+  const int64_t q = ((a < 0 ? -a : a) + b / 2) / b;
+  return a < 0 ? -q : q;
+}
+
+// floor((v + 2^15) / 2^16): v times a 16-bit fixed-point coefficient, rounded.
+int64_t Rounded(int64_t v) {
+  const int64_t t = v + (int64_t{1} << (kFixedBits - 1));
+  return t >= 0 ? t >> kFixedBits : -((-t + (int64_t{1} << kFixedBits) - 1) >> kFixedBits);
+}
+
+int32_t Clamp32(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, INT32_MIN, INT32_MAX)); }
+
+}  // namespace
+
+WideVec3 FanNormal(const Vec3i& w, const Vec3i* ring, size_t d) {
+  WideVec3 n = {0, 0, 0};
+  for (size_t k = 0; k < d; ++k) {
+    const Vec3i& p = ring[k];
+    const Vec3i& q = ring[(k + 1) % d];
+    const int64_t a0 = int64_t{p[0]} - w[0], a1 = int64_t{p[1]} - w[1], a2 = int64_t{p[2]} - w[2];
+    const int64_t b0 = int64_t{q[0]} - w[0], b1 = int64_t{q[1]} - w[1], b2 = int64_t{q[2]} - w[2];
+    n[0] += __int128{a1} * b2 - __int128{a2} * b1;
+    n[1] += __int128{a2} * b0 - __int128{a0} * b2;
+    n[2] += __int128{a0} * b1 - __int128{a1} * b0;
+  }
+  return n;
+}
+
+std::array<int64_t, 3> ScaleDown(const WideVec3& n, int bits) {
+  const __int128 m = std::max({Abs(n[0]), Abs(n[1]), Abs(n[2])});
+  int shift = 0;
+  while ((m >> shift) >= (__int128{1} << bits)) ++shift;
+  std::array<int64_t, 3> out{};
+  for (int c = 0; c < 3; ++c) {
+    const int64_t mag = static_cast<int64_t>(Abs(n[c]) >> shift);
+    out[c] = n[c] < 0 ? -mag : mag;
+  }
+  return out;
+}
+
+int64_t IntegerSqrt(int64_t v) {
+  if (v <= 0) return 0;
+  int64_t r = static_cast<int64_t>(std::sqrt(static_cast<double>(v)));
+  while (r > 0 && r * r > v) --r;
+  while ((r + 1) * (r + 1) <= v) ++r;
+  return r;
+}
+
+LocalFrame::Rotation LocalFrame::Rotation::Of(int64_t c, int64_t s) {
+  Rotation out;
+  if (c == 0 && s == 0) return out;
+  if (c < 0) {  // turn by pi first, then by the remaining angle within +-pi/2
+    out.flip = true;
+    c = -c;
+    s = -s;
+  }
+  const int64_t r = std::max<int64_t>(1, IntegerSqrt(c * c + s * s));
+  out.p = -RoundDiv(s * (int64_t{1} << kFixedBits), r + c);  // -tan(theta / 2), |.| <= 1
+  out.s = RoundDiv(s * (int64_t{1} << kFixedBits), r);       // sin(theta)
+  return out;
+}
+
+void LocalFrame::Rotation::Forward(int64_t& x, int64_t& y) const {
+  if (flip) {
+    x = -x;
+    y = -y;
+  }
+  x += Rounded(p * y);
+  y += Rounded(s * x);
+  x += Rounded(p * y);
+}
+
+void LocalFrame::Rotation::Inverse(int64_t& x, int64_t& y) const {
+  x -= Rounded(p * y);
+  y -= Rounded(s * x);
+  x -= Rounded(p * y);
+  if (flip) {
+    x = -x;
+    y = -y;
+  }
+}
+
+LocalFrame LocalFrame::FromNormal(const WideVec3& normal) {
+  const std::array<int64_t, 3> n = ScaleDown(normal, 20);
+  LocalFrame f;
+  // About z: (n_x, n_y) onto the +x axis; then in the (z, x) plane:
+  // (n_z, rho) onto the +z axis.
+  f.about_z_ = Rotation::Of(n[0], -n[1]);
+  const int64_t rho = IntegerSqrt(n[0] * n[0] + n[1] * n[1]);
+  f.about_y_ = Rotation::Of(n[2], -rho);
+  return f;
+}
+
+Vec3i LocalFrame::Forward(const Vec3i& v) const {
+  int64_t x = v[0], y = v[1], z = v[2];
+  about_z_.Forward(x, y);
+  about_y_.Forward(z, x);
+  return {Clamp32(x), Clamp32(y), Clamp32(z)};
+}
+
+Vec3i LocalFrame::Inverse(const Vec3i& c) const {
+  int64_t x = c[0], y = c[1], z = c[2];
+  about_y_.Inverse(z, x);
+  about_z_.Inverse(x, y);
+  return {Clamp32(x), Clamp32(y), Clamp32(z)};
+}
+
+}  // namespace meshstream

@@ -1,0 +1,64 @@
+// The local frame of a split (format version 2, docs/progressive-format.md
+// section 4.1): an exactly invertible integer rotation that takes the fan
+// normal of w's ring to the z axis, so that a residual's two tangential
+// components and its normal component are coded with their own models.
+//
+// The rotation is two plane rotations (about z, then in the z-x plane), each
+// done by three lifting steps (shears) with 16-bit fixed-point coefficients
+// computed from the normal in integers; a lifting step adds a rounded
+// multiple of one coordinate to the other, so the inverse subtracts the same
+// amounts in reverse order and every integer vector comes back exactly,
+// whatever the coefficients.
+//
+// Contract: pure integer arithmetic (the same result on every platform);
+// Forward and Inverse are exact inverses for residuals of magnitude below
+// 2^28 (the encoder's, for grids of at most 24 bits); larger or hostile
+// values are clamped to int32 and do not round-trip. Thread safety: none
+// needed.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_LOCAL_FRAME_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_LOCAL_FRAME_H_
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "codec/core/vec.h"
+
+namespace meshstream {
+
+// The fan normal of w's ring, sum over k of (ring[k] - w) x (ring[k+1] - w),
+// exact (128-bit).
+using WideVec3 = std::array<__int128, 3>;
+WideVec3 FanNormal(const Vec3i& w, const Vec3i* ring, size_t degree);
+
+// `n` scaled down by a power of two so that every component's magnitude is
+// below 2^bits (rounding toward zero), as int64.
+std::array<int64_t, 3> ScaleDown(const WideVec3& n, int bits);
+
+// floor(sqrt(v)) for v >= 0, exact.
+int64_t IntegerSqrt(int64_t v);
+
+class LocalFrame {
+ public:
+  // The frame of a normal (any vector; zero gives the identity).
+  static LocalFrame FromNormal(const WideVec3& normal);
+  // Residual (x, y, z) -> (t1, t2, n).
+  Vec3i Forward(const Vec3i& v) const;
+  // (t1, t2, n) -> residual.
+  Vec3i Inverse(const Vec3i& c) const;
+
+ private:
+  // A rotation of the plane by three shears; `flip` first turns by pi.
+  struct Rotation {
+    int64_t p = 0, s = 0;  // -tan(theta/2) and sin(theta), times 2^16
+    bool flip = false;
+    static Rotation Of(int64_t cos_num, int64_t sin_num);
+    void Forward(int64_t& x, int64_t& y) const;
+    void Inverse(int64_t& x, int64_t& y) const;
+  };
+  Rotation about_z_, about_y_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_LOCAL_FRAME_H_
