@@ -5,6 +5,7 @@
 #include "codec/entropy/range_coder.h"
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/entropy/symbol_model.h"
 
@@ -149,11 +150,17 @@ double ResidualBits(const std::vector<Vec3i>& residuals) {
   return bits;
 }
 
-// Refinement r with its split vectors replaced by their coded form under
-// the stream's tools (geometry_prediction.h), given the coarser mesh `state`
-// (which is then refined by r). Chooses the refinement's alpha.
-Refinement CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& state, SplitCoding* coding) {
-  Refinement coded = r;
+// Refinement r with its split vectors (and, with the wing-rank tool, its
+// wings) replaced by their coded form under the stream's tools
+// (geometry_prediction.h, wing_rank.h), given the coarser mesh `state`
+// (which is then refined by r). Chooses the refinement's alpha. False when
+// a split's wings cannot be ranked (a ring beyond kMaxRankedValence): the
+// caller then writes the stream without that tool.
+bool CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& state, SplitCoding* coding,
+                    Refinement* out) {
+  Refinement& coded = *out;
+  coded = r;
+  WingRanking ranking;
   coding->tools = tools;
   coding->alpha = 0;
   const size_t k = r.split_count();
@@ -175,6 +182,13 @@ Refinement CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& s
     s.degree = ring.size();
     for (uint32_t x : ring) rings.push_back(state.positions[x]);
     coarse[j] = state.positions[w];
+    if (tools & kToolWingRank) {
+      uint32_t rank = 0;
+      if (!ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree) || !ranking.RankOf(s.a_at, s.b_at, &rank)) {
+        return false;
+      }
+      coded.wings[j] = RankSymbols(rank);
+    }
     state.ApplySplitAt(r, j, s.a_at, s.b_at);
   }
   auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
@@ -206,7 +220,7 @@ Refinement CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& s
     coding->alpha = best_alpha;
   }
   code_all(*coding, &coded.position_delta);
-  return coded;
+  return true;
 }
 
 }  // namespace
@@ -255,9 +269,14 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   if (h.tools != 0) MS_RETURN_IF_ERROR(state.Reset(pm.base));
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
     SplitCoding coding;
-    const Refinement coded =
-        h.tools != 0 ? CodeRefinement(pm.refinements[i], h.tools, state, &coding) : pm.refinements[i];
-    const Refinement& r = coded;
+    Refinement coded;
+    if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, state, &coding, &coded)) {
+      // A ring the wing ranking does not cover: the whole stream without it.
+      StreamWriteOptions without = o;
+      without.tools = static_cast<uint8_t>(h.tools & ~kToolWingRank);
+      return WriteStream(e, quantization, without);
+    }
+    const Refinement& r = h.tools != 0 ? coded : pm.refinements[i];
     // Split bits, then the models.
     std::vector<uint8_t> bits(r.vertices_before, 0);
     for (uint32_t v : r.split_vertices) bits[v] = 1;

@@ -25,21 +25,41 @@ struct SplitView {
   size_t a_at = 0, b_at = 0;  // ring positions of the coded wings, when they fit (trusted or not)
 };
 
+// The ring positions of the coded wings of split j on w's ring as the state
+// has it (state.scratch_ring): by rank in the ring's geometric order with
+// the wing-rank tool (wing_rank.h), else by id; false when they do not fit.
+bool CodedWings(const Refinement& r, size_t j, const SplitCoding& coding, const RefinementState& state, uint32_t w,
+                RecoveryScratch* scratch, size_t* a_at, size_t* b_at) {
+  const std::vector<uint32_t>& ring = state.scratch_ring;
+  if ((coding.tools & kToolWingRank) == 0) return WingPositions(ring, r.wings[j], a_at, b_at);
+  std::vector<Vec3i>& rp = scratch->ring_positions;
+  rp.resize(ring.size());
+  for (size_t k = 0; k < ring.size(); ++k) rp[k] = state.positions[ring[k]];
+  return scratch->ranking.Reset(state.positions[w], rp.data(), ring.size()) &&
+         scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
+}
+
 SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
-                   RefinementState& state, RecoveryStats* stats) {
+                   const SplitCoding& coding, RefinementState& state, RecoveryScratch* scratch, RecoveryStats* stats) {
   SplitView view;
   view.w = r.split_vertices[j];
   const uint8_t flags = state.flags[view.w];
   view.fan = (flags & kAbsent) == 0 && state.connectivity.CyclicRing(view.w, state.scratch_ring);
   // Error control: coded structure is checked against the ring the decoder
   // really has; what does not fit is treated as lost.
-  view.fits = view.fan && has_structure && WingPositions(state.scratch_ring, r.wings[j], &view.a_at, &view.b_at);
+  view.fits = view.fan && has_structure && CodedWings(r, j, coding, state, view.w, scratch, &view.a_at, &view.b_at);
   // A ring a prediction changed may still fit the coded ranks and yet not be
   // the ring they count: when the geometry arrived, it decides the wings
   // (case 3) instead. Measured on the bunny at 12 % loss: the median
   // Hausdorff distance to the lossless decode drops from 1.5 % to 0.9 % of
   // the diagonal (docs/loss-tolerance.md).
-  const bool trust_ranks = recovery == Recovery::kLwop || (flags & kRingInexact) == 0 || !has_geometry;
+  bool changed = (flags & kRingInexact) != 0;
+  // Ranks in the ring's geometric order (the wing-rank tool) also count on
+  // the ring's positions.
+  if (!changed && view.fits && (coding.tools & kToolWingRank) != 0) {
+    for (uint32_t x : state.scratch_ring) changed = changed || (state.flags[x] & kPositionInexact) != 0;
+  }
+  const bool trust_ranks = recovery == Recovery::kLwop || !changed || !has_geometry;
   view.distrusted = view.fits && !trust_ranks;
   if (view.distrusted) {
     view.fits = false;
@@ -69,6 +89,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
   const Refinement* apply = &r;
   if (coding.tools != 0) {
     decoded->position_delta[j] = SplitVector(r, j, coding, state, w, view.a_at, view.b_at, scratch->ring_positions);
+    if (coding.tools & kToolWingRank) decoded->wings[j] = WingsOf(state.scratch_ring, view.a_at, view.b_at);
     apply = decoded;
   }
   const uint32_t n = state.ApplySplitAt(*apply, j, view.a_at, view.b_at);
@@ -328,7 +349,7 @@ Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_
   if (w >= state->connectivity.vertex_count()) {
     return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
   }
-  const SplitView view = Classify(r, j, has_structure, has_geometry, recovery, *state, stats);
+  const SplitView view = Classify(r, j, has_structure, has_geometry, recovery, coding, *state, scratch, stats);
   // LwoP applies a split only where w's ring is known to be the lossless
   // one: coded wings name ring vertices by rank, and a ring that lacks a
   // vertex LwoP never created could still fit them and name the wrong ones.

@@ -30,6 +30,7 @@
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/wing_rank.h"
 #include "codec/recovery/prediction.h"
 #include "codec/recovery/ring_frame.h"
 
@@ -56,6 +57,7 @@ struct RecoveryStats {
 // Storage reused from split to split so that predicting one allocates nothing.
 struct RecoveryScratch {
   std::vector<Vec3i> ring_positions;
+  WingRanking ranking;
   std::vector<int32_t> values, u_channels, v_channels;
   RingFrame frame;
   PredictedGeometry geometry;

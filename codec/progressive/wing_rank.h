@@ -1,0 +1,65 @@
+// The cut edges of a split as a rank (format version 2, tool bit 2;
+// docs/progressive-format.md section 4.2): the wings (a, b) are one of the
+// D floor(D/2) pairs (x, x + k), 1 <= k <= D/2, of w's ring of D vertices,
+// and the decoder orders those pairs by how well the ring's geometry
+// suggests them: a split's cut runs across the direction in which the ring
+// is stretched (the coarse vertex replaced two vertices a split vector
+// apart) and passes through w. The rank of the true pair in that order is
+// what is coded; it is 0 or small where the geometry is clear.
+//
+// Score of a pair, with q the ring positions relative to w scaled to 10 bits
+// and N the fan normal of q scaled to 10 bits: t = N x (q_x - q_{x+k}) (the
+// direction across the chord in the tangent plane), M = sum of q q^T,
+// score = (t^T M t - 16 (q_x . t)^2) / |t|^2: the ring's spread across the
+// chord minus the chord's offset from w. Higher first; ties by x, then k;
+// pairs with t = 0 last. All in exact integer arithmetic.
+//
+// Contract: pure, deterministic on every platform, O(D^2 log D), no
+// allocation once the ranking's vectors have grown. Defined for
+// 3 <= D <= kMaxRankedValence (the encoder's splits have D <= 14).
+// Thread safety: none.
+#ifndef MESHSTREAM_CODEC_PROGRESSIVE_WING_RANK_H_
+#define MESHSTREAM_CODEC_PROGRESSIVE_WING_RANK_H_
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "codec/core/vec.h"
+
+namespace meshstream {
+
+constexpr size_t kMaxRankedValence = 22;  // D floor(D/2) < 256: two symbols of 16
+
+class WingRanking {
+ public:
+  // Orders the pairs of w's ring; false when the degree is outside
+  // [3, kMaxRankedValence].
+  bool Reset(const Vec3i& w, const Vec3i* ring, size_t degree);
+  // The rank of wings at ring positions (a_at, b_at); false unless
+  // 1 <= (b_at - a_at) mod D <= D/2.
+  bool RankOf(size_t a_at, size_t b_at, uint32_t* rank) const;
+  // The wings of a rank; false when it is not below D floor(D/2).
+  bool PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const;
+
+ private:
+  struct Candidate {
+    __int128 score = 0;   // t^T M t - 16 (q_x . t)^2
+    __int128 length = 0;  // |t|^2 (0: last)
+    uint16_t x = 0, k = 0;
+  };
+  size_t degree_ = 0;
+  std::vector<Candidate> order_;   // best first
+  std::vector<uint16_t> rank_of_;  // by x * (D/2) + (k - 1)
+};
+
+// A rank as the two structure symbols (slots 0 and 1) and back.
+inline std::array<uint16_t, 2> RankSymbols(uint32_t rank) {
+  return {static_cast<uint16_t>(rank % 16), static_cast<uint16_t>(rank / 16)};
+}
+inline uint32_t RankFromSymbols(const std::array<uint16_t, 2>& s) { return uint32_t{s[0]} + 16u * s[1]; }
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_CODEC_PROGRESSIVE_WING_RANK_H_
