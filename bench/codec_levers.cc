@@ -82,7 +82,7 @@ struct Level {
   // geometry: per predictor, per-split residual vectors are kept for alpha search
   std::vector<Vec3d> d, side_diff, side_diff_strict, lap, normal, lap_guess;
   BitTally wing_a, wing_k, rank_given_k, rank_pair, rank_geom, rank_l2[5];
-  SignedTally nrm_raw[2], nrm_pred[2];
+  SignedTally nrm_raw[2], nrm_pred[2], nrm_b[2], nrm_c[2];
 };
 
 double GeometryBits(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred, double alpha, int frame,
@@ -418,6 +418,10 @@ int main(int argc, char** argv) {
             const int32_t e = r.attribute_delta[j * ch + c];
             L.nrm_raw[c].Add(e);
             L.nrm_pred[c].Add(e - (pu[c] - pv[c]));
+            const int32_t mid = st.attributes[size_t(w) * ch + c];  // after the split: u's value
+            const int32_t coarse_mid = mid - ((e + ((e & 1))) / 2);  // approx m (diagnostic only)
+            L.nrm_b[c].Add(e - 2 * (pu[c] - coarse_mid));
+            L.nrm_c[c].Add(e - 2 * (coarse_mid - pv[c]));
           }
         }
       }
@@ -475,6 +479,8 @@ int main(int argc, char** argv) {
     if (normals) {
       j["normals_raw"] = total([&](Level& L) { return L.nrm_raw[0].Bits() + L.nrm_raw[1].Bits(); });
       j["normals_predicted"] = total([&](Level& L) { return L.nrm_pred[0].Bits() + L.nrm_pred[1].Bits(); });
+      j["normals_predicted_u_anchor"] = total([&](Level& L) { return L.nrm_b[0].Bits() + L.nrm_b[1].Bits(); });
+      j["normals_predicted_v_anchor"] = total([&](Level& L) { return L.nrm_c[0].Bits() + L.nrm_c[1].Bits(); });
     }
     std::printf("%s\n", j.dump(1).c_str());
     all.push_back(j);

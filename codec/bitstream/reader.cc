@@ -106,7 +106,8 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
       models.push_back(models_[k]);
     }
   }
-  coding_ = SplitCoding{header_.tools, 0};
+  coding_ = SplitCoding{header_.tools, 0, 0};
+  if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
   if (header_.has(kToolGeometryPrediction)) {
     auto alpha = r.U8("alpha");
     if (!alpha.ok()) return alpha.status().WithContext(where + ": control block");

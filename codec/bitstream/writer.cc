@@ -4,6 +4,7 @@
 
 #include "codec/entropy/range_coder.h"
 #include "codec/progressive/geometry_prediction.h"
+#include "codec/progressive/normal_prediction.h"
 #include "codec/progressive/refinement_state.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bits.h"
@@ -156,8 +157,8 @@ double ResidualBits(const std::vector<Vec3i>& residuals) {
 // (which is then refined by r). Chooses the refinement's alpha. False when
 // a split's wings cannot be ranked (a ring beyond kMaxRankedValence): the
 // caller then writes the stream without that tool.
-bool CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& state, SplitCoding* coding,
-                    Refinement* out) {
+bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& layout, RefinementState& state,
+                    SplitCoding* coding, Refinement* out) {
   Refinement& coded = *out;
   coded = r;
   WingRanking ranking;
@@ -189,7 +190,16 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, RefinementState& state, 
       }
       coded.wings[j] = RankSymbols(rank);
     }
-    state.ApplySplitAt(r, j, s.a_at, s.b_at);
+    const uint32_t n = state.ApplySplitAt(r, j, s.a_at, s.b_at);
+    if ((tools & kToolAttributePrediction) && layout.has_normals) {
+      // Relative to the difference the decoded geometry predicts (normal_prediction.h).
+      const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, layout.qn);
+      const int ch = layout.channels();
+      for (int c = 0; c < 2; ++c) {
+        int32_t& e = coded.attribute_delta[j * ch + c];
+        e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{e} - p[c], INT32_MIN, INT32_MAX));
+      }
+    }
   }
   auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
     out->resize(k);
@@ -270,7 +280,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
     SplitCoding coding;
     Refinement coded;
-    if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, state, &coding, &coded)) {
+    if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
       without.tools = static_cast<uint8_t>(h.tools & ~kToolWingRank);

@@ -16,7 +16,7 @@ enum StreamTool : uint8_t {
   kToolAttributePrediction = 8, // normals predicted from the decoded geometry
   kToolSplitInference = 16,     // no split bit where reliable adjacency forces a 0
 };
-constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank;
+constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction;
 constexpr uint8_t kDefinedTools = kAllTools;
 
 }  // namespace meshstream

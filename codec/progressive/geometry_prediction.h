@@ -48,6 +48,7 @@ Vec3i ScalePrediction(const SplitPrediction& p, uint32_t alpha);
 struct SplitCoding {
   uint8_t tools = 0;   // 0: version 1 (the split vector is sent as it is)
   uint32_t alpha = 0;  // with kToolGeometryPrediction
+  int normal_bits = 0; // qn when the normals are predicted (kToolAttributePrediction and normals), else 0
 };
 
 // The split vector u - v from its coded components, given w's coarse

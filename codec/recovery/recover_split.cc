@@ -8,6 +8,7 @@
 #include <string>
 
 #include "codec/progressive/midpoint.h"
+#include "codec/progressive/normal_prediction.h"
 #include "codec/recovery/degenerate_faces.h"
 
 namespace meshstream {
@@ -81,6 +82,25 @@ Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, cons
                            b_at);
 }
 
+// With normal prediction, the normal channels of w and n were applied with
+// their coded residual as the difference; now that the split's geometry is
+// in place, the predicted difference is added (normal_prediction.h).
+void AddPredictedNormals(const SplitCoding& coding, size_t j, uint32_t w, uint32_t n, RefinementState& state,
+                         Refinement* decoded) {
+  if (coding.normal_bits == 0) return;
+  const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, coding.normal_bits);
+  const int ch = state.channels;
+  for (int c = 0; c < 2; ++c) {
+    int32_t& aw = state.attributes[size_t(w) * ch + c];
+    int32_t& an = state.attributes[size_t(n) * ch + c];
+    const int32_t m = Midpoint(aw, an);
+    const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p[c], INT32_MIN, INT32_MAX));
+    aw = FromMidpoint(m, e);
+    an = static_cast<int32_t>(int64_t{aw} - e);
+    if (decoded) decoded->attribute_delta[j * ch + c] = e;
+  }
+}
+
 // Case 1: applied as coded. Both vertices inherit what w depends on.
 void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const SplitCoding& coding, Refinement* decoded,
                 RefinementState& state, RecoveryScratch* scratch, RecoveryStats* stats) {
@@ -93,6 +113,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
     apply = decoded;
   }
   const uint32_t n = state.ApplySplitAt(*apply, j, view.a_at, view.b_at);
+  AddPredictedNormals(coding, j, w, n, state, decoded);
   state.flags[n] = state.flags[w];
   state.reliable[n] = state.flags[n] == 0;
   // Exact values next to predicted ones, or on a ring a prediction changed,
@@ -320,6 +341,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   state.attributes.resize(state.attributes.size() + size_t(channels));
   std::copy(scratch->u_channels.begin(), scratch->u_channels.end(), state.attributes.begin() + size_t(w) * channels);
   std::copy(scratch->v_channels.begin(), scratch->v_channels.end(), state.attributes.begin() + size_t(n) * channels);
+  if (geometry) AddPredictedNormals(coding, j, w, n, state, decoded);
   state.flags.push_back(0);
   state.reliable.push_back(1);
   if (AvoidDegenerateFaces(&state, w, n)) both |= kPositionInexact;
