@@ -415,6 +415,52 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
   return run;
 }
 
+// What each lever of codec version 2 saves (docs/codec.md): the split
+// packing encoded with the tools added one at a time, from version 1 to the
+// default; bits per split saved = 8 x bytes saved / splits. Every encode is
+// decoded once and must give the default's vertex count.
+json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const std::string& label) {
+  struct Step {
+    const char* name;
+    uint8_t version, tools;
+  };
+  const Step steps[] = {
+      {"version 1 (raw split vectors, cut edges by id)", 1, 0},
+      {"version 2 without tools", 2, 0},
+      {"+ geometry prediction (Laplacian on the ring, alpha per refinement)", 2, ms::kToolGeometryPrediction},
+      {"+ local frame (tangential / normal residual)", 2, ms::kToolGeometryPrediction | ms::kToolLocalFrame},
+      {"+ cut edges by rank in the ring's geometric order", 2,
+       ms::kToolGeometryPrediction | ms::kToolLocalFrame | ms::kToolWingRank},
+      {"+ normals predicted from the decoded geometry", 2, ms::kAllTools},
+  };
+  json out = json::array();
+  double previous = 0;
+  for (const Step& step : steps) {
+    ms::ProgressiveGlbOptions options;
+    options.encode.quantization = q;
+    options.stream.version = step.version;
+    options.stream.tools = step.tools;
+    ms::ProgressiveGlbReport report;
+    const std::vector<uint8_t> glb = Check(ms::EncodeProgressiveGlb(scene, options, &report), label + ": " + step.name);
+    const ms::Scene decoded = Check(ms::DecodeProgressiveGlb(glb, {}, nullptr), label + ": decode " + step.name);
+    const ms::PrimitiveStreamReport t = report.Total();
+    const double total = double(t.base_bytes + t.reliable_bytes + t.unreliable_bytes);
+    const double splits = t.level_vertices.empty() ? 1.0 : double(t.level_vertices.back() - t.level_vertices.front());
+    size_t vertices = 0;
+    for (const ms::Primitive* p : Primitives(decoded)) vertices += p->vertex_count();
+    if (!t.level_vertices.empty() && vertices != t.level_vertices.back()) Die(label + ": " + step.name + ": decode lost vertices");
+    out.push_back({{"lever", step.name},
+                   {"version", step.version},
+                   {"tools", step.tools},
+                   {"total_bytes", total},
+                   {"total_bpv", 8.0 * total / double(t.vertices ? t.vertices : 1)},
+                   {"unreliable_bytes", t.unreliable_bytes},
+                   {"bits_per_split_saved", previous > 0 ? 8.0 * (previous - total) / splits : 0.0}});
+    previous = total;
+  }
+  return out;
+}
+
 struct DracoRun {
   std::vector<ms::DracoEncoded> encoded;  // one per primitive
   json j;
@@ -684,6 +730,7 @@ int main(int argc, char** argv) {
       r["faces"] = split.j["faces"];
       r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}};
       r["draco"] = {{"cl7", draco7}, {"cl10", draco10}};
+      r["levers"] = LeverTable(scene, q, label);
       const double d7 = draco7["bytes"].get<double>(), d10 = draco10["bytes"].get<double>();
       const double dd7 = draco7["decode_ms"].get<double>(), dd10 = draco10["decode_ms"].get<double>();
       const double de7 = draco7["encode_ms"].get<double>();
@@ -788,7 +835,7 @@ int main(int argc, char** argv) {
     out["models"][run_owner[i].first]["runs"][run_owner[i].second] = std::move(*run_objects[i]);
   }
 
-  // The targets of issue 3, stated from the numbers.
+  // The targets of issue 11 (codec version 2), stated from the numbers.
   json targets = json::array();
   const std::map<std::string, double> paper_reliable = {{"stanford-bunny", 4.3}, {"horse", 2.87}};
   for (const json& m : out["models"]) {
@@ -797,22 +844,24 @@ int main(int argc, char** argv) {
       const json& s = r["meshstream"]["split"];
       const json& b = r["meshstream"]["bundled"];
       const int qp = r["qp"];
-      if (paper_reliable.count(name)) {
+      {
         const double ratio = r["ratios"]["split"]["total_vs_draco_cl7"];
         const double ratio_b = r["ratios"]["bundled"]["total_vs_draco_cl7"];
         targets.push_back({{"target", "total size <= 1.5 x Draco cl7"}, {"model", name}, {"qp", qp},
                            {"value", ratio}, {"value_bundled", ratio_b}, {"limit", 1.5},
                            {"met", ratio <= 1.5 && ratio_b <= 1.5}});
+      }
+      if (paper_reliable.count(name)) {
         const double rbpv = s["reliable_bpv"];
         targets.push_back({{"target", "reliable bpv below the paper's Table 2"}, {"model", name}, {"qp", qp},
                            {"value", rbpv}, {"value_bundled", b["reliable_bpv"]}, {"limit", paper_reliable.at(name)},
                            {"met", rbpv < paper_reliable.at(name) && b["reliable_bpv"].get<double>() < paper_reliable.at(name)}});
         const double dr = r["ratios"]["split"]["decode_vs_draco_cl7"];
         const double dr_b = r["ratios"]["bundled"]["decode_vs_draco_cl7"];
-        targets.push_back({{"target", "decode all levels <= 2 x Draco decode"}, {"model", name}, {"qp", qp},
-                           {"value", dr}, {"value_bundled", dr_b}, {"limit", 2.0},
+        targets.push_back({{"target", "decode all levels <= 1.0 x Draco decode"}, {"model", name}, {"qp", qp},
+                           {"value", dr}, {"value_bundled", dr_b}, {"limit", 1.0},
                            {"meshstream_ms", s["decode_ms"]}, {"draco_ms", r["draco"]["cl7"]["decode_ms"]},
-                           {"met", dr <= 2.0 && dr_b <= 2.0}});
+                           {"met", dr <= 1.0 && dr_b <= 1.0}});
       }
       if (name == "stanford-bunny") {
         const double e = s["encode_ms"];

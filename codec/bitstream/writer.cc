@@ -171,6 +171,7 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
   std::vector<Split> splits(k);
   std::vector<Vec3i> rings;  // every split's ring positions, back to back
   std::vector<Vec3i> coarse(k);
+  std::vector<LocalFrame> frames(k);
   state.ReserveSplits(k);
   for (size_t j = 0; j < k; ++j) {
     const uint32_t w = r.split_vertices[j];
@@ -183,9 +184,11 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
     s.degree = ring.size();
     for (uint32_t x : ring) rings.push_back(state.positions[x]);
     coarse[j] = state.positions[w];
+    frames[j] = RingLocalFrame(coarse[j], rings.data() + s.ring_at, s.degree);
     if (tools & kToolWingRank) {
       uint32_t rank = 0;
-      if (!ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree) || !ranking.RankOf(s.a_at, s.b_at, &rank)) {
+      if (!ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree, frames[j]) ||
+          !ranking.RankOf(s.a_at, s.b_at, &rank)) {
         return false;
       }
       coded.wings[j] = RankSymbols(rank);
@@ -205,7 +208,7 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
     out->resize(k);
     for (size_t j = 0; j < k; ++j) {
       const Split& s = splits[j];
-      (*out)[j] = CodeSplitVector(c, r.position_delta[j], coarse[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at);
+      (*out)[j] = CodeSplitVector(c, r.position_delta[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at, frames[j]);
     }
   };
   std::vector<Vec3i> residuals;

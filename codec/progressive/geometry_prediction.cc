@@ -55,23 +55,26 @@ Vec3i Prediction(const SplitCoding& coding, const Vec3i* ring, size_t degree, si
 
 }  // namespace
 
-Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i& w, const Vec3i* ring,
-                        size_t degree, size_t a_at, size_t b_at) {
-  const Vec3i residual =
-      (coding.tools & kToolLocalFrame) ? LocalFrame::FromNormal(FanNormal(w, ring, degree)).Inverse(coded) : coded;
+LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree) {
+  return LocalFrame::FromNormal(FanNormal(w, ring, degree));
+}
+
+Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i* ring, size_t degree, size_t a_at,
+                        size_t b_at, const LocalFrame& frame) {
+  const Vec3i residual = (coding.tools & kToolLocalFrame) ? frame.Inverse(coded) : coded;
   const Vec3i p = Prediction(coding, ring, degree, a_at, b_at);
   Vec3i out;
   for (int c = 0; c < 3; ++c) out[c] = Clamp32(int64_t{residual[c]} + p[c]);
   return out;
 }
 
-Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i& w, const Vec3i* ring,
-                      size_t degree, size_t a_at, size_t b_at) {
+Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i* ring, size_t degree, size_t a_at,
+                      size_t b_at, const LocalFrame& frame) {
   const Vec3i p = Prediction(coding, ring, degree, a_at, b_at);
   Vec3i residual;
   for (int c = 0; c < 3; ++c) residual[c] = Clamp32(int64_t{delta[c]} - p[c]);
   if ((coding.tools & kToolLocalFrame) == 0) return residual;
-  return LocalFrame::FromNormal(FanNormal(w, ring, degree)).Forward(residual);
+  return frame.Forward(residual);
 }
 
 }  // namespace meshstream

@@ -25,6 +25,7 @@
 
 #include "codec/core/vec.h"
 #include "codec/progressive/coding_tools.h"
+#include "codec/progressive/local_frame.h"
 
 namespace meshstream {
 
@@ -51,14 +52,18 @@ struct SplitCoding {
   int normal_bits = 0; // qn when the normals are predicted (kToolAttributePrediction and normals), else 0
 };
 
-// The split vector u - v from its coded components, given w's coarse
-// position, its ring and the wings' ring positions; and the inverse, for the
-// encoder. Exact inverses of each other for any inputs whose vector fits
-// int32 (the decoder clamps a hostile sum to int32).
-Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i& w, const Vec3i* ring,
-                        size_t degree, size_t a_at, size_t b_at);
-Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i& w, const Vec3i* ring,
-                      size_t degree, size_t a_at, size_t b_at);
+// The local frame of w's ring: LocalFrame::FromNormal(FanNormal(...)).
+LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree);
+
+// The split vector u - v from its coded components, given its ring, the
+// wings' ring positions and the ring's local frame (RingLocalFrame, used
+// with the local-frame tool); and the inverse, for the encoder. Exact
+// inverses of each other for any inputs whose vector fits int32 (the
+// decoder clamps a hostile sum to int32).
+Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i* ring, size_t degree, size_t a_at,
+                        size_t b_at, const LocalFrame& frame);
+Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i* ring, size_t degree, size_t a_at,
+                      size_t b_at, const LocalFrame& frame);
 
 }  // namespace meshstream
 

@@ -7,15 +7,18 @@
 // apart) and passes through w. The rank of the true pair in that order is
 // what is coded; it is 0 or small where the geometry is clear.
 //
-// Score of a pair, with q the ring positions relative to w scaled to 10 bits
-// and N the fan normal of q scaled to 10 bits: t = N x (q_x - q_{x+k}) (the
-// direction across the chord in the tangent plane), M = sum of q q^T,
-// score = (t^T M t - 16 (q_x . t)^2) / |t|^2: the ring's spread across the
-// chord minus the chord's offset from w. Higher first; ties by x, then k;
-// pairs with t = 0 last. All in exact integer arithmetic.
+// Score of a pair: with q the ring positions relative to w in the ring's
+// local frame (local_frame.h; the tangential components only, scaled to 12
+// bits), c = q_x - q_{x+k} the chord and t = (-c_1, c_0) the direction
+// across it, M = sum of q q^T (2 x 2): score = (t^T M t - 16 (q_x . t)^2) /
+// |t|^2, the ring's spread across the chord minus the chord's offset from
+// w, as the key trunc(2^16 (t^T M t - 16 (q_x . t)^2) / |t|^2) (division
+// rounding toward zero). Higher keys first; ties by x, then k; pairs with
+// t = 0 last. All in exact integer arithmetic.
 //
-// Contract: pure, deterministic on every platform, O(D^2 log D), no
-// allocation once the ranking's vectors have grown. Defined for
+// Contract: pure, deterministic on every platform, O(D^2) (scores in 64-bit
+// integers), no allocation
+// once the ranking's vector has grown. Defined for
 // 3 <= D <= kMaxRankedValence (the encoder's splits have D <= 14).
 // Thread safety: none.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_WING_RANK_H_
@@ -27,6 +30,7 @@
 #include <vector>
 
 #include "codec/core/vec.h"
+#include "codec/progressive/local_frame.h"
 
 namespace meshstream {
 
@@ -34,9 +38,9 @@ constexpr size_t kMaxRankedValence = 22;  // D floor(D/2) < 256: two symbols of 
 
 class WingRanking {
  public:
-  // Orders the pairs of w's ring; false when the degree is outside
-  // [3, kMaxRankedValence].
-  bool Reset(const Vec3i& w, const Vec3i* ring, size_t degree);
+  // Scores the pairs of w's ring in its local frame (RingLocalFrame); false
+  // when the degree is outside [3, kMaxRankedValence].
+  bool Reset(const Vec3i& w, const Vec3i* ring, size_t degree, const LocalFrame& frame);
   // The rank of wings at ring positions (a_at, b_at); false unless
   // 1 <= (b_at - a_at) mod D <= D/2.
   bool RankOf(size_t a_at, size_t b_at, uint32_t* rank) const;
@@ -45,13 +49,12 @@ class WingRanking {
 
  private:
   struct Candidate {
-    __int128 score = 0;   // t^T M t - 16 (q_x . t)^2
-    __int128 length = 0;  // |t|^2 (0: last)
+    int64_t key = 0;  // the scaled score; INT64_MIN when t = 0 (last)
     uint16_t x = 0, k = 0;
   };
+  static bool Before(const Candidate& a, const Candidate& b);
   size_t degree_ = 0;
-  std::vector<Candidate> order_;   // best first
-  std::vector<uint16_t> rank_of_;  // by x * (D/2) + (k - 1)
+  mutable std::vector<Candidate> candidates_;  // by x, then k (PairAt reorders a copy's worth in place)
 };
 
 // A rank as the two structure symbols (slots 0 and 1) and back.

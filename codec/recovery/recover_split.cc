@@ -33,11 +33,17 @@ bool CodedWings(const Refinement& r, size_t j, const SplitCoding& coding, const 
                 RecoveryScratch* scratch, size_t* a_at, size_t* b_at) {
   const std::vector<uint32_t>& ring = state.scratch_ring;
   if ((coding.tools & kToolWingRank) == 0) return WingPositions(ring, r.wings[j], a_at, b_at);
+  return scratch->ranking.Reset(state.positions[w], scratch->ring_positions.data(), ring.size(), scratch->local_frame) &&
+         scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
+}
+
+// With coding tools: w's ring positions and their local frame, once per split.
+void RingGeometry(const RefinementState& state, uint32_t w, RecoveryScratch* scratch) {
+  const std::vector<uint32_t>& ring = state.scratch_ring;
   std::vector<Vec3i>& rp = scratch->ring_positions;
   rp.resize(ring.size());
   for (size_t k = 0; k < ring.size(); ++k) rp[k] = state.positions[ring[k]];
-  return scratch->ranking.Reset(state.positions[w], rp.data(), ring.size()) &&
-         scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
+  scratch->local_frame = RingLocalFrame(state.positions[w], rp.data(), rp.size());
 }
 
 SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
@@ -46,6 +52,7 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   view.w = r.split_vertices[j];
   const uint8_t flags = state.flags[view.w];
   view.fan = (flags & kAbsent) == 0 && state.connectivity.CyclicRing(view.w, state.scratch_ring);
+  if (view.fan && coding.tools != 0) RingGeometry(state, view.w, scratch);
   // Error control: coded structure is checked against the ring the decoder
   // really has; what does not fit is treated as lost.
   view.fits = view.fan && has_structure && CodedWings(r, j, coding, state, view.w, scratch, &view.a_at, &view.b_at);
@@ -70,16 +77,13 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   return view;
 }
 
-// The split vector of split j from its coded form, on w's ring as the state
-// has it (state.scratch_ring) with the given wings.
-Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, const RefinementState& state, uint32_t w,
-                  size_t a_at, size_t b_at, std::vector<Vec3i>& ring_positions) {
+// The split vector of split j from its coded form, on w's ring as
+// RingGeometry found it, with the given wings.
+Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, size_t a_at, size_t b_at,
+                  const RecoveryScratch& scratch) {
   if (coding.tools == 0) return r.position_delta[j];
-  const std::vector<uint32_t>& ring = state.scratch_ring;
-  ring_positions.resize(ring.size());
-  for (size_t k = 0; k < ring.size(); ++k) ring_positions[k] = state.positions[ring[k]];
-  return DecodeSplitVector(coding, r.position_delta[j], state.positions[w], ring_positions.data(), ring.size(), a_at,
-                           b_at);
+  return DecodeSplitVector(coding, r.position_delta[j], scratch.ring_positions.data(), scratch.ring_positions.size(),
+                           a_at, b_at, scratch.local_frame);
 }
 
 // With normal prediction, the normal channels of w and n were applied with
@@ -108,7 +112,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
   const uint32_t w = view.w;
   const Refinement* apply = &r;
   if (coding.tools != 0) {
-    decoded->position_delta[j] = SplitVector(r, j, coding, state, w, view.a_at, view.b_at, scratch->ring_positions);
+    decoded->position_delta[j] = SplitVector(r, j, coding, view.a_at, view.b_at, *scratch);
     if (coding.tools & kToolWingRank) decoded->wings[j] = WingsOf(state.scratch_ring, view.a_at, view.b_at);
     apply = decoded;
   }
@@ -293,7 +297,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   Vec3i delta{};
   Vec2d new_uv{};
   if (geometry) {
-    delta = DecodeSplitVector(coding, r.position_delta[j], state.positions[w], rp.data(), d, split.a_at, split.b_at);
+    delta = DecodeSplitVector(coding, r.position_delta[j], rp.data(), d, split.a_at, split.b_at, scratch->local_frame);
     ArrivedGeometry(r, j, delta, state, w, &split, scratch);
   }
   if (!split.structure) {

@@ -56,7 +56,8 @@ struct RecoveryStats {
 
 // Storage reused from split to split so that predicting one allocates nothing.
 struct RecoveryScratch {
-  std::vector<Vec3i> ring_positions;
+  std::vector<Vec3i> ring_positions;  // with coding tools: w's ring, filled once per split
+  LocalFrame local_frame;             // and its local frame
   WingRanking ranking;
   std::vector<int32_t> values, u_channels, v_channels;
   RingFrame frame;
