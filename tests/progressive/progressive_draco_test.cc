@@ -50,53 +50,84 @@ TEST(ProgressiveDraco, EverySharedModelIsLosslessAtQp11And14) {
 }
 
 // Encode, write the stream, parse it back, decode through StreamReader with
-// Draco decoding the base: the quantized input comes back, in both packings.
-TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackings) {
-  for (const char* name : {"stanford-bunny.obj", "spot.obj", "horse.ply"}) {
+// Draco decoding the base: the quantized input comes back, on every shared
+// model at qp 11 and 14, in both packings, with every coding tool of version
+// 2, with each tool left out, and as version 1.
+TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
+  struct Variant {
+    uint8_t version, tools;
+  };
+  const Variant variants[] = {{2, kAllTools},
+                              {2, kAllTools & ~kToolGeometryPrediction},
+                              {2, kAllTools & ~kToolLocalFrame},
+                              {2, kAllTools & ~kToolWingRank},
+                              {2, kAllTools & ~kToolAttributePrediction},
+                              {2, 0},
+                              {1, 0}};
+  for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {
     const Primitive input = Load(name);
-    for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
+    for (int qp : {11, 14}) {
       ProgressiveEncodeOptions options;
+      options.quantization.qp = qp;
       DracoAttributeIds ids;
       auto enc = EncodeProgressive(input, options, [&](const QuantizedMesh& base, int method) {
         return EncodeDracoBase(base, method, 7, &ids);
       });
       ASSERT_TRUE(enc.ok()) << enc.status().ToString();
-      StreamWriteOptions wo;
-      wo.packing = packing;
-      auto stream = WriteStream(enc.value(), options.quantization, wo);
-      ASSERT_TRUE(stream.ok()) << stream.status().ToString();
-      for (const auto& level : stream->datagrams)
-        for (const auto& d : level) EXPECT_LE(d.size(), wo.packet_bytes);
-      const std::vector<uint8_t> blob = stream->Serialize();
-      auto parsed = ProgressiveStream::Parse(blob.data(), blob.size());
-      ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
+      for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
+        for (const Variant& variant : variants) {
+          // The default (all tools) in both packings; the other variants in the split packing.
+          if (packing == Packing::kBundled && variant.tools != kAllTools) continue;
+          const std::string what = std::string(name) + " qp " + std::to_string(qp) +
+                                   (packing == Packing::kSplit ? " split" : " bundled") + " version " +
+                                   std::to_string(variant.version) + " tools " + std::to_string(variant.tools);
+          StreamWriteOptions wo;
+          wo.packing = packing;
+          wo.version = variant.version;
+          wo.tools = static_cast<uint8_t>(variant.tools);
+          auto stream = WriteStream(enc.value(), options.quantization, wo);
+          ASSERT_TRUE(stream.ok()) << what << ": " << stream.status().ToString();
+          for (const auto& level : stream->datagrams)
+            for (const auto& d : level) EXPECT_LE(d.size(), wo.packet_bytes) << what;
+          const std::vector<uint8_t> blob = stream->Serialize();
+          auto parsed = ProgressiveStream::Parse(blob.data(), blob.size());
+          ASSERT_TRUE(parsed.ok()) << what << ": " << parsed.status().ToString();
+          EXPECT_EQ(parsed->version, variant.version) << what;
 
-      auto reader = StreamReader::Create(parsed->header.data(), parsed->header.size());
-      ASSERT_TRUE(reader.ok()) << reader.status().ToString();
-      auto base = DecodeDracoBase(enc->base_bytes.data(), enc->base_bytes.size(), ids, reader->header().grids);
-      ASSERT_TRUE(base.ok()) << base.status().ToString();
-      ASSERT_TRUE(reader->SetBase(std::move(base).value()).ok());
-      for (size_t i = 0; i < parsed->control.size(); ++i) {
-        ASSERT_TRUE(reader->BeginRefinement(parsed->control[i].data(), parsed->control[i].size()).ok());
-        // Offer the datagrams backwards and twice: order and duplicates do not matter.
-        for (size_t d = parsed->datagrams[i].size(); d-- > 0;) {
-          EXPECT_TRUE(reader->OfferDatagram(parsed->datagrams[i][d].data(), parsed->datagrams[i][d].size()));
-          reader->OfferDatagram(parsed->datagrams[i][d].data(), parsed->datagrams[i][d].size());
+          auto reader = StreamReader::Create(parsed->header.data(), parsed->header.size());
+          ASSERT_TRUE(reader.ok()) << what << ": " << reader.status().ToString();
+          EXPECT_EQ(reader->header().tools, variant.tools) << what;
+          auto base = DecodeDracoBase(enc->base_bytes.data(), enc->base_bytes.size(), ids, reader->header().grids);
+          ASSERT_TRUE(base.ok()) << base.status().ToString();
+          ASSERT_TRUE(reader->SetBase(std::move(base).value()).ok());
+          for (size_t i = 0; i < parsed->control.size(); ++i) {
+            ASSERT_TRUE(reader->BeginRefinement(parsed->control[i].data(), parsed->control[i].size()).ok()) << what;
+            // Offer the datagrams backwards and twice: order and duplicates do not matter.
+            for (size_t d = parsed->datagrams[i].size(); d-- > 0;) {
+              EXPECT_TRUE(reader->OfferDatagram(parsed->datagrams[i][d].data(), parsed->datagrams[i][d].size()));
+              reader->OfferDatagram(parsed->datagrams[i][d].data(), parsed->datagrams[i][d].size());
+            }
+            auto finished = reader->FinishRefinement();
+            ASSERT_TRUE(finished.ok()) << what << ": " << finished.ToString();
+            // What the reader applied is the encoder's refinement (split vectors and wings as in memory).
+            const Refinement& got = reader->current();
+            const Refinement& want = enc->mesh.refinements[i];
+            ASSERT_EQ(got.position_delta, want.position_delta) << what << " refinement " << i;
+            ASSERT_EQ(got.wings, want.wings) << what << " refinement " << i;
+            ASSERT_EQ(got.attribute_delta, want.attribute_delta) << what << " refinement " << i;
+          }
+          EXPECT_EQ(reader->stats().duplicates, stream->datagram_count()) << what;
+          EXPECT_EQ(reader->recovery_stats().predicted(), 0u) << what;
+          const Primitive decoded = DequantizeMesh(reader->Mesh(), -1);
+          auto same = CompareOnGrid(input, decoded, qp);
+          ASSERT_TRUE(same.ok());
+          EXPECT_TRUE(same->equal) << what << ": " << same->differing() << " triangles differ";
+          const double v = static_cast<double>(enc->input_vertices);
+          std::printf("%s: base %zu B, reliable %zu B, unreliable %zu B in %zu datagrams, total %.2f bpv\n",
+                      what.c_str(), enc->base_bytes.size(), stream->reliable_bytes(), stream->unreliable_bytes(),
+                      stream->datagram_count(), 8.0 * (blob.size() + enc->base_bytes.size()) / v);
         }
-        auto finished = reader->FinishRefinement();
-        ASSERT_TRUE(finished.ok()) << finished.ToString();
       }
-      EXPECT_EQ(reader->stats().duplicates, stream->datagram_count());
-      const Primitive decoded = DequantizeMesh(reader->Mesh(), -1);
-      auto same = CompareOnGrid(input, decoded, options.quantization.qp);
-      ASSERT_TRUE(same.ok());
-      EXPECT_TRUE(same->equal) << name << ": " << same->differing() << " triangles differ";
-      const double v = static_cast<double>(enc->input_vertices);
-      std::printf("%s %s: base %zu B, reliable %zu B (%.2f bpv), unreliable %zu B (%.2f bpv) in %zu datagrams, total %.2f bpv\n",
-                  name, packing == Packing::kSplit ? "split" : "bundled", enc->base_bytes.size(),
-                  stream->reliable_bytes(), 8.0 * (stream->reliable_bytes() + enc->base_bytes.size()) / v,
-                  stream->unreliable_bytes(), 8.0 * stream->unreliable_bytes() / v, stream->datagram_count(),
-                  8.0 * (blob.size() + enc->base_bytes.size()) / v);
     }
   }
 }
