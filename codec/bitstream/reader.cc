@@ -8,8 +8,13 @@ namespace meshstream {
 
 namespace {
 
-std::string ModelSlotName(size_t k) {
+std::string ModelSlotName(size_t k, uint8_t tools) {
   static const char* const kNames[5] = {"wing index", "ring offset", "position x", "position y", "position z"};
+  static const char* const kRanked[2] = {"cut rank, low digit", "cut rank, high digit"};
+  static const char* const kFramed[3] = {"position, first tangential", "position, second tangential",
+                                         "position, normal"};
+  if (k < 2 && (tools & kToolWingRank)) return kRanked[k];
+  if (k >= 2 && k < 5 && (tools & kToolLocalFrame)) return kFramed[k - 2];
   return k < 5 ? kNames[k] : "channel " + std::to_string(k - 5);
 }
 
@@ -90,7 +95,9 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   std::vector<StaticModel> models;
   for (size_t k = 0; k < slots; ++k) {
     // Named only when something is wrong (no string work per slot otherwise).
-    auto slot = [&] { return where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k) + ")"; };
+    auto slot = [&] {
+      return where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k, header_.tools) + ")";
+    };
     auto flag = r.U8("model flag");
     if (!flag.ok()) return flag.status().WithContext(slot());
     const uint8_t fresh = flag.value();

@@ -214,10 +214,10 @@ TEST(FormatRefusal, ControlBlock) {
   // Model flags: 2 is reserved; 0 (reuse) in refinement 0 names no model.
   p = parts;
   p.slots[3][0] = 2;
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 3 (position y): model flag 2 is not 0 or 1");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 3 (position, second tangential): model flag 2 is not 0 or 1");
   p = parts;
   p.slots[1] = {0};
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (ring offset): model flag 0 reuses a model that was never sent");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (cut rank, high digit): model flag 0 reuses a model that was never sent");
 
   // Alphabets: 0 is reserved, wings have at most 16 symbols, signed values 72.
   auto model = [](uint8_t n, uint8_t fill) {
@@ -229,29 +229,33 @@ TEST(FormatRefusal, ControlBlock) {
   p.slots[0] = model(16, 0x11);
   EXPECT_EQ(ControlError(p.Join()), "accepted");  // a wing model may name every valence-16 index
   p.slots[0] = model(17, 0x01);
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 0 (wing index): model alphabet size 17 is out of range (1..16)");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 0 (cut rank, low digit): model alphabet size 17 is out of range (1..16)");
   p = parts;
   p.slots[1] = model(0, 0);
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (ring offset): model alphabet size 0 is out of range (1..16)");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (cut rank, high digit): model alphabet size 0 is out of range (1..16)");
   for (uint8_t n : {73, 96, 255}) {
     p = parts;
     p.slots[2] = model(n, 0x01);
-    EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 2 (position x): model alphabet size " + std::to_string(n) +
+    EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 2 (position, first tangential): model alphabet size " + std::to_string(n) +
                                           " is out of range (1..72)");
   }
   p = parts;
   p.slots[4] = model(3, 0x00);
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes: no symbol is present");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position, normal): model codes: no symbol is present");
   p = parts;
   p.slots[4] = model(3, 0x11);  // the high nibble after symbol 2 must be 0
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes have a stray nibble");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position, normal): model codes have a stray nibble");
   p = parts;
   p.slots[4] = {1, 5};
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position z): model codes: truncated at byte " +
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position, normal): model codes: truncated at byte " +
                                         std::to_string(p.Join().size()));
   Bytes stray = control;
   stray.push_back(0);
   EXPECT_EQ(ControlError(stray), "refinement 0: control block: 1 stray bytes after the models");
+  // Version 2 with geometry prediction: the alpha byte ends the block.
+  ASSERT_EQ(parts.tail.size(), 1u);
+  EXPECT_EQ(ControlError(Bytes(control.begin(), control.end() - 1)).rfind("refinement 0: control block: alpha", 0), 0u)
+      << ControlError(Bytes(control.begin(), control.end() - 1));
 }
 
 std::string DatagramError(const Bytes& d) {

@@ -25,7 +25,7 @@ std::vector<uint8_t> BlobOf(const std::vector<uint8_t>& glb) {
 TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
   const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
-  ASSERT_EQ(blob.size(), 126u);
+  ASSERT_EQ(blob.size(), 112u);
   auto scene = ImportFile(VectorPath("octahedron.obj"));
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
   auto glb = EncodeProgressiveGlb(scene.value(), test_util::VectorOptions(), nullptr);
@@ -38,14 +38,16 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
   auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
   ASSERT_TRUE(stream.ok()) << stream.status().ToString();
-  EXPECT_EQ(stream->header.size(), 42u);
+  EXPECT_EQ(stream->header.size(), 43u);
   ASSERT_EQ(stream->control.size(), 1u);
-  EXPECT_EQ(stream->control[0].size(), 56u);
+  EXPECT_EQ(stream->control[0].size(), 45u);
   ASSERT_EQ(stream->datagrams[0].size(), 1u);
-  EXPECT_EQ(stream->datagrams[0][0].size(), 18u);
+  EXPECT_EQ(stream->datagrams[0][0].size(), 14u);
   auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
   ASSERT_TRUE(header.ok()) << header.status().ToString();
   EXPECT_EQ(header->packing, Packing::kBundled);
+  EXPECT_EQ(header->version, 2);
+  EXPECT_EQ(header->tools, kAllTools);
   EXPECT_EQ(header->quantization.qp, 8);
   EXPECT_EQ(header->grids.position_grid.origin[0], -1.0f);
   EXPECT_EQ(header->grids.position_grid.range, 2.0f);
