@@ -1,9 +1,12 @@
-// Golden files of the released progressive format (docs/progressive-format.md,
-// version 1). They were written once by `meshstream encode` and must decode
-// forever, to the same levels and losslessly against their sources:
-//   fandisk-qp11-v1.glb:          encode fandisk.obj (qp 11, split packing, 1200 bytes)
-//   spot-qp11-bundled-v1.glb:     encode spot.obj --packing bundled --packet-bytes 600
-// Never regenerate them for a format change: bump the version and add new files.
+// Golden files of the released progressive formats (docs/progressive-format.md,
+// versions 1 and 2). They were written once by `meshstream encode` and must
+// decode forever, to the same levels and losslessly against their sources:
+//   fandisk-qp11-v1.glb:          encode fandisk.obj (qp 11, split packing, 1200 bytes), version 1
+//   spot-qp11-bundled-v1.glb:     encode spot.obj --packing bundled --packet-bytes 600, version 1
+//   fandisk-qp11-v2.glb, spot-qp11-bundled-v2.glb: the same with version 2 (tools 15)
+//   horse-qp11-v2.glb:            encode horse.ply (normals predicted), version 2
+// Never regenerate them for a format change: bump the version (or add a tool
+// bit) and add new files.
 #include <set>
 
 #include <gtest/gtest.h>
@@ -35,11 +38,23 @@ const std::vector<Golden>& Goldens() {
        {642, 645, 648, 656, 664, 675, 689, 706, 733, 764, 804, 853, 912, 980, 1066, 1169, 1299, 1449, 1631, 1847,
         2103, 2412, 2800, 3225},
        {"POSITION", "TEXCOORD_0"}},
+      {"fandisk-qp11-v2.glb", "fandisk.obj",
+       {130, 153, 180, 214, 253, 301, 354, 419, 497, 591, 697, 820, 976, 1161, 1379, 1645, 1952, 2318, 2743, 3265,
+        3891, 4610, 5485, 6475},
+       {"POSITION"}},
+      {"spot-qp11-bundled-v2.glb", "spot.obj",
+       {642, 645, 648, 656, 664, 675, 689, 706, 733, 764, 804, 853, 912, 980, 1066, 1169, 1299, 1449, 1631, 1847,
+        2103, 2412, 2800, 3225},
+       {"POSITION", "TEXCOORD_0"}},
+      {"horse-qp11-v2.glb", "horse.ply",
+       {938, 1114, 1321, 1565, 1863, 2217, 2633, 3123, 3720, 4420, 5252, 6249, 7432, 8822, 10473, 12438, 14773,
+        17529, 20790, 24676, 29299, 34773, 41326, 48485},
+       {"POSITION", "NORMAL"}},
   };
   return goldens;
 }
 
-TEST(GoldenV1, DecodesToEveryLevelAndLosslessly) {
+TEST(Golden, DecodesToEveryLevelAndLosslessly) {
   for (const Golden& g : Goldens()) {
     auto bytes = ReadFileBytes(test_util::SourcePath(std::string("tests/data/golden/") + g.file), kDefaultMaxInputBytes);
     ASSERT_TRUE(bytes.ok()) << bytes.status().ToString();
