@@ -1,5 +1,8 @@
 #include "codec/progressive/refinement.h"
 
+#include <algorithm>
+
+
 namespace meshstream {
 
 std::vector<uint32_t> ProgressiveMesh::level_vertices() const {
@@ -29,14 +32,34 @@ bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t,
                    size_t* b_at) {
   const size_t d = ring.size();
   if (wings[1] == 0 || wings[1] >= d) return false;
-  for (size_t k = 0; k < d; ++k) {
-    if (RankInRing(ring, k) == wings[0]) {
-      *a_at = k;
-      *b_at = (k + wings[1]) % d;
-      return true;
+  // The wing is the first ring entry with exactly wings[0] entries below it
+  // (RankInRing).
+  const uint32_t rank = wings[0];
+  if (rank >= d) return false;  // at most d - 1 entries lie below any entry
+  const uint32_t* x = ring.data();
+  size_t k = d;
+  if (d <= 16) {
+    // Small rings (nearly all): each entry's rank counted without branches
+    // against the whole ring; the first entry of that rank wins.
+    for (size_t at = 0; at < d && k == d; ++at) {
+      uint32_t below = 0;
+      for (size_t i = 0; i < d; ++i) below += x[i] < x[at] ? 1u : 0u;
+      if (below == rank) k = at;
     }
+  } else {
+    // Large rings, O(valence): only the wings[0]-th smallest value v can
+    // have that rank, and only when no entry before it in sorted order
+    // equals it; the wing is then v's first position.
+    std::vector<uint32_t> sorted(ring);
+    std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
+    const uint32_t v = sorted[rank];
+    if (std::find(sorted.begin(), sorted.begin() + rank, v) != sorted.begin() + rank) return false;
+    k = static_cast<size_t>(std::find(ring.begin(), ring.end(), v) - ring.begin());
   }
-  return false;
+  if (k == d) return false;
+  *a_at = k;
+  *b_at = (k + wings[1]) % d;
+  return true;
 }
 
 }  // namespace meshstream
