@@ -2,6 +2,10 @@
 
 #include <algorithm>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace meshstream {
 
 uint32_t SplitConnectivity::NewSlot(uint32_t capacity) {
@@ -56,6 +60,65 @@ Status SplitConnectivity::Reset(uint32_t vertex_count, const std::vector<uint32_
   return Status::Ok();
 }
 
+namespace {
+
+// The index of the lowest set bit of a non-zero mask.
+inline unsigned LowestBit(uint32_t mask) {
+#if defined(__GNUC__) || defined(__clang__)
+  return static_cast<unsigned>(__builtin_ctz(mask));
+#else
+  unsigned i = 0;
+  while ((mask & 1u) == 0) {
+    mask >>= 1;
+    ++i;
+  }
+  return i;
+#endif
+}
+
+// Bit i set when lanes[i] == v, for i < W (W a multiple of 4).
+template <size_t W>
+inline uint32_t EqualMask(const uint32_t* lanes, uint32_t v) {
+#if defined(__SSE2__)
+  const __m128i key = _mm_set1_epi32(static_cast<int>(v));
+  uint32_t mask = 0;
+  for (size_t i = 0; i < W; i += 4) {
+    const __m128i x = _mm_loadu_si128(reinterpret_cast<const __m128i*>(lanes + i));
+    mask |= static_cast<uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, key)))) << i;
+  }
+  return mask;
+#else
+  uint32_t mask = 0;
+  for (size_t i = 0; i < W; ++i) mask |= static_cast<uint32_t>(lanes[i] == v) << i;
+  return mask;
+#endif
+}
+
+// The walk of a ring of n <= W triangles, (x, y) in xs and ys: every step
+// compares the current vertex with all W x's at once (`pad`, which no x
+// equals, fills the lanes beyond n).
+template <size_t W>
+bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint32_t* fs, uint32_t pad,
+                   std::vector<uint32_t>& ring, std::vector<uint32_t>& ring_faces) {
+  uint32_t lanes[W];
+  for (size_t i = 0; i < W; ++i) lanes[i] = i < n ? xs[i] : pad;
+  const uint32_t start = lanes[0];
+  uint32_t cur = start;
+  for (size_t step = 0; step < n; ++step) {
+    const uint32_t mask = EqualMask<W>(lanes, cur);
+    // None: an open fan (boundary); two or more: not a fan.
+    if (mask == 0 || (mask & (mask - 1)) != 0) return false;
+    const unsigned found = LowestBit(mask);
+    ring.push_back(cur);
+    ring_faces.push_back(fs[found]);
+    cur = ys[found];
+    if (cur == start) return step + 1 == n;
+  }
+  return false;
+}
+
+}  // namespace
+
 bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
   ring.clear();
   ring_faces_.clear();
@@ -63,46 +126,32 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
   const size_t n = slot.count;
   if (n < 3) return false;
   const uint32_t* fs = pool_.data() + slot.offset;
-  // (x, y) for every triangle (w, x, y). The triangles are gathered first,
-  // with no branch on what they hold, so that their loads (the cost of a
-  // ring: they miss the cache) overlap.
+  // (x, y) for every triangle (w, x, y): the x's, then the y's. The
+  // triangles are gathered first, with no branch on what they hold, so that
+  // their loads (they often miss the cache) overlap.
   scratch_.resize(2 * n);
-  uint32_t* xy = scratch_.data();
+  uint32_t* xs = scratch_.data();
+  uint32_t* ys = xs + n;
   bool bad = false;
+  static constexpr uint8_t kNext[4] = {1, 2, 0, 1};
   for (size_t i = 0; i < n; ++i) {
-    const Face& f = faces_[fs[i]];
-    // RotateTo(f, w) without branches: w first, then the other two in order.
-    const bool at0 = f[0] == w, at1 = f[1] == w;
-    const uint32_t x = at0 ? f[1] : (at1 ? f[2] : f[0]);
-    const uint32_t y = at0 ? f[2] : (at1 ? f[0] : f[1]);
+    const uint32_t* f = faces_[fs[i]].data();
+    // RotateTo(f, w) by index arithmetic (where w sits in a triangle is
+    // random, so a branch on it would mispredict): w first, then the other
+    // two in order.
+    const unsigned at = static_cast<unsigned>(f[0] != w) * (2u - static_cast<unsigned>(f[1] == w));
+    const uint32_t x = f[kNext[at]];
+    const uint32_t y = f[kNext[at + 1]];
     bad |= (x == w) | (y == w) | (x == y);
-    xy[2 * i] = x;
-    xy[2 * i + 1] = y;
+    xs[i] = x;
+    ys[i] = y;
   }
   if (bad) return false;
   // Follow x -> y. Each step must find exactly one triangle leaving the
   // current vertex, and the walk must close after visiting every triangle
-  // (which it can only do when every x is distinct).
-  const uint32_t start = xy[0];
-  uint32_t cur = start;
-  if (n <= kLinearRing) {
-    // Small rings (nearly all): a branch-free scan per step beats any table.
-    for (size_t step = 0; step < n; ++step) {
-      size_t found = 0;
-      uint32_t hits = 0;
-      for (size_t i = 0; i < n; ++i) {
-        const bool match = xy[2 * i] == cur;
-        hits += match;
-        found = match ? i : found;
-      }
-      if (hits != 1) return false;  // none: open fan (boundary); two: not a fan
-      ring.push_back(cur);
-      ring_faces_.push_back(fs[found]);
-      cur = xy[2 * found + 1];
-      if (cur == start) return step + 1 == n;
-    }
-    return false;
-  }
+  // (which it can only do when every x is distinct). No x is w, so w pads.
+  if (n <= 8) return WalkSmallRing<8>(xs, ys, n, fs, w, ring, ring_faces_);
+  if (n <= 16) return WalkSmallRing<16>(xs, ys, n, fs, w, ring, ring_faces_);
   // Large rings: x -> triangle through an open-addressed table, O(valence).
   size_t bits = 1;
   while ((size_t{1} << bits) < 2 * n) ++bits;
@@ -110,7 +159,7 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
   table_.assign(2 * (mask + 1), kEmpty);  // (x, triangle) pairs
   auto home = [bits](uint32_t x) { return static_cast<size_t>((x * 2654435769u) >> (32 - bits)); };
   for (size_t i = 0; i < n; ++i) {
-    const uint32_t x = xy[2 * i];
+    const uint32_t x = xs[i];
     size_t h = home(x);
     while (table_[2 * h + 1] != kEmpty) {
       if (table_[2 * h] == x) return false;  // two triangles leave x: not a fan
@@ -119,6 +168,8 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
     table_[2 * h] = x;
     table_[2 * h + 1] = static_cast<uint32_t>(i);
   }
+  const uint32_t start = xs[0];
+  uint32_t cur = start;
   for (size_t step = 0; step < n; ++step) {
     size_t h = home(cur);
     while (table_[2 * h + 1] != kEmpty && table_[2 * h] != cur) h = (h + 1) & mask;
@@ -126,7 +177,7 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
     const uint32_t found = table_[2 * h + 1];
     ring.push_back(cur);
     ring_faces_.push_back(fs[found]);
-    cur = xy[2 * found + 1];
+    cur = ys[found];
     if (cur == start) return step + 1 == n;
   }
   return false;

@@ -101,11 +101,10 @@ class SplitConnectivity {
   std::vector<Face> faces_;
   std::vector<uint32_t> pool_;
   std::vector<Slot> slots_;
-  mutable std::vector<uint32_t> scratch_;     // (x, y) per triangle of the last ring
+  mutable std::vector<uint32_t> scratch_;     // x then y per triangle of the last ring
   mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
   mutable std::vector<uint32_t> table_;       // CyclicRing's (x, triangle) table for large rings
   static constexpr uint32_t kMinCapacity = 8;  // entries per vertex, at least
-  static constexpr size_t kLinearRing = 16;   // rings up to this size are walked by scanning
   static constexpr uint32_t kEmpty = UINT32_MAX;
 };
 
