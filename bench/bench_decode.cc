@@ -13,8 +13,9 @@
 // first (a hash of the decoded Scene's vertex and index arrays, printed so
 // that runs before and after a change can be compared).
 //
-// --loop MODEL SECONDS decodes that model (all levels) in a loop for about
-// that long and nothing else: the process to run under `perf record -g`.
+// --loop MODEL SECONDS decodes that model (all levels, or --lod N) in a loop
+// for about that long and nothing else: the process to run under
+// `perf record -g`.
 #include <draco/compression/decode.h>
 #include <draco/core/decoder_buffer.h>
 
@@ -49,7 +50,7 @@ using ms::bench::Stem;
 
 const char kHelp[] =
     "usage: meshstream_bench_decode [--models DIR] [--model NAME]... [--qp 11] [--rounds 30] [--json FILE]\n"
-    "       meshstream_bench_decode [--models DIR] [--qp 11] --loop MODEL SECONDS\n"
+    "       meshstream_bench_decode [--models DIR] [--qp 11] [--lod N] --loop MODEL SECONDS\n"
     "\n"
     "Times DecodeProgressiveGlb (all levels, and the base alone) against Draco's decode of the\n"
     "whole mesh (compression level 7, same quantization), interleaved round by round after one\n"
@@ -60,7 +61,8 @@ const char kHelp[] =
     "  --qp N            position bits of both codecs (default 11; normals 8, texcoords 10)\n"
     "  --rounds N        timed rounds (default 30)\n"
     "  --json FILE       also write the medians and ratios as JSON\n"
-    "  --loop MODEL SEC  only decode MODEL (all levels) in a loop for SEC seconds (for perf)\n";
+    "  --loop MODEL SEC  only decode MODEL (all levels) in a loop for SEC seconds (for perf)\n"
+    "  --lod N           with --loop: decode N levels (0: the base alone; default -1: all)\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -70,6 +72,7 @@ struct Args {
   std::string json_out;
   std::string loop_model;
   double loop_seconds = 0;
+  int loop_lod = -1;
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -85,6 +88,8 @@ Args ParseArgs(int argc, char** argv) {
       a.rounds = static_cast<int>(ParseInt(next(), f, 1, 100000));
     } else if (f == "--json") {
       a.json_out = next();
+    } else if (f == "--lod") {
+      a.loop_lod = static_cast<int>(ParseInt(next(), f, -1, 1 << 20));
     } else if (f == "--loop") {
       a.loop_model = next();
       a.loop_seconds = ParseDouble(next(), f);
@@ -208,6 +213,7 @@ int Loop(const Args& args) {
   size_t runs = 0;
   while (Ms(start, Clock::now()) < args.loop_seconds * 1000) {
     ms::ProgressiveDecodeOptions o;
+    o.lod = args.loop_lod;
     auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
     if (!s.ok()) Die(m.name + ": DecodeProgressiveGlb: " + s.status().ToString());
     ++runs;
