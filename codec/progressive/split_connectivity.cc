@@ -102,18 +102,29 @@ bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint3
                    std::vector<uint32_t>& ring, std::vector<uint32_t>& ring_faces) {
   uint32_t lanes[W];
   for (size_t i = 0; i < W; ++i) lanes[i] = i < n ? xs[i] : pad;
+  ring.resize(n);
+  ring_faces.resize(n);
+  uint32_t* out = ring.data();
+  uint32_t* out_faces = ring_faces.data();
   const uint32_t start = lanes[0];
   uint32_t cur = start;
-  for (size_t step = 0; step < n; ++step) {
+  size_t step = 0;
+  for (; step < n; ++step) {
     const uint32_t mask = EqualMask<W>(lanes, cur);
     // None: an open fan (boundary); two or more: not a fan.
-    if (mask == 0 || (mask & (mask - 1)) != 0) return false;
+    if (mask == 0 || (mask & (mask - 1)) != 0) break;
     const unsigned found = LowestBit(mask);
-    ring.push_back(cur);
-    ring_faces.push_back(fs[found]);
+    out[step] = cur;
+    out_faces[step] = fs[found];
     cur = ys[found];
-    if (cur == start) return step + 1 == n;
+    if (cur == start) {
+      if (step + 1 == n) return true;
+      ++step;
+      break;
+    }
   }
+  ring.resize(step);  // not a closed fan: the steps walked
+  ring_faces.resize(step);
   return false;
 }
 
