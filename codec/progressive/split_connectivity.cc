@@ -8,11 +8,20 @@
 
 namespace meshstream {
 
+uint32_t SplitConnectivity::Take(uint32_t entries) {
+  // The pool's tail beyond pool_end_ is spare room, grown geometrically:
+  // taking entries is a bump of pool_end_, with no per-slot resize.
+  const size_t needed = size_t{pool_end_} + entries;
+  if (needed > pool_.size()) pool_.resize(std::max(needed, 2 * pool_.size()));
+  const uint32_t offset = pool_end_;
+  pool_end_ = static_cast<uint32_t>(needed);
+  return offset;
+}
+
 uint32_t SplitConnectivity::NewSlot(uint32_t capacity) {
   Slot slot;
-  slot.offset = static_cast<uint32_t>(pool_.size());
+  slot.offset = Take(capacity);
   slot.capacity = capacity;
-  pool_.resize(pool_.size() + capacity);
   slots_.push_back(slot);
   return static_cast<uint32_t>(slots_.size() - 1);
 }
@@ -21,8 +30,7 @@ void SplitConnectivity::Grow(uint32_t v, uint32_t needed) {
   Slot& slot = slots_[v];
   uint32_t capacity = std::max<uint32_t>(kMinCapacity, 2 * slot.capacity);
   while (capacity < needed) capacity *= 2;
-  const uint32_t offset = static_cast<uint32_t>(pool_.size());
-  pool_.resize(pool_.size() + capacity);
+  const uint32_t offset = Take(capacity);
   std::copy(pool_.begin() + slot.offset, pool_.begin() + slot.offset + slot.count, pool_.begin() + offset);
   slot.offset = offset;
   slot.capacity = capacity;
@@ -46,6 +54,7 @@ Status SplitConnectivity::Reset(uint32_t vertex_count, const std::vector<uint32_
     ++valence[indices[i]];
   }
   pool_.clear();
+  pool_end_ = 0;
   slots_.clear();
   slots_.reserve(vertex_count);
   for (uint32_t v = 0; v < vertex_count; ++v) NewSlot(std::max<uint32_t>(kMinCapacity, valence[v] + 2));
@@ -212,7 +221,8 @@ void SplitConnectivity::Reserve(uint32_t vertices, size_t faces) {
   // A split's new vertex takes a slot of kMinCapacity entries (rarely more),
   // and the three vertices that gain triangles sometimes move to twice their
   // room: reserving for both keeps the pool from being copied while refining.
-  pool_.reserve(pool_.size() + extra * (2 * kMinCapacity));
+  const size_t room = pool_end_ + extra * (2 * kMinCapacity);
+  if (pool_.size() < room) pool_.resize(room);
 }
 
 uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {

@@ -89,7 +89,8 @@ class SplitConnectivity {
  private:
   // Per-vertex triangle lists live in one pool: a vertex owns `capacity`
   // entries from `offset`, and moves to the end of the pool with twice the
-  // room when it outgrows them (no allocation per vertex).
+  // room when it outgrows them (no allocation per vertex; the pool itself
+  // grows geometrically).
   struct Slot {
     uint32_t offset = 0, count = 0, capacity = 0;
   };
@@ -97,9 +98,12 @@ class SplitConnectivity {
   // Moves v's list to the end of the pool with room for at least `needed`.
   void Grow(uint32_t v, uint32_t needed);
   uint32_t NewSlot(uint32_t capacity);
+  // The offset of `entries` fresh pool entries.
+  uint32_t Take(uint32_t entries);
 
   std::vector<Face> faces_;
   std::vector<uint32_t> pool_;
+  uint32_t pool_end_ = 0;  // entries of pool_ in use; the rest is spare room
   std::vector<Slot> slots_;
   mutable std::vector<uint32_t> scratch_;     // x then y per triangle of the last ring
   mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
