@@ -12,7 +12,11 @@ uint32_t SplitConnectivity::Take(uint32_t entries) {
   // The pool's tail beyond pool_end_ is spare room, grown geometrically:
   // taking entries is a bump of pool_end_, with no per-slot resize.
   const size_t needed = size_t{pool_end_} + entries;
-  if (needed > pool_.size()) pool_.resize(std::max(needed, 2 * pool_.size()));
+  if (needed > pool_.size()) {
+    size_t size = std::max(needed, 2 * pool_.size());
+    if (needed <= pool_.capacity()) size = std::min(size, pool_.capacity());  // what Reserve set aside
+    pool_.resize(size);
+  }
   const uint32_t offset = pool_end_;
   pool_end_ = static_cast<uint32_t>(needed);
   return offset;
@@ -219,10 +223,10 @@ void SplitConnectivity::Reserve(uint32_t vertices, size_t faces) {
   slots_.reserve(vertices);
   faces_.reserve(faces);
   // A split's new vertex takes a slot of kMinCapacity entries (rarely more),
-  // and the three vertices that gain triangles sometimes move to twice their
-  // room: reserving for both keeps the pool from being copied while refining.
-  const size_t room = pool_end_ + extra * (2 * kMinCapacity);
-  if (pool_.size() < room) pool_.resize(room);
+  // and the vertices that gain triangles sometimes move to twice their room:
+  // capacity for both keeps the pool from being copied while refining (Take
+  // fills it as it goes; nothing is written here).
+  pool_.reserve(pool_end_ + extra * (kMinCapacity + kMinCapacity / 2));
 }
 
 uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
