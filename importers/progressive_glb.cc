@@ -212,7 +212,18 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       local.late_datagrams += lr.reconstructor.late;
       local.recovery.Add(lr.recovery);
       local.predicted_vertices += reader->unreliable_vertices();
-      target = DequantizeMesh(reader->Mesh(), target.material);
+      const RefinementState& state = reader->state();
+      if (state.any_absent) {
+        target = DequantizeMesh(reader->Mesh(), target.material);
+      } else {
+        // Every vertex exists: the state's arrays are the mesh (what Mesh()
+        // would copy), dequantized where they are.
+        const std::vector<Face>& faces = state.connectivity.faces();
+        static_assert(sizeof(Face) == 3 * sizeof(uint32_t), "a Face is three packed indices");
+        target = DequantizeArrays(header->grids.position_grid, header->grids.layout, state.positions,
+                                  state.attributes, faces.empty() ? nullptr : faces.front().data(),
+                                  3 * faces.size(), target.material);
+      }
       local.levels = std::max<uint64_t>(local.levels, levels);
       local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
       AddLevelVertices(local.level_vertices, header->level_vertices());

@@ -92,36 +92,64 @@ StatusOr<QuantizedMesh> QuantizeOnto(const Primitive& p, const QuantizedMesh& gr
 }
 
 Primitive DequantizeMesh(const QuantizedMesh& q, int32_t material) {
+  return DequantizeArrays(q.position_grid, q.layout, q.positions, q.attributes, q.indices.data(), q.indices.size(),
+                          material);
+}
+
+namespace {
+
+// QuantizationGrid::Dequantize with the step computed once: the same
+// double expression, so the same floats.
+struct Dequantizer {
+  explicit Dequantizer(const QuantizationGrid& g) : step(g.step()) {
+    for (int c = 0; c < 4; ++c) origin[c] = g.origin[c];
+  }
+  float operator()(int64_t q, int c) const { return static_cast<float>(origin[c] + static_cast<double>(q) * step); }
+  double step;
+  double origin[4];
+};
+
+}  // namespace
+
+Primitive DequantizeArrays(const QuantizationGrid& position_grid, const AttributeLayout& layout,
+                           const std::vector<Vec3i>& positions, const std::vector<int32_t>& attributes,
+                           const uint32_t* indices, size_t index_count, int32_t material) {
   Primitive p;
   p.material = material;
-  const AttributeLayout& layout = q.layout;
-  const size_t n = q.vertex_count();
+  const size_t n = positions.size();
+  const size_t channels = static_cast<size_t>(layout.channels());
+  const int32_t* attr = attributes.data();
   p.positions.resize(n);
-  for (size_t v = 0; v < n; ++v)
-    for (int c = 0; c < 3; ++c) p.positions[v][c] = q.position_grid.Dequantize(q.positions[v][c], c);
+  {
+    const Dequantizer dq(position_grid);
+    for (size_t v = 0; v < n; ++v)
+      for (int c = 0; c < 3; ++c) p.positions[v][c] = dq(positions[v][c], c);
+  }
   if (layout.has_normals) {
     p.normals.resize(n);
     for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = q.attribute(v) + layout.normal_offset();
+      const int32_t* a = attr + v * channels + layout.normal_offset();
       p.normals[v] = DequantizeNormal({static_cast<uint32_t>(a[0]), static_cast<uint32_t>(a[1])}, layout.qn);
     }
   }
   for (int t = 0; t < layout.texcoord_sets; ++t) {
+    const Dequantizer dq(layout.texcoord_grids[t]);
     std::vector<Vec2f> uv(n);
     for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = q.attribute(v) + layout.texcoord_offset(t);
-      for (int c = 0; c < 2; ++c) uv[v][c] = layout.texcoord_grids[t].Dequantize(a[c], c);
+      const int32_t* a = attr + v * channels + layout.texcoord_offset(t);
+      for (int c = 0; c < 2; ++c) uv[v][c] = dq(a[c], c);
     }
     p.texcoords.push_back(std::move(uv));
   }
   if (layout.has_colors) {
+    const Dequantizer dq(layout.color_grid);
     p.colors.resize(n);
     for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = q.attribute(v) + layout.color_offset();
-      for (int c = 0; c < 4; ++c) p.colors[v][c] = layout.color_grid.Dequantize(a[c], c);
+      const int32_t* a = attr + v * channels + layout.color_offset();
+      for (int c = 0; c < 4; ++c) p.colors[v][c] = dq(a[c], c);
     }
   }
-  p.indices = q.indices;
+  p.indices.assign(indices, indices + index_count);
   return p;
 }
 

@@ -59,6 +59,14 @@ struct QuantizedMesh {
 
 StatusOr<QuantizedMesh> QuantizePrimitive(const Primitive& primitive, const QuantizationParams& params);
 Primitive DequantizeMesh(const QuantizedMesh& mesh, int32_t material);
+// The same from the arrays of a mesh held elsewhere (a decoder's state),
+// without copying them into a QuantizedMesh first: `indices` holds
+// `index_count` entries. DequantizeMesh(m, material) is
+// DequantizeArrays(m.position_grid, m.layout, m.positions, m.attributes,
+// m.indices.data(), m.indices.size(), material), bit for bit.
+Primitive DequantizeArrays(const QuantizationGrid& position_grid, const AttributeLayout& layout,
+                           const std::vector<Vec3i>& positions, const std::vector<int32_t>& attributes,
+                           const uint32_t* indices, size_t index_count, int32_t material);
 
 // Quantizes every vertex of `primitive` (unreferenced ones too, order kept)
 // onto the grids of `grids` (its position grid and attribute layout). The

@@ -1,5 +1,12 @@
 #include "codec/progressive/refinement.h"
 
+#include <algorithm>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+
 namespace meshstream {
 
 std::vector<uint32_t> ProgressiveMesh::level_vertices() const {
@@ -18,6 +25,27 @@ size_t RankInRing(const std::vector<uint32_t>& ring, size_t at) {
   return rank;
 }
 
+// How many of lanes[0 .. width) (width 8 or 16) lie below v.
+uint32_t CountBelow(const uint32_t* lanes, size_t width, uint32_t v) {
+#if defined(__SSE2__)
+  // Unsigned order through signed compares: flip the sign bits.
+  const __m128i flip = _mm_set1_epi32(INT32_MIN);
+  const __m128i key = _mm_xor_si128(_mm_set1_epi32(static_cast<int>(v)), flip);
+  __m128i count = _mm_setzero_si128();
+  for (size_t i = 0; i < width; i += 4) {
+    const __m128i x = _mm_xor_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lanes + i)), flip);
+    count = _mm_sub_epi32(count, _mm_cmplt_epi32(x, key));  // a true lane is -1
+  }
+  count = _mm_add_epi32(count, _mm_shuffle_epi32(count, _MM_SHUFFLE(1, 0, 3, 2)));
+  count = _mm_add_epi32(count, _mm_shuffle_epi32(count, _MM_SHUFFLE(2, 3, 0, 1)));
+  return static_cast<uint32_t>(_mm_cvtsi128_si32(count));
+#else
+  uint32_t below = 0;
+  for (size_t i = 0; i < width; ++i) below += lanes[i] < v ? 1u : 0u;
+  return below;
+#endif
+}
+
 }  // namespace
 
 std::array<uint16_t, 2> WingsOf(const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
@@ -29,14 +57,36 @@ bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t,
                    size_t* b_at) {
   const size_t d = ring.size();
   if (wings[1] == 0 || wings[1] >= d) return false;
-  for (size_t k = 0; k < d; ++k) {
-    if (RankInRing(ring, k) == wings[0]) {
-      *a_at = k;
-      *b_at = (k + wings[1]) % d;
-      return true;
+  // The wing is the first ring entry with exactly wings[0] entries below it
+  // (RankInRing).
+  const uint32_t rank = wings[0];
+  if (rank >= d) return false;  // at most d - 1 entries lie below any entry
+  const uint32_t* x = ring.data();
+  size_t k = d;
+  if (d <= 16) {
+    // Small rings (nearly all): each entry's rank counted without branches
+    // against 8 or 16 entries at once (UINT32_MAX pads: never below
+    // anything); the first entry of that rank wins.
+    uint32_t lanes[16];
+    for (size_t i = 0; i < 16; ++i) lanes[i] = i < d ? x[i] : UINT32_MAX;
+    const size_t width = d <= 8 ? 8 : 16;
+    for (size_t at = 0; at < d && k == d; ++at) {
+      if (CountBelow(lanes, width, lanes[at]) == rank) k = at;
     }
+  } else {
+    // Large rings, O(valence): only the wings[0]-th smallest value v can
+    // have that rank, and only when no entry before it in sorted order
+    // equals it; the wing is then v's first position.
+    std::vector<uint32_t> sorted(ring);
+    std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
+    const uint32_t v = sorted[rank];
+    if (std::find(sorted.begin(), sorted.begin() + rank, v) != sorted.begin() + rank) return false;
+    k = static_cast<size_t>(std::find(ring.begin(), ring.end(), v) - ring.begin());
   }
-  return false;
+  if (k == d) return false;
+  *a_at = k;
+  *b_at = (k + wings[1]) % d;
+  return true;
 }
 
 }  // namespace meshstream

@@ -34,24 +34,50 @@ Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   return Status::Ok();
 }
 
+void RefinementState::PrefetchSplits(const Refinement& r, size_t j) const {
+  // A split costs mostly cache misses: w's slot, its triangle list, its
+  // triangles, its values. Each stage is hinted kPrefetchDistance splits
+  // before the one that needs it; the later stages read what the earlier
+  // ones brought in.
+  const std::vector<uint32_t>& sv = r.split_vertices;
+  const size_t k = sv.size();
+  if (j + kPrefetchDistance < k) {
+    const uint32_t v = sv[j + kPrefetchDistance];
+    connectivity.PrefetchFaces(v);
+    if (v < positions.size()) {
+      MESHSTREAM_PREFETCH(&positions[v]);
+      MESHSTREAM_PREFETCH(&flags[v]);
+      if (channels > 0) MESHSTREAM_PREFETCH(&attributes[size_t(v) * channels]);
+    }
+  }
+  if (j + 2 * kPrefetchDistance < k) connectivity.PrefetchList(sv[j + 2 * kPrefetchDistance]);
+  if (j + 3 * kPrefetchDistance < k) connectivity.PrefetchSlot(sv[j + 3 * kPrefetchDistance]);
+}
+
 uint32_t RefinementState::ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at) {
+  PrefetchSplits(r, j);
   const uint32_t w = r.split_vertices[j];
   const uint32_t n = connectivity.SplitAt(w, scratch_ring, a_at, b_at);
+  const Vec3i& delta = r.position_delta[j];
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
-    u[k] = FromMidpoint(positions[w][k], r.position_delta[j][k]);
-    v[k] = static_cast<int32_t>(static_cast<int64_t>(u[k]) - r.position_delta[j][k]);
+    u[k] = FromMidpoint(positions[w][k], delta[k]);
+    v[k] = static_cast<int32_t>(static_cast<int64_t>(u[k]) - delta[k]);
   }
   positions[w] = u;
   positions.push_back(v);
   reliable.push_back(1);
   flags.push_back(0);
-  attributes.resize(attributes.size() + channels);
-  for (int k = 0; k < channels; ++k) {
-    const int32_t d = r.attribute_delta[j * channels + k];
-    const int32_t au = FromMidpoint(attributes[size_t(w) * channels + k], d);
-    attributes[size_t(w) * channels + k] = au;
-    attributes[size_t(n) * channels + k] = static_cast<int32_t>(static_cast<int64_t>(au) - d);
+  if (channels > 0) {
+    attributes.resize(attributes.size() + channels);
+    int32_t* aw = attributes.data() + size_t(w) * channels;
+    int32_t* an = attributes.data() + size_t(n) * channels;
+    const int32_t* ad = r.attribute_delta.data() + j * channels;
+    for (int k = 0; k < channels; ++k) {
+      const int32_t au = FromMidpoint(aw[k], ad[k]);
+      aw[k] = au;
+      an[k] = static_cast<int32_t>(static_cast<int64_t>(au) - ad[k]);
+    }
   }
   return n;
 }

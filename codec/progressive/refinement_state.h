@@ -50,6 +50,10 @@ struct RefinementState {
   // the wings' ring positions resolved; returns the new vertex.
   uint32_t ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at);
   Status ApplyRefinement(const Refinement& r);
+  // Cache hints for the splits after split j of `r` (ApplySplitAt issues
+  // them; no effect on the state).
+  void PrefetchSplits(const Refinement& r, size_t j) const;
+  static constexpr size_t kPrefetchDistance = 2;
   // Sets flag bits of v and keeps reliable[v] in step with them.
   void Mark(uint32_t v, uint8_t bits) {
     flags[v] |= bits;

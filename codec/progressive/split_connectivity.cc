@@ -2,27 +2,47 @@
 
 #include <algorithm>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace meshstream {
+
+uint32_t SplitConnectivity::Take(uint32_t entries) {
+  // The pool's tail beyond pool_end_ is spare room, grown geometrically:
+  // taking entries is a bump of pool_end_, with no per-slot resize.
+  const size_t needed = size_t{pool_end_} + entries;
+  if (needed > pool_.size()) {
+    size_t size = std::max(needed, 2 * pool_.size());
+    if (needed <= pool_.capacity()) size = std::min(size, pool_.capacity());  // what Reserve set aside
+    pool_.resize(size);
+  }
+  const uint32_t offset = pool_end_;
+  pool_end_ = static_cast<uint32_t>(needed);
+  return offset;
+}
 
 uint32_t SplitConnectivity::NewSlot(uint32_t capacity) {
   Slot slot;
-  slot.offset = static_cast<uint32_t>(pool_.size());
+  slot.offset = Take(capacity);
   slot.capacity = capacity;
-  pool_.resize(pool_.size() + capacity);
   slots_.push_back(slot);
   return static_cast<uint32_t>(slots_.size() - 1);
 }
 
+void SplitConnectivity::Grow(uint32_t v, uint32_t needed) {
+  Slot& slot = slots_[v];
+  uint32_t capacity = std::max<uint32_t>(kMinCapacity, 2 * slot.capacity);
+  while (capacity < needed) capacity *= 2;
+  const uint32_t offset = Take(capacity);
+  std::copy(pool_.begin() + slot.offset, pool_.begin() + slot.offset + slot.count, pool_.begin() + offset);
+  slot.offset = offset;
+  slot.capacity = capacity;
+}
+
 void SplitConnectivity::Append(uint32_t v, uint32_t face) {
   Slot& slot = slots_[v];
-  if (slot.count == slot.capacity) {
-    const uint32_t capacity = std::max<uint32_t>(8, 2 * slot.capacity);
-    const uint32_t offset = static_cast<uint32_t>(pool_.size());
-    pool_.resize(pool_.size() + capacity);
-    std::copy(pool_.begin() + slot.offset, pool_.begin() + slot.offset + slot.count, pool_.begin() + offset);
-    slot.offset = offset;
-    slot.capacity = capacity;
-  }
+  if (slot.count == slot.capacity) Grow(v, slot.count + 1);
   pool_[slot.offset + slot.count++] = face;
 }
 
@@ -38,9 +58,10 @@ Status SplitConnectivity::Reset(uint32_t vertex_count, const std::vector<uint32_
     ++valence[indices[i]];
   }
   pool_.clear();
+  pool_end_ = 0;
   slots_.clear();
   slots_.reserve(vertex_count);
-  for (uint32_t v = 0; v < vertex_count; ++v) NewSlot(std::max<uint32_t>(8, valence[v] + 2));
+  for (uint32_t v = 0; v < vertex_count; ++v) NewSlot(std::max<uint32_t>(kMinCapacity, valence[v] + 2));
   for (size_t i = 0; i < indices.size(); i += 3) {
     const Face f = {indices[i], indices[i + 1], indices[i + 2]};
     const uint32_t id = static_cast<uint32_t>(faces_.size());
@@ -52,36 +73,135 @@ Status SplitConnectivity::Reset(uint32_t vertex_count, const std::vector<uint32_
   return Status::Ok();
 }
 
+namespace {
+
+// The index of the lowest set bit of a non-zero mask.
+inline unsigned LowestBit(uint32_t mask) {
+#if defined(__GNUC__) || defined(__clang__)
+  return static_cast<unsigned>(__builtin_ctz(mask));
+#else
+  unsigned i = 0;
+  while ((mask & 1u) == 0) {
+    mask >>= 1;
+    ++i;
+  }
+  return i;
+#endif
+}
+
+// Bit i set when lanes[i] == v, for i < W (W a multiple of 4).
+template <size_t W>
+inline uint32_t EqualMask(const uint32_t* lanes, uint32_t v) {
+#if defined(__SSE2__)
+  const __m128i key = _mm_set1_epi32(static_cast<int>(v));
+  uint32_t mask = 0;
+  for (size_t i = 0; i < W; i += 4) {
+    const __m128i x = _mm_loadu_si128(reinterpret_cast<const __m128i*>(lanes + i));
+    mask |= static_cast<uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, key)))) << i;
+  }
+  return mask;
+#else
+  uint32_t mask = 0;
+  for (size_t i = 0; i < W; ++i) mask |= static_cast<uint32_t>(lanes[i] == v) << i;
+  return mask;
+#endif
+}
+
+// The walk of a ring of n <= W triangles, (x, y) in xs and ys: every step
+// compares the current vertex with all W x's at once (`pad`, which no x
+// equals, fills the lanes beyond n).
+template <size_t W>
+bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint32_t* fs, uint32_t pad,
+                   std::vector<uint32_t>& ring, std::vector<uint32_t>& ring_faces) {
+  uint32_t lanes[W];
+  for (size_t i = 0; i < W; ++i) lanes[i] = i < n ? xs[i] : pad;
+  ring.resize(n);
+  ring_faces.resize(n);
+  uint32_t* out = ring.data();
+  uint32_t* out_faces = ring_faces.data();
+  const uint32_t start = lanes[0];
+  uint32_t cur = start;
+  size_t step = 0;
+  for (; step < n; ++step) {
+    const uint32_t mask = EqualMask<W>(lanes, cur);
+    // None: an open fan (boundary); two or more: not a fan.
+    if (mask == 0 || (mask & (mask - 1)) != 0) break;
+    const unsigned found = LowestBit(mask);
+    out[step] = cur;
+    out_faces[step] = fs[found];
+    cur = ys[found];
+    if (cur == start) {
+      if (step + 1 == n) return true;
+      ++step;
+      break;
+    }
+  }
+  ring.resize(step);  // not a closed fan: the steps walked
+  ring_faces.resize(step);
+  return false;
+}
+
+}  // namespace
+
 bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
   ring.clear();
   ring_faces_.clear();
-  const FaceList fs = faces_of(w);
-  const size_t n = fs.size();
+  const Slot slot = slots_[w];
+  const size_t n = slot.count;
   if (n < 3) return false;
-  // (x, y) for every triangle (w, x, y).
+  const uint32_t* fs = pool_.data() + slot.offset;
+  // (x, y) for every triangle (w, x, y): the x's, then the y's. The
+  // triangles are gathered first, with no branch on what they hold, so that
+  // their loads (they often miss the cache) overlap.
   scratch_.resize(2 * n);
+  uint32_t* xs = scratch_.data();
+  uint32_t* ys = xs + n;
+  bool bad = false;
+  static constexpr uint8_t kNext[4] = {1, 2, 0, 1};
   for (size_t i = 0; i < n; ++i) {
-    const Face r = RotateTo(faces_[fs.first[i]], w);
-    if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
-    scratch_[2 * i] = r[1];
-    scratch_[2 * i + 1] = r[2];
+    const uint32_t* f = faces_[fs[i]].data();
+    // RotateTo(f, w) by index arithmetic (where w sits in a triangle is
+    // random, so a branch on it would mispredict): w first, then the other
+    // two in order.
+    const unsigned at = static_cast<unsigned>(f[0] != w) * (2u - static_cast<unsigned>(f[1] == w));
+    const uint32_t x = f[kNext[at]];
+    const uint32_t y = f[kNext[at + 1]];
+    bad |= (x == w) | (y == w) | (x == y);
+    xs[i] = x;
+    ys[i] = y;
   }
+  if (bad) return false;
   // Follow x -> y. Each step must find exactly one triangle leaving the
-  // current vertex, and the walk must close after visiting every triangle.
-  const uint32_t start = scratch_[0];
+  // current vertex, and the walk must close after visiting every triangle
+  // (which it can only do when every x is distinct). No x is w, so w pads.
+  if (n <= 8) return WalkSmallRing<8>(xs, ys, n, fs, w, ring, ring_faces_);
+  if (n <= 16) return WalkSmallRing<16>(xs, ys, n, fs, w, ring, ring_faces_);
+  // Large rings: x -> triangle through an open-addressed table, O(valence).
+  size_t bits = 1;
+  while ((size_t{1} << bits) < 2 * n) ++bits;
+  const size_t mask = (size_t{1} << bits) - 1;
+  table_.assign(2 * (mask + 1), kEmpty);  // (x, triangle) pairs
+  auto home = [bits](uint32_t x) { return static_cast<size_t>((x * 2654435769u) >> (32 - bits)); };
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t x = xs[i];
+    size_t h = home(x);
+    while (table_[2 * h + 1] != kEmpty) {
+      if (table_[2 * h] == x) return false;  // two triangles leave x: not a fan
+      h = (h + 1) & mask;
+    }
+    table_[2 * h] = x;
+    table_[2 * h + 1] = static_cast<uint32_t>(i);
+  }
+  const uint32_t start = xs[0];
   uint32_t cur = start;
   for (size_t step = 0; step < n; ++step) {
-    size_t found = n;
-    for (size_t i = 0; i < n; ++i) {
-      if (scratch_[2 * i] == cur) {
-        if (found != n) return false;  // two triangles leave cur: not a fan
-        found = i;
-      }
-    }
-    if (found == n) return false;  // open fan (boundary)
+    size_t h = home(cur);
+    while (table_[2 * h + 1] != kEmpty && table_[2 * h] != cur) h = (h + 1) & mask;
+    if (table_[2 * h + 1] == kEmpty) return false;  // open fan (boundary)
+    const uint32_t found = table_[2 * h + 1];
     ring.push_back(cur);
-    ring_faces_.push_back(fs.first[found]);
-    cur = scratch_[2 * found + 1];
+    ring_faces_.push_back(fs[found]);
+    cur = ys[found];
     if (cur == start) return step + 1 == n;
   }
   return false;
@@ -99,36 +219,51 @@ void SplitConnectivity::SortedNeighbours(uint32_t w, std::vector<uint32_t>& out)
 }
 
 void SplitConnectivity::Reserve(uint32_t vertices, size_t faces) {
+  const size_t extra = vertices > slots_.size() ? vertices - slots_.size() : 0;
   slots_.reserve(vertices);
   faces_.reserve(faces);
+  // A split's new vertex takes a slot of kMinCapacity entries (rarely more),
+  // and the vertices that gain triangles sometimes move to twice their room:
+  // capacity for both keeps the pool from being copied while refining (Take
+  // fills it as it goes; nothing is written here).
+  pool_.reserve(pool_end_ + extra * (kMinCapacity + kMinCapacity / 2));
 }
 
 uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
   const uint32_t a = ring[a_at], b = ring[b_at];
   const size_t d = ring.size();
   // Triangles (w, ring[k], ring[k+1]) for k from b up to (not including) a
-  // move to n; the others stay with w.
+  // move to n; the others stay with w. Both lists are written in place, in
+  // the order the ring walk gives (b .. a for n, a .. b for w, then the two
+  // new triangles): the order later rings start from.
   const size_t path = (a_at + d - b_at) % d;
-  const uint32_t n = NewSlot(std::max<uint32_t>(8, static_cast<uint32_t>(path) + 4));
-  slots_[w].count = 0;
-  for (size_t step = 0; step < d; ++step) {
-    const uint32_t f = ring_faces_[(b_at + step) % d];
-    if (step < path) {
-      for (uint32_t& y : faces_[f]) {
-        if (y == w) y = n;
-      }
-      Append(n, f);
-    } else {
-      Append(w, f);
-    }
-  }
+  const uint32_t n = NewSlot(std::max<uint32_t>(kMinCapacity, static_cast<uint32_t>(path) + 4));
   const uint32_t f1 = static_cast<uint32_t>(faces_.size());
+  const uint32_t keep = static_cast<uint32_t>(d - path) + 2;  // w's triangles after the split
+  if (slots_[w].capacity < keep) Grow(w, keep);
+  uint32_t* to_n = pool_.data() + slots_[n].offset;
+  uint32_t* to_w = pool_.data() + slots_[w].offset;
+  const uint32_t* rf = ring_faces_.data();
+  size_t k = b_at;
+  for (size_t step = 0; step < path; ++step) {
+    const uint32_t f = rf[k];
+    Face& t = faces_[f];
+    for (uint32_t& y : t) y = y == w ? n : y;
+    *to_n++ = f;
+    k = k + 1 == d ? 0 : k + 1;
+  }
+  for (size_t step = path; step < d; ++step) {
+    *to_w++ = rf[k];
+    k = k + 1 == d ? 0 : k + 1;
+  }
+  to_n[0] = f1;
+  to_n[1] = f1 + 1;
+  to_w[0] = f1;
+  to_w[1] = f1 + 1;
+  slots_[n].count = static_cast<uint32_t>(path) + 2;
+  slots_[w].count = keep;
   faces_.push_back({w, n, a});
   faces_.push_back({n, w, b});
-  Append(w, f1);
-  Append(w, f1 + 1);
-  Append(n, f1);
-  Append(n, f1 + 1);
   Append(a, f1);
   Append(b, f1 + 1);
   return n;

@@ -16,10 +16,17 @@
 #define MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_CONNECTIVITY_H_
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "codec/core/status.h"
+
+#if defined(__GNUC__) || defined(__clang__)
+#define MESHSTREAM_PREFETCH(p) __builtin_prefetch(p)
+#else
+#define MESHSTREAM_PREFETCH(p) ((void)(p))
+#endif
 
 namespace meshstream {
 
@@ -63,21 +70,46 @@ class SplitConnectivity {
 
   std::vector<uint32_t> Indices() const;
 
+  // Hints for a vertex about to be split (no effect on the state): its
+  // slot, then its triangle list (reads the slot), then its triangles
+  // (reads the list). A caller that knows the next splits issues them a few
+  // splits ahead, one stage per split, so that the ring walk finds its
+  // triangles in the cache. Ids beyond vertex_count() are ignored.
+  void PrefetchSlot(uint32_t v) const {
+    if (v < slots_.size()) MESHSTREAM_PREFETCH(&slots_[v]);
+  }
+  void PrefetchList(uint32_t v) const {
+    if (v < slots_.size()) MESHSTREAM_PREFETCH(pool_.data() + slots_[v].offset);
+  }
+  void PrefetchFaces(uint32_t v) const {
+    if (v >= slots_.size()) return;
+    for (uint32_t f : faces_of(v)) MESHSTREAM_PREFETCH(&faces_[f]);
+  }
+
  private:
   // Per-vertex triangle lists live in one pool: a vertex owns `capacity`
   // entries from `offset`, and moves to the end of the pool with twice the
-  // room when it outgrows them (no allocation per vertex).
+  // room when it outgrows them (no allocation per vertex; the pool itself
+  // grows geometrically).
   struct Slot {
     uint32_t offset = 0, count = 0, capacity = 0;
   };
   void Append(uint32_t v, uint32_t face);
+  // Moves v's list to the end of the pool with room for at least `needed`.
+  void Grow(uint32_t v, uint32_t needed);
   uint32_t NewSlot(uint32_t capacity);
+  // The offset of `entries` fresh pool entries.
+  uint32_t Take(uint32_t entries);
 
   std::vector<Face> faces_;
   std::vector<uint32_t> pool_;
+  uint32_t pool_end_ = 0;  // entries of pool_ in use; the rest is spare room
   std::vector<Slot> slots_;
-  mutable std::vector<uint32_t> scratch_;     // (x, y) per triangle of the last ring
+  mutable std::vector<uint32_t> scratch_;     // x then y per triangle of the last ring
   mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
+  mutable std::vector<uint32_t> table_;       // CyclicRing's (x, triangle) table for large rings
+  static constexpr uint32_t kMinCapacity = 8;  // entries per vertex, at least
+  static constexpr uint32_t kEmpty = UINT32_MAX;
 };
 
 // Rotates a face so that vertex v comes first; v must be in the face.

@@ -1,0 +1,293 @@
+// meshstream_bench_decode: the decoding speed of issue 11 (docs/decode-profile.md).
+//
+// For every shared model (or --model), encoded once with EncodeProgressiveGlb
+// (default options at --qp, default 11) and once with Draco at compression
+// level 7 (EncodeDracoPrimitive, same quantization), times interleaved, round
+// by round after one untimed warm-up round:
+//   (a) DecodeProgressiveGlb, all levels (the .glb bytes in memory to the
+//       final Scene in memory);
+//   (b) the same with lod 0 (the base alone);
+//   (c) draco::Decoder::DecodeMeshFromBuffer of the whole mesh (cl 7).
+// Prints the medians and the ratios a/c and b/c; --json FILE writes them.
+// Every round also checks that the decode is the same bit for bit as the
+// first (a hash of the decoded Scene's vertex and index arrays, printed so
+// that runs before and after a change can be compared).
+//
+// --loop MODEL SECONDS decodes that model (all levels, or --lod N) in a loop
+// for about that long and nothing else: the process to run under
+// `perf record -g`.
+#include <draco/compression/decode.h>
+#include <draco/core/decoder_buffer.h>
+
+#include <cstdio>
+#include <ctime>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/bench_util.h"
+#include "importers/draco_codec.h"
+#include "importers/import.h"
+#include "importers/progressive_glb.h"
+
+namespace {
+
+using json = nlohmann::json;
+namespace ms = meshstream;
+using ms::bench::Check;
+using ms::bench::Clock;
+using ms::bench::Die;
+using ms::bench::Median;
+using ms::bench::Ms;
+using ms::bench::ParseDouble;
+using ms::bench::ParseInt;
+using ms::bench::Primitives;
+using ms::bench::Stem;
+
+const char kHelp[] =
+    "usage: meshstream_bench_decode [--models DIR] [--model NAME]... [--qp 11] [--rounds 30] [--json FILE]\n"
+    "       meshstream_bench_decode [--models DIR] [--qp 11] [--lod N] --loop MODEL SECONDS\n"
+    "\n"
+    "Times DecodeProgressiveGlb (all levels, and the base alone) against Draco's decode of the\n"
+    "whole mesh (compression level 7, same quantization), interleaved round by round after one\n"
+    "warm-up round, and prints the medians and the ratios.\n"
+    "  --models DIR      folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
+    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
+    "                    (default: stanford-bunny, horse, fandisk, rocker-arm, spot)\n"
+    "  --qp N            position bits of both codecs (default 11; normals 8, texcoords 10)\n"
+    "  --rounds N        timed rounds (default 30)\n"
+    "  --json FILE       also write the medians and ratios as JSON\n"
+    "  --loop MODEL SEC  only decode MODEL (all levels) in a loop for SEC seconds (for perf)\n"
+    "  --lod N           with --loop: decode N levels (0: the base alone; default -1: all)\n";
+
+struct Args {
+  std::string models_dir = MESHSTREAM_MODELS_DIR;
+  std::vector<std::string> only;
+  int qp = 11;
+  int rounds = 30;
+  std::string json_out;
+  std::string loop_model;
+  double loop_seconds = 0;
+  int loop_lod = -1;
+};
+
+Args ParseArgs(int argc, char** argv) {
+  Args a;
+  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
+    if (f == "--models") {
+      a.models_dir = next();
+    } else if (f == "--model") {
+      a.only.push_back(next());
+    } else if (f == "--qp") {
+      a.qp = static_cast<int>(ParseInt(next(), f, 1, 30));
+    } else if (f == "--rounds") {
+      a.rounds = static_cast<int>(ParseInt(next(), f, 1, 100000));
+    } else if (f == "--json") {
+      a.json_out = next();
+    } else if (f == "--lod") {
+      a.loop_lod = static_cast<int>(ParseInt(next(), f, -1, 1 << 20));
+    } else if (f == "--loop") {
+      a.loop_model = next();
+      a.loop_seconds = ParseDouble(next(), f);
+      if (a.loop_seconds <= 0) Die("--loop: SECONDS must be positive");
+    } else {
+      return false;
+    }
+    return true;
+  });
+  return a;
+}
+
+// The file of `name` among the shared models (with or without extension).
+std::vector<std::string> ChooseModels(const std::vector<std::string>& only) {
+  const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj",
+                                          "spot.obj"};
+  std::vector<std::string> chosen;
+  for (const auto& f : files) {
+    bool take = only.empty();
+    for (const auto& o : only) take = take || o == f || o == Stem(f);
+    if (take) chosen.push_back(f);
+  }
+  if (chosen.empty()) Die("no model matches --model");
+  return chosen;
+}
+
+// FNV-1a over raw bytes.
+void Mix(uint64_t& h, const void* data, size_t size) {
+  const auto* p = static_cast<const uint8_t*>(data);
+  for (size_t i = 0; i < size; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ull;
+  }
+}
+
+template <class T>
+void MixVector(uint64_t& h, const std::vector<T>& v) {
+  const uint64_t n = v.size();
+  Mix(h, &n, sizeof n);
+  if (!v.empty()) Mix(h, v.data(), v.size() * sizeof(T));
+}
+
+// A hash of every refined primitive's arrays: equal hashes, equal decodes.
+uint64_t SceneHash(const ms::Scene& scene) {
+  uint64_t h = 1469598103934665603ull;
+  for (const ms::Primitive* p : Primitives(scene)) {
+    MixVector(h, p->positions);
+    MixVector(h, p->normals);
+    for (const auto& t : p->texcoords) MixVector(h, t);
+    MixVector(h, p->colors);
+    MixVector(h, p->indices);
+  }
+  return h;
+}
+
+struct Model {
+  std::string name;
+  uint64_t vertices = 0, faces = 0;
+  std::vector<uint8_t> glb;
+  std::vector<ms::DracoEncoded> draco;  // cl 7, one per primitive
+};
+
+Model Prepare(const std::string& models_dir, const std::string& file, int qp) {
+  Model m;
+  m.name = Stem(file);
+  const std::string path = models_dir + "/" + file;
+  const ms::Scene scene = Check(ms::ImportFile(path), path);
+  const auto prims = Primitives(scene);
+  if (prims.empty()) Die(path + ": no triangles");
+  ms::ProgressiveGlbOptions options;
+  options.encode.quantization.qp = qp;
+  ms::ProgressiveGlbReport report;
+  m.glb = Check(ms::EncodeProgressiveGlb(scene, options, &report), m.name + ": EncodeProgressiveGlb");
+  m.vertices = report.Total().vertices;
+  m.faces = report.Total().faces;
+  ms::DracoEncodeOptions d;
+  d.qp = options.encode.quantization.qp;
+  d.qn = options.encode.quantization.qn;
+  d.qt = options.encode.quantization.qt;
+  d.qc = options.encode.quantization.qc;
+  d.compression_level = 7;
+  for (const ms::Primitive* p : prims) {
+    m.draco.push_back(Check(ms::EncodeDracoPrimitive(*p, d), m.name + ": EncodeDracoPrimitive"));
+  }
+  return m;
+}
+
+uint64_t DecodeMeshstream(const Model& m, int lod) {
+  ms::ProgressiveDecodeOptions o;
+  o.lod = lod;
+  auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
+  if (!s.ok()) Die(m.name + ": DecodeProgressiveGlb: " + s.status().ToString());
+  return SceneHash(s.value());
+}
+
+size_t DecodeDraco(const Model& m) {
+  size_t points = 0;
+  for (const auto& e : m.draco) {
+    draco::DecoderBuffer buffer;
+    buffer.Init(reinterpret_cast<const char*>(e.bytes.data()), e.bytes.size());
+    draco::Decoder decoder;
+    auto mesh = decoder.DecodeMeshFromBuffer(&buffer);
+    if (!mesh.ok()) Die(m.name + ": draco::Decoder: " + mesh.status().error_msg_string());
+    points += mesh.value()->num_points();
+  }
+  return points;
+}
+
+// CPU time of this process (ms): unlike the wall clock, it leaves out the
+// time other processes had the core.
+double CpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
+
+int Loop(const Args& args) {
+  const Model m = Prepare(args.models_dir, ChooseModels({args.loop_model}).front(), args.qp);
+  const auto start = Clock::now();
+  const double cpu_start = CpuMs();
+  size_t runs = 0;
+  do {  // at least one decode, however short SECONDS (valgrind)
+    ms::ProgressiveDecodeOptions o;
+    o.lod = args.loop_lod;
+    auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
+    if (!s.ok()) Die(m.name + ": DecodeProgressiveGlb: " + s.status().ToString());
+    ++runs;
+  } while (Ms(start, Clock::now()) < args.loop_seconds * 1000);
+  const double ms_total = Ms(start, Clock::now());
+  const double cpu_total = CpuMs() - cpu_start;
+  std::printf("%s: %zu decodes in %.0f ms (%.3f ms each; %.3f ms of CPU time each)\n", m.name.c_str(), runs,
+              ms_total, ms_total / runs, cpu_total / runs);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_bench_decode");
+  const Args args = ParseArgs(argc, argv);
+  if (!args.loop_model.empty()) return Loop(args);
+
+  json out;
+  out["schema"] = "meshstream-bench-decode/1";
+  out["machine"] = {{"cpu", ms::bench::CpuModel()},
+                    {"kernel", ms::bench::KernelName()},
+                    {"load_average", ms::bench::LoadAverage()},
+                    {"time", ms::bench::UtcNow()},
+                    {"commit", ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR)},
+                    {"build_type", MESHSTREAM_BUILD_TYPE}};
+  out["settings"] = {{"qp", args.qp}, {"rounds", args.rounds}, {"draco_compression_level", 7}};
+  out["models"] = json::array();
+
+  std::printf("%-15s %8s %8s | %9s %9s %9s | %6s %6s | %s\n", "model", "vertices", "faces", "all ms", "base ms",
+              "draco ms", "all/d", "base/d", "decode hash");
+  for (const std::string& file : ChooseModels(args.only)) {
+    const Model m = Prepare(args.models_dir, file, args.qp);
+    struct Timed {
+      std::function<uint64_t()> run;
+      std::vector<double> times;
+      uint64_t first = 0;
+    };
+    std::vector<Timed> timed = {{[&m] { return DecodeMeshstream(m, -1); }, {}, 0},
+                                {[&m] { return DecodeMeshstream(m, 0); }, {}, 0},
+                                {[&m] { return uint64_t{DecodeDraco(m)}; }, {}, 0}};
+    for (Timed& t : timed) t.first = t.run();  // the warm-up round
+    for (int i = 0; i < args.rounds; ++i) {
+      for (Timed& t : timed) {
+        const auto s = Clock::now();
+        const uint64_t h = t.run();
+        t.times.push_back(Ms(s, Clock::now()));
+        if (h != t.first) Die(m.name + ": a decode differs from the first one");
+      }
+    }
+    const double all = Median(timed[0].times), base = Median(timed[1].times), draco = Median(timed[2].times);
+    std::printf("%-15s %8llu %8llu | %9.3f %9.3f %9.3f | %6.2f %6.2f | %016llx\n", m.name.c_str(),
+                static_cast<unsigned long long>(m.vertices), static_cast<unsigned long long>(m.faces), all, base,
+                draco, all / draco, base / draco, static_cast<unsigned long long>(timed[0].first));
+    std::fflush(stdout);
+    out["models"].push_back({{"name", m.name},
+                             {"vertices", m.vertices},
+                             {"faces", m.faces},
+                             {"glb_bytes", m.glb.size()},
+                             {"decode_all_ms", all},
+                             {"decode_base_ms", base},
+                             {"draco7_decode_ms", draco},
+                             {"all_over_draco", all / draco},
+                             {"base_over_draco", base / draco},
+                             {"decode_all_hash", timed[0].first},
+                             {"decode_base_hash", timed[1].first},
+                             {"all_ms", timed[0].times},
+                             {"base_ms", timed[1].times},
+                             {"draco_ms", timed[2].times}});
+  }
+  if (!args.json_out.empty()) {
+    std::ofstream f(args.json_out);
+    f << out.dump(2) << "\n";
+    if (!f) Die("cannot write " + args.json_out);
+  }
+  return 0;
+}
