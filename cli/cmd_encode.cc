@@ -10,6 +10,7 @@
 #include "cli/json_out.h"
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
+#include "codec/bitstream/format.h"
 #include "codec/mesh/quantization.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
@@ -31,6 +32,7 @@ struct EncodeArgs {
   std::string in, out;
   ProgressiveGlbOptions options;
   int levels = 0;
+  int format_version = kStreamVersion;
   std::string packing = "split";
   bool json = false;
 };
@@ -42,6 +44,7 @@ int RunEncode(EncodeArgs& args) {
   const QuantizationParams& q = options.encode.quantization;
   const std::string& packing = args.packing;
   options.encode.simplify.max_levels = static_cast<uint32_t>(args.levels);
+  options.stream.version = static_cast<uint8_t>(args.format_version);
   options.stream.packing = packing == "split" ? Packing::kSplit : Packing::kBundled;
   const bool json_out = args.json;
   if (!json_out && isatty(STDERR_FILENO)) {
@@ -93,6 +96,7 @@ int RunEncode(EncodeArgs& args) {
       {"removed_faces", removed},
       {"packing", packing},
       {"packet_bytes", options.stream.packet_bytes},
+      {"format_version", options.stream.version},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
   };
@@ -139,6 +143,10 @@ Verb AddEncode(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--packet-bytes", o.stream.packet_bytes, "datagram payload limit, header included")
               ->check(CLI::Range(kMinPacketBytes, kMaxPacketBytes)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--format-version", args->format_version,
+                          "progressive format version: 2, or 1 for decoders that predate version 2 (larger)")
+              ->check(CLI::Range(static_cast<int>(kOldestStreamVersion), static_cast<int>(kStreamVersion))))
       ->capture_default_str();
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
               ->check(CLI::Range(0, 10)))

@@ -182,6 +182,23 @@ TEST(ProgressiveCli, EveryLevelOfDetailHasItsVertexCount) {
   }
 }
 
+// --format-version 1 writes the previous format (for decoders that predate
+// version 2): larger, and decoded to the same mesh as version 2.
+TEST(ProgressiveCli, FormatVersionOneIsWrittenOnRequestAndDecodesToTheSameMesh) {
+  TempDir dir;
+  const std::string src = Quote(ModelPath("fandisk.obj"));
+  const json v2 = RunJson("encode --json " + src + " -o " + Quote(dir.File("v2.glb")));
+  const json v1 = RunJson("encode --json --format-version 1 " + src + " -o " + Quote(dir.File("v1.glb")));
+  EXPECT_EQ(U(v2, "format_version"), 2u);
+  EXPECT_EQ(U(v1, "format_version"), 1u);
+  EXPECT_GT(U(v1, "total_bytes"), U(v2, "total_bytes") * 5 / 4);
+  EXPECT_EQ(LevelVertices(v1), LevelVertices(v2));
+  ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(dir.File("v1.glb")) + " -o " + Quote(dir.File("v1.obj"))).exit_code, 0);
+  ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(dir.File("v2.glb")) + " -o " + Quote(dir.File("v2.obj"))).exit_code, 0);
+  const json c = RunJson("compare --json --qp 11 " + Quote(dir.File("v1.obj")) + " " + Quote(dir.File("v2.obj")));
+  EXPECT_EQ(c["same_on_grid"], true) << c.dump();
+}
+
 // A multi-primitive glTF scene comes back with its nodes, meshes and
 // primitives. Each primitive has its own grid, so the geometry is compared
 // by distance over the whole scene rather than on one grid.
@@ -253,6 +270,8 @@ TEST(ProgressiveCli, UsageErrorsExitTwoAndBadInputExitsOne) {
       {"encode --packing foo " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --qp 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --packet-bytes 10 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --format-version 3 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --format-version 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"decode " + Quote(glb), 2},                                       // no -o
       {"decode " + Quote(glb) + " -o " + Quote(dir.File("x.fbx")), 2},
