@@ -2,10 +2,6 @@
 
 #include <algorithm>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 
 namespace meshstream {
 
@@ -25,25 +21,12 @@ size_t RankInRing(const std::vector<uint32_t>& ring, size_t at) {
   return rank;
 }
 
-// How many of lanes[0 .. width) (width 8 or 16) lie below v.
+// How many of lanes[0 .. width) (width 8 or 16) lie below v: a reduction
+// without branches, which the compiler vectorizes.
 uint32_t CountBelow(const uint32_t* lanes, size_t width, uint32_t v) {
-#if defined(__SSE2__)
-  // Unsigned order through signed compares: flip the sign bits.
-  const __m128i flip = _mm_set1_epi32(INT32_MIN);
-  const __m128i key = _mm_xor_si128(_mm_set1_epi32(static_cast<int>(v)), flip);
-  __m128i count = _mm_setzero_si128();
-  for (size_t i = 0; i < width; i += 4) {
-    const __m128i x = _mm_xor_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lanes + i)), flip);
-    count = _mm_sub_epi32(count, _mm_cmplt_epi32(x, key));  // a true lane is -1
-  }
-  count = _mm_add_epi32(count, _mm_shuffle_epi32(count, _MM_SHUFFLE(1, 0, 3, 2)));
-  count = _mm_add_epi32(count, _mm_shuffle_epi32(count, _MM_SHUFFLE(2, 3, 0, 1)));
-  return static_cast<uint32_t>(_mm_cvtsi128_si32(count));
-#else
   uint32_t below = 0;
   for (size_t i = 0; i < width; ++i) below += lanes[i] < v ? 1u : 0u;
   return below;
-#endif
 }
 
 }  // namespace
@@ -65,7 +48,7 @@ bool WingPositions(const std::vector<uint32_t>& ring, const std::array<uint16_t,
   size_t k = d;
   if (d <= 16) {
     // Small rings (nearly all): each entry's rank counted without branches
-    // against 8 or 16 entries at once (UINT32_MAX pads: never below
+    // against 8 or 16 entries (UINT32_MAX pads: never below
     // anything); the first entry of that rank wins.
     uint32_t lanes[16];
     for (size_t i = 0; i < 16; ++i) lanes[i] = i < d ? x[i] : UINT32_MAX;

@@ -2,10 +2,6 @@
 
 #include <algorithm>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 namespace meshstream {
 
 uint32_t SplitConnectivity::Take(uint32_t entries) {
@@ -75,41 +71,9 @@ Status SplitConnectivity::Reset(uint32_t vertex_count, const std::vector<uint32_
 
 namespace {
 
-// The index of the lowest set bit of a non-zero mask.
-inline unsigned LowestBit(uint32_t mask) {
-#if defined(__GNUC__) || defined(__clang__)
-  return static_cast<unsigned>(__builtin_ctz(mask));
-#else
-  unsigned i = 0;
-  while ((mask & 1u) == 0) {
-    mask >>= 1;
-    ++i;
-  }
-  return i;
-#endif
-}
-
-// Bit i set when lanes[i] == v, for i < W (W a multiple of 4).
-template <size_t W>
-inline uint32_t EqualMask(const uint32_t* lanes, uint32_t v) {
-#if defined(__SSE2__)
-  const __m128i key = _mm_set1_epi32(static_cast<int>(v));
-  uint32_t mask = 0;
-  for (size_t i = 0; i < W; i += 4) {
-    const __m128i x = _mm_loadu_si128(reinterpret_cast<const __m128i*>(lanes + i));
-    mask |= static_cast<uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, key)))) << i;
-  }
-  return mask;
-#else
-  uint32_t mask = 0;
-  for (size_t i = 0; i < W; ++i) mask |= static_cast<uint32_t>(lanes[i] == v) << i;
-  return mask;
-#endif
-}
-
 // The walk of a ring of n <= W triangles, (x, y) in xs and ys: every step
-// compares the current vertex with all W x's at once (`pad`, which no x
-// equals, fills the lanes beyond n).
+// compares the current vertex with all W x's (`pad`, which no x equals,
+// fills the lanes beyond n), without a branch per lane.
 template <size_t W>
 bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint32_t* fs, uint32_t pad,
                    std::vector<uint32_t>& ring, std::vector<uint32_t>& ring_faces) {
@@ -123,10 +87,17 @@ bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint3
   uint32_t cur = start;
   size_t step = 0;
   for (; step < n; ++step) {
-    const uint32_t mask = EqualMask<W>(lanes, cur);
+    // Two sums over all W lanes (reductions the compiler vectorizes): how
+    // many x's are cur, and the sum of their indices, which is the index
+    // when there is exactly one.
+    uint32_t hits = 0, found = 0;
+    for (size_t i = 0; i < W; ++i) {
+      const uint32_t match = lanes[i] == cur ? 1u : 0u;
+      hits += match;
+      found += match * static_cast<uint32_t>(i);
+    }
     // None: an open fan (boundary); two or more: not a fan.
-    if (mask == 0 || (mask & (mask - 1)) != 0) break;
-    const unsigned found = LowestBit(mask);
+    if (hits != 1) break;
     out[step] = cur;
     out_faces[step] = fs[found];
     cur = ys[found];
