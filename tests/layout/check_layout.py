@@ -2,7 +2,7 @@
 """Checks that every #include points the way docs/architecture.md draws it.
 
 - codec/ includes only the C++ standard library (none of its files, clocks
-  or threads), the compiler's SIMD intrinsics and codec/ itself, and its
+  or threads) and codec/ itself, and its
   folders depend on each other in one direction (CODEC_DEPENDS below, the
   order docs/architecture.md writes down; what a folder may use includes what
   its dependencies may use);
@@ -48,9 +48,6 @@ LAYER_FORBIDDEN = {
     "services": ["sdk", "cli", "bench", "tests"],
     "sdk": ["services", "cli", "bench", "tests"],
 }
-# The compiler's own SIMD intrinsics are part of the toolchain, not a library:
-# codec/ may use them (behind the compiler's feature macro, with a scalar path).
-CODEC_INTRINSICS = {"emmintrin.h", "arm_neon.h"}
 # The pure library does no I/O, keeps no clock and starts no thread.
 CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",
                        "condition_variable", "future", "atomic", "chrono", "ctime"}
@@ -108,8 +105,6 @@ def main(root):
                         continue
                     if kind == "<":
                         # The standard library only: no third-party header in the pure library.
-                        if target in CODEC_INTRINSICS:
-                            continue
                         if "/" in target or target.endswith((".h", ".hpp")):
                             errors.append(f"{where}: codec/ uses no third-party or C header")
                         elif target in CODEC_FORBIDDEN_STD:
