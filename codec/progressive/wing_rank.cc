@@ -61,7 +61,7 @@ bool WingRanking::Reset(const Vec3i& w, const Vec3i* ring, size_t d, const Local
       const int64_t offset = a[1] * c0 - a[0] * c1;
       const int64_t score = spread - kOffsetWeight * offset * offset;
       // |score| / length < 22 * 2^24 (Cauchy-Schwarz), so the key fits in 2^45.
-      cand.key = length > 0 ? static_cast<int64_t>((__int128{score} << kKeyBits) / length) : INT64_MIN;
+      cand.key = length > 0 ? static_cast<int64_t>(__int128{score} * (int64_t{1} << kKeyBits) / length) : INT64_MIN;
       candidates_.push_back(cand);
     }
   }
