@@ -292,7 +292,6 @@ int main(int argc, char** argv) {
             const double s = spread(x, (x + K) % d);
             if (s > mine || (s == mine && x < a_at)) ++rank;
           }
-          L.wing_k.n += 0;  // K is coded as today
           L.rank_given_k.Add(rank);
         }
         {

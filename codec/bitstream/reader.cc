@@ -132,7 +132,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   has_structure_.assign(k, 0);
   has_geometry_.assign(k, 0);
   coded_ = ref;
-  current_ = std::move(ref);
+  current_ = std::move(ref);  // its split vertices now, its data once the refinement is finished
   history_ = history_.Next(split);
   in_refinement_ = true;
   return Status::Ok();
@@ -179,17 +179,13 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
     const size_t j = h.offset + size_t(i) * h.stride;
     if (structure && !has_structure_[j]) {
       coded_.wings[j] = wings[i];
-      current_.wings[j] = wings[i];
       has_structure_[j] = 1;
       fresh = true;
     }
     if (geometry && !has_geometry_[j]) {
       coded_.position_delta[j] = deltas[i];
-      current_.position_delta[j] = deltas[i];
       std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
                 coded_.attribute_delta.begin() + j * ch);
-      std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
-                current_.attribute_delta.begin() + j * ch);
       has_geometry_[j] = 1;
       fresh = true;
     }
@@ -202,7 +198,11 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
 Status StreamReader::FinishRefinement(Recovery recovery) {
   if (!in_refinement_) return InvalidArgument("no refinement was begun");
   const std::string where = "refinement " + std::to_string(next_);
-  if (current_.vertices_before != state_.connectivity.vertex_count()) return Internal(where + ": out of step");
+  if (coded_.vertices_before != state_.connectivity.vertex_count()) return Internal(where + ": out of step");
+  // What was applied starts as what arrived; the splits write what they decode.
+  current_.wings = coded_.wings;
+  current_.position_delta = coded_.position_delta;
+  current_.attribute_delta = coded_.attribute_delta;
   state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
   for (size_t j = 0; j < current_.split_count(); ++j) {

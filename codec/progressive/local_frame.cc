@@ -1,5 +1,7 @@
 #include "codec/progressive/local_frame.h"
 
+#include "codec/progressive/wide_cross.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -8,8 +10,6 @@ namespace meshstream {
 namespace {
 
 constexpr int kFixedBits = 16;
-
-__int128 Abs(__int128 v) { return v < 0 ? -v : v; }
 
 // round(a / b) for b > 0, halves away from zero.
 int64_t RoundDiv(int64_t a, int64_t b) {
@@ -29,25 +29,17 @@ int32_t Clamp32(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, 
 
 WideVec3 FanNormal(const Vec3i& w, const Vec3i* ring, size_t d) {
   WideVec3 n = {0, 0, 0};
-  for (size_t k = 0; k < d; ++k) {
-    const Vec3i& p = ring[k];
-    const Vec3i& q = ring[(k + 1) % d];
-    const int64_t a0 = int64_t{p[0]} - w[0], a1 = int64_t{p[1]} - w[1], a2 = int64_t{p[2]} - w[2];
-    const int64_t b0 = int64_t{q[0]} - w[0], b1 = int64_t{q[1]} - w[1], b2 = int64_t{q[2]} - w[2];
-    n[0] += __int128{a1} * b2 - __int128{a2} * b1;
-    n[1] += __int128{a2} * b0 - __int128{a0} * b2;
-    n[2] += __int128{a0} * b1 - __int128{a1} * b0;
-  }
+  for (size_t k = 0; k < d; ++k) AddCross(n, w, ring[k], ring[(k + 1) % d]);
   return n;
 }
 
 std::array<int64_t, 3> ScaleDown(const WideVec3& n, int bits) {
-  const __int128 m = std::max({Abs(n[0]), Abs(n[1]), Abs(n[2])});
+  const __int128 m = std::max({WideAbs(n[0]), WideAbs(n[1]), WideAbs(n[2])});
   int shift = 0;
   while ((m >> shift) >= (__int128{1} << bits)) ++shift;
   std::array<int64_t, 3> out{};
   for (int c = 0; c < 3; ++c) {
-    const int64_t mag = static_cast<int64_t>(Abs(n[c]) >> shift);
+    const int64_t mag = static_cast<int64_t>(WideAbs(n[c]) >> shift);
     out[c] = n[c] < 0 ? -mag : mag;
   }
   return out;

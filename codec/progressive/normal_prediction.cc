@@ -2,26 +2,15 @@
 
 #include <algorithm>
 
+#include "codec/progressive/wide_cross.h"
+
 namespace meshstream {
-
-namespace {
-
-__int128 Abs(__int128 v) { return v < 0 ? -v : v; }
-
-}  // namespace
 
 WideVec3 VertexNormal(const RefinementState& state, uint32_t v) {
   WideVec3 n = {0, 0, 0};
   const std::vector<Face>& faces = state.connectivity.faces();
   for (uint32_t f : state.connectivity.faces_of(v)) {
-    const Vec3i& p0 = state.positions[faces[f][0]];
-    const Vec3i& p1 = state.positions[faces[f][1]];
-    const Vec3i& p2 = state.positions[faces[f][2]];
-    const int64_t a0 = int64_t{p1[0]} - p0[0], a1 = int64_t{p1[1]} - p0[1], a2 = int64_t{p1[2]} - p0[2];
-    const int64_t b0 = int64_t{p2[0]} - p0[0], b1 = int64_t{p2[1]} - p0[1], b2 = int64_t{p2[2]} - p0[2];
-    n[0] += __int128{a1} * b2 - __int128{a2} * b1;
-    n[1] += __int128{a2} * b0 - __int128{a0} * b2;
-    n[2] += __int128{a0} * b1 - __int128{a1} * b0;
+    AddCross(n, state.positions[faces[f][0]], state.positions[faces[f][1]], state.positions[faces[f][2]]);
   }
   return n;
 }
@@ -29,15 +18,15 @@ WideVec3 VertexNormal(const RefinementState& state, uint32_t v) {
 std::array<int32_t, 2> OctahedralCode(const WideVec3& normal, int bits) {
   const std::array<int64_t, 3> v = ScaleDown(normal, 40);
   const __int128 m = (__int128{1} << bits) - 1;
-  __int128 l1 = Abs(v[0]) + Abs(v[1]) + Abs(v[2]);
+  __int128 l1 = WideAbs(v[0]) + WideAbs(v[1]) + WideAbs(v[2]);
   __int128 s = v[0], t = v[1];
   if (l1 == 0) {
     s = 0;
     t = 0;
     l1 = 1;
   } else if (v[2] < 0) {
-    s = (l1 - Abs(v[1])) * (v[0] >= 0 ? 1 : -1);
-    t = (l1 - Abs(v[0])) * (v[1] >= 0 ? 1 : -1);
+    s = (l1 - WideAbs(v[1])) * (v[0] >= 0 ? 1 : -1);
+    t = (l1 - WideAbs(v[0])) * (v[1] >= 0 ? 1 : -1);
   }
   // q = round((x / l1 + 1) / 2 * M), the numerator never negative.
   auto code = [&](__int128 x) {
