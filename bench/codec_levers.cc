@@ -81,7 +81,9 @@ void Frame(const Vec3d& n, Vec3d* t1, Vec3d* t2) {
 struct Level {
   // geometry: per predictor, per-split residual vectors are kept for alpha search
   std::vector<Vec3d> d, side_diff, side_diff_strict, lap, normal, lap_guess;
+  std::vector<double> scale;  // mean distance of the ring from w
   BitTally wing_a, wing_k, rank_given_k, rank_pair, rank_geom, rank_l2[5];
+  BitTally rank_by_valence[4];  // the rank of weight 16, one model per valence class (<= 5, 6, 7, >= 8)
   SignedTally nrm_raw[2], nrm_pred[2], nrm_b[2], nrm_c[2];
 };
 
@@ -124,6 +126,31 @@ double GeometryBits(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred,
     }
   }
   return t[0].Bits() + t[1].Bits() + t[2].Bits();
+}
+
+// As GeometryBits with the rotation (frame 2), but one pair of models
+// (tangential, normal) per class of the ring's scale against the level's
+// median: below 3/4 of it, above 4/3 of it, or between.
+double GeometryBitsByScale(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred, double alpha,
+                           const std::vector<Vec3d>& normals, const std::vector<double>& scale) {
+  if (d.empty()) return 0;
+  std::vector<double> sorted = scale;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  SignedTally t[3][2];
+  for (size_t j = 0; j < d.size(); ++j) {
+    const int cls = scale[j] < 0.75 * median ? 0 : scale[j] > median * 4 / 3 ? 2 : 1;
+    Vec3d r;
+    for (int c = 0; c < 3; ++c) r[c] = d[j][c] - std::round(alpha * pred[j][c]);
+    Vec3d t1, t2;
+    Frame(normals[j], &t1, &t2);
+    t[cls][0].Add(std::llround(ms::Dot(r, t1)));
+    t[cls][0].Add(std::llround(ms::Dot(r, t2)));
+    t[cls][1].Add(std::llround(ms::Dot(r, normals[j])));
+  }
+  double bits = 0;
+  for (auto& c : t) bits += c[0].Bits() + c[1].Bits();
+  return bits;
 }
 
 }  // namespace
@@ -266,6 +293,11 @@ int main(int argc, char** argv) {
         L.side_diff_strict.push_back(ms::Sub(cws, cns));
         L.lap.push_back(lap);
         L.normal.push_back(n);
+        {
+          double sc = 0;
+          for (const Vec3d& x : ring) sc += ms::Norm(ms::Sub(x, m));
+          L.scale.push_back(sc / double(d));
+        }
         // Structure: current coding.
         L.wing_a.Add(r.wings[j][0]);
         L.wing_k.Add(r.wings[j][1]);
@@ -342,6 +374,7 @@ int main(int argc, char** argv) {
                 if (spread2(x, (x + k) % d) > mine) ++rank;
               }
             L.rank_l2[li].Add(std::min<uint32_t>(rank, 40));
+            if (li == 1) L.rank_by_valence[std::clamp<size_t>(d, 5, 8) - 5].Add(std::min<uint32_t>(rank, 40));
           }
         }
         {
@@ -457,6 +490,11 @@ int main(int argc, char** argv) {
           total([&](Level& L) { return best_alpha(L.d, L.side_diff_strict, frame, L.normal, nullptr); });
       j["geometry_laplacian" + suffix] = total([&](Level& L) { return best_alpha(L.d, L.lap, frame, L.normal, nullptr); });
     }
+    j["geometry_laplacian_rotated_by_scale"] = total([&](Level& L) {
+      double best = 1e300;
+      for (int k = 0; k <= 40; ++k) best = std::min(best, GeometryBitsByScale(L.d, L.lap, k / 32.0, L.normal, L.scale));
+      return best;
+    });
     j["geometry_on_guessed_cut_rotated"] = total([&](Level& L) { return best_alpha(L.d, L.lap_guess, 2, L.normal, nullptr); });
     std::vector<double> alphas;
     for (auto& L : levels) {
@@ -474,6 +512,11 @@ int main(int argc, char** argv) {
     j["structure_pair_rank"] = total([&](Level& L) { return L.rank_pair.Bits(); });
     for (int li = 0; li < 5; ++li)
       j["structure_pair_rank_l2_" + std::to_string(li)] = total([&](Level& L) { return L.rank_l2[li].Bits(); });
+    j["structure_rank_by_valence"] = total([&](Level& L) {
+      double b = 0;
+      for (const BitTally& t : L.rank_by_valence) b += t.Bits();
+      return b;
+    });
     j["structure_geometry_first_rank"] = total([&](Level& L) { return L.rank_geom.Bits(); });
     if (normals) {
       j["normals_raw"] = total([&](Level& L) { return L.nrm_raw[0].Bits() + L.nrm_raw[1].Bits(); });
