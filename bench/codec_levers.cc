@@ -153,6 +153,25 @@ double GeometryBitsByScale(const std::vector<Vec3d>& d, const std::vector<Vec3d>
   return bits;
 }
 
+// The rotated residual (frame 2) with the prediction's tangential and
+// normal parts scaled by alphas of their own.
+double GeometryBitsTwoAlphas(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred, double alpha_t,
+                             double alpha_n, const std::vector<Vec3d>& normals, int part) {
+  SignedTally t[2];
+  for (size_t j = 0; j < d.size(); ++j) {
+    Vec3d t1, t2;
+    const Vec3d& n = normals[j];
+    Frame(n, &t1, &t2);
+    const double r1 = ms::Dot(d[j], t1) - std::round(alpha_t * ms::Dot(pred[j], t1));
+    const double r2 = ms::Dot(d[j], t2) - std::round(alpha_t * ms::Dot(pred[j], t2));
+    const double rn = ms::Dot(d[j], n) - std::round(alpha_n * ms::Dot(pred[j], n));
+    t[0].Add(std::llround(r1));
+    t[0].Add(std::llround(r2));
+    t[1].Add(std::llround(rn));
+  }
+  return t[part].Bits();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -494,6 +513,14 @@ int main(int argc, char** argv) {
       double best = 1e300;
       for (int k = 0; k <= 40; ++k) best = std::min(best, GeometryBitsByScale(L.d, L.lap, k / 32.0, L.normal, L.scale));
       return best;
+    });
+    j["geometry_laplacian_rotated_two_alphas"] = total([&](Level& L) {
+      double bt = 1e300, bn = 1e300;
+      for (int k = 0; k <= 48; ++k) {
+        bt = std::min(bt, GeometryBitsTwoAlphas(L.d, L.lap, k / 32.0, 0, L.normal, 0));
+        bn = std::min(bn, GeometryBitsTwoAlphas(L.d, L.lap, 0, k / 32.0, L.normal, 1));
+      }
+      return bt + bn;
     });
     j["geometry_on_guessed_cut_rotated"] = total([&](Level& L) { return best_alpha(L.d, L.lap_guess, 2, L.normal, nullptr); });
     std::vector<double> alphas;
