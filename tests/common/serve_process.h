@@ -154,6 +154,36 @@ class ServeProcess {
   int exit_code_ = -1;
 };
 
+// The server most integration suites share, for SetUpTestSuite and
+// TearDownTestSuite: `meshstream serve` on an embedded store in a fresh
+// temporary folder, with two workers.
+struct SuiteServer {
+  TempDir* dir = nullptr;
+  ServeProcess* server = nullptr;
+
+  Status Start() {
+    dir = new TempDir();
+    auto started = ServeProcess::Start({"--store", dir->File("store"), "--workers", "2"});
+    if (!started.ok()) return started.status();
+    server = started.value().release();
+    return Status::Ok();
+  }
+  // The server's exit code after SIGTERM (0: drained cleanly), with its log
+  // in `*log`; both folders are gone afterwards.
+  int Stop(std::string* log) {
+    int code = 0;
+    if (server != nullptr) {
+      code = server->Terminate();
+      *log = server->log();
+    }
+    delete server;
+    delete dir;
+    server = nullptr;
+    dir = nullptr;
+    return code;
+  }
+};
+
 }  // namespace meshstream::test_util
 
 #endif  // MESHSTREAM_TESTS_COMMON_SERVE_PROCESS_H_

@@ -74,10 +74,8 @@ struct Ingested {
 class AssetApi : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new test_util::TempDir();
-    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = server.value().release();
+    const Status started = suite_.Start();
+    ASSERT_TRUE(started.ok()) << started.ToString();
     client_ = new AssetClient(server_->address());
     // Every model is sent first, then every job followed: the pool works on
     // them in parallel while the uploads go on.
@@ -96,13 +94,10 @@ class AssetApi : public ::testing::Test {
     }
   }
   static void TearDownTestSuite() {
-    if (server_ != nullptr) {
-      EXPECT_EQ(server_->Terminate(), 0) << server_->log();
-    }
+    std::string log;
+    EXPECT_EQ(suite_.Stop(&log), 0) << log;
     delete client_;
-    delete server_;
     delete ingested_;
-    delete dir_;
   }
 
   static grpc::Status Unary(std::function<grpc::Status(grpc::ClientContext*)> call) {
@@ -117,8 +112,9 @@ class AssetApi : public ::testing::Test {
     EXPECT_EQ(health.serving_status, 1) << "health is not SERVING";
   }
 
-  static inline test_util::TempDir* dir_ = nullptr;
-  static inline ServeProcess* server_ = nullptr;
+  static inline test_util::SuiteServer suite_;
+  static inline test_util::TempDir*& dir_ = suite_.dir;
+  static inline ServeProcess*& server_ = suite_.server;
   static inline AssetClient* client_ = nullptr;
   static inline std::vector<Ingested>* ingested_ = nullptr;
 };

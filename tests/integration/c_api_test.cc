@@ -205,10 +205,8 @@ struct Stored {
 class CApi : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new test_util::TempDir();
-    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = server.value().release();
+    const Status started = suite_.Start();
+    ASSERT_TRUE(started.ok()) << started.ToString();
     // spot: one primitive with UVs; engine: 34 primitives with normals;
     // box: a primitive too small to have refinements.
     stored_ = new std::vector<Stored>();
@@ -232,11 +230,9 @@ class CApi : public ::testing::Test {
     }
   }
   static void TearDownTestSuite() {
-    if (server_ != nullptr) { EXPECT_EQ(server_->Terminate(), 0) << server_->log(); }
-    delete server_;
+    std::string log;
+    EXPECT_EQ(suite_.Stop(&log), 0) << log;
     delete stored_;
-    delete dir_;
-    server_ = nullptr;
   }
 
   static void Ingest(const ServeProcess& server, const std::string& asset, const std::string& file,
@@ -268,8 +264,9 @@ class CApi : public ::testing::Test {
     return SessionPtr(session);
   }
 
-  static inline test_util::TempDir* dir_ = nullptr;
-  static inline ServeProcess* server_ = nullptr;
+  static inline test_util::SuiteServer suite_;
+  static inline test_util::TempDir*& dir_ = suite_.dir;
+  static inline ServeProcess*& server_ = suite_.server;
   static inline std::vector<Stored>* stored_ = nullptr;
 };
 

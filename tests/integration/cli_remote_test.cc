@@ -28,21 +28,17 @@ using test_util::ServeProcess;
 class CliRemote : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new test_util::TempDir();
-    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2"});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = server.value().release();
+    const Status started = suite_.Start();
+    ASSERT_TRUE(started.ok()) << started.ToString();
   }
   static void TearDownTestSuite() {
-    if (server_ != nullptr) {
-      EXPECT_EQ(server_->Terminate(), 0) << server_->log();
-    }
-    delete server_;
-    delete dir_;
+    std::string log;
+    EXPECT_EQ(suite_.Stop(&log), 0) << log;
   }
   static std::string Remote() { return " --server " + server_->address(); }
-  static inline test_util::TempDir* dir_ = nullptr;
-  static inline ServeProcess* server_ = nullptr;
+  static inline test_util::SuiteServer suite_;
+  static inline test_util::TempDir*& dir_ = suite_.dir;
+  static inline ServeProcess*& server_ = suite_.server;
 };
 
 TEST_F(CliRemote, IngestWaitVersionsAndExportEveryFormat) {
