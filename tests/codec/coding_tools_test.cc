@@ -5,6 +5,7 @@
 // normal_prediction,texcoord_prediction}.h).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <set>
 
@@ -407,6 +408,8 @@ TEST(TexcoordPrediction, StreamRoundTripWithTexcoordsAndColoursUnderEveryTool) {
     }
   }
   // Smooth channels: the prediction pays.
+  std::printf("coloured sphere: datagrams %zu bytes with texture coordinate prediction, %zu without\n", bytes_with,
+              bytes_without);
   EXPECT_LT(bytes_with, bytes_without);
 }
 
