@@ -86,7 +86,7 @@ struct Level {
   // Texture coordinate and colour channels (all channels after the normals):
   // per split and channel the true difference e and each candidate's
   // (unscaled) prediction, for a per-level scale search.
-  std::vector<double> att_e, att_lap, att_map, att_map3;
+  std::vector<double> att_e, att_lap, att_map, att_map3, att_axis;
 };
 
 // Order-0 bits of the attribute residuals e - round(alpha p), one model per channel.
@@ -409,6 +409,34 @@ int main(int argc, char** argv) {
         if (att_ch > 0) {
           Vec3d t1, t2;
           Frame(n, &t1, &t2);
+          // The same map in the two coordinates other than the normal's dominant axis
+          // (an oblique projection onto a coordinate plane, no rotation).
+          int drop = 0;
+          for (int x = 1; x < 3; ++x)
+            if (std::fabs(n[x]) > std::fabs(n[drop])) drop = x;
+          const int ax0 = drop == 0 ? 1 : 0, ax1 = drop == 2 ? 1 : 2;
+          double Ax[3] = {0, 0, 0};
+          std::vector<std::array<double, 2>> Bx(att_ch, {0, 0});
+          for (size_t k = 0; k < d; ++k) {
+            const Vec3d e3 = ms::Sub(ring[k], m);
+            Ax[0] += e3[ax0] * e3[ax0];
+            Ax[1] += e3[ax0] * e3[ax1];
+            Ax[2] += e3[ax1] * e3[ax1];
+            for (int c = 0; c < att_ch; ++c) {
+              const double du = st.attributes[size_t(ids_ring[k]) * ch + att0 + c] - st.attributes[size_t(w) * ch + att0 + c];
+              Bx[c][0] += du * e3[ax0];
+              Bx[c][1] += du * e3[ax1];
+            }
+          }
+          {
+            const double detx = Ax[0] * Ax[2] - Ax[1] * Ax[1];
+            const double tx = dd[ax0], ty = dd[ax1];
+            for (int c = 0; c < att_ch; ++c) {
+              double p = 0;
+              if (detx > 0) p = (Bx[c][0] * (Ax[2] * tx - Ax[1] * ty) + Bx[c][1] * (Ax[0] * ty - Ax[1] * tx)) / detx;
+              L.att_axis.push_back(p);
+            }
+          }
           double A[3] = {0, 0, 0};  // sum q q^T
           double M3[3][3] = {{0}};
           std::vector<std::array<double, 2>> Bq(att_ch, {0, 0});
@@ -588,6 +616,7 @@ int main(int argc, char** argv) {
       j["attributes_laplacian_best_alpha"] = total([&](Level& L) { return att_best(L.att_e, L.att_lap, nullptr); });
       j["attributes_ring_map"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_map, 1, att_ch); });
       j["attributes_ring_map_best_alpha"] = total([&](Level& L) { return att_best(L.att_e, L.att_map, nullptr); });
+      j["attributes_ring_map_axis_dropped"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_axis, 1, att_ch); });
       j["attributes_ring_map_3d"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_map3, 1, att_ch); });
       std::vector<double> alphas2;
       for (auto& L : levels) {

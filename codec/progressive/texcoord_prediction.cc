@@ -28,7 +28,7 @@ void RingChannelMap::Reset(const Vec3i& m, const Vec3i& d, const Vec3i* ring, si
   if (degree < 3 || degree > kMaxPredictedValence) return;
   // The ring and the split vector in the tangent plane (64-bit: |component| <= 2^31).
   int64_t extent = 0;
-  std::array<std::array<int64_t, 2>, kMaxPredictedValence> q{};
+  std::array<std::array<int64_t, 2>, kMaxPredictedValence> q;  // [0, degree) set below
   for (size_t k = 0; k < degree; ++k) {
     const Vec3i f = frame.Forward(Difference(ring[k], m));
     q[k] = {f[0], f[1]};
@@ -68,7 +68,12 @@ int32_t RingChannelMap::Predict(const int32_t* values, size_t stride, const uint
   }
   // B adj(A) t: below 2 * 2^53 * 2^57 = 2^111; rounded to nearest, halves away from zero.
   const __int128 num = __int128{b0} * h_[0] + __int128{b1} * h_[1];
-  const __int128 mag = ((num < 0 ? -num : num) * 2 + det_) / (2 * det_);
+  const __int128 twice = (num < 0 ? -num : num) * 2 + det_;
+  const __int128 den = 2 * det_;
+  // The same quotient in 64 bits when both fit (small rings: most splits).
+  constexpr __int128 kFits = __int128{1} << 62;
+  const __int128 mag = twice < kFits && den < kFits ? __int128{static_cast<int64_t>(twice) / static_cast<int64_t>(den)}
+                                                    : twice / den;
   const __int128 p = std::min<__int128>(mag, kMaxPrediction);
   return static_cast<int32_t>(num < 0 ? -p : p);
 }

@@ -50,7 +50,7 @@ class RingChannelMap {
 
  private:
   size_t degree_ = 0;  // 0: predicts 0
-  std::array<std::array<int32_t, 2>, kMaxPredictedValence> q_{};
+  std::array<std::array<int32_t, 2>, kMaxPredictedValence> q_;  // [0, degree_) set by Reset (no zeroing per split)
   int64_t h_[2] = {0, 0};  // adj(A) t
   __int128 det_ = 0;       // det(A) > 0
 };
