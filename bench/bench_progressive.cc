@@ -431,7 +431,8 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
       {"+ local frame (tangential / normal residual)", 2, ms::kToolGeometryPrediction | ms::kToolLocalFrame},
       {"+ cut edges by rank in the ring's geometric order", 2,
        ms::kToolGeometryPrediction | ms::kToolLocalFrame | ms::kToolWingRank},
-      {"+ normals predicted from the decoded geometry", 2, ms::kAllTools},
+      {"+ normals predicted from the decoded geometry", 2, ms::kAllTools & ~ms::kToolTexcoordPrediction},
+      {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools},
   };
   json out = json::array();
   double previous = 0;

@@ -85,7 +85,22 @@ struct Level {
   BitTally wing_a, wing_k, rank_given_k, rank_pair, rank_geom, rank_l2[5];
   BitTally rank_by_valence[4];  // the rank of weight 16, one model per valence class (<= 5, 6, 7, >= 8)
   SignedTally nrm_raw[2], nrm_pred[2], nrm_b[2], nrm_c[2];
+  // Texture coordinate and colour channels (all channels after the normals):
+  // per split and channel the true difference e and each candidate's
+  // (unscaled) prediction, for a per-level scale search.
+  std::vector<double> att_e, att_lap, att_map, att_map3, att_axis;
 };
+
+// Order-0 bits of the attribute residuals e - round(alpha p), one model per channel.
+double AttributeBits(const std::vector<double>& e, const std::vector<double>& p, double alpha, int channels) {
+  double bits = 0;
+  for (int c = 0; c < channels; ++c) {
+    SignedTally t;
+    for (size_t k = c; k < e.size(); k += channels) t.Add(std::llround(e[k] - std::round(alpha * p[k])));
+    bits += t.Bits();
+  }
+  return bits;
+}
 
 double GeometryBits(const std::vector<Vec3d>& d, const std::vector<Vec3d>& pred, double alpha, int frame,
                     const std::vector<Vec3d>& normals) {
@@ -436,6 +451,107 @@ int main(int argc, char** argv) {
             }
           L.rank_geom.Add(std::min<uint32_t>(rank, 40));
         }
+        // Texture coordinates and colours (the channels after the normals):
+        // (a) the Laplacian closed form of the geometry on the channel values;
+        // (b) the ring's least-squares linear map from the tangent plane to the
+        // channels applied to the split vector; (b3) the same map from 3D
+        // (ridge-regularized), for comparison; (c) zero.
+        const int att0 = normals ? 2 : 0;
+        const int att_ch = ch - att0;
+        if (att_ch > 0) {
+          Vec3d t1, t2;
+          Frame(n, &t1, &t2);
+          // The same map in the two coordinates other than the normal's dominant axis
+          // (an oblique projection onto a coordinate plane, no rotation).
+          int drop = 0;
+          for (int x = 1; x < 3; ++x)
+            if (std::fabs(n[x]) > std::fabs(n[drop])) drop = x;
+          const int ax0 = drop == 0 ? 1 : 0, ax1 = drop == 2 ? 1 : 2;
+          double Ax[3] = {0, 0, 0};
+          std::vector<std::array<double, 2>> Bx(att_ch, {0, 0});
+          for (size_t k = 0; k < d; ++k) {
+            const Vec3d e3 = ms::Sub(ring[k], m);
+            Ax[0] += e3[ax0] * e3[ax0];
+            Ax[1] += e3[ax0] * e3[ax1];
+            Ax[2] += e3[ax1] * e3[ax1];
+            for (int c = 0; c < att_ch; ++c) {
+              const double du = st.attributes[size_t(ids_ring[k]) * ch + att0 + c] - st.attributes[size_t(w) * ch + att0 + c];
+              Bx[c][0] += du * e3[ax0];
+              Bx[c][1] += du * e3[ax1];
+            }
+          }
+          {
+            const double detx = Ax[0] * Ax[2] - Ax[1] * Ax[1];
+            const double tx = dd[ax0], ty = dd[ax1];
+            for (int c = 0; c < att_ch; ++c) {
+              double p = 0;
+              if (detx > 0) p = (Bx[c][0] * (Ax[2] * tx - Ax[1] * ty) + Bx[c][1] * (Ax[0] * ty - Ax[1] * tx)) / detx;
+              L.att_axis.push_back(p);
+            }
+          }
+          double A[3] = {0, 0, 0};  // sum q q^T
+          double M3[3][3] = {{0}};
+          std::vector<std::array<double, 2>> Bq(att_ch, {0, 0});
+          std::vector<std::array<double, 3>> B3(att_ch, {0, 0, 0});
+          const size_t path = (a_at + d - b_at) % d;
+          const double kn2 = double(path) + 1, kw2 = double(d - path) + 1;
+          const double D2 = (kw2 + 1) * (kn2 + 1) - 1;
+          for (int c = 0; c < att_ch; ++c) {
+            const double mc = st.attributes[size_t(w) * ch + att0 + c];
+            double s_n = 0, s_w = 0;
+            for (size_t s2 = 0; s2 <= path; ++s2) s_n += st.attributes[size_t(ids_ring[(b_at + s2) % d]) * ch + att0 + c];
+            for (size_t s2 = 0; s2 <= d - path; ++s2) s_w += st.attributes[size_t(ids_ring[(a_at + s2) % d]) * ch + att0 + c];
+            L.att_lap.push_back((s_w * kn2 - s_n * kw2) / D2);
+            for (size_t k = 0; k < d; ++k) {
+              const Vec3d e3 = ms::Sub(ring[k], m);
+              const double du = st.attributes[size_t(ids_ring[k]) * ch + att0 + c] - mc;
+              Bq[c][0] += du * ms::Dot(e3, t1);
+              Bq[c][1] += du * ms::Dot(e3, t2);
+              for (int x = 0; x < 3; ++x) B3[c][x] += du * e3[x];
+            }
+            L.att_e.push_back(r.attribute_delta[j * ch + att0 + c]);
+          }
+          double scale2 = 0;
+          for (size_t k = 0; k < d; ++k) {
+            const Vec3d e3 = ms::Sub(ring[k], m);
+            const double x = ms::Dot(e3, t1), y = ms::Dot(e3, t2);
+            A[0] += x * x;
+            A[1] += x * y;
+            A[2] += y * y;
+            for (int a2 = 0; a2 < 3; ++a2)
+              for (int b2 = 0; b2 < 3; ++b2) M3[a2][b2] += e3[a2] * e3[b2];
+            scale2 += ms::Dot(e3, e3);
+          }
+          const double det = A[0] * A[2] - A[1] * A[1];
+          const double tx = ms::Dot(dd, t1), ty = ms::Dot(dd, t2);
+          // 3D: (M3 + lambda I)^-1 d with lambda a small fraction of the trace.
+          const double lambda = 1e-3 * scale2;
+          for (int a2 = 0; a2 < 3; ++a2) M3[a2][a2] += lambda;
+          auto det3 = [](const double m3[3][3]) {
+            return m3[0][0] * (m3[1][1] * m3[2][2] - m3[1][2] * m3[2][1]) -
+                   m3[0][1] * (m3[1][0] * m3[2][2] - m3[1][2] * m3[2][0]) +
+                   m3[0][2] * (m3[1][0] * m3[2][1] - m3[1][1] * m3[2][0]);
+          };
+          const double D3 = det3(M3);
+          Vec3d sol{0, 0, 0};  // M3^-1 d by Cramer's rule
+          if (D3 > 0) {
+            for (int x = 0; x < 3; ++x) {
+              double mx[3][3];
+              for (int a2 = 0; a2 < 3; ++a2)
+                for (int b2 = 0; b2 < 3; ++b2) mx[a2][b2] = b2 == x ? dd[a2] : M3[a2][b2];
+              sol[x] = det3(mx) / D3;
+            }
+          }
+          for (int c = 0; c < att_ch; ++c) {
+            double p = 0;
+            if (det > 1e-9 * A[0] * A[2] && det > 0) {
+              const double sx = (A[2] * tx - A[1] * ty) / det, sy = (-A[1] * tx + A[0] * ty) / det;
+              p = Bq[c][0] * sx + Bq[c][1] * sy;
+            }
+            L.att_map.push_back(p);
+            L.att_map3.push_back(B3[c][0] * sol[0] + B3[c][1] * sol[1] + B3[c][2] * sol[2]);
+          }
+        }
         const uint32_t nv = st.ApplySplitAt(r, j, a_at, b_at);
         // Normals: predicted from the split's geometry (vertex normals of u
         // and v over their new triangles), in octahedral codes.
@@ -550,6 +666,35 @@ int main(int argc, char** argv) {
       j["normals_predicted"] = total([&](Level& L) { return L.nrm_pred[0].Bits() + L.nrm_pred[1].Bits(); });
       j["normals_predicted_u_anchor"] = total([&](Level& L) { return L.nrm_b[0].Bits() + L.nrm_b[1].Bits(); });
       j["normals_predicted_v_anchor"] = total([&](Level& L) { return L.nrm_c[0].Bits() + L.nrm_c[1].Bits(); });
+    }
+    if (ch - (normals ? 2 : 0) > 0) {
+      const int att_ch = ch - (normals ? 2 : 0);
+      auto att_best = [&](const std::vector<double>& e, const std::vector<double>& p, double* alpha_out) {
+        double best = 1e300;
+        for (int k = 0; k <= 48; ++k) {
+          const double b = AttributeBits(e, p, k / 32.0, att_ch);
+          if (b < best) {
+            best = b;
+            if (alpha_out) *alpha_out = k / 32.0;
+          }
+        }
+        return best;
+      };
+      j["attribute_channels"] = att_ch;
+      j["attributes_raw"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_e, 0, att_ch); });
+      j["attributes_laplacian_alpha1"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_lap, 1, att_ch); });
+      j["attributes_laplacian_best_alpha"] = total([&](Level& L) { return att_best(L.att_e, L.att_lap, nullptr); });
+      j["attributes_ring_map"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_map, 1, att_ch); });
+      j["attributes_ring_map_best_alpha"] = total([&](Level& L) { return att_best(L.att_e, L.att_map, nullptr); });
+      j["attributes_ring_map_axis_dropped"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_axis, 1, att_ch); });
+      j["attributes_ring_map_3d"] = total([&](Level& L) { return AttributeBits(L.att_e, L.att_map3, 1, att_ch); });
+      std::vector<double> alphas2;
+      for (auto& L : levels) {
+        double a = 0;
+        att_best(L.att_e, L.att_map, &a);
+        alphas2.push_back(a);
+      }
+      j["ring_map_alpha_per_level"] = alphas2;
     }
     std::printf("%s\n", j.dump(1).c_str());
     all.push_back(j);

@@ -115,6 +115,10 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   }
   coding_ = SplitCoding{header_.tools, 0, 0};
   if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
+  if (header_.has(kToolTexcoordPrediction)) {
+    coding_.mapped_first = header_.grids.layout.texcoord_offset(0);
+    coding_.mapped_count = header_.grids.layout.channels() - coding_.mapped_first;
+  }
   if (header_.has(kToolGeometryPrediction)) {
     auto alpha = r.U8("alpha");
     if (!alpha.ok()) return alpha.status().WithContext(where + ": control block");

@@ -8,6 +8,7 @@
 #include "codec/progressive/refinement_state.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bits.h"
+#include "codec/progressive/texcoord_prediction.h"
 #include "codec/entropy/symbol_model.h"
 
 namespace meshstream {
@@ -164,6 +165,10 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
   WingRanking ranking;
   coding->tools = tools;
   coding->alpha = 0;
+  if (tools & kToolTexcoordPrediction) {
+    coding->mapped_first = layout.texcoord_offset(0);
+    coding->mapped_count = layout.channels() - coding->mapped_first;
+  }
   const size_t k = r.split_count();
   struct Split {
     size_t a_at, b_at, ring_at, degree;
@@ -203,6 +208,17 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
         e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{e} - p[c], INT32_MIN, INT32_MAX));
       }
     }
+    if (coding->mapped_count > 0) {
+      // Relative to the difference the ring's map predicts from the split vector (texcoord_prediction.h).
+      int32_t p[kMaxMappedChannels];
+      PredictChannelDeltas(state, ring.data(), rings.data() + s.ring_at, s.degree, frames[j], w, n,
+                           coding->mapped_first, coding->mapped_count, p);
+      const int ch = layout.channels();
+      for (int c = 0; c < coding->mapped_count; ++c) {
+        int32_t& e = coded.attribute_delta[j * ch + coding->mapped_first + c];
+        e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{e} - p[c], INT32_MIN, INT32_MAX));
+      }
+    }
   }
   auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
     out->resize(k);
@@ -238,6 +254,13 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
 
 }  // namespace
 
+uint8_t ApplicableTools(uint8_t requested, const QuantizationParams& quantization, const AttributeLayout& layout) {
+  uint8_t tools = requested;
+  if (quantization.qp > 24) tools &= static_cast<uint8_t>(~kToolLocalFrame);
+  if (layout.texcoord_sets == 0 && !layout.has_colors) tools &= static_cast<uint8_t>(~kToolTexcoordPrediction);
+  return tools;
+}
+
 StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const QuantizationParams& quantization,
                                         const StreamWriteOptions& o) {
   if (o.packet_bytes < kMinPacketBytes || o.packet_bytes > kMaxPacketBytes) {
@@ -256,8 +279,9 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   }
   if ((h.tools & ~kDefinedTools) != 0) return InvalidArgument("unknown coding tools " + std::to_string(h.tools));
   // The local frame's rotation is exact for residuals below 2^28, which
-  // grids of at most 24 bits guarantee (local_frame.h).
-  if (quantization.qp > 24) h.tools &= static_cast<uint8_t>(~kToolLocalFrame);
+  // grids of at most 24 bits guarantee (local_frame.h); the texture
+  // coordinate prediction only where there are such channels.
+  h.tools = ApplicableTools(h.tools, quantization, pm.base.layout);
   h.packing = o.packing;
   h.quantization = quantization;
   h.grids.position_grid = pm.base.position_grid;

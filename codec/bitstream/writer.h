@@ -30,6 +30,13 @@ struct StreamWriteOptions {
   uint8_t tools = kAllTools;         // StreamTool bits (coding_tools.h)
 };
 
+// The tools a version 2 stream of this quantization and layout is written
+// with when `requested` are asked for: without the local frame above qp 24
+// (its rotation is exact below 2^28), without texture coordinate prediction
+// when there are neither texture coordinates nor colours. (WriteStream may
+// still drop the wing rank, for a ring beyond kMaxRankedValence.)
+uint8_t ApplicableTools(uint8_t requested, const QuantizationParams& quantization, const AttributeLayout& layout);
+
 StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& encoded, const QuantizationParams& quantization,
                                         const StreamWriteOptions& options);
 

@@ -1,6 +1,7 @@
 // The coding tools of a version 2 stream: the bits of the stream header's
 // `tools` byte (docs/progressive-format.md, section 3). The encoder uses all
-// of them; each can be turned off (`meshstream encode --tools`) to measure
+// of them (kToolTexcoordPrediction only in streams with texture coordinates
+// or colours); each can be turned off (StreamWriteOptions::tools) to measure
 // what it saves (docs/codec.md). A version 1 stream has no tools.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
@@ -14,9 +15,10 @@ enum StreamTool : uint8_t {
   kToolLocalFrame = 2,          // residual components ordered (tangential, tangential, normal)
   kToolWingRank = 4,            // cut edges coded as a rank in an order the ring's geometry predicts
   kToolAttributePrediction = 8, // normals predicted from the decoded geometry
-  kToolSplitInference = 16,     // no split bit where reliable adjacency forces a 0
+  kToolTexcoordPrediction = 16, // texture coordinates and colours predicted by the ring's map (texcoord_prediction.h)
 };
-constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction;
+constexpr uint8_t kAllTools =
+    kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction | kToolTexcoordPrediction;
 constexpr uint8_t kDefinedTools = kAllTools;
 
 }  // namespace meshstream

@@ -50,6 +50,10 @@ struct SplitCoding {
   uint8_t tools = 0;   // 0: version 1 (the split vector is sent as it is)
   uint32_t alpha = 0;  // with kToolGeometryPrediction
   int normal_bits = 0; // qn when the normals are predicted (kToolAttributePrediction and normals), else 0
+  // The channels the ring's map predicts (kToolTexcoordPrediction: the
+  // texture coordinates and colours, texcoord_prediction.h): [mapped_first,
+  // mapped_first + mapped_count); none without the tool.
+  int mapped_first = 0, mapped_count = 0;
 };
 
 // The local frame of w's ring: LocalFrame::FromNormal(FanNormal(...)).

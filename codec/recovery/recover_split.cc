@@ -9,6 +9,7 @@
 
 #include "codec/progressive/midpoint.h"
 #include "codec/progressive/normal_prediction.h"
+#include "codec/progressive/texcoord_prediction.h"
 #include "codec/recovery/degenerate_faces.h"
 
 namespace meshstream {
@@ -107,6 +108,28 @@ void AddPredictedNormals(const SplitCoding& coding, size_t j, uint32_t w, uint32
   }
 }
 
+// With texture coordinate prediction, the same for the texture coordinate
+// and colour channels: the difference the ring's map predicts from the
+// split vector (texcoord_prediction.h), on w's ring as RingGeometry found it.
+void AddPredictedChannels(const SplitCoding& coding, size_t j, uint32_t w, uint32_t n, RefinementState& state,
+                          const RecoveryScratch& scratch, Refinement* decoded) {
+  if (coding.mapped_count <= 0) return;
+  int32_t p[kMaxMappedChannels];
+  PredictChannelDeltas(state, state.scratch_ring.data(), scratch.ring_positions.data(), scratch.ring_positions.size(),
+                       scratch.local_frame, w, n, coding.mapped_first, coding.mapped_count, p);
+  const int ch = state.channels;
+  for (int c = 0; c < coding.mapped_count; ++c) {
+    const size_t at = static_cast<size_t>(coding.mapped_first + c);
+    int32_t& aw = state.attributes[size_t(w) * ch + at];
+    int32_t& an = state.attributes[size_t(n) * ch + at];
+    const int32_t m = Midpoint(aw, an);
+    const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p[c], INT32_MIN, INT32_MAX));
+    aw = FromMidpoint(m, e);
+    an = static_cast<int32_t>(int64_t{aw} - e);
+    if (decoded) decoded->attribute_delta[j * ch + at] = e;
+  }
+}
+
 // Case 1: applied as coded. Both vertices inherit what w depends on.
 void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const SplitCoding& coding, Refinement* decoded,
                 RefinementState& state, RecoveryScratch* scratch, RecoveryStats* stats) {
@@ -120,6 +143,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
   }
   const uint32_t n = state.ApplySplitAt(*apply, j, view.a_at, view.b_at);
   AddPredictedNormals(coding, j, w, n, state, decoded);
+  AddPredictedChannels(coding, j, w, n, state, *scratch, decoded);
   state.flags[n] = state.flags[w];
   state.reliable[n] = state.flags[n] == 0;
   // Exact values next to predicted ones, or on a ring a prediction changed,
@@ -350,6 +374,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   std::copy(scratch->u_channels.begin(), scratch->u_channels.end(), state.attributes.begin() + size_t(w) * channels);
   std::copy(scratch->v_channels.begin(), scratch->v_channels.end(), state.attributes.begin() + size_t(n) * channels);
   if (geometry) AddPredictedNormals(coding, j, w, n, state, decoded);
+  if (geometry) AddPredictedChannels(coding, j, w, n, state, *scratch, decoded);
   state.flags.push_back(0);
   state.reliable.push_back(1);
   if (AvoidDegenerateFaces(&state, w, n)) both |= kPositionInexact;

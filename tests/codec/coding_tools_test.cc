@@ -1,18 +1,25 @@
 // The coding tools of format version 2 one by one: the local frame's integer
-// rotation, the Laplacian split prediction, the cut-edge ranking and the
-// normal prediction (codec/progressive/{local_frame,geometry_prediction,
-// wing_rank,normal_prediction}.h).
+// rotation, the Laplacian split prediction, the cut-edge ranking, the
+// normal prediction and the texture coordinate prediction
+// (codec/progressive/{local_frame,geometry_prediction,wing_rank,
+// normal_prediction,texcoord_prediction}.h).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "codec/bitstream/reader.h"
+#include "codec/bitstream/writer.h"
 #include "codec/mesh/quantization.h"
+#include "codec/progressive/encoder.h"
+#include "codec/progressive/midpoint.h"
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/local_frame.h"
 #include "codec/progressive/normal_prediction.h"
+#include "codec/progressive/texcoord_prediction.h"
 #include "codec/progressive/wing_rank.h"
 
 namespace meshstream {
@@ -210,6 +217,200 @@ TEST(NormalPrediction, PredictsTheSplitsOwnNormals) {
   EXPECT_GT(vn[2], 0);
   EXPECT_EQ(vn[0], 0);
   EXPECT_EQ(vn[1], 0);
+}
+
+
+// The ring's values of a channel, one per ring vertex (ids 0..D-1, stride 1).
+std::vector<uint32_t> Ids(size_t d) {
+  std::vector<uint32_t> ids(d);
+  for (size_t k = 0; k < d; ++k) ids[k] = static_cast<uint32_t>(k);
+  return ids;
+}
+
+TEST(TexcoordPrediction, IsExactOnALinearChart) {
+  // In the plane z = 0 the local frame is the identity: a channel that is a
+  // linear function of the position is predicted exactly for any split vector.
+  const std::vector<Vec3i> ring = Hexagon();
+  const std::vector<uint32_t> ids = Ids(ring.size());
+  const Vec3i m = {0, 0, 0};
+  const LocalFrame frame = RingLocalFrame(m, ring.data(), ring.size());
+  std::vector<int32_t> values(ring.size());
+  for (size_t k = 0; k < ring.size(); ++k) values[k] = 500 + 3 * ring[k][0] - 2 * ring[k][1];
+  for (const Vec3i& d : {Vec3i{-400, 0, 0}, Vec3i{17, -31, 0}, Vec3i{0, 0, 0}, Vec3i{250, 90, 7}}) {
+    RingChannelMap map;
+    map.Reset(m, d, ring.data(), ring.size(), frame);
+    EXPECT_EQ(map.Predict(values.data(), 1, ids.data(), 500), 3 * d[0] - 2 * d[1]) << d[0] << " " << d[1];
+  }
+  // A constant channel (a colour's alpha) predicts 0.
+  const std::vector<int32_t> constant(ring.size(), 77);
+  RingChannelMap map;
+  map.Reset(m, {-400, 10, 0}, ring.data(), ring.size(), frame);
+  EXPECT_EQ(map.Predict(constant.data(), 1, ids.data(), 77), 0);
+}
+
+TEST(TexcoordPrediction, IsCloseOnATiltedChart) {
+  // A tilted plane through w: the channel is linear in the tangent plane's
+  // coordinates; the frame's rotation is exact to about 2^-16.
+  std::mt19937 rng(13);
+  std::uniform_int_distribution<int32_t> c(-3000, 3000);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3i m = {c(rng), c(rng), c(rng)};
+    const Vec3i e1 = {c(rng), c(rng), c(rng) / 4}, e2 = {-e1[1] / 2, e1[0] / 2, c(rng)};
+    std::vector<Vec3i> ring;
+    std::vector<int32_t> values;
+    const size_t d = 4 + i % 8;
+    for (size_t k = 0; k < d; ++k) {
+      const double a = 2 * M_PI * double(k) / double(d);
+      const double x = std::cos(a), y = std::sin(a);
+      ring.push_back({m[0] + int32_t(std::lround(x * e1[0] + y * e2[0])), m[1] + int32_t(std::lround(x * e1[1] + y * e2[1])),
+                      m[2] + int32_t(std::lround(x * e1[2] + y * e2[2]))});
+      values.push_back(int32_t(std::lround(1000 + 400 * x - 250 * y)));
+    }
+    const LocalFrame frame = RingLocalFrame(m, ring.data(), d);
+    // The split vector halfway to ring[0] (x = 1, y = 0): the channel changes by 400 / 2.
+    const Vec3i half = {(ring[0][0] - m[0]) / 2, (ring[0][1] - m[1]) / 2, (ring[0][2] - m[2]) / 2};
+    RingChannelMap map;
+    map.Reset(m, half, ring.data(), d, frame);
+    const std::vector<uint32_t> ids = Ids(d);
+    EXPECT_NEAR(map.Predict(values.data(), 1, ids.data(), 1000), 200, 12) << i;
+  }
+}
+
+TEST(TexcoordPrediction, DegenerateRingsPredictZero) {
+  const std::vector<uint32_t> ids = Ids(kMaxPredictedValence + 1);
+  std::vector<int32_t> values(kMaxPredictedValence + 1);
+  for (size_t k = 0; k < values.size(); ++k) values[k] = int32_t(k * 100);
+  const Vec3i m = {0, 0, 0};
+  RingChannelMap map;
+  // Collinear in the tangent plane (the ring on the x axis).
+  const std::vector<Vec3i> line = {{-100, 0, 0}, {50, 0, 0}, {100, 0, 0}, {-30, 0, 0}};
+  map.Reset(m, {20, 0, 0}, line.data(), line.size(), RingLocalFrame(m, line.data(), line.size()));
+  EXPECT_EQ(map.Predict(values.data(), 1, ids.data(), 0), 0);
+  // Too few and too many ring vertices.
+  const std::vector<Vec3i> two = {{100, 0, 0}, {0, 100, 0}};
+  map.Reset(m, {20, 0, 0}, two.data(), two.size(), LocalFrame{});
+  EXPECT_EQ(map.Predict(values.data(), 1, ids.data(), 0), 0);
+  std::vector<Vec3i> large;
+  for (size_t k = 0; k <= kMaxPredictedValence; ++k) large.push_back({int32_t(k % 7) * 100, int32_t(k % 5) * 100, 0});
+  map.Reset(m, {20, 0, 0}, large.data(), large.size(), LocalFrame{});
+  EXPECT_EQ(map.Predict(values.data(), 1, ids.data(), 0), 0);
+}
+
+TEST(TexcoordPrediction, ExtremeValuesAreClampedAndTheCodingIsReversible) {
+  // Positions and values at the extremes of int32 and of a 30-bit grid: the
+  // arithmetic stays in range (the sanitizer build checks it), the prediction
+  // stays within [-2^30, 2^30], and residual = e - p comes back exactly for
+  // every difference of a 30-bit grid.
+  std::mt19937 rng(17);
+  const int32_t top = (1 << 30) - 1;
+  std::uniform_int_distribution<int32_t> any(INT32_MIN, INT32_MAX), grid(0, top), pick(0, 3);
+  auto extreme = [&](std::uniform_int_distribution<int32_t>& dist, int32_t lo, int32_t hi) {
+    const int32_t r = pick(rng);
+    return r == 0 ? lo : r == 1 ? hi : dist(rng);
+  };
+  for (int i = 0; i < 3000; ++i) {
+    const size_t d = 3 + i % 20;
+    const bool hostile = i % 2 == 1;
+    auto position = [&] {
+      return hostile ? Vec3i{extreme(any, INT32_MIN, INT32_MAX), extreme(any, INT32_MIN, INT32_MAX),
+                             extreme(any, INT32_MIN, INT32_MAX)}
+                     : Vec3i{extreme(grid, 0, top), extreme(grid, 0, top), extreme(grid, 0, top)};
+    };
+    std::vector<Vec3i> ring(d);
+    for (Vec3i& x : ring) x = position();
+    std::vector<int32_t> values(d);
+    for (int32_t& v : values) v = hostile ? extreme(any, INT32_MIN, INT32_MAX) : extreme(grid, 0, top);
+    const Vec3i m = position(), split = position();
+    const LocalFrame frame = RingLocalFrame(m, ring.data(), d);
+    RingChannelMap map;
+    map.Reset(m, split, ring.data(), d, frame);
+    const std::vector<uint32_t> ids = Ids(d);
+    const int32_t coarse = hostile ? extreme(any, INT32_MIN, INT32_MAX) : extreme(grid, 0, top);
+    const int32_t p = map.Predict(values.data(), 1, ids.data(), coarse);
+    ASSERT_LE(std::abs(int64_t{p}), int64_t{1} << 30) << i;
+    if (!hostile) {
+      // Both values of the split on the grid: e in [-(2^30 - 1), 2^30 - 1].
+      const int32_t vw = extreme(grid, 0, top), vn = extreme(grid, 0, top);
+      const int32_t e = vw - vn;
+      const int64_t residual = int64_t{e} - p;
+      ASSERT_GE(residual, INT32_MIN);
+      ASSERT_LE(residual, INT32_MAX);
+      ASSERT_EQ(static_cast<int32_t>(residual) + int64_t{p}, e);
+      const int32_t mid = Midpoint(vw, vn);
+      ASSERT_EQ(FromMidpoint(mid, e), vw);
+    }
+  }
+}
+
+// A bumpy sphere with two texture coordinate sets and a colour (one value
+// per vertex, so the UVs wrap around at phi = 0: splits there straddle the
+// jump, which costs bits, never correctness).
+Primitive ColouredSphere(int rings, int segments) {
+  Primitive p;
+  p.texcoords.resize(2);
+  auto add = [&p](double theta, double phi) {
+    const double r = 1.0 + 0.08 * std::sin(3 * phi) * std::sin(2 * theta);
+    const double x = std::sin(theta) * std::cos(phi), y = std::sin(theta) * std::sin(phi), z = std::cos(theta);
+    p.positions.push_back({float(r * x), float(r * y), float(r * z)});
+    p.texcoords[0].push_back({float(phi / (2 * M_PI)), float(theta / M_PI)});
+    p.texcoords[1].push_back({float(0.5 + 0.5 * x), float(0.5 + 0.5 * y)});
+    p.colors.push_back({float(0.5 + 0.5 * x), float(0.5 + 0.5 * z), float(0.5 + 0.25 * std::sin(2 * phi)), 1.0f});
+  };
+  add(0, 0);
+  for (int i = 1; i < rings; ++i)
+    for (int s = 0; s < segments; ++s) add(M_PI * i / rings, 2 * M_PI * s / segments);
+  add(M_PI, 0);
+  const uint32_t south = static_cast<uint32_t>(p.positions.size() - 1);
+  auto id = [segments](int i, int s) { return static_cast<uint32_t>(1 + (i - 1) * segments + s % segments); };
+  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {0, id(1, s), id(1, s + 1)});
+  for (int i = 1; i + 1 < rings; ++i)
+    for (int s = 0; s < segments; ++s) {
+      p.indices.insert(p.indices.end(), {id(i, s), id(i + 1, s), id(i + 1, s + 1)});
+      p.indices.insert(p.indices.end(), {id(i, s), id(i + 1, s + 1), id(i, s + 1)});
+    }
+  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {south, id(rings - 1, s + 1), id(rings - 1, s)});
+  return p;
+}
+
+StatusOr<EncodedBase> IdentityBase(const QuantizedMesh& base, int) {
+  EncodedBase e;
+  e.decoded = base;
+  e.bytes = {0};
+  return e;
+}
+
+TEST(TexcoordPrediction, StreamRoundTripWithTexcoordsAndColoursUnderEveryTool) {
+  ProgressiveEncodeOptions options;
+  auto enc = EncodeProgressive(ColouredSphere(24, 32), options, IdentityBase);
+  ASSERT_TRUE(enc.ok()) << enc.status().ToString();
+  ASSERT_EQ(enc->mesh.base.layout.channels(), 8);
+  size_t bytes_with = 0, bytes_without = 0;
+  for (uint8_t tools : {kAllTools, uint8_t(kAllTools & ~kToolTexcoordPrediction), uint8_t(kToolTexcoordPrediction)}) {
+    for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
+      StreamWriteOptions wo;
+      wo.packing = packing;
+      wo.tools = tools;
+      auto stream = WriteStream(enc.value(), options.quantization, wo);
+      ASSERT_TRUE(stream.ok()) << stream.status().ToString();
+      auto reader = StreamReader::Create(stream->header.data(), stream->header.size());
+      ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+      EXPECT_EQ(reader->header().tools, tools);
+      ASSERT_TRUE(reader->SetBase(enc->mesh.base).ok());
+      for (size_t i = 0; i < stream->control.size(); ++i) {
+        ASSERT_TRUE(reader->BeginRefinement(stream->control[i].data(), stream->control[i].size()).ok());
+        for (const auto& d : stream->datagrams[i]) EXPECT_TRUE(reader->OfferDatagram(d.data(), d.size()));
+        ASSERT_TRUE(reader->FinishRefinement().ok());
+        ASSERT_EQ(reader->current().attribute_delta, enc->mesh.refinements[i].attribute_delta) << int(tools) << " " << i;
+        ASSERT_EQ(reader->current().position_delta, enc->mesh.refinements[i].position_delta) << int(tools) << " " << i;
+      }
+      if (packing == Packing::kSplit && tools == kAllTools) bytes_with = stream->unreliable_bytes();
+      if (packing == Packing::kSplit && tools == (kAllTools & ~kToolTexcoordPrediction)) bytes_without = stream->unreliable_bytes();
+    }
+  }
+  // Smooth channels: the prediction pays.
+  std::printf("coloured sphere: datagrams %zu bytes with texture coordinate prediction, %zu without\n", bytes_with,
+              bytes_without);
+  EXPECT_LT(bytes_with, bytes_without);
 }
 
 }  // namespace

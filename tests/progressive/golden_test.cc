@@ -5,6 +5,8 @@
 //   spot-qp11-bundled-v1.glb:     encode spot.obj --packing bundled --packet-bytes 600, version 1
 //   fandisk-qp11-v2.glb, spot-qp11-bundled-v2.glb: the same with version 2 (tools 15)
 //   horse-qp11-v2.glb:            encode horse.ply (normals predicted), version 2
+//   spot-qp11-bundled-v2-tools31.glb: spot.obj as above, version 2 with texture
+//                                 coordinate prediction (tools 31)
 // Never regenerate them for a format change: bump the version (or add a tool
 // bit) and add new files.
 #include <set>
@@ -43,6 +45,10 @@ const std::vector<Golden>& Goldens() {
         3891, 4610, 5485, 6475},
        {"POSITION"}},
       {"spot-qp11-bundled-v2.glb", "spot.obj",
+       {642, 645, 648, 656, 664, 675, 689, 706, 733, 764, 804, 853, 912, 980, 1066, 1169, 1299, 1449, 1631, 1847,
+        2103, 2412, 2800, 3225},
+       {"POSITION", "TEXCOORD_0"}},
+      {"spot-qp11-bundled-v2-tools31.glb", "spot.obj",
        {642, 645, 648, 656, 664, 675, 689, 706, 733, 764, 804, 853, 912, 980, 1066, 1169, 1299, 1449, 1631, 1847,
         2103, 2412, 2800, 3225},
        {"POSITION", "TEXCOORD_0"}},
