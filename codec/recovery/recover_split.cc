@@ -89,6 +89,21 @@ Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, size
                            a_at, b_at, scratch.local_frame);
 }
 
+// A channel of the split of w into (w, n) was applied with its coded
+// residual as the difference; the predicted difference p is added now: the
+// two values are made again from their coarse midpoint with the sum.
+void AddPredictedDelta(size_t j, uint32_t w, uint32_t n, size_t channel, int32_t p, RefinementState& state,
+                       Refinement* decoded) {
+  const size_t ch = static_cast<size_t>(state.channels);
+  int32_t& aw = state.attributes[w * ch + channel];
+  int32_t& an = state.attributes[n * ch + channel];
+  const int32_t m = Midpoint(aw, an);
+  const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p, INT32_MIN, INT32_MAX));
+  aw = FromMidpoint(m, e);
+  an = static_cast<int32_t>(int64_t{aw} - e);
+  if (decoded) decoded->attribute_delta[j * ch + channel] = e;
+}
+
 // With normal prediction, the normal channels of w and n were applied with
 // their coded residual as the difference; now that the split's geometry is
 // in place, the predicted difference is added (normal_prediction.h).
@@ -96,16 +111,7 @@ void AddPredictedNormals(const SplitCoding& coding, size_t j, uint32_t w, uint32
                          Refinement* decoded) {
   if (coding.normal_bits == 0) return;
   const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, coding.normal_bits);
-  const int ch = state.channels;
-  for (int c = 0; c < 2; ++c) {
-    int32_t& aw = state.attributes[size_t(w) * ch + c];
-    int32_t& an = state.attributes[size_t(n) * ch + c];
-    const int32_t m = Midpoint(aw, an);
-    const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p[c], INT32_MIN, INT32_MAX));
-    aw = FromMidpoint(m, e);
-    an = static_cast<int32_t>(int64_t{aw} - e);
-    if (decoded) decoded->attribute_delta[j * ch + c] = e;
-  }
+  for (int c = 0; c < 2; ++c) AddPredictedDelta(j, w, n, static_cast<size_t>(c), p[c], state, decoded);
 }
 
 // With texture coordinate prediction, the same for the texture coordinate
@@ -117,16 +123,8 @@ void AddPredictedChannels(const SplitCoding& coding, size_t j, uint32_t w, uint3
   int32_t p[kMaxMappedChannels];
   PredictChannelDeltas(state, state.scratch_ring.data(), scratch.ring_positions.data(), scratch.ring_positions.size(),
                        scratch.local_frame, w, n, coding.mapped_first, coding.mapped_count, p);
-  const int ch = state.channels;
   for (int c = 0; c < coding.mapped_count; ++c) {
-    const size_t at = static_cast<size_t>(coding.mapped_first + c);
-    int32_t& aw = state.attributes[size_t(w) * ch + at];
-    int32_t& an = state.attributes[size_t(n) * ch + at];
-    const int32_t m = Midpoint(aw, an);
-    const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p[c], INT32_MIN, INT32_MAX));
-    aw = FromMidpoint(m, e);
-    an = static_cast<int32_t>(int64_t{aw} - e);
-    if (decoded) decoded->attribute_delta[j * ch + at] = e;
+    AddPredictedDelta(j, w, n, static_cast<size_t>(coding.mapped_first + c), p[c], state, decoded);
   }
 }
 
