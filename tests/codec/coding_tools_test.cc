@@ -110,7 +110,9 @@ TEST(GeometryPrediction, CodingIsExactlyReversibleUnderEveryTool) {
       const Vec3i v = {delta(rng), delta(rng), delta(rng)};
       const Vec3i coded = CodeSplitVector(coding, v, ring.data(), d, a, b, frame);
       ASSERT_EQ(DecodeSplitVector(coding, coded, ring.data(), d, a, b, frame), v) << i << " tools " << int(tools);
-      if (tools == 0) EXPECT_EQ(coded, v);
+      if (tools == 0) {
+        EXPECT_EQ(coded, v);
+      }
     }
   }
 }
