@@ -93,28 +93,44 @@ bool WingRanking::RankOf(size_t a_at, size_t b_at, uint32_t* rank) const {
   return true;
 }
 
+namespace {
+
+// The (R + 1)-th smallest of n distinct integers in one pass: the R + 1
+// smallest so far are kept sorted in registers, and each value goes through
+// them as min/max pairs (conditional moves, no branch on the data).
+template <int R>
+uint64_t SmallestAt(const uint64_t* v, size_t n) {
+  uint64_t best[R + 1];
+  for (int r = 0; r <= R; ++r) best[r] = UINT64_MAX;
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t t = v[i];
+    for (int r = 0; r <= R; ++r) {
+      const uint64_t lo = std::min(best[r], t);
+      t = std::max(best[r], t);
+      best[r] = lo;
+    }
+  }
+  return best[R];
+}
+
+}  // namespace
+
 bool WingRanking::PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const {
   if (degree_ == 0 || rank >= count_) return false;
-  // The rank-th smallest of distinct integers. Small ranks, the common
-  // case: rank + 1 passes, each the smallest above the previous one (no
-  // branch on the data); larger ones by a selection on a copy.
+  // The rank-th smallest of distinct integers: small ranks, the common
+  // case, in one pass; larger ones by a selection on a copy.
   uint64_t found = 0;
-  if (rank < 4) {
-    uint64_t floor = 0;
-    for (uint32_t r = 0; r <= rank; ++r) {
-      uint64_t best = UINT64_MAX;
-      for (size_t i = 0; i < count_; ++i) {
-        const uint64_t v = order_[i];
-        best = v >= floor && v < best ? v : best;
-      }
-      found = best;
-      floor = best + 1;
+  switch (rank) {
+    case 0: found = SmallestAt<0>(order_.data(), count_); break;
+    case 1: found = SmallestAt<1>(order_.data(), count_); break;
+    case 2: found = SmallestAt<2>(order_.data(), count_); break;
+    case 3: found = SmallestAt<3>(order_.data(), count_); break;
+    default: {
+      std::array<uint64_t, kMaxRankedPairs> copy;
+      std::copy_n(order_.begin(), count_, copy.begin());
+      std::nth_element(copy.begin(), copy.begin() + rank, copy.begin() + count_);
+      found = copy[rank];
     }
-  } else {
-    std::array<uint64_t, kMaxRankedPairs> copy;
-    std::copy_n(order_.begin(), count_, copy.begin());
-    std::nth_element(copy.begin(), copy.begin() + rank, copy.begin() + count_);
-    found = copy[rank];
   }
   const size_t x = (found >> 4) & 31, k = found & 15;
   *a_at = x;
