@@ -41,16 +41,6 @@ void RefinementState::PrefetchSplits(const Refinement& r, size_t j) const {
   // ones brought in.
   const std::vector<uint32_t>& sv = r.split_vertices;
   const size_t k = sv.size();
-  // Version 2 reads the positions of the next split's ring (its triangles
-  // were hinted a split ago); the vertices of each triangle, w included.
-  if (j + 1 < k && sv[j + 1] < positions.size()) {
-    const std::vector<Face>& faces = connectivity.faces();
-    for (uint32_t f : connectivity.faces_of(sv[j + 1])) {
-      for (uint32_t x : faces[f]) {
-        if (x < positions.size()) MESHSTREAM_PREFETCH(&positions[x]);
-      }
-    }
-  }
   if (j + kPrefetchDistance < k) {
     const uint32_t v = sv[j + kPrefetchDistance];
     connectivity.PrefetchFaces(v);
