@@ -84,6 +84,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   auto decoded = DecodeSplitBits(bits, length, history_);
   if (!decoded.ok()) return decoded.status().WithContext(where);
   std::vector<uint8_t> split = std::move(decoded).value();
+  ref.split_vertices.reserve(std::min<size_t>(header_.split_counts[next_], n));  // checked against the bits below
   for (uint32_t v = 0; v < n; ++v)
     if (split[v]) ref.split_vertices.push_back(v);
   if (ref.split_vertices.size() != header_.split_counts[next_]) {
@@ -92,7 +93,10 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   }
   // Models: per slot, a flag (0: the previous refinement's, 1: a new one follows).
   const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
+  // Only the fresh models are kept aside; a reused one stays where it is
+  // (nothing is copied), and models_ changes only once the block is valid.
   std::vector<StaticModel> models;
+  std::vector<uint8_t> fresh_slots(slots, 0);
   for (size_t k = 0; k < slots; ++k) {
     // Named only when something is wrong (no string work per slot otherwise).
     auto slot = [&] {
@@ -108,9 +112,9 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
       auto m = StaticModel::Parse(r, k < 2 ? kWingAlphabet : kSignedSymbols);
       if (!m.ok()) return m.status().WithContext(slot());
       models.push_back(std::move(m).value());
+      fresh_slots[k] = 1;
     } else {
       if (models_.size() != slots) return InvalidInput(slot() + ": model flag 0 reuses a model that was never sent");
-      models.push_back(models_[k]);
     }
   }
   coding_ = SplitCoding{header_.tools, 0, 0};
@@ -127,7 +131,10 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   if (r.remaining() != 0) {
     return InvalidInput(where + ": control block: " + std::to_string(r.remaining()) + " stray bytes after the models");
   }
-  models_ = std::move(models);
+  if (models_.size() != slots) models_.resize(slots);  // the first block: every slot is fresh (checked above)
+  for (size_t k = 0, next = 0; k < slots; ++k) {
+    if (fresh_slots[k]) models_[k] = std::move(models[next++]);
+  }
   const size_t k = ref.split_count();
   const int ch = header_.grids.layout.channels();
   ref.wings.assign(k, {0, 0});
@@ -159,9 +166,13 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   const bool geometry = h.kind != DatagramKind::kStructure;
   const int ch = header_.grids.layout.channels();
   RangeDecoder dec(data + r.position(), r.remaining());
-  std::vector<std::array<uint16_t, 2>> wings(h.count);
-  std::vector<Vec3i> deltas(geometry ? h.count : 0);
-  std::vector<int32_t> attrs(geometry ? size_t(h.count) * ch : 0);
+  // (Member scratch, reused from datagram to datagram: no allocation once grown.)
+  std::vector<std::array<uint16_t, 2>>& wings = datagram_wings_;
+  std::vector<Vec3i>& deltas = datagram_deltas_;
+  std::vector<int32_t>& attrs = datagram_attributes_;
+  wings.assign(h.count, {0, 0});
+  deltas.assign(geometry ? h.count : 0, Vec3i{});
+  attrs.assign(geometry ? size_t(h.count) * ch : 0, 0);
   for (uint32_t i = 0; i < h.count; ++i) {
     if (structure) {
       wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));

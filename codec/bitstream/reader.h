@@ -87,6 +87,10 @@ class StreamReader {
   SplitCoding coding_;
   std::vector<uint8_t> has_structure_, has_geometry_;
   std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
+  // OfferDatagram's scratch: a datagram is decoded here before it is committed.
+  std::vector<std::array<uint16_t, 2>> datagram_wings_;
+  std::vector<Vec3i> datagram_deltas_;
+  std::vector<int32_t> datagram_attributes_;
   DatagramStats stats_;
   RecoveryStats recovery_stats_;
 };

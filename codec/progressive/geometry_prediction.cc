@@ -13,14 +13,14 @@ SplitPrediction PredictSplit(const Vec3i* ring, size_t d, size_t a_at, size_t b_
   const size_t path = (a_at + d - b_at) % d;  // ring[b..a] has path + 1 vertices
   const int64_t kn = static_cast<int64_t>(path) + 1;
   const int64_t kw = static_cast<int64_t>(d - path) + 1;
+  // The two sides share the wings: ring[b..a] and ring[a..b], cyclically
+  // (the index wraps by a compare, not a division).
   int64_t sn[3] = {0, 0, 0}, sw[3] = {0, 0, 0};
-  for (size_t s = 0; s <= path; ++s) {
-    const Vec3i& x = ring[(b_at + s) % d];
-    for (int c = 0; c < 3; ++c) sn[c] += x[c];
+  for (size_t s = 0, k = b_at; s <= path; ++s, k = k + 1 == d ? 0 : k + 1) {
+    for (int c = 0; c < 3; ++c) sn[c] += ring[k][c];
   }
-  for (size_t s = 0; s <= d - path; ++s) {
-    const Vec3i& x = ring[(a_at + s) % d];
-    for (int c = 0; c < 3; ++c) sw[c] += x[c];
+  for (size_t s = 0, k = a_at; s <= d - path; ++s, k = k + 1 == d ? 0 : k + 1) {
+    for (int c = 0; c < 3; ++c) sw[c] += ring[k][c];
   }
   for (int c = 0; c < 3; ++c) p.numerator[c] = sw[c] * kn - sn[c] * kw;
   p.denominator = (kw + 1) * (kn + 1) - 1;

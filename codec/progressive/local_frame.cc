@@ -9,18 +9,10 @@ namespace meshstream {
 
 namespace {
 
-constexpr int kFixedBits = 16;
-
 // round(a / b) for b > 0, halves away from zero.
 int64_t RoundDiv(int64_t a, int64_t b) {
   const int64_t q = ((a < 0 ? -a : a) + b / 2) / b;
   return a < 0 ? -q : q;
-}
-
-// floor((v + 2^15) / 2^16): v times a 16-bit fixed-point coefficient, rounded.
-int64_t Rounded(int64_t v) {
-  const int64_t t = v + (int64_t{1} << (kFixedBits - 1));
-  return t >= 0 ? t >> kFixedBits : -((-t + (int64_t{1} << kFixedBits) - 1) >> kFixedBits);
 }
 
 int32_t Clamp32(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, INT32_MIN, INT32_MAX)); }
@@ -29,7 +21,9 @@ int32_t Clamp32(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, 
 
 WideVec3 FanNormal(const Vec3i& w, const Vec3i* ring, size_t d) {
   WideVec3 n = {0, 0, 0};
-  for (size_t k = 0; k < d; ++k) AddCross(n, w, ring[k], ring[(k + 1) % d]);
+  if (d == 0) return n;
+  for (size_t k = 0; k + 1 < d; ++k) AddCross(n, w, ring[k], ring[k + 1]);
+  AddCross(n, w, ring[d - 1], ring[0]);
   return n;
 }
 
@@ -67,26 +61,6 @@ LocalFrame::Rotation LocalFrame::Rotation::Of(int64_t c, int64_t s) {
   return out;
 }
 
-void LocalFrame::Rotation::Forward(int64_t& x, int64_t& y) const {
-  if (flip) {
-    x = -x;
-    y = -y;
-  }
-  x += Rounded(p * y);
-  y += Rounded(s * x);
-  x += Rounded(p * y);
-}
-
-void LocalFrame::Rotation::Inverse(int64_t& x, int64_t& y) const {
-  x -= Rounded(p * y);
-  y -= Rounded(s * x);
-  x -= Rounded(p * y);
-  if (flip) {
-    x = -x;
-    y = -y;
-  }
-}
-
 LocalFrame LocalFrame::FromNormal(const WideVec3& normal) {
   const std::array<int64_t, 3> n = ScaleDown(normal, 20);
   LocalFrame f;
@@ -103,6 +77,17 @@ Vec3i LocalFrame::Forward(const Vec3i& v) const {
   about_z_.Forward(x, y);
   about_y_.Forward(z, x);
   return {Clamp32(x), Clamp32(y), Clamp32(z)};
+}
+
+void LocalFrame::Tangents(const Vec3i& origin, const Vec3i* points, size_t count, std::array<int64_t, 2>* out) const {
+  for (size_t k = 0; k < count; ++k) {
+    int64_t x = Clamp32(int64_t{points[k][0]} - origin[0]);
+    int64_t y = Clamp32(int64_t{points[k][1]} - origin[1]);
+    int64_t z = Clamp32(int64_t{points[k][2]} - origin[2]);
+    about_z_.Forward(x, y);
+    about_y_.Forward(z, x);
+    out[k] = {Clamp32(x), Clamp32(y)};
+  }
 }
 
 Vec3i LocalFrame::Inverse(const Vec3i& c) const {

@@ -46,6 +46,10 @@ class LocalFrame {
   Vec3i Forward(const Vec3i& v) const;
   // (t1, t2, n) -> residual.
   Vec3i Inverse(const Vec3i& c) const;
+  // out[k] = the first two components of Forward(points[k] - origin), the
+  // difference clamped to int32 per axis, for k < count (a ring in the
+  // tangent plane, wing_rank.h).
+  void Tangents(const Vec3i& origin, const Vec3i* points, size_t count, std::array<int64_t, 2>* out) const;
 
  private:
   // A rotation of the plane by three shears; `flip` first turns by pi.
@@ -53,9 +57,31 @@ class LocalFrame {
     int64_t p = 0, s = 0;  // -tan(theta/2) and sin(theta), times 2^16
     bool flip = false;
     static Rotation Of(int64_t cos_num, int64_t sin_num);
-    void Forward(int64_t& x, int64_t& y) const;
-    void Inverse(int64_t& x, int64_t& y) const;
+    void Forward(int64_t& x, int64_t& y) const {
+      if (flip) {
+        x = -x;
+        y = -y;
+      }
+      x += Rounded(p * y);
+      y += Rounded(s * x);
+      x += Rounded(p * y);
+    }
+    void Inverse(int64_t& x, int64_t& y) const {
+      x -= Rounded(p * y);
+      y -= Rounded(s * x);
+      x -= Rounded(p * y);
+      if (flip) {
+        x = -x;
+        y = -y;
+      }
+    }
   };
+  static constexpr int kFixedBits = 16;
+  // floor((v + 2^15) / 2^16): v times a 16-bit fixed-point coefficient,
+  // rounded. (>> of a negative value is floor division by the power of
+  // two, C++20: no branch on the sign, which is random from one vertex to
+  // the next.) |v| < 2^50 for int32 inputs (|p|, |s| <= 2^16).
+  static int64_t Rounded(int64_t v) { return (v + (int64_t{1} << (kFixedBits - 1))) >> kFixedBits; }
   Rotation about_z_, about_y_;
 };
 

@@ -39,6 +39,8 @@ struct RefinementState {
   std::vector<int32_t> attributes;
   std::vector<uint8_t> reliable;  // per vertex: 1 when flags are 0 (bitstream/reader.h)
   std::vector<uint8_t> flags;     // per vertex: VertexFlag bits
+  // While both are false every flag is 0: only a prediction (any_inexact)
+  // and an abandoned split (any_absent) set flags (recover_split.h).
   bool any_absent = false;
   bool any_inexact = false;  // some split was predicted
   int channels = 0;

@@ -11,29 +11,43 @@ namespace {
 constexpr int kScaleBits = 12;
 constexpr int kOffsetWeight = 16;
 constexpr int kKeyBits = 16;
+constexpr int64_t kKeyBound = int64_t{1} << 46;  // |key| < kKeyBound (Reset)
+
+// trunc(2^16 score / length) for length > 0, rounding toward zero, exactly:
+// in 64 bits while |score| < 2^47 (all but hostile or huge rings), else in
+// 128 bits.
+int64_t Key(int64_t score, int64_t length) {
+  const uint64_t mag = score < 0 ? 0 - static_cast<uint64_t>(score) : static_cast<uint64_t>(score);
+  uint64_t q;
+  if (mag < (uint64_t{1} << (63 - kKeyBits))) {
+    q = (mag << kKeyBits) / static_cast<uint64_t>(length);
+  } else {
+    q = static_cast<uint64_t>((static_cast<unsigned __int128>(mag) << kKeyBits) / static_cast<uint64_t>(length));
+  }
+  const int64_t key = static_cast<int64_t>(std::min<uint64_t>(q, kKeyBound - 1));  // never clamps (Reset)
+  return score < 0 ? -key : key;
+}
 
 }  // namespace
 
-// a before b: a higher key, ties by (x, k).
-bool WingRanking::Before(const Candidate& a, const Candidate& b) {
-  if (a.key != b.key) return a.key > b.key;
-  return a.x != b.x ? a.x < b.x : a.k < b.k;
+// (WingRanking::kPairBits and the layout: wing_rank.h.)
+inline uint64_t WingRanking::Order(int64_t key, size_t x, size_t k) {
+  const uint64_t rest = (static_cast<uint64_t>(x) << 4) | static_cast<uint64_t>(k);
+  // INT64_MIN (t = 0) after every key; a key within +-2^46 maps to (2^46, 3 2^46).
+  const uint64_t field = key == INT64_MIN ? (uint64_t{1} << 48) - 1 : static_cast<uint64_t>((kKeyBound << 1) - key);
+  return (field << kPairBits) | rest;
 }
 
 bool WingRanking::Reset(const Vec3i& w, const Vec3i* ring, size_t d, const LocalFrame& frame) {
   degree_ = 0;
+  count_ = 0;
   if (d < 3 || d > kMaxRankedValence) return false;
-  // The ring in the tangent plane, scaled so that every component is below 2^12.
-  std::array<std::array<int64_t, 2>, kMaxRankedValence> q{};
+  // The ring in the tangent plane, scaled so that every component is below
+  // 2^12; twice over, so that q[x + k] needs no wrap.
+  std::array<std::array<int64_t, 2>, 2 * kMaxRankedValence> q;
+  frame.Tangents(w, ring, d, q.data());
   int64_t extent = 0;
-  for (size_t k = 0; k < d; ++k) {
-    const Vec3i rel = {static_cast<int32_t>(std::clamp<int64_t>(int64_t{ring[k][0]} - w[0], INT32_MIN, INT32_MAX)),
-                       static_cast<int32_t>(std::clamp<int64_t>(int64_t{ring[k][1]} - w[1], INT32_MIN, INT32_MAX)),
-                       static_cast<int32_t>(std::clamp<int64_t>(int64_t{ring[k][2]} - w[2], INT32_MIN, INT32_MAX))};
-    const Vec3i f = frame.Forward(rel);
-    q[k] = {f[0], f[1]};
-    extent = std::max({extent, std::abs(q[k][0]), std::abs(q[k][1])});
-  }
+  for (size_t k = 0; k < d; ++k) extent = std::max({extent, std::abs(q[k][0]), std::abs(q[k][1])});
   int shift = 0;
   while ((extent >> shift) >= (int64_t{1} << kScaleBits)) ++shift;
   int64_t m00 = 0, m01 = 0, m11 = 0;
@@ -42,29 +56,27 @@ bool WingRanking::Reset(const Vec3i& w, const Vec3i* ring, size_t d, const Local
     m00 += q[k][0] * q[k][0];
     m01 += q[k][0] * q[k][1];
     m11 += q[k][1] * q[k][1];
+    q[k + d] = q[k];
   }
-  // Magnitudes: q < 2^12, c < 2^13, M < 22 * 2^24, so t^T M t < 2^57 and
-  // 16 (q . t)^2 < 2^56: the score fits int64; |t|^2 < 2^27.
+  // Magnitudes: q < 2^12, c < 2^13, M < 22 * 2^25, so t^T M t < 2^57 and
+  // 16 (q . t)^2 < 2^56: the score fits int64; |t|^2 < 2^27. The key: by
+  // Cauchy-Schwarz t^T M t <= trace(M) |t|^2 < 22 2^25 |t|^2 and
+  // 16 (q . t)^2 <= 16 |q|^2 |t|^2 < 2^29 |t|^2, so |key| < 2^16 2^30 = 2^46.
   const size_t half = d / 2;
-  candidates_.clear();
+  uint64_t* out = order_.data();
   for (size_t x = 0; x < d; ++x) {
+    const int64_t a0 = q[x][0], a1 = q[x][1];
     for (size_t k = 1; k <= half; ++k) {
-      const auto& a = q[x];
-      const auto& b = q[(x + k) % d];
-      const int64_t c0 = a[0] - b[0], c1 = a[1] - b[1];
-      Candidate cand;
-      cand.x = static_cast<uint16_t>(x);
-      cand.k = static_cast<uint16_t>(k);
+      const int64_t c0 = a0 - q[x + k][0], c1 = a1 - q[x + k][1];
       const int64_t length = c0 * c0 + c1 * c1;
       // t = (-c1, c0)
       const int64_t spread = m00 * c1 * c1 - 2 * m01 * c0 * c1 + m11 * c0 * c0;
-      const int64_t offset = a[1] * c0 - a[0] * c1;
+      const int64_t offset = a1 * c0 - a0 * c1;
       const int64_t score = spread - kOffsetWeight * offset * offset;
-      // |score| / length < 22 * 2^24 (Cauchy-Schwarz), so the key fits in 2^45.
-      cand.key = length > 0 ? static_cast<int64_t>(__int128{score} * (int64_t{1} << kKeyBits) / length) : INT64_MIN;
-      candidates_.push_back(cand);
+      *out++ = Order(length > 0 ? Key(score, length) : INT64_MIN, x, k);
     }
   }
+  count_ = d * half;
   degree_ = d;
   return true;
 }
@@ -74,32 +86,61 @@ bool WingRanking::RankOf(size_t a_at, size_t b_at, uint32_t* rank) const {
   if (d == 0 || a_at >= d || b_at >= d) return false;
   const size_t k = (b_at + d - a_at) % d;
   if (k < 1 || k > d / 2) return false;
-  Candidate target;
-  for (const Candidate& c : candidates_)
-    if (c.x == a_at && c.k == k) target = c;
+  const uint64_t target = order_[a_at * (d / 2) + (k - 1)];
   uint32_t before = 0;
-  for (const Candidate& c : candidates_) before += Before(c, target) ? 1 : 0;
+  for (size_t i = 0; i < count_; ++i) before += order_[i] < target ? 1u : 0u;
   *rank = before;
   return true;
 }
 
-bool WingRanking::PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const {
-  if (degree_ == 0 || rank >= candidates_.size()) return false;
-  // The rank-th in the order (a total order: ties are broken by (x, k)):
-  // small ranks, the common case, by selecting the first ones in place.
-  if (rank < 4) {
-    for (uint32_t r = 0; r <= rank; ++r) {
-      size_t best = r;
-      for (size_t i = r + 1; i < candidates_.size(); ++i)
-        if (Before(candidates_[i], candidates_[best])) best = i;
-      std::swap(candidates_[r], candidates_[best]);
-    }
-  } else {
-    std::nth_element(candidates_.begin(), candidates_.begin() + rank, candidates_.end(), Before);
+namespace {
+
+// The (R + 1)-th smallest of n distinct integers in one pass: the R + 1
+// smallest so far are kept sorted; a value that is not below the last of
+// them (nearly all, once a few have been seen) costs one compare.
+template <int R>
+uint64_t SmallestAt(const uint64_t* v, size_t n) {
+  uint64_t best[R + 1];
+  for (int r = 0; r <= R; ++r) best[r] = UINT64_MAX;
+  for (size_t i = 0; i < n; ++i) {
+    const uint64_t t = v[i];
+    if (t >= best[R]) continue;
+    int p = R;
+    for (; p > 0 && best[p - 1] > t; --p) best[p] = best[p - 1];
+    best[p] = t;
   }
-  const Candidate& c = candidates_[rank];
-  *a_at = c.x;
-  *b_at = (c.x + c.k) % degree_;
+  return best[R];
+}
+
+}  // namespace
+
+bool WingRanking::PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const {
+  if (degree_ == 0 || rank >= count_) return false;
+  // The rank-th smallest of distinct integers: ranks below 8 (nine splits
+  // in ten on the shared models) in one pass; larger ones by a selection on
+  // a copy.
+  const uint64_t* v = order_.data();
+  const size_t n = count_;
+  uint64_t found = 0;
+  switch (rank) {
+    case 0: found = SmallestAt<0>(v, n); break;
+    case 1: found = SmallestAt<1>(v, n); break;
+    case 2: found = SmallestAt<2>(v, n); break;
+    case 3: found = SmallestAt<3>(v, n); break;
+    case 4: found = SmallestAt<4>(v, n); break;
+    case 5: found = SmallestAt<5>(v, n); break;
+    case 6: found = SmallestAt<6>(v, n); break;
+    case 7: found = SmallestAt<7>(v, n); break;
+    default: {
+      std::array<uint64_t, kMaxRankedPairs> copy;
+      std::copy_n(order_.begin(), n, copy.begin());
+      std::nth_element(copy.begin(), copy.begin() + rank, copy.begin() + n);
+      found = copy[rank];
+    }
+  }
+  const size_t x = (found >> 4) & 31, k = found & 15;
+  *a_at = x;
+  *b_at = (x + k) % degree_;
   return true;
 }
 

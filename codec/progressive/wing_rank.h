@@ -17,8 +17,8 @@
 // t = 0 last. All in exact integer arithmetic.
 //
 // Contract: pure, deterministic on every platform, O(D^2) (scores in 64-bit
-// integers), no allocation
-// once the ranking's vector has grown. Defined for
+// integers; a 128-bit division only for scores of 2^47 and more), no
+// allocation (the candidates live in the object). Defined for
 // 3 <= D <= kMaxRankedValence (the encoder's splits have D <= 14).
 // Thread safety: none.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_WING_RANK_H_
@@ -27,7 +27,6 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <vector>
 
 #include "codec/core/vec.h"
 #include "codec/progressive/local_frame.h"
@@ -35,6 +34,7 @@
 namespace meshstream {
 
 constexpr size_t kMaxRankedValence = 22;  // D floor(D/2) < 256: two symbols of 16
+constexpr size_t kMaxRankedPairs = kMaxRankedValence * (kMaxRankedValence / 2);
 
 class WingRanking {
  public:
@@ -48,13 +48,16 @@ class WingRanking {
   bool PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const;
 
  private:
-  struct Candidate {
-    int64_t key = 0;  // the scaled score; INT64_MIN when t = 0 (last)
-    uint16_t x = 0, k = 0;
-  };
-  static bool Before(const Candidate& a, const Candidate& b);
+  // A candidate as one integer whose ascending order is the ranking's order
+  // (key descending, then x, then k): (2^47 - key) << 9 | x << 4 | k, and
+  // (2^48 - 1) << 9 | x << 4 | k for t = 0. Keys lie within +-2^46
+  // (wing_rank.cc), x < 32 and k < 16, so every candidate is distinct and
+  // fits 57 bits.
+  static constexpr int kPairBits = 9;
+  static uint64_t Order(int64_t key, size_t x, size_t k);
   size_t degree_ = 0;
-  mutable std::vector<Candidate> candidates_;  // by x, then k (PairAt reorders a copy's worth in place)
+  size_t count_ = 0;
+  std::array<uint64_t, kMaxRankedPairs> order_{};  // by x, then k
 };
 
 // A rank as the two structure symbols (slots 0 and 1) and back.

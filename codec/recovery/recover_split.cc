@@ -38,13 +38,17 @@ bool CodedWings(const Refinement& r, size_t j, const SplitCoding& coding, const 
          scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
 }
 
-// With coding tools: w's ring positions and their local frame, once per split.
-void RingGeometry(const RefinementState& state, uint32_t w, RecoveryScratch* scratch) {
+constexpr uint8_t kRingTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
+constexpr uint8_t kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
+
+// With the tools that read w's ring: its positions, and with those that
+// need it their local frame, once per split.
+void RingGeometry(const RefinementState& state, uint32_t w, const SplitCoding& coding, RecoveryScratch* scratch) {
   const std::vector<uint32_t>& ring = state.scratch_ring;
   std::vector<Vec3i>& rp = scratch->ring_positions;
   rp.resize(ring.size());
   for (size_t k = 0; k < ring.size(); ++k) rp[k] = state.positions[ring[k]];
-  scratch->local_frame = RingLocalFrame(state.positions[w], rp.data(), rp.size());
+  if (coding.tools & kFrameTools) scratch->local_frame = RingLocalFrame(state.positions[w], rp.data(), rp.size());
 }
 
 SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
@@ -53,7 +57,7 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   view.w = r.split_vertices[j];
   const uint8_t flags = state.flags[view.w];
   view.fan = (flags & kAbsent) == 0 && state.connectivity.CyclicRing(view.w, state.scratch_ring);
-  if (view.fan && coding.tools != 0) RingGeometry(state, view.w, scratch);
+  if (view.fan && (coding.tools & kRingTools) != 0) RingGeometry(state, view.w, coding, scratch);
   // Error control: coded structure is checked against the ring the decoder
   // really has; what does not fit is treated as lost.
   view.fits = view.fan && has_structure && CodedWings(r, j, coding, state, view.w, scratch, &view.a_at, &view.b_at);

@@ -154,6 +154,32 @@ TEST(WingRank, RanksAndPairsAreInverseAndAPermutation) {
   EXPECT_FALSE(ranking.Reset({0, 0, 0}, too_many.data(), too_many.size(), LocalFrame{}));
 }
 
+TEST(WingRank, SmallRanksAgreeWithTheFullOrderOnTiesAndZeroChords) {
+  // Tiny coordinates: many pairs share a key, and some chords vanish in the
+  // tangent plane (t = 0). PairAt finds ranks 0-3 without ordering every
+  // pair; RankOf orders them all: they must agree.
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int32_t> pos(-3, 3);
+  for (int i = 0; i < 3000; ++i) {
+    const size_t d = 3 + i % 12;
+    std::vector<Vec3i> ring(d);
+    for (Vec3i& x : ring) x = {pos(rng), pos(rng), pos(rng) * (i % 3)};
+    const Vec3i w = {0, 0, 0};
+    WingRanking ranking;
+    ASSERT_TRUE(ranking.Reset(w, ring.data(), d, RingLocalFrame(w, ring.data(), d)));
+    for (size_t a = 0; a < d; ++a) {
+      for (size_t k = 1; 2 * k <= d; ++k) {
+        uint32_t rank = 0;
+        ASSERT_TRUE(ranking.RankOf(a, (a + k) % d, &rank));
+        size_t pa = 0, pb = 0;
+        ASSERT_TRUE(ranking.PairAt(rank, &pa, &pb));
+        ASSERT_EQ(pa, a) << i << " rank " << rank;
+        ASSERT_EQ(pb, (a + k) % d) << i << " rank " << rank;
+      }
+    }
+  }
+}
+
 TEST(WingRank, TheChordAcrossTheStretchThroughWComesFirst) {
   // Stretched along x, so the cut should run across x, through w: of the
   // three diagonals, ring[1]-ring[4] and ring[2]-ring[5] (at +-49 degrees from
