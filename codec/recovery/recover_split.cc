@@ -66,14 +66,21 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // (case 3) instead. Measured on the bunny at 12 % loss: the median
   // Hausdorff distance to the lossless decode drops from 1.5 % to 0.9 % of
   // the diagonal (docs/loss-tolerance.md).
-  // Ranks in the ring's geometric order (the wing-rank tool) count on the
-  // ring's positions too, yet a ring whose positions a prediction moved
-  // still ranks mostly as the encoder's did: distrusting them there as
-  // well made the bunny farther from the lossless decode at 12 % loss
-  // (mean distance summed over seeds 1-6: 0.95 against 0.89 per cent of
-  // the diagonal in the split packing, 0.69 against 0.68 bundled, and two
-  // bundled seeds farther than LwoP; docs/loss-tolerance.md).
-  const bool changed = (flags & kRingInexact) != 0;
+  // Ranks in the ring's geometric order (the wing-rank tool) also count on
+  // the ring's positions, and so do the split vector and the channels the
+  // tools predict from the ring: a split applied as coded must be exact
+  // (its vertices are not marked), so coded ranks on a ring with a
+  // predicted position are distrusted. (Trusting them instead brought the
+  // bunny closer to the lossless decode at 12 % loss, mean distance summed
+  // over seeds 1-6 0.95 -> 0.89 % of the diagonal, but applied inexact
+  // splits as exact; docs/loss-tolerance.md.)
+  // (No flag is set before the first prediction or abandoned split.)
+  bool changed = (flags & kRingInexact) != 0;
+  if (!changed && view.fits && (coding.tools & kToolWingRank) != 0 && (state.any_inexact || state.any_absent)) {
+    uint8_t any = 0;
+    for (uint32_t x : state.scratch_ring) any |= state.flags[x];
+    changed = (any & kPositionInexact) != 0;
+  }
   const bool trust_ranks = recovery == Recovery::kLwop || !changed || !has_geometry;
   view.distrusted = view.fits && !trust_ranks;
   if (view.distrusted) {
