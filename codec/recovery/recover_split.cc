@@ -326,7 +326,8 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   // the geometry made fandisk farther from the lossless decode than LwoP on
   // 3 of 4 seeds; decoded on the first of the ring's pairs in rank order
   // whose geometry separates the ring at those wings, it brought the bunny
-  // closer (mean distance summed over seeds 1-6: 0.89 -> 0.77 per cent of
+  // closer (ranks trusted on predicted positions, mean distance summed over
+  // seeds 1-6: 0.89 -> 0.77 per cent of
   // the diagonal) but fandisk farther than LwoP on all 6 seeds
   // (docs/loss-tolerance.md).
   const bool relative = (coding.tools & kToolGeometryPrediction) != 0;
