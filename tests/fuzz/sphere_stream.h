@@ -27,6 +27,7 @@
 #include "codec/mesh/quantized_mesh.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
+#include "tests/common/uv_sphere.h"
 
 namespace meshstream::fuzz {
 
@@ -46,19 +47,7 @@ inline Primitive BumpySphere(int rings, int segments) {
     p.normals.push_back(n);
     p.texcoords[0].push_back({float(phi / (2 * M_PI)), float(theta / M_PI)});
   };
-  add(0, 0);
-  for (int i = 1; i < rings; ++i)
-    for (int s = 0; s < segments; ++s) add(M_PI * i / rings, 2 * M_PI * s / segments);
-  add(M_PI, 0);
-  const uint32_t south = static_cast<uint32_t>(p.positions.size() - 1);
-  auto id = [segments](int i, int s) { return static_cast<uint32_t>(1 + (i - 1) * segments + s % segments); };
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {0, id(1, s), id(1, s + 1)});
-  for (int i = 1; i + 1 < rings; ++i)
-    for (int s = 0; s < segments; ++s) {
-      p.indices.insert(p.indices.end(), {id(i, s), id(i + 1, s), id(i + 1, s + 1)});
-      p.indices.insert(p.indices.end(), {id(i, s), id(i + 1, s + 1), id(i, s + 1)});
-    }
-  for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {south, id(rings - 1, s + 1), id(rings - 1, s)});
+  test_util::BuildUvSphere(rings, segments, &p, add);
   return p;
 }
 
