@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -34,8 +36,50 @@ struct EncodeArgs {
   int levels = 0;
   int format_version = kStreamVersion;
   std::string packing = "split";
+  std::string tools = "all";
   bool json = false;
 };
+
+// --tools: "all", "none" or names of kToolNames; an unknown name is an error
+// that lists the known ones.
+StatusOr<uint8_t> ParseTools(const std::string& list_of_names) {
+  uint8_t tools = 0;
+  std::vector<std::string> names;
+  for (size_t at = 0;;) {
+    const size_t comma = list_of_names.find(',', at);
+    names.push_back(list_of_names.substr(at, comma == std::string::npos ? std::string::npos : comma - at));
+    if (comma == std::string::npos) break;
+    at = comma + 1;
+  }
+  for (const std::string& n : names) {
+    if (n == "all") {
+      tools |= kAllTools;
+      continue;
+    }
+    if (n == "none") continue;
+    bool known = false;
+    for (const ToolName& t : kToolNames) {
+      if (n == t.name) {
+        tools |= t.tool;
+        known = true;
+      }
+    }
+    if (!known) {
+      std::string list = "all, none";
+      for (const ToolName& t : kToolNames) list += std::string(", ") + t.name;
+      return InvalidArgument("--tools: unknown tool '" + n + "' (known: " + list + ")");
+    }
+  }
+  return tools;
+}
+
+std::vector<std::string> ToolNames(uint8_t tools) {
+  std::vector<std::string> out;
+  for (const ToolName& t : kToolNames) {
+    if (tools & t.tool) out.push_back(t.name);
+  }
+  return out;
+}
 
 int RunEncode(EncodeArgs& args) {
   const std::string& out = args.out;
@@ -46,6 +90,9 @@ int RunEncode(EncodeArgs& args) {
   options.encode.simplify.max_levels = static_cast<uint32_t>(args.levels);
   options.stream.version = static_cast<uint8_t>(args.format_version);
   options.stream.packing = packing == "split" ? Packing::kSplit : Packing::kBundled;
+  auto tools = ParseTools(args.tools);
+  if (!tools.ok()) return ReportError("encode", tools.status());
+  options.stream.tools = tools.value();
   const bool json_out = args.json;
   if (!json_out && isatty(STDERR_FILENO)) {
     options.progress = [](size_t primitive, int batch, size_t left) {
@@ -97,6 +144,7 @@ int RunEncode(EncodeArgs& args) {
       {"packing", packing},
       {"packet_bytes", options.stream.packet_bytes},
       {"format_version", options.stream.version},
+      {"tools", ToolNames(total.tools)},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
   };
@@ -148,6 +196,10 @@ Verb AddEncode(CLI::App& root) {
                           "progressive format version: 2, or 1 for decoders that predate version 2 (larger)")
               ->check(CLI::Range(static_cast<int>(kOldestStreamVersion), static_cast<int>(kStreamVersion))))
       ->capture_default_str();
+  FromEnv(cmd->add_option("--tools", args->tools,
+                          "version 2 coding tools, comma-separated: all, none, geometry, frame, rank, normals, "
+                          "texcoords (docs/codec.md; fewer tools, larger stream)")
+              ->capture_default_str());
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
               ->check(CLI::Range(0, 10)))
       ->capture_default_str();

@@ -58,6 +58,7 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
     t.unreliable_bytes += p.unreliable_bytes;
     t.datagrams += p.datagrams;
     t.removed_faces += p.removed_faces;
+    t.tools |= p.tools;
     AddLevelVertices(t.level_vertices, p.level_vertices);
   }
   return t;
@@ -117,6 +118,9 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       r.unreliable_bytes = stream->unreliable_bytes();
       r.datagrams = stream->datagram_count();
       r.removed_faces = encoded->removed_faces;
+      auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+      if (!header.ok()) return header.status().WithContext(where);
+      r.tools = header->tools;
       local.primitives.push_back(std::move(r));
     }
   }

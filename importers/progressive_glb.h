@@ -45,6 +45,7 @@ struct PrimitiveStreamReport {
   uint64_t unreliable_bytes = 0;  // datagrams with their headers
   uint64_t datagrams = 0;
   uint64_t removed_faces = 0;
+  uint8_t tools = 0;  // the coding tools its stream was written with (StreamTool bits; Total: their union)
 };
 
 struct ProgressiveGlbReport {

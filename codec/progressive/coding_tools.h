@@ -21,6 +21,17 @@ constexpr uint8_t kAllTools =
     kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction | kToolTexcoordPrediction;
 constexpr uint8_t kDefinedTools = kAllTools;
 
+// The tools' names, as the CLI's --tools and the --json reports spell them,
+// in bit order.
+struct ToolName {
+  StreamTool tool;
+  const char* name;
+};
+constexpr ToolName kToolNames[] = {
+    {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
+    {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"},
+};
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_

@@ -199,6 +199,33 @@ TEST(ProgressiveCli, FormatVersionOneIsWrittenOnRequestAndDecodesToTheSameMesh) 
   EXPECT_EQ(c["same_on_grid"], true) << c.dump();
 }
 
+// --tools chooses version 2's coding tools (for measuring what each saves);
+// --json reports the ones the stream was written with. Fewer tools: larger,
+// and the same mesh.
+TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
+  TempDir dir;
+  const std::string src = Quote(ModelPath("fandisk.obj"));
+  const json all = RunJson("encode --json " + src + " -o " + Quote(dir.File("all.glb")));
+  const json none = RunJson("encode --json --tools none " + src + " -o " + Quote(dir.File("none.glb")));
+  const json two = RunJson("encode --json --tools geometry,rank " + src + " -o " + Quote(dir.File("two.glb")));
+  // fandisk has normals but no texture coordinates: no texcoords tool.
+  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals"})) << all.dump();
+  EXPECT_EQ(none["tools"], json::array()) << none.dump();
+  EXPECT_EQ(two["tools"], json::array({"geometry", "rank"})) << two.dump();
+  EXPECT_EQ(U(none, "format_version"), 2u);
+  EXPECT_GT(U(none, "total_bytes"), U(two, "total_bytes"));
+  EXPECT_GT(U(two, "total_bytes"), U(all, "total_bytes"));
+  for (const char* name : {"all", "none", "two"}) {
+    const std::string glb = dir.File(std::string(name) + ".glb"), obj = dir.File(std::string(name) + ".obj");
+    ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(glb) + " -o " + Quote(obj)).exit_code, 0) << name;
+  }
+  for (const char* name : {"none", "two"}) {
+    const json c = RunJson("compare --json --qp 11 " + Quote(dir.File("all.obj")) + " " +
+                           Quote(dir.File(std::string(name) + ".obj")));
+    EXPECT_EQ(c["same_on_grid"], true) << name << ": " << c.dump();
+  }
+}
+
 // A multi-primitive glTF scene comes back with its nodes, meshes and
 // primitives. Each primitive has its own grid, so the geometry is compared
 // by distance over the whole scene rather than on one grid.
@@ -272,6 +299,7 @@ TEST(ProgressiveCli, UsageErrorsExitTwoAndBadInputExitsOne) {
       {"encode --packet-bytes 10 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --format-version 3 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --format-version 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --tools geometry,bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"decode " + Quote(glb), 2},                                       // no -o
       {"decode " + Quote(glb) + " -o " + Quote(dir.File("x.fbx")), 2},
