@@ -25,6 +25,7 @@ struct SplitView {
   bool fits = false;        // the coded wings fit that ring and are trusted
   bool distrusted = false;  // they fit, but the ring was changed by a prediction and geometry arrived
   size_t a_at = 0, b_at = 0;  // ring positions of the coded wings, when they fit (trusted or not)
+  bool ring_positions_inexact = false;  // with a tool that reads them: a ring vertex was predicted or its ring changed
 };
 
 // The ring positions of the coded wings of split j on w's ring as the state
@@ -75,11 +76,18 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // over seeds 1-6 0.95 -> 0.89 % of the diagonal, but applied inexact
   // splits as exact; docs/loss-tolerance.md.)
   // (No flag is set before the first prediction or abandoned split.)
+  // Without the rank, wings named by id fit or not whatever the positions,
+  // but the split vector and the predicted channels still come from the
+  // ring's positions: applied as coded, the split is then marked
+  // (ApplyCoded).
   bool changed = (flags & kRingInexact) != 0;
-  if (!changed && view.fits && (coding.tools & kToolWingRank) != 0 && (state.any_inexact || state.any_absent)) {
+  if (!changed && view.fits && (coding.tools & kRingTools) != 0 && (state.any_inexact || state.any_absent)) {
     uint8_t any = 0;
     for (uint32_t x : state.scratch_ring) any |= state.flags[x];
-    changed = (any & kPositionInexact) != 0;
+    // A ring vertex whose own ring a prediction changed may stand where
+    // the lossless ring has another: the ring's frame and sums differ too.
+    view.ring_positions_inexact = any != 0;
+    changed = (any & kPositionInexact) != 0 && (coding.tools & kToolWingRank) != 0;
   }
   const bool trust_ranks = recovery == Recovery::kLwop || !changed || !has_geometry;
   view.distrusted = view.fits && !trust_ranks;
@@ -158,7 +166,9 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
   // Exact values next to predicted ones, or on a ring a prediction changed,
   // can still line up. (Whether a ring is the lossless one is not known
   // cheaply enough to skip the check: it runs after any prediction.)
-  if (state.any_inexact && AvoidDegenerateFaces(&state, w, n)) {
+  // Values computed from predicted ring positions are predicted too.
+  const bool moved = state.any_inexact && AvoidDegenerateFaces(&state, w, n);
+  if (moved || view.ring_positions_inexact) {
     state.Mark(w, kPositionInexact);
     state.Mark(n, kPositionInexact);
   }
@@ -364,6 +374,13 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   // later split of a marked vertex checks its structure against its real ring.
   uint8_t both = state.flags[w] & (kRingInexact | kPositionInexact);
   if (!geometry) both |= kPositionInexact;
+  // Arrived geometry decoded on the ring's positions (version 2's
+  // prediction and frame) is exact only where they are.
+  if (geometry && (coding.tools & kRingTools) != 0 && both == 0) {
+    uint8_t any = 0;
+    for (uint32_t x : ring) any |= state.flags[x];
+    if (any != 0) both |= kPositionInexact;
+  }
   if (!split.structure) {
     both |= kRingInexact;
     const size_t path = (split.a_at + d - split.b_at) % d;

@@ -28,7 +28,7 @@ struct RealStream {
   std::vector<uint32_t> level_vertices;
 };
 
-inline RealStream BuildRealStream() {
+inline RealStream BuildRealStream(uint8_t tools = kAllTools) {
   auto fail = [](const std::string& what) {
     std::fprintf(stderr, "real stream: %s\n", what.c_str());
     std::abort();
@@ -44,6 +44,7 @@ inline RealStream BuildRealStream() {
   StreamWriteOptions wo;
   wo.packet_bytes = 200;
   wo.stream_id = kRealStreamId;
+  wo.tools = tools;
   auto stream = WriteStream(enc.value(), options.quantization, wo);
   if (!stream.ok()) fail(stream.status().ToString());
   RealStream r;
@@ -70,6 +71,10 @@ inline const RealStream& Fandisk() {
   static const RealStream s = BuildRealStream();
   return s;
 }
+
+// The same with only the given version 2 tools (a stream a user writes with
+// `meshstream encode --tools`).
+inline RealStream FandiskWithTools(uint8_t tools) { return BuildRealStream(tools); }
 
 }  // namespace meshstream::test_util
 

@@ -6,6 +6,7 @@
 // (prediction and LwoP). Until FinishRefinement can recover a split whose
 // structure or geometry is missing they skip themselves, with a message; once
 // it can, they run and must pass.
+#include <algorithm>
 #include <numeric>
 
 #include <gtest/gtest.h>
@@ -136,6 +137,52 @@ TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
       EXPECT_GT(report.recovery.predicted(), 0u) << what;
       EXPECT_EQ(report.recovery.exact + report.recovery.predicted(), TotalSplits(n)) << what;
       ExpectNoWorseThanLossless(reader->Mesh(), n, what);
+    }
+  }
+}
+
+// The reliability flags under loss: a vertex the reader marks reliable sits
+// where the lossless decode has it, for a stream with every tool and for
+// each tool alone (each reads the ring's positions differently: the split
+// vector's prediction, its frame, the wings' rank, the predicted channels),
+// with prediction and with LwoP. Without the marks of ApplyCoded for
+// splits computed from predicted ring positions, the single-tool streams
+// fail here.
+TEST(LossyDecode, VerticesMarkedReliableAreExactForEveryToolUnderLoss) {
+  for (uint8_t tools : {uint8_t{kAllTools}, uint8_t{kToolGeometryPrediction}, uint8_t{kToolLocalFrame},
+                        uint8_t{kToolWingRank}}) {
+    const RealStream s = tools == kAllTools ? Fandisk() : test_util::FandiskWithTools(tools);
+    const QuantizedMesh& lossless = s.levels.back();
+    for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {
+      for (uint64_t seed : {1, 2}) {
+        const std::string what = "tools " + std::to_string(tools) + (recovery == Recovery::kLwop ? " lwop" : " predict") +
+                                 " seed " + std::to_string(seed);
+        LossyDecodeOptions options;
+        options.loss.loss = 0.06;
+        options.loss.seed = seed;
+        options.reconstructor.recovery = recovery;
+        LossyDecodeReport report;
+        auto reader = DecodeStreamLossy(s.stream, kRealStreamId, s.base, options, &report);
+        ASSERT_TRUE(reader.ok()) << what << ": " << reader.status().ToString();
+        ASSERT_GT(report.transmission.datagrams_lost, 0u) << what;
+        const std::vector<uint8_t>& reliable = reader->reliable();
+        const RefinementState& state = reader->state();
+        ASSERT_EQ(reliable.size(), lossless.vertex_count()) << what;
+        size_t marked = 0, wrong = 0;
+        for (size_t v = 0; v < reliable.size(); ++v) {
+          if (!reliable[v]) {
+            ++marked;
+            continue;
+          }
+          const bool same = state.positions[v] == lossless.positions[v] &&
+                            std::equal(lossless.attributes.begin() + v * lossless.layout.channels(),
+                                       lossless.attributes.begin() + (v + 1) * lossless.layout.channels(),
+                                       state.attributes.begin() + v * lossless.layout.channels());
+          wrong += !same;
+        }
+        EXPECT_GT(marked, 0u) << what;
+        EXPECT_EQ(wrong, 0u) << what << ": vertices marked reliable that are not where the lossless decode has them";
+      }
     }
   }
 }
