@@ -25,7 +25,11 @@ struct SplitView {
   bool fits = false;        // the coded wings fit that ring and are trusted
   bool distrusted = false;  // they fit, but the ring was changed by a prediction and geometry arrived
   size_t a_at = 0, b_at = 0;  // ring positions of the coded wings, when they fit (trusted or not)
-  bool ring_positions_inexact = false;  // with a tool that reads them: a ring vertex was predicted or its ring changed
+  // With a tool that reads the ring's positions: its vertices' flags, OR-ed
+  // (0 before the first prediction or abandoned split). A ring vertex whose
+  // own ring a prediction changed may stand where the lossless ring has
+  // another, so any flag means that the ring's frame and sums may differ.
+  uint8_t ring_flags = 0;
 };
 
 // The ring positions of the coded wings of split j on w's ring as the state
@@ -80,15 +84,11 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // but the split vector and the predicted channels still come from the
   // ring's positions: applied as coded, the split is then marked
   // (ApplyCoded).
-  bool changed = (flags & kRingInexact) != 0;
-  if (!changed && view.fits && (coding.tools & kRingTools) != 0 && (state.any_inexact || state.any_absent)) {
-    uint8_t any = 0;
-    for (uint32_t x : state.scratch_ring) any |= state.flags[x];
-    // A ring vertex whose own ring a prediction changed may stand where
-    // the lossless ring has another: the ring's frame and sums differ too.
-    view.ring_positions_inexact = any != 0;
-    changed = (any & kPositionInexact) != 0 && (coding.tools & kToolWingRank) != 0;
+  if (view.fan && (coding.tools & kRingTools) != 0 && (state.any_inexact || state.any_absent)) {
+    for (uint32_t x : state.scratch_ring) view.ring_flags |= state.flags[x];
   }
+  const bool changed =
+      (flags & kRingInexact) != 0 || ((coding.tools & kToolWingRank) != 0 && (view.ring_flags & kPositionInexact) != 0);
   const bool trust_ranks = recovery == Recovery::kLwop || !changed || !has_geometry;
   view.distrusted = view.fits && !trust_ranks;
   if (view.distrusted) {
@@ -168,7 +168,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
   // cheaply enough to skip the check: it runs after any prediction.)
   // Values computed from predicted ring positions are predicted too.
   const bool moved = state.any_inexact && AvoidDegenerateFaces(&state, w, n);
-  if (moved || view.ring_positions_inexact) {
+  if (moved || view.ring_flags != 0) {
     state.Mark(w, kPositionInexact);
     state.Mark(n, kPositionInexact);
   }
@@ -376,11 +376,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   if (!geometry) both |= kPositionInexact;
   // Arrived geometry decoded on the ring's positions (version 2's
   // prediction and frame) is exact only where they are.
-  if (geometry && (coding.tools & kRingTools) != 0 && both == 0) {
-    uint8_t any = 0;
-    for (uint32_t x : ring) any |= state.flags[x];
-    if (any != 0) both |= kPositionInexact;
-  }
+  if (geometry && both == 0 && view.ring_flags != 0) both |= kPositionInexact;
   if (!split.structure) {
     both |= kRingInexact;
     const size_t path = (split.a_at + d - split.b_at) % d;

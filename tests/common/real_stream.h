@@ -28,6 +28,7 @@ struct RealStream {
   std::vector<uint32_t> level_vertices;
 };
 
+// `tools`: the version 2 tools to write with (as `meshstream encode --tools`).
 inline RealStream BuildRealStream(uint8_t tools = kAllTools) {
   auto fail = [](const std::string& what) {
     std::fprintf(stderr, "real stream: %s\n", what.c_str());
@@ -71,10 +72,6 @@ inline const RealStream& Fandisk() {
   static const RealStream s = BuildRealStream();
   return s;
 }
-
-// The same with only the given version 2 tools (a stream a user writes with
-// `meshstream encode --tools`).
-inline RealStream FandiskWithTools(uint8_t tools) { return BuildRealStream(tools); }
 
 }  // namespace meshstream::test_util
 

@@ -151,7 +151,7 @@ TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
 TEST(LossyDecode, VerticesMarkedReliableAreExactForEveryToolUnderLoss) {
   for (uint8_t tools : {uint8_t{kAllTools}, uint8_t{kToolGeometryPrediction}, uint8_t{kToolLocalFrame},
                         uint8_t{kToolWingRank}}) {
-    const RealStream s = tools == kAllTools ? Fandisk() : test_util::FandiskWithTools(tools);
+    const RealStream s = tools == kAllTools ? Fandisk() : test_util::BuildRealStream(tools);
     const QuantizedMesh& lossless = s.levels.back();
     for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {
       for (uint64_t seed : {1, 2}) {
