@@ -432,7 +432,8 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
       {"+ cut edges by rank in the ring's geometric order", 2,
        ms::kToolGeometryPrediction | ms::kToolLocalFrame | ms::kToolWingRank},
       {"+ normals predicted from the decoded geometry", 2, ms::kAllTools & ~ms::kToolTexcoordPrediction},
-      {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools},
+      {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools & ~ms::kToolSeams},
+      {"+ seam edges collapsed on both sides together", 2, ms::kAllTools},
   };
   json out = json::array();
   double previous = 0;
@@ -534,6 +535,7 @@ json LevelBytes(const ms::Primitive& prim, const ms::QuantizationParams& q, cons
                 uint64_t vertices, json* entropy, const std::string& label) {
   ms::ProgressiveEncodeOptions options;
   options.quantization = q;
+  options.simplify.collapse_seams = true;  // as `meshstream encode` (the seams tool)
   ms::DracoAttributeIds ids;
   const auto encoded = ms::bench::EncodeWithDracoBase(prim, options, &ids, label);
   ms::StreamWriteOptions so;

@@ -386,6 +386,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
   options.quantization.qn = 8;
   options.quantization.qt = 10;
   options.simplify.base_ratio = base_ratio;
+  options.simplify.collapse_seams = true;  // the default stream (version 2, every tool)
   ms::DracoAttributeIds ids;
   const auto enc = ms::bench::EncodeWithDracoBase(*prims[0], options, &ids, file);
   for (int p = 0; p < 2; ++p) {

@@ -198,7 +198,7 @@ Verb AddEncode(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,
                           "version 2 coding tools, comma-separated: all, none, geometry, frame, rank, normals, "
-                          "texcoords (docs/codec.md; fewer tools, larger stream)")
+                          "texcoords, seams (docs/codec.md; fewer tools, larger stream)")
               ->capture_default_str());
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
               ->check(CLI::Range(0, 10)))

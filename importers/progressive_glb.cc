@@ -83,6 +83,8 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       if (prim.face_count() == 0) continue;
       const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]";
       ProgressiveEncodeOptions encode = options.encode;
+      // Seam edges collapse only where the stream can carry it (version 2, the seams tool).
+      encode.simplify.collapse_seams = options.stream.version >= 2 && (options.stream.tools & kToolSeams) != 0;
       const size_t index = stream_id;
       if (options.progress) {
         encode.simplify.observer = [&options, index](int batch, size_t left) {

@@ -90,6 +90,13 @@ void StreamHeader::Serialize(ByteWriter& w) const {
   for (uint32_t c : split_counts) w.Varint(c);
   w.Block(EncodeFixups(base_position_fix));
   w.Block(EncodeFixups(base_attribute_fix));
+  if (version >= 2 && (tools & kToolSeams)) {
+    w.Varint(seam_twins.size());
+    for (const auto& t : seam_twins) {
+      w.Varint(t[0]);
+      w.Varint(t[1] - t[0]);
+    }
+  }
 }
 
 StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
@@ -161,7 +168,22 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   h.position_fix_block.assign(pos_fix, pos_fix + length);
   MS_ASSIGN_OR_RETURN(const uint8_t* attr_fix, r.Block("stream header: attribute fix-ups", &length));
   h.attribute_fix_block.assign(attr_fix, attr_fix + length);
-  if (r.remaining() != 0) return refuse(std::to_string(r.remaining()) + " stray bytes after the attribute fix-ups");
+  if (h.has(kToolSeams)) {
+    // Every pair takes at least two bytes: the count cannot claim more than the bytes hold.
+    MS_ASSIGN_OR_RETURN(uint64_t twins, r.Varint("stream header: seam twin count", r.remaining() / 2));
+    h.seam_twins.reserve(twins);
+    for (uint64_t k = 0; k < twins; ++k) {
+      MS_ASSIGN_OR_RETURN(uint64_t p, r.Varint("stream header: seam twin", h.base_vertices));
+      MS_ASSIGN_OR_RETURN(uint64_t gap, r.Varint("stream header: seam twin", h.base_vertices));
+      if (gap == 0 || p + gap >= h.base_vertices) {
+        return refuse("seam twin pair " + std::to_string(k) + " (" + std::to_string(p) + ", +" + std::to_string(gap) +
+                      ") does not name two base vertices in ascending order");
+      }
+      h.seam_twins.push_back({static_cast<uint32_t>(p), static_cast<uint32_t>(p + gap)});
+    }
+  }
+  if (r.remaining() != 0) return refuse(std::to_string(r.remaining()) + (h.has(kToolSeams) ? " stray bytes after the seam twins"
+                                                                                   : " stray bytes after the attribute fix-ups"));
   return h;
 }
 

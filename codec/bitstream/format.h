@@ -17,6 +17,7 @@
 #ifndef MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
 #define MESHSTREAM_CODEC_BITSTREAM_FORMAT_H_
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -74,6 +75,10 @@ struct StreamHeader {
   std::vector<int32_t> base_attribute_fix;
   std::vector<uint8_t> position_fix_block;
   std::vector<uint8_t> attribute_fix_block;
+  // With kToolSeams: the seam twins of the base mesh, (p, s) with p < s <
+  // base_vertices, canonical ids (seam_twins.h). Checked for repeats when
+  // the base is set (RefinementState::SetTwins).
+  std::vector<std::array<uint32_t, 2>> seam_twins;
 
   // Fills base_position_fix and base_attribute_fix for `base_vertices`
   // vertices (the caller has checked that against the real base).

@@ -61,6 +61,7 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   base.position_grid = h.grids.position_grid;
   base.layout = h.grids.layout;
   MS_RETURN_IF_ERROR(state_.Reset(base));
+  MS_RETURN_IF_ERROR(state_.SetTwins(header_.seam_twins).WithContext("stream header"));
   history_ = SplitHistory();
   history_.vertices = static_cast<uint32_t>(base.vertex_count());
   models_.clear();
@@ -90,6 +91,12 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   if (ref.split_vertices.size() != header_.split_counts[next_]) {
     return InvalidInput(where + ": " + std::to_string(ref.split_vertices.size()) + " split bits are set, the header says " +
                         std::to_string(header_.split_counts[next_]));
+  }
+  // Seam pairs split together (reliable data: the twins and the split bits).
+  partner_.clear();
+  if (header_.has(kToolSeams)) {
+    const Status pairs = SeamPartners(ref.split_vertices, state_.twin, &partner_);
+    if (!pairs.ok()) return pairs.WithContext(where + ": split bits");
   }
   // Models: per slot, a flag (0: the previous refinement's, 1: a new one follows).
   const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
@@ -173,14 +180,31 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   wings.assign(h.count, {0, 0});
   deltas.assign(geometry ? h.count : 0, Vec3i{});
   attrs.assign(geometry ? size_t(h.count) * ch : 0, 0);
+  // A seam pair's primary unit carries both sides (the twin's wing, then
+  // after the shared vector the twin's channels); the secondary's is empty.
+  const bool seams = !partner_.empty();
+  std::vector<uint16_t>& twin_wings = datagram_twin_wings_;
+  std::vector<int32_t>& twin_attrs = datagram_twin_attributes_;
+  twin_wings.assign(seams ? h.count : 0, 0);
+  twin_attrs.assign(seams && geometry ? size_t(h.count) * ch : 0, 0);
   for (uint32_t i = 0; i < h.count; ++i) {
+    const size_t j = h.offset + size_t(i) * h.stride;
+    const bool seam = seams && partner_[j] != kNoTwin;
+    if (seam && partner_[j] < j) continue;  // secondary
     if (structure) {
-      wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));
-      wings[i][1] = static_cast<uint16_t>(models_[1].Decode(dec));
+      if (seam) {
+        wings[i][0] = static_cast<uint16_t>(dec.DecodeRaw(kSeamWingBits));
+        twin_wings[i] = static_cast<uint16_t>(dec.DecodeRaw(kSeamWingBits));
+      } else {
+        wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));
+        wings[i][1] = static_cast<uint16_t>(models_[1].Decode(dec));
+      }
     }
     if (geometry) {
       for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, models_[2 + c]);
       for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
+      if (seam)
+        for (int c = 0; c < ch; ++c) twin_attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
     }
   }
   // The payload must end with its last unit: a stray byte or a cut makes the
@@ -192,9 +216,15 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   bool fresh = false;
   for (uint32_t i = 0; i < h.count; ++i) {
     const size_t j = h.offset + size_t(i) * h.stride;
+    const size_t t = seams ? partner_[j] : kNoTwin;
+    if (t != kNoTwin && t < j) continue;  // a secondary arrives with its primary
     if (structure && !has_structure_[j]) {
       coded_.wings[j] = wings[i];
       has_structure_[j] = 1;
+      if (t != kNoTwin) {
+        coded_.wings[t] = {twin_wings[i], 0};
+        has_structure_[t] = 1;
+      }
       fresh = true;
     }
     if (geometry && !has_geometry_[j]) {
@@ -202,6 +232,12 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
       std::copy(attrs.begin() + size_t(i) * ch, attrs.begin() + size_t(i + 1) * ch,
                 coded_.attribute_delta.begin() + j * ch);
       has_geometry_[j] = 1;
+      if (t != kNoTwin) {
+        coded_.position_delta[t] = deltas[i];
+        std::copy(twin_attrs.begin() + size_t(i) * ch, twin_attrs.begin() + size_t(i + 1) * ch,
+                  coded_.attribute_delta.begin() + t * ch);
+        has_geometry_[t] = 1;
+      }
       fresh = true;
     }
   }

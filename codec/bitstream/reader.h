@@ -91,6 +91,11 @@ class StreamReader {
   std::vector<std::array<uint16_t, 2>> datagram_wings_;
   std::vector<Vec3i> datagram_deltas_;
   std::vector<int32_t> datagram_attributes_;
+  std::vector<uint16_t> datagram_twin_wings_;
+  std::vector<int32_t> datagram_twin_attributes_;
+  // Per split of the current refinement: its seam twin's split, or kNoTwin
+  // (empty in a stream without the seams tool).
+  std::vector<uint32_t> partner_;
   DatagramStats stats_;
   RecoveryStats recovery_stats_;
 };

@@ -6,6 +6,7 @@
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/normal_prediction.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/seam_twins.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/progressive/texcoord_prediction.h"
@@ -27,16 +28,34 @@ struct RefinementModels {
   const StaticModel& attribute(int channel) const { return slots[5 + channel]; }
 };
 
-std::vector<std::vector<uint64_t>> Histograms(const Refinement& r, int channels) {
+// A refinement as the datagrams carry it: its splits and, per split, the
+// index of its seam twin's split (kNoTwin for an interior split). A seam
+// pair's primary (the smaller index) carries both sides; the secondary's
+// unit is empty (docs/progressive-format.md, "Seam split").
+struct CodedRefinement {
+  const Refinement& r;
+  const std::vector<uint32_t>& partner;
+  bool interior(size_t j) const { return partner.empty() || partner[j] == kNoTwin; }
+  bool secondary(size_t j) const { return !interior(j) && partner[j] < j; }
+};
+
+std::vector<std::vector<uint64_t>> Histograms(const CodedRefinement& cr, int channels) {
+  const Refinement& r = cr.r;
   std::vector<std::vector<uint64_t>> h(5 + channels);
   h[0].assign(kWingAlphabet, 0);
   h[1].assign(kWingAlphabet, 0);
   for (size_t k = 2; k < h.size(); ++k) h[k].assign(kSignedSymbols, 0);
   for (size_t j = 0; j < r.split_count(); ++j) {
-    ++h[0][r.wings[j][0]];
-    ++h[1][r.wings[j][1]];
+    if (cr.secondary(j)) continue;
+    if (cr.interior(j)) {
+      ++h[0][r.wings[j][0]];
+      ++h[1][r.wings[j][1]];
+    }
     for (int k = 0; k < 3; ++k) ++h[2 + k][SignedSymbol(r.position_delta[j][k])];
     for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[j * channels + k])];
+    if (cr.interior(j)) continue;
+    const size_t t = cr.partner[j];
+    for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[t * channels + k])];
   }
   return h;
 }
@@ -52,7 +71,7 @@ double CostWith(const StaticModel& m, const std::vector<uint64_t>& counts) {
 }
 
 // Chooses and writes the models of a refinement; `previous` is updated.
-RefinementModels WriteModels(const Refinement& r, int channels, RefinementModels* previous, ByteWriter& w) {
+RefinementModels WriteModels(const CodedRefinement& r, int channels, RefinementModels* previous, ByteWriter& w) {
   const auto histograms = Histograms(r, channels);
   RefinementModels chosen;
   for (size_t k = 0; k < histograms.size(); ++k) {
@@ -72,30 +91,51 @@ RefinementModels WriteModels(const Refinement& r, int channels, RefinementModels
   return chosen;
 }
 
-void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j) {
+void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const CodedRefinement& cr, size_t j) {
+  const Refinement& r = cr.r;
+  if (cr.secondary(j)) return;
+  if (!cr.interior(j)) {
+    enc.EncodeRaw(r.wings[j][0], kSeamWingBits);
+    enc.EncodeRaw(r.wings[cr.partner[j]][0], kSeamWingBits);
+    return;
+  }
   m.wing().Encode(enc, r.wings[j][0]);
   m.offset().Encode(enc, r.wings[j][1]);
 }
 
-void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const Refinement& r, size_t j, int channels) {
+void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const CodedRefinement& cr, size_t j, int channels) {
+  const Refinement& r = cr.r;
+  if (cr.secondary(j)) return;
   for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position(k), r.position_delta[j][k]);
   for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[j * channels + k]);
+  if (cr.interior(j)) return;
+  const size_t t = cr.partner[j];
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[t * channels + k]);
 }
 
-double UnitCost(const RefinementModels& m, const Refinement& r, size_t j, int channels, DatagramKind kind) {
+double UnitCost(const RefinementModels& m, const CodedRefinement& cr, size_t j, int channels, DatagramKind kind) {
+  const Refinement& r = cr.r;
+  if (cr.secondary(j)) return 0;
   double bits = 0;
-  if (kind != DatagramKind::kGeometry) bits += m.wing().Cost(r.wings[j][0]) + m.offset().Cost(r.wings[j][1]);
+  const bool seam = !cr.interior(j);
+  if (kind != DatagramKind::kGeometry) {
+    bits += seam ? 2 * kSeamWingBits : m.wing().Cost(r.wings[j][0]) + m.offset().Cost(r.wings[j][1]);
+  }
   if (kind != DatagramKind::kStructure) {
     for (int k = 0; k < 3; ++k) bits += SignedCost(m.position(k), r.position_delta[j][k]);
     for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[j * channels + k]);
+    if (seam) {
+      const size_t t = cr.partner[j];
+      for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[t * channels + k]);
+    }
   }
   return bits;
 }
 
 // Deals the splits of a refinement to as few datagrams as fit.
-std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Refinement& r, int channels,
+std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const CodedRefinement& r, int channels,
                                             DatagramKind kind, uint32_t refinement, const StreamWriteOptions& o) {
-  const size_t k = r.split_count();
+  const size_t k = r.r.split_count();
   std::vector<std::vector<uint8_t>> out;
   if (k == 0) return out;
   double bits = 0;
@@ -171,7 +211,8 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
   }
   const size_t k = r.split_count();
   struct Split {
-    size_t a_at, b_at, ring_at, degree;
+    size_t a_at = 0, b_at = 0, ring_at = 0, degree = 0;
+    bool seam = false;
   };
   std::vector<Split> splits(k);
   std::vector<Vec3i> rings;  // every split's ring positions, back to back
@@ -181,9 +222,17 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
   for (size_t j = 0; j < k; ++j) {
     const uint32_t w = r.split_vertices[j];
     std::vector<uint32_t>& ring = state.scratch_ring;
+    Split& s = splits[j];
+    if (state.twin[w] != kNoTwin) {
+      // A seam split is coded as it is: its wing by position, its vector
+      // and channels raw (no tool predicts across a boundary).
+      state.connectivity.OpenRing(w, ring);
+      s.seam = true;
+      state.ApplySeamSplitAt(r, j, r.wings[j][0]);
+      continue;
+    }
     // The encoder's own hierarchy: every split vertex is a closed fan and its wings fit.
     state.connectivity.CyclicRing(w, ring);
-    Split& s = splits[j];
     WingPositions(ring, r.wings[j], &s.a_at, &s.b_at);
     s.ring_at = rings.size();
     s.degree = ring.size();
@@ -221,10 +270,11 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
     }
   }
   auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
-    out->resize(k);
+    out->clear();
     for (size_t j = 0; j < k; ++j) {
       const Split& s = splits[j];
-      (*out)[j] = CodeSplitVector(c, r.position_delta[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at, frames[j]);
+      if (s.seam) continue;
+      out->push_back(CodeSplitVector(c, r.position_delta[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at, frames[j]));
     }
   };
   std::vector<Vec3i> residuals;
@@ -248,7 +298,9 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
       if (alpha % 8 != 0) consider(alpha);
     coding->alpha = best_alpha;
   }
-  code_all(*coding, &coded.position_delta);
+  code_all(*coding, &residuals);
+  for (size_t j = 0, next = 0; j < k; ++j)
+    if (!splits[j].seam) coded.position_delta[j] = residuals[next++];
   return true;
 }
 
@@ -282,6 +334,15 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   // grids of at most 24 bits guarantee (local_frame.h); the texture
   // coordinate prediction only where there are such channels.
   h.tools = ApplicableTools(h.tools, quantization, pm.base.layout);
+  // Seams: the hierarchy decides (SimplifyOptions::collapse_seams); the
+  // header lists the base's twins when there are any.
+  if (pm.base_twins.empty()) {
+    h.tools &= static_cast<uint8_t>(~kToolSeams);
+  } else if (!h.has(kToolSeams)) {
+    return InvalidArgument("the mesh was simplified with seam collapses: only a version 2 stream with the seams "
+                           "tool can carry them");
+  }
+  h.seam_twins = pm.base_twins;
   h.packing = o.packing;
   h.quantization = quantization;
   h.grids.position_grid = pm.base.position_grid;
@@ -303,20 +364,27 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   RefinementModels previous;
   // The coarser mesh as the decoder will have it, for the tools that predict from it.
   RefinementState state;
-  if (h.tools != 0) MS_RETURN_IF_ERROR(state.Reset(pm.base));
+  if (h.tools != 0) {
+    MS_RETURN_IF_ERROR(state.Reset(pm.base));
+    MS_RETURN_IF_ERROR(state.SetTwins(pm.base_twins));
+  }
+  std::vector<uint32_t> partner;
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
     SplitCoding coding;
     Refinement coded;
+    partner.clear();
+    if (h.has(kToolSeams)) MS_RETURN_IF_ERROR(SeamPartners(pm.refinements[i].split_vertices, state.twin, &partner));
     if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
       without.tools = static_cast<uint8_t>(h.tools & ~kToolWingRank);
       return WriteStream(e, quantization, without);
     }
-    const Refinement& r = h.tools != 0 ? coded : pm.refinements[i];
+    const Refinement& plain = h.tools != 0 ? coded : pm.refinements[i];
+    const CodedRefinement r{plain, partner};
     // Split bits, then the models.
-    std::vector<uint8_t> bits(r.vertices_before, 0);
-    for (uint32_t v : r.split_vertices) bits[v] = 1;
+    std::vector<uint8_t> bits(plain.vertices_before, 0);
+    for (uint32_t v : plain.split_vertices) bits[v] = 1;
     ByteWriter cw;
     cw.Block(EncodeSplitBits(bits, history));
     history = history.Next(bits);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "codec/progressive/seam_twins.h"
+
 namespace meshstream {
 
 namespace {
@@ -68,6 +70,7 @@ class Simplifier {
     }
     h.positions = positions_;
     h.attributes = attributes_;
+    h.twin = twin_;
     return h;
   }
 
@@ -122,11 +125,90 @@ class Simplifier {
     return false;
   }
 
+  // A vertex is on a boundary when its triangles form one open fan: every
+  // triangle leaves a distinct vertex, exactly one of those is entered by
+  // none, and the walk from it visits every triangle.
+  bool IsOpenFan(uint32_t w) {
+    pairs_.clear();
+    for (uint32_t f : vertex_faces_[w]) {
+      if (!face_alive_[f]) continue;
+      const Face r = RotateTo(faces_[f], w);
+      pairs_.push_back({r[1], r[2]});
+    }
+    const size_t n = pairs_.size();
+    if (n == 0) return false;
+    std::sort(pairs_.begin(), pairs_.end());
+    for (size_t i = 1; i < n; ++i)
+      if (pairs_[i][0] == pairs_[i - 1][0]) return false;
+    uint32_t start = UINT32_MAX;
+    for (const auto& p : pairs_) {
+      bool entered = false;
+      for (const auto& q : pairs_) entered |= q[1] == p[0];
+      if (entered) continue;
+      if (start != UINT32_MAX) return false;
+      start = p[0];
+    }
+    if (start == UINT32_MAX) return false;
+    uint32_t cur = start;
+    for (size_t step = 0; step < n; ++step) {
+      auto it = std::lower_bound(pairs_.begin(), pairs_.end(), std::array<uint32_t, 2>{cur, 0});
+      if (it == pairs_.end() || (*it)[0] != cur) return false;
+      cur = (*it)[1];
+    }
+    auto end = std::lower_bound(pairs_.begin(), pairs_.end(), std::array<uint32_t, 2>{cur, 0});
+    return end == pairs_.end() || (*end)[0] != cur;
+  }
+
+  // Seam twins: open-fan vertices whose position exactly one other vertex,
+  // also an open fan, shares. They are unlocked; their quadrics are summed.
+  void InitSeams() {
+    const size_t n = positions_.size();
+    twin_.assign(n, kNoTwin);
+    seam_.assign(n, 0);
+    std::vector<uint32_t> open;
+    for (uint32_t v = 0; v < n; ++v)
+      if (!vertex_faces_[v].empty() && !locked_[v] && IsOpenFan(v)) open.push_back(v);
+    std::vector<uint32_t> by_position(n);
+    std::iota(by_position.begin(), by_position.end(), 0);
+    std::sort(by_position.begin(), by_position.end(), [&](uint32_t a, uint32_t b) {
+      return positions_[a] != positions_[b] ? positions_[a] < positions_[b] : a < b;
+    });
+    std::vector<uint8_t> is_open(n, 0);
+    for (uint32_t v : open) is_open[v] = 1;
+    for (size_t i = 0; i < n;) {
+      size_t e = i;
+      size_t referenced = 0;
+      while (e < n && positions_[by_position[e]] == positions_[by_position[i]]) {
+        referenced += vertex_faces_[by_position[e]].empty() ? 0 : 1;
+        ++e;
+      }
+      if (referenced == 2 && e - i >= 2) {
+        uint32_t pair[2];
+        int k = 0;
+        for (size_t t = i; t < e; ++t)
+          if (!vertex_faces_[by_position[t]].empty() && k < 2) pair[k++] = by_position[t];
+        if (is_open[pair[0]] && is_open[pair[1]]) {
+          twin_[pair[0]] = pair[1];
+          twin_[pair[1]] = pair[0];
+          seam_[pair[0]] = seam_[pair[1]] = 1;
+          locked_[pair[0]] = locked_[pair[1]] = 0;
+          Quadric q;
+          for (int c = 0; c < 10; ++c) q[c] = quadrics_[pair[0]][c] + quadrics_[pair[1]][c];
+          quadrics_[pair[0]] = quadrics_[pair[1]] = q;
+        }
+      }
+      i = e;
+    }
+  }
+
   void InitLocks() {
     const size_t n = positions_.size();
     locked_.assign(n, 0);
+    twin_.assign(n, kNoTwin);
+    seam_.assign(n, 0);
+    std::vector<uint8_t> fan_locked(n, 0);
     for (uint32_t v = 0; v < n; ++v) {
-      if (!vertex_faces_[v].empty() && !IsClosedFan(v)) locked_[v] = 1;
+      if (!vertex_faces_[v].empty() && !IsClosedFan(v)) fan_locked[v] = 1;
     }
     // Duplicated triangles (the same three vertices twice).
     std::vector<std::array<uint32_t, 4>> keys;
@@ -142,6 +224,10 @@ class Simplifier {
         for (int k = 0; k < 3; ++k) locked_[keys[i][k]] = 1;
       }
     }
+    // Seam twins are found among the boundary vertices not locked otherwise.
+    if (options_.collapse_seams) InitSeams();
+    for (uint32_t v = 0; v < n; ++v)
+      if (fan_locked[v] && !seam_[v]) locked_[v] = 1;
   }
 
   void Neighbours(uint32_t w, std::vector<uint32_t>& out) const {
@@ -178,8 +264,69 @@ class Simplifier {
     return true;
   }
 
+  // Is the edge (u, v) in exactly one alive triangle?
+  bool IsBoundaryEdge(uint32_t u, uint32_t v) const {
+    int count = 0;
+    for (uint32_t f : vertex_faces_[u]) {
+      const Face& face = faces_[f];
+      count += (face[0] == v || face[1] == v || face[2] == v) ? 1 : 0;
+    }
+    return count == 1;
+  }
+
+  // One side of a seam collapse (u, v): legal on its own (see the header).
+  // Fills nu_ and nv_.
+  bool LegalSeamSide(uint32_t u, uint32_t v, Collapse& c) {
+    uint32_t a = UINT32_MAX;
+    int shared = 0;
+    bool uva = false;
+    for (uint32_t f : vertex_faces_[u]) {
+      const Face r = RotateTo(faces_[f], u);
+      if (r[1] == v) { a = r[2]; uva = true; ++shared; }
+      else if (r[2] == v) { a = r[1]; uva = false; ++shared; }
+    }
+    if (shared != 1) return false;
+    Neighbours(u, nu_);
+    Neighbours(v, nv_);
+    common_.clear();
+    std::set_intersection(nu_.begin(), nu_.end(), nv_.begin(), nv_.end(), std::back_inserter(common_));
+    if (common_.size() != 1 || common_[0] != a) return false;
+    if (IsBoundaryEdge(u, a) && IsBoundaryEdge(v, a)) return false;
+    const size_t valence = nu_.size() + nv_.size() - 3;
+    if (valence < 2 || valence > static_cast<size_t>(options_.max_valence) || valence >= kMaxSeamValence) return false;
+    Neighbours(a, na_);
+    if (na_.size() < 3) return false;
+    Vec3i m;
+    for (int k = 0; k < 3; ++k) m[k] = Midpoint(positions_[u][k], positions_[v][k]);
+    if (!KeepsOrientation(u, v, m) || !KeepsOrientation(v, u, m)) return false;
+    c = Collapse{u, v, a, kNoWing, positions_[u], positions_[v]};
+    c.uva = uva;
+    return true;
+  }
+
+  // A seam edge and its twin edge, collapsed together; `twin_side` gets the
+  // other side's collapse, and seam_neighbours_ both sides' neighbours.
+  bool LegalSeam(uint32_t u, uint32_t v, Collapse& c, Collapse& twin_side) {
+    if (!seam_[u] || !seam_[v]) return false;
+    const uint32_t u2 = twin_[u], v2 = twin_[v];
+    if (closed_[u2] || closed_[v2] || u2 == v || v2 == u || u2 == v2) return false;
+    if (!LegalSeamSide(u2, v2, twin_side)) return false;
+    seam_neighbours_ = nu_;
+    seam_neighbours_.insert(seam_neighbours_.end(), nv_.begin(), nv_.end());
+    if (!LegalSeamSide(u, v, c)) return false;
+    // The twin edge runs the other way (one surface across the seam), and
+    // the two sides' split vertices are not adjacent (the strict rule).
+    if (c.uva == twin_side.uva) return false;
+    for (uint32_t x : {u2, v2})
+      if (std::binary_search(nu_.begin(), nu_.end(), x) || std::binary_search(nv_.begin(), nv_.end(), x)) return false;
+    seam_neighbours_.insert(seam_neighbours_.end(), nu_.begin(), nu_.end());
+    seam_neighbours_.insert(seam_neighbours_.end(), nv_.begin(), nv_.end());
+    return true;
+  }
+
   bool Legal(uint32_t u, uint32_t v, Collapse& c) {
     if (locked_[u] || locked_[v] || closed_[u] || closed_[v]) return false;
+    if (seam_[u] || seam_[v]) return false;  // LegalSeam's
     uint32_t a = UINT32_MAX, b = UINT32_MAX;
     int shared = 0;
     for (uint32_t f : vertex_faces_[u]) {
@@ -256,6 +403,18 @@ class Simplifier {
     CollapseBatch batch;
     for (const Candidate& cand : candidates) {
       Collapse c;
+      if (options_.rule == BatchRule::kStrict && seam_[cand.u] && seam_[cand.v]) {
+        Collapse t;
+        if (closed_[cand.u] || closed_[cand.v] || !LegalSeam(cand.u, cand.v, c, t)) continue;
+        const uint32_t at = static_cast<uint32_t>(batch.collapses.size());
+        c.twin = at + 1;
+        t.twin = at;
+        for (uint32_t x : {c.u, c.v, t.u, t.v}) closed_[x] = 1;
+        for (uint32_t x : seam_neighbours_) closed_[x] = 1;
+        batch.collapses.push_back(c);
+        batch.collapses.push_back(t);
+        continue;
+      }
       if (!Legal(cand.u, cand.v, c)) continue;
       closed_[c.u] = closed_[c.v] = 1;
       if (options_.rule == BatchRule::kStrict) {
@@ -293,6 +452,9 @@ class Simplifier {
   std::vector<Quadric> quadrics_;
   std::vector<uint8_t> locked_;
   std::vector<uint8_t> closed_;
+  std::vector<uint32_t> twin_;  // seam twin per vertex, kNoTwin if none
+  std::vector<uint8_t> seam_;   // has a twin (unlocked boundary vertex)
+  std::vector<uint32_t> seam_neighbours_;
   uint64_t removed_faces_ = 0;
   std::vector<std::array<uint32_t, 2>> pairs_;
   std::vector<uint32_t> nu_, nv_, na_, common_;

@@ -14,8 +14,20 @@
 // wing vertices), the valences stay in [3, max_valence], and no surviving
 // triangle flips or becomes degenerate.
 //
-// Locked, never collapsed: boundary vertices (so UV and normal seams, which
-// are boundaries of a glTF primitive, stay crack-free at every level),
+// Seams (SimplifyOptions::collapse_seams): a UV or normal seam is a boundary
+// of a glTF primitive whose two sides hold the same positions. A boundary
+// vertex with exactly one copy elsewhere, also on a boundary, is a seam
+// twin; a boundary edge between two twinned vertices whose twins share a
+// boundary edge too, in the opposite direction, collapses together with
+// that edge in one batch (both to the same midpoint), so the seam stays
+// crack-free at every level. Each side must be legal on its own: one
+// triangle on the edge, the wing a the only common neighbour, not both of
+// (u, a) and (v, a) on the boundary, valences in [2, max_valence], no
+// flips. The quadrics of twins are summed (the seam is one surface).
+//
+// Locked, never collapsed: other boundary vertices (open boundaries, seam
+// corners with three copies or more, and every seam without collapse_seams,
+// so that seams stay crack-free at every level),
 // vertices that are not one closed fan (non-manifold), and vertices of
 // duplicated triangles. Triangles that repeat a vertex index are removed
 // before simplification (the documented clean-up: they have no area and no
@@ -48,6 +60,7 @@ struct SimplifyOptions {
   double base_ratio = 0.02;     // stop when at most this share of the vertices is left
   uint32_t max_levels = 40;     // stop after this many batches
   int max_valence = 14;         // of a collapsed vertex
+  bool collapse_seams = false;  // collapse seam edges on both sides together (format version 2's seams tool)
   // Called after every batch with (batch index, vertices left); return false
   // to cancel (the result is then an error).
   std::function<bool(int, size_t)> observer;
@@ -56,9 +69,15 @@ struct SimplifyOptions {
 // One collapse, in the ids of the input mesh. u survives (at the midpoint), v
 // disappears; a and b are the third vertices of the triangles (u, v, a) and
 // (v, u, b). pos_* and attributes are the values before the collapse.
+// A seam collapse has b = kNoWing, `twin` the index of the other side's
+// collapse in the batch, and `uva` whether its triangle was (u, v, a) in
+// cyclic order (else (v, u, a)).
+constexpr uint32_t kNoWing = UINT32_MAX;
 struct Collapse {
   uint32_t u = 0, v = 0, a = 0, b = 0;
   Vec3i pos_u{}, pos_v{};
+  uint32_t twin = UINT32_MAX;
+  bool uva = false;
 };
 
 struct CollapseBatch {
@@ -76,6 +95,7 @@ struct Hierarchy {
   std::vector<uint32_t> input_indices; // triangles of the input after clean-up
   uint64_t removed_faces = 0;          // triangles that repeated an index
   uint64_t locked_vertices = 0;
+  std::vector<uint32_t> twin;          // per input vertex: its seam twin (UINT32_MAX if none)
 };
 
 StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options);

@@ -16,9 +16,10 @@ enum StreamTool : uint8_t {
   kToolWingRank = 4,            // cut edges coded as a rank in an order the ring's geometry predicts
   kToolAttributePrediction = 8, // normals predicted from the decoded geometry
   kToolTexcoordPrediction = 16, // texture coordinates and colours predicted by the ring's map (texcoord_prediction.h)
+  kToolSeams = 32,              // seam edges collapsed on both sides together (seam_twins.h); header lists base twins
 };
-constexpr uint8_t kAllTools =
-    kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction | kToolTexcoordPrediction;
+constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction |
+                              kToolTexcoordPrediction | kToolSeams;
 constexpr uint8_t kDefinedTools = kAllTools;
 
 // The tools' names, as the CLI's --tools and the --json reports spell them,
@@ -29,7 +30,7 @@ struct ToolName {
 };
 constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
-    {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"},
+    {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
 };
 
 }  // namespace meshstream

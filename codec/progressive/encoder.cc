@@ -4,6 +4,7 @@
 #include <numeric>
 
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/seam_twins.h"
 
 namespace meshstream {
 
@@ -167,9 +168,18 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
               cbase.attributes.begin() + size_t(d) * ch);
   }
 
+  // Seam twins of the base (both copies of a seam vertex survive or go together).
+  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+    const uint32_t t = v < h.twin.size() ? h.twin[v] : kNoTwin;
+    if (t == kNoTwin || !h.in_base[v] || canonical[v] >= canonical[t]) continue;
+    out.mesh.base_twins.push_back({canonical[v], canonical[t]});
+  }
+  std::sort(out.mesh.base_twins.begin(), out.mesh.base_twins.end());
+
   // Replay from coarse to fine, exactly as the decoder will.
   RefinementState state;
   MS_RETURN_IF_ERROR(state.Reset(cbase));
+  MS_RETURN_IF_ERROR(state.SetTwins(out.mesh.base_twins).WithContext("replay"));
   std::vector<uint32_t> ring;
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
@@ -184,6 +194,32 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
     for (uint32_t i : order) {
       const Collapse& c = batch->collapses[i];
       const uint32_t w = canonical[c.u];
+      if (c.b == kNoWing) {
+        // A seam split: the primary's new vertex takes the tail of w's open
+        // fan, with the triangle (w, a, n); the secondary's the head, with
+        // (w, n, a). The collapsed triangle's orientation says which end of
+        // the edge is which (seam_twins.h).
+        if (c.twin >= k || state.twin[w] != canonical[batch->collapses[c.twin].u]) {
+          return Internal("replay: a seam split's twin is not the other side's split");
+        }
+        if (!state.connectivity.OpenRing(w, ring)) return Internal("replay: a seam split vertex is not an open fan");
+        const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
+        if (pa == ring.end()) return Internal("replay: a seam wing is not a neighbour of the split vertex");
+        const bool primary = w < state.twin[w];
+        const bool keep_v = primary == c.uva;
+        const uint32_t keep = keep_v ? c.v : c.u;
+        const Vec3i& pk = keep_v ? c.pos_v : c.pos_u;
+        const Vec3i& pn = keep_v ? c.pos_u : c.pos_v;
+        r.split_vertices.push_back(w);
+        r.wings.push_back({static_cast<uint16_t>(pa - ring.begin()), 0});
+        r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
+        const std::vector<int32_t>& ak = keep_v ? batch->attr_v : batch->attr_u;
+        const std::vector<int32_t>& an = keep_v ? batch->attr_u : batch->attr_v;
+        for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
+        canonical[keep] = w;
+        created[r.split_vertices.size() - 1] = keep_v ? c.u : c.v;
+        continue;
+      }
       if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
       const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
       const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);

@@ -17,6 +17,11 @@
 // this offset is at most half the degree. Geometry: the
 // differences u - v of positions and attribute channels of the two vertices
 // after the split, where the coarser vertex holds floor((u + v) / 2).
+//
+// A seam split (the split vertex has a seam twin, seam_twins.h) has one
+// wing: wings[j] = {a's position in w's open ring (SplitConnectivity::
+// OpenRing), 0}; its split vector is coded as it is (no tool predicts it),
+// and both splits of the pair carry the same one.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_REFINEMENT_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_REFINEMENT_H_
 
@@ -40,6 +45,7 @@ struct Refinement {
 
 struct ProgressiveMesh {
   QuantizedMesh base;  // canonical order
+  std::vector<std::array<uint32_t, 2>> base_twins;  // seam twins of the base, (smaller, larger) canonical ids
   std::vector<Refinement> refinements;
   std::vector<uint32_t> level_vertices() const;
 };

@@ -15,13 +15,44 @@ Status RefinementState::Reset(const QuantizedMesh& base) {
   flags.assign(base.vertex_count(), 0);
   any_absent = false;
   any_inexact = false;
+  twin.assign(base.vertex_count(), kNoTwin);
   return connectivity.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices);
+}
+
+Status RefinementState::SetTwins(const std::vector<std::array<uint32_t, 2>>& pairs) {
+  return TwinTable(pairs, connectivity.vertex_count(), &twin);
+}
+
+uint32_t RefinementState::NewTwin(const Refinement& r, size_t j) const {
+  const uint32_t w = r.split_vertices[j];
+  const uint32_t t = twin[w];
+  if (t == kNoTwin || t > w) return kNoTwin;
+  const auto it = std::lower_bound(r.split_vertices.begin(), r.split_vertices.end(), t);
+  if (it == r.split_vertices.end() || *it != t) return kNoTwin;
+  return r.vertices_before + static_cast<uint32_t>(it - r.split_vertices.begin());
+}
+
+void RefinementState::PushTwin(const Refinement& r, size_t j) {
+  const uint32_t t = NewTwin(r, j);
+  twin.push_back(t);
+  if (t != kNoTwin) twin[t] = static_cast<uint32_t>(twin.size() - 1);
 }
 
 Status RefinementState::ApplySplit(const Refinement& r, size_t j) {
   const uint32_t w = r.split_vertices[j];
   if (w >= connectivity.vertex_count()) return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
   std::vector<uint32_t>& ring = scratch_ring;
+  if (twin[w] != kNoTwin) {
+    if (!connectivity.OpenRing(w, ring)) {
+      return InvalidInput("seam split vertex " + std::to_string(w) + " is not one open fan");
+    }
+    if (r.wings[j][0] >= ring.size()) {
+      return InvalidInput("seam split of vertex " + std::to_string(w) + " names a wing beyond its " +
+                          std::to_string(ring.size()) + " neighbours");
+    }
+    ApplySeamSplitAt(r, j, r.wings[j][0]);
+    return Status::Ok();
+  }
   if (!connectivity.CyclicRing(w, ring)) {
     return InvalidInput("split vertex " + std::to_string(w) + " is not a closed manifold fan");
   }
@@ -54,10 +85,24 @@ void RefinementState::PrefetchSplits(const Refinement& r, size_t j) const {
   if (j + 3 * kPrefetchDistance < k) connectivity.PrefetchSlot(sv[j + 3 * kPrefetchDistance]);
 }
 
+uint32_t RefinementState::ApplySeamSplitAt(const Refinement& r, size_t j, size_t a_at) {
+  const uint32_t w = r.split_vertices[j];
+  const uint32_t n = connectivity.SplitOpenAt(w, scratch_ring, a_at, /*tail=*/w < twin[w]);
+  SetPair(r, j, w, n);
+  PushTwin(r, j);
+  return n;
+}
+
 uint32_t RefinementState::ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at) {
   PrefetchSplits(r, j);
   const uint32_t w = r.split_vertices[j];
   const uint32_t n = connectivity.SplitAt(w, scratch_ring, a_at, b_at);
+  SetPair(r, j, w, n);
+  twin.push_back(kNoTwin);
+  return n;
+}
+
+void RefinementState::SetPair(const Refinement& r, size_t j, uint32_t w, uint32_t n) {
   const Vec3i& delta = r.position_delta[j];
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
@@ -79,7 +124,6 @@ uint32_t RefinementState::ApplySplitAt(const Refinement& r, size_t j, size_t a_a
       an[k] = static_cast<int32_t>(static_cast<int64_t>(au) - ad[k]);
     }
   }
-  return n;
 }
 
 Status RefinementState::ApplyRefinement(const Refinement& r) {
@@ -102,6 +146,7 @@ void RefinementState::Reserve(uint32_t final_vertices) {
   connectivity.Reserve(final_vertices, connectivity.face_count() + 2 * extra);
   positions.reserve(final_vertices);
   reliable.reserve(final_vertices);
+  twin.reserve(final_vertices);
   flags.reserve(final_vertices);
   attributes.reserve(size_t(final_vertices) * channels);
 }

@@ -21,6 +21,7 @@
 #include "codec/core/vec.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "codec/progressive/refinement.h"
+#include "codec/progressive/seam_twins.h"
 #include "codec/progressive/split_connectivity.h"
 
 namespace meshstream {
@@ -44,18 +45,36 @@ struct RefinementState {
   bool any_absent = false;
   bool any_inexact = false;  // some split was predicted
   int channels = 0;
+  // Per vertex: its seam twin or kNoTwin (seam_twins.h); reliable data.
+  std::vector<uint32_t> twin;
 
+  // Resets to `base` with no seam twins; SetTwins then gives the base's.
   Status Reset(const QuantizedMesh& base);
+  Status SetTwins(const std::vector<std::array<uint32_t, 2>>& pairs);
   // Applies split j of `r` (all data present). Errors leave the state valid.
   Status ApplySplit(const Refinement& r, size_t j);
   // The same right after connectivity.CyclicRing(w, scratch_ring) and with
   // the wings' ring positions resolved; returns the new vertex.
   uint32_t ApplySplitAt(const Refinement& r, size_t j, size_t a_at, size_t b_at);
+  // The seam split j of `r` (w has a twin) right after
+  // connectivity.OpenRing(w, scratch_ring), with the wing at ring position
+  // a_at: the primary's new vertex takes the tail of w's fan, the
+  // secondary's the head, and the secondary makes the two new vertices
+  // twins. Returns the new vertex.
+  uint32_t ApplySeamSplitAt(const Refinement& r, size_t j, size_t a_at);
+  // The vertex a new vertex of split j takes its twin from: for the
+  // secondary of a seam pair, the primary's new vertex; else kNoTwin.
+  uint32_t NewTwin(const Refinement& r, size_t j) const;
+  // Appends the new vertex of split j's twin entry (after its values).
+  void PushTwin(const Refinement& r, size_t j);
   Status ApplyRefinement(const Refinement& r);
   // Cache hints for the splits after split j of `r` (ApplySplitAt issues
   // them; no effect on the state).
   void PrefetchSplits(const Refinement& r, size_t j) const;
   static constexpr size_t kPrefetchDistance = 2;
+  // The values of w and its new vertex n from split j's deltas; pushes n's
+  // position, values, flags and reliability.
+  void SetPair(const Refinement& r, size_t j, uint32_t w, uint32_t n);
   // Sets flag bits of v and keeps reliable[v] in step with them.
   void Mark(uint32_t v, uint8_t bits) {
     flags[v] |= bits;

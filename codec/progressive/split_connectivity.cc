@@ -178,6 +178,55 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
   return false;
 }
 
+bool SplitConnectivity::OpenRing(uint32_t w, std::vector<uint32_t>& ring) const {
+  ring.clear();
+  ring_faces_.clear();
+  const Slot slot = slots_[w];
+  const size_t n = slot.count;
+  if (n == 0) return false;
+  const uint32_t* fs = pool_.data() + slot.offset;
+  // (x, triangle) sorted by x, and the y's: the start is the one x that is
+  // no triangle's y.
+  table_.resize(2 * n);
+  scratch_.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Face r = RotateTo(faces_[fs[i]], w);
+    if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
+    table_[2 * i] = r[1];
+    table_[2 * i + 1] = static_cast<uint32_t>(i);
+    scratch_[i] = r[2];
+  }
+  auto* pairs = reinterpret_cast<std::array<uint32_t, 2>*>(table_.data());
+  std::sort(pairs, pairs + n);
+  for (size_t i = 1; i < n; ++i)
+    if (pairs[i][0] == pairs[i - 1][0]) return false;  // two triangles leave one vertex: not a fan
+  auto find = [&](uint32_t x) -> const std::array<uint32_t, 2>* {
+    const auto* it = std::lower_bound(pairs, pairs + n, std::array<uint32_t, 2>{x, 0});
+    return it != pairs + n && (*it)[0] == x ? it : nullptr;
+  };
+  std::vector<uint32_t> ys(scratch_);
+  std::sort(ys.begin(), ys.end());
+  uint32_t start = kEmpty;
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::binary_search(ys.begin(), ys.end(), pairs[i][0])) {
+      if (start != kEmpty) return false;  // two starts: more than one fan
+      start = pairs[i][0];
+    }
+  }
+  if (start == kEmpty) return false;  // closed (or no fan)
+  uint32_t cur = start;
+  for (size_t step = 0; step < n; ++step) {
+    const auto* at = find(cur);
+    if (at == nullptr) return false;
+    ring.push_back(cur);
+    ring_faces_.push_back(fs[(*at)[1]]);
+    cur = scratch_[(*at)[1]];
+  }
+  if (find(cur) != nullptr) return false;  // the walk must end where no triangle leaves
+  ring.push_back(cur);
+  return true;
+}
+
 void SplitConnectivity::SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const {
   out.clear();
   for (uint32_t f : faces_of(w)) {
@@ -237,6 +286,35 @@ uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& rin
   faces_.push_back({n, w, b});
   Append(a, f1);
   Append(b, f1 + 1);
+  return n;
+}
+
+uint32_t SplitConnectivity::SplitOpenAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, bool tail) {
+  const uint32_t a = ring[a_at];
+  const size_t triangles = ring.size() - 1;
+  // Triangle k is (w, ring[k], ring[k + 1]): those at k >= a_at lie after a.
+  const size_t moved = tail ? triangles - a_at : a_at;
+  const uint32_t n = NewSlot(std::max<uint32_t>(kMinCapacity, static_cast<uint32_t>(moved) + 2));
+  const uint32_t f1 = static_cast<uint32_t>(faces_.size());
+  const uint32_t keep = static_cast<uint32_t>(triangles - moved) + 1;
+  if (slots_[w].capacity < keep) Grow(w, keep);
+  uint32_t* to_n = pool_.data() + slots_[n].offset;
+  uint32_t* to_w = pool_.data() + slots_[w].offset;
+  for (size_t k = 0; k < triangles; ++k) {
+    const uint32_t f = ring_faces_[k];
+    if ((k >= a_at) == tail) {
+      for (uint32_t& y : faces_[f]) y = y == w ? n : y;
+      *to_n++ = f;
+    } else {
+      *to_w++ = f;
+    }
+  }
+  *to_n = f1;
+  *to_w = f1;
+  slots_[n].count = static_cast<uint32_t>(moved) + 1;
+  slots_[w].count = keep;
+  faces_.push_back(tail ? Face{w, a, n} : Face{w, n, a});
+  Append(a, f1);
   return n;
 }
 

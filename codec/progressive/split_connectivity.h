@@ -55,6 +55,13 @@ class SplitConnectivity {
   // unspecified) when the triangles of w do not form one closed fan. The
   // triangle (w, ring[k], ring[k + 1]) is remembered for SplitAt.
   bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const;
+  // The neighbours of a boundary vertex w in order (x -> y over w's
+  // triangles) from the one that no triangle of w enters (ring[0]) to the one
+  // that none leaves (ring.back()): one more vertex than triangles. Returns
+  // false (ring unspecified) when w's triangles do not form one open fan.
+  // The triangle (w, ring[k], ring[k + 1]) is remembered for SplitOpenAt.
+  // O(valence log valence).
+  bool OpenRing(uint32_t w, std::vector<uint32_t>& ring) const;
   // The neighbours of w sorted by id (any connectivity).
   void SortedNeighbours(uint32_t w, std::vector<uint32_t>& out) const;
 
@@ -62,6 +69,12 @@ class SplitConnectivity {
   // given by their positions in the ring; the new vertex gets id
   // vertex_count(), which is returned.
   uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+  // Splits a boundary vertex w right after OpenRing(w, ring) returned true,
+  // with the wing a = ring[a_at] (docs/progressive-format.md, "Seam split"):
+  // the triangles after a (toward ring.back()) move to the new vertex n when
+  // `tail` is true, the triangles before a when it is false, and the
+  // triangle (w, a, n) (tail) or (w, n, a) (head) is added. Returns n.
+  uint32_t SplitOpenAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, bool tail);
   // A vertex without triangles (a split that LwoP abandoned keeps its id);
   // returns its id.
   uint32_t AddIsolatedVertex() { return NewSlot(0); }

@@ -179,7 +179,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
 // coded wings may count). The new id stays reserved (kAbsent); w keeps its
 // coarse position; its neighbours, which the new vertex would have joined,
 // no longer have the lossless rings.
-void Abandon(const SplitView& view, RefinementState& state, RecoveryStats* stats) {
+void Abandon(const Refinement& r, size_t j, const SplitView& view, RefinementState& state, RecoveryStats* stats) {
   ++stats->abandoned;
   const uint32_t w = view.w;
   const std::vector<uint32_t>& ring = state.scratch_ring;
@@ -202,7 +202,110 @@ void Abandon(const SplitView& view, RefinementState& state, RecoveryStats* stats
   std::copy_n(state.attributes.begin() + size_t(w) * channels, channels, state.attributes.end() - channels);
   state.flags.push_back(kAbsent | kRingInexact | kPositionInexact);
   state.reliable.push_back(0);
+  state.PushTwin(r, j);
   state.any_absent = true;
+}
+
+// A seam split (w has a twin). The pair is applied or abandoned as one, so
+// that the two sides never part (a crack): the primary decides, the
+// secondary follows. Both sides' data travel in one unit, so they arrive
+// together. The split vector is raw: applied from it the pair is exact where
+// w is. Without it, prediction puts the pair on the seam from what both
+// sides share: w and its two boundary neighbours, which only seam splits
+// move, so that both sides predict the same point (SeamPrediction). LwoP
+// abandons the pair when the vector is lost or either side's ring may not be
+// the lossless one. A lost or unfitting wing is predicted on each side: the
+// ring vertex nearest the new vertex.
+Status RecoverSeamSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
+                        RefinementState& state, RecoveryScratch* scratch, RecoveryStats* stats, Refinement* decoded) {
+  if (decoded == nullptr) return Internal("RecoverSplit: seam splits need a decoded refinement");
+  const uint32_t w = r.split_vertices[j];
+  const uint32_t t = state.twin[w];
+  const bool primary = w < t;
+  std::vector<uint8_t>& decision = scratch->seam_decision;
+  if (decision.size() < state.connectivity.vertex_count()) decision.resize(state.connectivity.vertex_count(), 0);
+  SplitView view;
+  view.w = w;
+  view.fan = (state.flags[w] & kAbsent) == 0 && state.connectivity.OpenRing(w, state.scratch_ring);
+  bool apply = false;
+  if (primary) {
+    std::vector<uint32_t>& other = scratch->twin_ring;
+    const bool twin_fan = (state.flags[t] & kAbsent) == 0 && state.connectivity.OpenRing(t, other);
+    // OpenRing(t) left its own triangles in the connectivity's scratch: w's again.
+    if (view.fan) state.connectivity.OpenRing(w, state.scratch_ring);
+    apply = view.fan && twin_fan &&
+            (recovery == Recovery::kPredict || (has_geometry && state.flags[w] == 0 && state.flags[t] == 0));
+    decision[t] = apply ? 1 : 2;
+  } else {
+    apply = decision[w] == 1 && view.fan;
+    decision[w] = 0;
+  }
+  if (!apply) {
+    Abandon(r, j, view, state, stats);
+    return Status::Ok();
+  }
+  const std::vector<uint32_t>& ring = state.scratch_ring;
+  const int channels = state.channels;
+  const uint8_t inherited = state.flags[w];
+  // The values the pair is applied with, in `decoded`.
+  Vec3i& delta = decoded->position_delta[j];
+  int32_t* channel_delta = decoded->attribute_delta.data() + j * size_t(channels);
+  if (has_geometry) {
+    delta = r.position_delta[j];
+    std::copy_n(r.attribute_delta.begin() + j * size_t(channels), channels, channel_delta);
+  } else {
+    // The primary's new vertex takes the tail (toward ring.back()), so u - v
+    // points from the tail to the head: a third of the way between the two
+    // boundary neighbours, as if the three were evenly spaced. The secondary's
+    // ring runs the other way round, so both sides compute the same vector.
+    const uint32_t head = ring.front(), tail = ring.back();
+    const uint32_t from = primary ? head : tail, to = primary ? tail : head;
+    for (int k = 0; k < 3; ++k) {
+      delta[k] = static_cast<int32_t>((int64_t{state.positions[from][k]} - state.positions[to][k]) / 3);
+    }
+    for (int k = 0; k < channels; ++k) {
+      channel_delta[k] = static_cast<int32_t>((int64_t{state.attributes[size_t(from) * channels + k]} -
+                                               state.attributes[size_t(to) * channels + k]) / 3);
+    }
+  }
+  size_t a_at = r.wings[j][0];
+  const bool fits = has_structure && a_at < ring.size() && (inherited & kRingInexact) == 0;
+  if (!fits) {
+    if (has_structure) ++stats->structure_fallbacks;
+    // The wing nearest the new vertex.
+    const Vec3i& s = state.positions[w];
+    Vec3i nv{};
+    for (int k = 0; k < 3; ++k) {
+      const int32_t u = FromMidpoint(s[k], delta[k]);
+      nv[k] = static_cast<int32_t>(int64_t{u} - delta[k]);
+    }
+    double best = 1e300;
+    for (size_t k = 0; k < ring.size(); ++k) {
+      double d2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double e = double(state.positions[ring[k]][c]) - nv[c];
+        d2 += e * e;
+      }
+      if (d2 < best) {
+        best = d2;
+        a_at = k;
+      }
+    }
+    for (uint32_t x : ring) state.Mark(x, kRingInexact);
+  }
+  if (fits && has_geometry) ++stats->exact;
+  else if (has_geometry) ++stats->predicted_structure;
+  else if (fits) ++stats->predicted_geometry;
+  else ++stats->predicted_both;
+  decoded->wings[j] = {static_cast<uint16_t>(a_at), 0};
+  const uint32_t n = state.ApplySeamSplitAt(*decoded, j, a_at);
+  uint8_t both = inherited;
+  if (!fits) both |= kRingInexact;
+  if (!has_geometry) both |= kPositionInexact;
+  state.Mark(w, both);
+  state.Mark(n, both);
+  if (!fits || !has_geometry) state.any_inexact = true;
+  return Status::Ok();
 }
 
 // Would the split of w into (u, v) with wings at ring positions a, b make a
@@ -389,6 +492,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   }
 
   if (decoded && geometry) decoded->position_delta[j] = delta;
+  state.twin.push_back(kNoTwin);
   const int channels = state.channels;
   const uint32_t n = state.connectivity.SplitAt(w, ring, split.a_at, split.b_at);
   state.positions[w] = split.u;
@@ -427,6 +531,9 @@ Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_
   if (w >= state->connectivity.vertex_count()) {
     return InvalidInput("split vertex " + std::to_string(w) + " does not exist");
   }
+  if (state->twin[w] != kNoTwin) {
+    return RecoverSeamSplit(r, j, has_structure, has_geometry, recovery, *state, scratch, stats, decoded);
+  }
   const SplitView view = Classify(r, j, has_structure, has_geometry, recovery, coding, *state, scratch, stats);
   // LwoP applies a split only where w's ring is known to be the lossless
   // one: coded wings name ring vertices by rank, and a ring that lacks a
@@ -438,8 +545,10 @@ Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_
     ApplyCoded(r, j, view, coding, decoded, *state, scratch, stats);
     return Status::Ok();
   }
-  if (recovery == Recovery::kLwop) {
-    Abandon(view, *state, stats);
+  // A vertex a seam split left absent (prediction abandons those too) has
+  // nothing to split.
+  if (recovery == Recovery::kLwop || (state->flags[w] & kAbsent) != 0) {
+    Abandon(r, j, view, *state, stats);
     return Status::Ok();
   }
   return Predict(r, j, has_geometry, view, coding, decoded, *state, scratch, stats);

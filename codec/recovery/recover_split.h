@@ -62,6 +62,10 @@ struct RecoveryScratch {
   std::vector<int32_t> values, u_channels, v_channels;
   RingFrame frame;
   PredictedGeometry geometry;
+  // Seam pairs: per vertex, what the primary decided for its twin (1 apply,
+  // 2 abandon, 0 not yet), and the twin's ring.
+  std::vector<uint8_t> seam_decision;
+  std::vector<uint32_t> twin_ring;
 };
 
 // Split j of `r` with only the parts that arrived (has_structure,

@@ -26,29 +26,38 @@ struct RealStream {
   QuantizedMesh base;                 // as Draco decodes it (before fix-ups)
   std::vector<QuantizedMesh> levels;  // [i]: after i refinements, decoded without loss
   std::vector<uint32_t> level_vertices;
+  size_t encoded_base_vertices = 0;
+  size_t seam_pairs = 0;  // seam twins of the base
 };
 
 // `tools`: the version 2 tools to write with (as `meshstream encode --tools`).
-inline RealStream BuildRealStream(uint8_t tools = kAllTools) {
+// `model`: a shared model (fandisk by default); `packing`, `packet_bytes`:
+// as `meshstream encode`. Seams collapse when `tools` has the seams tool.
+inline RealStream BuildRealStream(uint8_t tools = kAllTools, const std::string& model = "fandisk.obj",
+                                  Packing packing = Packing::kSplit, uint32_t packet_bytes = 200) {
   auto fail = [](const std::string& what) {
     std::fprintf(stderr, "real stream: %s\n", what.c_str());
     std::abort();
   };
-  auto scene = ImportFile(ModelPath("fandisk.obj"));
+  auto scene = ImportFile(ModelPath(model));
   if (!scene.ok()) fail(scene.status().ToString());
   ProgressiveEncodeOptions options;
+  options.simplify.collapse_seams = (tools & kToolSeams) != 0;
   DracoAttributeIds ids;
   auto enc = EncodeProgressive(scene->meshes[0].primitives[0], options, [&](const QuantizedMesh& base, int method) {
     return EncodeDracoBase(base, method, 7, &ids);
   });
   if (!enc.ok()) fail(enc.status().ToString());
   StreamWriteOptions wo;
-  wo.packet_bytes = 200;
+  wo.packet_bytes = packet_bytes;
+  wo.packing = packing;
   wo.stream_id = kRealStreamId;
   wo.tools = tools;
   auto stream = WriteStream(enc.value(), options.quantization, wo);
   if (!stream.ok()) fail(stream.status().ToString());
   RealStream r;
+  r.encoded_base_vertices = enc->mesh.base.vertex_count();
+  r.seam_pairs = enc->mesh.base_twins.size();
   r.stream = std::move(stream).value();
   auto reader = StreamReader::Create(r.stream.header.data(), r.stream.header.size(), kRealStreamId);
   if (!reader.ok()) fail(reader.status().ToString());

@@ -7,6 +7,8 @@
 //   horse-qp11-v2.glb:            encode horse.ply (normals predicted), version 2
 //   spot-qp11-bundled-v2-tools31.glb: spot.obj as above, version 2 with texture
 //                                 coordinate prediction (tools 31)
+//   spot-qp11-bundled-v2-tools63.glb: the same with seams collapsed on both
+//                                 sides (tools 63): a smaller base, more levels
 // Never regenerate them for a format change: bump the version (or add a tool
 // bit) and add new files.
 #include <set>
@@ -37,6 +39,10 @@ const std::vector<uint32_t> kFandiskLevels = {130,  153,  180,  214,  253,  301,
 const std::vector<uint32_t> kSpotLevels = {642,  645,  648,  656,  664,  675,  689,  706,  733,  764,  804,  853,
                                            912,  980,  1066, 1169, 1299, 1449, 1631, 1847, 2103, 2412, 2800, 3225};
 
+const std::vector<uint32_t> kSpotSeamLevels = {191,  193,  195,  199,  201,  207,  216,  225,  235,  251,
+                                               270,  289,  319,  353,  393,  443,  497,  572,  664,  771,
+                                               904,  1052, 1225, 1432, 1688, 1983, 2349, 2761, 3225};
+
 const std::vector<Golden>& Goldens() {
   static const std::vector<Golden> goldens = {
       {"fandisk-qp11-v1.glb", "fandisk.obj",
@@ -53,6 +59,9 @@ const std::vector<Golden>& Goldens() {
        {"POSITION", "TEXCOORD_0"}},
       {"spot-qp11-bundled-v2-tools31.glb", "spot.obj",
        kSpotLevels,
+       {"POSITION", "TEXCOORD_0"}},
+      {"spot-qp11-bundled-v2-tools63.glb", "spot.obj",
+       kSpotSeamLevels,
        {"POSITION", "TEXCOORD_0"}},
       {"horse-qp11-v2.glb", "horse.ply",
        {938, 1114, 1321, 1565, 1863, 2217, 2633, 3123, 3720, 4420, 5252, 6249, 7432, 8822, 10473, 12438, 14773,
