@@ -11,6 +11,7 @@
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
 #include "codec/mesh/mesh_health.h"
+#include "codec/progressive/coding_tools.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"
 #include "importers/mesh_writer.h"
@@ -97,6 +98,7 @@ int RunDecode(const DecodeArgs& args) {
       {"attributes", Utf8(attributes)},
       {"levels", report.levels},
       {"levels_applied", report.levels_applied},
+      {"tools", ToolNamesOf(report.tools)},
       {"level_vertices", report.level_vertices},
       {"datagrams", report.datagrams},
       {"lost_datagrams", report.lost_datagrams},

@@ -73,14 +73,6 @@ StatusOr<uint8_t> ParseTools(const std::string& list_of_names) {
   return tools;
 }
 
-std::vector<std::string> ToolNames(uint8_t tools) {
-  std::vector<std::string> out;
-  for (const ToolName& t : kToolNames) {
-    if (tools & t.tool) out.push_back(t.name);
-  }
-  return out;
-}
-
 int RunEncode(EncodeArgs& args) {
   const std::string& out = args.out;
   if (FileExtension(out) != ".glb") return ReportError("encode", InvalidArgument(out + ": the progressive file must be a .glb"));
@@ -144,7 +136,7 @@ int RunEncode(EncodeArgs& args) {
       {"packing", packing},
       {"packet_bytes", options.stream.packet_bytes},
       {"format_version", options.stream.version},
-      {"tools", ToolNames(total.tools)},
+      {"tools", ToolNamesOf(total.tools)},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
   };

@@ -231,6 +231,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
                                   3 * faces.size(), target.material);
       }
       local.levels = std::max<uint64_t>(local.levels, levels);
+      local.tools |= header->tools;
       local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
       AddLevelVertices(local.level_vertices, header->level_vertices());
     }

@@ -79,6 +79,7 @@ struct ProgressiveDecodeReport {
   RecoveryStats recovery;        // summed over primitives
   uint64_t predicted_vertices = 0;  // vertices whose reliability bit is 0
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
+  uint8_t tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
 };
 
 // Decodes a progressive .glb held in memory into a scene at the requested

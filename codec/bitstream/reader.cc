@@ -82,7 +82,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   Refinement ref;
   ref.vertices_before = n;
   if (history_.vertices != n) return Internal(where + ": split history is out of step");
-  auto decoded = DecodeSplitBits(bits, length, history_);
+  auto decoded = DecodeSplitBits(bits, length, history_, header_.has(kToolSeams) ? &state_.twin : nullptr);
   if (!decoded.ok()) return decoded.status().WithContext(where);
   std::vector<uint8_t> split = std::move(decoded).value();
   ref.split_vertices.reserve(std::min<size_t>(header_.split_counts[next_], n));  // checked against the bits below

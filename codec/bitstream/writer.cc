@@ -373,7 +373,11 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     SplitCoding coding;
     Refinement coded;
     partner.clear();
-    if (h.has(kToolSeams)) MS_RETURN_IF_ERROR(SeamPartners(pm.refinements[i].split_vertices, state.twin, &partner));
+    std::vector<uint32_t> twin_before;  // the coarser mesh's twins (CodeRefinement refines the state)
+    if (h.has(kToolSeams)) {
+      MS_RETURN_IF_ERROR(SeamPartners(pm.refinements[i].split_vertices, state.twin, &partner));
+      twin_before = state.twin;
+    }
     if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
@@ -386,7 +390,8 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     std::vector<uint8_t> bits(plain.vertices_before, 0);
     for (uint32_t v : plain.split_vertices) bits[v] = 1;
     ByteWriter cw;
-    cw.Block(EncodeSplitBits(bits, history));
+    // A seam twin's bit is its twin's (not coded).
+    cw.Block(EncodeSplitBits(bits, history, h.has(kToolSeams) ? &twin_before : nullptr));
     history = history.Next(bits);
     const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
     if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));

@@ -264,6 +264,23 @@ class Simplifier {
     return true;
   }
 
+  // Fills nu_, nv_ and common_ (the neighbours u and v share); true when
+  // they share exactly `count`.
+  bool SharedNeighbours(uint32_t u, uint32_t v, size_t count) {
+    Neighbours(u, nu_);
+    Neighbours(v, nv_);
+    common_.clear();
+    std::set_intersection(nu_.begin(), nu_.end(), nv_.begin(), nv_.end(), std::back_inserter(common_));
+    return common_.size() == count;
+  }
+
+  // Both ends of (u, v) moved to its midpoint keep their other triangles' orientation.
+  bool MidpointKeepsOrientation(uint32_t u, uint32_t v) const {
+    Vec3i m;
+    for (int k = 0; k < 3; ++k) m[k] = Midpoint(positions_[u][k], positions_[v][k]);
+    return KeepsOrientation(u, v, m) && KeepsOrientation(v, u, m);
+  }
+
   // Is the edge (u, v) in exactly one alive triangle?
   bool IsBoundaryEdge(uint32_t u, uint32_t v) const {
     int count = 0;
@@ -286,19 +303,13 @@ class Simplifier {
       else if (r[2] == v) { a = r[1]; uva = false; ++shared; }
     }
     if (shared != 1) return false;
-    Neighbours(u, nu_);
-    Neighbours(v, nv_);
-    common_.clear();
-    std::set_intersection(nu_.begin(), nu_.end(), nv_.begin(), nv_.end(), std::back_inserter(common_));
-    if (common_.size() != 1 || common_[0] != a) return false;
+    if (!SharedNeighbours(u, v, 1) || common_[0] != a) return false;
     if (IsBoundaryEdge(u, a) && IsBoundaryEdge(v, a)) return false;
     const size_t valence = nu_.size() + nv_.size() - 3;
     if (valence < 2 || valence > static_cast<size_t>(options_.max_valence) || valence >= kMaxSeamValence) return false;
     Neighbours(a, na_);
     if (na_.size() < 3) return false;
-    Vec3i m;
-    for (int k = 0; k < 3; ++k) m[k] = Midpoint(positions_[u][k], positions_[v][k]);
-    if (!KeepsOrientation(u, v, m) || !KeepsOrientation(v, u, m)) return false;
+    if (!MidpointKeepsOrientation(u, v)) return false;
     c = Collapse{u, v, a, kNoWing, positions_[u], positions_[v]};
     c.uva = uva;
     return true;
@@ -335,20 +346,14 @@ class Simplifier {
       else if (r[2] == v) { b = r[1]; ++shared; }
     }
     if (shared != 2 || a == UINT32_MAX || b == UINT32_MAX || a == b) return false;
-    Neighbours(u, nu_);
-    Neighbours(v, nv_);
-    common_.clear();
-    std::set_intersection(nu_.begin(), nu_.end(), nv_.begin(), nv_.end(), std::back_inserter(common_));
-    if (common_.size() != 2) return false;
+    if (!SharedNeighbours(u, v, 2)) return false;
     const size_t valence = nu_.size() + nv_.size() - 4;
     if (valence < 3 || valence > static_cast<size_t>(options_.max_valence)) return false;
     Neighbours(a, na_);
     if (na_.size() < 4) return false;
     Neighbours(b, na_);
     if (na_.size() < 4) return false;
-    Vec3i m;
-    for (int k = 0; k < 3; ++k) m[k] = Midpoint(positions_[u][k], positions_[v][k]);
-    if (!KeepsOrientation(u, v, m) || !KeepsOrientation(v, u, m)) return false;
+    if (!MidpointKeepsOrientation(u, v)) return false;
     c = Collapse{u, v, a, b, positions_[u], positions_[v]};
     return true;
   }

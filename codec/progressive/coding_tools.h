@@ -7,6 +7,8 @@
 #define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 namespace meshstream {
 
@@ -32,6 +34,14 @@ constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
     {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
 };
+
+// The names of the tools set in `tools`, in bit order.
+inline std::vector<std::string> ToolNamesOf(uint8_t tools) {
+  std::vector<std::string> out;
+  for (const ToolName& t : kToolNames)
+    if (tools & t.tool) out.push_back(t.name);
+  return out;
+}
 
 }  // namespace meshstream
 

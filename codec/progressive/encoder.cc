@@ -194,6 +194,8 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
     for (uint32_t i : order) {
       const Collapse& c = batch->collapses[i];
       const uint32_t w = canonical[c.u];
+      bool swap = false;  // v keeps w's id (the deltas are then v - u)
+      std::array<uint16_t, 2> wings{};
       if (c.b == kNoWing) {
         // A seam split: the primary's new vertex takes the tail of w's open
         // fan, with the triangle (w, a, n); the secondary's the head, with
@@ -205,37 +207,27 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
         if (!state.connectivity.OpenRing(w, ring)) return Internal("replay: a seam split vertex is not an open fan");
         const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
         if (pa == ring.end()) return Internal("replay: a seam wing is not a neighbour of the split vertex");
-        const bool primary = w < state.twin[w];
-        const bool keep_v = primary == c.uva;
-        const uint32_t keep = keep_v ? c.v : c.u;
-        const Vec3i& pk = keep_v ? c.pos_v : c.pos_u;
-        const Vec3i& pn = keep_v ? c.pos_u : c.pos_v;
-        r.split_vertices.push_back(w);
-        r.wings.push_back({static_cast<uint16_t>(pa - ring.begin()), 0});
-        r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
-        const std::vector<int32_t>& ak = keep_v ? batch->attr_v : batch->attr_u;
-        const std::vector<int32_t>& an = keep_v ? batch->attr_u : batch->attr_v;
-        for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
-        canonical[keep] = w;
-        created[r.split_vertices.size() - 1] = keep_v ? c.u : c.v;
-        continue;
+        swap = (w < state.twin[w]) == c.uva;
+        wings = {static_cast<uint16_t>(pa - ring.begin()), 0};
+      } else {
+        if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
+        const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
+        const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
+        if (pa == ring.end() || pb == ring.end()) return Internal("replay: a wing is not a neighbour of the split vertex");
+        const size_t d = ring.size();
+        const size_t offset = (static_cast<size_t>(pb - pa) + d) % d;
+        // Either end of the collapsed edge may keep w's id; keeping v instead
+        // of u swaps the wings (offset d - offset) and negates the deltas.
+        swap = offset > d / 2;
+        const size_t a_at = static_cast<size_t>((swap ? pb : pa) - ring.begin());
+        const size_t b_at = static_cast<size_t>((swap ? pa : pb) - ring.begin());
+        wings = WingsOf(ring, a_at, b_at);
       }
-      if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
-      const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
-      const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
-      if (pa == ring.end() || pb == ring.end()) return Internal("replay: a wing is not a neighbour of the split vertex");
-      const size_t d = ring.size();
-      const size_t offset = (static_cast<size_t>(pb - pa) + d) % d;
-      // Either end of the collapsed edge may keep w's id; keeping v instead
-      // of u swaps the wings (offset d - offset) and negates the deltas.
-      const bool swap = offset > d / 2;
       const uint32_t keep = swap ? c.v : c.u;
       const Vec3i& pk = swap ? c.pos_v : c.pos_u;
       const Vec3i& pn = swap ? c.pos_u : c.pos_v;
-      const size_t a_at = static_cast<size_t>((swap ? pb : pa) - ring.begin());
-      const size_t b_at = static_cast<size_t>((swap ? pa : pb) - ring.begin());
       r.split_vertices.push_back(w);
-      r.wings.push_back(WingsOf(ring, a_at, b_at));
+      r.wings.push_back(wings);
       r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
       const std::vector<int32_t>& ak = swap ? batch->attr_v : batch->attr_u;
       const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;

@@ -23,6 +23,14 @@ int Context(uint32_t v, const std::vector<uint8_t>& bits, const SplitHistory& h)
   return age * 2 + related;
 }
 
+// The twin with a smaller id whose bit v copies, or kNoCopy.
+constexpr uint32_t kNoCopy = UINT32_MAX;
+uint32_t CopiedFrom(uint32_t v, const std::vector<uint32_t>* twin) {
+  if (twin == nullptr || v >= twin->size()) return kNoCopy;
+  const uint32_t t = (*twin)[v];
+  return t < v ? t : kNoCopy;
+}
+
 }  // namespace
 
 SplitHistory SplitHistory::Next(const std::vector<uint8_t>& bits) const {
@@ -37,18 +45,26 @@ SplitHistory SplitHistory::Next(const std::vector<uint8_t>& bits) const {
   return next;
 }
 
-std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& h) {
+std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& h,
+                                     const std::vector<uint32_t>* twin) {
   RangeEncoder enc;
   BitModel models[kContexts];
-  for (uint32_t v = 0; v < bits.size(); ++v) enc.EncodeBit(models[Context(v, bits, h)], bits[v]);
+  for (uint32_t v = 0; v < bits.size(); ++v) {
+    if (CopiedFrom(v, twin) != kNoCopy) continue;
+    enc.EncodeBit(models[Context(v, bits, h)], bits[v]);
+  }
   return enc.Finish();
 }
 
-StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& h) {
+StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& h,
+                                               const std::vector<uint32_t>* twin) {
   RangeDecoder dec(data, size);
   BitModel models[kContexts];
   std::vector<uint8_t> bits(h.vertices, 0);
-  for (uint32_t v = 0; v < h.vertices; ++v) bits[v] = static_cast<uint8_t>(dec.DecodeBit(models[Context(v, bits, h)]));
+  for (uint32_t v = 0; v < h.vertices; ++v) {
+    const uint32_t from = CopiedFrom(v, twin);
+    bits[v] = from != kNoCopy ? bits[from] : static_cast<uint8_t>(dec.DecodeBit(models[Context(v, bits, h)]));
+  }
   if (dec.overran()) return InvalidInput("split bits are truncated");
   if (!dec.ended_exactly()) {
     return InvalidInput("split bits: the block's " + std::to_string(size) + " bytes do not end with its " +

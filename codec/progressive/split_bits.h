@@ -33,8 +33,14 @@ struct SplitHistory {
   SplitHistory Next(const std::vector<uint8_t>& bits) const;
 };
 
-std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& history);
-StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& history);
+// `twin` (optional, per vertex of the coarser mesh; seam_twins.h): a vertex
+// whose seam twin has a smaller id takes its twin's bit, which is not coded
+// (the two copies of a seam vertex split together). The encoder's bits
+// must agree.
+std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& history,
+                                     const std::vector<uint32_t>* twin = nullptr);
+StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& history,
+                                               const std::vector<uint32_t>* twin = nullptr);
 
 }  // namespace meshstream
 

@@ -81,7 +81,8 @@ std::string EncoderId();
 // Bumped by hand when the encoder's output for the same input and options
 // changes without a format change (a new simplifier rule, say), so that the
 // artifact cache does not hand out artifacts of the previous encoder.
-constexpr int kPipelineRevision = 1;
+// 2: seam edges collapse on both sides (the seams tool of format version 2).
+constexpr int kPipelineRevision = 2;
 
 // The artifact cache key: SHA-256 (hex) over an unambiguous serialization
 // (every field length-prefixed) of the tenant (a cache hit must not tell one

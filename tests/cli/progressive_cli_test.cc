@@ -217,7 +217,26 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   EXPECT_GT(U(two, "total_bytes"), U(all, "total_bytes"));
   for (const char* name : {"all", "none", "two"}) {
     const std::string glb = dir.File(std::string(name) + ".glb"), obj = dir.File(std::string(name) + ".obj");
+    // decode --json reports the tools the file's streams were written with.
+    const json d = RunJson("decode --json " + Quote(glb) + " -o " + Quote(obj));
+    const json& e = std::string(name) == "all" ? all : std::string(name) == "none" ? none : two;
+    EXPECT_EQ(d["tools"], e["tools"]) << name << ": " << d.dump();
+  }
+  // spot has UV seams: `all` collapses them (the seams tool), and a list
+  // without `seams` keeps them in the base; both decode to spot.
+  const std::string spot = Quote(ModelPath("spot.obj"));
+  const json seams = RunJson("encode --json " + spot + " -o " + Quote(dir.File("seams.glb")));
+  const json kept = RunJson("encode --json --tools geometry,frame,rank,texcoords " + spot + " -o " +
+                            Quote(dir.File("kept.glb")));
+  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams"})) << seams.dump();
+  EXPECT_EQ(kept["tools"], json::array({"geometry", "frame", "rank", "texcoords"})) << kept.dump();
+  EXPECT_LT(U(seams, "base_vertices") * 3, U(kept, "base_vertices"));
+  EXPECT_LT(U(seams, "total_bytes"), U(kept, "total_bytes"));
+  for (const char* name : {"seams", "kept"}) {
+    const std::string glb = dir.File(std::string(name) + ".glb"), obj = dir.File(std::string(name) + ".obj");
     ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(glb) + " -o " + Quote(obj)).exit_code, 0) << name;
+    const json c = RunJson("compare --json --qp 11 " + spot + " " + Quote(obj));
+    EXPECT_EQ(c["same_on_grid"], true) << name << ": " << c.dump();
   }
   for (const char* name : {"none", "two"}) {
     const json c = RunJson("compare --json --qp 11 " + Quote(dir.File("all.obj")) + " " +

@@ -3,6 +3,7 @@
 // synthetic patterns, decoding that needs nothing but the bytes and the
 // history rebuilt from earlier decoded bits (reliable data), and truncated
 // input refused cleanly.
+#include "codec/progressive/seam_twins.h"
 #include "codec/progressive/split_bits.h"
 
 #include <cmath>
@@ -187,6 +188,38 @@ TEST(SplitBits, TruncatedInputFailsCleanly) {
   ASSERT_TRUE(none.ok()) << none.status().message();
   EXPECT_TRUE(none->empty());
   EXPECT_FALSE(DecodeSplitBits(nullptr, 0, empty).ok());
+}
+
+// With seam twins, a vertex whose twin has a smaller id takes the twin's
+// bit without a symbol: the block shrinks, and decodes to the same bits
+// only with the same twins.
+TEST(SplitBits, SeamTwinsCopyTheirTwinsBitUncoded) {
+  uint32_t base = 0;
+  const std::vector<Bits> levels = RealSplitBits(&base);
+  ASSERT_GE(levels.size(), 2u);
+  SplitHistory h;
+  h.vertices = base;
+  h = h.Next(levels[0]);
+  Bits bits = levels[1];
+  // Pair every vertex 2k with 2k + 1 (the odd one copies the even one's bit).
+  std::vector<uint32_t> twin(bits.size(), kNoTwin);
+  for (uint32_t v = 0; v + 1 < bits.size(); v += 2) {
+    twin[v] = v + 1;
+    twin[v + 1] = v;
+    bits[v + 1] = bits[v];
+  }
+  const Bits with = EncodeSplitBits(bits, h, &twin);
+  const Bits without = EncodeSplitBits(bits, h);
+  EXPECT_LT(with.size() * 10, without.size() * 7) << with.size() << " against " << without.size();
+  auto got = DecodeSplitBits(with.data(), with.size(), h, &twin);
+  ASSERT_TRUE(got.ok()) << got.status().message();
+  EXPECT_EQ(got.value(), bits);
+  auto plain = DecodeSplitBits(without.data(), without.size(), h);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(plain.value(), bits);
+  // Without the twins the shorter block does not decode to these bits.
+  auto wrong = DecodeSplitBits(with.data(), with.size(), h);
+  EXPECT_TRUE(!wrong.ok() || wrong.value() != bits);
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ struct RealStream {
   std::vector<QuantizedMesh> levels;  // [i]: after i refinements, decoded without loss
   std::vector<uint32_t> level_vertices;
   size_t encoded_base_vertices = 0;
+  size_t base_bytes = 0;  // Draco's
   size_t seam_pairs = 0;  // seam twins of the base
 };
 
@@ -57,6 +58,7 @@ inline RealStream BuildRealStream(uint8_t tools = kAllTools, const std::string& 
   if (!stream.ok()) fail(stream.status().ToString());
   RealStream r;
   r.encoded_base_vertices = enc->mesh.base.vertex_count();
+  r.base_bytes = enc->base_bytes.size();
   r.seam_pairs = enc->mesh.base_twins.size();
   r.stream = std::move(stream).value();
   auto reader = StreamReader::Create(r.stream.header.data(), r.stream.header.size(), kRealStreamId);

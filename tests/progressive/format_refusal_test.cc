@@ -80,7 +80,10 @@ TEST(FormatRefusal, StreamHeaderFields) {
   EXPECT_EQ(HeaderError(Patched(h, 0, 3)), "stream header: version 3 is not 1 or 2");
   EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1 or 2");
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0x80)), "stream header: tools 128 has reserved bits set");
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x2F)), "stream header: tools 47 has reserved bits set");
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x4F)), "stream header: tools 79 has reserved bits set");
+  // Bit 5 (seams) announces the seam twins after the fix-ups, which this header does not have.
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x2F)), "stream header: seam twin count: truncated at byte " +
+                                                       std::to_string(h.size()));
   // Bit 4 without texture coordinates or colours is accepted (it predicts nothing).
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0x1F)), "accepted");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");

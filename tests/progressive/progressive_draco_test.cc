@@ -63,11 +63,13 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
                               {2, kAllTools & ~kToolWingRank},
                               {2, kAllTools & ~kToolAttributePrediction},
                               {2, kAllTools & ~kToolTexcoordPrediction},
+                              {2, kAllTools & ~kToolSeams},
                               // Each tool alone too: a tool must not rely on
                               // work another one does (the ring's frame).
                               {2, kToolGeometryPrediction},
                               {2, kToolTexcoordPrediction},
                               {2, kToolAttributePrediction},
+                              {2, kToolSeams},
                               {2, 0},
                               {1, 0}};
   for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {
@@ -75,13 +77,22 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
     for (int qp : {11, 14}) {
       ProgressiveEncodeOptions options;
       options.quantization.qp = qp;
-      DracoAttributeIds ids;
-      auto enc = EncodeProgressive(input, options, [&](const QuantizedMesh& base, int method) {
-        return EncodeDracoBase(base, method, 7, &ids);
-      });
-      ASSERT_TRUE(enc.ok()) << enc.status().ToString();
+      // Two hierarchies: seams collapsed (for the variants with the seams
+      // tool, as `meshstream encode` does) and kept.
+      DracoAttributeIds ids[2];
+      StatusOr<ProgressiveEncoded> encodings[2] = {Internal("unset"), Internal("unset")};
+      for (int seams = 0; seams < 2; ++seams) {
+        ProgressiveEncodeOptions o = options;
+        o.simplify.collapse_seams = seams == 1;
+        encodings[seams] = EncodeProgressive(input, o, [&](const QuantizedMesh& base, int method) {
+          return EncodeDracoBase(base, method, 7, &ids[seams]);
+        });
+        ASSERT_TRUE(encodings[seams].ok()) << encodings[seams].status().ToString();
+      }
       for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
         for (const Variant& variant : variants) {
+          const int seams = variant.version == 2 && (variant.tools & kToolSeams) != 0 ? 1 : 0;
+          const StatusOr<ProgressiveEncoded>& enc = encodings[seams];
           // The default (all tools) in both packings; the other variants in the split packing.
           if (packing == Packing::kBundled && variant.tools != kAllTools) continue;
           const std::string what = std::string(name) + " qp " + std::to_string(qp) +
@@ -103,13 +114,16 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
           auto reader = StreamReader::Create(parsed->header.data(), parsed->header.size());
           ASSERT_TRUE(reader.ok()) << what << ": " << reader.status().ToString();
           // The texture coordinate tool only where there are texture coordinates or colours.
-          const uint8_t tools =
+          // Seams only where the mesh has them (spot's UV seams).
+          uint8_t tools =
               variant.version == 1 ? 0 : ApplicableTools(variant.tools, options.quantization, enc->mesh.base.layout);
+          if (enc->mesh.base_twins.empty()) tools &= static_cast<uint8_t>(~kToolSeams);
+          if (std::string(name) == "spot.obj" && seams == 1) EXPECT_NE(tools & kToolSeams, 0) << what;
           EXPECT_EQ(reader->header().tools, tools) << what;
           if (std::string(name) == "spot.obj" && variant.version == 2) {
             EXPECT_EQ((tools & kToolTexcoordPrediction) != 0, (variant.tools & kToolTexcoordPrediction) != 0) << what;
           }
-          auto base = DecodeDracoBase(enc->base_bytes.data(), enc->base_bytes.size(), ids, reader->header().grids);
+          auto base = DecodeDracoBase(enc->base_bytes.data(), enc->base_bytes.size(), ids[seams], reader->header().grids);
           ASSERT_TRUE(base.ok()) << base.status().ToString();
           ASSERT_TRUE(reader->SetBase(std::move(base).value()).ok());
           for (size_t i = 0; i < parsed->control.size(); ++i) {

@@ -47,7 +47,8 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   ASSERT_TRUE(header.ok()) << header.status().ToString();
   EXPECT_EQ(header->packing, Packing::kBundled);
   EXPECT_EQ(header->version, 2);
-  EXPECT_EQ(header->tools, kAllTools & ~kToolTexcoordPrediction);  // no texture coordinates or colours
+  // No texture coordinates or colours, no seams.
+  EXPECT_EQ(header->tools, kAllTools & ~kToolTexcoordPrediction & ~kToolSeams);
   EXPECT_EQ(header->quantization.qp, 8);
   EXPECT_EQ(header->grids.position_grid.origin[0], -1.0f);
   EXPECT_EQ(header->grids.position_grid.range, 2.0f);
