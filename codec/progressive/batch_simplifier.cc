@@ -54,7 +54,8 @@ class Simplifier {
     for (uint8_t r : referenced) alive += r;
     const size_t target = std::max<size_t>(4, static_cast<size_t>(std::ceil(alive * options_.base_ratio)));
     while (alive > target && h.batches.size() < options_.max_levels) {
-      CollapseBatch batch = NextBatch();
+      const size_t min_collapses = static_cast<size_t>(std::ceil(double(alive) * options_.min_batch_share));
+      CollapseBatch batch = NextBatch(min_collapses);
       if (batch.collapses.empty()) break;
       alive -= batch.collapses.size();
       h.batches.push_back(std::move(batch));
@@ -386,7 +387,9 @@ class Simplifier {
     for (int k = 0; k < 10; ++k) quadrics_[u][k] += quadrics_[v][k];
   }
 
-  CollapseBatch NextBatch() {
+  // The next batch, or none when the strict rule finds fewer than
+  // `min_collapses` (then nothing is applied).
+  CollapseBatch NextBatch(size_t min_collapses) {
     std::vector<Candidate> candidates;
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
@@ -436,6 +439,7 @@ class Simplifier {
     }
     // kPaper applied its collapses one by one above (attributes not recorded).
     if (options_.rule != BatchRule::kStrict) return batch;
+    if (batch.collapses.size() < min_collapses) return CollapseBatch();
     // Record attributes before applying anything (collapses are disjoint).
     for (const Collapse& c : batch.collapses) {
       for (int k = 0; k < channels_; ++k) {

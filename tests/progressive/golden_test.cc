@@ -8,7 +8,7 @@
 //   spot-qp11-bundled-v2-tools31.glb: spot.obj as above, version 2 with texture
 //                                 coordinate prediction (tools 31)
 //   spot-qp11-bundled-v2-tools63.glb: the same with seams collapsed on both
-//                                 sides (tools 63): a smaller base, more levels
+//                                 sides (tools 63): a smaller base
 // Never regenerate them for a format change: bump the version (or add a tool
 // bit) and add new files.
 #include <set>
@@ -39,9 +39,8 @@ const std::vector<uint32_t> kFandiskLevels = {130,  153,  180,  214,  253,  301,
 const std::vector<uint32_t> kSpotLevels = {642,  645,  648,  656,  664,  675,  689,  706,  733,  764,  804,  853,
                                            912,  980,  1066, 1169, 1299, 1449, 1631, 1847, 2103, 2412, 2800, 3225};
 
-const std::vector<uint32_t> kSpotSeamLevels = {191,  193,  195,  199,  201,  207,  216,  225,  235,  251,
-                                               270,  289,  319,  353,  393,  443,  497,  572,  664,  771,
-                                               904,  1052, 1225, 1432, 1688, 1983, 2349, 2761, 3225};
+const std::vector<uint32_t> kSpotSeamLevels = {235,  251,  270,  289,  319,  353,  393,  443,  497,  572, 664,
+                                               771,  904,  1052, 1225, 1432, 1688, 1983, 2349, 2761, 3225};
 
 const std::vector<Golden>& Goldens() {
   static const std::vector<Golden> goldens = {

@@ -55,10 +55,16 @@ TEST(Seams, SpotsSeamsRefineInsteadOfStayingInTheBase) {
   const RealStream without = BuildRealStream(kWithoutSeams, "spot.obj", Packing::kSplit, 400);
   EXPECT_GT(with.seam_pairs, 0u);
   EXPECT_EQ(without.seam_pairs, 0u);
-  // 642 base vertices without (every seam vertex locked), under 200 with.
-  EXPECT_LT(with.encoded_base_vertices * 3, without.encoded_base_vertices)
+  // 642 base vertices without (every seam vertex locked), 235 with.
+  EXPECT_LT(with.encoded_base_vertices * 2, without.encoded_base_vertices)
       << with.encoded_base_vertices << " against " << without.encoded_base_vertices;
   EXPECT_EQ(with.level_vertices.back(), without.level_vertices.back());
+  // No level adds less than 5 % of its vertices (SimplifyOptions::min_batch_share):
+  // without the rule spot's seams left 2-10 vertex levels at the coarse end.
+  for (size_t i = 0; i + 1 < with.level_vertices.size(); ++i) {
+    const uint32_t before = with.level_vertices[i], after = with.level_vertices[i + 1];
+    EXPECT_GE(double(after - before), 0.05 * after) << "level " << i << ": " << before << " -> " << after;
+  }
   // The refinements grow by less than the base shrinks: at least 10 % off
   // the total (docs/codec.md has the sizes).
   const size_t total_with = with.base_bytes + StreamBytes(with.stream);
