@@ -204,7 +204,8 @@ bool SplitConnectivity::OpenRing(uint32_t w, std::vector<uint32_t>& ring) const 
     const auto* it = std::lower_bound(pairs, pairs + n, std::array<uint32_t, 2>{x, 0});
     return it != pairs + n && (*it)[0] == x ? it : nullptr;
   };
-  std::vector<uint32_t> ys(scratch_);
+  std::vector<uint32_t>& ys = sorted_ys_;
+  ys.assign(scratch_.begin(), scratch_.end());
   std::sort(ys.begin(), ys.end());
   uint32_t start = kEmpty;
   for (size_t i = 0; i < n; ++i) {

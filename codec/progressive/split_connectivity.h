@@ -120,7 +120,8 @@ class SplitConnectivity {
   std::vector<Slot> slots_;
   mutable std::vector<uint32_t> scratch_;     // x then y per triangle of the last ring
   mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
-  mutable std::vector<uint32_t> table_;       // CyclicRing's (x, triangle) table for large rings
+  mutable std::vector<uint32_t> table_;       // CyclicRing's (x, triangle) table for large rings; OpenRing's pairs
+  mutable std::vector<uint32_t> sorted_ys_;   // OpenRing's y's, sorted
   static constexpr uint32_t kMinCapacity = 8;  // entries per vertex, at least
   static constexpr uint32_t kEmpty = UINT32_MAX;
 };
