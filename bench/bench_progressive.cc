@@ -431,7 +431,8 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
       {"+ local frame (tangential / normal residual)", 2, ms::kToolGeometryPrediction | ms::kToolLocalFrame},
       {"+ cut edges by rank in the ring's geometric order", 2,
        ms::kToolGeometryPrediction | ms::kToolLocalFrame | ms::kToolWingRank},
-      {"+ normals predicted from the decoded geometry", 2, ms::kAllTools & ~ms::kToolTexcoordPrediction},
+      {"+ normals predicted from the decoded geometry", 2,
+       ms::kAllTools & ~ms::kToolTexcoordPrediction & ~ms::kToolSeams},
       {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools & ~ms::kToolSeams},
       {"+ seam edges collapsed on both sides together", 2, ms::kAllTools},
   };

@@ -54,7 +54,8 @@ class Simplifier {
     for (uint8_t r : referenced) alive += r;
     const size_t target = std::max<size_t>(4, static_cast<size_t>(std::ceil(alive * options_.base_ratio)));
     while (alive > target && h.batches.size() < options_.max_levels) {
-      const size_t min_collapses = static_cast<size_t>(std::ceil(double(alive) * options_.min_batch_share));
+      const size_t min_collapses = std::min<size_t>(
+          options_.min_batch_collapses, static_cast<size_t>(std::ceil(double(alive) * options_.min_batch_share)));
       CollapseBatch batch = NextBatch(min_collapses);
       if (batch.collapses.empty()) break;
       alive -= batch.collapses.size();

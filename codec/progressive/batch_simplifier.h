@@ -59,11 +59,13 @@ struct SimplifyOptions {
   BatchRule rule = BatchRule::kStrict;
   double base_ratio = 0.02;     // stop when at most this share of the vertices is left
   uint32_t max_levels = 40;     // stop after this many batches
-  // Stop, before it, at a batch that would collapse less than this share of
-  // the vertices left: a level costs its control block and datagram headers
-  // (about 140 bytes on spot) whatever its size, more than a few base
-  // vertices cost in Draco (docs/codec.md, "The base").
+  // Stop, before it, at a batch that would collapse fewer than
+  // min_batch_collapses and less than min_batch_share of the vertices left:
+  // a level costs its control block and datagram headers (about 130 bytes
+  // on spot) whatever its size, more than a few base vertices cost in Draco
+  // (docs/codec.md, "The base").
   double min_batch_share = 0.05;
+  uint32_t min_batch_collapses = 16;
   int max_valence = 14;         // of a collapsed vertex
   bool collapse_seams = false;  // collapse seam edges on both sides together (format version 2's seams tool)
   // Called after every batch with (batch index, vertices left); return false
