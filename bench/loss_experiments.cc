@@ -47,12 +47,14 @@
 #include "codec/metrics/hausdorff.h"
 #include "codec/metrics/laplacian.h"
 #include "codec/loss/lossy_decode.h"
+#include "codec/loss/reliable_cut.h"
 #include "codec/mesh/mesh.h"
 #include "codec/progressive/encoder.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
+#include "importers/progressive_glb.h"
 
 namespace {
 
@@ -99,6 +101,7 @@ struct Args {
   int64_t samples = 0;
   bool quick = false;
   double base_ratio = ms::SimplifyOptions{}.base_ratio;
+  double reliable_share = ms::kDefaultReliableShare;
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -124,6 +127,9 @@ Args ParseArgs(int argc, char** argv) {
       a.samples = ParseInt(value(), f, 0, 100000000);
     } else if (f == "--quick") {
       a.quick = true;
+    } else if (f == "--reliable-share") {
+      a.reliable_share = ms::bench::ParseDouble(value(), f);
+      if (a.reliable_share < 0 || a.reliable_share > 1) ms::bench::Die("--reliable-share: expected a number in [0, 1]");
     } else if (f == "--base-ratio") {
       a.base_ratio = ms::bench::ParseDouble(value(), f);
       if (a.base_ratio <= 0 || a.base_ratio > 1) ms::bench::Die("--base-ratio: expected a number in (0, 1]");
@@ -186,6 +192,9 @@ struct Stream {
   std::vector<ms::Primitive> ref;           // dequantized
   std::vector<double> ref_diag;
   uint64_t datagrams = 0;
+  std::vector<uint32_t> cut;   // the reliable cut at --reliable-share (importance-ordered delivery)
+  uint64_t cut_bytes = 0;      // its datagram bytes
+  uint64_t total_bytes = 0;    // base, header, control blocks and datagrams
 };
 
 struct Model {
@@ -195,9 +204,12 @@ struct Model {
   Stream streams[2];
 };
 
+const char* kDeliveryNames[2] = {"paper", "cut"};
+
 struct Job {
   size_t model = 0;
   int packing = 0, pattern = 0;
+  int delivery = 0;  // 0: the paper's scheme (split bits and base reliable); 1: the reliable cut as well
   double loss = 0;
   uint64_t seed = 0;
   bool levels_predict = false;  // per-level metrics for prediction
@@ -272,6 +284,7 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
     const bool levels = r == 0 ? job.levels_predict : job.levels_lwop;
     std::vector<ms::QuantizedMesh> got(n + 1);
     auto options = DecodeOptions(job.loss, kBursts[job.pattern], job.seed, kRecoveries[r]);
+    if (job.delivery == 1) options.reliable = s.cut;
     options.on_level = [&](size_t level, const ms::StreamReader& reader) {
       ms::QuantizedMesh m = reader.Mesh();
       if (level >= rr.level_vertices.size()) rr.level_vertices.resize(level, 0);
@@ -336,12 +349,15 @@ json MetricsJson(const Metrics& m, bool laplacian) {
 
 json JobJson(const Job& job, const JobResult& r) {
   json j = {{"packing", kPackingNames[job.packing]},
+            {"delivery", kDeliveryNames[job.delivery]},
             {"pattern", kPatternNames[job.pattern]},
             {"loss", job.loss},
             {"seed", job.seed},
             {"datagrams_sent", r.tx.datagrams_sent},
             {"datagrams_lost", r.tx.datagrams_lost},
             {"ends_lost", r.tx.ends_lost},
+            {"reliable_datagrams", r.tx.reliable_datagrams},
+            {"reliable_datagram_bytes", r.tx.reliable_bytes},
             {"finished_timeout", r.rc.finished_timeout},
             {"seconds", r.seconds}};
   for (int k = 0; k < 2; ++k) {
@@ -371,7 +387,8 @@ json JobJson(const Job& job, const JobResult& r) {
 
 // ------------------------------------------------------------ preparation
 
-Model Prepare(const std::string& dir, const std::string& file, const Plan& plan, double base_ratio) {
+Model Prepare(const std::string& dir, const std::string& file, const Plan& plan, double base_ratio,
+              double reliable_share) {
   Model m;
   m.file = file;
   m.name = Stem(file);
@@ -395,6 +412,12 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
     wo.packing = kPackings[p];
     s.stream = Check(ms::WriteStream(enc, options.quantization, wo), file + ": WriteStream");
     for (const auto& d : s.stream.datagrams) s.datagrams += d.size();
+    // The reliable cut, as EncodeProgressiveGlb records it.
+    const std::vector<uint64_t> refinement_bytes = ms::RefinementDatagramBytes(s.stream);
+    s.total_bytes = ms::StreamTotalBytes(enc.base_bytes.size(), s.stream);
+    s.cut = ms::CutForBudget(ms::RankRefinements(ms::RefinementImportance(enc.mesh), refinement_bytes),
+                             refinement_bytes, static_cast<uint64_t>(reliable_share * static_cast<double>(s.total_bytes)));
+    for (uint32_t i : s.cut) s.cut_bytes += refinement_bytes[i];
     auto reader = Check(ms::StreamReader::Create(s.stream.header.data(), s.stream.header.size(), 0), "header");
     s.base = Check(ms::DecodeDracoBase(enc.base_bytes.data(), enc.base_bytes.size(), ids, reader.header().grids),
                    file + ": DecodeDracoBase");
@@ -506,7 +529,7 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "prepare %s\n", f.c_str());
     const auto s = Clock::now();
-    models.push_back(Prepare(args.models_dir, f, plan, args.base_ratio));
+    models.push_back(Prepare(args.models_dir, f, plan, args.base_ratio, args.reliable_share));
     const Model& m = models.back();
     std::fprintf(stderr, "  %zu levels, %u vertices, datagrams split %llu bundled %llu (%.1f s)\n",
                  m.level_vertices.size() - 1, m.level_vertices.back(),
@@ -527,6 +550,7 @@ int main(int argc, char** argv) {
                      {"seeds_small", args.quick ? 2 : args.small_seeds},
                      {"level_seeds", args.level_seeds},
                      {"level_step", kLevelStep},
+                     {"reliable_share", args.reliable_share},
                      {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
                      {"quick", args.quick},
                      {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
@@ -569,6 +593,16 @@ int main(int argc, char** argv) {
             j.levels_predict = subset && (pk == 0 || at12);
             j.levels_lwop = subset && pk == 0 && at12;
             jobs.push_back(j);
+            // Importance-ordered delivery on the same seeds: split packing,
+            // every loss level of the split cells; per-level metrics for
+            // prediction on the level subset at 12 % (the error's spread).
+            if (pk == 0) {
+              Job c = j;
+              c.delivery = 1;
+              c.levels_predict = subset && at12;
+              c.levels_lwop = false;
+              jobs.push_back(c);
+            }
           }
         }
   }
@@ -623,7 +657,8 @@ int main(int argc, char** argv) {
       if (jobs[i].model == mi) order.push_back(i);
     std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
       const Job &x = jobs[a], &y = jobs[b];
-      return std::tie(x.packing, x.pattern, x.loss, x.seed) < std::tie(y.packing, y.pattern, y.loss, y.seed);
+      return std::tie(x.delivery, x.packing, x.pattern, x.loss, x.seed) <
+             std::tie(y.delivery, y.packing, y.pattern, y.loss, y.seed);
     });
     for (size_t i : order) {
       runs.push_back(JobJson(jobs[i], results[i]));
@@ -638,6 +673,12 @@ int main(int argc, char** argv) {
                {"vertices", m.level_vertices.back()},
                {"diagonal", m.streams[0].ref_diag.back()},
                {"datagrams", {{"split", m.streams[0].datagrams}, {"bundled", m.streams[1].datagrams}}},
+               {"reliable_cut", {{"refinements", m.streams[0].cut},
+                                 {"datagram_bytes", m.streams[0].cut_bytes},
+                                 {"stream_bytes", m.streams[0].total_bytes},
+                                 {"share", m.streams[0].total_bytes > 0 ? static_cast<double>(m.streams[0].cut_bytes) /
+                                                                              static_cast<double>(m.streams[0].total_bytes)
+                                                                        : 0.0}}},
                {"runs", runs}};
     if (!timing[mi].is_null()) mj["timing"] = timing[mi];
     out["models"].push_back(mj);

@@ -28,7 +28,9 @@ const char kDetails[] =
     "network, seeded so that a run repeats exactly: the control blocks reliably, the\n"
     "datagrams with loss, reordering and duplication. What is lost is predicted (paper,\n"
     "section 4.4) or, with --recovery lwop, abandoned with every split that depends on it.\n"
-    "With no loss the result is the lossless mesh, through the same code path.\n"
+    "With no loss the result is the lossless mesh, through the same code path. The\n"
+    "refinements of the file's reliable cut travel with their datagrams on the reliable\n"
+    "channel, as a session sends them (--reliable-share 0: none, the paper's scheme).\n"
     "--json prints counts, mesh health and decode_ms (from the file's bytes in memory to\n"
     "the final mesh in memory: Draco base decode, reconstruction and every split).\n"
     "\n"
@@ -42,6 +44,7 @@ struct DecodeArgs {
   double loss = 0, burst = 0, reorder = 0, duplicate = 0;
   int seed = 1;
   std::string recovery = "predict";
+  double reliable_share = -1;
   bool json = false;
 };
 
@@ -61,6 +64,7 @@ int RunDecode(const DecodeArgs& args) {
   options.loss.reorder = args.reorder;
   options.loss.duplicate = args.duplicate;
   options.loss.seed = static_cast<uint64_t>(args.seed);
+  options.reliable_share = args.reliable_share;
   const std::string& recovery = args.recovery;
   options.recovery = recovery == "lwop" ? Recovery::kLwop : Recovery::kPredict;
   std::vector<double> times;
@@ -103,6 +107,8 @@ int RunDecode(const DecodeArgs& args) {
       {"datagrams", report.datagrams},
       {"lost_datagrams", report.lost_datagrams},
       {"late_datagrams", report.late_datagrams},
+      {"reliable_datagrams", report.reliable_datagrams},
+      {"reliable_datagram_bytes", report.reliable_datagram_bytes},
       {"recovery", recovery},
       {"loss", args.loss},
       {"seed", args.seed},
@@ -153,6 +159,10 @@ Verb AddDecode(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--recovery", args->recovery, "predict: predict lost splits; lwop: abandon them and their dependants")
       ->check(CLI::IsMember({"predict", "lwop"}))->capture_default_str();
+  cmd->add_option("--reliable-share", args->reliable_share,
+                  "share of each stream's bytes whose refinements travel reliably (default: the cut the file "
+                  "records; 0: none, the paper's scheme)")
+      ->check(NumberIn(0, 1));
   cmd->add_option("--repeat", args->repeat, "decode N times in-process and report the median decode_ms")
       ->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_flag("--json", args->json, "print one JSON object");

@@ -127,6 +127,8 @@ int RunEncode(EncodeArgs& args) {
       {"reliable_bytes", reliable},
       {"unreliable_bytes", unreliable},
       {"datagrams", datagrams},
+      {"reliable_share", options.reliable_share},
+      {"reliable_cut_bytes", total.reliable_cut_bytes},
       {"total_bytes", reliable + unreliable},
       {"file_bytes", report.file_bytes},
       {"reliable_bpv", 8.0 * reliable / v},
@@ -192,6 +194,11 @@ Verb AddEncode(CLI::App& root) {
                           "version 2 coding tools, comma-separated: all, none, geometry, frame, rank, normals, "
                           "texcoords, seams (docs/codec.md; fewer tools, larger stream)")
               ->capture_default_str());
+  FromEnv(cmd->add_option("--reliable-share", o.reliable_share,
+                          "share of each stream's bytes whose refinements a session sends reliably, the most "
+                          "important per byte first (docs/loss-tolerance.md; 0: none)")
+              ->check(NumberIn(0, 1)))
+      ->capture_default_str();
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
               ->check(CLI::Range(0, 10)))
       ->capture_default_str();

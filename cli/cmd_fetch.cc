@@ -35,6 +35,7 @@ struct FetchArgs {
   bool tcp_only = false;
   bool json = false;
   std::string udp_via;
+  bool repair = false;
   RemoteOptions remote;
 };
 
@@ -62,6 +63,7 @@ int RunFetch(const FetchArgs& args) {
   options.max_level = args.lod ? *args.lod : -1;
   options.tcp_only = args.tcp_only;
   options.udp_via = args.udp_via;
+  options.repair = args.repair;
   auto session = sdk::Session::Open(**client, options);
   if (!session.ok()) return ReportError("fetch", session.status());
   ProgressLine progress(!args.json);
@@ -79,6 +81,9 @@ int RunFetch(const FetchArgs& args) {
     if (e.type == sdk::EventType::kBaseReady) progress.Show("base mesh after " + std::to_string(static_cast<int>((*session)->stats().time_to_base_ms)) + " ms");
     if (e.type == sdk::EventType::kLevelReady) {
       progress.Show("level " + std::to_string(e.level) + " of " + std::to_string((*session)->levels()));
+    }
+    if (e.type == sdk::EventType::kLevelReady && args.repair && e.level == (*session)->levels()) {
+      progress.Show("level " + std::to_string(e.level) + " of " + std::to_string(e.level) + ", repairing");
     }
     if (e.type == sdk::EventType::kComplete) break;
   }
@@ -107,6 +112,13 @@ int RunFetch(const FetchArgs& args) {
                       {"time_to_base_ms", st.time_to_base_ms},
                       {"time_to_full_ms", st.time_to_full_ms},
                       {"hello_rtt_ms", st.hello_rtt_ms},
+                      {"reliable_refinements", st.reliable_refinements},
+                      {"reliable_datagram_bytes", st.reliable_datagram_bytes},
+                      {"repair", args.repair},
+                      {"repaired_datagrams", st.repaired_datagrams},
+                      {"repair_bytes", st.repair_bytes},
+                      {"time_to_exact_ms", st.time_to_exact_ms},
+                      {"repair_error", st.repair_error},
                       {"fallback_reason", st.fallback_reason},
                       {"end_reason", st.end_reason}};
   if (args.json) {
@@ -131,6 +143,9 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_option("--udp-via", args->udp_via,
                   "HOST:PORT to send the session's UDP through instead of the server's advertised endpoint "
                   "(a relay that shapes the link; debugging)");
+  cmd->add_flag("--repair", args->repair,
+                "once the stream has ended, ask once for the datagrams that were lost and write the exact mesh "
+                "(default: the predicted one, nothing asked again)");
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);
   return {cmd, [args] { return RunFetch(*args); }};

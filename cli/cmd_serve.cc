@@ -137,6 +137,8 @@ Verb AddServe(CLI::App& root) {
                           "milliseconds a session waits for the client's UDP HELLO before it falls back to gRPC")
               ->check(CLI::Range(int64_t{10}, int64_t{60000})))
       ->capture_default_str();
+  FromEnv(cmd->add_flag("--no-reliable-cut", o.no_reliable_cut,
+                        "send every datagram as UDP, also those of the artifact's reliable cut (the paper's scheme)"));
   FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
                           "seconds a session may go without a message from its client")
               ->check(CLI::Range(0.1, 86400.0)))

@@ -201,7 +201,12 @@ json DocumentBuilder::PrecodedJson(const PrecodedPrimitive& pre) {
   json prim = DracoJson(encoded, pre.decoded);
   if (!pre.extension_name.empty()) {
     const int view = AddView(pre.extension_bytes.data(), pre.extension_bytes.size(), 0);
-    prim["extensions"][pre.extension_name] = {{"bufferView", view}, {"version", pre.extension_version}};
+    json ext = {{"bufferView", view}, {"version", pre.extension_version}};
+    if (!pre.extension_fields.empty()) {
+      const json fields = json::parse(pre.extension_fields);  // kept alive: items() refers into it
+      for (const auto& item : fields.items()) ext[item.key()] = item.value();
+    }
+    prim["extensions"][pre.extension_name] = std::move(ext);
     if (std::find(extra_extensions_.begin(), extra_extensions_.end(), pre.extension_name) == extra_extensions_.end()) {
       extra_extensions_.push_back(pre.extension_name);
     }

@@ -38,6 +38,9 @@ struct PrecodedPrimitive {
   std::string extension_name;           // empty: none
   std::vector<uint8_t> extension_bytes; // referenced as {"bufferView": n}
   int extension_version = 1;
+  // A JSON object (text) whose members are added to the extension's object
+  // beside "bufferView" and "version"; empty: none.
+  std::string extension_fields;
 };
 
 struct ExportOptions {

@@ -17,7 +17,8 @@ namespace {
 using json = nlohmann::json;
 
 // The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
-// section 1): "bufferView" (an unsigned integer), "version" 1 or 2, and
+// section 1): "bufferView" (an unsigned integer), "version" 1 or 2, an
+// optional "delivery" (checked against the stream by ParseDeliveryRecord), and
 // nothing else but glTF's "extras" and "extensions".
 Status CheckProgressiveExtension(const json& ext) {
   const std::string name = kProgressiveExtension;
@@ -33,14 +34,86 @@ Status CheckProgressiveExtension(const json& ext) {
   }
   for (const auto& item : ext.items()) {
     const std::string& key = item.key();
-    if (key != "bufferView" && key != "version" && key != "extras" && key != "extensions") {
+    if (key != "bufferView" && key != "version" && key != "delivery" && key != "extras" && key != "extensions") {
       return InvalidInput(name + "." + key + " is not defined by version " + version.dump());
     }
   }
   return Status::Ok();
 }
 
+// A JSON array of refinement indices, each < refinements.
+StatusOr<std::vector<uint32_t>> RefinementList(const json& value, const std::string& name, size_t refinements) {
+  if (!value.is_array()) return InvalidInput(name + " is not an array");
+  if (value.size() > refinements) {
+    return InvalidInput(name + " names " + std::to_string(value.size()) + " refinements, the stream has " +
+                        std::to_string(refinements));
+  }
+  std::vector<uint32_t> out;
+  out.reserve(value.size());
+  for (size_t k = 0; k < value.size(); ++k) {
+    if (!value[k].is_number_unsigned() || value[k].get<uint64_t>() >= refinements) {
+      return InvalidInput(name + "[" + std::to_string(k) + "] = " + value[k].dump() +
+                          " is not a refinement of the stream (0.." + std::to_string(refinements) + ")");
+    }
+    out.push_back(static_cast<uint32_t>(value[k].get<uint64_t>()));
+  }
+  return out;
+}
+
 }  // namespace
+
+StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, size_t refinements) {
+  const std::string name = std::string(kProgressiveExtension) + ".delivery";
+  const json d = json::parse(delivery_json, nullptr, false);
+  if (d.is_discarded() || !d.is_object()) return InvalidInput(name + " is not an object");
+  for (const auto& item : d.items()) {
+    if (item.key() != "share" && item.key() != "ranking" && item.key() != "reliable") {
+      return InvalidInput(name + "." + item.key() + " is not defined");
+    }
+  }
+  DeliveryRecord r;
+  if (!d.contains("share") || !d["share"].is_number() || !(d["share"].get<double>() >= 0) ||
+      !(d["share"].get<double>() <= 1)) {
+    return InvalidInput(name + ".share is missing or not a number in [0, 1]");
+  }
+  r.share = d["share"].get<double>();
+  if (!d.contains("ranking") || !d.contains("reliable")) return InvalidInput(name + " needs ranking and reliable");
+  MS_ASSIGN_OR_RETURN(r.ranking, RefinementList(d["ranking"], name + ".ranking", refinements));
+  MS_ASSIGN_OR_RETURN(r.reliable, RefinementList(d["reliable"], name + ".reliable", refinements));
+  std::vector<bool> seen(refinements, false);
+  for (uint32_t i : r.ranking) {
+    if (seen[i]) return InvalidInput(name + ".ranking names refinement " + std::to_string(i) + " twice");
+    seen[i] = true;
+  }
+  for (size_t k = 0; k < r.reliable.size(); ++k) {
+    if (k > 0 && r.reliable[k] <= r.reliable[k - 1]) return InvalidInput(name + ".reliable is not ascending");
+    if (!seen[r.reliable[k]]) {
+      return InvalidInput(name + ".reliable names refinement " + std::to_string(r.reliable[k]) +
+                          ", which the ranking does not");
+    }
+  }
+  return r;
+}
+
+std::string DeliveryRecordJson(const DeliveryRecord& record) {
+  json d;
+  d["share"] = record.share;
+  d["ranking"] = record.ranking;
+  d["reliable"] = record.reliable;
+  return d.dump();
+}
+
+uint64_t StreamTotalBytes(uint64_t base_bytes, const ProgressiveStream& stream) {
+  return base_bytes + stream.reliable_bytes() + stream.unreliable_bytes();
+}
+
+std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream) {
+  std::vector<uint64_t> bytes(stream.datagrams.size(), 0);
+  for (size_t i = 0; i < stream.datagrams.size(); ++i) {
+    for (const auto& d : stream.datagrams[i]) bytes[i] += d.size();
+  }
+  return bytes;
+}
 
 void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
   if (levels.empty()) return;
@@ -59,6 +132,7 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
     t.datagrams += p.datagrams;
     t.removed_faces += p.removed_faces;
     t.tools |= p.tools;
+    t.reliable_cut_bytes += p.reliable_cut_bytes;
     AddLevelVertices(t.level_vertices, p.level_vertices);
   }
   return t;
@@ -109,6 +183,16 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       pre.extension_name = kProgressiveExtension;
       pre.extension_version = stream->version;
       pre.extension_bytes = stream->Serialize();
+      // The reliable cut (codec/loss/reliable_cut.h): the ranking, and its
+      // prefix for the encode-time share of this stream's bytes.
+      const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
+      DeliveryRecord delivery;
+      delivery.share = options.reliable_share;
+      delivery.ranking = RankRefinements(RefinementImportance(encoded->mesh), refinement_bytes);
+      const double budget =
+          options.reliable_share * static_cast<double>(StreamTotalBytes(encoded->base_bytes.size(), stream.value()));
+      delivery.reliable = CutForBudget(delivery.ranking, refinement_bytes, static_cast<uint64_t>(budget));
+      pre.extension_fields = json{{"delivery", json::parse(DeliveryRecordJson(delivery))}}.dump();
       export_options.precoded[m][k] = &pre;
 
       PrimitiveStreamReport r;
@@ -123,6 +207,8 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
       if (!header.ok()) return header.status().WithContext(where);
       r.tools = header->tools;
+      for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
+      r.reliable_cut = delivery.reliable;
       local.primitives.push_back(std::move(r));
     }
   }
@@ -199,6 +285,21 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       }
       const size_t levels = header->split_counts.size();
       const size_t apply = options.lod < 0 ? levels : std::min(levels, static_cast<size_t>(options.lod));
+      // What travels reliably: the recorded cut, none, or the cut for another share.
+      std::vector<uint32_t> reliable;
+      if (ext.contains("delivery") && options.reliable_share != 0) {
+        auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
+        if (!delivery.ok()) return delivery.status().WithContext(where);
+        if (options.reliable_share < 0) {
+          reliable = delivery->reliable;
+        } else {
+          // The base's Draco bytes (the importer has checked its bufferView).
+          const json& draco = prim["extensions"]["KHR_draco_mesh_compression"];
+          const uint64_t base_bytes = views.at(draco.at("bufferView").get<uint64_t>()).value("byteLength", uint64_t{0});
+          const double budget = options.reliable_share * static_cast<double>(StreamTotalBytes(base_bytes, stream));
+          reliable = CutForBudget(delivery->ranking, RefinementDatagramBytes(stream), static_cast<uint64_t>(budget));
+        }
+      }
       // Loss-free or not, every stream crosses the simulated network and the
       // reconstructor: one code path.
       LossyDecodeOptions lossy;
@@ -206,6 +307,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       lossy.loss.seed = options.loss.seed + stream_id;
       lossy.reconstructor.recovery = options.recovery;
       lossy.reconstructor.lod = static_cast<int>(apply);
+      lossy.reliable = std::move(reliable);
       LossyDecodeReport lr;
       auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
       if (!reader.ok()) return reader.status().WithContext(where);
@@ -216,6 +318,8 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       local.datagrams += lr.transmission.datagrams_sent;
       local.lost_datagrams += lr.transmission.datagrams_lost;
       local.late_datagrams += lr.reconstructor.late;
+      local.reliable_datagrams += lr.transmission.reliable_datagrams;
+      local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
       local.recovery.Add(lr.recovery);
       local.predicted_vertices += reader->unreliable_vertices();
       const RefinementState& state = reader->state();

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "codec/mesh/mesh.h"
+#include "codec/loss/reliable_cut.h"
 #include "codec/loss/simulator.h"
 #include "codec/progressive/encoder.h"
 #include "codec/bitstream/reader.h"
@@ -32,6 +33,10 @@ struct ProgressiveGlbOptions {
   ProgressiveEncodeOptions encode;
   StreamWriteOptions stream;
   int draco_compression_level = 7;
+  // The share of each stream's bytes whose refinements travel reliably with
+  // their datagrams (codec/loss/reliable_cut.h; recorded in the extension's
+  // "delivery"); 0: none (the paper's scheme).
+  double reliable_share = kDefaultReliableShare;
   // Called with (primitive index, batch index, vertices left) during encoding.
   std::function<void(size_t, int, size_t)> progress;
 };
@@ -46,6 +51,8 @@ struct PrimitiveStreamReport {
   uint64_t datagrams = 0;
   uint64_t removed_faces = 0;
   uint8_t tools = 0;  // the coding tools its stream was written with (StreamTool bits; Total: their union)
+  uint64_t reliable_cut_bytes = 0;       // datagram bytes of the reliable cut (part of unreliable_bytes)
+  std::vector<uint32_t> reliable_cut;    // its refinements, ascending (Total: none)
 };
 
 struct ProgressiveGlbReport {
@@ -68,7 +75,29 @@ struct ProgressiveDecodeOptions {
   // the seed of primitive k is seed + k. A zero model takes the same path.
   LossModel loss;
   Recovery recovery = Recovery::kPredict;
+  // Which refinements travel reliably: < 0 the cut the file records
+  // ("delivery"; none in a file without it), 0 none (the paper's scheme),
+  // > 0 the cut for that share of each stream's bytes from the file's ranking.
+  double reliable_share = -1;
 };
+
+// The "delivery" member of a primitive's MESHSTREAM_progressive object
+// (docs/progressive-format.md, section 1).
+struct DeliveryRecord {
+  double share = 0;                // the encode-time budget, a share of the stream's bytes
+  std::vector<uint32_t> ranking;   // refinements by importance per byte (RankRefinements)
+  std::vector<uint32_t> reliable;  // the cut for `share`, ascending
+};
+// Checks `delivery_json` (untrusted text: the "delivery" object) against a
+// stream of `refinements` refinements: InvalidInput naming the member that is
+// wrong.
+StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, size_t refinements);
+// One JSON object, the inverse.
+std::string DeliveryRecordJson(const DeliveryRecord& record);
+// The stream's bytes a share is taken of: base, reliable and unreliable.
+uint64_t StreamTotalBytes(uint64_t base_bytes, const ProgressiveStream& stream);
+// Per refinement, the bytes of its datagrams.
+std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream);
 
 struct ProgressiveDecodeReport {
   uint64_t levels = 0;           // the most refinements any primitive has
@@ -76,6 +105,8 @@ struct ProgressiveDecodeReport {
   uint64_t datagrams = 0;        // data datagrams sent
   uint64_t lost_datagrams = 0;   // dropped by the simulated network
   uint64_t late_datagrams = 0;   // arrived after their refinement was decoded
+  uint64_t reliable_datagrams = 0;       // sent on the reliable channel (the cut)
+  uint64_t reliable_datagram_bytes = 0;
   RecoveryStats recovery;        // summed over primitives
   uint64_t predicted_vertices = 0;  // vertices whose reliability bit is 0
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)

@@ -221,6 +221,7 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
       options.time_budget_ms = config->time_budget_ms;
     }
     if (MS_FIELD_FITS(config, ms_session_config, udp_via) && config->udp_via != nullptr) options.udp_via = config->udp_via;
+    if (MS_FIELD_FITS(config, ms_session_config, repair)) options.repair = config->repair != 0;
     auto session = meshstream::sdk::Session::Open(*client->client, options);
     if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();
@@ -331,6 +332,11 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
     if (MS_FIELD_FITS(out, ms_stats, datagrams_lost)) out->datagrams_lost = stats.datagrams_lost;
     if (MS_FIELD_FITS(out, ms_stats, datagrams_duplicate)) out->datagrams_duplicate = stats.datagrams_duplicate;
     if (MS_FIELD_FITS(out, ms_stats, hello_rtt_ms)) out->hello_rtt_ms = stats.hello_rtt_ms;
+    if (MS_FIELD_FITS(out, ms_stats, repaired_datagrams)) out->repaired_datagrams = stats.repaired_datagrams;
+    if (MS_FIELD_FITS(out, ms_stats, time_to_exact_ms)) out->time_to_exact_ms = stats.time_to_exact_ms;
+    if (MS_FIELD_FITS(out, ms_stats, reliable_datagram_bytes)) {
+      out->reliable_datagram_bytes = stats.reliable_datagram_bytes;
+    }
     return Ok();
   });
 }

@@ -84,6 +84,12 @@ struct RefinementTrack {
   std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
   uint64_t bytes = 0;
   uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
+  bool reliable = false;           // its datagrams come on the gRPC stream (ControlBlock.reliable)
+  // With repair: the control block and every data datagram that arrived,
+  // kept until the session ends, and the ordinals the report found missing.
+  std::string kept_control;
+  std::vector<std::string> kept_datagrams;
+  std::vector<uint32_t> missing;
 };
 
 struct PrimitiveState {
@@ -93,6 +99,7 @@ struct PrimitiveState {
   size_t reported = 0;                  // refinements reported
   size_t given = 0;                     // control blocks given to the reconstructor (in order)
   size_t scene_slot = 0;                // index into its scene mesh's primitives
+  QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
 };
 
 
@@ -143,6 +150,15 @@ struct Session::Impl {
   bool writes_done = false;
   bool over = false;
   bool rtt_reported = false;
+  // The repair (SessionOptions::repair): asked for, and its RepairEnd arrived.
+  bool repair_asked = false;
+  bool repair_ended = false;
+  bool ready_to_complete = false;  // the session's end is decided: kComplete next
+  uint64_t repair_asked_us = 0;
+  static constexpr uint64_t kRepairWaitUs = 10000000;
+  uint64_t kept_bytes = 0;
+  static constexpr uint64_t kMaxKeptBytes = uint64_t{256} << 20;
+  ReconstructorOptions reconstructor_options;
   std::deque<Event> events;
   SessionStats stats;
 
@@ -225,6 +241,7 @@ struct Session::Impl {
     // stream, within the byte budget, rather than drop them for the window.
     ro.window = kMaxRefinements;
     ro.max_buffered_bytes = size_t{64} << 20;
+    reconstructor_options = ro;
     for (const v1::PrimitiveStart& p : start.primitives()) {
       const std::string where = "primitive " + std::to_string(p.primitive());
       if (by_stream.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
@@ -243,6 +260,7 @@ struct Session::Impl {
       auto base = DecodeDracoBase(reinterpret_cast<const uint8_t*>(p.base_mesh().data()), p.base_mesh().size(),
                                   ids.value(), state.reconstructor->reader().header().grids);
       if (!base.ok()) return base.status().WithContext(where);
+      if (options.repair) state.kept_base = base.value();
       Status s = state.reconstructor->SetBase(std::move(base).value());
       if (!s.ok()) return s.WithContext(where);
       state.tracks.resize(p.refinements());
@@ -304,6 +322,7 @@ struct Session::Impl {
       RefinementTrack& t = p.tracks[p.given];
       Status s = p.reconstructor->OnControl(reinterpret_cast<const uint8_t*>(t.control.data()), t.control.size(), now);
       if (!s.ok()) return s.WithContext("primitive " + std::to_string(p.start.primitive()));
+      if (options.repair) t.kept_control = t.control;
       t.control.clear();
       t.control.shrink_to_fit();
       ++p.given;
@@ -337,6 +356,12 @@ struct Session::Impl {
         t.bytes += size;
         if (udp_packet != nullptr && t.packet_numbers.size() < 4 * (size_t{1} << 16)) {
           t.packet_numbers.push_back(udp_packet->packet_number);
+        }
+        // Copies are kept too (the reconstructor drops them again); the cap
+        // bounds what a hostile stream can make the client hold.
+        if (options.repair && kept_bytes + size <= kMaxKeptBytes) {
+          t.kept_datagrams.emplace_back(reinterpret_cast<const char*>(data), size);
+          kept_bytes += size;
         }
       }
     }
@@ -382,12 +407,28 @@ struct Session::Impl {
         t.control = c.control();
         t.datagrams = c.datagrams();
         t.first_packet_number = c.first_packet_number();
+        t.reliable = c.reliable();
+        if (t.reliable && stats.transport == "udp") {
+          ++stats.reliable_refinements;
+          // Counted as they come; the reliable copy is charged to the datagram bytes.
+        }
         stats.reliable_bytes += c.control().size();
         return t.end_seen ? GiveControls(p, c.refinement(), now) : Status::Ok();
       }
       case v1::ServerMessage::kDatagram: {
         const std::string& d = m.datagram().payload();
+        if (repair_asked && !repair_ended) {
+          ++stats.repaired_datagrams;
+          stats.repair_bytes += d.size();
+        } else if (stats.transport == "udp") {
+          stats.reliable_datagram_bytes += d.size();
+        }
         return OfferDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size(), nullptr, now);
+      }
+      case v1::ServerMessage::kRepairEnd: {
+        if (!repair_asked) return InvalidInput("a repair end for a repair not asked for");
+        repair_ended = true;
+        return Status::Ok();
       }
       case v1::ServerMessage::kRefinementEnd: {
         // The reliable copy of the END: the refinement is complete once its
@@ -433,12 +474,14 @@ struct Session::Impl {
               ++received;
             }
           }
-        } else if (stats.transport != "udp" || t.datagrams == 0) {
-          received = t.datagrams;  // over gRPC nothing is lost
+        } else if (stats.transport != "udp" || t.datagrams == 0 || t.reliable) {
+          received = t.datagrams;  // over gRPC (the session's or the reliable cut's) nothing is lost
           std::fill(got.begin(), got.end(), 1);
         }
         for (uint32_t k = 0; k < t.datagrams; ++k) {
-          if (!got[k]) r.add_missing(k);
+          if (got[k]) continue;
+          r.add_missing(k);
+          if (options.repair) t.missing.push_back(k);
         }
         stats.datagrams_lost += t.datagrams - received;
         r.set_datagrams_received(received);
@@ -508,6 +551,58 @@ struct Session::Impl {
     level_shown = std::max(level_shown, level);
   }
 
+  // The repair request: every missing datagram of every refinement. False
+  // when nothing is missing (no request is sent).
+  bool AskRepair(uint64_t now) {
+    v1::ClientMessage m;
+    v1::RepairRequest& request = *m.mutable_repair();
+    for (const PrimitiveState& p : primitives) {
+      for (size_t i = 0; i < p.tracks.size(); ++i) {
+        if (p.tracks[i].missing.empty()) continue;
+        v1::RepairItem& item = *request.add_items();
+        item.set_primitive(p.start.primitive());
+        item.set_refinement(static_cast<uint32_t>(i));
+        for (uint32_t k : p.tracks[i].missing) item.add_datagrams(k);
+      }
+    }
+    if (request.items_size() == 0) return false;
+    repair_asked = true;
+    repair_asked_us = now;
+    stream->Write(m);
+    return true;
+  }
+
+  // Decodes every primitive again from its base with what it kept and what
+  // the repair brought, through a fresh reconstructor (the same checks), and
+  // swaps it in.
+  Status DecodeAgain(uint64_t now) {
+    for (PrimitiveState& p : primitives) {
+      const std::string where = "primitive " + std::to_string(p.start.primitive());
+      auto fresh = StreamReconstructor::Create(reinterpret_cast<const uint8_t*>(p.start.header().data()),
+                                               p.start.header().size(), p.start.primitive(), reconstructor_options);
+      if (!fresh.ok()) return fresh.status().WithContext(where);
+      Status s = fresh->SetBase(p.kept_base);
+      if (!s.ok()) return s.WithContext(where);
+      for (size_t i = 0; i < p.tracks.size(); ++i) {
+        const RefinementTrack& t = p.tracks[i];
+        s = fresh->OnControl(reinterpret_cast<const uint8_t*>(t.kept_control.data()), t.kept_control.size(), now);
+        if (!s.ok()) return s.WithContext(where);
+        for (const std::string& d : t.kept_datagrams) {
+          fresh->OnDatagram(reinterpret_cast<const uint8_t*>(d.data()), d.size(), now);
+        }
+        const std::vector<uint8_t> end = MakeEndDatagram(p.start.primitive(), static_cast<uint32_t>(i), t.datagrams,
+                                                         fresh->reader().header().version);
+        fresh->OnDatagram(end.data(), end.size(), now);
+        auto n = fresh->Poll(now);
+        if (!n.ok()) return n.status().WithContext(where);
+      }
+      s = fresh->Flush();
+      if (!s.ok()) return s.WithContext(where);
+      *p.reconstructor = std::move(fresh).value();
+    }
+    return Status::Ok();
+  }
+
   void UpdateStats() {
     uint64_t accepted = 0, rejected = 0, duplicates = 0;
     for (const PrimitiveState& p : primitives) {
@@ -564,6 +659,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_version(options.version);
   open.mutable_open()->set_max_level(options.max_level);
   open.mutable_open()->set_transport(options.tcp_only ? v1::TRANSPORT_GRPC : v1::TRANSPORT_UNSPECIFIED);
+  open.mutable_open()->set_repair(options.repair);
   if (!impl->stream->Write(open)) {
     const grpc::Status s = impl->stream->Finish();
     return FromCall(s).ok() ? Unavailable("the server closed the session at once") : FromCall(s);
@@ -601,13 +697,36 @@ Event Session::Poll(int32_t timeout_ms) {
     if (s.session_end && s.level_shown >= 0) {
       // Everything is decoded, or the stragglers had their time.
       const bool late = now > s.session_end_us + 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
-      if (s.AllDone() || late || s.stats.end_reason == "byte_budget" || s.stats.end_reason == "time_budget") {
+      const bool budget = s.stats.end_reason == "byte_budget" || s.stats.end_reason == "time_budget";
+      if (!s.repair_asked && (s.AllDone() || late || budget)) {
         if (!s.AllDone()) {
           Status st = s.Advance(now, true);
           if (!st.ok()) return s.Fail(st);
         }
-        s.UpdateStats();
         s.stats.time_to_full_ms = MsSince(s.opened);
+        // With repair: ask for what was lost, then wait for it below.
+        if (!s.options.repair || budget || !s.AskRepair(now)) s.ready_to_complete = true;
+      }
+      if (s.repair_asked && !s.ready_to_complete) {
+        bool call_over = false;
+        {
+          std::lock_guard<std::mutex> lock(s.mutex);
+          call_over = s.finished && s.queue.empty() && s.local_messages.empty();
+        }
+        if (s.repair_ended) {
+          Status st = s.DecodeAgain(now);
+          if (!st.ok()) return s.Fail(st);
+          s.stats.time_to_exact_ms = MsSince(s.opened);
+          s.ready_to_complete = true;
+        } else if (call_over || now >= s.repair_asked_us + Impl::kRepairWaitUs) {
+          // The predicted mesh stays.
+          s.stats.repair_error = call_over ? "the server ended the session before the repair" : "no repair within 10 s";
+          s.ready_to_complete = true;
+        }
+      }
+      if (s.ready_to_complete) {
+        s.UpdateStats();
+        if (s.stats.time_to_exact_ms == 0 && s.stats.datagrams_lost == 0) s.stats.time_to_exact_ms = s.stats.time_to_full_ms;
         s.Finish("complete");
         if (s.udp) s.udp->RequestStop();  // joined when the session is destroyed
         s.over = true;

@@ -54,6 +54,15 @@ struct SessionOptions {
   // endpoint the server advertises: a relay that shapes the link, a tunnel,
   // debugging. Empty: the advertised endpoint.
   std::string udp_via;
+  // Once the stream has ended, ask over the gRPC stream, once, for the data
+  // datagrams that were lost and decode again with them: the final mesh is
+  // then the exact one (the one a loss-free session gives). The last
+  // kLevelReady shows the predicted mesh at once; kComplete comes after the
+  // repair, with the exact mesh. Off by default (the paper's scheme never
+  // asks again). Keeps a copy of the stream's control blocks and datagrams
+  // until the session ends. Not with a byte or time budget (nothing to repair
+  // towards: the session stops early by choice).
+  bool repair = false;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
@@ -79,6 +88,12 @@ struct SessionStats {
   std::string transport;            // "grpc" or "udp"
   std::string end_reason;           // the server's SessionEnd reason, or "byte_budget" / "time_budget"
   std::string udp_local;            // the client's UDP socket ("0.0.0.0:PORT"), empty without UDP
+  uint32_t reliable_refinements = 0;  // refinements whose datagrams came on the gRPC stream over UDP (the reliable cut)
+  uint64_t reliable_datagram_bytes = 0;
+  uint64_t repaired_datagrams = 0;  // datagrams the repair brought
+  uint64_t repair_bytes = 0;        // their bytes
+  double time_to_exact_ms = 0;      // from open to the exact mesh: time_to_full_ms without loss, after the repair with it
+  std::string repair_error;         // why a repair asked for did not complete (the predicted mesh stays)
 };
 
 class Session {

@@ -12,7 +12,8 @@ StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32
   // Refinements the reconstructor will decode; the simulator sends only those.
   const size_t refinements = std::min(stream.control.size(), rec.limit());
   MS_ASSIGN_OR_RETURN(Transmission sent,
-                      SimulateTransmission(stream, stream_id, refinements, options.loss, options.timing));
+                      SimulateTransmission(stream, stream_id, refinements, options.loss, options.timing,
+                                           options.reliable));
   MS_RETURN_IF_ERROR(rec.SetBase(std::move(base)));
 
   // One refinement at a time, so that on_level sees every level, not only

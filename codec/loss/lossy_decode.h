@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <vector>
 
 #include "codec/loss/simulator.h"
 #include "codec/bitstream/format.h"
@@ -23,6 +24,9 @@ struct LossyDecodeOptions {
   LossModel loss;
   LinkTiming timing;
   ReconstructorOptions reconstructor;  // recovery and lod live here
+  // The refinements whose datagrams travel reliably (reliable_cut.h; the
+  // progressive .glb records them); empty: the paper's scheme.
+  std::vector<uint32_t> reliable;
   // Called after each decoded level (1 = after the first refinement).
   std::function<void(size_t level, const StreamReader& reader)> on_level;
 };

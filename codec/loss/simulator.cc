@@ -73,7 +73,8 @@ Status LossModel::Validate() const {
 }
 
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
-                                            const LossModel& model, const LinkTiming& timing) {
+                                            const LossModel& model, const LinkTiming& timing,
+                                            const std::vector<uint32_t>& reliable) {
   MS_RETURN_IF_ERROR(model.Validate());
   if (refinements > stream.control.size() || refinements > stream.datagrams.size()) {
     return InvalidArgument("cannot send " + std::to_string(refinements) + " refinements: the stream has " +
@@ -96,11 +97,27 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
   // One datagram on the unreliable channel. Every datagram consumes the same
   // five draws whatever the model, so for one seed the loss pattern does not
   // change with the reorder and duplicate fractions.
-  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end) -> Status {
+  // A datagram of the reliable cut takes the same draws and advances the
+  // loss chain, but arrives whatever they say.
+  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end, bool on_reliable) -> Status {
     const double u_loss = Uniform(rng), u_reorder = Uniform(rng), u_delay = Uniform(rng);
     const double u_duplicate = Uniform(rng), u_copy_delay = Uniform(rng);
     (end ? t.stats.ends_sent : t.stats.datagrams_sent) += 1;
-    if (chain.Next(u_loss)) {
+    const bool dropped = chain.Next(u_loss);
+    if (on_reliable) {
+      if (!end) {
+        ++t.stats.reliable_datagrams;
+        t.stats.reliable_bytes += bytes.size();
+      }
+      ChannelEvent e;
+      e.kind = ChannelEvent::Kind::kDatagram;
+      if (AddOverflows(send_us, timing.reliable_latency_us, &e.time_us)) return too_late;
+      e.data = bytes.data();
+      e.size = bytes.size();
+      t.events.push_back(e);
+      return Status::Ok();
+    }
+    if (dropped) {
       (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
       return Status::Ok();
     }
@@ -132,9 +149,18 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     return Status::Ok();
   };
 
+  for (size_t k = 0; k < reliable.size(); ++k) {
+    if (reliable[k] >= stream.control.size() || (k > 0 && reliable[k] <= reliable[k - 1])) {
+      return InvalidArgument("reliable cut: refinement " + std::to_string(reliable[k]) +
+                             " is out of range or out of order");
+    }
+  }
+  size_t next_reliable = 0;
   // Events are created in send order; the stable sort by arrival time then
   // orders ties by that sequence.
   for (size_t i = 0; i < refinements; ++i) {
+    while (next_reliable < reliable.size() && reliable[next_reliable] < i) ++next_reliable;
+    const bool on_reliable = next_reliable < reliable.size() && reliable[next_reliable] == i;
     uint64_t start = 0, control_arrival = 0;
     if (MulOverflows(i, timing.refinement_interval_us, &start) ||
         AddOverflows(start, timing.reliable_latency_us, &control_arrival)) {
@@ -154,7 +180,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
         return too_late;
       }
       const bool end = d == datagrams.size();
-      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end));
+      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable));
     }
   }
   std::stable_sort(t.events.begin(), t.events.end(),

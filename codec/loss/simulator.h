@@ -50,8 +50,10 @@ struct ChannelEvent {
 };
 
 struct TransmissionStats {
-  uint64_t datagrams_sent = 0;  // data datagrams, END datagrams not included
+  uint64_t datagrams_sent = 0;  // data datagrams, END datagrams not included, reliable ones included
   uint64_t datagrams_lost = 0;  // data datagrams the simulator dropped
+  uint64_t reliable_datagrams = 0;  // data datagrams of the reliable cut (never lost)
+  uint64_t reliable_bytes = 0;      // their bytes
   uint64_t ends_sent = 0;
   uint64_t ends_lost = 0;
   uint64_t duplicated = 0;
@@ -68,6 +70,12 @@ struct Transmission {
 
 // Sends refinements [0, refinements) of `stream` (numbered `stream_id` in
 // its datagrams); refinements beyond the stream's count are an error.
+// `reliable` (ascending refinement indices, reliable_cut.h) names the
+// refinements whose datagrams and END travel on the reliable channel: they
+// arrive reliable_latency_us after they are sent, in order, and are never
+// lost, duplicated or reordered; they still take their draws from the
+// generator, so the datagrams on the unreliable channel see the same loss
+// pattern with and without a cut for one seed.
 //
 // Schedule: refinement i starts at i * refinement_interval_us; its control
 // block arrives reliable_latency_us later; its d-th datagram is sent at the
@@ -84,7 +92,8 @@ struct Transmission {
 // ordered by arrival time, ties by send order (a control block before its
 // refinement's datagrams, a copy after its original).
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
-                                            const LossModel& model, const LinkTiming& timing = {});
+                                            const LossModel& model, const LinkTiming& timing = {},
+                                            const std::vector<uint32_t>& reliable = {});
 
 }  // namespace meshstream
 

@@ -1,6 +1,12 @@
 #include "services/api/stream_service.h"
 
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
 #include <string>
+#include <thread>
+#include <tuple>
 #include <utility>
 
 #include "services/api/call_auth.h"
@@ -18,6 +24,40 @@ using Clock = std::chrono::steady_clock;
 
 // How long a session waits after SessionEnd for the client to half-close.
 constexpr std::chrono::milliseconds kLinger{2000};
+// With OpenRequest.repair: how long after SessionEnd the server waits for the
+// client's RepairRequest (it flushes its last refinements first).
+constexpr std::chrono::milliseconds kRepairWait{10000};
+
+// The datagrams a RepairRequest names, checked against the session's plan:
+// every item a primitive and refinement of this session, every ordinal one of
+// its datagrams; repeats are sent once. InvalidArgument naming the first
+// item that does not fit.
+StatusOr<std::vector<ByteRange>> RepairDatagrams(const SessionPlan& plan, const v1::RepairRequest& request) {
+  std::map<std::pair<uint32_t, uint32_t>, const PlannedRefinement*> by_key;
+  for (const PlannedRefinement& r : plan.refinements) {
+    by_key[{plan.primitives[r.primitive].stream, r.refinement}] = &r;
+  }
+  std::set<std::tuple<uint32_t, uint32_t, uint32_t>> seen;
+  std::vector<ByteRange> out;
+  for (int i = 0; i < request.items_size(); ++i) {
+    const v1::RepairItem& item = request.items(i);
+    const std::string where = "repair.items[" + std::to_string(i) + "]";
+    auto it = by_key.find({item.primitive(), item.refinement()});
+    if (it == by_key.end()) {
+      return InvalidArgument(where + ": primitive " + std::to_string(item.primitive()) + " refinement " +
+                             std::to_string(item.refinement()) + " is not part of this session");
+    }
+    const PlannedRefinement& r = *it->second;
+    for (uint32_t k : item.datagrams()) {
+      if (k >= r.datagrams.size()) {
+        return InvalidArgument(where + ": datagram " + std::to_string(k) + " does not exist (the refinement has " +
+                               std::to_string(r.datagrams.size()) + ")");
+      }
+      if (seen.insert({item.primitive(), item.refinement(), k}).second) out.push_back(r.datagrams[k]);
+    }
+  }
+  return out;
+}
 
 std::string Slice(const std::vector<uint8_t>& bytes, const ByteRange& r) {
   return std::string(reinterpret_cast<const char*>(bytes.data() + r.offset), r.length);
@@ -71,7 +111,8 @@ class GrpcSink final : public SessionSink {
     return stream_->Write(m);
   }
 
-  bool Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number) override {
+  bool Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
+               bool reliable) override {
     v1::ServerMessage m;
     v1::ControlBlock& c = *m.mutable_control();
     c.set_primitive(stream);
@@ -79,6 +120,7 @@ class GrpcSink final : public SessionSink {
     c.set_control(Slice(artifact_, r.control));
     c.set_datagrams(datagrams);
     c.set_first_packet_number(first_packet_number);
+    c.set_reliable(reliable);
     return stream_->Write(m);
   }
 
@@ -201,6 +243,7 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   runner_options.hello_timeout = options_.hello_timeout;
   runner_options.rate = options_.rate;
   runner_options.server_share = options_.server_share;
+  runner_options.reliable_cut = options_.reliable_cut;
   SessionRunner runner(plan.value(), artifact.value(), open.max_level(), runner_options);
 
   Live live;
@@ -215,6 +258,10 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   // cancelled, both of which happen before Open returns.
   std::atomic<bool> client_done{false};
   std::atomic<bool> reader_finished{false};
+  // A RepairRequest, handed from the reader thread to this one (the writer).
+  std::mutex repair_mutex;
+  std::optional<v1::RepairRequest> repair_request;
+  bool repair_twice = false;
   std::thread reader([&] {
     v1::ClientMessage m;
     while (stream->Read(&m)) {
@@ -230,6 +277,13 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
         info.hold_us = r.hold_us();
         for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
         runner.OnReport(info);
+      } else if (m.kind_case() == v1::ClientMessage::kRepair) {
+        std::lock_guard<std::mutex> lock(repair_mutex);
+        if (repair_request) {
+          repair_twice = true;
+        } else {
+          repair_request = m.repair();
+        }
       } else if (m.kind_case() == v1::ClientMessage::kDone) {
         client_done = true;
         break;
@@ -240,6 +294,59 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   GrpcSink sink(stream, plan.value(), artifact.value(), version.value(), options_, *scene.value());
   const auto cancelled = [&] { return context->IsCancelled() || client_done.load(); };
   StatusOr<std::string> result = runner.Run(sink, cancelled);
+  // The repair (OpenRequest.repair): once, after SessionEnd, the datagrams
+  // the client names, on the stream, then RepairEnd.
+  uint64_t repaired = 0, repaired_bytes = 0;
+  Status repair_status = Status::Ok();
+  if (result.ok() && open.repair()) {
+    const auto wait_until = Clock::now() + kRepairWait;
+    std::optional<v1::RepairRequest> request;
+    while (!reader_finished && Clock::now() < wait_until && !context->IsCancelled()) {
+      {
+        std::lock_guard<std::mutex> lock(repair_mutex);
+        if (repair_request) request = repair_request;
+      }
+      if (request) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    if (!request) {
+      std::lock_guard<std::mutex> lock(repair_mutex);
+      if (repair_request) request = repair_request;
+    }
+    if (request) {
+      auto ranges = RepairDatagrams(plan.value(), *request);
+      if (!ranges.ok()) {
+        repair_status = ranges.status();
+      } else {
+        bool written = true;
+        for (const ByteRange& d : ranges.value()) {
+          if (!(written = sink.Datagram(artifact->data() + d.offset, static_cast<size_t>(d.length)))) break;
+          ++repaired;
+          repaired_bytes += d.length;
+        }
+        v1::ServerMessage end;
+        end.mutable_repair_end()->set_datagrams(static_cast<uint32_t>(repaired));
+        end.mutable_repair_end()->set_bytes(repaired_bytes);
+        if (written) stream->Write(end);
+      }
+    }
+  }
+  if (repair_status.ok()) {
+    std::lock_guard<std::mutex> lock(repair_mutex);
+    if (repair_twice || (repair_request && !open.repair())) {
+      repair_status = InvalidArgument(repair_twice ? "repair: asked for twice (once per session)"
+                                                   : "repair: the session was not opened with repair");
+    }
+  }
+  if (!repair_status.ok()) {
+    context->TryCancel();
+    reader.join();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      live_.erase(&live);
+    }
+    return ToGrpcStatus(repair_status);
+  }
   // After SessionEnd the client half-closes (or sends done); give it
   // kLinger to do so, so that the call ends OK, then cut it.
   if (result.ok()) {
@@ -264,12 +371,13 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
     char line[512];
     std::snprintf(line, sizeof line,
                   "session %s@%lld ended (%s): %s, %llu datagrams sent, %llu reports, %llu missing, rate %.1f Mbit/s, "
-                  "%u decreases, srtt %.2f ms",
+                  "%u decreases, srtt %.2f ms, %u refinements reliable (%llu bytes, for loss %.3f), %llu repaired",
                   version->asset.c_str(), static_cast<long long>(version->version), reason.c_str(),
                   st.transport == SessionTransport::kUdp ? "udp" : "grpc",
                   static_cast<unsigned long long>(st.datagrams_sent), static_cast<unsigned long long>(st.reports),
                   static_cast<unsigned long long>(st.reported_missing), st.final_rate_bps / 1e6, st.rate_decreases,
-                  st.srtt_us / 1000.0);
+                  st.srtt_us / 1000.0, st.reliable_refinements, static_cast<unsigned long long>(st.reliable_bytes),
+                  st.cut_loss, static_cast<unsigned long long>(repaired));
     options_.log(line);
   }
   if (result.ok()) return grpc::Status::OK;

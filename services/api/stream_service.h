@@ -46,6 +46,7 @@ struct StreamServiceOptions {
   std::chrono::milliseconds idle_timeout{30000};  // no client message nor HELLO this long: cancelled
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate
+  bool reliable_cut = true;                       // --no-reliable-cut: every datagram as UDP (the paper's scheme)
   std::function<void(const std::string&)> log;    // one line per session end; may be empty
 };
 

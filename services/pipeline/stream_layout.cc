@@ -94,6 +94,13 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
   p.level_vertices = header->level_vertices();
   p.reliable_bytes = s.reliable_bytes();
   p.unreliable_bytes = s.unreliable_bytes();
+  if (progressive.contains("delivery")) {
+    auto delivery = ParseDeliveryRecord(progressive["delivery"].dump(), s.control.size());
+    if (!delivery.ok()) return delivery.status().WithContext(where);
+    p.reliable_share = delivery->share;
+    p.reliable_ranking = std::move(delivery->ranking);
+    p.reliable_cut = std::move(delivery->reliable);
+  }
   auto first = FirstDatagramStream(s);
   if (!first.ok()) return first.status().WithContext(where);
   *datagram_stream = first.value();
@@ -180,6 +187,13 @@ StatusOr<PrimitiveLayout> PrimitiveFromJson(const json& e, const std::string& wh
                       GetU32Array(e, where, "level_vertices", size_t{p.refinements} + 1, kMaxStreamVertices));
   MS_ASSIGN_OR_RETURN(p.reliable_bytes, GetU64(e, where, "reliable_bytes", p.stream_blob.length));
   MS_ASSIGN_OR_RETURN(p.unreliable_bytes, GetU64(e, where, "unreliable_bytes", p.stream_blob.length));
+  if (e.contains("delivery")) {  // optional: layouts stored before the reliable cut have none
+    auto delivery = ParseDeliveryRecord(e["delivery"].dump(), p.refinements);
+    if (!delivery.ok()) return InvalidInput("stream layout: " + where + ": " + delivery.status().message());
+    p.reliable_share = delivery->share;
+    p.reliable_ranking = std::move(delivery->ranking);
+    p.reliable_cut = std::move(delivery->reliable);
+  }
   return p;
 }
 
@@ -321,7 +335,7 @@ StatusOr<StreamLayout> ComputeStreamLayout(const uint8_t* glb, size_t size) {
 std::string StreamLayoutJson(const StreamLayout& layout) {
   json prims = json::array();
   for (const PrimitiveLayout& p : layout.primitives) {
-    prims.push_back({
+    json entry = {
         {"mesh", p.mesh},
         {"primitive", p.primitive},
         {"stream", p.stream},
@@ -336,7 +350,15 @@ std::string StreamLayoutJson(const StreamLayout& layout) {
         {"level_vertices", p.level_vertices},
         {"reliable_bytes", p.reliable_bytes},
         {"unreliable_bytes", p.unreliable_bytes},
-    });
+    };
+    if (p.reliable_share > 0 || !p.reliable_ranking.empty()) {
+      DeliveryRecord d;
+      d.share = p.reliable_share;
+      d.ranking = p.reliable_ranking;
+      d.reliable = p.reliable_cut;
+      entry["delivery"] = json::parse(DeliveryRecordJson(d));
+    }
+    prims.push_back(std::move(entry));
   }
   const json j = {{"version", kStreamLayoutVersion}, {"file_bytes", layout.file_bytes}, {"primitives", std::move(prims)}};
   return j.dump();

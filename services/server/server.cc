@@ -116,6 +116,7 @@ StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
   if (o.max_rate_bps < 0) return InvalidArgument("--max-rate: not negative (0: no server cap)");
   setup.service.max_sessions = o.max_sessions;
   setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
+  setup.service.reliable_cut = !o.no_reliable_cut;
   setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);
   setup.service.rate.max_bps = o.max_session_rate_bps;
   setup.service.rate.initial_bps = std::min(setup.service.rate.initial_bps, o.max_session_rate_bps);

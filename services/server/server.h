@@ -53,6 +53,7 @@ struct ServerOptions {
   double max_session_rate_bps = 400e6;    // one session
   int max_sessions = 256;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
+  bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
   int64_t session_idle_timeout_ms = 30000;
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.

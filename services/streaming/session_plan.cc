@@ -6,6 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/loss/reliable_cut.h"
+
 namespace meshstream {
 
 namespace {
@@ -52,6 +54,13 @@ StatusOr<std::map<std::string, int32_t>> DracoAttributes(const nlohmann::json& d
 
 }  // namespace
 
+std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss) {
+  if (!(p.reliable_share > 0)) return {};
+  const double share = ReliableShareForLoss(p.reliable_share, loss);
+  return CutForBudget(p.reliable_ranking, p.refinement_bytes,
+                      static_cast<uint64_t>(share * static_cast<double>(p.stream_bytes)));
+}
+
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
                                   int32_t max_level) {
   auto layout = ParseStreamLayout(layout_json);
@@ -77,6 +86,13 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
     if (!attributes.ok()) return attributes.status();
     p.draco_attributes = std::move(attributes).value();
+    p.reliable_share = entry.reliable_share;
+    p.reliable_ranking = entry.reliable_ranking;
+    p.refinement_bytes.assign(located->datagrams.size(), 0);
+    for (size_t i = 0; i < located->datagrams.size(); ++i) {
+      for (const ByteRange& d : located->datagrams[i]) p.refinement_bytes[i] += d.length;
+    }
+    p.stream_bytes = p.base.length + entry.reliable_bytes + entry.unreliable_bytes;
     plan.reliable_bytes += p.header.length + p.base.length;
     plan.levels = std::max(plan.levels, p.refinements);
     plan.primitives.push_back(p);

@@ -4,6 +4,7 @@
 #include <thread>
 
 #include "codec/bitstream/format.h"
+#include "codec/loss/reliable_cut.h"
 #include "net/steady_clock.h"
 
 namespace meshstream {
@@ -49,6 +50,8 @@ void SessionRunner::OnReport(const ClientReportInfo& report) {
   } else {
     return;  // not a refinement this session sent over UDP (or reported twice)
   }
+  udp_reported_received_ += report.received;
+  udp_reported_missing_ += report.missing;
   controller_.OnReport(now, report.received, report.missing, rtt);
 }
 
@@ -70,9 +73,23 @@ std::vector<uint8_t> SessionRunner::EndDatagram(const PlannedRefinement& r, uint
   return MakeEndDatagram(stream, r.refinement, count, version);
 }
 
+bool SessionRunner::InReliableCut(const PlannedRefinement& r) {
+  if (!options_.reliable_cut) return false;
+  constexpr uint64_t kMinReported = 32;
+  double loss = kReferenceLoss;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const uint64_t reported = udp_reported_received_ + udp_reported_missing_;
+    if (reported >= kMinReported) loss = static_cast<double>(udp_reported_missing_) / static_cast<double>(reported);
+    stats_.cut_loss = loss;
+  }
+  const std::vector<uint32_t> cut = ReliableCutFor(plan_.primitives[r.primitive], loss);
+  return std::binary_search(cut.begin(), cut.end(), r.refinement);
+}
+
 bool SessionRunner::SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink) {
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
-  if (!sink.Control(r, stream, count, 0)) return false;
+  if (!sink.Control(r, stream, count, 0, true)) return false;
   for (const ByteRange& d : r.datagrams) {
     if (!sink.Datagram(artifact_.data() + d.offset, d.length)) return false;
   }
@@ -89,7 +106,7 @@ bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t strea
                                       const std::function<bool()>& cancelled) {
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   const uint64_t first = udp_->ReservePacketNumbers(count + 1);
-  if (!sink.Control(r, stream, count, first)) return false;
+  if (!sink.Control(r, stream, count, first, false)) return false;
   const std::vector<uint8_t> end = EndDatagram(r, stream, count);
   std::vector<std::pair<const uint8_t*, size_t>> all;
   all.reserve(count + 1);
@@ -180,8 +197,17 @@ StatusOr<std::string> SessionRunner::Run(SessionSink& sink, const std::function<
   for (const PlannedRefinement& r : plan_.refinements) {
     if (cancelled()) return Aborted("cancelled");
     const uint32_t stream = plan_.primitives[r.primitive].stream;
-    const bool ok = transport == SessionTransport::kUdp ? SendRefinementUdp(r, stream, sink, cancelled)
-                                                        : SendRefinementGrpc(r, stream, sink);
+    bool ok = false;
+    if (transport == SessionTransport::kUdp && InReliableCut(r)) {
+      ok = SendRefinementGrpc(r, stream, sink);
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.reliable_refinements;
+      stats_.reliable_datagrams += r.datagrams.size();
+      for (const ByteRange& d : r.datagrams) stats_.reliable_bytes += d.length;
+    } else {
+      ok = transport == SessionTransport::kUdp ? SendRefinementUdp(r, stream, sink, cancelled)
+                                               : SendRefinementGrpc(r, stream, sink);
+    }
     if (!ok) return cancelled() ? Aborted("cancelled") : Aborted("the client went away");
   }
   const std::string reason = max_level_ >= 0 ? "max_level" : "complete";

@@ -10,7 +10,13 @@
 // block (with the first packet number of its datagrams), the data datagrams
 // and the codec's END datagram paced at the session's rate (net/pacer.h,
 // net/rate_controller.h, and the server's RateShare), then RefinementEnd.
-// Reports from the client (OnReport, any thread) adapt the rate.
+// Reports from the client (OnReport, any thread) adapt the rate. The
+// refinements of the reliable cut (session_plan.h, ReliableCutFor) go over
+// UDP sessions as over gRPC ones: their datagrams on the stream. The cut is
+// decided per refinement just before it is sent, for the loss the reports
+// have shown (missing / (received + missing) over the UDP refinements once
+// 32 datagrams have been reported; the reference loss, which gives the
+// stored cut, before).
 //
 // Contract: the plan and the artifact outlive the runner. Run returns the
 // SessionEnd reason it sent ("complete", "max_level"), Aborted when
@@ -46,8 +52,11 @@ class SessionSink {
   // The session start; `udp` is null for TRANSPORT_GRPC.
   virtual bool Start(SessionTransport transport, const UdpEndpoint::Session* udp) = 0;
   virtual bool TransportChanged(SessionTransport transport, const std::string& reason) = 0;
-  virtual bool Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number) = 0;
-  virtual bool Datagram(const uint8_t* data, size_t size) = 0;  // TRANSPORT_GRPC only
+  // `reliable`: the refinement's datagrams follow on this stream (always over
+  // TRANSPORT_GRPC; over UDP for the refinements of the reliable cut).
+  virtual bool Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
+                       bool reliable) = 0;
+  virtual bool Datagram(const uint8_t* data, size_t size) = 0;  // datagrams on the stream
   virtual bool RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) = 0;
   virtual bool End(const std::string& reason) = 0;
 };
@@ -59,6 +68,10 @@ struct SessionRunnerOptions {
   RateControllerOptions rate;
   RateShare* server_share = nullptr;  // --max-rate; null: no server cap
   size_t burst_datagrams = 8;         // sent in one system call when due
+  // Over UDP, send the refinements of the artifact's reliable cut, adapted to
+  // the loss the client reports (ReliableCutFor), on the stream; false: every
+  // datagram as UDP (the paper's scheme; --reliable-cut off).
+  bool reliable_cut = true;
 };
 
 struct ClientReportInfo {
@@ -81,6 +94,10 @@ struct SessionRunnerStats {
   double final_rate_bps = 0;
   uint32_t rate_decreases = 0;
   uint64_t min_rtt_us = 0, srtt_us = 0;
+  uint32_t reliable_refinements = 0;  // sent on the stream over UDP (the reliable cut)
+  uint64_t reliable_datagrams = 0;    // their data datagrams
+  uint64_t reliable_bytes = 0;        // and bytes
+  double cut_loss = 0;                // the loss the last cut decision was made for
 };
 
 class SessionRunner {
@@ -96,6 +113,8 @@ class SessionRunner {
   bool SendRefinementUdp(const PlannedRefinement& r, uint32_t stream, SessionSink& sink,
                          const std::function<bool()>& cancelled);
   bool SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink);
+  // Whether `r` goes on the stream over UDP: in the cut for the loss reported so far.
+  bool InReliableCut(const PlannedRefinement& r);
 
   std::vector<uint8_t> EndDatagram(const PlannedRefinement& r, uint32_t stream, uint32_t count) const;
   const SessionPlan& plan_;
@@ -109,6 +128,7 @@ class SessionRunner {
   RateController controller_;
   std::map<std::pair<uint32_t, uint32_t>, uint64_t> end_sent_us_;  // (stream, refinement) -> when its END left
   SessionRunnerStats stats_;
+  uint64_t udp_reported_received_ = 0, udp_reported_missing_ = 0;  // over UDP refinements
 };
 
 }  // namespace meshstream

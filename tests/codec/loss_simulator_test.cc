@@ -336,5 +336,46 @@ TEST(LossSimulator, HostileTimingIsRefused) {
   EXPECT_EQ(SimulateTransmission(s, 0, 3, LossModel{}, timing).status().code(), StatusCode::kInvalidArgument);
 }
 
+// The reliable cut: its refinements' datagrams and ENDs all arrive (on the
+// reliable channel's latency), and the other refinements see exactly the
+// loss pattern they see without a cut, for the same seed.
+TEST(LossSimulator, ReliableRefinementsArriveAndLeaveTheOthersPatternAlone) {
+  const ProgressiveStream s = SyntheticStream(6, 40);
+  LossModel m;
+  m.loss = 0.3;
+  m.seed = 5;
+  LinkTiming timing;
+  auto plain = SimulateTransmission(s, 0, 6, m, timing);
+  auto cut = SimulateTransmission(s, 0, 6, m, timing, {1, 4});
+  ASSERT_TRUE(plain.ok() && cut.ok());
+  std::map<const uint8_t*, int> in_plain, in_cut;
+  for (const ChannelEvent& e : plain->events) {
+    if (e.kind == ChannelEvent::Kind::kDatagram) ++in_plain[e.data];
+  }
+  for (const ChannelEvent& e : cut->events) {
+    if (e.kind == ChannelEvent::Kind::kDatagram) ++in_cut[e.data];
+  }
+  for (size_t i = 0; i < 6; ++i) {
+    for (const auto& d : s.datagrams[i]) {
+      if (i == 1 || i == 4) {
+        EXPECT_EQ(in_cut[d.data()], 1) << "refinement " << i << " is in the cut: never lost";
+      } else {
+        EXPECT_EQ(in_cut[d.data()], in_plain[d.data()]) << "refinement " << i << ": the same pattern";
+      }
+    }
+  }
+  EXPECT_EQ(cut->stats.reliable_datagrams, 80u);
+  EXPECT_EQ(cut->stats.reliable_bytes, 80 * s.datagrams[1][0].size());
+  EXPECT_LT(cut->stats.datagrams_lost, plain->stats.datagrams_lost);
+  // On the reliable channel's latency, after its control block.
+  for (const ChannelEvent& e : cut->events) {
+    if (e.kind == ChannelEvent::Kind::kDatagram && e.data == s.datagrams[4][0].data()) {
+      EXPECT_EQ(e.time_us, 4 * timing.refinement_interval_us + timing.reliable_latency_us);
+    }
+  }
+  EXPECT_FALSE(SimulateTransmission(s, 0, 6, m, timing, {4, 1}).ok()) << "out of order";
+  EXPECT_FALSE(SimulateTransmission(s, 0, 6, m, timing, {6}).ok()) << "out of range";
+}
+
 }  // namespace
 }  // namespace meshstream

@@ -197,6 +197,61 @@ TEST_F(StreamOverRelay, LossBurstsDelayReorderingAndDuplicates) {
   EXPECT_GT(moved, 0u) << "prediction is not exact: some flagged vertices are away from the lossless decode";
 }
 
+// Repair (SessionOptions::repair): once the stream has ended the client asks
+// for what it lost and decodes again: the final mesh is the lossless one,
+// vertex for vertex, nothing flagged, and the repair brought exactly the
+// datagrams the client found missing.
+TEST_F(StreamOverRelay, RepairGivesTheExactMeshUnder12And30PercentLoss) {
+  for (double loss : {0.12, 0.30}) {
+    Impairment bursts = Impairment::Bursts(loss, 3.0, 21);
+    bursts.reorder = 0.05;
+    bursts.duplicate = 0.03;
+    for (const auto& [asset, file] : Models()) {
+      SCOPED_TRACE(std::to_string(loss) + " loss, " + asset);
+      auto relay = Relay(bursts);
+      sdk::SessionOptions options = test_util::SessionFor(asset, 0, -1, false, relay->front().ToString());
+      options.repair = true;
+      const Result got = RunSession(*client_, options);
+      const Result& lossless = lossless_->at(asset);
+      ASSERT_EQ(got.last.type, sdk::EventType::kComplete) << got.last.status.ToString();
+      EXPECT_EQ(got.stats.transport, "udp") << got.stats.fallback_reason;
+      EXPECT_TRUE(got.stats.repair_error.empty()) << got.stats.repair_error;
+      EXPECT_GT(got.stats.datagrams_lost, 0u) << "the relay made something to repair";
+      EXPECT_EQ(got.stats.repaired_datagrams, got.stats.datagrams_lost) << "each lost datagram once";
+      EXPECT_GT(got.stats.repair_bytes, 0u);
+      EXPECT_GE(got.stats.time_to_exact_ms, got.stats.time_to_full_ms);
+      ASSERT_EQ(got.meshes.size(), lossless.meshes.size());
+      for (size_t p = 0; p < got.meshes.size(); ++p) {
+        ASSERT_EQ(got.meshes[p].vertex_count(), lossless.meshes[p].vertex_count());
+        EXPECT_EQ(got.meshes[p].positions, lossless.meshes[p].positions) << "the exact mesh after the repair";
+        EXPECT_EQ(got.meshes[p].indices, lossless.meshes[p].indices);
+        for (uint8_t flag : got.predicted[p]) ASSERT_EQ(flag, 0) << "nothing is left predicted";
+      }
+    }
+  }
+}
+
+// The reliable cut (codec/loss/reliable_cut.h) adapts to the loss the client
+// reports: through a loss-free relay the session keeps half of the stored
+// share on the stream, at 30 % it moves more; either way some refinements
+// travel on the stream, and the reliable ones are never reported missing.
+TEST_F(StreamOverRelay, ReliableCutWidensWithTheReportedLoss) {
+  auto clean = Relay(Impairment{});
+  const Result calm = RunSession(*client_, test_util::SessionFor("bunny", 0, -1, false, clean->front().ToString()));
+  ASSERT_EQ(calm.last.type, sdk::EventType::kComplete) << calm.last.status.ToString();
+  EXPECT_EQ(calm.stats.datagrams_lost, 0u);
+  EXPECT_GT(calm.stats.reliable_refinements, 0u) << "the coarse refinements go on the stream before any report";
+  EXPECT_GT(calm.stats.reliable_datagram_bytes, 0u);
+
+  auto lossy = Relay(Impairment::Loss(0.30, 31));
+  const Result stormy = RunSession(*client_, test_util::SessionFor("bunny", 0, -1, false, lossy->front().ToString()));
+  ASSERT_EQ(stormy.last.type, sdk::EventType::kComplete) << stormy.last.status.ToString();
+  EXPECT_GT(stormy.stats.datagrams_lost, 0u);
+  EXPECT_GT(stormy.stats.reliable_refinements, calm.stats.reliable_refinements)
+      << "at 30 % reported loss the session moves more refinements to the stream";
+  EXPECT_GT(stormy.stats.reliable_datagram_bytes, calm.stats.reliable_datagram_bytes);
+}
+
 TEST_F(StreamOverRelay, HostileTrafficIsDroppedCountedAndNeverAnswered) {
   auto relay = Relay(Impairment{});
   UdpSocket attacker = std::move(UdpSocket::Bind(*SocketAddress::Parse("127.0.0.1:0"))).value();

@@ -104,6 +104,8 @@ typedef struct {
   uint64_t byte_budget;    /* stop after this many bytes on both channels, COMPLETE at the level reached */
   int64_t time_budget_ms;  /* stop this long after open, COMPLETE at the level reached */
   const char* udp_via;     /* "HOST:PORT": send the UDP half there (a relay, a tunnel) instead of the advertised endpoint */
+  int32_t repair;          /* non-zero: once the stream has ended, ask once for the lost datagrams and decode again:
+                              the last LEVEL_READY shows the predicted mesh, COMPLETE the exact one (docs/c-api.md) */
 } ms_session_config;
 #define MS_SESSION_CONFIG_V0_SIZE (offsetof(ms_session_config, tcp_only) + sizeof(int32_t))
 
@@ -152,6 +154,9 @@ typedef struct {
   uint64_t datagrams_lost;      /* data datagrams sent and never received: predicted instead */
   uint64_t datagrams_duplicate; /* copies, and datagrams that came too late */
   double hello_rtt_ms;          /* the UDP HELLO round trip; 0 without UDP */
+  uint64_t repaired_datagrams;  /* datagrams the repair brought (config->repair) */
+  double time_to_exact_ms;      /* from open to the exact mesh; 0 while the mesh is predicted */
+  uint64_t reliable_datagram_bytes; /* datagram bytes the server sent on the gRPC stream (its reliable cut) over UDP */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
