@@ -36,6 +36,7 @@ struct FetchArgs {
   bool json = false;
   std::string udp_via;
   bool repair = false;
+  double expected_loss = -1;
   RemoteOptions remote;
 };
 
@@ -64,6 +65,7 @@ int RunFetch(const FetchArgs& args) {
   options.tcp_only = args.tcp_only;
   options.udp_via = args.udp_via;
   options.repair = args.repair;
+  options.expected_loss = args.expected_loss;
   auto session = sdk::Session::Open(**client, options);
   if (!session.ok()) return ReportError("fetch", session.status());
   ProgressLine progress(!args.json);
@@ -146,6 +148,10 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_flag("--repair", args->repair,
                 "once the stream has ended, ask once for the datagrams that were lost and write the exact mesh "
                 "(default: the predicted one, nothing asked again)");
+  cmd->add_option("--expected-loss", args->expected_loss,
+                  "the loss rate this link is known to have, 0..1: the server sends more of the stream reliably "
+                  "the higher it is (default: unknown)")
+      ->check(NumberIn(0, 1));
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);
   return {cmd, [args] { return RunFetch(*args); }};

@@ -645,6 +645,9 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   if (options.asset.empty()) return InvalidArgument("asset: must not be empty");
   if (options.max_level < -1) return InvalidArgument("max_level: -1 (all) or a level >= 0");
   if (options.time_budget_ms < 0) return InvalidArgument("time_budget_ms: not negative (0: none)");
+  if (options.expected_loss > 1 || options.expected_loss != options.expected_loss) {
+    return InvalidArgument("expected_loss: a rate in [0, 1], or < 0 for unknown");
+  }
   if (options.straggler_timeout_ms < 1 || options.straggler_timeout_ms > 60000) {
     return InvalidArgument("straggler_timeout_ms: 1..60000");
   }
@@ -660,6 +663,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_max_level(options.max_level);
   open.mutable_open()->set_transport(options.tcp_only ? v1::TRANSPORT_GRPC : v1::TRANSPORT_UNSPECIFIED);
   open.mutable_open()->set_repair(options.repair);
+  if (options.expected_loss >= 0) open.mutable_open()->set_expected_loss(options.expected_loss);
   if (!impl->stream->Write(open)) {
     const grpc::Status s = impl->stream->Finish();
     return FromCall(s).ok() ? Unavailable("the server closed the session at once") : FromCall(s);

@@ -63,6 +63,12 @@ struct SessionOptions {
   // until the session ends. Not with a byte or time budget (nothing to repair
   // towards: the session stops early by choice).
   bool repair = false;
+  // The loss rate this client expects on its UDP path, in [0, 1] (e.g. the
+  // last session's datagrams_lost / (datagrams_lost + datagrams_received)):
+  // the server moves more of the stream to the reliable channel the higher
+  // it is, until this session's reports show the real rate. < 0: unknown
+  // (the server assumes the rate the artifact's cut was made for, 12 %).
+  double expected_loss = -1;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };

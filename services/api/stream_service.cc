@@ -226,6 +226,9 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   if (!s.ok()) return ToGrpcStatus(s);
   if (open.max_level() < -1) return ToGrpcStatus(InvalidArgument("max_level: -1 (all) or a level >= 0"));
   if (!v1::Transport_IsValid(open.transport())) return ToGrpcStatus(InvalidArgument("transport: unknown value"));
+  if (open.has_expected_loss() && !(open.expected_loss() >= 0 && open.expected_loss() <= 1)) {
+    return ToGrpcStatus(InvalidArgument("expected_loss: a rate in [0, 1]"));
+  }
   auto version = ResolveReadyVersion(*store_, principal->tenant, open.asset(), open.version());
   if (!version.ok()) return ToGrpcStatus(version.status());
   auto artifact = store_->GetBlob(version->artifact.artifact_sha256, options_.max_artifact_bytes);
@@ -244,6 +247,7 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   runner_options.rate = options_.rate;
   runner_options.server_share = options_.server_share;
   runner_options.reliable_cut = options_.reliable_cut;
+  runner_options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
   SessionRunner runner(plan.value(), artifact.value(), open.max_level(), runner_options);
 
   Live live;

@@ -76,7 +76,7 @@ std::vector<uint8_t> SessionRunner::EndDatagram(const PlannedRefinement& r, uint
 bool SessionRunner::InReliableCut(const PlannedRefinement& r) {
   if (!options_.reliable_cut) return false;
   constexpr uint64_t kMinReported = 32;
-  double loss = kReferenceLoss;
+  double loss = options_.expected_loss >= 0 ? options_.expected_loss : kReferenceLoss;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const uint64_t reported = udp_reported_received_ + udp_reported_missing_;

@@ -15,8 +15,8 @@
 // UDP sessions as over gRPC ones: their datagrams on the stream. The cut is
 // decided per refinement just before it is sent, for the loss the reports
 // have shown (missing / (received + missing) over the UDP refinements once
-// 32 datagrams have been reported; the reference loss, which gives the
-// stored cut, before).
+// 32 datagrams have been reported; before, the loss the client said it
+// expects, or the reference loss, which gives the stored cut).
 //
 // Contract: the plan and the artifact outlive the runner. Run returns the
 // SessionEnd reason it sent ("complete", "max_level"), Aborted when
@@ -72,6 +72,8 @@ struct SessionRunnerOptions {
   // the loss the client reports (ReliableCutFor), on the stream; false: every
   // datagram as UDP (the paper's scheme; --reliable-cut off).
   bool reliable_cut = true;
+  // The loss the client expects (OpenRequest.expected_loss); < 0: unknown.
+  double expected_loss = -1;
 };
 
 struct ClientReportInfo {
