@@ -233,6 +233,7 @@ struct RecResult {
 };
 
 struct JobResult {
+  bool repaired_identical = false;  // the decode after a repair (every datagram) is the zero-loss one
   ms::TransmissionStats tx;
   ms::ReconstructorStats rc;
   RecResult rec[2];
@@ -296,6 +297,14 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
     if (r == 0) {
       out.tx = report.transmission;
       out.rc = report.reconstructor;
+      // The repair: what the SDK decodes once the lost datagrams are back
+      // (every datagram of every refinement, through the same path).
+      auto repaired_options = options;
+      repaired_options.on_level = nullptr;
+      repaired_options.reliable.clear();
+      for (uint32_t i = 0; i < s.stream.control.size(); ++i) repaired_options.reliable.push_back(i);
+      auto repaired = ms::DecodeStreamLossy(s.stream, 0, s.base, repaired_options, nullptr);
+      out.repaired_identical = repaired.ok() && SameMesh(repaired->Mesh(), s.ref_q[n]);
     }
     rr.stats = report.recovery;
     rr.levels_applied = report.levels_applied;
@@ -347,6 +356,19 @@ json MetricsJson(const Metrics& m, bool laplacian) {
   return j;
 }
 
+// What a repair (sdk/session.h, SessionOptions::repair) puts on the gRPC
+// stream for this transmission's losses (docs/streaming-protocol.md,
+// "Repair"), in protobuf bytes: the request (per refinement with a loss an
+// item of primitive, refinement and packed ordinals, at most 3 + 3 + 3 bytes
+// of fields and lengths plus 2 bytes per ordinal; 8 for the message and the
+// gRPC frame), then per lost datagram a ServerMessage.datagram (the payload,
+// 3 + 3 bytes of tags and lengths, a 5-byte gRPC frame), then RepairEnd (16).
+uint64_t RepairBytes(const ms::TransmissionStats& tx) {
+  if (tx.datagrams_lost == 0) return 0;
+  const uint64_t request = 8 + 9 * tx.refinements_with_loss + 2 * tx.datagrams_lost;
+  return request + tx.lost_bytes + 11 * tx.datagrams_lost + 16;
+}
+
 json JobJson(const Job& job, const JobResult& r) {
   json j = {{"packing", kPackingNames[job.packing]},
             {"delivery", kDeliveryNames[job.delivery]},
@@ -358,6 +380,9 @@ json JobJson(const Job& job, const JobResult& r) {
             {"ends_lost", r.tx.ends_lost},
             {"reliable_datagrams", r.tx.reliable_datagrams},
             {"reliable_datagram_bytes", r.tx.reliable_bytes},
+            {"lost_bytes", r.tx.lost_bytes},
+            {"repair_bytes", RepairBytes(r.tx)},
+            {"repaired_identical", r.repaired_identical},
             {"finished_timeout", r.rc.finished_timeout},
             {"seconds", r.seconds}};
   for (int k = 0; k < 2; ++k) {

@@ -119,6 +119,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     }
     if (dropped) {
       (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
+      if (!end) t.stats.lost_bytes += bytes.size();
       return Status::Ok();
     }
     uint64_t arrival = 0;
@@ -174,6 +175,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     control.size = stream.control[i].size();
     t.events.push_back(control);
     const auto& datagrams = stream.datagrams[i];
+    const uint64_t lost_before = t.stats.datagrams_lost;
     for (size_t d = 0; d <= datagrams.size(); ++d) {
       uint64_t offset = 0, send_us = 0;
       if (MulOverflows(d, timing.datagram_interval_us, &offset) || AddOverflows(start, offset, &send_us)) {
@@ -182,6 +184,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
       const bool end = d == datagrams.size();
       MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable));
     }
+    if (t.stats.datagrams_lost > lost_before) ++t.stats.refinements_with_loss;
   }
   std::stable_sort(t.events.begin(), t.events.end(),
                    [](const ChannelEvent& a, const ChannelEvent& b) { return a.time_us < b.time_us; });

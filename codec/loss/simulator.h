@@ -54,6 +54,8 @@ struct TransmissionStats {
   uint64_t datagrams_lost = 0;  // data datagrams the simulator dropped
   uint64_t reliable_datagrams = 0;  // data datagrams of the reliable cut (never lost)
   uint64_t reliable_bytes = 0;      // their bytes
+  uint64_t lost_bytes = 0;          // bytes of the data datagrams dropped
+  uint64_t refinements_with_loss = 0;  // refinements that lost at least one data datagram
   uint64_t ends_sent = 0;
   uint64_t ends_lost = 0;
   uint64_t duplicated = 0;
