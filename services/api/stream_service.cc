@@ -265,7 +265,6 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   // A RepairRequest, handed from the reader thread to this one (the writer).
   std::mutex repair_mutex;
   std::optional<v1::RepairRequest> repair_request;
-  bool repair_twice = false;
   std::thread reader([&] {
     v1::ClientMessage m;
     while (stream->Read(&m)) {
@@ -282,12 +281,11 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
         for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
         runner.OnReport(info);
       } else if (m.kind_case() == v1::ClientMessage::kRepair) {
+        // Once per session: after its repair request the server reads
+        // nothing more from the client (a second one is never seen).
         std::lock_guard<std::mutex> lock(repair_mutex);
-        if (repair_request) {
-          repair_twice = true;
-        } else {
-          repair_request = m.repair();
-        }
+        repair_request = m.repair();
+        break;
       } else if (m.kind_case() == v1::ClientMessage::kDone) {
         client_done = true;
         break;
@@ -335,15 +333,8 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
       }
     }
   }
-  if (repair_status.ok()) {
-    std::lock_guard<std::mutex> lock(repair_mutex);
-    if (repair_twice || (repair_request && !open.repair())) {
-      repair_status = InvalidArgument(repair_twice ? "repair: asked for twice (once per session)"
-                                                   : "repair: the session was not opened with repair");
-    }
-  }
   if (!repair_status.ok()) {
-    context->TryCancel();
+    // The reader stopped at the request: nothing is left to cancel.
     reader.join();
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -361,6 +352,14 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   }
   if (!reader_finished) context->TryCancel();
   reader.join();
+  if (result.ok() && !open.repair() && reader_finished) {
+    std::lock_guard<std::mutex> lock(repair_mutex);
+    if (repair_request) {
+      std::lock_guard<std::mutex> live_lock(mutex_);
+      live_.erase(&live);
+      return ToGrpcStatus(InvalidArgument("repair: the session was not opened with repair"));
+    }
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     live_.erase(&live);

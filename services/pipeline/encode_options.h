@@ -82,7 +82,9 @@ std::string EncoderId();
 // changes without a format change (a new simplifier rule, say), so that the
 // artifact cache does not hand out artifacts of the previous encoder.
 // 2: seam edges collapse on both sides (the seams tool of format version 2).
-constexpr int kPipelineRevision = 2;
+// 3: the .glb records the reliable cut (MESHSTREAM_progressive.delivery), which
+//    sessions send on the stream.
+constexpr int kPipelineRevision = 3;
 
 // The artifact cache key: SHA-256 (hex) over an unambiguous serialization
 // (every field length-prefixed) of the tenant (a cache hit must not tell one

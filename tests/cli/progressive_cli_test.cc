@@ -202,6 +202,29 @@ TEST(ProgressiveCli, FormatVersionOneIsWrittenOnRequestAndDecodesToTheSameMesh) 
 // --tools chooses version 2's coding tools (for measuring what each saves);
 // --json reports the ones the stream was written with. Fewer tools: larger,
 // and the same mesh.
+// The reliable cut from the CLI (docs/loss-tolerance.md, "The reliable cut"):
+// encode records it within its share, decode --loss sends it reliably unless
+// told otherwise, and both refuse a share outside [0, 1].
+TEST(ProgressiveCli, TheReliableCutIsRecordedAndDecodeLossSendsIt) {
+  test_util::TempDir dir;
+  const std::string glb = dir.File("bunny.glb");
+  const json e = RunJson("encode --json " + Quote(ModelPath("stanford-bunny.obj")) + " -o " + Quote(glb));
+  EXPECT_DOUBLE_EQ(e["reliable_share"].get<double>(), 0.10);
+  EXPECT_GT(e["reliable_cut_bytes"].get<uint64_t>(), 0u);
+  EXPECT_LE(e["reliable_cut_bytes"].get<double>(), 0.10 * e["total_bytes"].get<double>());
+  const std::string loss = " --loss 0.12 --seed 3 " + Quote(glb) + " -o " + Quote(dir.File("x.ply"));
+  const json cut = RunJson("decode --json" + loss);
+  const json paper = RunJson("decode --json --reliable-share 0" + loss);
+  const json wide = RunJson("decode --json --reliable-share 0.3" + loss);
+  EXPECT_EQ(cut["reliable_datagram_bytes"], e["reliable_cut_bytes"]);
+  EXPECT_EQ(paper["reliable_datagrams"], 0);
+  EXPECT_GT(wide["reliable_datagram_bytes"].get<uint64_t>(), cut["reliable_datagram_bytes"].get<uint64_t>());
+  EXPECT_LE(cut["lost_datagrams"].get<int>(), paper["lost_datagrams"].get<int>()) << "the same seed, fewer at risk";
+  EXPECT_EQ(RunCommand(Cli() + " decode --reliable-share 1.5" + loss).exit_code, 2);
+  EXPECT_EQ(RunCommand(Cli() + " encode --reliable-share -1 " + Quote(ModelPath("spot.obj")) + " -o " +
+                       Quote(dir.File("s.glb"))).exit_code, 2);
+}
+
 TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   TempDir dir;
   const std::string src = Quote(ModelPath("fandisk.obj"));

@@ -414,6 +414,26 @@ TEST_F(CApi, ByteBudgetAndTheCountersAfterTheFirstVersion) {
   EXPECT_NE(std::string(ms_last_error()).find("time_budget_ms"), std::string::npos) << ms_last_error();
 }
 
+// config->repair and the counters beside it: on loopback nothing is lost, so
+// the repair asks for nothing and the mesh is exact when COMPLETE comes; the
+// server's reliable cut shows as datagram bytes that came on the stream.
+TEST_F(CApi, RepairAndTheReliableCutCounters) {
+  ClientPtr client = NewClient();
+  ms_session_config config = SessionConfig("spot", -1);
+  config.repair = 1;
+  SessionPtr session = Open(client.get(), config);
+  ASSERT_NE(session, nullptr);
+  const auto events = PollToEnd(session.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  const ms_stats s = Stats(session.get());
+  EXPECT_EQ(s.datagrams_lost, 0u);
+  EXPECT_EQ(s.repaired_datagrams, 0u);
+  EXPECT_GT(s.time_to_exact_ms, 0.0);
+  EXPECT_DOUBLE_EQ(s.time_to_exact_ms, s.time_to_full_ms) << "nothing lost: exact at once";
+  EXPECT_GT(s.reliable_datagram_bytes, 0u);
+  EXPECT_EQ(s.predicted_vertices, 0u);
+}
+
 // Every argument error: its status, and a message naming the argument.
 TEST_F(CApi, ArgumentErrorsNameTheArgument) {
   auto expect = [](ms_status got, const std::string& needle, const std::string& what) {

@@ -110,6 +110,20 @@ TEST_F(CliRemote, FetchStreamsTheFullMeshOnTheGrid) {
   EXPECT_LT(base["vertices"].get<int>(), 3225);
   const auto missing = RunCommand(Cli() + " fetch no-such -o " + Quote(out.File("x.glb")) + Remote());
   EXPECT_EQ(missing.exit_code, 1) << missing.err;
+  // --repair on a loss-free link: nothing to repair, the exact mesh at once.
+  const json rep = test_util::RunCliJson("fetch --json --repair --expected-loss 0.3 spot-fetch -o " +
+                                         Quote(out.File("rep.glb")) + Remote());
+  for (const char* key : {"repair", "repaired_datagrams", "repair_bytes", "time_to_exact_ms", "repair_error",
+                          "reliable_refinements", "reliable_datagram_bytes"}) {
+    EXPECT_TRUE(rep.contains(key)) << key << " in " << rep.dump();
+  }
+  EXPECT_EQ(rep["repair"], true);
+  EXPECT_EQ(rep["repaired_datagrams"], 0);
+  EXPECT_EQ(rep["vertices"], 3225);
+  EXPECT_GT(rep["time_to_exact_ms"].get<double>(), 0.0);
+  EXPECT_GT(rep["reliable_refinements"].get<int>(), 0) << "the artifact's reliable cut";
+  const auto bad = RunCommand(Cli() + " fetch --expected-loss 2 spot-fetch -o " + Quote(out.File("y.glb")) + Remote());
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
 }
 
 TEST_F(CliRemote, AMultiFileGltfTravelsWithItsResources) {

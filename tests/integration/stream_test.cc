@@ -5,7 +5,9 @@
 // END datagram and its end, then the session end. What arrives is byte for
 // byte the stored artifact's streams; max_level cuts it; a client that asks
 // for UDP and never sends a HELLO gets the fallback after the HELLO timeout;
-// errors have their codes.
+// errors have their codes; a repair sends what is asked once, and refuses
+// what does not fit the session.
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -40,9 +42,15 @@ struct Received {
   size_t controls_before_change = 0;
 };
 
+// `after_end`, when given, writes what the client sends after SessionEnd
+// (instead of done) and returns true to half-close at once; the datagrams
+// that arrive after the end are kept under the key {UINT32_MAX, 0}.
 Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::string& asset, int64_t version,
                      int32_t max_level, const std::string& token = "",
-                     v1::Transport transport = v1::TRANSPORT_GRPC) {
+                     v1::Transport transport = v1::TRANSPORT_GRPC, bool repair = false,
+                     const std::function<void(grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>*)>&
+                         after_end = nullptr,
+                     std::vector<v1::RepairEnd>* repair_ends = nullptr) {
   auto stub = v1::StreamService::NewStub(channel);
   grpc::ClientContext context;
   if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
@@ -53,6 +61,7 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
   open.mutable_open()->set_version(version);
   open.mutable_open()->set_max_level(max_level);
   open.mutable_open()->set_transport(transport);
+  open.mutable_open()->set_repair(repair);
   Received r;
   stream->Write(open);
   v1::ServerMessage m;
@@ -77,6 +86,19 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
         break;
       case v1::ServerMessage::kEnd: {
         r.end_reason = m.end().reason();
+        current = {UINT32_MAX, 0};
+        if (after_end) {
+          after_end(stream.get());
+          break;
+        }
+        v1::ClientMessage done;
+        done.mutable_done()->set_reason("complete");
+        stream->Write(done);
+        stream->WritesDone();
+        break;
+      }
+      case v1::ServerMessage::kRepairEnd: {
+        if (repair_ends) repair_ends->push_back(m.repair_end());
         v1::ClientMessage done;
         done.mutable_done()->set_reason("complete");
         stream->Write(done);
@@ -219,6 +241,63 @@ TEST(StreamSession, ErrorsHaveTheirCodes) {
   ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
   EXPECT_EQ(OpenSession(client.channel(), "junk", 0, -1, token).status.error_code(),
             grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
+TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  AssetClient client((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(client.Ingest("spot", AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+
+  auto ask = [](std::vector<std::pair<uint32_t, std::vector<uint32_t>>> items, int times) {
+    return [items, times](grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>* stream) {
+      v1::ClientMessage m;
+      for (const auto& [refinement, datagrams] : items) {
+        v1::RepairItem& item = *m.mutable_repair()->add_items();
+        item.set_primitive(0);
+        item.set_refinement(refinement);
+        for (uint32_t k : datagrams) item.add_datagrams(k);
+      }
+      for (int i = 0; i < times; ++i) stream->Write(m);
+    };
+  };
+  // Datagram 1 of refinement 3 and 0 of refinement 12, the first asked twice: each sent once.
+  std::vector<v1::RepairEnd> ends;
+  const Received repaired = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+                                        ask({{3, {1, 1}}, {12, {0}}}, 1), &ends);
+  ASSERT_TRUE(repaired.status.ok()) << repaired.status.error_message();
+  ASSERT_EQ(ends.size(), 1u);
+  EXPECT_EQ(ends[0].datagrams(), 2u);
+  const auto& after = repaired.datagrams.at({UINT32_MAX, 0});
+  ASSERT_EQ(after.size(), 2u);
+  EXPECT_EQ(after[0], repaired.datagrams.at({0, 3})[1]) << "the stored datagram, byte for byte";
+  EXPECT_EQ(after[1], repaired.datagrams.at({0, 12})[0]);
+  EXPECT_EQ(ends[0].bytes(), after[0].size() + after[1].size());
+
+  // What does not fit the session: INVALID_ARGUMENT, nothing sent.
+  const Received beyond = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+                                      ask({{3, {999}}}, 1));
+  EXPECT_EQ(beyond.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(beyond.status.error_message().find("datagram 999"), std::string::npos) << beyond.status.error_message();
+  EXPECT_EQ(beyond.datagrams.count({UINT32_MAX, 0}), 0u);
+  const Received unknown = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+                                       ask({{200, {0}}}, 1));
+  EXPECT_EQ(unknown.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  std::vector<v1::RepairEnd> twice_ends;
+  const Received twice = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+                                     ask({{3, {0}}}, 2), &twice_ends);
+  EXPECT_TRUE(twice.status.ok()) << twice.status.error_message();
+  EXPECT_EQ(twice_ends.size(), 1u) << "once per session: the second request is never read";
+  EXPECT_EQ(twice.datagrams.at({UINT32_MAX, 0}).size(), 1u);
+  const Received unasked = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, false,
+                                       ask({{3, {0}}}, 1));
+  EXPECT_EQ(unasked.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "a session opened without repair";
   EXPECT_EQ((*server)->Terminate(), 0);
 }
 
