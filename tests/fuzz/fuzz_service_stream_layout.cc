@@ -87,7 +87,8 @@ bool SamePrimitive(const PrimitiveLayout& a, const PrimitiveLayout& b) {
          a.quantization.qc == b.quantization.qc && a.packing == b.packing && a.refinements == b.refinements &&
          a.split_counts == b.split_counts && a.datagram_counts == b.datagram_counts &&
          a.level_vertices == b.level_vertices && a.reliable_bytes == b.reliable_bytes &&
-         a.unreliable_bytes == b.unreliable_bytes;
+         a.unreliable_bytes == b.unreliable_bytes && a.reliable_share == b.reliable_share &&
+         a.reliable_ranking == b.reliable_ranking && a.reliable_cut == b.reliable_cut;
 }
 
 void CheckRoundTrip(const StreamLayout& layout, const char* from) {
