@@ -47,7 +47,6 @@
 #include "codec/metrics/hausdorff.h"
 #include "codec/metrics/laplacian.h"
 #include "codec/loss/lossy_decode.h"
-#include "codec/loss/reliable_cut.h"
 #include "codec/mesh/mesh.h"
 #include "codec/progressive/encoder.h"
 #include "codec/bitstream/reader.h"
@@ -438,10 +437,9 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
     s.stream = Check(ms::WriteStream(enc, options.quantization, wo), file + ": WriteStream");
     for (const auto& d : s.stream.datagrams) s.datagrams += d.size();
     // The reliable cut, as EncodeProgressiveGlb records it.
-    const std::vector<uint64_t> refinement_bytes = ms::RefinementDatagramBytes(s.stream);
     s.total_bytes = ms::StreamTotalBytes(enc.base_bytes.size(), s.stream);
-    s.cut = ms::CutForBudget(ms::RankRefinements(ms::RefinementImportance(enc.mesh), refinement_bytes),
-                             refinement_bytes, static_cast<uint64_t>(reliable_share * static_cast<double>(s.total_bytes)));
+    s.cut = ms::MakeDeliveryRecord(enc.mesh, s.stream, enc.base_bytes.size(), reliable_share).reliable;
+    const std::vector<uint64_t> refinement_bytes = ms::RefinementDatagramBytes(s.stream);
     for (uint32_t i : s.cut) s.cut_bytes += refinement_bytes[i];
     auto reader = Check(ms::StreamReader::Create(s.stream.header.data(), s.stream.header.size(), 0), "header");
     s.base = Check(ms::DecodeDracoBase(enc.base_bytes.data(), enc.base_bytes.size(), ids, reader.header().grids),

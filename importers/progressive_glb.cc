@@ -115,6 +115,16 @@ std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream) {
   return bytes;
 }
 
+DeliveryRecord MakeDeliveryRecord(const ProgressiveMesh& mesh, const ProgressiveStream& stream, uint64_t base_bytes,
+                                  double share) {
+  const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream);
+  DeliveryRecord d;
+  d.share = share;
+  d.ranking = RankRefinements(RefinementImportance(mesh), refinement_bytes);
+  d.reliable = CutForShare(d.ranking, refinement_bytes, StreamTotalBytes(base_bytes, stream), share);
+  return d;
+}
+
 void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
   if (levels.empty()) return;
   if (total.size() < levels.size()) total.resize(levels.size(), total.empty() ? 0 : total.back());
@@ -185,14 +195,9 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       pre.extension_bytes = stream->Serialize();
       // The reliable cut (codec/loss/reliable_cut.h): the ranking, and its
       // prefix for the encode-time share of this stream's bytes.
-      const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
-      DeliveryRecord delivery;
-      delivery.share = options.reliable_share;
-      delivery.ranking = RankRefinements(RefinementImportance(encoded->mesh), refinement_bytes);
-      const double budget =
-          options.reliable_share * static_cast<double>(StreamTotalBytes(encoded->base_bytes.size(), stream.value()));
-      delivery.reliable = CutForBudget(delivery.ranking, refinement_bytes, static_cast<uint64_t>(budget));
-      pre.extension_fields = json{{"delivery", json::parse(DeliveryRecordJson(delivery))}}.dump();
+      const DeliveryRecord delivery =
+          MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(), options.reliable_share);
+      pre.extension_fields = "{\"delivery\":" + DeliveryRecordJson(delivery) + "}";
       export_options.precoded[m][k] = &pre;
 
       PrimitiveStreamReport r;
@@ -207,6 +212,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
       if (!header.ok()) return header.status().WithContext(where);
       r.tools = header->tools;
+      const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
       for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
       r.reliable_cut = delivery.reliable;
       local.primitives.push_back(std::move(r));
@@ -296,8 +302,8 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
           // The base's Draco bytes (the importer has checked its bufferView).
           const json& draco = prim["extensions"]["KHR_draco_mesh_compression"];
           const uint64_t base_bytes = views.at(draco.at("bufferView").get<uint64_t>()).value("byteLength", uint64_t{0});
-          const double budget = options.reliable_share * static_cast<double>(StreamTotalBytes(base_bytes, stream));
-          reliable = CutForBudget(delivery->ranking, RefinementDatagramBytes(stream), static_cast<uint64_t>(budget));
+          reliable = CutForShare(delivery->ranking, RefinementDatagramBytes(stream), StreamTotalBytes(base_bytes, stream),
+                                 options.reliable_share);
         }
       }
       // Loss-free or not, every stream crosses the simulated network and the

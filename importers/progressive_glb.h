@@ -81,13 +81,6 @@ struct ProgressiveDecodeOptions {
   double reliable_share = -1;
 };
 
-// The "delivery" member of a primitive's MESHSTREAM_progressive object
-// (docs/progressive-format.md, section 1).
-struct DeliveryRecord {
-  double share = 0;                // the encode-time budget, a share of the stream's bytes
-  std::vector<uint32_t> ranking;   // refinements by importance per byte (RankRefinements)
-  std::vector<uint32_t> reliable;  // the cut for `share`, ascending
-};
 // Checks `delivery_json` (untrusted text: the "delivery" object) against a
 // stream of `refinements` refinements: InvalidInput naming the member that is
 // wrong.
@@ -98,6 +91,11 @@ std::string DeliveryRecordJson(const DeliveryRecord& record);
 uint64_t StreamTotalBytes(uint64_t base_bytes, const ProgressiveStream& stream);
 // Per refinement, the bytes of its datagrams.
 std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream);
+// The record EncodeProgressiveGlb writes for an encoded primitive: the
+// ranking of its refinements and the cut for `share` of its bytes (the base's
+// `base_bytes` and the stream's).
+DeliveryRecord MakeDeliveryRecord(const ProgressiveMesh& mesh, const ProgressiveStream& stream, uint64_t base_bytes,
+                                  double share);
 
 struct ProgressiveDecodeReport {
   uint64_t levels = 0;           // the most refinements any primitive has

@@ -98,6 +98,7 @@ struct PrimitiveState {
   std::vector<RefinementTrack> tracks;  // per refinement of this session
   size_t reported = 0;                  // refinements reported
   size_t given = 0;                     // control blocks given to the reconstructor (in order)
+  size_t ended = 0;                     // refinements [0, ended) have had an END (theirs or a later one's)
   size_t scene_slot = 0;                // index into its scene mesh's primitives
   QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
 };
@@ -311,18 +312,26 @@ struct Session::Impl {
     return Status::Ok();
   }
 
-  // A datagram of either channel, to its primitive's reconstructor.
-  // Gives the reconstructor the held control blocks of `p`, in order, up to
-  // refinement `last` (inclusive) as far as they have arrived. A control
-  // block is held until its refinement's END arrives on either channel, so
-  // that the straggler timeout counts from the end of the sending (a paced
-  // refinement may take longer to send than the timeout), not from its start.
-  Status GiveControls(PrimitiveState& p, size_t last, uint64_t now) {
-    while (p.given < p.tracks.size() && p.given <= last && p.tracks[p.given].has_control) {
+  // The END of refinement `refinement` of `p` arrived on either channel (the
+  // earlier ones were sent before it).
+  static void NoteEnd(PrimitiveState& p, size_t refinement) { p.ended = std::max(p.ended, refinement + 1); }
+
+  // Gives the reconstructor the held control blocks of `p`, in order, as far
+  // as they have arrived. A control block is held until its refinement's END
+  // arrives on either channel (NoteEnd), so that the straggler timeout counts
+  // from the end of the sending (a paced refinement may take longer to send
+  // than the timeout), not from its start; and until every primitive has
+  // reached its level, so that no primitive runs more than one refinement
+  // ahead of the level shown and the views at an event are at the event's
+  // level (a refinement of the reliable cut, on the stream, may overtake
+  // another primitive's UDP datagrams). `flushing`: everything that arrived.
+  Status GiveControls(PrimitiveState& p, uint64_t now, bool flushing) {
+    while (p.given < p.tracks.size() && p.tracks[p.given].has_control &&
+           (flushing || (p.given < p.ended && static_cast<int32_t>(p.given) <= LevelEverywhere()))) {
       RefinementTrack& t = p.tracks[p.given];
       Status s = p.reconstructor->OnControl(reinterpret_cast<const uint8_t*>(t.control.data()), t.control.size(), now);
       if (!s.ok()) return s.WithContext("primitive " + std::to_string(p.start.primitive()));
-      if (options.repair) t.kept_control = t.control;
+      if (options.repair) t.kept_control = std::move(t.control);
       t.control.clear();
       t.control.shrink_to_fit();
       ++p.given;
@@ -330,9 +339,9 @@ struct Session::Impl {
     return Status::Ok();
   }
 
-  Status GiveAllControls(uint64_t now) {
+  Status GiveAllControls(uint64_t now, bool flushing) {
     for (PrimitiveState& p : primitives) {
-      Status s = GiveControls(p, SIZE_MAX, now);
+      Status s = GiveControls(p, now, flushing);
       if (!s.ok()) return s;
     }
     return Status::Ok();
@@ -367,7 +376,9 @@ struct Session::Impl {
     }
     if (h->kind != DatagramKind::kEnd) stats.unreliable_bytes += size;
     p.reconstructor->OnDatagram(data, size, now);
-    if (h->kind == DatagramKind::kEnd) return GiveControls(p, h->refinement, now);
+    if (h->kind != DatagramKind::kEnd) return Status::Ok();
+    NoteEnd(p, h->refinement);
+    return GiveControls(p, now, false);
     return Status::Ok();
   }
 
@@ -413,7 +424,7 @@ struct Session::Impl {
           // Counted as they come; the reliable copy is charged to the datagram bytes.
         }
         stats.reliable_bytes += c.control().size();
-        return t.end_seen ? GiveControls(p, c.refinement(), now) : Status::Ok();
+        return t.end_seen ? GiveControls(p, now, false) : Status::Ok();
       }
       case v1::ServerMessage::kDatagram: {
         const std::string& d = m.datagram().payload();
@@ -443,7 +454,8 @@ struct Session::Impl {
         const std::vector<uint8_t> end = MakeEndDatagram(e.primitive(), e.refinement(), e.datagrams_sent(),
                                                          p.reconstructor->reader().header().version);
         p.reconstructor->OnDatagram(end.data(), end.size(), now);
-        return GiveControls(p, e.refinement(), now);
+        NoteEnd(p, e.refinement());
+        return GiveControls(p, now, false);
       }
       case v1::ServerMessage::kEnd: {
         session_end = true;
@@ -503,10 +515,9 @@ struct Session::Impl {
 
   // Decodes what is ready, reports it and queues the events it makes.
   Status Advance(uint64_t now, bool flush) {
-    if (flush) {
-      Status s = GiveAllControls(now);
-      if (!s.ok()) return s;
-    }
+    // Flushing gives everything; otherwise what the levels reached let go.
+    Status given = GiveAllControls(now, flush);
+    if (!given.ok()) return given;
     for (PrimitiveState& p : primitives) {
       if (flush) {
         Status s = p.reconstructor->Flush();
@@ -532,6 +543,10 @@ struct Session::Impl {
     auto n = p.reconstructor->Poll(now);
     if (!n.ok()) return n.status().WithContext("primitive " + std::to_string(p.start.primitive()));
     if (p.reconstructor->applied() == before) return Status::Ok();
+    // The level may have risen: the controls it held back go to their
+    // reconstructors, to be decoded at the next advance (after this event).
+    Status given = GiveAllControls(now, false);
+    if (!given.ok()) return given;
     Report();
     AnnounceLevel();
     return Status::Ok();

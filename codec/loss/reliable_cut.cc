@@ -74,6 +74,12 @@ std::vector<uint32_t> CutForBudget(const std::vector<uint32_t>& ranking, const s
   return cut;
 }
 
+std::vector<uint32_t> CutForShare(const std::vector<uint32_t>& ranking, const std::vector<uint64_t>& datagram_bytes,
+                                  uint64_t stream_bytes, double share) {
+  if (!(share > 0)) return {};
+  return CutForBudget(ranking, datagram_bytes, static_cast<uint64_t>(share * static_cast<double>(stream_bytes)));
+}
+
 double ReliableShareForLoss(double encoded_share, double loss) {
   if (!(encoded_share > 0)) return 0.0;
   if (!(loss > 0)) loss = 0;

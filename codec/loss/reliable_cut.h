@@ -32,6 +32,16 @@ constexpr double kReferenceLoss = 0.12;
 // The most a session ever moves (at and above 2 x the reference loss).
 constexpr double kMaxReliableShare = 0.20;
 
+// A stream's reliable cut as the progressive .glb records it (the "delivery"
+// member of MESHSTREAM_progressive, docs/progressive-format.md section 1;
+// importers/progressive_glb.h reads and writes it) and the stream layout
+// carries it. A share of 0 and empty lists: no cut (every datagram as UDP).
+struct DeliveryRecord {
+  double share = 0;                // the encode-time budget, a share of the stream's bytes
+  std::vector<uint32_t> ranking;   // refinements by importance per byte (RankRefinements)
+  std::vector<uint32_t> reliable;  // the cut for `share`, ascending
+};
+
 // Per refinement, the distortion its loss would cause, as a share of the
 // whole stream's (the entries add up to 1; all zero for a stream without
 // geometry). A split's weight is the length of its split vector (what the
@@ -52,6 +62,12 @@ std::vector<uint32_t> RankRefinements(const std::vector<double>& importance,
 // ranking beyond datagram_bytes end the prefix.
 std::vector<uint32_t> CutForBudget(const std::vector<uint32_t>& ranking, const std::vector<uint64_t>& datagram_bytes,
                                    uint64_t budget_bytes);
+
+// The cut for a share of a stream of `stream_bytes` bytes: CutForBudget with
+// a budget of share x stream_bytes. What the encoder, the simulated decode and
+// a session all use, so that they agree.
+std::vector<uint32_t> CutForShare(const std::vector<uint32_t>& ranking, const std::vector<uint64_t>& datagram_bytes,
+                                  uint64_t stream_bytes, double share);
 
 // The share of the stream's bytes a session moves for a reported loss rate:
 // encoded_share x loss / kReferenceLoss, at least half of encoded_share (so

@@ -104,27 +104,20 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     const double u_duplicate = Uniform(rng), u_copy_delay = Uniform(rng);
     (end ? t.stats.ends_sent : t.stats.datagrams_sent) += 1;
     const bool dropped = chain.Next(u_loss);
-    if (on_reliable) {
-      if (!end) {
-        ++t.stats.reliable_datagrams;
-        t.stats.reliable_bytes += bytes.size();
-      }
-      ChannelEvent e;
-      e.kind = ChannelEvent::Kind::kDatagram;
-      if (AddOverflows(send_us, timing.reliable_latency_us, &e.time_us)) return too_late;
-      e.data = bytes.data();
-      e.size = bytes.size();
-      t.events.push_back(e);
-      return Status::Ok();
+    if (on_reliable && !end) {
+      ++t.stats.reliable_datagrams;
+      t.stats.reliable_bytes += bytes.size();
     }
-    if (dropped) {
+    if (dropped && !on_reliable) {
       (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
       if (!end) t.stats.lost_bytes += bytes.size();
       return Status::Ok();
     }
     uint64_t arrival = 0;
-    if (AddOverflows(send_us, timing.unreliable_latency_us, &arrival)) return too_late;
-    if (u_reorder < model.reorder && timing.reorder_delay_us > 0) {
+    if (AddOverflows(send_us, on_reliable ? timing.reliable_latency_us : timing.unreliable_latency_us, &arrival)) {
+      return too_late;
+    }
+    if (!on_reliable && u_reorder < model.reorder && timing.reorder_delay_us > 0) {
       // Uniform in (0, reorder_delay_us].
       const uint64_t extra =
           1 + std::min<uint64_t>(timing.reorder_delay_us - 1,
@@ -138,7 +131,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     e.data = bytes.data();
     e.size = bytes.size();
     t.events.push_back(e);
-    if (u_duplicate < model.duplicate) {
+    if (!on_reliable && u_duplicate < model.duplicate) {
       // The copy follows within one datagram interval.
       const uint64_t span = std::max<uint64_t>(1, timing.datagram_interval_us);
       const uint64_t extra =

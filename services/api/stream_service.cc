@@ -301,19 +301,16 @@ grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
   uint64_t repaired = 0, repaired_bytes = 0;
   Status repair_status = Status::Ok();
   if (result.ok() && open.repair()) {
+    // The reader stops at the request (reader_finished), so waiting for the
+    // reader is waiting for the request, or for the client to give up.
     const auto wait_until = Clock::now() + kRepairWait;
-    std::optional<v1::RepairRequest> request;
     while (!reader_finished && Clock::now() < wait_until && !context->IsCancelled()) {
-      {
-        std::lock_guard<std::mutex> lock(repair_mutex);
-        if (repair_request) request = repair_request;
-      }
-      if (request) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
-    if (!request) {
+    std::optional<v1::RepairRequest> request;
+    if (reader_finished) {
       std::lock_guard<std::mutex> lock(repair_mutex);
-      if (repair_request) request = repair_request;
+      request = repair_request;
     }
     if (request) {
       auto ranges = RepairDatagrams(plan.value(), *request);

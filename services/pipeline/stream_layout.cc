@@ -97,9 +97,7 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
   if (progressive.contains("delivery")) {
     auto delivery = ParseDeliveryRecord(progressive["delivery"].dump(), s.control.size());
     if (!delivery.ok()) return delivery.status().WithContext(where);
-    p.reliable_share = delivery->share;
-    p.reliable_ranking = std::move(delivery->ranking);
-    p.reliable_cut = std::move(delivery->reliable);
+    p.delivery = std::move(delivery).value();
   }
   auto first = FirstDatagramStream(s);
   if (!first.ok()) return first.status().WithContext(where);
@@ -190,9 +188,7 @@ StatusOr<PrimitiveLayout> PrimitiveFromJson(const json& e, const std::string& wh
   if (e.contains("delivery")) {  // optional: layouts stored before the reliable cut have none
     auto delivery = ParseDeliveryRecord(e["delivery"].dump(), p.refinements);
     if (!delivery.ok()) return InvalidInput("stream layout: " + where + ": " + delivery.status().message());
-    p.reliable_share = delivery->share;
-    p.reliable_ranking = std::move(delivery->ranking);
-    p.reliable_cut = std::move(delivery->reliable);
+    p.delivery = std::move(delivery).value();
   }
   return p;
 }
@@ -351,12 +347,8 @@ std::string StreamLayoutJson(const StreamLayout& layout) {
         {"reliable_bytes", p.reliable_bytes},
         {"unreliable_bytes", p.unreliable_bytes},
     };
-    if (p.reliable_share > 0 || !p.reliable_ranking.empty()) {
-      DeliveryRecord d;
-      d.share = p.reliable_share;
-      d.ranking = p.reliable_ranking;
-      d.reliable = p.reliable_cut;
-      entry["delivery"] = json::parse(DeliveryRecordJson(d));
+    if (p.delivery.share > 0 || !p.delivery.ranking.empty()) {
+      entry["delivery"] = json::parse(DeliveryRecordJson(p.delivery));
     }
     prims.push_back(std::move(entry));
   }

@@ -22,6 +22,7 @@
 
 #include "codec/bitstream/format.h"
 #include "codec/core/status.h"
+#include "codec/loss/reliable_cut.h"
 
 namespace meshstream {
 
@@ -49,11 +50,9 @@ struct PrimitiveLayout {
   uint64_t reliable_bytes = 0;    // header and control blocks (the base excluded, as PrimitiveStreamReport)
   uint64_t unreliable_bytes = 0;  // the datagrams
   // The reliable cut (codec/loss/reliable_cut.h), from the primitive's
-  // MESHSTREAM_progressive "delivery"; a share of 0 and empty lists when the
-  // file has none (artifacts made before it): every datagram goes as UDP.
-  double reliable_share = 0;
-  std::vector<uint32_t> reliable_ranking;
-  std::vector<uint32_t> reliable_cut;
+  // MESHSTREAM_progressive "delivery"; empty when the file has none
+  // (artifacts made before it): every datagram goes as UDP.
+  DeliveryRecord delivery;
 };
 
 struct StreamLayout {

@@ -6,8 +6,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "codec/loss/reliable_cut.h"
-
 namespace meshstream {
 
 namespace {
@@ -55,10 +53,8 @@ StatusOr<std::map<std::string, int32_t>> DracoAttributes(const nlohmann::json& d
 }  // namespace
 
 std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss) {
-  if (!(p.reliable_share > 0)) return {};
-  const double share = ReliableShareForLoss(p.reliable_share, loss);
-  return CutForBudget(p.reliable_ranking, p.refinement_bytes,
-                      static_cast<uint64_t>(share * static_cast<double>(p.stream_bytes)));
+  return CutForShare(p.delivery.ranking, p.refinement_bytes, p.stream_bytes,
+                     ReliableShareForLoss(p.delivery.share, loss));
 }
 
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
@@ -86,8 +82,7 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
     if (!attributes.ok()) return attributes.status();
     p.draco_attributes = std::move(attributes).value();
-    p.reliable_share = entry.reliable_share;
-    p.reliable_ranking = entry.reliable_ranking;
+    p.delivery = entry.delivery;
     p.refinement_bytes.assign(located->datagrams.size(), 0);
     for (size_t i = 0; i < located->datagrams.size(); ++i) {
       for (const ByteRange& d : located->datagrams[i]) p.refinement_bytes[i] += d.length;

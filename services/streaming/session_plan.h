@@ -32,13 +32,12 @@ struct PlannedPrimitive {
   ByteRange base;
   uint32_t refinements = 0;  // in this session
   std::map<std::string, int32_t> draco_attributes;  // semantic -> Draco attribute id of the base mesh
-  // The reliable cut (codec/loss/reliable_cut.h) of the stored layout: the
-  // encode-time share (0: the artifact has none), the ranking, and per
-  // refinement (all of the stream's, not only this session's) its datagram
-  // bytes; `stream_bytes` is what a share is taken of (base, header, control
-  // blocks and datagrams of every refinement).
-  double reliable_share = 0;
-  std::vector<uint32_t> reliable_ranking;
+  // The reliable cut (codec/loss/reliable_cut.h) of the stored layout (a
+  // share of 0: the artifact has none), and per refinement (all of the
+  // stream's, not only this session's) its datagram bytes; `stream_bytes` is
+  // what a share is taken of (base, header, control blocks and datagrams of
+  // every refinement).
+  DeliveryRecord delivery;
   std::vector<uint64_t> refinement_bytes;
   uint64_t stream_bytes = 0;
 };

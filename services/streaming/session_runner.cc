@@ -87,11 +87,25 @@ bool SessionRunner::InReliableCut(const PlannedRefinement& r) {
   return std::binary_search(cut.begin(), cut.end(), r.refinement);
 }
 
-bool SessionRunner::SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink) {
+bool SessionRunner::WaitToSend(size_t bytes, const std::function<bool()>& cancelled) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pacer_.SetRate(controller_.rate_bps());
+  }
+  uint64_t due = pacer_.DueUs(SteadyNowUs(), bytes);
+  if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(SteadyNowUs(), bytes));
+  return SleepUntil(due, cancelled);
+}
+
+bool SessionRunner::SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink,
+                                       const std::function<bool()>* paced) {
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   if (!sink.Control(r, stream, count, 0, true)) return false;
   for (const ByteRange& d : r.datagrams) {
+    const size_t bytes = static_cast<size_t>(d.length) + kPacketOverheadBytes;
+    if (paced != nullptr && !WaitToSend(bytes, *paced)) return false;
     if (!sink.Datagram(artifact_.data() + d.offset, d.length)) return false;
+    if (paced != nullptr) pacer_.OnSent(SteadyNowUs(), bytes);
   }
   const std::vector<uint8_t> end = EndDatagram(r, stream, count);
   if (!sink.Datagram(end.data(), end.size())) return false;
@@ -117,17 +131,11 @@ bool SessionRunner::SendRefinementUdp(const PlannedRefinement& r, uint32_t strea
   size_t next = 0;
   uint64_t bytes = 0;
   while (next < all.size()) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      pacer.SetRate(controller_.rate_bps());
-    }
     // The next batch: as many datagrams as are due together (at most a burst).
     const size_t take = std::min(options_.burst_datagrams, all.size() - next);
     size_t batch_bytes = 0;
     for (size_t i = 0; i < take; ++i) batch_bytes += all[next + i].second + kPacketOverheadBytes;
-    uint64_t due = pacer.DueUs(SteadyNowUs(), batch_bytes);
-    if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(SteadyNowUs(), batch_bytes));
-    if (!SleepUntil(due, cancelled)) return false;
+    if (!WaitToSend(batch_bytes, cancelled)) return false;
     std::vector<std::pair<const uint8_t*, size_t>> batch(all.begin() + static_cast<long>(next),
                                                          all.begin() + static_cast<long>(next + take));
     const Status s = udp_->SendData(batch, first + next);
@@ -199,7 +207,9 @@ StatusOr<std::string> SessionRunner::Run(SessionSink& sink, const std::function<
     const uint32_t stream = plan_.primitives[r.primitive].stream;
     bool ok = false;
     if (transport == SessionTransport::kUdp && InReliableCut(r)) {
-      ok = SendRefinementGrpc(r, stream, sink);
+      // On the stream, but paced and charged to the server's share like the
+      // UDP datagrams: moving data to the stream does not lift --max-rate.
+      ok = SendRefinementGrpc(r, stream, sink, &cancelled);
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.reliable_refinements;
       stats_.reliable_datagrams += r.datagrams.size();

@@ -114,7 +114,14 @@ class SessionRunner {
  private:
   bool SendRefinementUdp(const PlannedRefinement& r, uint32_t stream, SessionSink& sink,
                          const std::function<bool()>& cancelled);
-  bool SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink);
+  // `paced`: the datagrams wait for the session's pacer and the server's
+  // share (WaitToSend), with this as the cancellation test; null: as fast as
+  // the stream takes them (TRANSPORT_GRPC).
+  bool SendRefinementGrpc(const PlannedRefinement& r, uint32_t stream, SessionSink& sink,
+                          const std::function<bool()>* paced = nullptr);
+  // Waits until `bytes` may leave at the session's rate and within the
+  // server's share; false when `cancelled` said so meanwhile.
+  bool WaitToSend(size_t bytes, const std::function<bool()>& cancelled);
   // Whether `r` goes on the stream over UDP: in the cut for the loss reported so far.
   bool InReliableCut(const PlannedRefinement& r);
 

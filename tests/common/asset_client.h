@@ -96,6 +96,14 @@ class AssetClient {
     return IngestRaw(UploadMessages(asset, main, resources), response);
   }
 
+  // Uploads the file at `path` (named `name`) as `asset` and follows its job
+  // to the end: the final Job in *job.
+  grpc::Status IngestModel(const std::string& asset, const std::string& path, const std::string& name, v1::Job* job) {
+    v1::IngestResponse r;
+    const grpc::Status s = Ingest(asset, Load(path, name), &r);
+    return s.ok() ? Watch(r.job_id(), job) : s;
+  }
+
   // Follows WatchJob to the end; the last Job seen.
   grpc::Status Watch(const std::string& job_id, v1::Job* last, std::vector<v1::Job>* all = nullptr,
                      double timeout_s = 300) {

@@ -87,8 +87,8 @@ bool SamePrimitive(const PrimitiveLayout& a, const PrimitiveLayout& b) {
          a.quantization.qc == b.quantization.qc && a.packing == b.packing && a.refinements == b.refinements &&
          a.split_counts == b.split_counts && a.datagram_counts == b.datagram_counts &&
          a.level_vertices == b.level_vertices && a.reliable_bytes == b.reliable_bytes &&
-         a.unreliable_bytes == b.unreliable_bytes && a.reliable_share == b.reliable_share &&
-         a.reliable_ranking == b.reliable_ranking && a.reliable_cut == b.reliable_cut;
+         a.unreliable_bytes == b.unreliable_bytes && a.delivery.share == b.delivery.share &&
+         a.delivery.ranking == b.delivery.ranking && a.delivery.reliable == b.delivery.reliable;
 }
 
 void CheckRoundTrip(const StreamLayout& layout, const char* from) {

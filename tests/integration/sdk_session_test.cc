@@ -110,10 +110,8 @@ TEST(SdkSession, MaxLevelAndErrors) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
-  v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("spot", AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(client.IngestModel("spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
   auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(sdk_client.ok());
   auto three = sdk::Session::Open(**sdk_client, test_util::SessionFor("spot", 0, 3, true));

@@ -249,10 +249,8 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
-  v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("spot", AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(client.IngestModel("spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
   ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 
   auto ask = [](std::vector<std::pair<uint32_t, std::vector<uint32_t>>> items, int times) {
