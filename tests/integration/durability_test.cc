@@ -159,11 +159,13 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
 TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   test_util::TempDir dir;
   const std::string store = dir.File("store");
-  // No grace for running jobs, so the horse's job (about a second of import and encode) is
-  // always interrupted and must run again; a grace of a second let a faster encoder finish
-  // it while the watch was already cut, which tested nothing.
+  // No grace for running jobs, so the horse's job (0.6 s of import and encode on this
+  // machine) is always interrupted and must run again; a grace of a second let a faster
+  // encoder finish it while the watch was already cut, which tested nothing. SIGTERM after
+  // 100 ms and a drain delay of 0.15 s leave it well inside the job (300 ms and 0.3 s let a
+  // 0.58 s encode finish in half the runs).
   auto server =
-      ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "0", "--drain-delay", "0.3"});
+      ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "0", "--drain-delay", "0.15"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   AssetClient client((*server)->address());
   ASSERT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
@@ -173,7 +175,7 @@ TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   grpc::Status watch_status;
   v1::Job last;
   std::thread watcher([&] { watch_status = client.Watch(r.job_id(), &last); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   kill((*server)->pid(), SIGTERM);
   // During --drain-delay the server still answers, and says NOT_SERVING.
   int serving = 1;
