@@ -148,6 +148,10 @@ struct Session::Impl {
   int32_t level_announced = -1;
   bool session_end = false;   // SessionEnd arrived (or a budget ran out)
   uint64_t session_end_us = 0;
+  // The clock stragglers are timed out by: when the UDP receiver last had
+  // every datagram of its socket delivered (UdpReceiver::caught_up_us), read
+  // as the arrivals are taken; the steady clock without UDP.
+  uint64_t arrivals_until_us = 0;
   bool writes_done = false;
   bool over = false;
   bool rtt_reported = false;
@@ -715,7 +719,11 @@ Event Session::Poll(int32_t timeout_ms) {
     }
     if (s.session_end && s.level_shown >= 0) {
       // Everything is decoded, or the stragglers had their time.
-      const bool late = now > s.session_end_us + 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
+      // Late only once every arrival taken is handed over: a poll that
+      // stopped at an event leaves the rest of its arrivals queued here.
+      const bool handed_over = s.local_messages.empty() && s.local_packets.empty();
+      const bool late = handed_over && std::min(now, s.arrivals_until_us) >
+                                           s.session_end_us + 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
       const bool budget = s.stats.end_reason == "byte_budget" || s.stats.end_reason == "time_budget";
       if (!s.repair_asked && (s.AllDone() || late || budget)) {
         if (!s.AllDone()) {
@@ -765,6 +773,9 @@ Event Session::Poll(int32_t timeout_ms) {
         const auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
         s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
       }
+      // Read before the queue is taken: every datagram that reached the
+      // socket before it is in the queue now.
+      s.arrivals_until_us = s.udp ? s.udp->caught_up_us() : SteadyNowUs();
       for (auto& m : s.queue) s.local_messages.push_back(std::move(m));
       for (auto& p : s.packets) s.local_packets.push_back(std::move(p));
       s.queue.clear();
@@ -794,14 +805,16 @@ Event Session::Poll(int32_t timeout_ms) {
       }
       if (!st.ok()) return s.Fail(st);
       if (s.level_shown >= 0 && s.events.empty()) {
-        st = s.AdvanceTouched(at);
+        // A gRPC arrival may be stamped after datagrams that wait unread
+        // in the socket: the horizon bounds the clock.
+        st = s.AdvanceTouched(std::min(at, s.arrivals_until_us));
         if (!st.ok()) return s.Fail(st);
       }
     }
     const bool drained = s.local_messages.empty() && s.local_packets.empty();
     if (s.level_shown >= 0) {
       if (drained && s.events.empty()) {
-        Status st = s.Advance(SteadyNowUs(), false);
+        Status st = s.Advance(std::min(SteadyNowUs(), s.arrivals_until_us), false);
         if (!st.ok()) return s.Fail(st);
       }
       s.UpdateStats();

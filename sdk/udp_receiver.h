@@ -12,7 +12,7 @@
 //
 // Contract: safe on any bytes arriving at the socket; `deliver` runs on the
 // receiver's thread and must not block for long.
-// Thread safety: counters and hello_rtt_us from any thread.
+// Thread safety: counters, hello_rtt_us and caught_up_us from any thread.
 #ifndef MESHSTREAM_SDK_UDP_RECEIVER_H_
 #define MESHSTREAM_SDK_UDP_RECEIVER_H_
 
@@ -56,6 +56,12 @@ class UdpReceiver {
   uint64_t hello_rtt_us() const { return hello_rtt_us_.load(); }  // 0: no HELLO_ACK yet
   uint64_t hellos_sent() const { return hellos_sent_.load(); }
   const SocketAddress& local() const { return socket_.local(); }
+  // The arrival horizon: every datagram that was in the socket before this
+  // steady-clock time (SteadyNowUs) has been handed to `deliver` (0: the
+  // thread has not drained the socket yet). A client times stragglers out by
+  // it, not by its own clock, so a receiver thread the host keeps off the
+  // CPU cannot make datagrams that did arrive count as lost.
+  uint64_t caught_up_us() const { return caught_up_us_.load(); }
 
  private:
   UdpReceiver() = default;
@@ -80,6 +86,7 @@ class UdpReceiver {
   uint64_t last_hello_us_ = 0;
   std::atomic<uint64_t> hellos_sent_{0};
   std::atomic<uint64_t> hello_rtt_us_{0};
+  std::atomic<uint64_t> caught_up_us_{0};
 
   mutable std::mutex mutex_;
   DropCounters counters_;
