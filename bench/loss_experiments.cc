@@ -203,12 +203,13 @@ struct Model {
   Stream streams[2];
 };
 
-const char* kDeliveryNames[2] = {"paper", "cut"};
+const char* kDeliveryNames[3] = {"paper", "cut", "cut_parity"};
 
 struct Job {
   size_t model = 0;
   int packing = 0, pattern = 0;
-  int delivery = 0;  // 0: the paper's scheme (split bits and base reliable); 1: the reliable cut as well
+  int delivery = 0;  // 0: the paper's scheme (split bits and base reliable); 1: the reliable cut as well;
+                     // 2: the cut and a simulated XOR parity datagram per unreliable refinement
   double loss = 0;
   uint64_t seed = 0;
   bool levels_predict = false;  // per-level metrics for prediction
@@ -284,7 +285,8 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
     const bool levels = r == 0 ? job.levels_predict : job.levels_lwop;
     std::vector<ms::QuantizedMesh> got(n + 1);
     auto options = DecodeOptions(job.loss, kBursts[job.pattern], job.seed, kRecoveries[r]);
-    if (job.delivery == 1) options.reliable = s.cut;
+    if (job.delivery >= 1) options.reliable = s.cut;
+    options.parity = job.delivery == 2;
     options.on_level = [&](size_t level, const ms::StreamReader& reader) {
       ms::QuantizedMesh m = reader.Mesh();
       if (level >= rr.level_vertices.size()) rr.level_vertices.resize(level, 0);
@@ -301,6 +303,7 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
       auto repaired_options = options;
       repaired_options.on_level = nullptr;
       repaired_options.reliable.clear();
+      repaired_options.parity = false;
       for (uint32_t i = 0; i < s.stream.control.size(); ++i) repaired_options.reliable.push_back(i);
       auto repaired = ms::DecodeStreamLossy(s.stream, 0, s.base, repaired_options, nullptr);
       out.repaired_identical = repaired.ok() && SameMesh(repaired->Mesh(), s.ref_q[n]);
@@ -380,6 +383,9 @@ json JobJson(const Job& job, const JobResult& r) {
             {"reliable_datagrams", r.tx.reliable_datagrams},
             {"reliable_datagram_bytes", r.tx.reliable_bytes},
             {"lost_bytes", r.tx.lost_bytes},
+            {"parity_datagrams", r.tx.parity_datagrams},
+            {"parity_bytes", r.tx.parity_bytes},
+            {"parity_recovered", r.tx.parity_recovered},
             {"repair_bytes", RepairBytes(r.tx)},
             {"repaired_identical", r.repaired_identical},
             {"finished_timeout", r.rc.finished_timeout},
@@ -630,6 +636,13 @@ int main(int argc, char** argv) {
               c.levels_predict = subset && at12;
               c.levels_lwop = false;
               jobs.push_back(c);
+              // Parity on top of the cut, at 4, 12 and 30 % random loss.
+              if (pt == 0 && key) {
+                Job q = c;
+                q.delivery = 2;
+                q.levels_predict = false;
+                jobs.push_back(q);
+              }
             }
           }
         }

@@ -267,6 +267,52 @@ def cut_markdown(data):
                                                        if cut_runs(m, l) else "-" for l in losses)))
     L.append("")
 
+    # ---- error control: how far the error spreads level by level
+    spread = [m for m in models if [r for r in cut_runs(m, 0.12) if "levels" in r["predict"]]]
+    if spread:
+        L.append("Error control, level by level (12 % random loss, prediction, split packing): median Hausdorff "
+                 "to the zero-loss decode at the same level, the paper's scheme / the cut (the runs with "
+                 "per-level metrics). Where the error falls from one level to the next, the exact later "
+                 "splits pulled the surface back:")
+        L.append("")
+        for m in spread:
+            paper = per_level(level_runs(m, "split", 0.12), "predict", "hd_rel")
+            cut = per_level([r for r in cut_runs(m, 0.12) if "levels" in r["predict"]], "predict", "hd_rel")
+            levels = sorted(set(paper) | set(cut))
+            L.append("- %s: %s" % (m["name"], ", ".join(
+                "L%d %s / %s" % (k, pct(paper.get(k), 2) if k in paper else "-", pct(cut.get(k), 2) if k in cut else "-")
+                for k in levels)))
+        L.append("")
+
+    # ---- parity, simulated (docs/loss-tolerance.md, "Parity, simulated")
+    par = [m for m in models if m.get("parity_runs")]
+    if par:
+        L.append("Parity, simulated (not a wire format; codec/loss/simulator.h, `parity`): the cut plus one XOR "
+                 "parity datagram per unreliable refinement, as long as its longest datagram, which gives back a "
+                 "refinement's loss when it is its only one. Same seeds; random loss, prediction, split packing; "
+                 "parity bytes as a share of the stream's bytes:")
+        L.append("")
+        L.append("| model | loss | cut hd median (worst) | cut + parity hd median (worst) | losses given back "
+                 "| parity bytes | cut + parity bytes |")
+        L.append("|---|---|---:|---:|---:|---:|---:|")
+        for m in par:
+            total = m.get("reliable_cut", {}).get("stream_bytes") or 0
+            share = m.get("reliable_cut", {}).get("share") or 0
+            for loss in (0.04, 0.12, 0.30):
+                cr = cut_runs(m, loss)
+                qr = [r for r in m["parity_runs"] if r["pattern"] == "random" and close(r["loss"], loss)]
+                if not cr or not qr:
+                    continue
+                lost = sum(r["datagrams_lost"] + r["parity_recovered"] for r in qr)
+                back = sum(r["parity_recovered"] for r in qr)
+                pb = med([r["parity_bytes"] for r in qr]) / total if total else 0
+                L.append("| %s | %d %% | %s (%s) | %s (%s) | %s of %d | %s | %s |" % (
+                    m["name"], round(100 * loss), pct(med([r["predict"]["hd_rel"] for r in cr]), 3),
+                    pct(max(r["predict"]["hd_rel"] or 0 for r in cr), 3),
+                    pct(med([r["predict"]["hd_rel"] for r in qr]), 3), pct(max(r["predict"]["hd_rel"] or 0 for r in qr), 3),
+                    pct(back / lost, 0) if lost else "-", lost, pct(pb, 1), pct(share + pb, 1)))
+        L.append("")
+
     # ---- the targets, plainly
     L.append("**Targets of issue 12** (12 % random loss, split packing, final level):")
     L.append("")
@@ -532,6 +578,7 @@ def main():
     # runs (issue 12) have their own section.
     for m in data["models"]:
         m["cut_runs"] = [r for r in m["runs"] if r.get("delivery") == "cut"]
+        m["parity_runs"] = [r for r in m["runs"] if r.get("delivery") == "cut_parity"]
         m["runs"] = [r for r in m["runs"] if r.get("delivery", "paper") == "paper"]
     out = output_dir(a.out, a.json)
     plots = []

@@ -13,7 +13,7 @@ StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32
   const size_t refinements = std::min(stream.control.size(), rec.limit());
   MS_ASSIGN_OR_RETURN(Transmission sent,
                       SimulateTransmission(stream, stream_id, refinements, options.loss, options.timing,
-                                           options.reliable));
+                                           options.reliable, options.parity));
   MS_RETURN_IF_ERROR(rec.SetBase(std::move(base)));
 
   // One refinement at a time, so that on_level sees every level, not only

@@ -74,7 +74,7 @@ Status LossModel::Validate() const {
 
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
                                             const LossModel& model, const LinkTiming& timing,
-                                            const std::vector<uint32_t>& reliable) {
+                                            const std::vector<uint32_t>& reliable, bool parity) {
   MS_RETURN_IF_ERROR(model.Validate());
   if (refinements > stream.control.size() || refinements > stream.datagrams.size()) {
     return InvalidArgument("cannot send " + std::to_string(refinements) + " refinements: the stream has " +
@@ -99,7 +99,9 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
   // change with the reorder and duplicate fractions.
   // A datagram of the reliable cut takes the same draws and advances the
   // loss chain, but arrives whatever they say.
-  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end, bool on_reliable) -> Status {
+  // `dropped_out`: whether the network dropped it (a reliable one never is).
+  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end, bool on_reliable,
+                  bool* dropped_out = nullptr) -> Status {
     const double u_loss = Uniform(rng), u_reorder = Uniform(rng), u_delay = Uniform(rng);
     const double u_duplicate = Uniform(rng), u_copy_delay = Uniform(rng);
     (end ? t.stats.ends_sent : t.stats.datagrams_sent) += 1;
@@ -108,6 +110,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
       ++t.stats.reliable_datagrams;
       t.stats.reliable_bytes += bytes.size();
     }
+    if (dropped_out != nullptr) *dropped_out = dropped && !on_reliable;
     if (dropped && !on_reliable) {
       (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
       if (!end) t.stats.lost_bytes += bytes.size();
@@ -149,6 +152,8 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
                              " is out of range or out of order");
     }
   }
+  // The parity datagrams' own draws, apart from the data datagrams' sequence.
+  std::mt19937_64 parity_rng(model.seed ^ 0x9e3779b97f4a7c15ull);
   size_t next_reliable = 0;
   // Events are created in send order; the stable sort by arrival time then
   // orders ties by that sequence.
@@ -169,13 +174,41 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     t.events.push_back(control);
     const auto& datagrams = stream.datagrams[i];
     const uint64_t lost_before = t.stats.datagrams_lost;
+    size_t lost_one = SIZE_MAX, lost_count = 0, longest = 0;
+    uint64_t end_send_us = 0;
     for (size_t d = 0; d <= datagrams.size(); ++d) {
       uint64_t offset = 0, send_us = 0;
       if (MulOverflows(d, timing.datagram_interval_us, &offset) || AddOverflows(start, offset, &send_us)) {
         return too_late;
       }
       const bool end = d == datagrams.size();
-      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable));
+      bool dropped = false;
+      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable, &dropped));
+      if (end) {
+        end_send_us = send_us;
+      } else {
+        longest = std::max(longest, datagrams[d].size());
+        if (dropped) {
+          lost_one = d;
+          ++lost_count;
+        }
+      }
+    }
+    if (parity && !on_reliable && !datagrams.empty()) {
+      ++t.stats.parity_datagrams;
+      t.stats.parity_bytes += longest;
+      const bool parity_lost = Uniform(parity_rng) < model.loss;
+      if (!parity_lost && lost_count == 1) {
+        ChannelEvent e;
+        e.kind = ChannelEvent::Kind::kDatagram;
+        if (AddOverflows(end_send_us, timing.unreliable_latency_us, &e.time_us)) return too_late;
+        e.data = datagrams[lost_one].data();
+        e.size = datagrams[lost_one].size();
+        t.events.push_back(e);
+        --t.stats.datagrams_lost;
+        t.stats.lost_bytes -= datagrams[lost_one].size();
+        ++t.stats.parity_recovered;
+      }
     }
     if (t.stats.datagrams_lost > lost_before) ++t.stats.refinements_with_loss;
   }

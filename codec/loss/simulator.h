@@ -56,6 +56,9 @@ struct TransmissionStats {
   uint64_t reliable_bytes = 0;      // their bytes
   uint64_t lost_bytes = 0;          // bytes of the data datagrams dropped
   uint64_t refinements_with_loss = 0;  // refinements that lost at least one data datagram
+  uint64_t parity_datagrams = 0;    // simulated XOR parity datagrams (one per unreliable refinement)
+  uint64_t parity_bytes = 0;        // their bytes (each as long as its refinement's longest datagram)
+  uint64_t parity_recovered = 0;    // data datagrams a parity datagram gave back (not in datagrams_lost)
   uint64_t ends_sent = 0;
   uint64_t ends_lost = 0;
   uint64_t duplicated = 0;
@@ -93,9 +96,18 @@ struct Transmission {
 // loss pattern does not depend on `reorder` and `duplicate`. Events are
 // ordered by arrival time, ties by send order (a control block before its
 // refinement's datagrams, a copy after its original).
+//
+// `parity` (an experiment, not a wire format: docs/loss-tolerance.md,
+// "Parity, simulated"): every refinement on the unreliable channel with data
+// datagrams is followed by one XOR parity datagram, as long as its longest
+// datagram, sent with its END. Its loss is drawn from a generator of its own
+// (Bernoulli at `loss`, so the data datagrams see the same pattern as without
+// parity); when it arrives and exactly one data datagram of the refinement
+// was lost, that datagram arrives with it (XOR of the others and the parity)
+// and counts in parity_recovered instead of datagrams_lost.
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
                                             const LossModel& model, const LinkTiming& timing = {},
-                                            const std::vector<uint32_t>& reliable = {});
+                                            const std::vector<uint32_t>& reliable = {}, bool parity = false);
 
 }  // namespace meshstream
 
