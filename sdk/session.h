@@ -15,7 +15,10 @@
 // Over UDP what the network loses is predicted (codec/loss), never asked
 // for again; a refinement is decoded when its END (the datagram or its
 // reliable copy, RefinementEnd) and every datagram it announces have
-// arrived, or `straggler_timeout_ms` after the first of its ENDs arrived.
+// arrived, or `straggler_timeout_ms` after the first of its ENDs arrived,
+// counted on the arrival horizon (UdpReceiver::caught_up_us), so a host
+// that polls seldom or starves the UDP thread never loses what arrived
+// (docs/streaming-protocol.md).
 //
 // Budgets: max_level stops the server early; byte_budget (bytes received
 // on both channels) and time_budget_ms (since Open) stop the session on the
