@@ -303,7 +303,6 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
       auto repaired_options = options;
       repaired_options.on_level = nullptr;
       repaired_options.reliable.clear();
-      repaired_options.parity = false;
       for (uint32_t i = 0; i < s.stream.control.size(); ++i) repaired_options.reliable.push_back(i);
       auto repaired = ms::DecodeStreamLossy(s.stream, 0, s.base, repaired_options, nullptr);
       out.repaired_identical = repaired.ok() && SameMesh(repaired->Mesh(), s.ref_q[n]);

@@ -152,6 +152,10 @@ struct Session::Impl {
   // every datagram of its socket delivered (UdpReceiver::caught_up_us), read
   // as the arrivals are taken; the steady clock without UDP.
   uint64_t arrivals_until_us = 0;
+  // The straggler clock at time `t`: never past the arrival horizon.
+  uint64_t StragglerClock(uint64_t t) const { return std::min(t, arrivals_until_us); }
+  // Every arrival taken from the queues has been handed to the reconstructors.
+  bool HandedOver() const { return local_messages.empty() && local_packets.empty(); }
   bool writes_done = false;
   bool over = false;
   bool rtt_reported = false;
@@ -721,9 +725,8 @@ Event Session::Poll(int32_t timeout_ms) {
       // Everything is decoded, or the stragglers had their time.
       // Late only once every arrival taken is handed over: a poll that
       // stopped at an event leaves the rest of its arrivals queued here.
-      const bool handed_over = s.local_messages.empty() && s.local_packets.empty();
-      const bool late = handed_over && std::min(now, s.arrivals_until_us) >
-                                           s.session_end_us + 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
+      const uint64_t window_us = 2 * static_cast<uint64_t>(s.options.straggler_timeout_ms) * 1000;
+      const bool late = s.HandedOver() && s.StragglerClock(now) > s.session_end_us + window_us;
       const bool budget = s.stats.end_reason == "byte_budget" || s.stats.end_reason == "time_budget";
       if (!s.repair_asked && (s.AllDone() || late || budget)) {
         if (!s.AllDone()) {
@@ -807,14 +810,14 @@ Event Session::Poll(int32_t timeout_ms) {
       if (s.level_shown >= 0 && s.events.empty()) {
         // A gRPC arrival may be stamped after datagrams that wait unread
         // in the socket: the horizon bounds the clock.
-        st = s.AdvanceTouched(std::min(at, s.arrivals_until_us));
+        st = s.AdvanceTouched(s.StragglerClock(at));
         if (!st.ok()) return s.Fail(st);
       }
     }
-    const bool drained = s.local_messages.empty() && s.local_packets.empty();
+    const bool drained = s.HandedOver();
     if (s.level_shown >= 0) {
       if (drained && s.events.empty()) {
-        Status st = s.Advance(std::min(SteadyNowUs(), s.arrivals_until_us), false);
+        Status st = s.Advance(s.StragglerClock(SteadyNowUs()), false);
         if (!st.ok()) return s.Fail(st);
       }
       s.UpdateStats();

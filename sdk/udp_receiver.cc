@@ -56,23 +56,22 @@ void UdpReceiver::SendHello() {
 void UdpReceiver::Run() {
   std::vector<IncomingDatagram> batch(32);
   SendHello();
+  int wait_ms = 0;
   while (!stop_) {
     if (!have_data_ && hellos_sent_ < static_cast<uint64_t>(kMaxHellos) &&
         SteadyNowUs() >= last_hello_us_ + static_cast<uint64_t>(kHelloIntervalMs) * 1000) {
       SendHello();
     }
-    // Drain without waiting; a read that leaves the socket empty moves the
-    // horizon to when it began (after the deliveries, which it covers).
+    // A read that leaves the socket empty (fewer than a batch) has read
+    // everything that was in it when the read began: the horizon moves there.
+    // It waits only after a read without waiting found nothing, so an idle
+    // horizon is at most one wait behind.
     const uint64_t before = SteadyNowUs();
-    auto n = socket_.ReceiveBatch(&batch, kMaxDatagramBytes + 1, 0);
+    auto n = socket_.ReceiveBatch(&batch, kMaxDatagramBytes + 1, wait_ms);
     if (!n.ok()) continue;
     for (size_t i = 0; i < n.value(); ++i) Handle(batch[i]);
     if (n.value() < batch.size()) caught_up_us_.store(before);
-    if (n.value() != 0) continue;
-    // Empty: wait for the next datagram (or the HELLO timer).
-    n = socket_.ReceiveBatch(&batch, kMaxDatagramBytes + 1, 20);
-    if (!n.ok()) continue;
-    for (size_t i = 0; i < n.value(); ++i) Handle(batch[i]);
+    wait_ms = n.value() == 0 && wait_ms == 0 ? 20 : 0;
   }
 }
 
