@@ -58,8 +58,8 @@
 #include "services/pipeline/process_source.h"
 #include "services/server/server.h"
 #include "services/store/blob_store.h"
-#include "tests/common/asset_client.h"
-#include "tests/common/pg_cluster.h"
+#include "testing/asset_client.h"
+#include "testing/pg_cluster.h"
 
 namespace {
 

@@ -86,9 +86,9 @@
 #include "sdk/session.h"
 #include "services/server/server.h"
 #include "services/store/blob_store.h"
-#include "tests/common/asset_client.h"
-#include "tests/common/netns.h"
-#include "tests/common/udp_relay.h"
+#include "testing/asset_client.h"
+#include "testing/netns.h"
+#include "testing/udp_relay.h"
 
 namespace {
 
@@ -1061,7 +1061,7 @@ using ms::Status;
 using ms::Vec3f;
 //
 // The server (this process, host namespace) listens on the host side of a
-// veth pair (tests/common/netns.h); the clients are children of this
+// veth pair (testing/netns.h); the clients are children of this
 // program (`ip netns exec NS <this> --shaped-client ...`), so their sockets
 // are really inside the namespace, one child per session or download. The
 // namespace drops a share of every packet it receives (nftables, TCP and

@@ -2,7 +2,7 @@
 // streaming benchmark (bench/bench_stream.cc, docs/stream-benchmarks.md):
 // the gRPC channels of the clients in a network namespace go through it so
 // that they see the same one-way delay as the UDP half, which goes through
-// the UDP relay (tests/common/udp_relay.h).
+// the UDP relay (testing/udp_relay.h).
 //
 // It listens on `listen`; every connection it accepts gets its own
 // connection to `upstream`, and bytes are forwarded both ways, each chunk

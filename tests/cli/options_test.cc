@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/common/cli_util.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

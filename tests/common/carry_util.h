@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "codec/mesh/mesh.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 

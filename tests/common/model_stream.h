@@ -12,7 +12,7 @@
 #include "codec/progressive/encoder.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 

@@ -17,7 +17,7 @@
 #include "codec/bitstream/format.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 

@@ -19,7 +19,7 @@
 #include "importers/progressive_glb.h"
 #include "tests/common/carry_util.h"
 #include "tests/common/cli_util.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

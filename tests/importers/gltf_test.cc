@@ -7,7 +7,7 @@
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -11,7 +11,7 @@
 // proto code: libmeshstream registers meshstream/v1/*.proto with the
 // process's protobuf, and a second copy in the same process aborts
 // (docs/c-api.md, "One copy per process"). So the assets go in through the
-// CLI (`meshstream ingest`, `export`) rather than tests/common/asset_client.h.
+// CLI (`meshstream ingest`, `export`) rather than testing/asset_client.h.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -32,8 +32,8 @@
 #include "importers/progressive_glb.h"
 #include "meshstream/meshstream.h"
 #include "tests/common/cli_util.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -9,10 +9,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "tests/common/asset_client.h"
+#include "testing/asset_client.h"
 #include "tests/common/cli_util.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

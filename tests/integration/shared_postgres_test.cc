@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/common/asset_client.h"
-#include "tests/common/pg_cluster.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/asset_client.h"
+#include "testing/pg_cluster.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -21,10 +21,10 @@
 
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "tests/common/asset_client.h"
+#include "testing/asset_client.h"
 #include "tests/common/sdk_options.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

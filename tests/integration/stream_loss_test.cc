@@ -1,4 +1,4 @@
-// Streaming sessions through the seeded UDP relay (tests/common/udp_relay.h)
+// Streaming sessions through the seeded UDP relay (testing/udp_relay.h)
 // against a real `meshstream serve`:
 //  - StreamLoss: at 12 % and 30 % loss, Bernoulli and in bursts, with delay,
 //    jitter, reordering and duplicates both ways, every session completes
@@ -24,11 +24,11 @@
 #include "net/packet_crypto.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "tests/common/asset_client.h"
+#include "testing/asset_client.h"
 #include "tests/common/sdk_options.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
-#include "tests/common/udp_relay.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
+#include "testing/udp_relay.h"
 
 namespace meshstream {
 namespace {

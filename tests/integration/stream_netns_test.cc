@@ -1,4 +1,4 @@
-// Real kernel loss (tests/common/netns.h): `meshstream serve` on the host
+// Real kernel loss (testing/netns.h): `meshstream serve` on the host
 // side of a veth pair, `meshstream fetch` inside a network namespace whose
 // nftables rule drops a share of what it receives. At 12 % UDP loss the
 // session completes over UDP with the lossless vertex count and predicts
@@ -11,11 +11,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "tests/common/asset_client.h"
+#include "testing/asset_client.h"
 #include "tests/common/cli_util.h"
-#include "tests/common/netns.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/netns.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -20,9 +20,9 @@
 #include "codec/bitstream/format.h"
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "services/pipeline/stream_layout.h"
-#include "tests/common/asset_client.h"
-#include "tests/common/serve_process.h"
-#include "tests/common/test_util.h"
+#include "testing/asset_client.h"
+#include "testing/serve_process.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -11,7 +11,9 @@
 - net/ uses codec/ and third-party libraries, never services/, sdk/, cli/,
   bench/ or tests/;
 - services/ and sdk/ never include cli/, bench/ or tests/; sdk/ never
-  includes services/; the folders of services/ depend on each other in one
+  includes services/;
+- testing/ (what tests/ and bench/ share) never includes cli/, bench/ or
+  tests/; bench/ never includes tests/; the folders of services/ depend on each other in one
   direction too (SERVICES_DEPENDS, as docs/architecture.md writes it).
 Exits 1 naming every include that points the wrong way.
 """
@@ -47,6 +49,10 @@ LAYER_FORBIDDEN = {
     "net": ["services", "sdk", "cli", "bench", "tests"],
     "services": ["sdk", "cli", "bench", "tests"],
     "sdk": ["services", "cli", "bench", "tests"],
+    # The library tests/ and bench/ share; it serves them and uses none of them.
+    "testing": ["cli", "bench", "tests"],
+    # Benchmarks use the product and testing/, never the test suites.
+    "bench": ["tests"],
 }
 # The pure library does no I/O, keeps no clock and starts no thread.
 CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",

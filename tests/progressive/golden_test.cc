@@ -20,7 +20,7 @@
 #include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -16,7 +16,7 @@
 #include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
 #include "importers/import.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

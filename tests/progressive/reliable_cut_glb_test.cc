@@ -10,7 +10,7 @@
 
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

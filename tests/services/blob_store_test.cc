@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

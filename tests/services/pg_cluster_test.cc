@@ -1,8 +1,8 @@
 // The throwaway PostgreSQL cluster the store's tests run against
-// (tests/common/pg_cluster.h): it starts on a socket in its own folder, takes
+// (testing/pg_cluster.h): it starts on a socket in its own folder, takes
 // SQL through libpqxx, and is gone afterwards. Failing here, with the reason,
 // is what a machine that cannot run PostgreSQL gets (never a skip).
-#include "tests/common/pg_cluster.h"
+#include "testing/pg_cluster.h"
 
 #include <filesystem>
 #include <string>

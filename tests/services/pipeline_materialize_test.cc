@@ -17,7 +17,7 @@
 #include "services/pipeline/process_source.h"
 #include "services/pipeline/resource_path.h"
 #include "services/store/blob_store.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

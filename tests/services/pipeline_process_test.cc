@@ -21,7 +21,7 @@
 #include "services/pipeline/export_version.h"
 #include "services/pipeline/stream_layout.h"
 #include "services/store/blob_store.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

@@ -12,7 +12,7 @@
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
 #include "services/streaming/session_plan.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream {
 namespace {

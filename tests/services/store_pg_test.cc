@@ -1,4 +1,4 @@
-// PgStore against a real PostgreSQL (tests/common/pg_cluster.h): one
+// PgStore against a real PostgreSQL (testing/pg_cluster.h): one
 // throwaway cluster per test binary, a fresh database per test. What only a
 // shared database can show is tested here with two stores on one database
 // (two OpenPgStore calls are two servers): migrations racing, version
@@ -27,7 +27,7 @@
 
 #include "services/store/blob_store.h"
 #include "services/store/pg_schema.h"
-#include "tests/common/pg_cluster.h"
+#include "testing/pg_cluster.h"
 
 #include "tests/services/store_suite.h"
 

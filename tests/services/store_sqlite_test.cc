@@ -22,7 +22,7 @@
 
 #include "services/store/blob_store.h"
 #include "services/store/open_store.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 #include "tests/services/store_suite.h"
 
 namespace meshstream {

@@ -1,4 +1,4 @@
-// meshstream_udp_relay: the tests' seeded UDP relay (tests/common/udp_relay.h)
+// meshstream_udp_relay: the tests' seeded UDP relay (testing/udp_relay.h)
 // as a program, for `make demo` and for trying a lossy link by hand:
 //
 //   meshstream_udp_relay --upstream HOST:PORT [--loss P] [--burst N]
@@ -15,7 +15,7 @@
 #include <cstring>
 #include <string>
 
-#include "tests/common/udp_relay.h"
+#include "testing/udp_relay.h"
 
 namespace {
 

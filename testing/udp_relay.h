@@ -21,8 +21,8 @@
 // spell lasts 1 / p_good datagrams on average.
 //
 // Thread safety: Start/Stop and the accessors from any thread.
-#ifndef MESHSTREAM_TESTS_COMMON_UDP_RELAY_H_
-#define MESHSTREAM_TESTS_COMMON_UDP_RELAY_H_
+#ifndef MESHSTREAM_TESTING_UDP_RELAY_H_
+#define MESHSTREAM_TESTING_UDP_RELAY_H_
 
 #include <poll.h>
 
@@ -283,4 +283,4 @@ class UdpRelay {
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_UDP_RELAY_H_
+#endif  // MESHSTREAM_TESTING_UDP_RELAY_H_

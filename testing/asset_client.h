@@ -1,8 +1,8 @@
 // A C++ client of meshstream.v1.AssetService for integration tests: real
 // gRPC over loopback with the generated stubs, and helpers that ingest a
 // file (with its .gltf resources), wait for a job and export a version.
-#ifndef MESHSTREAM_TESTS_COMMON_ASSET_CLIENT_H_
-#define MESHSTREAM_TESTS_COMMON_ASSET_CLIENT_H_
+#ifndef MESHSTREAM_TESTING_ASSET_CLIENT_H_
+#define MESHSTREAM_TESTING_ASSET_CLIENT_H_
 
 #include <chrono>
 #include <memory>
@@ -16,7 +16,7 @@
 #include "importers/import.h"
 #include "meshstream/v1/asset_service.grpc.pb.h"
 #include "services/store/blob_store.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 
@@ -167,4 +167,4 @@ class AssetClient {
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_ASSET_CLIENT_H_
+#endif  // MESHSTREAM_TESTING_ASSET_CLIENT_H_

@@ -4,8 +4,8 @@
 // messages are encoded by hand: HealthCheckRequest{service} is field 1
 // (string), HealthCheckResponse{status} field 1 (varint, SERVING = 1,
 // NOT_SERVING = 2); ServerReflectionRequest{list_services} is field 7.
-#ifndef MESHSTREAM_TESTS_COMMON_GRPC_PROBE_H_
-#define MESHSTREAM_TESTS_COMMON_GRPC_PROBE_H_
+#ifndef MESHSTREAM_TESTING_GRPC_PROBE_H_
+#define MESHSTREAM_TESTING_GRPC_PROBE_H_
 
 #include <chrono>
 #include <future>
@@ -99,4 +99,4 @@ inline std::pair<grpc::Status, std::string> ListServicesByReflection(const std::
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_GRPC_PROBE_H_
+#endif  // MESHSTREAM_TESTING_GRPC_PROBE_H_

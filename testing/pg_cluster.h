@@ -6,8 +6,8 @@
 // Needs Debian's `postgresql` package (scripts/install-deps installs it) and
 // root, or the postgres user itself, to switch users. When the cluster cannot
 // start, Start() says why: tests fail with that reason rather than skip.
-#ifndef MESHSTREAM_TESTS_COMMON_PG_CLUSTER_H_
-#define MESHSTREAM_TESTS_COMMON_PG_CLUSTER_H_
+#ifndef MESHSTREAM_TESTING_PG_CLUSTER_H_
+#define MESHSTREAM_TESTING_PG_CLUSTER_H_
 
 #include <pwd.h>
 #include <unistd.h>
@@ -18,7 +18,7 @@
 #include <string>
 
 #include "codec/core/status.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 
@@ -98,4 +98,4 @@ class PgCluster {
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_PG_CLUSTER_H_
+#endif  // MESHSTREAM_TESTING_PG_CLUSTER_H_

@@ -1,9 +1,9 @@
-// The tests' UDP relay (tests/common/udp_relay.h) with real sockets: clean
+// The tests' UDP relay (testing/udp_relay.h) with real sockets: clean
 // forwarding both ways in order, Bernoulli loss near its rate and the same
 // losses for the same seed, Gilbert-Elliott bursts longer than Bernoulli's at
 // the same mean, duplicates, delay, one upstream socket per client, and a
 // front bound where asked (RelayOptions::bind).
-#include "tests/common/udp_relay.h"
+#include "testing/udp_relay.h"
 
 #include <gtest/gtest.h>
 

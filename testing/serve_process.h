@@ -2,8 +2,8 @@
 // --listen 127.0.0.1:0 (a free port), its address read from the first line
 // of its stdout ("listening on HOST:PORT"), its stderr kept in a file, and
 // stopped with SIGTERM (drain) or SIGKILL (a crash).
-#ifndef MESHSTREAM_TESTS_COMMON_SERVE_PROCESS_H_
-#define MESHSTREAM_TESTS_COMMON_SERVE_PROCESS_H_
+#ifndef MESHSTREAM_TESTING_SERVE_PROCESS_H_
+#define MESHSTREAM_TESTING_SERVE_PROCESS_H_
 
 #include <fcntl.h>
 #include <poll.h>
@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 
@@ -186,4 +186,4 @@ struct SuiteServer {
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_SERVE_PROCESS_H_
+#endif  // MESHSTREAM_TESTING_SERVE_PROCESS_H_

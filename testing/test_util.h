@@ -1,7 +1,7 @@
 // Helpers shared by the test suites: paths of the shared models, temporary
 // folders, and running a command with its output captured.
-#ifndef MESHSTREAM_TESTS_COMMON_TEST_UTIL_H_
-#define MESHSTREAM_TESTS_COMMON_TEST_UTIL_H_
+#ifndef MESHSTREAM_TESTING_TEST_UTIL_H_
+#define MESHSTREAM_TESTING_TEST_UTIL_H_
 
 #include <sys/wait.h>
 
@@ -87,4 +87,4 @@ inline std::string Cli() { return Quote(MESHSTREAM_CLI); }
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_TEST_UTIL_H_
+#endif  // MESHSTREAM_TESTING_TEST_UTIL_H_

@@ -12,8 +12,8 @@
 // with exactly that message. Everything is removed by the destructor; Create
 // first removes what a crashed run left (names mstest-*, mst<N>h/n).
 // Thread safety: one owner.
-#ifndef MESHSTREAM_TESTS_COMMON_NETNS_H_
-#define MESHSTREAM_TESTS_COMMON_NETNS_H_
+#ifndef MESHSTREAM_TESTING_NETNS_H_
+#define MESHSTREAM_TESTING_NETNS_H_
 
 #include <unistd.h>
 
@@ -22,7 +22,7 @@
 #include <string>
 
 #include "codec/core/status.h"
-#include "tests/common/test_util.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 
@@ -131,4 +131,4 @@ class NetNs {
 
 }  // namespace meshstream::test_util
 
-#endif  // MESHSTREAM_TESTS_COMMON_NETNS_H_
+#endif  // MESHSTREAM_TESTING_NETNS_H_
