@@ -5,7 +5,7 @@
 // names what is wrong and where ("accessors[3]: count 900 exceeds bufferView 2").
 // Exactly one place per transport maps a Status to the outside world: the CLI
 // maps codes to exit codes (cli/exit_codes.h), the gRPC services map them to
-// grpc::Status (services/, later).
+// grpc::Status and back (services/api/grpc_status.h).
 // Thread safety: plain values, safe to copy and move between threads.
 #ifndef MESHSTREAM_CODEC_CORE_STATUS_H_
 #define MESHSTREAM_CODEC_CORE_STATUS_H_
@@ -33,6 +33,8 @@ enum class StatusCode {
   kUnavailable,        // a service or database cannot be reached now; retry later
   kAborted,            // lost a race (a job lease taken over); the caller stops
   kAlreadyExists,      // an object with this name exists and may not be replaced
+  kCancelled,          // the caller (or the server, draining) stopped the operation
+  kDeadlineExceeded,   // a deadline ran out before the operation finished
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -76,6 +78,8 @@ inline Status PermissionDenied(std::string m) { return Status(StatusCode::kPermi
 inline Status Unavailable(std::string m) { return Status(StatusCode::kUnavailable, std::move(m)); }
 inline Status Aborted(std::string m) { return Status(StatusCode::kAborted, std::move(m)); }
 inline Status AlreadyExists(std::string m) { return Status(StatusCode::kAlreadyExists, std::move(m)); }
+inline Status Cancelled(std::string m) { return Status(StatusCode::kCancelled, std::move(m)); }
+inline Status DeadlineExceeded(std::string m) { return Status(StatusCode::kDeadlineExceeded, std::move(m)); }
 
 // Either a value or a non-OK Status.
 template <typename T>
