@@ -39,10 +39,10 @@ struct ServerOptions {
   double drain_delay_s = 0.0;
   int64_t upload_ttl_ms = int64_t{24} * 3600 * 1000;  // resumable uploads idle this long are removed
   int64_t lease_ms = 30000;               // job lease; the worker renews it every third of it
-  int32_t max_attempts = 3;
+  int32_t max_attempts = 3;               // a job claimed more often fails (a file that kills servers)
   int max_threads = 256;                  // gRPC threads; calls beyond them are RESOURCE_EXHAUSTED
   int max_watchers = 128;                 // concurrent WatchJob streams
-  int max_exports = 0;                    // concurrent exports that decode (0: the worker count)               // a job claimed this often fails (a file that kills servers)
+  int max_exports = 0;                    // concurrent exports that decode (0: the worker count)
   // Streaming sessions (docs/streaming-protocol.md). udp_listen empty: the
   // --listen host and the next port (port 0: any free one); "off": every
   // session over gRPC. udp_advertise empty: the bound address, or only its

@@ -200,8 +200,11 @@ MS_API ms_status ms_session_gltf_position(const ms_session* session, uint32_t pr
  * out->struct_size. */
 MS_API ms_status ms_session_stats(const ms_session* session, ms_stats* out);
 
-/* The current meshes written as .glb or .gltf (by the extension of path):
- * one glTF mesh per mesh of the asset, no materials. Before BASE_READY it is
+/* The current scene written as .glb or .gltf (by the extension of path): the
+ * asset's scene as the server sent it (nodes, materials, textures, skins,
+ * animations, carried primitives) with every refined primitive at the level
+ * it has reached. From a server that sends no scene: one glTF mesh per mesh
+ * of the refined primitives, no materials. Before BASE_READY it is
  * MS_ERR_INVALID_ARGUMENT. */
 MS_API ms_status ms_session_export(ms_session* session, const char* path);
 
