@@ -5,20 +5,21 @@
 #include <set>
 #include <utility>
 
-#include "codec/core/utf8.h"
 #include "importers/import.h"
 #include "services/pipeline/resource_path.h"
+#include "services/store/store_checks.h"
 
 namespace meshstream {
 
 namespace {
 
-// Lower-cases an announced digest; InvalidArgument naming `field` unless it
+// Lower-cases an announced digest (clients may send upper-case hex) and
+// checks it with the store's check: InvalidArgument naming `field` unless it
 // is empty or 64 hex digits.
 StatusOr<std::string> NormalizeDigest(const std::string& field, const std::string& digest) {
   std::string lower = digest;
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (!lower.empty() && !IsSha256Hex(lower)) return InvalidArgument(field + ": expected 64 hex digits (SHA-256)");
+  MS_RETURN_IF_ERROR(CheckOptionalDigest(field, lower));
   return lower;
 }
 
@@ -52,21 +53,23 @@ Status IngestUpload::Begin(const IngestMeta& meta) {
   if (meta.comment.size() > limits_.max_comment_bytes) {
     return InvalidArgument("comment: " + Bytes(meta.comment.size()) + ", at most " + Bytes(limits_.max_comment_bytes));
   }
-  auto has_nul = [](const std::string& text) { return text.find('\0') != std::string::npos; };
-  if (!IsValidUtf8(meta.comment) || has_nul(meta.comment)) return InvalidArgument("comment: not valid UTF-8 without NUL");
+  // Text is checked by the store's check (no NUL, UTF-8) before any byte is
+  // stored; the sizes are this server's limits.
+  MS_RETURN_IF_ERROR(CheckText("comment", meta.comment));
   if (meta.labels.size() > limits_.max_labels) {
     return InvalidArgument("labels: " + std::to_string(meta.labels.size()) + " labels, at most " +
                            std::to_string(limits_.max_labels));
   }
   for (const auto& [key, value] : meta.labels) {
-    if (key.empty() || key.size() > limits_.max_label_key_bytes || !IsValidUtf8(key) || has_nul(key)) {
-      return InvalidArgument("labels: a key must be 1 to " + std::to_string(limits_.max_label_key_bytes) +
-                             " bytes of UTF-8 without NUL");
+    if (key.empty() || key.size() > limits_.max_label_key_bytes) {
+      return InvalidArgument("labels: a key must be 1 to " + std::to_string(limits_.max_label_key_bytes) + " bytes");
     }
-    if (value.size() > limits_.max_label_value_bytes || !IsValidUtf8(value) || has_nul(value)) {
+    MS_RETURN_IF_ERROR(CheckText("labels: a key", key));
+    if (value.size() > limits_.max_label_value_bytes) {
       return InvalidArgument("labels[" + key + "]: at most " + std::to_string(limits_.max_label_value_bytes) +
-                             " bytes of UTF-8 without NUL");
+                             " bytes");
     }
+    MS_RETURN_IF_ERROR(CheckText("labels[" + key + "]", value));
   }
   if (!meta.upload_id.empty()) {
     s = CheckName("upload_id", meta.upload_id);
@@ -86,13 +89,11 @@ Status IngestUpload::Begin(const IngestMeta& meta) {
                                 meta.upload_id + " has committed_size " + std::to_string(have) +
                                 " (QueryUpload, then resume there)");
     }
-    if (meta.write_offset == 0) main_.hasher = std::make_unique<Sha256Hasher>();
   } else {
     if (meta.write_offset != 0) return InvalidArgument("write_offset: only meaningful with an upload_id");
     auto sink = store_->NewBlob();
     if (!sink.ok()) return sink.status();
     main_.sink = std::move(sink).value();
-    main_.hasher = std::make_unique<Sha256Hasher>();
   }
   main_.file = SourceFile{meta.filename, meta_.sha256, meta.size};
   total_bytes_ = meta.size;
@@ -115,17 +116,13 @@ Status IngestUpload::CheckPartComplete(const Part& part, const std::string& what
 Status IngestUpload::FinishResource(Part& r) {
   if (!r.sink) return Status::Ok();  // committed already
   const std::string what = "resource '" + r.file.name + "'";
-  Status s = CheckPartComplete(r, what);
-  if (!s.ok()) return s;
-  r.sha256 = r.hasher->FinishHex();
-  if (!r.file.sha256.empty() && r.sha256 != r.file.sha256) {
-    return DataLoss(what + ": the bytes have SHA-256 " + r.sha256 + ", not the announced " + r.file.sha256 +
-                    "; nothing stored");
-  }
-  auto digest = r.sink->Commit(r.sha256);
+  MS_RETURN_IF_ERROR(CheckPartComplete(r, what));
+  // The sink hashed the bytes as they came and checks the announced digest
+  // (DataLoss, nothing stored): they are hashed once, there.
+  auto digest = r.sink->Commit(r.file.sha256);
   if (!digest.ok()) return digest.status().WithContext(what);
+  r.sha256 = digest.value();
   r.sink.reset();
-  r.hasher.reset();
   return Status::Ok();
 }
 
@@ -169,7 +166,6 @@ Status IngestUpload::BeginResource(const ResourceMeta& resource) {
   auto sink = store_->NewBlob();
   if (!sink.ok()) return sink.status();
   part.sink = std::move(sink).value();
-  part.hasher = std::make_unique<Sha256Hasher>();
   total_bytes_ += resource.size;
   resources_.push_back(std::move(part));
   return Status::Ok();
@@ -187,7 +183,6 @@ Status IngestUpload::Chunk(const uint8_t* data, size_t size) {
     const std::string what = is_main ? meta_.filename : "resource '" + part.file.name + "'";
     return DataLoss(what + ": more bytes than its size of " + Bytes(part.file.size) + "; nothing stored");
   }
-  if (part.hasher) part.hasher->Update(data, size);
   if (part.sink) {
     Status s = part.sink->Append(data, size);
     if (!s.ok()) return s;
@@ -203,31 +198,24 @@ StatusOr<VersionRecord> IngestUpload::Finish() {
   if (!begun_) return InvalidArgument("the first message must be metadata");
   if (finished_) return Internal("Finish called twice");
   finished_ = true;
-  // Everything is checked before anything is committed.
+  // Every size is checked before anything is committed; each digest as its
+  // part is committed.
   Status s = CheckPartComplete(main_, meta_.filename);
   if (!s.ok()) return s;
   for (const Part& r : resources_) {
     s = CheckPartComplete(r, "resource '" + r.file.name + "'");
     if (!s.ok()) return s;
   }
-  if (main_.hasher) main_.sha256 = main_.hasher->FinishHex();
-  if (!main_.sha256.empty() && !main_.file.sha256.empty() && main_.sha256 != main_.file.sha256) {
-    if (!meta_.upload_id.empty()) (void)store_->DiscardUpload(principal_.tenant, meta_.upload_id);
-    return DataLoss(meta_.filename + ": the bytes have SHA-256 " + main_.sha256 + ", not the announced " +
-                    main_.file.sha256 + "; nothing stored");
-  }
-  if (!resources_.empty()) {
-    s = FinishResource(resources_.back());
-    if (!s.ok()) return s;
-  }
-  // The main file: a resumed upload is checked by the store against the
-  // announced digest (the earlier bytes were hashed by no one here).
+  if (!resources_.empty()) MS_RETURN_IF_ERROR(FinishResource(resources_.back()));
+  // The main file: its sink, or the store's resumable upload, hashes the
+  // bytes once and checks the announced digest (DataLoss, nothing stored; a
+  // resumable upload is discarded).
   if (main_.sink) {
-    auto digest = main_.sink->Commit(main_.sha256);
-    if (!digest.ok()) return digest.status();
+    auto digest = main_.sink->Commit(main_.file.sha256);
+    if (!digest.ok()) return digest.status().WithContext(meta_.filename);
+    main_.sha256 = digest.value();
   } else {
-    auto digest = store_->CommitUpload(principal_.tenant, meta_.upload_id,
-                                       main_.sha256.empty() ? main_.file.sha256 : main_.sha256);
+    auto digest = store_->CommitUpload(principal_.tenant, meta_.upload_id, main_.file.sha256);
     if (!digest.ok()) return digest.status().WithContext(meta_.filename);
     main_.sha256 = digest.value();
   }

@@ -6,11 +6,14 @@
 // Contract: every field is untrusted. Sizes are checked against the limits
 // before any byte is stored, every chunk against what was announced (more
 // bytes than `size` is DataLoss at once), and at Finish every size and digest
-// (DataLoss, and no version is made: digests are computed as the bytes
-// arrive; each resource is committed as soon as its bytes are complete and
+// (DataLoss, and no version is made). Each byte is hashed once, by the
+// store's blob sink or resumable upload, which checks the announced digest
+// at commit; ingest does not hash. Names, digests and text are checked with
+// the store's checks (services/store/store_checks.h) before any byte is
+// stored. Each resource is committed as soon as its bytes are complete and
 // checked, so that an upload holds at most two open files; if the upload
 // fails after that, those blobs are orphans that the periodic sweep of
-// RemoveOrphanBlobs removes). An upload
+// RemoveOrphanBlobs removes. An upload
 // with an upload_id appends the main file's bytes to a resumable upload of
 // the store, durable chunk by chunk; a stream that breaks off keeps them for
 // QueryUpload. Not thread-safe: one object per call.
@@ -80,8 +83,7 @@ class IngestUpload {
     SourceFile file;               // name, announced size, announced sha256
     std::string sha256;            // computed (main: after Finish)
     uint64_t received = 0;         // bytes of this part seen by this call
-    std::unique_ptr<BlobSink> sink;
-    std::unique_ptr<Sha256Hasher> hasher;
+    std::unique_ptr<BlobSink> sink;  // hashes the bytes (the one hash of them)
   };
   Status CheckPartComplete(const Part& part, const std::string& what) const;
   Status FinishResource(Part& resource);

@@ -344,7 +344,7 @@ WorkerPool::Outcome WorkerPool::Finish(JobRun& run, const ArtifactSummary& summa
 WorkerPool::Outcome WorkerPool::Fail(JobRun& run, const std::string& message) {
   if (run.lost) return Outcome::kLost;
   if (run.abandoned) return Outcome::kAbandoned;
-  const Status failed = store_.FailJob(run.job.id, run.worker, TruncateMessage(message));
+  const Status failed = store_.FailJob(run.job.id, run.worker, StorableMessage(message));
   if (failed.code() == StatusCode::kAborted) return Outcome::kLost;
   if (!failed.ok()) return OnStoreError(failed);
   return Outcome::kFailed;

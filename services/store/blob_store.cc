@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "services/store/file_util.h"
+#include "services/store/store_records.h"
 
 namespace meshstream {
 
@@ -44,10 +45,6 @@ std::string RandomHex(size_t bytes) {
   randombytes_buf(random.data(), random.size());
   return ToHex(random.data(), random.size());
 }
-
-namespace {
-
-}  // namespace
 
 std::string Sha256Hex(const uint8_t* data, size_t size) {
   if (!InitSodium().ok()) return "";
@@ -114,7 +111,7 @@ StatusOr<std::string> BlobWriter::Commit(const std::string& expected_sha256) {
   if (!state_ || state_->fd < 0) return Internal("blob writer: committed twice");
   const std::string digest = state_->hash.FinishHex();
   if (!expected_sha256.empty() && expected_sha256 != digest) {
-    return DataLoss("the bytes have SHA-256 " + digest + ", not the " + expected_sha256 + " announced; nothing stored");
+    return DigestMismatch(digest, expected_sha256);
   }
   if (fsync(state_->fd) != 0) return Errno(state_->temp + ": fsync");
   close(state_->fd);
@@ -173,7 +170,7 @@ StatusOr<std::vector<uint8_t>> FileBlobStore::Get(const std::string& digest, uin
   if (!IsSha256Hex(digest)) return InvalidArgument("blob name '" + digest + "' is not a SHA-256 in hex");
   const std::string path = PathOf(digest);
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return errno == ENOENT ? NotFound("blob " + digest + " does not exist") : Errno(path);
+  if (fd < 0) return errno == ENOENT ? BlobNotFound(digest) : Errno(path);
   struct stat st {};
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     close(fd);
@@ -181,8 +178,7 @@ StatusOr<std::vector<uint8_t>> FileBlobStore::Get(const std::string& digest, uin
   }
   if (static_cast<uint64_t>(st.st_size) > max_bytes) {
     close(fd);
-    return ResourceExhausted("blob " + digest + " has " + std::to_string(st.st_size) + " bytes, more than " +
-                             std::to_string(max_bytes));
+    return BlobTooLarge(digest, static_cast<uint64_t>(st.st_size), max_bytes);
   }
   std::vector<uint8_t> bytes(static_cast<size_t>(st.st_size));
   size_t done = 0;
@@ -195,7 +191,7 @@ StatusOr<std::vector<uint8_t>> FileBlobStore::Get(const std::string& digest, uin
   close(fd);
   if (done != bytes.size()) return DataLoss("blob " + digest + " is shorter than its file size");
   if (Sha256Hex(bytes.data(), bytes.size()) != digest) {
-    return DataLoss("blob " + digest + " does not match its digest (the stored bytes are damaged)");
+    return BlobDamaged(digest);
   }
   return bytes;
 }
@@ -203,7 +199,7 @@ StatusOr<std::vector<uint8_t>> FileBlobStore::Get(const std::string& digest, uin
 Status FileBlobStore::Remove(const std::string& digest) const {
   if (!IsSha256Hex(digest)) return InvalidArgument("blob name '" + digest + "' is not a SHA-256 in hex");
   if (unlink(PathOf(digest).c_str()) != 0) {
-    return errno == ENOENT ? NotFound("blob " + digest + " does not exist") : Errno(PathOf(digest));
+    return errno == ENOENT ? BlobNotFound(digest) : Errno(PathOf(digest));
   }
   return Status::Ok();
 }

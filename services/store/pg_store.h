@@ -18,6 +18,13 @@
 // back by the server, so this is safe); failing again is Unavailable, as is a
 // commit whose outcome is unknown. Serialization failures and deadlocks are
 // retried a few times, then Aborted. Messages never contain the conninfo.
+// The arguments arrive checked by Store (store.h); refusals and row mapping
+// use store_records.h, so the codes and messages are the embedded store's.
+//
+// Files: pg_pool.{h,cc} (the pool and the retrying runner), pg_schema.{h,cc}
+// (migrations), pg_rows.{h,cc} (rows to records, shared statements),
+// pg_blob_sink.{h,cc} (blobs, chunked), pg_store.cc (uploads, versions,
+// jobs, the artifact cache, tokens, opening).
 //
 // Thread safety: every method may be called from any thread at once. The
 // store owns a pool of up to `pool_size` connections (opened on demand); a
@@ -30,10 +37,12 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "codec/core/status.h"
 #include "services/store/blob_store.h"
+#include "services/store/pg_blob_sink.h"  // PgBlobSink, which NewBlob returns
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -45,59 +54,6 @@ struct PgStoreOptions {
 };
 
 class PgPool;
-class PgStore;
-
-// The sink PgStore::NewBlob returns. Append hashes the bytes and gathers
-// them in one buffer of at most kChunkBytes; when the buffer is full and
-// more bytes arrive, it is written as one row of meshstream.blob_staging
-// under the sink's random staging id (an autocommit INSERT on a pooled
-// connection, held only for that statement), and reused. Nothing under a
-// digest exists until Commit, which in one transaction inserts the blobs
-// row, moves the staged rows into blob_chunks (checking that all of them are
-// still there) and inserts the buffered tail, or, when the bytes are stored
-// already, only deletes the staged rows. A blob of at most one chunk never
-// touches the staging table.
-//
-// Leftovers: a mismatching digest, a failed Commit and the destructor
-// without Commit delete the sink's staged rows (best effort: an error is
-// ignored); the rows of a process that died are removed by the age rule of
-// RemoveOrphanBlobs and ExpireUploads. A sink idle for longer than that age
-// between chunks loses its rows, and its Commit is then ABORTED, never a
-// blob with bytes missing.
-class PgBlobSink final : public BlobSink {
- public:
-  static constexpr size_t kChunkBytes = size_t{1} << 20;
-
-  explicit PgBlobSink(PgStore* store);
-  ~PgBlobSink() override;
-  PgBlobSink(const PgBlobSink&) = delete;
-  PgBlobSink& operator=(const PgBlobSink&) = delete;
-
-  Status Append(const uint8_t* data, size_t size) override;
-  uint64_t size() const override { return size_; }
-  StatusOr<std::string> Commit(const std::string& expected_sha256 = "") override;
-
-  // For tests: bytes of memory the sink holds for data (its buffer's
-  // capacity), at most kChunkBytes; and the chunks written to staging.
-  size_t buffered_bytes() const { return buffer_.capacity(); }
-  int64_t staged_chunks() const { return staged_; }
-  const std::string& staging_id() const { return staging_id_; }
-
- private:
-  // Writes the full buffer as staging row `staged_` and empties it.
-  Status Flush();
-  // Deletes the staged rows, when there may be any.
-  void DropStaged();
-
-  PgStore* store_;
-  const std::string staging_id_;  // 32 random hex digits
-  Sha256Hasher hash_;
-  std::vector<uint8_t> buffer_;   // the bytes after the staged chunks, at most kChunkBytes
-  int64_t staged_ = 0;            // chunks written to staging: seq 0 .. staged_ - 1
-  bool maybe_staged_rows_ = false;  // rows of staging_id_ may exist (cleared once they are deleted or moved)
-  uint64_t size_ = 0;
-  bool done_ = false;
-};
 
 class PgStore final : public Store {
  public:
@@ -109,57 +65,58 @@ class PgStore final : public Store {
 
   std::string backend() const override { return "postgresql"; }
 
-  StatusOr<std::unique_ptr<BlobSink>> NewBlob() override;
-  StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) override;
-  StatusOr<bool> HasBlob(const std::string& sha256) override;
-  // Also removes the staging rows (PgBlobSink) of every staging id whose
-  // newest chunk is at least `min_age_ms` old (not counted in the result).
-  StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms) override;
-
-  StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id) override;
-  Status AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset, const uint8_t* data,
-                      size_t size) override;
-  StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
-                                     const std::string& expected_sha256) override;
-  Status DiscardUpload(const std::string& tenant, const std::string& upload_id) override;
-  // Also removes staging rows idle for `max_idle_ms`, as RemoveOrphanBlobs
-  // does (not counted), so that a dead server's leftovers go without a restart.
-  StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms) override;
-
-  StatusOr<VersionRecord> CreateVersion(const NewVersion& version) override;
-  StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
-  StatusOr<VersionRecord> GetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
-  StatusOr<Page<AssetRecord>> ListAssets(const std::string& tenant, int32_t page_size,
-                                         const std::string& page_token) override;
-  StatusOr<Page<VersionRecord>> ListVersions(const std::string& tenant, const std::string& asset, int32_t page_size,
-                                             const std::string& page_token) override;
-
-  StatusOr<JobRecord> GetJob(const std::string& tenant, const std::string& job_id) override;
-  StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;
-  Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
-                    double progress, const std::string& message) override;
-  Status CompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
-  Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
-  StatusOr<int64_t> CountUnfinishedJobs() override;
-  // Sets every RUNNING job back to PENDING, its lease forgotten (main's
-  // store.h declares it virtual; `override` is left off so this compiles
-  // against the store.h of this branch too). Only for a database that one
-  // process uses: on a shared one it takes the running jobs of the other
-  // servers, whose workers then get Aborted and the jobs run again.
-  StatusOr<int64_t> ReleaseAllLeases() override;
-
-  StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) override;
-  Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;
-
-  StatusOr<TokenRecord> CreateToken(const std::string& tenant, bool read_only, const std::string& token_hash) override;
-  StatusOr<TokenRecord> FindToken(const std::string& token_hash) override;
-  StatusOr<std::vector<TokenRecord>> ListTokens() override;
-  Status RevokeToken(const std::string& id) override;
-
-
  private:
   friend class PgBlobSink;
   friend StatusOr<std::unique_ptr<Store>> OpenPgStore(const std::string& conninfo, const PgStoreOptions& options);
+
+  // The backend of store.h's checked methods (pg_blob_sink.cc: blobs;
+  // pg_store.cc: the rest).
+  StatusOr<std::unique_ptr<BlobSink>> DoNewBlob() override;
+  StatusOr<std::vector<uint8_t>> DoGetBlob(const std::string& sha256, uint64_t max_bytes) override;
+  StatusOr<bool> DoHasBlob(const std::string& sha256) override;
+  // Also removes the staging rows (PgBlobSink) of every staging id whose
+  // newest chunk is at least `min_age_ms` old (not counted in the result).
+  StatusOr<uint64_t> DoRemoveOrphanBlobs(int64_t min_age_ms) override;
+
+  StatusOr<uint64_t> DoUploadSize(const std::string& tenant, const std::string& upload_id) override;
+  Status DoAppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset, const uint8_t* data,
+                        size_t size) override;
+  StatusOr<std::string> DoCommitUpload(const std::string& tenant, const std::string& upload_id,
+                                       const std::string& expected_sha256) override;
+  Status DoDiscardUpload(const std::string& tenant, const std::string& upload_id) override;
+  // Also removes staging rows idle for `max_idle_ms`, as RemoveOrphanBlobs
+  // does (not counted), so that a dead server's leftovers go without a restart.
+  StatusOr<uint64_t> DoExpireUploads(int64_t max_idle_ms) override;
+
+  StatusOr<VersionRecord> DoCreateVersion(const NewVersion& version) override;
+  StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
+  StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
+  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                                  int64_t limit) override;
+  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                      int64_t after, int64_t limit) override;
+
+  StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) override;
+  StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;
+  Status DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
+                      double progress, const std::string& message) override;
+  Status DoCompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
+  Status DoFailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
+  StatusOr<int64_t> DoCountUnfinishedJobs() override;
+  // Only for a database that one process uses: on a shared one it takes the
+  // running jobs of the other servers, whose workers then get Aborted and
+  // the jobs run again.
+  StatusOr<int64_t> DoReleaseAllLeases() override;
+
+  StatusOr<std::optional<ArtifactSummary>> DoFindArtifact(const std::string& cache_key) override;
+  Status DoPutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;
+
+  StatusOr<TokenRecord> DoCreateToken(const std::string& tenant, bool read_only,
+                                      const std::string& token_hash) override;
+  StatusOr<TokenRecord> DoFindToken(const std::string& token_hash) override;
+  StatusOr<std::vector<TokenRecord>> DoListTokens() override;
+  Status DoRevokeToken(const std::string& id) override;
+
 
   // Brings the schema to this build's version (services/store/pg_schema.h).
   Status Migrate();
@@ -177,11 +134,13 @@ class PgStore final : public Store {
   // at or before `cutoff_ms`.
   Status RemoveIdleStaging(int64_t cutoff_ms);
 
-  // Runs `fn(connection)` (which opens and commits its own transaction) on a
-  // pooled connection, mapping every exception to a Status named by `what`.
+  // Runs `fn(connection)` (which opens and commits its own transaction) on
+  // a pooled connection through RunPg (pg_pool.h, which the .cc files
+  // include): every exception becomes a Status named by `what`.
   template <typename F>
-  auto Run(const std::string& what, F&& fn);
-
+  auto Run(const std::string& what, F&& fn) {
+    return RunPg(*pool_, options_.conflict_attempts, what, std::forward<F>(fn));
+  }
   std::unique_ptr<PgPool> pool_;
   PgStoreOptions options_;
 };

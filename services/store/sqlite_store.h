@@ -32,6 +32,11 @@
 // lock at all (FileBlobStore is safe for concurrent use).
 //
 // All SQL is fixed text with bound parameters; no caller string becomes SQL.
+//
+// Files: sqlite_db.{h,cc} (statements, transactions, errors),
+// sqlite_schema.{h,cc} (DDL and migrations), sqlite_files.cc (blobs and
+// uploads), sqlite_store.cc (opening, versions, jobs, cache, tokens). The
+// arguments arrive checked by Store (store.h); refusals use store_records.h.
 #ifndef MESHSTREAM_SERVICES_STORE_SQLITE_STORE_H_
 #define MESHSTREAM_SERVICES_STORE_SQLITE_STORE_H_
 
@@ -45,6 +50,7 @@
 
 #include "codec/core/status.h"
 #include "services/store/blob_store.h"
+#include "services/store/sqlite_schema.h"
 #include "services/store/store.h"
 
 struct sqlite3;
@@ -63,7 +69,7 @@ class SqliteStore final : public Store {
   // The schema this code writes (PRAGMA user_version). Open migrates an older
   // database step by step, each step in one transaction, and refuses a newer
   // one with FailedPrecondition (a newer meshstream wrote it).
-  static constexpr int64_t kSchemaVersion = 1;
+  static constexpr int64_t kSchemaVersion = kSqliteSchemaVersion;
 
   // Opens (creating when needed) the store in folder `dir`.
   static StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& dir,
@@ -84,45 +90,48 @@ class SqliteStore final : public Store {
 
   std::string backend() const override { return "sqlite"; }
 
-  StatusOr<std::unique_ptr<BlobSink>> NewBlob() override;
-  StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) override;
-  StatusOr<bool> HasBlob(const std::string& sha256) override;
-  StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms) override;
-
-  StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id) override;
-  Status AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset, const uint8_t* data,
-                      size_t size) override;
-  StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
-                                     const std::string& expected_sha256) override;
-  Status DiscardUpload(const std::string& tenant, const std::string& upload_id) override;
-  StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms) override;
-
-  StatusOr<VersionRecord> CreateVersion(const NewVersion& version) override;
-  StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
-  StatusOr<VersionRecord> GetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
-  StatusOr<Page<AssetRecord>> ListAssets(const std::string& tenant, int32_t page_size,
-                                         const std::string& page_token) override;
-  StatusOr<Page<VersionRecord>> ListVersions(const std::string& tenant, const std::string& asset, int32_t page_size,
-                                             const std::string& page_token) override;
-
-  StatusOr<JobRecord> GetJob(const std::string& tenant, const std::string& job_id) override;
-  StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;
-  Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
-                    double progress, const std::string& message) override;
-  Status CompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
-  Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
-  StatusOr<int64_t> ReleaseAllLeases() override;
-  StatusOr<int64_t> CountUnfinishedJobs() override;
-
-  StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) override;
-  Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;
-
-  StatusOr<TokenRecord> CreateToken(const std::string& tenant, bool read_only, const std::string& token_hash) override;
-  StatusOr<TokenRecord> FindToken(const std::string& token_hash) override;
-  StatusOr<std::vector<TokenRecord>> ListTokens() override;
-  Status RevokeToken(const std::string& id) override;
-
  private:
+  // The backend of store.h's checked methods (sqlite_files.cc: blobs and
+  // uploads; sqlite_store.cc: the rest).
+  StatusOr<std::unique_ptr<BlobSink>> DoNewBlob() override;
+  StatusOr<std::vector<uint8_t>> DoGetBlob(const std::string& sha256, uint64_t max_bytes) override;
+  StatusOr<bool> DoHasBlob(const std::string& sha256) override;
+  StatusOr<uint64_t> DoRemoveOrphanBlobs(int64_t min_age_ms) override;
+
+  StatusOr<uint64_t> DoUploadSize(const std::string& tenant, const std::string& upload_id) override;
+  Status DoAppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset, const uint8_t* data,
+                        size_t size) override;
+  StatusOr<std::string> DoCommitUpload(const std::string& tenant, const std::string& upload_id,
+                                       const std::string& expected_sha256) override;
+  Status DoDiscardUpload(const std::string& tenant, const std::string& upload_id) override;
+  StatusOr<uint64_t> DoExpireUploads(int64_t max_idle_ms) override;
+
+  StatusOr<VersionRecord> DoCreateVersion(const NewVersion& version) override;
+  StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
+  StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
+  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                                  int64_t limit) override;
+  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                      int64_t after, int64_t limit) override;
+
+  StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) override;
+  StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;
+  Status DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
+                      double progress, const std::string& message) override;
+  Status DoCompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override;
+  Status DoFailJob(const std::string& job_id, const std::string& worker, const std::string& message) override;
+  StatusOr<int64_t> DoReleaseAllLeases() override;
+  StatusOr<int64_t> DoCountUnfinishedJobs() override;
+
+  StatusOr<std::optional<ArtifactSummary>> DoFindArtifact(const std::string& cache_key) override;
+  Status DoPutArtifact(const std::string& cache_key, const ArtifactSummary& summary) override;
+
+  StatusOr<TokenRecord> DoCreateToken(const std::string& tenant, bool read_only,
+                                      const std::string& token_hash) override;
+  StatusOr<TokenRecord> DoFindToken(const std::string& token_hash) override;
+  StatusOr<std::vector<TokenRecord>> DoListTokens() override;
+  Status DoRevokeToken(const std::string& id) override;
+
   SqliteStore(std::string dir, StoreLock lock, int lock_fd, sqlite3* db, std::optional<FileBlobStore> blobs);
 
   // OK for an exclusive store; FailedPrecondition naming `operation` for a shared one.

@@ -19,11 +19,22 @@
 // Ordering: a row that names a blob is committed after the blob, so a row
 // never names a missing blob; RemoveOrphanBlobs removes blobs no row names.
 //
-// Contract: every string argument is untrusted unless stated (the store
-// checks names, digests and page tokens itself and answers InvalidArgument);
-// reads of another tenant's objects are NotFound, never a hint that they
-// exist. Thread safety: every method may be called from any thread at once;
-// the backends serialize or pool connections themselves.
+// One contract, two backends: Store is a non-virtual interface. Each public
+// method first runs the store's checks (services/store/store_checks.h: names,
+// digests, text, lease arguments, summaries, page sizes and tokens) and then
+// calls the backend's protected Do* method, which only stores and loads rows;
+// the messages of what a backend refuses (NotFound, a lost lease, a missing
+// blob, a damaged row) come from services/store/store_records.h. So both
+// backends give the same code and message for every refusal
+// (tests/services/store_suite_test.cc proves it on both; docs/store.md,
+// "One contract, two backends", lists the decisions).
+//
+// Contract: every string argument is untrusted unless stated (refused with
+// InvalidArgument naming the field before a backend sees it); reads of
+// another tenant's objects are NotFound, never a hint that they exist; a row
+// whose state is not a known value is DataLoss. Thread safety: every method
+// may be called from any thread at once; the backends serialize or pool
+// connections themselves.
 #ifndef MESHSTREAM_SERVICES_STORE_STORE_H_
 #define MESHSTREAM_SERVICES_STORE_STORE_H_
 
@@ -35,13 +46,9 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "services/store/store_checks.h"  // IsValidName, CheckName
 
 namespace meshstream {
-
-// Names: assets and upload ids are [A-Za-z0-9._-]{1,128}; tenants the same.
-bool IsValidName(const std::string& name);
-// InvalidArgument naming `field` when `name` is not valid.
-Status CheckName(const std::string& field, const std::string& name);
 
 enum class VersionState { kProcessing = 1, kReady = 2, kFailed = 3 };
 enum class JobState { kPending = 1, kRunning = 2, kSucceeded = 3, kFailed = 4 };
@@ -142,106 +149,180 @@ constexpr int32_t kMaxPageSize = 1000;
 
 // Chunked writing of one blob. Nothing is visible under a digest until
 // Commit succeeds; a sink destroyed without Commit leaves nothing behind.
+// The sink hashes the bytes as they arrive: it is the one place an upload's
+// bytes are hashed (ingest relies on Commit's check, it does not hash).
+// Like Store, a non-virtual interface: the arguments are checked here, the
+// backend's sink implements DoAppend and DoCommit.
 class BlobSink {
  public:
   virtual ~BlobSink() = default;
-  virtual Status Append(const uint8_t* data, size_t size) = 0;
+  // InvalidArgument for null data with a size.
+  Status Append(const uint8_t* data, size_t size);
   virtual uint64_t size() const = 0;
   // Makes the blob durable and returns its digest; with a non-empty
-  // `expected_sha256`, a different digest is DataLoss and nothing is stored.
-  virtual StatusOr<std::string> Commit(const std::string& expected_sha256 = "") = 0;
+  // `expected_sha256`, a different digest is DataLoss ("the bytes have
+  // SHA-256 X, not the Y announced; nothing stored") and nothing is stored.
+  // An `expected_sha256` that is not a digest is InvalidArgument.
+  StatusOr<std::string> Commit(const std::string& expected_sha256 = "");
+
+ protected:
+  virtual Status DoAppend(const uint8_t* data, size_t size) = 0;
+  // `expected_sha256` is empty or a digest.
+  virtual StatusOr<std::string> DoCommit(const std::string& expected_sha256) = 0;
 };
 
 class Store {
  public:
   virtual ~Store() = default;
+  Store() = default;
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
 
   // "sqlite" or "postgresql", for logs and benchmarks.
-  virtual std::string backend() const = 0;
+  virtual std::string backend() const = 0;  // no check: only a name
 
   // --- blobs -------------------------------------------------------------
-  virtual StatusOr<std::unique_ptr<BlobSink>> NewBlob() = 0;
+  StatusOr<std::unique_ptr<BlobSink>> NewBlob();
   // The bytes, re-hashed: NotFound when absent, ResourceExhausted above
   // `max_bytes` (before allocating), DataLoss when they do not match.
-  virtual StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) = 0;
-  virtual StatusOr<bool> HasBlob(const std::string& sha256) = 0;
+  StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes);
+  StatusOr<bool> HasBlob(const std::string& sha256);
   // Removes blobs that no version, artifact-cache row or upload names and
   // that are older than `min_age_ms` (so that a blob another server has just
   // committed, before its row, survives). Returns how many were removed.
-  virtual StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms) = 0;
+  StatusOr<uint64_t> RemoveOrphanBlobs(int64_t min_age_ms);
 
   // --- resumable uploads (per tenant; ids are names) -----------------------
   // Durable bytes of the upload: NotFound when it does not exist.
-  virtual StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id) = 0;
+  StatusOr<uint64_t> UploadSize(const std::string& tenant, const std::string& upload_id);
   // Appends at `offset`, which must equal the durable size (0 creates the
   // upload); any other offset is FailedPrecondition naming both sizes. The
   // bytes are durable when this returns.
-  virtual Status AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset,
-                              const uint8_t* data, size_t size) = 0;
+  Status AppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset,
+                              const uint8_t* data, size_t size);
   // Turns the upload into a blob (checked against `expected_sha256` when not
   // empty: DataLoss and the upload is discarded) and removes the upload.
-  virtual StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
-                                             const std::string& expected_sha256) = 0;
-  virtual Status DiscardUpload(const std::string& tenant, const std::string& upload_id) = 0;
+  StatusOr<std::string> CommitUpload(const std::string& tenant, const std::string& upload_id,
+                                             const std::string& expected_sha256);
+  Status DiscardUpload(const std::string& tenant, const std::string& upload_id);
   // Removes uploads not written to for `max_idle_ms`. Returns how many.
-  virtual StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms) = 0;
+  StatusOr<uint64_t> ExpireUploads(int64_t max_idle_ms);
 
   // --- assets and versions -----------------------------------------------
   // In one transaction: creates the asset when new, gives the version the
   // next number, and a PENDING job. Every blob named must exist
   // (FailedPrecondition otherwise).
-  virtual StatusOr<VersionRecord> CreateVersion(const NewVersion& version) = 0;
+  StatusOr<VersionRecord> CreateVersion(const NewVersion& version);
   // version 0: the latest (any state). NotFound for an unknown asset or version.
-  virtual StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset,
-                                             int64_t version) = 0;
+  StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset,
+                                             int64_t version);
   // The latest READY version: NotFound when there is none.
-  virtual StatusOr<VersionRecord> GetLatestReadyVersion(const std::string& tenant, const std::string& asset) = 0;
+  StatusOr<VersionRecord> GetLatestReadyVersion(const std::string& tenant, const std::string& asset);
   // Ascending by name; tokens are opaque (services/store/page_token.h), a
   // malformed one is InvalidArgument.
-  virtual StatusOr<Page<AssetRecord>> ListAssets(const std::string& tenant, int32_t page_size,
-                                                 const std::string& page_token) = 0;
+  StatusOr<Page<AssetRecord>> ListAssets(const std::string& tenant, int32_t page_size,
+                                                 const std::string& page_token);
   // Ascending by version number; NotFound for an unknown asset.
-  virtual StatusOr<Page<VersionRecord>> ListVersions(const std::string& tenant, const std::string& asset,
-                                                     int32_t page_size, const std::string& page_token) = 0;
+  StatusOr<Page<VersionRecord>> ListVersions(const std::string& tenant, const std::string& asset,
+                                                     int32_t page_size, const std::string& page_token);
 
   // --- jobs ----------------------------------------------------------------
-  virtual StatusOr<JobRecord> GetJob(const std::string& tenant, const std::string& job_id) = 0;
+  StatusOr<JobRecord> GetJob(const std::string& tenant, const std::string& job_id);
   // Claims the oldest PENDING job, or a RUNNING one whose lease expired
   // before `now_ms` (its server died), for `worker` until now_ms + lease_ms.
   // PostgreSQL: FOR UPDATE SKIP LOCKED, so concurrent claimers never get the
   // same job. nullopt when there is nothing to do.
-  virtual StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms,
-                                                      int64_t lease_ms) = 0;
-  // Extends the lease and records progress; Aborted when `worker` no longer
-  // holds the lease (it expired and another worker took the job).
-  virtual Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,
-                            int64_t lease_ms, double progress, const std::string& message) = 0;
+  StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms,
+                                                      int64_t lease_ms);
+  // Extends the lease and records progress. Aborted when `worker` does not
+  // hold the lease of a RUNNING job: another worker took it after it expired
+  // ("job J: the lease is held by another worker"), or the job is finished
+  // ("job J: already SUCCEEDED, the lease is over"); NotFound for an unknown
+  // job. A worker treats every Aborted as a lost lease and stops.
+  Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,
+                            int64_t lease_ms, double progress, const std::string& message);
   // Job SUCCEEDED and version READY with `summary`, in one transaction;
-  // Aborted when `worker` no longer holds the lease. The artifact blob must exist.
-  virtual Status CompleteJob(const std::string& job_id, const std::string& worker,
-                             const ArtifactSummary& summary) = 0;
-  // Job FAILED and version FAILED with `message`; Aborted as above.
-  virtual Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) = 0;
+  // Aborted as RenewLease. The artifact blob must exist (FailedPrecondition).
+  // A version that is no longer PROCESSING (changed behind the store's back)
+  // is FailedPrecondition and nothing changes.
+  Status CompleteJob(const std::string& job_id, const std::string& worker,
+                             const ArtifactSummary& summary);
+  // Job FAILED and version FAILED with `message`; Aborted and
+  // FailedPrecondition as CompleteJob.
+  Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message);
   // Sets every RUNNING job back to PENDING (its lease forgotten). Only for a
   // store that one process owns (the embedded one, at startup: the jobs of a
   // process that died resume at once instead of after their lease).
-  virtual StatusOr<int64_t> ReleaseAllLeases() = 0;
+  StatusOr<int64_t> ReleaseAllLeases();
   // Jobs neither SUCCEEDED nor FAILED (for drain and tests).
-  virtual StatusOr<int64_t> CountUnfinishedJobs() = 0;
+  StatusOr<int64_t> CountUnfinishedJobs();
 
   // --- the artifact cache -----------------------------------------------
-  virtual StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key) = 0;
+  StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& cache_key);
   // Inserts, or keeps the existing row (the same key gives the same result).
-  virtual Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary) = 0;
+  Status PutArtifact(const std::string& cache_key, const ArtifactSummary& summary);
 
   // --- API tokens (the store never sees a token, only its hash) ------------
-  virtual StatusOr<TokenRecord> CreateToken(const std::string& tenant, bool read_only,
-                                            const std::string& token_hash) = 0;
+  StatusOr<TokenRecord> CreateToken(const std::string& tenant, bool read_only,
+                                            const std::string& token_hash);
   // The live (not revoked) token with this hash: NotFound otherwise.
-  virtual StatusOr<TokenRecord> FindToken(const std::string& token_hash) = 0;
-  virtual StatusOr<std::vector<TokenRecord>> ListTokens() = 0;
+  StatusOr<TokenRecord> FindToken(const std::string& token_hash);
+  StatusOr<std::vector<TokenRecord>> ListTokens();
   // NotFound for an unknown id; revoking twice is OK.
-  virtual Status RevokeToken(const std::string& id) = 0;
+  Status RevokeToken(const std::string& id);
+
+ protected:
+  // What a backend implements: called only with checked arguments (every
+  // name valid, every digest a digest, every text without NUL and in UTF-8,
+  // every size fitting int64, lease arguments and summaries checked).
+  // A backend answers refusals with the messages of store_records.h.
+  virtual StatusOr<std::unique_ptr<BlobSink>> DoNewBlob() = 0;
+  virtual StatusOr<std::vector<uint8_t>> DoGetBlob(const std::string& sha256, uint64_t max_bytes) = 0;
+  virtual StatusOr<bool> DoHasBlob(const std::string& sha256) = 0;
+  virtual StatusOr<uint64_t> DoRemoveOrphanBlobs(int64_t min_age_ms) = 0;
+
+  virtual StatusOr<uint64_t> DoUploadSize(const std::string& tenant, const std::string& upload_id) = 0;
+  virtual Status DoAppendUpload(const std::string& tenant, const std::string& upload_id, uint64_t offset,
+                                const uint8_t* data, size_t size) = 0;
+  virtual StatusOr<std::string> DoCommitUpload(const std::string& tenant, const std::string& upload_id,
+                                               const std::string& expected_sha256) = 0;
+  virtual Status DoDiscardUpload(const std::string& tenant, const std::string& upload_id) = 0;
+  virtual StatusOr<uint64_t> DoExpireUploads(int64_t max_idle_ms) = 0;
+
+  virtual StatusOr<VersionRecord> DoCreateVersion(const NewVersion& version) = 0;
+  // `version` >= 0 (0: the latest).
+  virtual StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset,
+                                               int64_t version) = 0;
+  virtual StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) = 0;
+  // At most `limit` assets whose names are above `after` ("" for the first
+  // page), ascending; Store::ListAssets asks for one more than a page and
+  // makes the token (TrimPage).
+  virtual StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                                          int64_t limit) = 0;
+  // At most `limit` versions numbered above `after`, ascending; NotFound
+  // for an unknown asset.
+  virtual StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                              int64_t after, int64_t limit) = 0;
+
+  virtual StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) = 0;
+  virtual StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms,
+                                                        int64_t lease_ms) = 0;
+  virtual Status DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,
+                              int64_t lease_ms, double progress, const std::string& message) = 0;
+  virtual Status DoCompleteJob(const std::string& job_id, const std::string& worker,
+                               const ArtifactSummary& summary) = 0;
+  virtual Status DoFailJob(const std::string& job_id, const std::string& worker, const std::string& message) = 0;
+  virtual StatusOr<int64_t> DoReleaseAllLeases() = 0;
+  virtual StatusOr<int64_t> DoCountUnfinishedJobs() = 0;
+
+  virtual StatusOr<std::optional<ArtifactSummary>> DoFindArtifact(const std::string& cache_key) = 0;
+  virtual Status DoPutArtifact(const std::string& cache_key, const ArtifactSummary& summary) = 0;
+
+  virtual StatusOr<TokenRecord> DoCreateToken(const std::string& tenant, bool read_only,
+                                              const std::string& token_hash) = 0;
+  virtual StatusOr<TokenRecord> DoFindToken(const std::string& token_hash) = 0;
+  virtual StatusOr<std::vector<TokenRecord>> DoListTokens() = 0;
+  virtual Status DoRevokeToken(const std::string& id) = 0;
 };
 
 // A job's message (and so a version's error) is kept to this many bytes: it
@@ -250,6 +331,11 @@ class Store {
 constexpr size_t kMaxJobMessageBytes = 1024;
 // `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
 std::string TruncateMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
+// `message` as the store accepts it (store_checks.h, CheckText): ill-formed
+// UTF-8 replaced by U+FFFD, NUL bytes by spaces, then cut as TruncateMessage
+// does. For the job messages a worker writes, which may quote what a client
+// sent (an importer's error).
+std::string StorableMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
 
 // Milliseconds since the Unix epoch (the store's clock for created/updated).
 int64_t NowMs();

@@ -38,8 +38,8 @@ class BlobOnlyStore : public Store {
   std::atomic<int> reads{0};
 
   std::string backend() const override { return "blobs"; }
-  StatusOr<std::unique_ptr<BlobSink>> NewBlob() override { return Unsupported("blobs only"); }
-  StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) override {
+  StatusOr<std::unique_ptr<BlobSink>> DoNewBlob() override { return Unsupported("blobs only"); }
+  StatusOr<std::vector<uint8_t>> DoGetBlob(const std::string& sha256, uint64_t max_bytes) override {
     ++reads;
     auto it = blobs_.find(sha256);
     if (it == blobs_.end()) return NotFound("blob " + sha256 + " does not exist");
@@ -47,52 +47,52 @@ class BlobOnlyStore : public Store {
     if (Sha256Hex(it->second.data(), it->second.size()) != sha256) return DataLoss("blob " + sha256 + " is damaged");
     return it->second;
   }
-  StatusOr<bool> HasBlob(const std::string& sha256) override { return blobs_.count(sha256) > 0; }
-  StatusOr<uint64_t> RemoveOrphanBlobs(int64_t) override { return Unsupported("blobs only"); }
-  StatusOr<uint64_t> UploadSize(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
-  Status AppendUpload(const std::string&, const std::string&, uint64_t, const uint8_t*, size_t) override {
+  StatusOr<bool> DoHasBlob(const std::string& sha256) override { return blobs_.count(sha256) > 0; }
+  StatusOr<uint64_t> DoRemoveOrphanBlobs(int64_t) override { return Unsupported("blobs only"); }
+  StatusOr<uint64_t> DoUploadSize(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
+  Status DoAppendUpload(const std::string&, const std::string&, uint64_t, const uint8_t*, size_t) override {
     return Unsupported("blobs only");
   }
-  StatusOr<std::string> CommitUpload(const std::string&, const std::string&, const std::string&) override {
+  StatusOr<std::string> DoCommitUpload(const std::string&, const std::string&, const std::string&) override {
     return Unsupported("blobs only");
   }
-  Status DiscardUpload(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
-  StatusOr<uint64_t> ExpireUploads(int64_t) override { return Unsupported("blobs only"); }
-  StatusOr<VersionRecord> CreateVersion(const NewVersion&) override { return Unsupported("blobs only"); }
-  StatusOr<VersionRecord> GetVersion(const std::string&, const std::string&, int64_t) override {
+  Status DoDiscardUpload(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
+  StatusOr<uint64_t> DoExpireUploads(int64_t) override { return Unsupported("blobs only"); }
+  StatusOr<VersionRecord> DoCreateVersion(const NewVersion&) override { return Unsupported("blobs only"); }
+  StatusOr<VersionRecord> DoGetVersion(const std::string&, const std::string&, int64_t) override {
     return Unsupported("blobs only");
   }
-  StatusOr<VersionRecord> GetLatestReadyVersion(const std::string&, const std::string&) override {
+  StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string&, const std::string&) override {
     return Unsupported("blobs only");
   }
-  StatusOr<Page<AssetRecord>> ListAssets(const std::string&, int32_t, const std::string&) override {
+  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
     return Unsupported("blobs only");
   }
-  StatusOr<Page<VersionRecord>> ListVersions(const std::string&, const std::string&, int32_t,
-                                             const std::string&) override {
+  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
+                                                      int64_t) override {
     return Unsupported("blobs only");
   }
-  StatusOr<JobRecord> GetJob(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
-  StatusOr<std::optional<JobRecord>> ClaimJob(const std::string&, int64_t, int64_t) override {
+  StatusOr<JobRecord> DoGetJob(const std::string&, const std::string&) override { return Unsupported("blobs only"); }
+  StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string&, int64_t, int64_t) override {
     return Unsupported("blobs only");
   }
-  Status RenewLease(const std::string&, const std::string&, int64_t, int64_t, double, const std::string&) override {
+  Status DoRenewLease(const std::string&, const std::string&, int64_t, int64_t, double, const std::string&) override {
     return Unsupported("blobs only");
   }
-  Status CompleteJob(const std::string&, const std::string&, const ArtifactSummary&) override {
+  Status DoCompleteJob(const std::string&, const std::string&, const ArtifactSummary&) override {
     return Unsupported("blobs only");
   }
-  Status FailJob(const std::string&, const std::string&, const std::string&) override { return Unsupported("blobs only"); }
-  StatusOr<int64_t> CountUnfinishedJobs() override { return Unsupported("blobs only"); }
-  StatusOr<int64_t> ReleaseAllLeases() override { return Unsupported("blobs only"); }
-  StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string&) override { return Unsupported("blobs only"); }
-  Status PutArtifact(const std::string&, const ArtifactSummary&) override { return Unsupported("blobs only"); }
-  StatusOr<TokenRecord> CreateToken(const std::string&, bool, const std::string&) override {
+  Status DoFailJob(const std::string&, const std::string&, const std::string&) override { return Unsupported("blobs only"); }
+  StatusOr<int64_t> DoCountUnfinishedJobs() override { return Unsupported("blobs only"); }
+  StatusOr<int64_t> DoReleaseAllLeases() override { return Unsupported("blobs only"); }
+  StatusOr<std::optional<ArtifactSummary>> DoFindArtifact(const std::string&) override { return Unsupported("blobs only"); }
+  Status DoPutArtifact(const std::string&, const ArtifactSummary&) override { return Unsupported("blobs only"); }
+  StatusOr<TokenRecord> DoCreateToken(const std::string&, bool, const std::string&) override {
     return Unsupported("blobs only");
   }
-  StatusOr<TokenRecord> FindToken(const std::string&) override { return Unsupported("blobs only"); }
-  StatusOr<std::vector<TokenRecord>> ListTokens() override { return Unsupported("blobs only"); }
-  Status RevokeToken(const std::string&) override { return Unsupported("blobs only"); }
+  StatusOr<TokenRecord> DoFindToken(const std::string&) override { return Unsupported("blobs only"); }
+  StatusOr<std::vector<TokenRecord>> DoListTokens() override { return Unsupported("blobs only"); }
+  Status DoRevokeToken(const std::string&) override { return Unsupported("blobs only"); }
 
  private:
   std::map<std::string, std::vector<uint8_t>> blobs_;

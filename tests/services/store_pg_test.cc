@@ -90,6 +90,40 @@ StoreBackend PgBackend() {
     if (conninfo->empty()) return FailedPrecondition("reopen before open");
     return OpenPgStore(*conninfo);
   };
+  // Writes a state behind the store's back. A state outside the enum needs
+  // the table's CHECK constraint gone first, as in a database restored from
+  // a damaged dump: the store's range check is the defence that remains.
+  const auto raw_update = [conninfo](const std::string& table, int64_t state, const std::string& where,
+                                     const std::vector<std::string>& params) -> Status {
+    try {
+      pqxx::connection c(*conninfo);
+      pqxx::work tx(c);
+      const int64_t highest = table == "versions" ? 3 : 4;
+      if (state < 1 || state > highest) {
+        tx.exec("ALTER TABLE meshstream." + table + " DROP CONSTRAINT IF EXISTS " + table + "_state_check");
+      }
+      pqxx::result r;
+      if (params.size() == 1) {
+        r = tx.exec_params("UPDATE meshstream." + table + " SET state = $1 WHERE " + where, state, params[0]);
+      } else {
+        r = tx.exec_params("UPDATE meshstream." + table + " SET state = $1 WHERE " + where, state, params[0],
+                           params[1], std::stoll(params[2]));
+      }
+      if (r.affected_rows() != 1) return NotFound(table + ": changed " + std::to_string(r.affected_rows()) + " rows");
+      tx.commit();
+      return Status::Ok();
+    } catch (const std::exception& e) {
+      return Internal(std::string("raw update: ") + e.what());
+    }
+  };
+  backend.set_version_state = [raw_update](const std::string& tenant, const std::string& asset, int64_t version,
+                                           int64_t state) {
+    return raw_update("versions", state, "tenant = $2 AND asset = $3 AND version = $4",
+                      {tenant, asset, std::to_string(version)});
+  };
+  backend.set_job_state = [raw_update](const std::string& job_id, int64_t state) {
+    return raw_update("jobs", state, "id = $2", {job_id});
+  };
   return backend;
 }
 
@@ -195,12 +229,6 @@ class PgStoreTest : public ::testing::Test {
   std::string conninfo_;
   std::unique_ptr<Store> store_;
 };
-
-#define EXPECT_CODE(expr, code_)                                             \
-  do {                                                                       \
-    const ::meshstream::Status ms_s_ = (expr);                               \
-    EXPECT_EQ(ms_s_.code(), ::meshstream::StatusCode::code_) << ms_s_.ToString(); \
-  } while (false)
 
 // --- schema ---------------------------------------------------------------
 
@@ -367,8 +395,8 @@ TEST_F(PgStoreBlobs, MismatchedExpectedDigestStoresNothing) {
   EXPECT_EQ(digest.status().code(), StatusCode::kDataLoss) << digest.status().ToString();
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blob_chunks"), 0);
-  EXPECT_CODE((*sink)->Commit().status(), kFailedPrecondition);
-  EXPECT_CODE((*sink)->Append(Bytes(bytes), 1), kFailedPrecondition);
+  EXPECT_CODE((*sink)->Commit().status(), StatusCode::kFailedPrecondition);
+  EXPECT_CODE((*sink)->Append(Bytes(bytes), 1), StatusCode::kFailedPrecondition);
 
   // A blob of several chunks has staged some before Commit finds the
   // mismatch: they are gone when Commit returns, not when the sink is.
@@ -383,10 +411,6 @@ TEST_F(PgStoreBlobs, MismatchedExpectedDigestStoresNothing) {
   EXPECT_EQ(StagingRows(), 0);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blob_chunks"), 0);
-
-  auto malformed = store_->NewBlob();
-  ASSERT_TRUE(malformed.ok());
-  EXPECT_CODE((*malformed)->Commit("not-a-digest").status(), kInvalidArgument);
 }
 
 TEST_F(PgStoreBlobs, SinkDestroyedWithoutCommitLeavesNothing) {
@@ -553,19 +577,6 @@ TEST_F(PgStoreBlobs, TwoSinksOfTheSameBytesBothCommitAndStoreOnce) {
   EXPECT_EQ(StagingRows(), 0);
 }
 
-TEST_F(PgStoreBlobs, ReadsAreCappedAndNamesChecked) {
-  const std::string bytes = RandomBytes(5000, 4);
-  const std::string digest = PutBlob(bytes);
-  EXPECT_CODE(store_->GetBlob(digest, bytes.size() - 1).status(), kResourceExhausted);
-  EXPECT_TRUE(store_->GetBlob(digest, bytes.size()).ok());
-  EXPECT_CODE(store_->GetBlob(Digest("absent"), 1 << 20).status(), kNotFound);
-  EXPECT_CODE(store_->GetBlob("../etc/passwd", 1 << 20).status(), kInvalidArgument);
-  EXPECT_CODE(store_->HasBlob("ABC").status(), kInvalidArgument);
-  auto has = store_->HasBlob(Digest("absent"));
-  ASSERT_TRUE(has.ok());
-  EXPECT_FALSE(*has);
-}
-
 TEST_F(PgStoreBlobs, DamagedChunksAreDataLossNeverWrongBytes) {
   const std::string flipped = PutBlob(RandomBytes(2 * kMiB + 100, 5));
   const std::string missing = PutBlob(RandomBytes(2 * kMiB + 100, 6));
@@ -596,7 +607,7 @@ using PgStoreUploads = PgStoreTest;
 
 TEST_F(PgStoreUploads, OffsetsAreExactAndCommitMakesABlob) {
   const std::string head = RandomBytes(1000, 10), tail = RandomBytes(kMiB + kMiB / 2, 11);
-  EXPECT_CODE(store_->UploadSize("acme", "u1").status(), kNotFound);
+  EXPECT_CODE(store_->UploadSize("acme", "u1").status(), StatusCode::kNotFound);
   const Status early = store_->AppendUpload("acme", "u1", 5, Bytes(head), head.size());
   EXPECT_EQ(early.code(), StatusCode::kFailedPrecondition) << early.ToString();
 
@@ -604,8 +615,8 @@ TEST_F(PgStoreUploads, OffsetsAreExactAndCommitMakesABlob) {
   const Status again = store_->AppendUpload("acme", "u1", 0, Bytes(head), head.size());
   EXPECT_EQ(again.code(), StatusCode::kFailedPrecondition) << again.ToString();
   EXPECT_NE(again.message().find("offset 0"), std::string::npos) << again.ToString();
-  EXPECT_NE(again.message().find("1000 bytes"), std::string::npos) << again.ToString();
-  EXPECT_CODE(store_->AppendUpload("acme", "u1", 2000, Bytes(head), 1), kFailedPrecondition);
+  EXPECT_NE(again.message().find("1000 durable bytes"), std::string::npos) << again.ToString();
+  EXPECT_CODE(store_->AppendUpload("acme", "u1", 2000, Bytes(head), 1), StatusCode::kFailedPrecondition);
 
   ASSERT_TRUE(store_->AppendUpload("acme", "u1", head.size(), Bytes(tail), tail.size()).ok());
   auto size = store_->UploadSize("acme", "u1");
@@ -617,7 +628,7 @@ TEST_F(PgStoreUploads, OffsetsAreExactAndCommitMakesABlob) {
   auto digest = store_->CommitUpload("acme", "u1", Digest(whole));
   ASSERT_TRUE(digest.ok()) << digest.status().ToString();
   EXPECT_EQ(*digest, Digest(whole));
-  EXPECT_CODE(store_->UploadSize("acme", "u1").status(), kNotFound);
+  EXPECT_CODE(store_->UploadSize("acme", "u1").status(), StatusCode::kNotFound);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.upload_chunks"), 0);
   auto read = store_->GetBlob(*digest, whole.size());
   ASSERT_TRUE(read.ok()) << read.status().ToString();
@@ -630,19 +641,7 @@ TEST_F(PgStoreUploads, OffsetsAreExactAndCommitMakesABlob) {
   ASSERT_TRUE(same.ok()) << same.status().ToString();
   EXPECT_EQ(*same, *digest);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 1);
-  EXPECT_CODE(store_->CommitUpload("acme", "u2", "").status(), kNotFound);
-}
-
-TEST_F(PgStoreUploads, MismatchedDigestDiscardsTheUpload) {
-  const std::string bytes = RandomBytes(3000, 12);
-  ASSERT_TRUE(store_->AppendUpload("acme", "u", 0, Bytes(bytes), bytes.size()).ok());
-  auto digest = store_->CommitUpload("acme", "u", Digest("other bytes"));
-  ASSERT_FALSE(digest.ok());
-  EXPECT_EQ(digest.status().code(), StatusCode::kDataLoss) << digest.status().ToString();
-  EXPECT_CODE(store_->UploadSize("acme", "u").status(), kNotFound);
-  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
-  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.upload_chunks"), 0);
-  EXPECT_CODE(store_->CommitUpload("acme", "u", "xyz").status(), kInvalidArgument);
+  EXPECT_CODE(store_->CommitUpload("acme", "u2", "").status(), StatusCode::kNotFound);
 }
 
 TEST_F(PgStoreUploads, AMissingChunkIsDataLossAtCommit) {
@@ -700,23 +699,6 @@ TEST_F(PgStoreUploads, ConcurrentAppendersFromTwoServersNeverOverlap) {
   }
 }
 
-TEST_F(PgStoreUploads, TenantsAreIsolated) {
-  const std::string a = "tenant a bytes", b = "tenant b";
-  ASSERT_TRUE(store_->AppendUpload("a", "same-id", 0, Bytes(a), a.size()).ok());
-  EXPECT_CODE(store_->UploadSize("b", "same-id").status(), kNotFound);
-  EXPECT_CODE(store_->AppendUpload("b", "same-id", a.size(), Bytes(b), b.size()), kFailedPrecondition);
-  EXPECT_CODE(store_->CommitUpload("b", "same-id", "").status(), kNotFound);
-  EXPECT_CODE(store_->DiscardUpload("b", "same-id"), kNotFound);
-  ASSERT_TRUE(store_->AppendUpload("b", "same-id", 0, Bytes(b), b.size()).ok());
-  EXPECT_EQ(*store_->UploadSize("a", "same-id"), a.size());
-  EXPECT_EQ(*store_->UploadSize("b", "same-id"), b.size());
-  ASSERT_TRUE(store_->DiscardUpload("b", "same-id").ok());
-  EXPECT_CODE(store_->UploadSize("b", "same-id").status(), kNotFound);
-  EXPECT_EQ(*store_->UploadSize("a", "same-id"), a.size());
-  EXPECT_CODE(store_->UploadSize("../a", "same-id").status(), kInvalidArgument);
-  EXPECT_CODE(store_->UploadSize("a", "").status(), kInvalidArgument);
-}
-
 TEST_F(PgStoreUploads, ExpireRemovesOnlyIdleUploads) {
   ASSERT_TRUE(store_->AppendUpload("acme", "idle", 0, Bytes("x"), 1).ok());
   ASSERT_TRUE(store_->AppendUpload("acme", "busy", 0, Bytes("y"), 1).ok());
@@ -724,131 +706,15 @@ TEST_F(PgStoreUploads, ExpireRemovesOnlyIdleUploads) {
   auto removed = store_->ExpireUploads(60000);
   ASSERT_TRUE(removed.ok()) << removed.status().ToString();
   EXPECT_EQ(*removed, 1u);
-  EXPECT_CODE(store_->UploadSize("acme", "idle").status(), kNotFound);
+  EXPECT_CODE(store_->UploadSize("acme", "idle").status(), StatusCode::kNotFound);
   EXPECT_TRUE(store_->UploadSize("acme", "busy").ok());
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.upload_chunks"), 1);
-  EXPECT_CODE(store_->ExpireUploads(-1).status(), kInvalidArgument);
+  EXPECT_CODE(store_->ExpireUploads(-1).status(), StatusCode::kInvalidArgument);
 }
 
 // --- versions ---------------------------------------------------------------
 
 using PgStoreVersions = PgStoreTest;
-
-TEST_F(PgStoreVersions, CreateGetAndTenantIsolation) {
-  const std::string source = "glTF source", buffer = "external buffer";
-  NewVersion nv = MakeVersion("acme", "chair", source);
-  nv.resources.push_back({"chair.bin", Digest(buffer), buffer.size()});
-  nv.comment = "first";
-  nv.labels = {{"team", "props"}, {"stage", "review"}};
-
-  // No blobs yet: FailedPrecondition naming the file.
-  auto missing = store_->CreateVersion(nv);
-  ASSERT_FALSE(missing.ok());
-  EXPECT_EQ(missing.status().code(), StatusCode::kFailedPrecondition) << missing.status().ToString();
-  EXPECT_NE(missing.status().message().find("model.glb"), std::string::npos) << missing.status().ToString();
-  PutBlob(source);
-  auto missing_resource = store_->CreateVersion(nv);
-  ASSERT_FALSE(missing_resource.ok());
-  EXPECT_NE(missing_resource.status().message().find("chair.bin"), std::string::npos);
-  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.assets"), 0);
-  PutBlob(buffer);
-
-  auto v1 = store_->CreateVersion(nv);
-  ASSERT_TRUE(v1.ok()) << v1.status().ToString();
-  EXPECT_EQ(v1->version, 1);
-  EXPECT_EQ(v1->state, VersionState::kProcessing);
-  EXPECT_FALSE(v1->job_id.empty());
-  nv.comment = "second";
-  nv.labels.clear();
-  auto v2 = store_->CreateVersion(nv);
-  ASSERT_TRUE(v2.ok()) << v2.status().ToString();
-  EXPECT_EQ(v2->version, 2);
-  EXPECT_NE(v2->job_id, v1->job_id);
-
-  auto latest = store_->GetVersion("acme", "chair", 0);
-  ASSERT_TRUE(latest.ok()) << latest.status().ToString();
-  EXPECT_EQ(latest->version, 2);
-  EXPECT_EQ(latest->comment, "second");
-  auto first = store_->GetVersion("acme", "chair", 1);
-  ASSERT_TRUE(first.ok()) << first.status().ToString();
-  EXPECT_EQ(first->comment, "first");
-  EXPECT_EQ(first->source.name, "model.glb");
-  EXPECT_EQ(first->source.sha256, Digest(source));
-  EXPECT_EQ(first->source.size, source.size());
-  ASSERT_EQ(first->resources.size(), 1u);
-  EXPECT_EQ(first->resources[0].name, "chair.bin");
-  EXPECT_EQ(first->resources[0].sha256, Digest(buffer));
-  EXPECT_EQ(first->options_json, "{\"levels\":4}");
-  EXPECT_EQ(first->labels.size(), 2u);
-  EXPECT_EQ(first->labels.at("team"), "props");
-  EXPECT_EQ(first->job_id, v1->job_id);
-  EXPECT_EQ(first->created_ms, v1->created_ms);
-
-  EXPECT_CODE(store_->GetVersion("acme", "chair", 3).status(), kNotFound);
-  EXPECT_CODE(store_->GetVersion("acme", "table", 0).status(), kNotFound);
-  EXPECT_CODE(store_->GetVersion("other", "chair", 1).status(), kNotFound);
-  EXPECT_CODE(store_->GetLatestReadyVersion("acme", "chair").status(), kNotFound);
-  EXPECT_CODE(store_->ListVersions("other", "chair", 0, "").status(), kNotFound);
-
-  auto job = store_->GetJob("acme", v1->job_id);
-  ASSERT_TRUE(job.ok()) << job.status().ToString();
-  EXPECT_EQ(job->state, JobState::kPending);
-  EXPECT_EQ(job->asset, "chair");
-  EXPECT_EQ(job->version, 1);
-  EXPECT_CODE(store_->GetJob("other", v1->job_id).status(), kNotFound);
-}
-
-TEST_F(PgStoreVersions, PagesOfAssetsAndVersions) {
-  const std::string source = "bytes";
-  PutBlob(source);
-  // Byte order: upper case before lower case, whatever the database's collation.
-  const std::vector<std::string> names = {"b", "A", "c.2", "a", "B", "c-1", "Z"};
-  for (const std::string& name : names) ASSERT_TRUE(store_->CreateVersion(MakeVersion("acme", name, source)).ok());
-  ASSERT_TRUE(store_->CreateVersion(MakeVersion("elsewhere", "zzz", source)).ok());
-
-  std::vector<std::string> listed;
-  std::string token;
-  int pages = 0;
-  do {
-    auto page = store_->ListAssets("acme", 3, token);
-    ASSERT_TRUE(page.ok()) << page.status().ToString();
-    EXPECT_LE(page->items.size(), 3u);
-    for (const AssetRecord& a : page->items) {
-      EXPECT_EQ(a.tenant, "acme");
-      EXPECT_EQ(a.latest_version, 1);
-      listed.push_back(a.name);
-    }
-    token = page->next_page_token;
-    ++pages;
-  } while (!token.empty() && pages < 10);
-  std::vector<std::string> sorted = names;
-  std::sort(sorted.begin(), sorted.end());
-  EXPECT_EQ(listed, sorted);
-  EXPECT_EQ(pages, 3);
-
-  for (int i = 0; i < 4; ++i) ASSERT_TRUE(store_->CreateVersion(MakeVersion("acme", "a", source)).ok());
-  std::vector<int64_t> numbers;
-  token.clear();
-  do {
-    auto page = store_->ListVersions("acme", "a", 2, token);
-    ASSERT_TRUE(page.ok()) << page.status().ToString();
-    for (const VersionRecord& v : page->items) numbers.push_back(v.version);
-    token = page->next_page_token;
-  } while (!token.empty() && numbers.size() < 20);
-  EXPECT_EQ(numbers, (std::vector<int64_t>{1, 2, 3, 4, 5}));
-
-  auto all = store_->ListVersions("acme", "a", 0, "");
-  ASSERT_TRUE(all.ok());
-  EXPECT_EQ(all->items.size(), 5u);
-  EXPECT_TRUE(all->next_page_token.empty());
-
-  auto first = store_->ListVersions("acme", "a", 2, "");
-  ASSERT_TRUE(first.ok());
-  EXPECT_CODE(store_->ListAssets("acme", 2, first->next_page_token).status(), kInvalidArgument);
-  EXPECT_CODE(store_->ListAssets("acme", 2, "garbage!").status(), kInvalidArgument);
-  EXPECT_CODE(store_->ListAssets("acme", -1, "").status(), kInvalidArgument);
-  EXPECT_CODE(store_->ListVersions("acme", "nope", 0, "").status(), kNotFound);
-}
 
 TEST_F(PgStoreVersions, TwoServersIngestingOneAssetGetConsecutiveNumbers) {
   const std::string source = "shared source";
@@ -927,22 +793,13 @@ TEST_F(PgStoreJobs, ConcurrentClaimsFromTwoServersNeverShareAJob) {
   EXPECT_EQ(*unfinished, kJobs);
 }
 
-TEST_F(PgStoreJobs, OldestJobIsClaimedFirst) {
-  const std::string source = "source";
-  PutBlob(source);
-  auto v1 = store_->CreateVersion(MakeVersion("acme", "x", source));
-  auto v2 = store_->CreateVersion(MakeVersion("acme", "y", source));
-  ASSERT_TRUE(v1.ok() && v2.ok());
-  auto first = store_->ClaimJob("w", NowMs(), 1000);
-  auto second = store_->ClaimJob("w", NowMs(), 1000);
-  ASSERT_TRUE(first.ok() && first->has_value() && second.ok() && second->has_value());
-  EXPECT_EQ((*first)->id, v1->job_id);
-  EXPECT_EQ((*second)->id, v2->job_id);
-}
-
-TEST_F(PgStoreJobs, ExpiredLeaseIsTakenOverAndTheOldOwnerIsAborted) {
+// The suite's lease test (AnExpiredLeaseIsTakenOverAndTheFirstWorkerIsAborted)
+// on one store; here the two workers are on two servers of one database, so
+// the lease is enforced by the database, not by one process.
+TEST_F(PgStoreJobs, ALeaseExpiredOnOneServerIsTakenOverByAnotherAndTheFirstIsAborted) {
   const std::string source = "source", artifact = "progressive glb";
   PutBlob(source);
+  PutBlob(artifact);
   auto version = store_->CreateVersion(MakeVersion("acme", "chair", source));
   ASSERT_TRUE(version.ok());
   auto other = OpenAnother();
@@ -951,210 +808,47 @@ TEST_F(PgStoreJobs, ExpiredLeaseIsTakenOverAndTheOldOwnerIsAborted) {
 
   auto mine = store_->ClaimJob("w1", now, 1000);
   ASSERT_TRUE(mine.ok() && mine->has_value()) << mine.status().ToString();
-  EXPECT_EQ((*mine)->id, version->job_id);
-  EXPECT_EQ((*mine)->lease_expires_ms, now + 1000);
   auto early = other->ClaimJob("w2", now + 500, 1000);
   ASSERT_TRUE(early.ok());
-  EXPECT_FALSE(early->has_value());
-
+  EXPECT_FALSE(early->has_value()) << "a live lease is not taken on another server";
   ASSERT_TRUE(store_->RenewLease(version->job_id, "w1", now + 600, 1000, 0.5, "encoding").ok());
-  auto job = store_->GetJob("acme", version->job_id);
-  ASSERT_TRUE(job.ok());
-  EXPECT_EQ(job->lease_expires_ms, now + 1600);
-  EXPECT_DOUBLE_EQ(job->progress, 0.5);
-  EXPECT_EQ(job->message, "encoding");
   auto still_early = other->ClaimJob("w2", now + 1500, 1000);
   ASSERT_TRUE(still_early.ok());
-  EXPECT_FALSE(still_early->has_value());
+  EXPECT_FALSE(still_early->has_value()) << "the renewal made on server 1 holds on server 2";
 
-  // w1's server "died": the lease expires and w2 takes the job over.
+  // w1's server "died": the lease expires and w2, on the other server, takes the job over.
   auto taken = other->ClaimJob("w2", now + 1700, 1000);
   ASSERT_TRUE(taken.ok() && taken->has_value()) << taken.status().ToString();
   EXPECT_EQ((*taken)->id, version->job_id);
   EXPECT_EQ((*taken)->attempts, 2);
-  EXPECT_EQ((*taken)->lease_owner, "w2");
-
   const Status renew = store_->RenewLease(version->job_id, "w1", now + 1800, 1000, 0.9, "");
   EXPECT_EQ(renew.code(), StatusCode::kAborted) << renew.ToString();
   EXPECT_EQ(renew.message(), "job " + version->job_id + ": the lease is held by another worker");
-  const std::string artifact_digest = Digest(artifact);
-  EXPECT_CODE(store_->CompleteJob(version->job_id, "w1", MakeSummary(artifact_digest)), kAborted);
-  EXPECT_CODE(store_->FailJob(version->job_id, "w1", "gave up"), kAborted);
-  EXPECT_CODE(store_->RenewLease("0123456789abcdef", "w1", now, 1000, 0, ""), kNotFound);
-
-  // The artifact must exist before the version names it.
-  EXPECT_CODE(other->CompleteJob(version->job_id, "w2", MakeSummary(artifact_digest)), kFailedPrecondition);
-  EXPECT_EQ(other->GetJob("acme", version->job_id)->state, JobState::kRunning);
-  PutBlob(artifact);
-  ASSERT_TRUE(other->CompleteJob(version->job_id, "w2", MakeSummary(artifact_digest)).ok());
-  EXPECT_CODE(other->CompleteJob(version->job_id, "w2", MakeSummary(artifact_digest)), kAborted);
-
-  job = store_->GetJob("acme", version->job_id);
-  ASSERT_TRUE(job.ok());
-  EXPECT_EQ(job->state, JobState::kSucceeded);
-  EXPECT_DOUBLE_EQ(job->progress, 1.0);
+  EXPECT_CODE(store_->CompleteJob(version->job_id, "w1", MakeSummary(Digest(artifact))), StatusCode::kAborted);
+  ASSERT_TRUE(other->CompleteJob(version->job_id, "w2", MakeSummary(Digest(artifact))).ok());
   auto ready = store_->GetLatestReadyVersion("acme", "chair");
   ASSERT_TRUE(ready.ok()) << ready.status().ToString();
-  EXPECT_EQ(ready->version, 1);
-  EXPECT_EQ(ready->state, VersionState::kReady);
-  const ArtifactSummary expected = MakeSummary(artifact_digest);
-  EXPECT_EQ(ready->artifact.artifact_sha256, artifact_digest);
-  EXPECT_EQ(ready->artifact.progressive_bytes, expected.progressive_bytes);
-  EXPECT_EQ(ready->artifact.encoder, expected.encoder);
-  EXPECT_EQ(ready->artifact.vertices, expected.vertices);
-  EXPECT_EQ(ready->artifact.faces, expected.faces);
-  EXPECT_EQ(ready->artifact.levels, expected.levels);
-  EXPECT_EQ(ready->artifact.level_vertices, expected.level_vertices);
-  EXPECT_EQ(ready->artifact.reliable_bytes, expected.reliable_bytes);
-  EXPECT_EQ(ready->artifact.unreliable_bytes, expected.unreliable_bytes);
-  EXPECT_EQ(ready->artifact.layout_json, expected.layout_json);
-  EXPECT_EQ(ready->artifact.warnings_json, expected.warnings_json);
-  auto unfinished = store_->CountUnfinishedJobs();
-  ASSERT_TRUE(unfinished.ok());
-  EXPECT_EQ(*unfinished, 0);
-  auto none = store_->ClaimJob("w3", now + 100000, 1000);
-  ASSERT_TRUE(none.ok());
-  EXPECT_FALSE(none->has_value());
-}
-
-TEST_F(PgStoreJobs, FailJobFailsTheVersion) {
-  const std::string source = "source";
-  PutBlob(source);
-  auto version = store_->CreateVersion(MakeVersion("acme", "broken", source));
-  ASSERT_TRUE(version.ok());
-  auto job = store_->ClaimJob("w", NowMs(), 1000);
-  ASSERT_TRUE(job.ok() && job->has_value());
-  ASSERT_TRUE(store_->FailJob((*job)->id, "w", "import: accessor 3 out of range").ok());
-  auto v = store_->GetVersion("acme", "broken", 1);
-  ASSERT_TRUE(v.ok());
-  EXPECT_EQ(v->state, VersionState::kFailed);
-  EXPECT_EQ(v->error, "import: accessor 3 out of range");
-  auto j = store_->GetJob("acme", (*job)->id);
-  ASSERT_TRUE(j.ok());
-  EXPECT_EQ(j->state, JobState::kFailed);
-  EXPECT_EQ(j->message, "import: accessor 3 out of range");
-  EXPECT_CODE(store_->GetLatestReadyVersion("acme", "broken").status(), kNotFound);
-  EXPECT_CODE(store_->FailJob((*job)->id, "w", "again"), kAborted);
-}
-
-TEST_F(PgStoreJobs, ReleaseAllLeasesReturnsRunningJobsToPending) {
-  const std::string source = "source";
-  PutBlob(source);
-  auto v1 = store_->CreateVersion(MakeVersion("acme", "x", source));
-  auto v2 = store_->CreateVersion(MakeVersion("acme", "y", source));
-  ASSERT_TRUE(v1.ok() && v2.ok());
-  auto running = store_->ClaimJob("w1", NowMs(), 3600000);
-  ASSERT_TRUE(running.ok() && running->has_value());
-  auto released = static_cast<PgStore*>(store_.get())->ReleaseAllLeases();
-  ASSERT_TRUE(released.ok()) << released.status().ToString();
-  EXPECT_EQ(*released, 1);
-  auto job = store_->GetJob("acme", (*running)->id);
-  ASSERT_TRUE(job.ok());
-  EXPECT_EQ(job->state, JobState::kPending);
-  EXPECT_EQ(job->lease_owner, "");
-  EXPECT_CODE(store_->RenewLease((*running)->id, "w1", NowMs(), 1000, 0.1, ""), kAborted);
-  // Claimable again at once, oldest first, without waiting for the lease.
-  auto again = store_->ClaimJob("w2", NowMs(), 1000);
-  ASSERT_TRUE(again.ok() && again->has_value());
-  EXPECT_EQ((*again)->id, (*running)->id);
-  EXPECT_EQ((*again)->attempts, 2);
-}
-
-TEST_F(PgStoreJobs, ArgumentsAreChecked) {
-  EXPECT_CODE(store_->ClaimJob("", NowMs(), 1000).status(), kInvalidArgument);
-  EXPECT_CODE(store_->ClaimJob("w", NowMs(), 0).status(), kInvalidArgument);
-  EXPECT_CODE(store_->RenewLease("abc", "w", NowMs(), 1000, 1.5, ""), kInvalidArgument);
-  EXPECT_CODE(store_->RenewLease("a/b", "w", NowMs(), 1000, 0.5, ""), kInvalidArgument);
-  EXPECT_CODE(store_->GetJob("acme", "").status(), kInvalidArgument);
-}
-
-// --- the artifact cache and tokens ---------------------------------------
-
-using PgStoreArtifacts = PgStoreTest;
-
-TEST_F(PgStoreArtifacts, TheFirstRowOfAKeyIsKept) {
-  const std::string artifact = "artifact bytes";
-  const std::string digest = Digest(artifact);
-  EXPECT_CODE(store_->PutArtifact("key-1", MakeSummary(digest)), kFailedPrecondition);
-  auto none = store_->FindArtifact("key-1");
-  ASSERT_TRUE(none.ok());
-  EXPECT_FALSE(none->has_value());
-  PutBlob(artifact);
-  ASSERT_TRUE(store_->PutArtifact("key-1", MakeSummary(digest)).ok());
-  ArtifactSummary second = MakeSummary(digest);
-  second.vertices = 5;
-  ASSERT_TRUE(store_->PutArtifact("key-1", second).ok());
-  auto found = OpenAnother()->FindArtifact("key-1");
-  ASSERT_TRUE(found.ok() && found->has_value()) << found.status().ToString();
-  EXPECT_EQ((*found)->vertices, 100);
-  EXPECT_EQ((*found)->level_vertices, (std::vector<int64_t>{10, 40, 100}));
-  EXPECT_EQ((*found)->warnings_json, "[\"a warning\"]");
-  EXPECT_CODE(store_->PutArtifact("key-2", MakeSummary("nothex")), kInvalidArgument);
-  EXPECT_CODE(store_->FindArtifact("").status(), kInvalidArgument);
-}
-
-using PgStoreTokens = PgStoreTest;
-
-TEST_F(PgStoreTokens, CreateFindListRevoke) {
-  auto t1 = store_->CreateToken("acme", false, "hash-a");
-  auto t2 = store_->CreateToken("beta", true, "hash-b");
-  ASSERT_TRUE(t1.ok() && t2.ok()) << t1.status().ToString() << t2.status().ToString();
-  EXPECT_EQ(t1->id.size(), 16u);
-  EXPECT_NE(t1->id, t2->id);
-  EXPECT_CODE(store_->CreateToken("acme", false, "hash-a").status(), kAlreadyExists);
-  EXPECT_CODE(store_->CreateToken("bad tenant", false, "hash-c").status(), kInvalidArgument);
-
-  auto found = store_->FindToken("hash-b");
-  ASSERT_TRUE(found.ok());
-  EXPECT_EQ(found->tenant, "beta");
-  EXPECT_TRUE(found->read_only);
-  EXPECT_FALSE(found->revoked);
-  EXPECT_CODE(store_->FindToken("hash-z").status(), kNotFound);
-
-  ASSERT_TRUE(store_->RevokeToken(t2->id).ok());
-  ASSERT_TRUE(store_->RevokeToken(t2->id).ok());  // twice is fine
-  EXPECT_CODE(store_->FindToken("hash-b").status(), kNotFound);
-  EXPECT_CODE(store_->RevokeToken("0000000000000000"), kNotFound);
-  auto list = store_->ListTokens();
-  ASSERT_TRUE(list.ok());
-  ASSERT_EQ(list->size(), 2u);
-  for (const TokenRecord& t : *list) EXPECT_EQ(t.revoked, t.id == t2->id) << t.id;
+  EXPECT_EQ(ready->artifact.artifact_sha256, Digest(artifact));
 }
 
 // --- orphan blobs -----------------------------------------------------------
 
 using PgStoreOrphans = PgStoreTest;
 
-TEST_F(PgStoreOrphans, OnlyOldBlobsNoRowNamesAreRemoved) {
-  const std::string orphan_old = RandomBytes(kMiB + 3, 20), orphan_new = "young orphan", source = "source",
-                    resource = "resource", cached = "cached artifact", artifact = "version artifact";
-  for (const std::string& b : {orphan_old, orphan_new, source, resource, cached, artifact}) PutBlob(b);
-  NewVersion nv = MakeVersion("acme", "kept", source);
-  nv.resources.push_back({"kept.bin", Digest(resource), resource.size()});
-  ASSERT_TRUE(store_->CreateVersion(nv).ok());
-  ASSERT_TRUE(store_->PutArtifact("cache-key", MakeSummary(Digest(cached))).ok());
-  auto job = store_->ClaimJob("w", NowMs(), 60000);
-  ASSERT_TRUE(job.ok() && job->has_value());
-  ASSERT_TRUE(store_->CompleteJob((*job)->id, "w", MakeSummary(Digest(artifact))).ok());
-
-  // Everything but the young orphan is an hour old.
-  Sql("UPDATE meshstream.blobs SET created_ms = created_ms - 3600000 WHERE sha256 <> '" + Digest(orphan_new) + "'");
+// Which blobs go is the suite's RemoveOrphanBlobsRemovesOnlyOldBlobsNoRowNames;
+// here what is PostgreSQL's own: the age is the blob row's created_ms, the
+// chunks go with the row, and storing bytes again renews their age.
+TEST_F(PgStoreOrphans, TheAgeIsTheRowsAndRemovalTakesTheChunks) {
+  const std::string orphan_old = RandomBytes(kMiB + 3, 20), orphan_new = "young orphan";
+  PutBlob(orphan_old);
+  PutBlob(orphan_new);
+  Sql("UPDATE meshstream.blobs SET created_ms = created_ms - 3600000 WHERE sha256 = '" + Digest(orphan_old) + "'");
   auto removed = store_->RemoveOrphanBlobs(600000);
   ASSERT_TRUE(removed.ok()) << removed.status().ToString();
   EXPECT_EQ(*removed, 1u);
   EXPECT_FALSE(*store_->HasBlob(Digest(orphan_old)));
+  EXPECT_TRUE(*store_->HasBlob(Digest(orphan_new)));
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blob_chunks WHERE sha256 = '" + Digest(orphan_old) + "'"), 0);
-  for (const std::string& b : {orphan_new, source, resource, cached, artifact}) {
-    EXPECT_TRUE(*store_->HasBlob(Digest(b))) << b;
-    EXPECT_TRUE(store_->GetBlob(Digest(b), 1 << 20).ok()) << b;
-  }
-
-  // With no age limit, the young orphan goes too, and nothing named does.
-  removed = store_->RemoveOrphanBlobs(0);
-  ASSERT_TRUE(removed.ok());
-  EXPECT_EQ(*removed, 1u);
-  EXPECT_FALSE(*store_->HasBlob(Digest(orphan_new)));
-  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 4);
 
   // Committing bytes that are stored (an old orphan) renews their age, so
   // they survive until the row that will name them is committed.
@@ -1166,7 +860,6 @@ TEST_F(PgStoreOrphans, OnlyOldBlobsNoRowNamesAreRemoved) {
   ASSERT_TRUE(removed.ok());
   EXPECT_EQ(*removed, 0u);
   EXPECT_TRUE(*store_->HasBlob(Digest(again)));
-  EXPECT_CODE(store_->RemoveOrphanBlobs(-5).status(), kInvalidArgument);
 }
 
 TEST_F(PgStoreOrphans, StagingOfDeadSinksGoesByAgeAndLiveStagingStays) {
@@ -1235,7 +928,7 @@ TEST_F(PgStoreOrphans, AStagedChunkMissingAtCommitIsAbortedAndTheRestIsDeleted) 
   EXPECT_EQ(StagingRows(), 0);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blobs"), 0);
   EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.blob_chunks"), 0);
-  EXPECT_CODE(sink->Commit().status(), kFailedPrecondition);
+  EXPECT_CODE(sink->Commit().status(), StatusCode::kFailedPrecondition);
 }
 
 TEST_F(PgStoreOrphans, ASweepRacingACommitNeverLeavesAShortBlob) {
@@ -1415,40 +1108,6 @@ TEST_F(PgStoreConnections, AGoneDatabaseIsUnavailable) {
   EXPECT_NE(tokens.status().message().find("listing tokens"), std::string::npos) << tokens.status().ToString();
 }
 
-// --- untrusted arguments --------------------------------------------------
-
-using PgStoreArguments = PgStoreTest;
-
-TEST_F(PgStoreArguments, BadNamesAndTextAreInvalidArgument) {
-  const std::string source = "source";
-  PutBlob(source);
-  EXPECT_CODE(store_->CreateVersion(MakeVersion("a b", "x", source)).status(), kInvalidArgument);
-  EXPECT_CODE(store_->CreateVersion(MakeVersion("acme", "x/../y", source)).status(), kInvalidArgument);
-  NewVersion nul = MakeVersion("acme", "x", source);
-  nul.comment = std::string("cut\0here", 8);
-  auto s = store_->CreateVersion(nul);
-  ASSERT_FALSE(s.ok());
-  EXPECT_EQ(s.status().code(), StatusCode::kInvalidArgument);
-  EXPECT_NE(s.status().message().find("comment"), std::string::npos) << s.status().ToString();
-  NewVersion utf8 = MakeVersion("acme", "x", source);
-  utf8.labels["k"] = "\xC3\x28";
-  EXPECT_CODE(store_->CreateVersion(utf8).status(), kInvalidArgument);
-  NewVersion digest = MakeVersion("acme", "x", source);
-  digest.source.sha256 = "'; DROP TABLE meshstream.blobs; --";
-  EXPECT_CODE(store_->CreateVersion(digest).status(), kInvalidArgument);
-  // Quotes and UTF-8 in free text are stored as they are.
-  NewVersion quoted = MakeVersion("acme", "x", source);
-  quoted.comment = "it's \"fine\"; DROP TABLE x; -- ünïcødé";
-  quoted.labels["o'k"] = "v\"1";
-  auto v = store_->CreateVersion(quoted);
-  ASSERT_TRUE(v.ok()) << v.status().ToString();
-  auto back = store_->GetVersion("acme", "x", v->version);
-  ASSERT_TRUE(back.ok());
-  EXPECT_EQ(back->comment, quoted.comment);
-  EXPECT_EQ(back->labels, quoted.labels);
-  EXPECT_EQ(SqlInt("SELECT count(*) FROM meshstream.assets"), 1);
-}
-
 // --- the hook for the shared suite ---------------------------------------
 
 TEST(PgStoreBackend, OpenMakesAFreshDatabaseAndReopenKeepsIt) {
@@ -1462,7 +1121,7 @@ TEST(PgStoreBackend, OpenMakesAFreshDatabaseAndReopenKeepsIt) {
   EXPECT_TRUE((*again)->FindToken("persisted").ok());
   auto fresh = PgBackend().open();
   ASSERT_TRUE(fresh.ok()) << fresh.status().ToString();
-  EXPECT_CODE((*fresh)->FindToken("persisted").status(), kNotFound);
+  EXPECT_CODE((*fresh)->FindToken("persisted").status(), StatusCode::kNotFound);
 }
 
 }  // namespace

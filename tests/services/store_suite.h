@@ -13,11 +13,12 @@
 // one backend in SetUp, opens the store once, and may Reopen() it (the
 // store is destroyed first, as a server stops before it starts again).
 //
-// What the suite asserts beyond codes, so every backend must say it the same
-// way: InvalidArgument messages name the field ("tenant", "asset",
-// "upload_id", "job_id", "page_size", "page_token"); a wrong upload offset
-// names both sizes; a lost lease says "the lease is held by another worker";
-// reading another tenant's object gives exactly the message of a missing one.
+// What the suite asserts: the exact status code of every refusal, and for
+// the refusals a backend decides the exact message (both backends take them
+// from services/store/store_records.h); InvalidArgument messages name the
+// field ("tenant", "asset", "upload_id", "job_id", "page_size",
+// "page_token", ...); a wrong upload offset names both sizes; reading
+// another tenant's object gives exactly the message of a missing one.
 // Jobs are claimed in the order their versions were created, even within one
 // millisecond. `now_ms` arguments are the real clock (NowMs()), the clock the
 // store stamps rows with.
@@ -48,6 +49,13 @@ struct StoreBackend {
   // Keeps the storage alive (a temporary folder, a cluster) while the
   // backend is; may be empty.
   std::shared_ptr<void> keep_alive;
+  // Write a raw state into a stored row behind the store's back, as a
+  // hand-edited or damaged database would, while the store is open: for the
+  // refusals no call of Store can provoke (a version no longer PROCESSING
+  // under a running job, a state that is no value of the enum).
+  std::function<Status(const std::string& tenant, const std::string& asset, int64_t version, int64_t state)>
+      set_version_state;
+  std::function<Status(const std::string& job_id, int64_t state)> set_job_state;
 };
 
 // Makes a new backend for each test. `name` becomes the gtest parameter name
@@ -98,6 +106,12 @@ const Status& StatusOf(const StatusOr<T>& value) {
   do {                                                                   \
     const ::meshstream::Status ms_s_ = ::meshstream::StatusOf(expr);     \
     ASSERT_TRUE(ms_s_.ok()) << ms_s_.ToString();                         \
+  } while (false)
+// The status of `expr` (a Status or StatusOr) has code `code_` (a StatusCode).
+#define EXPECT_CODE(expr, code_)                                                \
+  do {                                                                          \
+    const ::meshstream::Status ms_c_ = ::meshstream::StatusOf(expr);            \
+    EXPECT_EQ(ms_c_.code(), code_) << #expr << " gave " << ms_c_.ToString();    \
   } while (false)
 // `lhs = value of expr`, or the test stops with the status.
 #define MS_ASSERT_OK_AND_ASSIGN(lhs, expr) \

@@ -55,12 +55,12 @@ class FakeStore : public Store {
   class Sink : public BlobSink {
    public:
     explicit Sink(FakeStore* store) : store_(store) {}
-    Status Append(const uint8_t* data, size_t size) override {
+    Status DoAppend(const uint8_t* data, size_t size) override {
       bytes_.insert(bytes_.end(), data, data + size);
       return Status::Ok();
     }
     uint64_t size() const override { return bytes_.size(); }
-    StatusOr<std::string> Commit(const std::string& expected) override {
+    StatusOr<std::string> DoCommit(const std::string& expected) override {
       const std::string digest = Digest(bytes_);
       if (!expected.empty() && expected != digest) return DataLoss("digest mismatch");
       std::lock_guard<std::mutex> lock(store_->mu_);
@@ -72,22 +72,22 @@ class FakeStore : public Store {
     FakeStore* store_;
     std::vector<uint8_t> bytes_;
   };
-  StatusOr<std::unique_ptr<BlobSink>> NewBlob() override {
+  StatusOr<std::unique_ptr<BlobSink>> DoNewBlob() override {
     ++new_blobs;
     return std::unique_ptr<BlobSink>(new Sink(this));
   }
-  StatusOr<std::vector<uint8_t>> GetBlob(const std::string& sha256, uint64_t max_bytes) override {
+  StatusOr<std::vector<uint8_t>> DoGetBlob(const std::string& sha256, uint64_t max_bytes) override {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = blobs_.find(sha256);
     if (it == blobs_.end()) return NotFound("blob " + sha256);
     if (it->second.size() > max_bytes) return ResourceExhausted("blob above max_bytes");
     return it->second;
   }
-  StatusOr<bool> HasBlob(const std::string& sha256) override {
+  StatusOr<bool> DoHasBlob(const std::string& sha256) override {
     std::lock_guard<std::mutex> lock(mu_);
     return blobs_.count(sha256) > 0;
   }
-  StatusOr<uint64_t> RemoveOrphanBlobs(int64_t) override { return Unsupported("fake"); }
+  StatusOr<uint64_t> DoRemoveOrphanBlobs(int64_t) override { return Unsupported("fake"); }
   std::string PutBlob(const std::vector<uint8_t>& bytes) {
     std::lock_guard<std::mutex> lock(mu_);
     blobs_[Digest(bytes)] = bytes;
@@ -95,18 +95,18 @@ class FakeStore : public Store {
   }
 
   // --- uploads: not used by the pool
-  StatusOr<uint64_t> UploadSize(const std::string&, const std::string&) override { return Unsupported("fake"); }
-  Status AppendUpload(const std::string&, const std::string&, uint64_t, const uint8_t*, size_t) override {
+  StatusOr<uint64_t> DoUploadSize(const std::string&, const std::string&) override { return Unsupported("fake"); }
+  Status DoAppendUpload(const std::string&, const std::string&, uint64_t, const uint8_t*, size_t) override {
     return Unsupported("fake");
   }
-  StatusOr<std::string> CommitUpload(const std::string&, const std::string&, const std::string&) override {
+  StatusOr<std::string> DoCommitUpload(const std::string&, const std::string&, const std::string&) override {
     return Unsupported("fake");
   }
-  Status DiscardUpload(const std::string&, const std::string&) override { return Unsupported("fake"); }
-  StatusOr<uint64_t> ExpireUploads(int64_t) override { return Unsupported("fake"); }
+  Status DoDiscardUpload(const std::string&, const std::string&) override { return Unsupported("fake"); }
+  StatusOr<uint64_t> DoExpireUploads(int64_t) override { return Unsupported("fake"); }
 
   // --- versions
-  StatusOr<VersionRecord> CreateVersion(const NewVersion& v) override {
+  StatusOr<VersionRecord> DoCreateVersion(const NewVersion& v) override {
     std::lock_guard<std::mutex> lock(mu_);
     VersionRecord r;
     r.tenant = v.tenant;
@@ -128,32 +128,32 @@ class FakeStore : public Store {
     versions_[Key(v.tenant, v.asset, r.version)] = r;
     return r;
   }
-  StatusOr<VersionRecord> GetVersion(const std::string& tenant, const std::string& asset, int64_t version) override {
+  StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset, int64_t version) override {
     if (on_get_version) MS_RETURN_IF_ERROR(on_get_version(asset));
     std::lock_guard<std::mutex> lock(mu_);
     auto it = versions_.find(Key(tenant, asset, version));
     if (it == versions_.end()) return NotFound("version");
     return it->second;
   }
-  StatusOr<VersionRecord> GetLatestReadyVersion(const std::string&, const std::string&) override {
+  StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string&, const std::string&) override {
     return Unsupported("fake");
   }
-  StatusOr<Page<AssetRecord>> ListAssets(const std::string&, int32_t, const std::string&) override {
+  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
     return Unsupported("fake");
   }
-  StatusOr<Page<VersionRecord>> ListVersions(const std::string&, const std::string&, int32_t,
-                                             const std::string&) override {
+  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
+                                                      int64_t) override {
     return Unsupported("fake");
   }
 
   // --- jobs
-  StatusOr<JobRecord> GetJob(const std::string&, const std::string& job_id) override {
+  StatusOr<JobRecord> DoGetJob(const std::string&, const std::string& job_id) override {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = jobs_.find(job_id);
     if (it == jobs_.end()) return NotFound("job");
     return it->second;
   }
-  StatusOr<std::optional<JobRecord>> ClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override {
+  StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override {
     std::lock_guard<std::mutex> lock(mu_);
     for (const std::string& id : job_order_) {
       JobRecord& j = jobs_[id];
@@ -167,7 +167,7 @@ class FakeStore : public Store {
     }
     return std::optional<JobRecord>();
   }
-  Status RenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
+  Status DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms, int64_t lease_ms,
                     double progress, const std::string& message) override {
     if (on_renew) MS_RETURN_IF_ERROR(on_renew(job_id, worker));
     std::lock_guard<std::mutex> lock(mu_);
@@ -179,7 +179,7 @@ class FakeStore : public Store {
     renewals.push_back({job_id, worker, progress, message});
     return Status::Ok();
   }
-  Status CompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override {
+  Status DoCompleteJob(const std::string& job_id, const std::string& worker, const ArtifactSummary& summary) override {
     std::lock_guard<std::mutex> lock(mu_);
     JobRecord& j = jobs_[job_id];
     if (j.state != JobState::kRunning || j.lease_owner != worker) return Aborted("not the lease holder");
@@ -192,7 +192,7 @@ class FakeStore : public Store {
     ++completions;
     return Status::Ok();
   }
-  Status FailJob(const std::string& job_id, const std::string& worker, const std::string& message) override {
+  Status DoFailJob(const std::string& job_id, const std::string& worker, const std::string& message) override {
     std::lock_guard<std::mutex> lock(mu_);
     JobRecord& j = jobs_[job_id];
     if (j.state != JobState::kRunning || j.lease_owner != worker) return Aborted("not the lease holder");
@@ -204,8 +204,8 @@ class FakeStore : public Store {
     ++failures;
     return Status::Ok();
   }
-  StatusOr<int64_t> ReleaseAllLeases() override { return Unsupported("not used by the pool"); }
-  StatusOr<int64_t> CountUnfinishedJobs() override {
+  StatusOr<int64_t> DoReleaseAllLeases() override { return Unsupported("not used by the pool"); }
+  StatusOr<int64_t> DoCountUnfinishedJobs() override {
     std::lock_guard<std::mutex> lock(mu_);
     int64_t n = 0;
     for (const auto& [id, j] : jobs_) n += (j.state == JobState::kPending || j.state == JobState::kRunning) ? 1 : 0;
@@ -213,23 +213,23 @@ class FakeStore : public Store {
   }
 
   // --- artifact cache
-  StatusOr<std::optional<ArtifactSummary>> FindArtifact(const std::string& key) override {
+  StatusOr<std::optional<ArtifactSummary>> DoFindArtifact(const std::string& key) override {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = artifacts_.find(key);
     if (it == artifacts_.end()) return std::optional<ArtifactSummary>();
     return std::optional<ArtifactSummary>(it->second);
   }
-  Status PutArtifact(const std::string& key, const ArtifactSummary& summary) override {
+  Status DoPutArtifact(const std::string& key, const ArtifactSummary& summary) override {
     std::lock_guard<std::mutex> lock(mu_);
     artifacts_.emplace(key, summary);
     return Status::Ok();
   }
 
   // --- tokens: not used by the pool
-  StatusOr<TokenRecord> CreateToken(const std::string&, bool, const std::string&) override { return Unsupported("fake"); }
-  StatusOr<TokenRecord> FindToken(const std::string&) override { return Unsupported("fake"); }
-  StatusOr<std::vector<TokenRecord>> ListTokens() override { return Unsupported("fake"); }
-  Status RevokeToken(const std::string&) override { return Unsupported("fake"); }
+  StatusOr<TokenRecord> DoCreateToken(const std::string&, bool, const std::string&) override { return Unsupported("fake"); }
+  StatusOr<TokenRecord> DoFindToken(const std::string&) override { return Unsupported("fake"); }
+  StatusOr<std::vector<TokenRecord>> DoListTokens() override { return Unsupported("fake"); }
+  Status DoRevokeToken(const std::string&) override { return Unsupported("fake"); }
 
   // --- for the tests
   JobRecord Job(const std::string& id) {
@@ -599,6 +599,25 @@ TEST(WorkerPool, AJobClaimedTooOftenFails) {
   ASSERT_TRUE(WaitFor([&] { return store.Finished(id); }));
   EXPECT_EQ(store.Job(id).state, JobState::kFailed);
   EXPECT_EQ(store.Job(id).message, "gave up after 3 attempts: the servers processing this job stopped before finishing it");
+}
+
+// The store refuses text that is not UTF-8 or holds a NUL (store_checks.h),
+// on every backend; a failure's message may quote what a client sent, so
+// the worker makes it storable instead of leaving the job unfinishable.
+TEST(WorkerPool, AFailureMessageThatIsNotStorableTextIsCleanedAndTheJobFails) {
+  FakeStore store;
+  TempDir work;
+  const std::string id = Ingest(store, "odd", Model("spot.obj"));
+  store.on_get_version = [](const std::string&) -> Status {
+    return NotFound(std::string("bad \xFF byte and a ") + '\0' + " NUL");
+  };
+  WorkerPool pool(store, FastOptions(work.path(), 1));
+  ASSERT_TRUE(pool.Start().ok());
+  ASSERT_TRUE(WaitFor([&] { return store.Finished(id); }, std::chrono::seconds(20)));
+  const JobRecord job = store.Job(id);
+  EXPECT_EQ(job.state, JobState::kFailed);
+  EXPECT_EQ(job.message, "version: bad \xEF\xBF\xBD byte and a   NUL");
+  pool.Stop();
 }
 
 TEST(WorkerPool, WakeStartsAJobWithoutWaitingForThePoll) {
