@@ -50,7 +50,8 @@
 #include "bench/bench_util.h"
 #include "bench/service_echo.h"
 #include "bench/service_load.h"
-#include "bench/service_machine.h"
+#include "bench/harness.h"
+#include "bench/options.h"
 #include "bench/service_stats.h"
 #include "importers/import.h"
 #include "meshstream/v1/asset_service.grpc.pb.h"
@@ -58,7 +59,6 @@
 #include "services/pipeline/process_source.h"
 #include "services/server/server.h"
 #include "services/store/blob_store.h"
-#include "testing/asset_client.h"
 #include "testing/pg_cluster.h"
 
 namespace {
@@ -73,34 +73,14 @@ using ms::bench::Die;
 using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
-using ms::bench::ParseInt;
 using ms::bench::ShellQuote;
 using ms::bench::SplitList;
-using ms::test_util::AssetClient;
+using ms::bench::StopServer;
+using ms::bench::AssetApi;
 
-const char kHelp[] =
-    "usage: meshstream_bench_service [--quick] [--models DIR] [--model NAME]... [--backends sqlite,postgresql]\n"
-    "                                [--repeat N] [--resumable-repeat N] [--cache-repeat N] [--clients 1,10,100]\n"
-    "                                [--calls N] [--min-calls N] [--rounds N] [--versions N] [--workers N]\n"
-    "                                [--work-dir DIR] [--pg-fsync on|off] [--out FILE] [--verbose]\n"
-    "\n"
+const char kAbout[] =
     "Benchmarks the asset service (meshstream serve, in this process) on both stores, beside\n"
-    "the floors measured in the same run; writes one JSON object (default docs/bench/service.json).\n"
-    "  --quick             a short run: bunny, horse and spot, one of each ingest, fewer calls\n"
-    "  --models DIR        folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
-    "  --model NAME        only this model (file stem, e.g. horse); repeatable\n"
-    "  --backends LIST     sqlite, postgresql or both (default both)\n"
-    "  --repeat N          fresh plain ingests per model and backend (default 5)\n"
-    "  --resumable-repeat N  fresh resumable ingests (upload_id) per model and backend (default 3)\n"
-    "  --cache-repeat N    ingests the artifact cache answers, per model and backend (default 3)\n"
-    "  --clients LIST      concurrent clients of the latency runs (default 1,10,100)\n"
-    "  --calls N           calls per RPC and client count, spread over the clients (default 4000)\n"
-    "  --min-calls N       at least this many calls per client (default 20)\n"
-    "  --rounds N          the calls in N interleaved rounds of every RPC (default 2)\n"
-    "  --versions N        versions of the asset ListVersions and GetVersion read (default 100)\n"
-    "  --workers N         job workers of each server (default 2)\n"
-    "  --work-dir DIR      where the stores and the PostgreSQL cluster live (default: $TMPDIR or /tmp)\n"
-    "  --pg-fsync on|off   PostgreSQL's fsync (default on: what a deployment pays)\n";
+    "the floors measured in the same run; writes one JSON object (default docs/bench/service.json).\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -124,67 +104,42 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  bool repeat_set = false, resumable_set = false, cache_set = false, calls_set = false, rounds_set = false;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&](const std::string& f, const std::function<std::string()>& next) {
-    if (f == "--quick") {
-      a.quick = true;
-    } else if (f == "--models") {
-      a.models_dir = next();
-    } else if (f == "--model") {
-      a.only.push_back(next());
-    } else if (f == "--backends") {
-      a.backends = SplitList(next());
-      for (const auto& b : a.backends) {
-        if (b != "sqlite" && b != "postgresql") Die("--backends: '" + b + "' is not sqlite or postgresql");
-      }
-      if (a.backends.empty()) Die("--backends: empty list");
-    } else if (f == "--repeat") {
-      a.repeat = static_cast<int>(ParseInt(next(), f, 1, 100));
-      repeat_set = true;
-    } else if (f == "--resumable-repeat") {
-      a.resumable_repeat = static_cast<int>(ParseInt(next(), f, 0, 100));
-      resumable_set = true;
-    } else if (f == "--cache-repeat") {
-      a.cache_repeat = static_cast<int>(ParseInt(next(), f, 0, 100));
-      cache_set = true;
-    } else if (f == "--clients") {
-      a.clients.clear();
-      for (const auto& s : SplitList(next())) a.clients.push_back(static_cast<int>(ParseInt(s, f, 1, 1000)));
-      if (a.clients.empty()) Die("--clients: empty list");
-    } else if (f == "--calls") {
-      a.calls = static_cast<int>(ParseInt(next(), f, 1, 10000000));
-      calls_set = true;
-    } else if (f == "--min-calls") {
-      a.min_calls = static_cast<int>(ParseInt(next(), f, 1, 1000000));
-    } else if (f == "--rounds") {
-      a.rounds = static_cast<int>(ParseInt(next(), f, 1, 100));
-      rounds_set = true;
-    } else if (f == "--versions") {
-      a.versions = static_cast<int>(ParseInt(next(), f, 51, 10000));
-    } else if (f == "--workers") {
-      a.workers = static_cast<int>(ParseInt(next(), f, 1, 64));
-    } else if (f == "--work-dir") {
-      a.work_dir = next();
-    } else if (f == "--pg-fsync") {
-      const std::string v = next();
-      if (v != "on" && v != "off") Die("--pg-fsync: on or off");
-      a.pg_fsync = v == "on";
-    } else if (f == "--out") {
-      a.out = next();
-    } else if (f == "--verbose") {
-      a.verbose = true;
-    } else {
-      return false;
+  ms::bench::Options o("meshstream_bench_service", kAbout);
+  o.Flag("--quick", &a.quick, "a short run: bunny, horse and spot, one of each ingest, fewer calls");
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only, "only this model (file stem, e.g. horse); repeatable");
+  o.Custom("--backends", "LIST", [&a](const std::string& v) {
+    a.backends = SplitList(v);
+    for (const auto& b : a.backends) {
+      if (b != "sqlite" && b != "postgresql") Die("--backends: '" + b + "' is not sqlite or postgresql");
     }
-    return true;
-  });
+    if (a.backends.empty()) Die("--backends: empty list");
+  }, "sqlite, postgresql or both (default both)");
+  o.Int("--repeat", "N", &a.repeat, 1, 100, "fresh plain ingests per model and backend (default 5)");
+  o.Int("--resumable-repeat", "N", &a.resumable_repeat, 0, 100,
+        "fresh resumable ingests (upload_id) per model and backend (default 3)");
+  o.Int("--cache-repeat", "N", &a.cache_repeat, 0, 100, "ingests the artifact cache answers, per model and backend (default 3)");
+  o.IntList("--clients", "LIST", &a.clients, 1, 1000, "concurrent clients of the latency runs (default 1,10,100)");
+  o.Int("--calls", "N", &a.calls, 1, 10000000, "calls per RPC and client count, spread over the clients (default 4000)");
+  o.Int("--min-calls", "N", &a.min_calls, 1, 1000000, "at least this many calls per client (default 20)");
+  o.Int("--rounds", "N", &a.rounds, 1, 100, "the calls in N interleaved rounds of every RPC (default 2)");
+  o.Int("--versions", "N", &a.versions, 51, 10000, "versions of the asset ListVersions and GetVersion read (default 100)");
+  o.Int("--workers", "N", &a.workers, 1, 64, "job workers of each server (default 2)");
+  o.String("--work-dir", "DIR", &a.work_dir, "where the stores and the PostgreSQL cluster live (default: $TMPDIR or /tmp)");
+  o.Custom("--pg-fsync", "on|off", [&a](const std::string& v) {
+    if (v != "on" && v != "off") Die("--pg-fsync: on or off");
+    a.pg_fsync = v == "on";
+  }, "PostgreSQL's fsync (default on: what a deployment pays)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/service.json)");
+  o.Flag("--verbose", &a.verbose, "the servers' log lines on stderr");
+  o.Parse(argc, argv);
   if (a.quick) {
     if (a.only.empty()) a.only = {"stanford-bunny", "horse", "spot"};
-    if (!repeat_set) a.repeat = 1;
-    if (!resumable_set) a.resumable_repeat = 1;
-    if (!cache_set) a.cache_repeat = 1;
-    if (!calls_set) a.calls = 400;
-    if (!rounds_set) a.rounds = 1;
+    if (!o.Given("--repeat")) a.repeat = 1;
+    if (!o.Given("--resumable-repeat")) a.resumable_repeat = 1;
+    if (!o.Given("--cache-repeat")) a.cache_repeat = 1;
+    if (!o.Given("--calls")) a.calls = 400;
+    if (!o.Given("--rounds")) a.rounds = 1;
   }
   if (a.work_dir.empty()) a.work_dir = fs::temp_directory_path().string();
   return a;
@@ -193,7 +148,7 @@ Args ParseArgs(int argc, char** argv) {
 // ------------------------------------------------------------ the machine
 
 json MachineInfo(const Args& args) {
-  json m = ms::bench::ServiceMachineInfo(args.work_dir, MESHSTREAM_SOURCE_DIR, MESHSTREAM_BUILD_TYPE);
+  json m = ms::bench::MachineInfo(args.work_dir, MESHSTREAM_SOURCE_DIR, MESHSTREAM_BUILD_TYPE);
   m["libpqxx"] = PQXX_VERSION;
   return m;
 }
@@ -293,7 +248,7 @@ struct Backend {
   std::string folder; // the temporary folder of the SQLite store
   std::unique_ptr<ms::test_util::PgCluster> pg;
   std::unique_ptr<ms::Server> server;
-  std::unique_ptr<AssetClient> client;
+  std::unique_ptr<AssetApi> client;
   json failures = json::array();
   json ingest = json::object();
   json exports = json::object();
@@ -311,39 +266,27 @@ std::string StatusText(const grpc::Status& s) {
 
 void StartBackend(Backend& b, const Args& args) {
   if (b.name == "sqlite") {
-    std::string pattern = (fs::path(args.work_dir) / "meshstream-bench-sqlite-XXXXXX").string();
-    if (mkdtemp(pattern.data()) == nullptr) Die(args.work_dir + ": mkdtemp failed");
-    b.folder = pattern;
-    b.store = pattern + "/store";
+    b.folder = ms::bench::MakeTempFolder(args.work_dir, "meshstream-bench-sqlite");
+    b.store = b.folder + "/store";
   } else {
     b.pg = Check(ms::test_util::PgCluster::Start({args.work_dir, args.pg_fsync}), "PostgreSQL cluster");
     b.store = b.pg->uri();
   }
-  ms::ServerOptions o;
-  o.listen = "127.0.0.1:0";
-  o.store = b.store;
-  o.workers = args.workers;
-  o.reflection = false;
-  o.grace_period_s = 10;
-  o.server_id = "bench-" + b.name;
   std::vector<std::string>* log = &b.log;
   const bool verbose = args.verbose;
   const std::string name = b.name;
-  o.log = [log, verbose, name](const std::string& line) {
-    log->push_back(line);
-    if (verbose) std::fprintf(stderr, "[%s server] %s\n", name.c_str(), line.c_str());
-  };
+  const ms::ServerOptions o = ms::bench::BenchServerOptions(
+      b.store, args.workers, "bench-" + b.name, [log, verbose, name](const std::string& line) {
+        log->push_back(line);
+        if (verbose) std::fprintf(stderr, "[%s server] %s\n", name.c_str(), line.c_str());
+      });
   b.server = Check(ms::Server::Start(o), b.name + " server");
-  b.client = std::make_unique<AssetClient>(b.server->address());
+  b.client = std::make_unique<AssetApi>(b.server->address());
 }
 
 void StopBackend(Backend& b) {
   b.client.reset();
-  if (b.server) {
-    b.server->Drain();
-    b.server->Wait();
-    b.server.reset();
-  }
+  StopServer(b.server);
   b.pg.reset();
   if (!b.folder.empty()) {
     std::error_code ec;
@@ -366,47 +309,42 @@ struct IngestRun {
 
 std::vector<v1::IngestRequest> UploadMessages(const Model& m, const std::vector<uint8_t>& bytes,
                                               const v1::EncodeOptions& options, const std::string& upload_id) {
-  auto messages = AssetClient::UploadMessages(m.name, ms::test_util::UploadFile{m.file, bytes});
-  *messages[0].mutable_metadata()->mutable_options() = options;
-  if (!upload_id.empty()) messages[0].mutable_metadata()->set_upload_id(upload_id);
-  return messages;
+  ms::bench::Upload upload;
+  upload.asset = m.name;
+  upload.file = m.file;
+  upload.bytes = &bytes;
+  upload.options = options;
+  upload.upload_id = upload_id;
+  return ms::bench::IngestMessages(upload);
 }
 
 // One Ingest, then WatchJob until the job ends; nothing else runs meanwhile.
 IngestRun IngestAndWait(Backend& b, const std::vector<v1::IngestRequest>& messages) {
   IngestRun run;
   const auto t0 = Clock::now();
-  const grpc::Status s = b.client->IngestRaw(messages, &run.response);
+  ms::StatusOr<v1::IngestResponse> response = b.client->Ingest(messages);
   const auto t1 = Clock::now();
-  if (!s.ok()) {
-    run.error = "Ingest: " + StatusText(s);
+  if (!response.ok()) {
+    run.error = "Ingest: " + response.status().ToString();
     return run;
   }
+  run.response = response.value();
   run.upload_ms = Ms(t0, t1);
-  grpc::ClientContext context;
-  b.client->Prepare(context, 300);
-  v1::GetJobRequest request;
-  request.set_job_id(run.response.job_id());
-  auto reader = b.client->stub().WatchJob(&context, request);
-  v1::Job job;
   Clock::time_point final_seen = t1;
-  bool seen = false;
-  while (reader->Read(&job)) {
+  ms::StatusOr<v1::Job> last = b.client->Watch(run.response.job_id(), [&](const v1::Job& job) {
     const auto now = Clock::now();
     run.watch.push_back({{"t_ms", Ms(t1, now)},
                          {"state", v1::JobState_Name(job.state())},
                          {"progress", job.progress()},
                          {"server_ms", TimestampMs(job.updated()) - TimestampMs(job.created())}});
-    run.last = job;
     final_seen = now;
-    seen = true;
-  }
-  const grpc::Status w = reader->Finish();
-  if (!w.ok()) {
-    run.error = "WatchJob: " + StatusText(w);
+  });
+  if (!last.ok()) {
+    run.error = "WatchJob: " + last.status().ToString();
     return run;
   }
-  if (!seen || run.last.state() != v1::JOB_STATE_SUCCEEDED) {
+  run.last = last.value();
+  if (run.last.state() != v1::JOB_STATE_SUCCEEDED) {
     run.error = "job " + run.response.job_id() + " ended " + v1::JobState_Name(run.last.state()) + ": " +
                 run.last.message();
     return run;
@@ -443,12 +381,13 @@ struct ExportTiming {
 ExportTiming TimeExport(Backend& b, const std::string& asset, int64_t version, v1::Format format) {
   ExportTiming t;
   const auto t0 = Clock::now();
-  AssetClient::Exported e = b.client->Export(asset, version, format);
+  ms::StatusOr<AssetApi::Exported> exported = b.client->Export(asset, version, format);
   t.ms = Ms(t0, Clock::now());
-  if (!e.status.ok()) {
-    t.error = "Export " + v1::Format_Name(format) + ": " + StatusText(e.status);
+  if (!exported.ok()) {
+    t.error = "Export " + v1::Format_Name(format) + ": " + exported.status().ToString();
     return t;
   }
+  const AssetApi::Exported& e = exported.value();
   const std::string digest = ms::Sha256Hex(e.bytes.data(), e.bytes.size());
   if (digest != e.sha256) {
     t.error = "Export " + v1::Format_Name(format) + ": the bytes do not match the sha256 of the last chunk";
@@ -594,30 +533,20 @@ std::string MakeLatencyAsset(Backend& b, const Model& spot, const std::string& a
   const auto messages = UploadMessages(m, m.bytes, v1::EncodeOptions(), "");
   v1::IngestResponse last;
   for (int i = 0; i < versions; ++i) {
-    const grpc::Status s = b.client->IngestRaw(messages, &last);
-    if (!s.ok()) Die(b.name + ": making the latency asset: Ingest: " + StatusText(s));
+    last = Check(b.client->Ingest(messages), b.name + ": making the latency asset: Ingest");
   }
-  v1::Job job;
-  const grpc::Status w = b.client->Watch(last.job_id(), &job);
-  if (!w.ok() || job.state() != v1::JOB_STATE_SUCCEEDED) Die(b.name + ": the latency asset's last job did not succeed");
+  const ms::StatusOr<v1::Job> job = b.client->Watch(last.job_id());
+  if (!job.ok() || job->state() != v1::JOB_STATE_SUCCEEDED) Die(b.name + ": the latency asset's last job did not succeed");
   // Every version READY (the jobs ran in order, two at a time), page by page.
   std::string token, second;
   int ready = 0, pages = 0;
   do {
-    grpc::ClientContext context;
-    b.client->Prepare(context);
-    v1::ListVersionsRequest r;
-    r.set_asset(asset);
-    r.set_page_size(50);
-    r.set_page_token(token);
-    v1::ListVersionsResponse page;
-    const grpc::Status s = b.client->stub().ListVersions(&context, r, &page);
-    if (!s.ok()) Die(b.name + ": ListVersions: " + StatusText(s));
+    const v1::ListVersionsResponse page = Check(b.client->ListVersions(asset, 50, token), b.name + ": ListVersions");
     for (const v1::Version& v : page.versions()) {
       if (v.state() != v1::VERSION_STATE_READY) {
         // A job that finished after the last one: wait for it.
-        v1::Job j;
-        if (!b.client->Watch(v.job_id(), &j).ok() || j.state() != v1::JOB_STATE_SUCCEEDED) {
+        const ms::StatusOr<v1::Job> j = b.client->Watch(v.job_id());
+        if (!j.ok() || j->state() != v1::JOB_STATE_SUCCEEDED) {
           Die(b.name + ": latency asset version " + std::to_string(v.version()) + " did not become READY");
         }
       }
@@ -641,17 +570,11 @@ std::map<std::string, std::string> DescribePostgres(const ms::test_util::PgClust
   return out;
 }
 
-}  // namespace
+// ------------------------------------------------------------ the run steps
 
-int main(int argc, char** argv) {
-  ms::bench::SetProgramName("meshstream_bench_service");
-  const Args args = ParseArgs(argc, argv);
-  const auto run_start = Clock::now();
-  json out;
-  out["benchmark"] = "meshstream_bench_service";
-  out["machine"] = MachineInfo(args);
-
-  // Models.
+// The models of --model (all of kModelFiles without it); spot.obj, which
+// the warm-up and the latency asset use, is loaded by the caller.
+std::vector<Model> LoadModels(const Args& args) {
   std::vector<Model> models;
   for (const char* relative : kModelFiles) {
     const std::string stem = ms::bench::Stem(relative);
@@ -659,19 +582,11 @@ int main(int argc, char** argv) {
     models.push_back(LoadModel(args.models_dir, relative));
   }
   if (models.empty()) Die("no model left (see --model)");
-  const Model spot = LoadModel(args.models_dir, "spot.obj");
+  return models;
+}
 
-  // Servers.
-  auto echo = Check(ms::bench::EchoServer::Start(), "echo server");
-  std::vector<std::unique_ptr<Backend>> owned;
-  std::vector<Backend*> backends;
-  for (const std::string& name : args.backends) {
-    owned.push_back(std::make_unique<Backend>());
-    owned.back()->name = name;
-    std::fprintf(stderr, "meshstream_bench_service: starting the %s server\n", name.c_str());
-    StartBackend(*owned.back(), args);
-    backends.push_back(owned.back().get());
-  }
+// Each backend's address, store and (PostgreSQL) settings.
+json BackendsInfo(const std::vector<Backend*>& backends, const Args& args) {
   json backends_info = json::object();
   for (Backend* b : backends) {
     json info = {{"address", b->server->address()}, {"workers", args.workers}};
@@ -684,13 +599,14 @@ int main(int argc, char** argv) {
     }
     backends_info[b->name] = info;
   }
+  return backends_info;
+}
 
-  out["settings"] = {
-      {"models", [&] {
-         json names = json::array();
-         for (const Model& m : models) names.push_back(m.file);
-         return names;
-       }()},
+json SettingsJson(const Args& args, const std::vector<Model>& models) {
+  json names = json::array();
+  for (const Model& m : models) names.push_back(m.file);
+  return {
+      {"models", names},
       {"backends", args.backends},
       {"workers", args.workers},
       {"repeat", args.repeat},
@@ -715,9 +631,11 @@ int main(int argc, char** argv) {
                    "the model lacks: source blob, artifact and export cache are all new, the encoder's work the "
                    "same"},
   };
+}
 
-  // Warm-up: the first connection of each client, PostgreSQL's pool, the
-  // encoder's first run; untimed.
+// Warm-up: the first connection of each client, PostgreSQL's pool, the
+// encoder's first run; untimed.
+void WarmUp(const std::vector<Backend*>& backends, const Model& spot) {
   std::fprintf(stderr, "meshstream_bench_service: warming up\n");
   for (Backend* b : backends) {
     Model w = spot;
@@ -726,290 +644,292 @@ int main(int argc, char** argv) {
     if (!r.ok) Die(b->name + ": the warm-up ingest failed: " + r.error);
     TimeExport(*b, "warmup", r.response.version(), v1::FORMAT_GLB);
   }
+}
 
-  // References that need no server.
+// What an upload of `m` costs without a server, `repeat` times each: the
+// job's import + encode (ProcessSource) in this process, the same messages
+// streamed into the echo server's sink, the bytes written and fsync'd into a
+// file in `disk_dir`, their SHA-256.
+json ModelReference(const Model& m, int repeat, const std::shared_ptr<grpc::Channel>& echo_channel,
+                    const std::string& disk_dir) {
+  static const auto settings = Check(ms::ResolveSettings(ms::EncodeSettings{}), "default encode settings");
+  std::vector<double> encode, sink, disk, sha;
+  const auto messages = UploadMessages(m, m.bytes, VariantOptions(m, 0), "");
+  std::vector<grpc::ByteBuffer> buffers;
+  uint64_t message_bytes = 0;
+  for (const auto& msg : messages) {
+    buffers.push_back(ms::bench::ToByteBuffer(msg.SerializeAsString()));
+    message_bytes += buffers.back().Length();
+  }
+  json figures;
+  for (int i = 0; i < repeat; ++i) {
+    auto t0 = Clock::now();
+    auto result = ms::ProcessSource(m.path, settings, nullptr);
+    encode.push_back(Ms(t0, Clock::now()));
+    if (!result.ok()) Die(m.path + ": ProcessSource: " + result.status().ToString());
+    figures = {{"vertices", result->summary.vertices},
+               {"faces", result->summary.faces},
+               {"levels", result->summary.levels},
+               {"progressive_bytes", result->summary.progressive_bytes}};
+    uint64_t received = 0;
+    t0 = Clock::now();
+    const grpc::Status s = ms::bench::SinkStream(echo_channel, buffers, &received);
+    sink.push_back(Ms(t0, Clock::now()));
+    if (!s.ok() || received != message_bytes) Die("the echo sink failed: " + StatusText(s));
+    disk.push_back(DiskWriteFsyncMs(disk_dir, m.bytes));
+    t0 = Clock::now();
+    const std::string digest = ms::Sha256Hex(m.bytes.data(), m.bytes.size());
+    sha.push_back(Ms(t0, Clock::now()));
+    if (digest.size() != 64) Die("Sha256Hex failed");
+  }
+  auto with_rate = [&m](const std::vector<double>& runs) {
+    json j = ms::bench::RunsSummary(runs);
+    j["MBps"] = MBps(m.bytes.size(), j["median_ms"].get<double>());
+    return j;
+  };
+  return {{"file", m.file},
+          {"bytes", m.bytes.size()},
+          {"figures", figures},
+          {"encode_inprocess", ms::bench::RunsSummary(encode)},
+          {"transport_sink", with_rate(sink)},
+          {"disk_write_fsync", with_rate(disk)},
+          {"sha256", with_rate(sha)}};
+}
+
+// PostgreSQL's side of a blob: the file inserted as one bytea value into a
+// table like blob_chunks (storage EXTENDED: TOAST compresses it with the
+// cluster's default, pglz) and into one with storage EXTERNAL (no
+// compression), timed inside the backend (the commit's WAL flush not
+// included): what compression costs the shared store's ingest. Into
+// ref_models[model]["pg_bytea_insert"]. False when the tables could not be
+// set up.
+bool PgByteaReference(ms::test_util::PgCluster& pg, const std::vector<Model>& models, int repeat, json& ref_models) {
+  const std::string setup =
+      "CREATE TABLE bench_toast_x (d bytea); CREATE TABLE bench_toast_e (d bytea); "
+      "ALTER TABLE bench_toast_e ALTER d SET STORAGE EXTERNAL; "
+      "CREATE FUNCTION bench_insert_ms(tbl text, path text) RETURNS double precision AS $f$ "
+      "DECLARE t0 timestamptz; BEGIN t0 := clock_timestamp(); "
+      "EXECUTE format('INSERT INTO %I SELECT pg_read_binary_file(%L)', tbl, path); "
+      "RETURN extract(epoch FROM clock_timestamp() - t0) * 1000; END $f$ LANGUAGE plpgsql; SELECT 'ok'";
+  if (pg.Query(setup) != "ok") {
+    std::fprintf(stderr, "meshstream_bench_service: the PostgreSQL bytea reference could not be set up; skipped\n");
+    return false;
+  }
+  for (const Model& m : models) {
+    std::error_code ec;
+    const std::string path = fs::canonical(m.path, ec).string();
+    std::vector<double> compressed, external;
+    for (int i = 0; i < repeat; ++i) {
+      for (const char* table : {"bench_toast_x", "bench_toast_e"}) {
+        const std::string v = pg.Query(std::string("SELECT bench_insert_ms('") + table + "', '" + path + "')");
+        char* end = nullptr;
+        const double ms_taken = std::strtod(v.c_str(), &end);
+        if (v.empty() || end == v.c_str()) continue;
+        (table[12] == 'x' ? compressed : external).push_back(ms_taken);
+      }
+    }
+    if (compressed.empty() || external.empty()) continue;  // e.g. the file is not readable by postgres
+    const std::string stored = pg.Query("SELECT sum(pg_column_size(d)) || ' ' || sum(octet_length(d)) FROM "
+                                        "bench_toast_x");
+    pg.Query("TRUNCATE bench_toast_x, bench_toast_e");
+    json r = {{"compressed", ms::bench::RunsSummary(compressed)}, {"uncompressed", ms::bench::RunsSummary(external)}};
+    const size_t space = stored.find(' ');
+    if (space != std::string::npos) {
+      const double a = std::strtod(stored.c_str(), nullptr), t = std::strtod(stored.c_str() + space, nullptr);
+      if (t > 0) r["compressed_stored_fraction"] = a / t;
+    }
+    ref_models[m.name]["pg_bytea_insert"] = r;
+  }
+  pg.Query("DROP TABLE bench_toast_x, bench_toast_e; DROP FUNCTION bench_insert_ms; SELECT 'ok'");
+  return true;
+}
+
+// References that need no server (and PostgreSQL's bytea insert on each
+// PostgreSQL backend): the "references" object.
+json References(const Args& args, const std::vector<Model>& models, const std::vector<Backend*>& backends,
+                const std::string& echo_address) {
   std::fprintf(stderr, "meshstream_bench_service: references (disk, encoder, transport)\n");
-  const std::string disk_dir = [&] {
-    std::string pattern = (fs::path(args.work_dir) / "meshstream-bench-disk-XXXXXX").string();
-    if (mkdtemp(pattern.data()) == nullptr) Die(args.work_dir + ": mkdtemp failed");
-    return pattern;
-  }();
+  const std::string disk_dir = ms::bench::MakeTempFolder(args.work_dir, "meshstream-bench-disk");
   json references = {{"fsync_4k", FsyncFloor(disk_dir, args.quick ? 50 : 200)}};
   json ref_models = json::object();
-  auto echo_channel = grpc::CreateChannel(echo->address(), grpc::InsecureChannelCredentials());
+  const auto echo_channel = grpc::CreateChannel(echo_address, grpc::InsecureChannelCredentials());
   const int ref_repeat = std::max(args.repeat, 3);
-  const auto settings = Check(ms::ResolveSettings(ms::EncodeSettings{}), "default encode settings");
-  for (const Model& m : models) {
-    std::vector<double> encode, sink, disk, sha;
-    const auto messages = UploadMessages(m, m.bytes, VariantOptions(m, 0), "");
-    std::vector<grpc::ByteBuffer> buffers;
-    uint64_t message_bytes = 0;
-    for (const auto& msg : messages) {
-      buffers.push_back(ms::bench::ToByteBuffer(msg.SerializeAsString()));
-      message_bytes += buffers.back().Length();
-    }
-    json figures;
-    for (int i = 0; i < ref_repeat; ++i) {
-      auto t0 = Clock::now();
-      auto result = ms::ProcessSource(m.path, settings, nullptr);
-      encode.push_back(Ms(t0, Clock::now()));
-      if (!result.ok()) Die(m.path + ": ProcessSource: " + result.status().ToString());
-      figures = {{"vertices", result->summary.vertices},
-                 {"faces", result->summary.faces},
-                 {"levels", result->summary.levels},
-                 {"progressive_bytes", result->summary.progressive_bytes}};
-      uint64_t received = 0;
-      t0 = Clock::now();
-      const grpc::Status s = ms::bench::SinkStream(echo_channel, buffers, &received);
-      sink.push_back(Ms(t0, Clock::now()));
-      if (!s.ok() || received != message_bytes) Die("the echo sink failed: " + StatusText(s));
-      disk.push_back(DiskWriteFsyncMs(disk_dir, m.bytes));
-      t0 = Clock::now();
-      const std::string digest = ms::Sha256Hex(m.bytes.data(), m.bytes.size());
-      sha.push_back(Ms(t0, Clock::now()));
-      if (digest.size() != 64) Die("Sha256Hex failed");
-    }
-    json e = ms::bench::RunsSummary(encode);
-    json k = ms::bench::RunsSummary(sink);
-    k["MBps"] = MBps(m.bytes.size(), k["median_ms"].get<double>());
-    json d = ms::bench::RunsSummary(disk);
-    d["MBps"] = MBps(m.bytes.size(), d["median_ms"].get<double>());
-    json h = ms::bench::RunsSummary(sha);
-    h["MBps"] = MBps(m.bytes.size(), h["median_ms"].get<double>());
-    ref_models[m.name] = {{"file", m.file},
-                          {"bytes", m.bytes.size()},
-                          {"figures", figures},
-                          {"encode_inprocess", e},
-                          {"transport_sink", k},
-                          {"disk_write_fsync", d},
-                          {"sha256", h}};
-  }
-  // PostgreSQL's side of a blob: the file inserted as one bytea value into a
-  // table like blob_chunks (storage EXTENDED: TOAST compresses it with the
-  // cluster's default, pglz) and into one with storage EXTERNAL (no
-  // compression), timed inside the backend (the commit's WAL flush not
-  // included): what compression costs the shared store's ingest.
+  for (const Model& m : models) ref_models[m.name] = ModelReference(m, ref_repeat, echo_channel, disk_dir);
   for (Backend* b : backends) {
-    if (!b->pg) continue;
-    const std::string setup =
-        "CREATE TABLE bench_toast_x (d bytea); CREATE TABLE bench_toast_e (d bytea); "
-        "ALTER TABLE bench_toast_e ALTER d SET STORAGE EXTERNAL; "
-        "CREATE FUNCTION bench_insert_ms(tbl text, path text) RETURNS double precision AS $f$ "
-        "DECLARE t0 timestamptz; BEGIN t0 := clock_timestamp(); "
-        "EXECUTE format('INSERT INTO %I SELECT pg_read_binary_file(%L)', tbl, path); "
-        "RETURN extract(epoch FROM clock_timestamp() - t0) * 1000; END $f$ LANGUAGE plpgsql; SELECT 'ok'";
-    if (b->pg->Query(setup) != "ok") {
-      std::fprintf(stderr, "meshstream_bench_service: the PostgreSQL bytea reference could not be set up; skipped\n");
-      break;
-    }
-    for (const Model& m : models) {
-      std::error_code ec;
-      const std::string path = fs::canonical(m.path, ec).string();
-      std::vector<double> compressed, external;
-      for (int i = 0; i < ref_repeat; ++i) {
-        for (const char* table : {"bench_toast_x", "bench_toast_e"}) {
-          const std::string v =
-              b->pg->Query(std::string("SELECT bench_insert_ms('") + table + "', '" + path + "')");
-          char* end = nullptr;
-          const double ms_taken = std::strtod(v.c_str(), &end);
-          if (v.empty() || end == v.c_str()) continue;
-          (table[12] == 'x' ? compressed : external).push_back(ms_taken);
-        }
-      }
-      if (compressed.empty() || external.empty()) continue;  // e.g. the file is not readable by postgres
-      const std::string stored = b->pg->Query("SELECT sum(pg_column_size(d)) || ' ' || sum(octet_length(d)) FROM "
-                                              "bench_toast_x");
-      b->pg->Query("TRUNCATE bench_toast_x, bench_toast_e");
-      json r = {{"compressed", ms::bench::RunsSummary(compressed)}, {"uncompressed", ms::bench::RunsSummary(external)}};
-      const size_t space = stored.find(' ');
-      if (space != std::string::npos) {
-        const double a = std::strtod(stored.c_str(), nullptr), t = std::strtod(stored.c_str() + space, nullptr);
-        if (t > 0) r["compressed_stored_fraction"] = a / t;
-      }
-      ref_models[m.name]["pg_bytea_insert"] = r;
-    }
-    b->pg->Query("DROP TABLE bench_toast_x, bench_toast_e; DROP FUNCTION bench_insert_ms; SELECT 'ok'");
+    if (b->pg && !PgByteaReference(*b->pg, models, ref_repeat, ref_models)) break;
   }
   references["models"] = ref_models;
-  {
-    std::error_code ec;
-    fs::remove_all(disk_dir, ec);
-  }
+  std::error_code ec;
+  fs::remove_all(disk_dir, ec);
+  return references;
+}
 
-  // Ingest, READY and export, per model; the backends take turns.
-  for (const Model& m : models) {
-    std::fprintf(stderr, "meshstream_bench_service: ingest %s (%zu bytes)\n", m.file.c_str(), m.bytes.size());
-    struct Slot {
-      json plain = json::array(), resumable = json::array(), cache = json::array();
-      std::vector<double> progressive, glb_first, glb_cached;
-      uint64_t progressive_bytes = 0, glb_bytes = 0;
-      std::vector<std::string> artifacts;
-    };
-    std::map<std::string, Slot> slots;
-    const int fresh = args.repeat + args.resumable_repeat;
-    for (int k = 0; k < fresh + args.cache_repeat; ++k) {
-      const bool cache = k >= fresh;
-      const bool resumable = !cache && k >= args.repeat;
-      const int variant = cache ? 0 : k;
-      const auto bytes = VariantBytes(m, variant);
-      for (size_t i = 0; i < backends.size(); ++i) {
-        Backend& b = *backends[(i + static_cast<size_t>(k)) % backends.size()];  // alternate who goes first
-        Slot& slot = slots[b.name];
-        const std::string upload_id = resumable ? m.name + "-resume-" + std::to_string(k) : "";
-        const std::string what = m.file + (cache ? " cache hit" : resumable ? " resumable" : " plain") + " #" +
-                                 std::to_string(k);
-        IngestRun r = IngestAndWait(b, UploadMessages(m, bytes, VariantOptions(m, variant), upload_id));
-        if (!r.ok) {
-          Fail(b, "ingest " + what, r.error);
-          continue;
-        }
-        const bool reused = r.last.message().find("reused") != std::string::npos;
-        if (cache != reused) {
-          Fail(b, "ingest " + what,
-               std::string(cache ? "the artifact cache did not answer" : "the artifact cache answered a fresh "
-                                                                       "variant") + " (job message: " +
-                   r.last.message() + ")");
-          continue;
-        }
-        (cache ? slot.cache : resumable ? slot.resumable : slot.plain).push_back(RunJson(r, variant, bytes.size()));
-        if (cache) continue;
-        // Exports of the fresh version: the stored artifact, then .glb twice.
-        const int64_t version = r.response.version();
-        ExportTiming p = TimeExport(b, m.name, version, v1::FORMAT_PROGRESSIVE_GLB);
-        if (!p.ok) {
-          Fail(b, "export " + what, p.error);
-          continue;
-        }
-        if (std::find(slot.artifacts.begin(), slot.artifacts.end(), p.sha256) != slot.artifacts.end()) {
-          Fail(b, "export " + what, "the artifact is one of an earlier variant: its .glb export would be cached");
-          continue;
-        }
-        slot.artifacts.push_back(p.sha256);
-        slot.progressive.push_back(p.ms);
-        slot.progressive_bytes = p.bytes;
-        ExportTiming g1 = TimeExport(b, m.name, version, v1::FORMAT_GLB);
-        ExportTiming g2 = g1.ok ? TimeExport(b, m.name, version, v1::FORMAT_GLB) : ExportTiming{};
-        if (!g1.ok || !g2.ok) {
-          Fail(b, "export glb " + what, g1.ok ? g2.error : g1.error);
-          continue;
-        }
-        if (g1.sha256 != g2.sha256) {
-          Fail(b, "export glb " + what, "the cached .glb differs from the first");
-          continue;
-        }
-        slot.glb_first.push_back(g1.ms);
-        slot.glb_cached.push_back(g2.ms);
-        slot.glb_bytes = g1.bytes;
-      }
-    }
-    for (Backend* b : backends) {
-      Slot& slot = slots[b->name];
-      auto median_of = [](const json& runs, const char* key) {
-        std::vector<double> v;
-        for (const json& r : runs) v.push_back(r[key].get<double>());
-        return Median(v);
-      };
-      json summary = {
-          {"upload_ms", median_of(slot.plain, "upload_ms")},
-          {"upload_MBps", MBps(m.bytes.size(), median_of(slot.plain, "upload_ms"))},
-          {"ready_watch_ms", median_of(slot.plain, "ready_watch_ms")},
-          {"ready_server_ms", median_of(slot.plain, "ready_server_ms")},
-          {"resumable_upload_ms", median_of(slot.resumable, "upload_ms")},
-          {"resumable_upload_MBps", MBps(m.bytes.size(), median_of(slot.resumable, "upload_ms"))},
-          {"resumable_ready_watch_ms", median_of(slot.resumable, "ready_watch_ms")},
-          {"cache_upload_ms", median_of(slot.cache, "upload_ms")},
-          {"cache_ready_watch_ms", median_of(slot.cache, "ready_watch_ms")},
-          {"cache_ready_server_ms", median_of(slot.cache, "ready_server_ms")},
-      };
-      {
-        json fresh_runs = slot.plain;
-        for (const json& r : slot.resumable) fresh_runs.push_back(r);
-        summary["fresh_ready_watch_ms"] = median_of(fresh_runs, "ready_watch_ms");
-        summary["fresh_ready_server_ms"] = median_of(fresh_runs, "ready_server_ms");
-      }
-      b->ingest[m.name] = {{"file", m.file},
-                           {"bytes", m.bytes.size()},
-                           {"plain", slot.plain},
-                           {"resumable", slot.resumable},
-                           {"cache_hit", slot.cache},
-                           {"summary", summary}};
-      auto exp = [](const std::vector<double>& runs, uint64_t bytes) {
-        json j = ms::bench::RunsSummary(runs);
-        j["bytes"] = bytes;
-        j["MBps"] = MBps(bytes, Median(runs));
-        return j;
-      };
-      b->exports[m.name] = {{"progressive_glb", exp(slot.progressive, slot.progressive_bytes)},
-                            {"glb_first", exp(slot.glb_first, slot.glb_bytes)},
-                            {"glb_cached", exp(slot.glb_cached, slot.glb_bytes)},
-                            {"distinct_artifacts", slot.artifacts.size()}};
+// What one backend measured of one model, over its ingests.
+struct Slot {
+  json plain = json::array(), resumable = json::array(), cache = json::array();
+  std::vector<double> progressive, glb_first, glb_cached;
+  uint64_t progressive_bytes = 0, glb_bytes = 0;
+  std::vector<std::string> artifacts;
+};
+
+// One ingest of `m` (variant k; `cache`: one the artifact cache answers;
+// `resumable`: with an upload_id) into `b`, then for a fresh version its
+// exports: the stored artifact, then .glb twice.
+void IngestOnce(Backend& b, const Model& m, int k, bool cache, bool resumable, Slot& slot) {
+  const int variant = cache ? 0 : k;
+  const auto bytes = VariantBytes(m, variant);
+  const std::string upload_id = resumable ? m.name + "-resume-" + std::to_string(k) : "";
+  const std::string what = m.file + (cache ? " cache hit" : resumable ? " resumable" : " plain") + " #" +
+                           std::to_string(k);
+  IngestRun r = IngestAndWait(b, UploadMessages(m, bytes, VariantOptions(m, variant), upload_id));
+  if (!r.ok) return Fail(b, "ingest " + what, r.error);
+  const bool reused = r.last.message().find("reused") != std::string::npos;
+  if (cache != reused) {
+    return Fail(b, "ingest " + what,
+                std::string(cache ? "the artifact cache did not answer" : "the artifact cache answered a fresh "
+                                                                          "variant") +
+                    " (job message: " + r.last.message() + ")");
+  }
+  (cache ? slot.cache : resumable ? slot.resumable : slot.plain).push_back(RunJson(r, variant, bytes.size()));
+  if (cache) return;
+  const int64_t version = r.response.version();
+  ExportTiming p = TimeExport(b, m.name, version, v1::FORMAT_PROGRESSIVE_GLB);
+  if (!p.ok) return Fail(b, "export " + what, p.error);
+  if (std::find(slot.artifacts.begin(), slot.artifacts.end(), p.sha256) != slot.artifacts.end()) {
+    return Fail(b, "export " + what, "the artifact is one of an earlier variant: its .glb export would be cached");
+  }
+  slot.artifacts.push_back(p.sha256);
+  slot.progressive.push_back(p.ms);
+  slot.progressive_bytes = p.bytes;
+  ExportTiming g1 = TimeExport(b, m.name, version, v1::FORMAT_GLB);
+  ExportTiming g2 = g1.ok ? TimeExport(b, m.name, version, v1::FORMAT_GLB) : ExportTiming{};
+  if (!g1.ok || !g2.ok) return Fail(b, "export glb " + what, g1.ok ? g2.error : g1.error);
+  if (g1.sha256 != g2.sha256) return Fail(b, "export glb " + what, "the cached .glb differs from the first");
+  slot.glb_first.push_back(g1.ms);
+  slot.glb_cached.push_back(g2.ms);
+  slot.glb_bytes = g1.bytes;
+}
+
+// A slot's medians into b.ingest[m] and b.exports[m].
+void Summarize(Backend& b, const Model& m, const Slot& slot) {
+  auto median_of = [](const json& runs, const char* key) {
+    std::vector<double> v;
+    for (const json& r : runs) v.push_back(r[key].get<double>());
+    return Median(v);
+  };
+  json fresh_runs = slot.plain;
+  for (const json& r : slot.resumable) fresh_runs.push_back(r);
+  const json summary = {
+      {"upload_ms", median_of(slot.plain, "upload_ms")},
+      {"upload_MBps", MBps(m.bytes.size(), median_of(slot.plain, "upload_ms"))},
+      {"ready_watch_ms", median_of(slot.plain, "ready_watch_ms")},
+      {"ready_server_ms", median_of(slot.plain, "ready_server_ms")},
+      {"resumable_upload_ms", median_of(slot.resumable, "upload_ms")},
+      {"resumable_upload_MBps", MBps(m.bytes.size(), median_of(slot.resumable, "upload_ms"))},
+      {"resumable_ready_watch_ms", median_of(slot.resumable, "ready_watch_ms")},
+      {"cache_upload_ms", median_of(slot.cache, "upload_ms")},
+      {"cache_ready_watch_ms", median_of(slot.cache, "ready_watch_ms")},
+      {"cache_ready_server_ms", median_of(slot.cache, "ready_server_ms")},
+      {"fresh_ready_watch_ms", median_of(fresh_runs, "ready_watch_ms")},
+      {"fresh_ready_server_ms", median_of(fresh_runs, "ready_server_ms")},
+  };
+  b.ingest[m.name] = {{"file", m.file},
+                      {"bytes", m.bytes.size()},
+                      {"plain", slot.plain},
+                      {"resumable", slot.resumable},
+                      {"cache_hit", slot.cache},
+                      {"summary", summary}};
+  auto exp = [](const std::vector<double>& runs, uint64_t bytes) {
+    json j = ms::bench::RunsSummary(runs);
+    j["bytes"] = bytes;
+    j["MBps"] = MBps(bytes, Median(runs));
+    return j;
+  };
+  b.exports[m.name] = {{"progressive_glb", exp(slot.progressive, slot.progressive_bytes)},
+                       {"glb_first", exp(slot.glb_first, slot.glb_bytes)},
+                       {"glb_cached", exp(slot.glb_cached, slot.glb_bytes)},
+                       {"distinct_artifacts", slot.artifacts.size()}};
+}
+
+// Ingest, READY and export of one model: plain, resumable, then cache-hit
+// ingests, the backends taking turns (who goes first alternates).
+void MeasureIngest(const Args& args, const Model& m, const std::vector<Backend*>& backends) {
+  std::fprintf(stderr, "meshstream_bench_service: ingest %s (%zu bytes)\n", m.file.c_str(), m.bytes.size());
+  std::map<std::string, Slot> slots;
+  const int fresh = args.repeat + args.resumable_repeat;
+  for (int k = 0; k < fresh + args.cache_repeat; ++k) {
+    const bool cache = k >= fresh;
+    const bool resumable = !cache && k >= args.repeat;
+    for (size_t i = 0; i < backends.size(); ++i) {
+      Backend& b = *backends[(i + static_cast<size_t>(k)) % backends.size()];
+      IngestOnce(b, m, k, cache, resumable, slots[b.name]);
     }
   }
+  for (Backend* b : backends) Summarize(*b, m, slots[b->name]);
+}
 
-  // Latency.
-  std::fprintf(stderr, "meshstream_bench_service: the latency asset (%d versions per backend)\n", args.versions);
-  const std::string latency_asset = "latency-spot";
-  std::map<std::string, std::string> page2;
-  for (Backend* b : backends) page2[b->name] = MakeLatencyAsset(*b, spot, latency_asset, args.versions);
-  const std::vector<LatencyTarget> targets =
-      MakeTargets(backends, echo->address(), latency_asset, args.versions, page2);
-  json latency = json::array();
-  for (int clients : args.clients) {
-    const int per_client = std::max(args.min_calls, args.calls / clients);
-    const int per_round = std::max(1, per_client / args.rounds);
-    std::vector<ms::bench::LoadResult> merged(targets.size());
-    struct Cpu {
-      double process_s = 0;
-      uint64_t busy = 0, total = 0;
-    };
-    std::vector<Cpu> cpu(targets.size());
-    for (int round = 0; round < args.rounds; ++round) {
-      for (size_t t = 0; t < targets.size(); ++t) {
-        std::fprintf(stderr, "meshstream_bench_service: %3d clients, round %d: %s %s\n", clients, round + 1,
-                     targets[t].backend.empty() ? "echo server" : targets[t].backend.c_str(),
-                     targets[t].rpc.c_str());
-        ms::bench::LoadResult r = ms::bench::RunLoad(targets[t].target, clients, per_round, 3);
-        cpu[t].process_s += r.process_cpu_s;
-        cpu[t].busy += r.machine_busy;
-        cpu[t].total += r.machine_total;
-        ms::bench::LoadResult& m = merged[t];
-        m.clients = clients;
-        m.calls_per_client += r.calls_per_client;
-        m.latencies_us.insert(m.latencies_us.end(), r.latencies_us.begin(), r.latencies_us.end());
-        m.failed += r.failed;
-        m.warmup_failed += r.warmup_failed;
-        if (m.first_error.empty()) m.first_error = r.first_error;
-        m.wall_s += r.wall_s;
-      }
-    }
+// One latency entry: a target's merged calls at `clients` clients.
+json LatencyEntry(const LatencyTarget& target, int clients, const ms::bench::LoadResult& r, double process_s,
+                  uint64_t busy, uint64_t total) {
+  json entry = ms::bench::LatencySummary(r.latencies_us);
+  entry["backend"] = target.backend.empty() ? "echo" : target.backend;
+  entry["rpc"] = target.rpc;
+  entry["clients"] = clients;
+  entry["calls_per_client"] = r.calls_per_client;
+  entry["failed"] = r.failed;
+  entry["warmup_failed"] = r.warmup_failed;
+  if (!r.first_error.empty()) entry["first_error"] = r.first_error;
+  entry["wall_s"] = r.wall_s;
+  entry["throughput_cps"] = r.wall_s > 0 ? static_cast<double>(r.latencies_us.size()) / r.wall_s : 0;
+  // CPU while the timed calls ran: the machine's busy share of its cores
+  // (every process), and this process's CPU (clients and servers) per call.
+  const double calls = static_cast<double>(r.calls_per_client) * clients;
+  entry["cpu"] = {{"machine_busy", total ? static_cast<double>(busy) / total : 0.0},
+                  {"process_s", process_s},
+                  {"process_us_per_call", calls > 0 ? process_s * 1e6 / calls : 0.0}};
+  if (r.failed > 0) {
+    std::fprintf(stderr, "meshstream_bench_service: %s %s, %d clients: %llu calls FAILED: %s\n",
+                 entry["backend"].get<std::string>().c_str(), target.rpc.c_str(), clients,
+                 static_cast<unsigned long long>(r.failed), r.first_error.c_str());
+  }
+  return entry;
+}
+
+// Every target at `clients` clients, in --rounds interleaved rounds.
+void MeasureLatencyAt(const Args& args, const std::vector<LatencyTarget>& targets, int clients, json& latency) {
+  const int per_client = std::max(args.min_calls, args.calls / clients);
+  const int per_round = std::max(1, per_client / args.rounds);
+  std::vector<ms::bench::LoadResult> merged(targets.size());
+  struct Cpu {
+    double process_s = 0;
+    uint64_t busy = 0, total = 0;
+  };
+  std::vector<Cpu> cpu(targets.size());
+  for (int round = 0; round < args.rounds; ++round) {
     for (size_t t = 0; t < targets.size(); ++t) {
-      const ms::bench::LoadResult& r = merged[t];
-      json entry = ms::bench::LatencySummary(r.latencies_us);
-      entry["backend"] = targets[t].backend.empty() ? "echo" : targets[t].backend;
-      entry["rpc"] = targets[t].rpc;
-      entry["clients"] = clients;
-      entry["calls_per_client"] = r.calls_per_client;
-      entry["failed"] = r.failed;
-      entry["warmup_failed"] = r.warmup_failed;
-      if (!r.first_error.empty()) entry["first_error"] = r.first_error;
-      entry["wall_s"] = r.wall_s;
-      entry["throughput_cps"] = r.wall_s > 0 ? static_cast<double>(r.latencies_us.size()) / r.wall_s : 0;
-      // CPU while the timed calls ran: the machine's busy share of its cores
-      // (every process), and this process's CPU (clients and servers) per call.
-      const double calls = static_cast<double>(r.calls_per_client) * clients;
-      entry["cpu"] = {{"machine_busy", cpu[t].total ? static_cast<double>(cpu[t].busy) / cpu[t].total : 0.0},
-                      {"process_s", cpu[t].process_s},
-                      {"process_us_per_call", calls > 0 ? cpu[t].process_s * 1e6 / calls : 0.0}};
-      if (r.failed > 0) {
-        std::fprintf(stderr, "meshstream_bench_service: %s %s, %d clients: %llu calls FAILED: %s\n",
-                     entry["backend"].get<std::string>().c_str(), targets[t].rpc.c_str(), clients,
-                     static_cast<unsigned long long>(r.failed), r.first_error.c_str());
-      }
-      latency.push_back(entry);
+      std::fprintf(stderr, "meshstream_bench_service: %3d clients, round %d: %s %s\n", clients, round + 1,
+                   targets[t].backend.empty() ? "echo server" : targets[t].backend.c_str(), targets[t].rpc.c_str());
+      ms::bench::LoadResult r = ms::bench::RunLoad(targets[t].target, clients, per_round, 3);
+      cpu[t].process_s += r.process_cpu_s;
+      cpu[t].busy += r.machine_busy;
+      cpu[t].total += r.machine_total;
+      ms::bench::LoadResult& m = merged[t];
+      m.clients = clients;
+      m.calls_per_client += r.calls_per_client;
+      m.latencies_us.insert(m.latencies_us.end(), r.latencies_us.begin(), r.latencies_us.end());
+      m.failed += r.failed;
+      m.warmup_failed += r.warmup_failed;
+      if (m.first_error.empty()) m.first_error = r.first_error;
+      m.wall_s += r.wall_s;
     }
   }
+  for (size_t t = 0; t < targets.size(); ++t) {
+    latency.push_back(LatencyEntry(targets[t], clients, merged[t], cpu[t].process_s, cpu[t].busy, cpu[t].total));
+  }
+}
 
-  // Ratios to the echo floor, at each client count.
+// Ratios to the echo floor, at each client count.
+json RatiosToEcho(const Args& args, const json& latency) {
   json ratios = json::array();
   for (int clients : args.clients) {
     const json* floor = nullptr;
@@ -1028,8 +948,11 @@ int main(int argc, char** argv) {
                          e["throughput_cps"].get<double>() / (*floor)["throughput_cps"].get<double>()}});
     }
   }
+  return ratios;
+}
 
-  // What the stores hold afterwards.
+// What the stores hold afterwards, into backends_info.
+void AddStoreSizes(const std::vector<Backend*>& backends, json& backends_info) {
   for (Backend* b : backends) {
     if (b->pg) {
       backends_info[b->name]["blob_chunks"] = {
@@ -1042,6 +965,46 @@ int main(int argc, char** argv) {
       backends_info[b->name]["store_bytes"] = FirstLineOf("du -sb " + ShellQuote(b->folder) + " | cut -f1");
     }
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_bench_service");
+  const Args args = ParseArgs(argc, argv);
+  const auto run_start = Clock::now();
+  json out;
+  out["benchmark"] = "meshstream_bench_service";
+  out["machine"] = MachineInfo(args);
+  const std::vector<Model> models = LoadModels(args);
+  const Model spot = LoadModel(args.models_dir, "spot.obj");
+
+  // Servers: the echo floor and one meshstream server per backend.
+  auto echo = Check(ms::bench::EchoServer::Start(), "echo server");
+  std::vector<std::unique_ptr<Backend>> owned;
+  std::vector<Backend*> backends;
+  for (const std::string& name : args.backends) {
+    owned.push_back(std::make_unique<Backend>());
+    owned.back()->name = name;
+    std::fprintf(stderr, "meshstream_bench_service: starting the %s server\n", name.c_str());
+    StartBackend(*owned.back(), args);
+    backends.push_back(owned.back().get());
+  }
+  json backends_info = BackendsInfo(backends, args);
+  out["settings"] = SettingsJson(args, models);
+  WarmUp(backends, spot);
+  out["references"] = References(args, models, backends, echo->address());
+  for (const Model& m : models) MeasureIngest(args, m, backends);
+
+  // Latency.
+  std::fprintf(stderr, "meshstream_bench_service: the latency asset (%d versions per backend)\n", args.versions);
+  const std::string latency_asset = "latency-spot";
+  std::map<std::string, std::string> page2;
+  for (Backend* b : backends) page2[b->name] = MakeLatencyAsset(*b, spot, latency_asset, args.versions);
+  const std::vector<LatencyTarget> targets = MakeTargets(backends, echo->address(), latency_asset, args.versions, page2);
+  json latency = json::array();
+  for (int clients : args.clients) MeasureLatencyAt(args, targets, clients, latency);
+  AddStoreSizes(backends, backends_info);
 
   json backend_results = json::array();
   uint64_t failures = 0;
@@ -1055,22 +1018,16 @@ int main(int argc, char** argv) {
   }
   uint64_t failed_calls = 0;
   for (const json& e : latency) failed_calls += e["failed"].get<uint64_t>() + e["warmup_failed"].get<uint64_t>();
-  out["references"] = references;
   out["backends"] = backend_results;
   out["latency"] = latency;
-  out["ratios"] = ratios;
+  out["ratios"] = RatiosToEcho(args, latency);
   out["failures"] = {{"ingest_and_export", failures}, {"latency_calls", failed_calls}};
   out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
   out["machine"]["run_seconds"] = Ms(run_start, Clock::now()) / 1000;
 
   for (auto& b : owned) StopBackend(*b);
   echo.reset();
-
-  const fs::path out_path(args.out);
-  if (out_path.has_parent_path()) fs::create_directories(out_path.parent_path());
-  std::ofstream f(args.out);
-  f << out.dump(1) << "\n";
-  if (!f) Die(args.out + ": cannot write");
+  ms::bench::WriteJson(args.out, out);
   std::fprintf(stderr, "meshstream_bench_service: wrote %s in %.0f s (%llu failed ingests or exports, %llu failed "
                        "calls)\n",
                args.out.c_str(), out["machine"]["run_seconds"].get<double>(),
