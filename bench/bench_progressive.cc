@@ -44,6 +44,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/options.h"
 #include "codec/metrics/hausdorff.h"
 #include "codec/mesh/mesh.h"
 #include "codec/progressive/encoder.h"
@@ -66,28 +67,14 @@ using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
 using ms::bench::ParseDouble;
-using ms::bench::ParseInt;
 using ms::bench::Primitives;
 using ms::bench::ShellQuote;
 using ms::bench::SplitList;
 using ms::bench::Stem;
 
-const char kHelp[] =
-    "usage: meshstream_bench [--models DIR] [--model NAME]... [--qp 11,14] [--repeat 5] [--decode-repeat 15]\n"
-    "                        [--out FILE] [--threads N] [--samples N] [--ratios LIST]\n"
-    "                        [--gltfpack PATH | --no-gltfpack] [--no-distortion]\n"
-    "\n"
+const char kAbout[] =
     "Benchmarks meshstream against Draco (same binary, same quantization, same run) and\n"
-    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n"
-    "  --models DIR      folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
-    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
-    "  --qp LIST         position bits, comma-separated (default 11,14)\n"
-    "  --qn N --qt N     normal and texture coordinate bits (default 8 and 10, both codecs)\n"
-    "  --repeat N        in-process encode runs; the median is reported (default 5)\n"
-    "  --decode-repeat N in-process decode runs, after one warm-up (default 15)\n"
-    "  --threads N       threads for the (untimed) distance computations (default: nproc)\n"
-    "  --samples N       Hausdorff samples per side (default 200000)\n"
-    "  --ratios LIST     gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)\n";
+    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n";
 
 // ---------------------------------------------------------------- utilities
 
@@ -110,47 +97,29 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
-    if (f == "--models") {
-      a.models_dir = next();
-    } else if (f == "--model") {
-      a.only.push_back(next());
-    } else if (f == "--qp") {
-      a.qps.clear();
-      for (const auto& s : SplitList(next())) a.qps.push_back(static_cast<int>(ParseInt(s, f, 1, 30)));
-      if (a.qps.empty()) Die("--qp: empty list");
-    } else if (f == "--qn") {
-      a.qn = static_cast<int>(ParseInt(next(), f, 2, 15));
-    } else if (f == "--qt") {
-      a.qt = static_cast<int>(ParseInt(next(), f, 1, 30));
-    } else if (f == "--repeat") {
-      a.repeat = static_cast<int>(ParseInt(next(), f, 1, 1000));
-    } else if (f == "--decode-repeat") {
-      a.decode_repeat = static_cast<int>(ParseInt(next(), f, 1, 10000));
-    } else if (f == "--out") {
-      a.out = next();
-    } else if (f == "--threads") {
-      a.threads = static_cast<unsigned>(ParseInt(next(), f, 1, 256));
-    } else if (f == "--samples") {
-      a.samples = ParseInt(next(), f, 0, 100000000);
-    } else if (f == "--ratios") {
-      a.ratios.clear();
-      for (const auto& s : SplitList(next())) {
-        const double r = ParseDouble(s, f);
-        if (r <= 0 || r > 1) Die("--ratios: each ratio must be in (0, 1]");
-        a.ratios.push_back(r);
-      }
-    } else if (f == "--gltfpack") {
-      a.gltfpack = next();
-    } else if (f == "--no-gltfpack") {
-      a.use_gltfpack = false;
-    } else if (f == "--no-distortion") {
-      a.distortion = false;
-    } else {
-      return false;
+  ms::bench::Options o("meshstream_bench", kAbout);
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  o.IntList("--qp", "LIST", &a.qps, 1, 30, "position bits, comma-separated (default 11,14)");
+  o.Int("--qn", "N", &a.qn, 2, 15, "normal bits (default 8, both codecs)");
+  o.Int("--qt", "N", &a.qt, 1, 30, "texture coordinate bits (default 10, both codecs)");
+  o.Int("--repeat", "N", &a.repeat, 1, 1000, "in-process encode runs; the median is reported (default 5)");
+  o.Int("--decode-repeat", "N", &a.decode_repeat, 1, 10000, "in-process decode runs, after one warm-up (default 15)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/results.json)");
+  o.Unsigned("--threads", "N", &a.threads, 1, 256, "threads for the (untimed) distance computations (default: nproc)");
+  o.Int64("--samples", "N", &a.samples, 0, 100000000, "Hausdorff samples per side (default 200000)");
+  o.Custom("--ratios", "LIST", [&a](const std::string& v) {
+    a.ratios.clear();
+    for (const auto& s : SplitList(v)) {
+      const double r = ParseDouble(s, "--ratios");
+      if (r <= 0 || r > 1) Die("--ratios: each ratio must be in (0, 1]");
+      a.ratios.push_back(r);
     }
-    return true;
-  });
+  }, "gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)");
+  o.String("--gltfpack", "PATH", &a.gltfpack, "the gltfpack to run (default: gltfpack on the PATH)");
+  o.Action("--no-gltfpack", [&a] { a.use_gltfpack = false; }, "no gltfpack LODs");
+  o.Action("--no-distortion", [&a] { a.distortion = false; }, "no distances (the rate-distortion curve without them)");
+  o.Parse(argc, argv);
   if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
   return a;
 }

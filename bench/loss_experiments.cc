@@ -44,6 +44,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/options.h"
 #include "codec/metrics/hausdorff.h"
 #include "codec/metrics/laplacian.h"
 #include "codec/loss/lossy_decode.h"
@@ -65,28 +66,11 @@ using ms::bench::Die;
 using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
-using ms::bench::ParseInt;
 using ms::bench::Stem;
 
-const char kHelp[] =
-    "usage: meshstream_loss_bench [--out FILE] [--model NAME]... [--seeds N] [--quick]\n"
-    "                             [--models DIR] [--threads N] [--samples N] [--repeat N]\n"
-    "                             [--level-seeds N] [--small-seeds N] [--base-ratio F]\n"
-    "\n"
+const char kAbout[] =
     "The loss experiments of the paper with this codec (docs/loss-results.md); writes one\n"
-    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n"
-    "  --out FILE        output JSON\n"
-    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
-    "  --seeds N         seeds per cell for bunny and horse (default 20)\n"
-    "  --small-seeds N   seeds per cell for fandisk, rocker-arm, spot (default 10)\n"
-    "  --level-seeds N   seeds of the per-level subset (default 3)\n"
-    "  --repeat N        timed decodes per loss level, after one warm-up (default 7)\n"
-    "  --threads N       threads for the untimed decodes and metrics (default 2)\n"
-    "  --samples N       Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
-    "                    and face centroid, see codec/metrics/hausdorff.h)\n"
-    "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n"
-    "  --base-ratio F    simplify down to F of the vertices (default: the encoder's, 0.02;\n"
-    "                    0.14 is close to the paper's base, see docs/loss-results.md)\n";
+    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -105,38 +89,25 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& value) {
-    if (f == "--out") {
-      a.out = value();
-    } else if (f == "--models") {
-      a.models_dir = value();
-    } else if (f == "--model") {
-      a.only.push_back(value());
-    } else if (f == "--seeds") {
-      a.seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
-    } else if (f == "--small-seeds") {
-      a.small_seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
-    } else if (f == "--level-seeds") {
-      a.level_seeds = static_cast<int>(ParseInt(value(), f, 0, 10000));
-    } else if (f == "--repeat") {
-      a.repeat = static_cast<int>(ParseInt(value(), f, 1, 1000));
-    } else if (f == "--threads") {
-      a.threads = static_cast<unsigned>(ParseInt(value(), f, 1, 64));
-    } else if (f == "--samples") {
-      a.samples = ParseInt(value(), f, 0, 100000000);
-    } else if (f == "--quick") {
-      a.quick = true;
-    } else if (f == "--reliable-share") {
-      a.reliable_share = ms::bench::ParseDouble(value(), f);
-      if (a.reliable_share < 0 || a.reliable_share > 1) ms::bench::Die("--reliable-share: expected a number in [0, 1]");
-    } else if (f == "--base-ratio") {
-      a.base_ratio = ms::bench::ParseDouble(value(), f);
-      if (a.base_ratio <= 0 || a.base_ratio > 1) ms::bench::Die("--base-ratio: expected a number in (0, 1]");
-    } else {
-      return false;
-    }
-    return true;
-  });
+  ms::bench::Options o("meshstream_loss_bench", kAbout);
+  o.String("--out", "FILE", &a.out, "output JSON");
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  o.Int("--seeds", "N", &a.seeds, 1, 10000, "seeds per cell for bunny and horse (default 20)");
+  o.Int("--small-seeds", "N", &a.small_seeds, 1, 10000, "seeds per cell for fandisk, rocker-arm, spot (default 10)");
+  o.Int("--level-seeds", "N", &a.level_seeds, 0, 10000, "seeds of the per-level subset (default 3)");
+  o.Int("--repeat", "N", &a.repeat, 1, 1000, "timed decodes per loss level, after one warm-up (default 7)");
+  o.Unsigned("--threads", "N", &a.threads, 1, 64, "threads for the untimed decodes and metrics (default 2)");
+  o.Int64("--samples", "N", &a.samples, 0, 100000000,
+          "Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
+          "and face centroid, see codec/metrics/hausdorff.h)");
+  o.Flag("--quick", &a.quick, "a tiny run for smoke testing (spot unless --model; 2 seeds)");
+  o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
+           "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
+           "0.14 is close to the paper's base, see docs/loss-results.md)", true);
+  o.Double("--reliable-share", "F", &a.reliable_share, 0, 1,
+           "the share of the datagram bytes the reliable cut may take (default 0.10)");
+  o.Parse(argc, argv);
   return a;
 }
 

@@ -86,6 +86,14 @@ Options& Options::Custom(const std::string& name, const std::string& value,
   return Add({name, value, help, false, std::move(on)});
 }
 
+Options& Options::CustomN(const std::string& name, const std::string& values, int count,
+                          std::function<void(const std::vector<std::string>&)> on, const std::string& help) {
+  Entry e{name, values, help, false, nullptr};
+  e.count = count;
+  e.on_n = std::move(on);
+  return Add(std::move(e));
+}
+
 Options& Options::Section(const std::string& title) { return Add({"", "", title, false, nullptr}); }
 
 void Options::Parse(int argc, char** argv) {
@@ -100,12 +108,21 @@ void Options::Parse(int argc, char** argv) {
       if (!e.name.empty() && e.name == f) entry = &e;
     }
     if (entry == nullptr) Die("unknown option " + f + " (see --help)");
-    std::string value;
-    if (!entry->value.empty()) {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      value = argv[++i];
+    if (entry->on_n) {
+      std::vector<std::string> values;
+      for (int k = 0; k < entry->count; ++k) {
+        if (i + 1 >= argc) Die(f + " needs " + std::to_string(entry->count) + " values (" + entry->value + ")");
+        values.push_back(argv[++i]);
+      }
+      entry->on_n(values);
+    } else {
+      std::string value;
+      if (!entry->value.empty()) {
+        if (i + 1 >= argc) Die(f + " needs a value");
+        value = argv[++i];
+      }
+      entry->on(value);
     }
-    entry->on(value);
     given_.insert(f);
   }
 }

@@ -21,6 +21,7 @@
 #include <functional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace meshstream::bench {
@@ -55,6 +56,10 @@ class Options {
   // Any other value: `on` receives it (and may Die).
   Options& Custom(const std::string& name, const std::string& value, std::function<void(const std::string&)> on,
                   const std::string& help);
+  // An option of `count` values (named `values`, e.g. "MODEL SEC"): `on`
+  // receives them in order.
+  Options& CustomN(const std::string& name, const std::string& values, int count,
+                   std::function<void(const std::vector<std::string>&)> on, const std::string& help);
   // A heading in the help, before the options that follow.
   Options& Section(const std::string& title);
 
@@ -68,11 +73,18 @@ class Options {
 
  private:
   struct Entry {
+    Entry() = default;
+    Entry(std::string name_, std::string value_, std::string help_, bool repeatable_,
+          std::function<void(const std::string&)> on_)
+        : name(std::move(name_)), value(std::move(value_)), help(std::move(help_)), repeatable(repeatable_),
+          on(std::move(on_)) {}
     std::string name;   // "" for a section heading
     std::string value;  // "" for a flag
     std::string help;
     bool repeatable = false;
-    std::function<void(const std::string&)> on;
+    std::function<void(const std::string&)> on;  // one value ("" for a flag)
+    int count = 1;                                // values; when more than one, on_n takes them
+    std::function<void(const std::vector<std::string>&)> on_n;
   };
   Options& Add(Entry e);
 
