@@ -92,17 +92,23 @@ std::vector<v1::IngestRequest> IngestMessages(const Upload& upload) {
   return messages;
 }
 
-AssetApi::AssetApi(const std::string& address) : client_(std::make_unique<test_util::AssetClient>(address)) {}
+// The client library behind AssetApi: testing/asset_client.h today.
+class AssetApi::Impl : public test_util::AssetClient {
+ public:
+  using test_util::AssetClient::AssetClient;
+};
+
+AssetApi::AssetApi(const std::string& address) : impl_(std::make_unique<Impl>(address)) {}
 
 AssetApi::~AssetApi() = default;
 
 bool AssetApi::WaitForConnected(std::chrono::system_clock::time_point deadline) {
-  return client_->channel()->WaitForConnected(deadline);
+  return impl_->channel()->WaitForConnected(deadline);
 }
 
 StatusOr<v1::IngestResponse> AssetApi::Ingest(const std::vector<v1::IngestRequest>& messages) {
   v1::IngestResponse response;
-  const grpc::Status s = client_->IngestRaw(messages, &response);
+  const grpc::Status s = impl_->IngestRaw(messages, &response);
   if (!s.ok()) return FromGrpcStatus(s);
   return response;
 }
@@ -110,10 +116,10 @@ StatusOr<v1::IngestResponse> AssetApi::Ingest(const std::vector<v1::IngestReques
 StatusOr<v1::Job> AssetApi::Watch(const std::string& job_id, const std::function<void(const v1::Job&)>& on_job,
                                   double timeout_s) {
   grpc::ClientContext context;
-  client_->Prepare(context, timeout_s);
+  impl_->Prepare(context, timeout_s);
   v1::GetJobRequest request;
   request.set_job_id(job_id);
-  auto reader = client_->stub().WatchJob(&context, request);
+  auto reader = impl_->stub().WatchJob(&context, request);
   v1::Job job, last;
   bool seen = false;
   while (reader->Read(&job)) {
@@ -129,7 +135,7 @@ StatusOr<v1::Job> AssetApi::Watch(const std::string& job_id, const std::function
 
 StatusOr<v1::Version> AssetApi::GetVersion(const std::string& asset, int64_t version) {
   v1::Version out;
-  const grpc::Status s = client_->GetVersion(asset, version, &out);
+  const grpc::Status s = impl_->GetVersion(asset, version, &out);
   if (!s.ok()) return FromGrpcStatus(s);
   return out;
 }
@@ -137,19 +143,19 @@ StatusOr<v1::Version> AssetApi::GetVersion(const std::string& asset, int64_t ver
 StatusOr<v1::ListVersionsResponse> AssetApi::ListVersions(const std::string& asset, int32_t page_size,
                                                           const std::string& page_token) {
   grpc::ClientContext context;
-  client_->Prepare(context);
+  impl_->Prepare(context);
   v1::ListVersionsRequest r;
   r.set_asset(asset);
   r.set_page_size(page_size);
   r.set_page_token(page_token);
   v1::ListVersionsResponse page;
-  const grpc::Status s = client_->stub().ListVersions(&context, r, &page);
+  const grpc::Status s = impl_->stub().ListVersions(&context, r, &page);
   if (!s.ok()) return FromGrpcStatus(s);
   return page;
 }
 
 StatusOr<AssetApi::Exported> AssetApi::Export(const std::string& asset, int64_t version, v1::Format format) {
-  test_util::AssetClient::Exported e = client_->Export(asset, version, format);
+  test_util::AssetClient::Exported e = impl_->Export(asset, version, format);
   if (!e.status.ok()) return FromGrpcStatus(e.status);
   return Exported{std::move(e.bytes), std::move(e.sha256)};
 }

@@ -29,10 +29,6 @@
 #include "meshstream/v1/asset_service.pb.h"
 #include "services/server/server.h"
 
-namespace meshstream::test_util {
-class AssetClient;
-}  // namespace meshstream::test_util
-
 namespace meshstream::bench {
 
 // ------------------------------------------------------------- the server
@@ -113,7 +109,8 @@ class AssetApi {
   StatusOr<Exported> Export(const std::string& asset, int64_t version, v1::Format format);
 
  private:
-  std::unique_ptr<test_util::AssetClient> client_;
+  class Impl;  // the client library's client (harness.cc)
+  std::unique_ptr<Impl> impl_;
 };
 
 // Ingests `bytes` as `asset` (named `file` in the upload), follows the job

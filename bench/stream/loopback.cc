@@ -282,7 +282,13 @@ uint64_t MeasureRows(const Args& args, const std::string& address, const Model& 
   int rounds = std::max(args.min_rounds, (args.samples + n - 1) / n);
   if (n >= 100 && IsLargest(m)) rounds = args.largest_rounds_at_100;
   std::map<Kind, Row> by_kind;
-  for (Kind k : {Kind::kUdp, Kind::kTcp, Kind::kDraco}) by_kind[k] = Row{m.name, k, n, rounds};
+  for (Kind k : {Kind::kUdp, Kind::kTcp, Kind::kDraco}) {
+    Row& row = by_kind[k];
+    row.model = m.name;
+    row.kind = k;
+    row.concurrency = n;
+    row.rounds = rounds;
+  }
   for (int round = 0; round < rounds; ++round) {
     for (Kind k : {Kind::kUdp, Kind::kTcp, Kind::kDraco}) {
       std::fprintf(stderr, "meshstream_bench_stream: %s, %3d concurrent, round %d/%d: %s\n", m.name.c_str(), n,
