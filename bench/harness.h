@@ -1,4 +1,4 @@
-// What the service and stream benchmarks (bench_service.cc, bench/stream/)
+// What the service and stream benchmarks (bench/service/, bench/stream/)
 // share: a meshstream server in this process on a temporary store, the asset
 // API as a benchmark drives it (ingest, watch, versions, export), the
 // machine's facts, and the JSON written at the end. The option table is
