@@ -30,6 +30,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/options.h"
 #include "importers/draco_codec.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
@@ -44,25 +45,13 @@ using ms::bench::Die;
 using ms::bench::Median;
 using ms::bench::Ms;
 using ms::bench::ParseDouble;
-using ms::bench::ParseInt;
 using ms::bench::Primitives;
 using ms::bench::Stem;
 
-const char kHelp[] =
-    "usage: meshstream_bench_decode [--models DIR] [--model NAME]... [--qp 11] [--rounds 30] [--json FILE]\n"
-    "       meshstream_bench_decode [--models DIR] [--qp 11] [--lod N] --loop MODEL SECONDS\n"
-    "\n"
+const char kAbout[] =
     "Times DecodeProgressiveGlb (all levels, and the base alone) against Draco's decode of the\n"
     "whole mesh (compression level 7, same quantization), interleaved round by round after one\n"
-    "warm-up round, and prints the medians and the ratios.\n"
-    "  --models DIR      folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
-    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
-    "                    (default: stanford-bunny, horse, fandisk, rocker-arm, spot)\n"
-    "  --qp N            position bits of both codecs (default 11; normals 8, texcoords 10)\n"
-    "  --rounds N        timed rounds (default 30)\n"
-    "  --json FILE       also write the medians and ratios as JSON\n"
-    "  --loop MODEL SEC  only decode MODEL (all levels) in a loop for SEC seconds (for perf)\n"
-    "  --lod N           with --loop: decode N levels (0: the base alone; default -1: all)\n";
+    "warm-up round, and prints the medians and the ratios. With --loop: only decodes MODEL.\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -77,28 +66,21 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
-    if (f == "--models") {
-      a.models_dir = next();
-    } else if (f == "--model") {
-      a.only.push_back(next());
-    } else if (f == "--qp") {
-      a.qp = static_cast<int>(ParseInt(next(), f, 1, 30));
-    } else if (f == "--rounds") {
-      a.rounds = static_cast<int>(ParseInt(next(), f, 1, 100000));
-    } else if (f == "--json") {
-      a.json_out = next();
-    } else if (f == "--lod") {
-      a.loop_lod = static_cast<int>(ParseInt(next(), f, -1, 1 << 20));
-    } else if (f == "--loop") {
-      a.loop_model = next();
-      a.loop_seconds = ParseDouble(next(), f);
-      if (a.loop_seconds <= 0) Die("--loop: SECONDS must be positive");
-    } else {
-      return false;
-    }
-    return true;
-  });
+  ms::bench::Options o("meshstream_bench_decode", kAbout);
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only,
+           "only this model (file name, with or without extension); repeatable\n"
+           "(default: stanford-bunny, horse, fandisk, rocker-arm, spot)");
+  o.Int("--qp", "N", &a.qp, 1, 30, "position bits of both codecs (default 11; normals 8, texcoords 10)");
+  o.Int("--rounds", "N", &a.rounds, 1, 100000, "timed rounds (default 30)");
+  o.String("--json", "FILE", &a.json_out, "also write the medians and ratios as JSON");
+  o.CustomN("--loop", "MODEL SEC", 2, [&a](const std::vector<std::string>& v) {
+    a.loop_model = v[0];
+    a.loop_seconds = ParseDouble(v[1], "--loop");
+    if (a.loop_seconds <= 0) Die("--loop: SECONDS must be positive");
+  }, "only decode MODEL (all levels) in a loop for SEC seconds (for perf)");
+  o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
+  o.Parse(argc, argv);
   return a;
 }
 

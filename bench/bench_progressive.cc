@@ -44,6 +44,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/options.h"
 #include "codec/metrics/hausdorff.h"
 #include "codec/mesh/mesh.h"
 #include "codec/progressive/encoder.h"
@@ -66,28 +67,14 @@ using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
 using ms::bench::ParseDouble;
-using ms::bench::ParseInt;
 using ms::bench::Primitives;
 using ms::bench::ShellQuote;
 using ms::bench::SplitList;
 using ms::bench::Stem;
 
-const char kHelp[] =
-    "usage: meshstream_bench [--models DIR] [--model NAME]... [--qp 11,14] [--repeat 5] [--decode-repeat 15]\n"
-    "                        [--out FILE] [--threads N] [--samples N] [--ratios LIST]\n"
-    "                        [--gltfpack PATH | --no-gltfpack] [--no-distortion]\n"
-    "\n"
+const char kAbout[] =
     "Benchmarks meshstream against Draco (same binary, same quantization, same run) and\n"
-    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n"
-    "  --models DIR      folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)\n"
-    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
-    "  --qp LIST         position bits, comma-separated (default 11,14)\n"
-    "  --qn N --qt N     normal and texture coordinate bits (default 8 and 10, both codecs)\n"
-    "  --repeat N        in-process encode runs; the median is reported (default 5)\n"
-    "  --decode-repeat N in-process decode runs, after one warm-up (default 15)\n"
-    "  --threads N       threads for the (untimed) distance computations (default: nproc)\n"
-    "  --samples N       Hausdorff samples per side (default 200000)\n"
-    "  --ratios LIST     gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)\n";
+    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n";
 
 // ---------------------------------------------------------------- utilities
 
@@ -110,47 +97,29 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& next) {
-    if (f == "--models") {
-      a.models_dir = next();
-    } else if (f == "--model") {
-      a.only.push_back(next());
-    } else if (f == "--qp") {
-      a.qps.clear();
-      for (const auto& s : SplitList(next())) a.qps.push_back(static_cast<int>(ParseInt(s, f, 1, 30)));
-      if (a.qps.empty()) Die("--qp: empty list");
-    } else if (f == "--qn") {
-      a.qn = static_cast<int>(ParseInt(next(), f, 2, 15));
-    } else if (f == "--qt") {
-      a.qt = static_cast<int>(ParseInt(next(), f, 1, 30));
-    } else if (f == "--repeat") {
-      a.repeat = static_cast<int>(ParseInt(next(), f, 1, 1000));
-    } else if (f == "--decode-repeat") {
-      a.decode_repeat = static_cast<int>(ParseInt(next(), f, 1, 10000));
-    } else if (f == "--out") {
-      a.out = next();
-    } else if (f == "--threads") {
-      a.threads = static_cast<unsigned>(ParseInt(next(), f, 1, 256));
-    } else if (f == "--samples") {
-      a.samples = ParseInt(next(), f, 0, 100000000);
-    } else if (f == "--ratios") {
-      a.ratios.clear();
-      for (const auto& s : SplitList(next())) {
-        const double r = ParseDouble(s, f);
-        if (r <= 0 || r > 1) Die("--ratios: each ratio must be in (0, 1]");
-        a.ratios.push_back(r);
-      }
-    } else if (f == "--gltfpack") {
-      a.gltfpack = next();
-    } else if (f == "--no-gltfpack") {
-      a.use_gltfpack = false;
-    } else if (f == "--no-distortion") {
-      a.distortion = false;
-    } else {
-      return false;
+  ms::bench::Options o("meshstream_bench", kAbout);
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  o.IntList("--qp", "LIST", &a.qps, 1, 30, "position bits, comma-separated (default 11,14)");
+  o.Int("--qn", "N", &a.qn, 2, 15, "normal bits (default 8, both codecs)");
+  o.Int("--qt", "N", &a.qt, 1, 30, "texture coordinate bits (default 10, both codecs)");
+  o.Int("--repeat", "N", &a.repeat, 1, 1000, "in-process encode runs; the median is reported (default 5)");
+  o.Int("--decode-repeat", "N", &a.decode_repeat, 1, 10000, "in-process decode runs, after one warm-up (default 15)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/results.json)");
+  o.Unsigned("--threads", "N", &a.threads, 1, 256, "threads for the (untimed) distance computations (default: nproc)");
+  o.Int64("--samples", "N", &a.samples, 0, 100000000, "Hausdorff samples per side (default 200000)");
+  o.Custom("--ratios", "LIST", [&a](const std::string& v) {
+    a.ratios.clear();
+    for (const auto& s : SplitList(v)) {
+      const double r = ParseDouble(s, "--ratios");
+      if (r <= 0 || r > 1) Die("--ratios: each ratio must be in (0, 1]");
+      a.ratios.push_back(r);
     }
-    return true;
-  });
+  }, "gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)");
+  o.String("--gltfpack", "PATH", &a.gltfpack, "the gltfpack to run (default: gltfpack on the PATH)");
+  o.Action("--no-gltfpack", [&a] { a.use_gltfpack = false; }, "no gltfpack LODs");
+  o.Action("--no-distortion", [&a] { a.distortion = false; }, "no distances (the rate-distortion curve without them)");
+  o.Parse(argc, argv);
   if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
   return a;
 }
@@ -599,12 +568,8 @@ struct WorkDir {
   }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  ms::bench::SetProgramName("meshstream_bench");
-  const Args args = ParseArgs(argc, argv);
-  const auto bench_start = Clock::now();
+// The shared models --model names (all five without it).
+std::vector<std::string> ChooseFiles(const Args& args) {
   const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
   std::vector<std::string> chosen;
   for (const auto& f : files) {
@@ -614,17 +579,11 @@ int main(int argc, char** argv) {
     }
   }
   if (chosen.empty()) Die("no model matches --model");
-  bool gltfpack_ok = args.use_gltfpack;
-  if (gltfpack_ok && Run(ShellQuote(args.gltfpack) + " -h >/dev/null 2>&1") < 0) {
-    std::fprintf(stderr, "meshstream_bench: %s not found; skipping the gltfpack LODs\n", args.gltfpack.c_str());
-    gltfpack_ok = false;
-  }
-  WorkDir work;
+  return chosen;
+}
 
-  json out;
-  out["schema"] = "meshstream-bench/1";
-  out["machine"] = MachineInfo(args);
-  out["settings"] = {
+json SettingsJson(const Args& args) {
+  return {
       {"qps", args.qps},
       {"qn", args.qn},
       {"qt", args.qt},
@@ -644,205 +603,203 @@ int main(int argc, char** argv) {
                  "after one untimed warm-up round, every decoder of a model and qp interleaved in each round so "
                  "that all see the same machine load; nothing else runs in the process meanwhile"},
   };
-  out["models"] = json::array();
+}
 
-  std::vector<DistanceJob> jobs;
-  // Every slot a job writes to must stay put: build the whole JSON tree first,
-  // then take pointers. Simpler: keep per-run JSON objects in stable storage.
-  std::vector<std::unique_ptr<json>> run_objects;
-  std::vector<std::pair<size_t, size_t>> run_owner;  // (model index, run index)
+// Every decoder of one model and qp, interleaved run by run; their times
+// into the meshstream runs' JSON and into *draco7, *draco10 (copies of the
+// Draco runs' JSON).
+void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundled, const DracoRun& d7run,
+                  const DracoRun& d10run, const std::string& label, json* draco7, json* draco10) {
+  ms::ProgressiveDecodeOptions all_levels, base_only;
+  base_only.lod = 0;  // the base alone: what a viewer waits for before the first mesh
+  auto progressive = [&label](const MeshstreamRun& m, const ms::ProgressiveDecodeOptions& o) {
+    return [&m, &o, &label]() {
+      auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
+      if (!s.ok()) Die(label + ": DecodeProgressiveGlb: " + s.status().ToString());
+    };
+  };
+  std::vector<Decoder> decoders = {
+      {"split", progressive(split, all_levels), {}},
+      {"bundled", progressive(bundled, all_levels), {}},
+      {"split_base", progressive(split, base_only), {}},
+      {"draco7", [&]() { DracoDecode(d7run, label); }, {}},
+      {"draco10", [&]() { DracoDecode(d10run, label); }, {}},
+      {"draco7_primitive", [&]() { DracoDecodeToPrimitive(d7run, label); }, {}},
+      {"draco10_primitive", [&]() { DracoDecodeToPrimitive(d10run, label); }, {}},
+  };
+  DecodeTimings(decoders, decode_repeat);
+  auto times = [&decoders](const std::string& name) -> const std::vector<double>& {
+    for (const auto& d : decoders)
+      if (d.name == name) return d.times;
+    Die("no decoder " + name);
+  };
+  for (auto* m : {&split, &bundled}) {
+    const std::vector<double>& t = times(m == &split ? "split" : "bundled");
+    m->j["decode"] = Timing(t);
+    m->j["decode_ms"] = Median(t);
+  }
+  split.j["decode_base"] = Timing(times("split_base"));
+  split.j["decode_base_ms"] = Median(times("split_base"));
+  bundled.j["decode_base_ms"] = nullptr;
+  *draco7 = d7run.j;
+  *draco10 = d10run.j;
+  for (auto [d, n] : {std::pair<json*, const char*>{draco7, "draco7"}, {draco10, "draco10"}}) {
+    (*d)["decode"] = Timing(times(n));
+    (*d)["decode_ms"] = Median(times(n));
+    (*d)["decode_to_primitive"] = Timing(times(std::string(n) + "_primitive"));
+    (*d)["decode_to_primitive_ms"] = Median(times(std::string(n) + "_primitive"));
+  }
+  std::fprintf(stderr, "  decode (median ms): meshstream split %.1f, bundled %.1f, base only %.2f; draco cl7 %.1f, cl10 %.1f\n",
+               Median(times("split")), Median(times("bundled")), Median(times("split_base")),
+               Median(times("draco7")), Median(times("draco10")));
+}
 
-  for (size_t mi = 0; mi < chosen.size(); ++mi) {
-    const std::string path = args.models_dir + "/" + chosen[mi];
-    const std::string name = Stem(chosen[mi]);
-    std::fprintf(stderr, "%s\n", name.c_str());
-    const ms::Scene scene = Check(ms::ImportFile(path), path);
-    const auto prims = Primitives(scene);
-    if (prims.empty()) Die(path + ": no triangles");
-    std::vector<std::string> attributes = prims[0]->AttributeNames();
-    json model = {{"name", name},
-                  {"file", chosen[mi]},
-                  {"source_vertices", scene.source_vertices},
-                  {"primitives", prims.size()},
-                  {"attributes", attributes},
-                  {"runs", json::array()}};
+// meshstream's sizes and times against Draco's.
+json RatiosJson(const json& m, const json& draco7, const json& draco10) {
+  const double d7 = draco7["bytes"].get<double>(), d10 = draco10["bytes"].get<double>();
+  const double dd7 = draco7["decode_ms"].get<double>(), dd10 = draco10["decode_ms"].get<double>();
+  const double de7 = draco7["encode_ms"].get<double>();
+  return json{{"total_vs_draco_cl7", m["total_bytes"].get<double>() / d7},
+              {"total_vs_draco_cl10", m["total_bytes"].get<double>() / d10},
+              {"file_vs_draco_cl7", m["file_bytes"].get<double>() / d7},
+              {"reliable_vs_draco_cl7", m["reliable_bytes"].get<double>() / d7},
+              {"decode_vs_draco_cl7", dd7 > 0 ? m["decode_ms"].get<double>() / dd7 : 0.0},
+              {"decode_vs_draco_cl10", dd10 > 0 ? m["decode_ms"].get<double>() / dd10 : 0.0},
+              {"encode_vs_draco_cl7", de7 > 0 ? m["encode_ms"].get<double>() / de7 : 0.0}};
+}
 
-    for (size_t qi = 0; qi < args.qps.size(); ++qi) {
-      ms::QuantizationParams q;
-      q.qp = args.qps[qi];
-      q.qn = args.qn;
-      q.qt = args.qt;
-      const std::string label = name + " qp" + std::to_string(q.qp);
-      std::fprintf(stderr, " qp %d\n", q.qp);
-      MeshstreamRun split = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, label + " split");
-      MeshstreamRun bundled = BenchMeshstream(scene, q, ms::Packing::kBundled, args.repeat, label + " bundled");
-      const uint64_t vertices = split.j["vertices"].get<uint64_t>();
-      DracoRun d7run = BenchDraco(scene, q, 7, args.repeat, vertices, label);
-      DracoRun d10run = BenchDraco(scene, q, 10, args.repeat, vertices, label);
-
-      // Every decoder of this model and qp, interleaved run by run.
-      ms::ProgressiveDecodeOptions all_levels, base_only;
-      base_only.lod = 0;  // the base alone: what a viewer waits for before the first mesh
-      auto progressive = [&label](const MeshstreamRun& m, const ms::ProgressiveDecodeOptions& o) {
-        return [&m, &o, &label]() {
-          auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
-          if (!s.ok()) Die(label + ": DecodeProgressiveGlb: " + s.status().ToString());
-        };
-      };
-      std::vector<Decoder> decoders = {
-          {"split", progressive(split, all_levels), {}},
-          {"bundled", progressive(bundled, all_levels), {}},
-          {"split_base", progressive(split, base_only), {}},
-          {"draco7", [&]() { DracoDecode(d7run, label); }, {}},
-          {"draco10", [&]() { DracoDecode(d10run, label); }, {}},
-          {"draco7_primitive", [&]() { DracoDecodeToPrimitive(d7run, label); }, {}},
-          {"draco10_primitive", [&]() { DracoDecodeToPrimitive(d10run, label); }, {}},
-      };
-      DecodeTimings(decoders, args.decode_repeat);
-      auto times = [&decoders](const std::string& name) -> const std::vector<double>& {
-        for (const auto& d : decoders)
-          if (d.name == name) return d.times;
-        Die("no decoder " + name);
-      };
-      for (auto* m : {&split, &bundled}) {
-        const std::vector<double>& t = times(m == &split ? "split" : "bundled");
-        m->j["decode"] = Timing(t);
-        m->j["decode_ms"] = Median(t);
-      }
-      split.j["decode_base"] = Timing(times("split_base"));
-      split.j["decode_base_ms"] = Median(times("split_base"));
-      bundled.j["decode_base_ms"] = nullptr;
-      json draco7 = d7run.j, draco10 = d10run.j;
-      draco7["decode"] = Timing(times("draco7"));
-      draco7["decode_ms"] = Median(times("draco7"));
-      draco7["decode_to_primitive"] = Timing(times("draco7_primitive"));
-      draco7["decode_to_primitive_ms"] = Median(times("draco7_primitive"));
-      draco10["decode"] = Timing(times("draco10"));
-      draco10["decode_ms"] = Median(times("draco10"));
-      draco10["decode_to_primitive"] = Timing(times("draco10_primitive"));
-      draco10["decode_to_primitive_ms"] = Median(times("draco10_primitive"));
-      std::fprintf(stderr, "  decode (median ms): meshstream split %.1f, bundled %.1f, base only %.2f; draco cl7 %.1f, cl10 %.1f\n",
-                   Median(times("split")), Median(times("bundled")), Median(times("split_base")),
-                   Median(times("draco7")), Median(times("draco10")));
-
-      auto run = std::make_unique<json>();
-      json& r = *run;
-      r["qp"] = q.qp;
-      r["qn"] = q.qn;
-      r["qt"] = q.qt;
-      r["vertices"] = vertices;
-      r["faces"] = split.j["faces"];
-      r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}};
-      r["draco"] = {{"cl7", draco7}, {"cl10", draco10}};
-      r["levers"] = LeverTable(scene, q, label);
-      const double d7 = draco7["bytes"].get<double>(), d10 = draco10["bytes"].get<double>();
-      const double dd7 = draco7["decode_ms"].get<double>(), dd10 = draco10["decode_ms"].get<double>();
-      const double de7 = draco7["encode_ms"].get<double>();
-      auto ratios = [&](const json& m) {
-        return json{{"total_vs_draco_cl7", m["total_bytes"].get<double>() / d7},
-                    {"total_vs_draco_cl10", m["total_bytes"].get<double>() / d10},
-                    {"file_vs_draco_cl7", m["file_bytes"].get<double>() / d7},
-                    {"reliable_vs_draco_cl7", m["reliable_bytes"].get<double>() / d7},
-                    {"decode_vs_draco_cl7", dd7 > 0 ? m["decode_ms"].get<double>() / dd7 : 0.0},
-                    {"decode_vs_draco_cl10", dd10 > 0 ? m["decode_ms"].get<double>() / dd10 : 0.0},
-                    {"encode_vs_draco_cl7", de7 > 0 ? m["encode_ms"].get<double>() / de7 : 0.0}};
-      };
-      r["ratios"] = {{"split", ratios(split.j)}, {"bundled", ratios(bundled.j)}};
-
-      // Rate-distortion: levels of the split packing, and gltfpack's LODs.
-      json rd;
-      rd["reference"] = "the full meshstream decode at this qp (the quantized input)";
-      if (prims.size() == 1) {
-        json entropy;
-        rd["levels"] = LevelBytes(*prims[0], q, split.report, vertices, &entropy, label);
-        r["entropy_order0"] = entropy;
-        ms::ProgressiveDecodeOptions dopt;
-        const ms::Scene full_scene = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), label + ": decode");
-        auto full = std::make_shared<const ms::Primitive>(ms::FlattenScene(full_scene));
-        rd["diagonal"] = Diagonal(*full);
-        const size_t level_count = rd["levels"].size();
-        // Level meshes are decoded here; their distances come later.
-        std::vector<std::shared_ptr<const ms::Primitive>> level_meshes;
-        for (size_t k = 0; k < level_count; ++k) {
-          dopt.lod = static_cast<int>(k);
-          const ms::Scene s = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), label + ": decode lod");
-          auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(s));
-          rd["levels"][k]["faces"] = p->face_count();
-          level_meshes.push_back(p);
-        }
-        rd["gltfpack"] = json::array();
-        if (gltfpack_ok) {
-          ms::Primitive plain = *Primitives(full_scene)[0];
-          plain.material = -1;
-          const std::string in = work.path + "/" + name + "-qp" + std::to_string(q.qp) + ".glb";
-          const ms::Status w = ms::ExportGltfFile(ms::SceneFromPrimitive(plain, name), in, {});
-          if (!w.ok()) Die(in + ": " + w.ToString());
-          rd["gltfpack_input_bytes"] = FileSize(in);
-          for (double ratio : args.ratios) {
-            const std::string o = work.path + "/" + name + "-qp" + std::to_string(q.qp) + "-si" + FormatRatio(ratio);
-            const std::string log = work.path + "/gltfpack.log";
-            const std::string base_cmd = ShellQuote(args.gltfpack) + " -i " + ShellQuote(in) + " -si " + FormatRatio(ratio);
-            if (Run(base_cmd + " -o " + ShellQuote(o + ".glb") + " >" + ShellQuote(log) + " 2>&1") != 0 ||
-                Run(base_cmd + " -cc -o " + ShellQuote(o + "-cc.glb") + " >>" + ShellQuote(log) + " 2>&1") != 0) {
-              std::fprintf(stderr, "  gltfpack -si %g failed; see its output:\n", ratio);
-              Run("cat " + ShellQuote(log) + " >&2");
-              continue;
-            }
-            auto lod_scene = ms::ImportFile(o + ".glb");
-            if (!lod_scene.ok()) {
-              std::fprintf(stderr, "  %s: %s\n", (o + ".glb").c_str(), lod_scene.status().ToString().c_str());
-              continue;
-            }
-            auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(lod_scene.value()));
-            size_t referenced = 0;
-            {
-              std::vector<uint8_t> used(p->vertex_count(), 0);
-              for (uint32_t i : p->indices) used[i] = 1;
-              for (uint8_t u : used) referenced += u;
-            }
-            rd["gltfpack"].push_back({{"ratio", ratio},
-                                      {"vertices", referenced},
-                                      {"faces", p->face_count()},
-                                      {"bytes", FileSize(o + ".glb")},
-                                      {"bytes_cc", FileSize(o + "-cc.glb")}});
-            level_meshes.push_back(p);
-          }
-        }
-        r["rate_distortion"] = std::move(rd);
-        // Jobs point into the run object, which is not moved again.
-        json& rdj = r["rate_distortion"];
-        for (size_t k = 0; k < level_count; ++k) {
-          jobs.push_back({full, level_meshes[k], &rdj["levels"][k], label + " level " + std::to_string(k)});
-        }
-        for (size_t g = 0; g < rdj["gltfpack"].size(); ++g) {
-          jobs.push_back({full, level_meshes[level_count + g], &rdj["gltfpack"][g],
-                          label + " gltfpack " + FormatRatio(rdj["gltfpack"][g]["ratio"].get<double>())});
-        }
-      } else {
-        rd["skipped"] = "more than one primitive";
-        r["rate_distortion"] = std::move(rd);
-      }
-      run_owner.emplace_back(mi, model["runs"].size());
-      model["runs"].push_back(nullptr);  // filled from run_objects at the end
-      run_objects.push_back(std::move(run));
+// gltfpack's LODs of the full mesh (`full_scene`, one primitive) at every
+// --ratios: rd["gltfpack_input_bytes"] and one entry of rd["gltfpack"] per
+// LOD that gltfpack made, its mesh appended to *meshes.
+void GltfpackLods(const Args& args, const WorkDir& work, const std::string& name, int qp, const ms::Scene& full_scene,
+                  json& rd, std::vector<std::shared_ptr<const ms::Primitive>>* meshes) {
+  ms::Primitive plain = *Primitives(full_scene)[0];
+  plain.material = -1;
+  const std::string in = work.path + "/" + name + "-qp" + std::to_string(qp) + ".glb";
+  const ms::Status w = ms::ExportGltfFile(ms::SceneFromPrimitive(plain, name), in, {});
+  if (!w.ok()) Die(in + ": " + w.ToString());
+  rd["gltfpack_input_bytes"] = FileSize(in);
+  for (double ratio : args.ratios) {
+    const std::string o = work.path + "/" + name + "-qp" + std::to_string(qp) + "-si" + FormatRatio(ratio);
+    const std::string log = work.path + "/gltfpack.log";
+    const std::string base_cmd = ShellQuote(args.gltfpack) + " -i " + ShellQuote(in) + " -si " + FormatRatio(ratio);
+    if (Run(base_cmd + " -o " + ShellQuote(o + ".glb") + " >" + ShellQuote(log) + " 2>&1") != 0 ||
+        Run(base_cmd + " -cc -o " + ShellQuote(o + "-cc.glb") + " >>" + ShellQuote(log) + " 2>&1") != 0) {
+      std::fprintf(stderr, "  gltfpack -si %g failed; see its output:\n", ratio);
+      Run("cat " + ShellQuote(log) + " >&2");
+      continue;
     }
-    out["models"].push_back(std::move(model));
+    auto lod_scene = ms::ImportFile(o + ".glb");
+    if (!lod_scene.ok()) {
+      std::fprintf(stderr, "  %s: %s\n", (o + ".glb").c_str(), lod_scene.status().ToString().c_str());
+      continue;
+    }
+    auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(lod_scene.value()));
+    size_t referenced = 0;
+    {
+      std::vector<uint8_t> used(p->vertex_count(), 0);
+      for (uint32_t i : p->indices) used[i] = 1;
+      for (uint8_t u : used) referenced += u;
+    }
+    rd["gltfpack"].push_back({{"ratio", ratio},
+                              {"vertices", referenced},
+                              {"faces", p->face_count()},
+                              {"bytes", FileSize(o + ".glb")},
+                              {"bytes_cc", FileSize(o + "-cc.glb")}});
+    meshes->push_back(p);
   }
-  const double timed_s = Ms(bench_start, Clock::now()) / 1000.0;
+}
 
-  if (args.distortion && !jobs.empty()) {
-    std::fprintf(stderr, "distances (%zu meshes, %u threads, %lld samples per side)\n", jobs.size(), args.threads,
-                 static_cast<long long>(args.samples));
-    RunDistanceJobs(jobs, args.threads, args.samples);
-  }
-  for (size_t i = 0; i < run_objects.size(); ++i) {
-    out["models"][run_owner[i].first]["runs"][run_owner[i].second] = std::move(*run_objects[i]);
-  }
+// Where the model and qp are, for the rate-distortion part.
+struct RdInput {
+  const Args* args = nullptr;
+  const WorkDir* work = nullptr;
+  bool gltfpack_ok = false;
+  std::string name, label;
+};
 
-  // The targets of issue 11 (codec version 2), stated from the numbers.
+// Rate-distortion: the levels of the split packing and gltfpack's LODs into
+// r["rate_distortion"] (and the entropy report into r["entropy_order0"]);
+// their distances to the full mesh become jobs, which point into r (kept in
+// place until they ran).
+void AddRateDistortion(const RdInput& in, const std::vector<const ms::Primitive*>& prims, const ms::QuantizationParams& q,
+                       const MeshstreamRun& split, uint64_t vertices, json& r, std::vector<DistanceJob>& jobs) {
+  json rd;
+  rd["reference"] = "the full meshstream decode at this qp (the quantized input)";
+  if (prims.size() != 1) {
+    rd["skipped"] = "more than one primitive";
+    r["rate_distortion"] = std::move(rd);
+    return;
+  }
+  json entropy;
+  rd["levels"] = LevelBytes(*prims[0], q, split.report, vertices, &entropy, in.label);
+  r["entropy_order0"] = entropy;
+  ms::ProgressiveDecodeOptions dopt;
+  const ms::Scene full_scene = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), in.label + ": decode");
+  auto full = std::make_shared<const ms::Primitive>(ms::FlattenScene(full_scene));
+  rd["diagonal"] = Diagonal(*full);
+  const size_t level_count = rd["levels"].size();
+  // Level meshes are decoded here; their distances come later.
+  std::vector<std::shared_ptr<const ms::Primitive>> meshes;
+  for (size_t k = 0; k < level_count; ++k) {
+    dopt.lod = static_cast<int>(k);
+    const ms::Scene s = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), in.label + ": decode lod");
+    auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(s));
+    rd["levels"][k]["faces"] = p->face_count();
+    meshes.push_back(p);
+  }
+  rd["gltfpack"] = json::array();
+  if (in.gltfpack_ok) GltfpackLods(*in.args, *in.work, in.name, q.qp, full_scene, rd, &meshes);
+  r["rate_distortion"] = std::move(rd);
+  // Jobs point into the run object, which is not moved again.
+  json& rdj = r["rate_distortion"];
+  for (size_t k = 0; k < level_count; ++k) {
+    jobs.push_back({full, meshes[k], &rdj["levels"][k], in.label + " level " + std::to_string(k)});
+  }
+  for (size_t g = 0; g < rdj["gltfpack"].size(); ++g) {
+    jobs.push_back({full, meshes[level_count + g], &rdj["gltfpack"][g],
+                    in.label + " gltfpack " + FormatRatio(rdj["gltfpack"][g]["ratio"].get<double>())});
+  }
+}
+
+// One model at one qp: both packings and Draco at levels 7 and 10, the
+// decoders interleaved, the levers, the ratios and the rate-distortion
+// curve (its distances queued on `jobs`). The run object stays put.
+std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int qp, std::vector<DistanceJob>& jobs) {
+  const Args& args = *in.args;
+  ms::QuantizationParams q;
+  q.qp = qp;
+  q.qn = args.qn;
+  q.qt = args.qt;
+  std::fprintf(stderr, " qp %d\n", q.qp);
+  MeshstreamRun split = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, in.label + " split");
+  MeshstreamRun bundled = BenchMeshstream(scene, q, ms::Packing::kBundled, args.repeat, in.label + " bundled");
+  const uint64_t vertices = split.j["vertices"].get<uint64_t>();
+  DracoRun d7run = BenchDraco(scene, q, 7, args.repeat, vertices, in.label);
+  DracoRun d10run = BenchDraco(scene, q, 10, args.repeat, vertices, in.label);
+  json draco7, draco10;
+  TimeDecoders(args.decode_repeat, split, bundled, d7run, d10run, in.label, &draco7, &draco10);
+
+  auto run = std::make_unique<json>();
+  json& r = *run;
+  r["qp"] = q.qp;
+  r["qn"] = q.qn;
+  r["qt"] = q.qt;
+  r["vertices"] = vertices;
+  r["faces"] = split.j["faces"];
+  r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}};
+  r["draco"] = {{"cl7", draco7}, {"cl10", draco10}};
+  r["levers"] = LeverTable(scene, q, in.label);
+  r["ratios"] = {{"split", RatiosJson(split.j, draco7, draco10)}, {"bundled", RatiosJson(bundled.j, draco7, draco10)}};
+  AddRateDistortion(in, Primitives(scene), q, split, vertices, r, jobs);
+  return run;
+}
+
+// The targets of issue 11 (codec version 2), stated from the numbers.
+json Targets(const json& models) {
   json targets = json::array();
   const std::map<std::string, double> paper_reliable = {{"stanford-bunny", 4.3}, {"horse", 2.87}};
-  for (const json& m : out["models"]) {
+  for (const json& m : models) {
     const std::string name = m["name"];
     for (const json& r : m["runs"]) {
       const json& s = r["meshstream"]["split"];
@@ -875,14 +832,14 @@ int main(int argc, char** argv) {
       }
     }
   }
-  out["targets"] = targets;
-  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
-  out["elapsed_s"] = {{"timed_part", timed_s}, {"total", Ms(bench_start, Clock::now()) / 1000.0}};
+  return targets;
+}
 
-  // Console summary.
+// The console summary: one line per model and qp, one per target.
+void PrintSummary(const json& models, const json& targets) {
   std::printf("%-15s %3s %9s %6s %7s %9s %9s %6s %6s %8s %8s %8s\n", "model", "qp", "ms_total", "bpv", "rel_bpv",
               "draco7", "draco10", "x_d7", "x_d10", "dec_ms", "draco_ms", "enc_ms");
-  for (const json& m : out["models"]) {
+  for (const json& m : models) {
     for (const json& r : m["runs"]) {
       const json& s = r["meshstream"]["split"];
       std::printf("%-15s %3d %9llu %6.2f %7.2f %9llu %9llu %6.2f %6.2f %8.1f %8.1f %8.0f\n",
@@ -901,6 +858,69 @@ int main(int argc, char** argv) {
                 t["model"].get<std::string>().c_str(), t["qp"].get<int>(), t["value"].get<double>(),
                 t["limit"].get<double>(), t["met"].get<bool>() ? "met" : "NOT met");
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_bench");
+  const Args args = ParseArgs(argc, argv);
+  const auto bench_start = Clock::now();
+  const std::vector<std::string> chosen = ChooseFiles(args);
+  bool gltfpack_ok = args.use_gltfpack;
+  if (gltfpack_ok && Run(ShellQuote(args.gltfpack) + " -h >/dev/null 2>&1") < 0) {
+    std::fprintf(stderr, "meshstream_bench: %s not found; skipping the gltfpack LODs\n", args.gltfpack.c_str());
+    gltfpack_ok = false;
+  }
+  WorkDir work;
+
+  json out;
+  out["schema"] = "meshstream-bench/1";
+  out["machine"] = MachineInfo(args);
+  out["settings"] = SettingsJson(args);
+  out["models"] = json::array();
+
+  std::vector<DistanceJob> jobs;
+  // The distance jobs point into the runs' JSON: each run object stays in
+  // place (run_objects) until the jobs ran, then moves into out.
+  std::vector<std::unique_ptr<json>> run_objects;
+  std::vector<std::pair<size_t, size_t>> run_owner;  // (model index, run index)
+  for (size_t mi = 0; mi < chosen.size(); ++mi) {
+    const std::string path = args.models_dir + "/" + chosen[mi];
+    const RdInput in{&args, &work, gltfpack_ok, Stem(chosen[mi]), ""};
+    std::fprintf(stderr, "%s\n", in.name.c_str());
+    const ms::Scene scene = Check(ms::ImportFile(path), path);
+    const auto prims = Primitives(scene);
+    if (prims.empty()) Die(path + ": no triangles");
+    json model = {{"name", in.name},
+                  {"file", chosen[mi]},
+                  {"source_vertices", scene.source_vertices},
+                  {"primitives", prims.size()},
+                  {"attributes", prims[0]->AttributeNames()},
+                  {"runs", json::array()}};
+    for (int qp : args.qps) {
+      RdInput at = in;
+      at.label = in.name + " qp" + std::to_string(qp);
+      run_owner.emplace_back(mi, model["runs"].size());
+      model["runs"].push_back(nullptr);  // filled from run_objects at the end
+      run_objects.push_back(MeasureRun(at, scene, qp, jobs));
+    }
+    out["models"].push_back(std::move(model));
+  }
+  const double timed_s = Ms(bench_start, Clock::now()) / 1000.0;
+
+  if (args.distortion && !jobs.empty()) {
+    std::fprintf(stderr, "distances (%zu meshes, %u threads, %lld samples per side)\n", jobs.size(), args.threads,
+                 static_cast<long long>(args.samples));
+    RunDistanceJobs(jobs, args.threads, args.samples);
+  }
+  for (size_t i = 0; i < run_objects.size(); ++i) {
+    out["models"][run_owner[i].first]["runs"][run_owner[i].second] = std::move(*run_objects[i]);
+  }
+  out["targets"] = Targets(out["models"]);
+  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
+  out["elapsed_s"] = {{"timed_part", timed_s}, {"total", Ms(bench_start, Clock::now()) / 1000.0}};
+  PrintSummary(out["models"], out["targets"]);
 
   std::ofstream f(args.out + ".tmp");
   f << out.dump(1) << "\n";

@@ -31,21 +31,6 @@ void Die(const std::string& what) {
   std::exit(1);
 }
 
-void ParseFlags(int argc, char** argv, const char* help, const FlagHandler& on_flag) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "--help" || f == "-h") {
-      std::fputs(help, stdout);
-      std::exit(0);
-    }
-    const std::function<std::string()> value = [&]() -> std::string {
-      if (i + 1 >= argc) Die(f + " needs a value");
-      return argv[++i];
-    };
-    if (!on_flag(f, value)) Die("unknown option " + f + " (see --help)");
-  }
-}
-
 std::vector<std::string> SplitList(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);

@@ -1,6 +1,6 @@
-// Helpers shared by the benchmark programs (meshstream_bench,
-// meshstream_loss_bench): error exits, flag parsing, timing, file names,
-// machine facts, and the progressive encode with a Draco base.
+// Helpers every benchmark program shares: error exits, parsing option
+// values, timing, file names, machine facts, and the progressive encode with
+// a Draco base. The option table itself is bench/options.h.
 //
 // Contract: for benchmark programs only. Die and Check end the process; the
 // rest are pure or only read the machine (/proc, uname, a child process).
@@ -34,13 +34,6 @@ T Check(StatusOr<T> v, const std::string& what) {
   if (!v.ok()) Die(what + ": " + v.status().ToString());
   return std::move(v).value();
 }
-
-// Walks the flags argv[1..]: --help or -h prints `help` to stdout and exits
-// 0; any other flag goes to on_flag(flag, value), where value() takes the
-// next argument (Die("<flag> needs a value") when there is none). on_flag
-// returns false for a flag it does not know: Die("unknown option ...").
-using FlagHandler = std::function<bool(const std::string& flag, const std::function<std::string()>& value)>;
-void ParseFlags(int argc, char** argv, const char* help, const FlagHandler& on_flag);
 
 // The comma-separated items of `s`, empty ones dropped.
 std::vector<std::string> SplitList(const std::string& s);

@@ -44,6 +44,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/options.h"
 #include "codec/metrics/hausdorff.h"
 #include "codec/metrics/laplacian.h"
 #include "codec/loss/lossy_decode.h"
@@ -65,28 +66,11 @@ using ms::bench::Die;
 using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
-using ms::bench::ParseInt;
 using ms::bench::Stem;
 
-const char kHelp[] =
-    "usage: meshstream_loss_bench [--out FILE] [--model NAME]... [--seeds N] [--quick]\n"
-    "                             [--models DIR] [--threads N] [--samples N] [--repeat N]\n"
-    "                             [--level-seeds N] [--small-seeds N] [--base-ratio F]\n"
-    "\n"
+const char kAbout[] =
     "The loss experiments of the paper with this codec (docs/loss-results.md); writes one\n"
-    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n"
-    "  --out FILE        output JSON\n"
-    "  --model NAME      only this model (file name, with or without extension); repeatable\n"
-    "  --seeds N         seeds per cell for bunny and horse (default 20)\n"
-    "  --small-seeds N   seeds per cell for fandisk, rocker-arm, spot (default 10)\n"
-    "  --level-seeds N   seeds of the per-level subset (default 3)\n"
-    "  --repeat N        timed decodes per loss level, after one warm-up (default 7)\n"
-    "  --threads N       threads for the untimed decodes and metrics (default 2)\n"
-    "  --samples N       Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
-    "                    and face centroid, see codec/metrics/hausdorff.h)\n"
-    "  --quick           a tiny run for smoke testing (spot unless --model; 2 seeds)\n"
-    "  --base-ratio F    simplify down to F of the vertices (default: the encoder's, 0.02;\n"
-    "                    0.14 is close to the paper's base, see docs/loss-results.md)\n";
+    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
@@ -105,38 +89,25 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  ms::bench::ParseFlags(argc, argv, kHelp, [&a](const std::string& f, const std::function<std::string()>& value) {
-    if (f == "--out") {
-      a.out = value();
-    } else if (f == "--models") {
-      a.models_dir = value();
-    } else if (f == "--model") {
-      a.only.push_back(value());
-    } else if (f == "--seeds") {
-      a.seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
-    } else if (f == "--small-seeds") {
-      a.small_seeds = static_cast<int>(ParseInt(value(), f, 1, 10000));
-    } else if (f == "--level-seeds") {
-      a.level_seeds = static_cast<int>(ParseInt(value(), f, 0, 10000));
-    } else if (f == "--repeat") {
-      a.repeat = static_cast<int>(ParseInt(value(), f, 1, 1000));
-    } else if (f == "--threads") {
-      a.threads = static_cast<unsigned>(ParseInt(value(), f, 1, 64));
-    } else if (f == "--samples") {
-      a.samples = ParseInt(value(), f, 0, 100000000);
-    } else if (f == "--quick") {
-      a.quick = true;
-    } else if (f == "--reliable-share") {
-      a.reliable_share = ms::bench::ParseDouble(value(), f);
-      if (a.reliable_share < 0 || a.reliable_share > 1) ms::bench::Die("--reliable-share: expected a number in [0, 1]");
-    } else if (f == "--base-ratio") {
-      a.base_ratio = ms::bench::ParseDouble(value(), f);
-      if (a.base_ratio <= 0 || a.base_ratio > 1) ms::bench::Die("--base-ratio: expected a number in (0, 1]");
-    } else {
-      return false;
-    }
-    return true;
-  });
+  ms::bench::Options o("meshstream_loss_bench", kAbout);
+  o.String("--out", "FILE", &a.out, "output JSON");
+  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  o.Int("--seeds", "N", &a.seeds, 1, 10000, "seeds per cell for bunny and horse (default 20)");
+  o.Int("--small-seeds", "N", &a.small_seeds, 1, 10000, "seeds per cell for fandisk, rocker-arm, spot (default 10)");
+  o.Int("--level-seeds", "N", &a.level_seeds, 0, 10000, "seeds of the per-level subset (default 3)");
+  o.Int("--repeat", "N", &a.repeat, 1, 1000, "timed decodes per loss level, after one warm-up (default 7)");
+  o.Unsigned("--threads", "N", &a.threads, 1, 64, "threads for the untimed decodes and metrics (default 2)");
+  o.Int64("--samples", "N", &a.samples, 0, 100000000,
+          "Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
+          "and face centroid, see codec/metrics/hausdorff.h)");
+  o.Flag("--quick", &a.quick, "a tiny run for smoke testing (spot unless --model; 2 seeds)");
+  o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
+           "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
+           "0.14 is close to the paper's base, see docs/loss-results.md)", true);
+  o.Double("--reliable-share", "F", &a.reliable_share, 0, 1,
+           "the share of the datagram bytes the reliable cut may take (default 0.10)");
+  o.Parse(argc, argv);
   return a;
 }
 
@@ -528,12 +499,10 @@ json TimeDecodes(const Model& m, int repeat) {
           {"rows", rows}};
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  ms::bench::SetProgramName("meshstream_loss_bench");
-  const Args args = ParseArgs(argc, argv);
-  const auto t0 = Clock::now();
+// The models of --model (spot alone for --quick without it; all five
+// otherwise), each with its plan: the full matrix for the bunny and the
+// horse, the reduced one for the others, a tiny one for --quick.
+std::vector<Model> PrepareModels(const Args& args) {
   const std::vector<double> kFullLosses = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.20, 0.30};
   const std::vector<double> kSmallLosses = {0.04, 0.08, 0.12, 0.20, 0.30};
   const std::vector<std::string> all = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
@@ -569,84 +538,78 @@ int main(int argc, char** argv) {
                  static_cast<unsigned long long>(m.streams[0].datagrams),
                  static_cast<unsigned long long>(m.streams[1].datagrams), Ms(s, Clock::now()) / 1000);
   }
+  return models;
+}
 
-  json out;
-  out["tool"] = "meshstream_loss_bench";
-  out["machine"] = MachineInfo();
-  out["settings"] = {{"qp", 11}, {"qn", 8}, {"qt", 10}, {"base", "Draco cl 7"}, {"base_ratio", args.base_ratio},
-                     {"packet_bytes", ms::StreamWriteOptions{}.packet_bytes},
-                     {"bursty_mean_burst", kBursts[1]},
-                     {"samples_per_side", args.samples},
-                     {"threads", args.threads},
-                     {"repeat", args.repeat},
-                     {"seeds_full", args.quick ? 2 : args.seeds},
-                     {"seeds_small", args.quick ? 2 : args.small_seeds},
-                     {"level_seeds", args.level_seeds},
-                     {"level_step", kLevelStep},
-                     {"reliable_share", args.reliable_share},
-                     {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
-                     {"quick", args.quick},
-                     {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
-                                "reader; base copy outside the timed part), one warm-up round, every loss level "
-                                "and recovery timed once per round, the kept rounds with seeds 2..repeat+1; split packing, random "
-                                "loss; ratio = median / zero-loss median of the same run"}};
+json SettingsJson(const Args& args) {
+  return {{"qp", 11}, {"qn", 8}, {"qt", 10}, {"base", "Draco cl 7"}, {"base_ratio", args.base_ratio},
+          {"packet_bytes", ms::StreamWriteOptions{}.packet_bytes},
+          {"bursty_mean_burst", kBursts[1]},
+          {"samples_per_side", args.samples},
+          {"threads", args.threads},
+          {"repeat", args.repeat},
+          {"seeds_full", args.quick ? 2 : args.seeds},
+          {"seeds_small", args.quick ? 2 : args.small_seeds},
+          {"level_seeds", args.level_seeds},
+          {"level_step", kLevelStep},
+          {"reliable_share", args.reliable_share},
+          {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
+          {"quick", args.quick},
+          {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
+                     "reader; base copy outside the timed part), one warm-up round, every loss level "
+                     "and recovery timed once per round, the kept rounds with seeds 2..repeat+1; split packing, random "
+                     "loss; ratio = median / zero-loss median of the same run"}};
+}
 
-  // 1. Timing, alone (nothing else runs in the process meanwhile).
-  std::vector<json> timing(models.size());
-  for (size_t mi = 0; mi < models.size(); ++mi) {
-    if (!models[mi].plan.per_level) continue;
-    std::fprintf(stderr, "timing %s\n", models[mi].name.c_str());
-    timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat);
-  }
-
-  // 2. The matrix, on worker threads.
-  std::vector<Job> jobs;
-  for (size_t mi = 0; mi < models.size(); ++mi) {
-    const Plan& p = models[mi].plan;
-    for (int pk = 0; pk < 2; ++pk)
-      for (int pt = 0; pt < 2; ++pt)
-        for (double loss : p.losses) {
-          // Compute budget (about 10 min on 2 cores): every loss level for
-          // split packing with random loss; the other cells at 4, 12 and 30 %
-          // (bursty with bundled packing at 12 % only).
-          const bool key = std::fabs(loss - 0.04) < 1e-9 || std::fabs(loss - 0.12) < 1e-9 ||
-                           std::fabs(loss - 0.30) < 1e-9;
-          const bool in = args.quick || (pk == 0 && pt == 0) || (key && !(pk == 1 && pt == 1)) ||
-                          std::fabs(loss - 0.12) < 1e-9;
-          if (!in) continue;
-          for (int sd = 1; sd <= p.seeds; ++sd) {
-            Job j;
-            j.model = mi;
-            j.packing = pk;
-            j.pattern = pt;
-            j.loss = loss;
-            j.seed = static_cast<uint64_t>(sd);
-            const bool subset = p.per_level && pt == 0 && sd <= args.level_seeds;
-            const bool at12 = std::fabs(loss - 0.12) < 1e-9;
-            j.levels_predict = subset && (pk == 0 || at12);
-            j.levels_lwop = subset && pk == 0 && at12;
-            jobs.push_back(j);
-            // Importance-ordered delivery on the same seeds: split packing,
-            // every loss level of the split cells; per-level metrics for
-            // prediction on the level subset at 12 % (the error's spread).
-            if (pk == 0) {
-              Job c = j;
-              c.delivery = 1;
-              c.levels_predict = subset && at12;
-              c.levels_lwop = false;
-              jobs.push_back(c);
-              // Parity on top of the cut, at 4, 12 and 30 % random loss.
-              if (pt == 0 && key) {
-                Job q = c;
-                q.delivery = 2;
-                q.levels_predict = false;
-                jobs.push_back(q);
-              }
-            }
+// The jobs of one model's matrix. Compute budget (about 10 min on 2 cores):
+// every loss level for split packing with random loss; the other cells at
+// 4, 12 and 30 % (bursty with bundled packing at 12 % only).
+void PlanModelJobs(const Args& args, size_t mi, const Plan& p, std::vector<Job>& jobs) {
+  for (int pk = 0; pk < 2; ++pk)
+    for (int pt = 0; pt < 2; ++pt)
+      for (double loss : p.losses) {
+        const bool key = std::fabs(loss - 0.04) < 1e-9 || std::fabs(loss - 0.12) < 1e-9 ||
+                         std::fabs(loss - 0.30) < 1e-9;
+        const bool in = args.quick || (pk == 0 && pt == 0) || (key && !(pk == 1 && pt == 1)) ||
+                        std::fabs(loss - 0.12) < 1e-9;
+        if (!in) continue;
+        for (int sd = 1; sd <= p.seeds; ++sd) {
+          Job j;
+          j.model = mi;
+          j.packing = pk;
+          j.pattern = pt;
+          j.loss = loss;
+          j.seed = static_cast<uint64_t>(sd);
+          const bool subset = p.per_level && pt == 0 && sd <= args.level_seeds;
+          const bool at12 = std::fabs(loss - 0.12) < 1e-9;
+          j.levels_predict = subset && (pk == 0 || at12);
+          j.levels_lwop = subset && pk == 0 && at12;
+          jobs.push_back(j);
+          if (pk != 0) continue;
+          // Importance-ordered delivery on the same seeds: split packing,
+          // every loss level of the split cells; per-level metrics for
+          // prediction on the level subset at 12 % (the error's spread).
+          Job c = j;
+          c.delivery = 1;
+          c.levels_predict = subset && at12;
+          c.levels_lwop = false;
+          jobs.push_back(c);
+          // Parity on top of the cut, at 4, 12 and 30 % random loss.
+          if (pt == 0 && key) {
+            Job q = c;
+            q.delivery = 2;
+            q.levels_predict = false;
+            jobs.push_back(q);
           }
         }
-  }
-  // Expensive jobs first (large models, per-level ones), so the tail is short.
+      }
+}
+
+// Every model's jobs, the expensive ones first (large models, per-level
+// ones), so the tail is short.
+std::vector<Job> PlanJobs(const Args& args, const std::vector<Model>& models) {
+  std::vector<Job> jobs;
+  for (size_t mi = 0; mi < models.size(); ++mi) PlanModelJobs(args, mi, models[mi].plan, jobs);
   std::stable_sort(jobs.begin(), jobs.end(), [&](const Job& a, const Job& b) {
     auto cost = [&](const Job& j) {
       return static_cast<double>(models[j.model].level_vertices.back()) * (j.levels_predict ? 3 : 1) *
@@ -654,6 +617,11 @@ int main(int argc, char** argv) {
     };
     return cost(a) > cost(b);
   });
+  return jobs;
+}
+
+// The matrix on --threads worker threads, progress on stderr.
+std::vector<JobResult> RunMatrix(const Args& args, const std::vector<Model>& models, const std::vector<Job>& jobs) {
   std::fprintf(stderr, "matrix: %zu jobs (each decodes with both recoveries) on %u threads\n", jobs.size(),
                args.threads);
   std::vector<JobResult> results(jobs.size());
@@ -685,43 +653,73 @@ int main(int argc, char** argv) {
   std::vector<std::thread> pool;
   for (unsigned t = 0; t < args.threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
+  return results;
+}
 
+// One model's object of "models": its runs in matrix order, its timing.
+// Adds the runs' decode errors to *errors.
+json ModelJson(const Model& m, size_t mi, const std::vector<Job>& jobs, const std::vector<JobResult>& results,
+               const json& timing, uint64_t* errors) {
+  json runs = json::array();
+  std::vector<size_t> order;
+  for (size_t i = 0; i < jobs.size(); ++i)
+    if (jobs[i].model == mi) order.push_back(i);
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const Job &x = jobs[a], &y = jobs[b];
+    return std::tie(x.delivery, x.packing, x.pattern, x.loss, x.seed) <
+           std::tie(y.delivery, y.packing, y.pattern, y.loss, y.seed);
+  });
+  for (size_t i : order) {
+    runs.push_back(JobJson(jobs[i], results[i]));
+    for (int r = 0; r < 2; ++r) *errors += !results[i].rec[r].error.empty();
+  }
+  json mj = {{"name", m.name},
+             {"file", m.file},
+             {"matrix", m.plan.full ? "full" : "reduced"},
+             {"losses", m.plan.losses},
+             {"seeds", m.plan.seeds},
+             {"level_vertices", m.level_vertices},
+             {"vertices", m.level_vertices.back()},
+             {"diagonal", m.streams[0].ref_diag.back()},
+             {"datagrams", {{"split", m.streams[0].datagrams}, {"bundled", m.streams[1].datagrams}}},
+             {"reliable_cut", {{"refinements", m.streams[0].cut},
+                               {"datagram_bytes", m.streams[0].cut_bytes},
+                               {"stream_bytes", m.streams[0].total_bytes},
+                               {"share", m.streams[0].total_bytes > 0 ? static_cast<double>(m.streams[0].cut_bytes) /
+                                                                            static_cast<double>(m.streams[0].total_bytes)
+                                                                      : 0.0}}},
+             {"runs", runs}};
+  if (!timing.is_null()) mj["timing"] = timing;
+  return mj;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ms::bench::SetProgramName("meshstream_loss_bench");
+  const Args args = ParseArgs(argc, argv);
+  const auto t0 = Clock::now();
+  const std::vector<Model> models = PrepareModels(args);
+  json out;
+  out["tool"] = "meshstream_loss_bench";
+  out["machine"] = MachineInfo();
+  out["settings"] = SettingsJson(args);
+
+  // 1. Timing, alone (nothing else runs in the process meanwhile).
+  std::vector<json> timing(models.size());
+  for (size_t mi = 0; mi < models.size(); ++mi) {
+    if (!models[mi].plan.per_level) continue;
+    std::fprintf(stderr, "timing %s\n", models[mi].name.c_str());
+    timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat);
+  }
+  // 2. The matrix, on worker threads.
+  const std::vector<Job> jobs = PlanJobs(args, models);
+  const std::vector<JobResult> results = RunMatrix(args, models, jobs);
   // 3. The JSON, runs grouped by model in matrix order.
   out["models"] = json::array();
   uint64_t errors = 0;
   for (size_t mi = 0; mi < models.size(); ++mi) {
-    const Model& m = models[mi];
-    json runs = json::array();
-    std::vector<size_t> order;
-    for (size_t i = 0; i < jobs.size(); ++i)
-      if (jobs[i].model == mi) order.push_back(i);
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-      const Job &x = jobs[a], &y = jobs[b];
-      return std::tie(x.delivery, x.packing, x.pattern, x.loss, x.seed) <
-             std::tie(y.delivery, y.packing, y.pattern, y.loss, y.seed);
-    });
-    for (size_t i : order) {
-      runs.push_back(JobJson(jobs[i], results[i]));
-      for (int r = 0; r < 2; ++r) errors += !results[i].rec[r].error.empty();
-    }
-    json mj = {{"name", m.name},
-               {"file", m.file},
-               {"matrix", m.plan.full ? "full" : "reduced"},
-               {"losses", m.plan.losses},
-               {"seeds", m.plan.seeds},
-               {"level_vertices", m.level_vertices},
-               {"vertices", m.level_vertices.back()},
-               {"diagonal", m.streams[0].ref_diag.back()},
-               {"datagrams", {{"split", m.streams[0].datagrams}, {"bundled", m.streams[1].datagrams}}},
-               {"reliable_cut", {{"refinements", m.streams[0].cut},
-                                 {"datagram_bytes", m.streams[0].cut_bytes},
-                                 {"stream_bytes", m.streams[0].total_bytes},
-                                 {"share", m.streams[0].total_bytes > 0 ? static_cast<double>(m.streams[0].cut_bytes) /
-                                                                              static_cast<double>(m.streams[0].total_bytes)
-                                                                        : 0.0}}},
-               {"runs", runs}};
-    if (!timing[mi].is_null()) mj["timing"] = timing[mi];
-    out["models"].push_back(mj);
+    out["models"].push_back(ModelJson(models[mi], mi, jobs, results, timing[mi], &errors));
   }
   out["errors"] = errors;
   out["runtime_s"] = Ms(t0, Clock::now()) / 1000;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots and tables from the service benchmark's JSON (bench/bench_service.cc).
+"""Plots and tables from the service benchmark's JSON (bench/service/main.cc and its parts, bench/README.md).
 
 usage: bench/plot_service.py [SERVICE.json] [--out DIR] [--doc docs/service-benchmarks.md]
 

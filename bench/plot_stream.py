@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots and tables from the streaming benchmark's JSON (bench/bench_stream.cc).
+"""Plots and tables from the streaming benchmark's JSON (bench/stream/main.cc and its parts, bench/README.md).
 
 usage: bench/plot_stream.py [STREAM.json] [--out DIR] [--doc docs/stream-benchmarks.md]
 

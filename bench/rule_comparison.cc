@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench/bench_util.h"
+#include "bench/options.h"
 #include "codec/progressive/batch_simplifier.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/import.h"
@@ -25,9 +27,13 @@ double Entropy(double p) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  meshstream::bench::SetProgramName("meshstream_rule_comparison");
   std::string out_path;
-  for (int i = 1; i + 1 < argc; ++i)
-    if (std::string(argv[i]) == "--out") out_path = argv[i + 1];
+  meshstream::bench::Options o("meshstream_rule_comparison",
+                               "Batch sizes, growth per level and split-bit entropy under the strict rule and the\n"
+                               "paper's minimum, on the shared models at qp 11; prints a table.\n");
+  o.String("--out", "FILE", &out_path, "also write the rows as JSON");
+  o.Parse(argc, argv);
   nlohmann::json results = nlohmann::json::array();
   std::printf("%-20s %-7s %7s %8s %12s %16s\n", "model", "rule", "levels", "base", "growth_mean", "split_bits_bpv");
   for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {

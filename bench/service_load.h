@@ -1,5 +1,5 @@
 // Concurrent unary calls for the latency figures of the service benchmark
-// (bench_service.cc): K client threads, each with its own channel (its own
+// (bench/service/latency.cc): K client threads, each with its own channel (its own
 // TCP connection: a local subchannel pool, so channels to one address do
 // not share a connection), each issuing N calls back-to-back after a few
 // untimed warm-up calls; every call's latency is recorded.

@@ -1,4 +1,4 @@
-// Statistics of the service benchmark (bench_service.cc): percentiles of
+// Statistics of the service benchmark (bench/service/): percentiles of
 // recorded latencies, a compact histogram of them, and summaries of a few
 // repeated timings, as JSON.
 //

@@ -1,0 +1,177 @@
+#include "bench/harness.h"
+
+#include <sqlite3.h>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <google/protobuf/stubs/common.h>
+#include <grpcpp/grpcpp.h>
+
+#include "bench/bench_util.h"
+#include "services/api/grpc_status.h"
+#include "testing/asset_client.h"
+
+namespace meshstream::bench {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+// ------------------------------------------------------------- the server
+
+std::string MakeTempFolder(const std::string& work_dir, const std::string& prefix) {
+  std::string pattern = (fs::path(work_dir) / (prefix + "-XXXXXX")).string();
+  if (mkdtemp(pattern.data()) == nullptr) Die(work_dir + ": mkdtemp failed");
+  return pattern;
+}
+
+ServerOptions BenchServerOptions(const std::string& store, int workers, const std::string& server_id,
+                                 std::function<void(const std::string&)> log) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.store = store;
+  o.workers = workers;
+  o.reflection = false;
+  o.grace_period_s = 10;
+  o.server_id = server_id;
+  o.log = std::move(log);
+  return o;
+}
+
+void StopServer(std::unique_ptr<Server>& server) {
+  if (!server) return;
+  server->Drain();
+  server->Wait();
+  server.reset();
+}
+
+// ------------------------------------------------------------ the machine
+
+json MachineInfo(const std::string& work_dir, const std::string& source_dir, const std::string& build_type) {
+  json m = {
+      {"nproc", std::thread::hardware_concurrency()},
+      {"cpu", CpuModel()},
+      {"date", UtcNow()},
+      {"kernel", KernelName()},
+      {"loadavg_at_start", LoadAverage()},
+      {"compiler", __VERSION__},
+      {"build_type", build_type},
+      {"grpc", grpc::Version()},
+      {"protobuf", google::protobuf::internal::VersionString(GOOGLE_PROTOBUF_VERSION)},
+      {"sqlite", sqlite3_libversion()},
+      {"work_dir", work_dir},
+      {"work_dir_filesystem", FirstLineOf("findmnt -n -o FSTYPE,SOURCE --target " + ShellQuote(work_dir) +
+                                          " 2>/dev/null")},
+  };
+  const std::string commit = GitShortCommit(source_dir);
+  if (!commit.empty()) {
+    const std::string dirty = FirstLineOf("git -C " + ShellQuote(source_dir) +
+                                          " status --porcelain --untracked-files=no 2>/dev/null");
+    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
+  }
+  return m;
+}
+
+void WriteJson(const std::string& path, const json& out) {
+  const fs::path out_path(path);
+  if (out_path.has_parent_path()) fs::create_directories(out_path.parent_path());
+  std::ofstream f(path);
+  f << out.dump(1) << "\n";
+  if (!f) Die(path + ": cannot write");
+}
+
+// ---------------------------------------------------------- the asset API
+
+std::vector<v1::IngestRequest> IngestMessages(const Upload& upload) {
+  auto messages =
+      test_util::AssetClient::UploadMessages(upload.asset, test_util::UploadFile{upload.file, *upload.bytes});
+  if (upload.options) *messages[0].mutable_metadata()->mutable_options() = *upload.options;
+  if (!upload.upload_id.empty()) messages[0].mutable_metadata()->set_upload_id(upload.upload_id);
+  return messages;
+}
+
+// The client library behind AssetApi: testing/asset_client.h today.
+class AssetApi::Impl : public test_util::AssetClient {
+ public:
+  using test_util::AssetClient::AssetClient;
+};
+
+AssetApi::AssetApi(const std::string& address) : impl_(std::make_unique<Impl>(address)) {}
+
+AssetApi::~AssetApi() = default;
+
+bool AssetApi::WaitForConnected(std::chrono::system_clock::time_point deadline) {
+  return impl_->channel()->WaitForConnected(deadline);
+}
+
+StatusOr<v1::IngestResponse> AssetApi::Ingest(const std::vector<v1::IngestRequest>& messages) {
+  v1::IngestResponse response;
+  const grpc::Status s = impl_->IngestRaw(messages, &response);
+  if (!s.ok()) return FromGrpcStatus(s);
+  return response;
+}
+
+StatusOr<v1::Job> AssetApi::Watch(const std::string& job_id, const std::function<void(const v1::Job&)>& on_job,
+                                  double timeout_s) {
+  grpc::ClientContext context;
+  impl_->Prepare(context, timeout_s);
+  v1::GetJobRequest request;
+  request.set_job_id(job_id);
+  auto reader = impl_->stub().WatchJob(&context, request);
+  v1::Job job, last;
+  bool seen = false;
+  while (reader->Read(&job)) {
+    if (on_job) on_job(job);
+    last = job;
+    seen = true;
+  }
+  const grpc::Status s = reader->Finish();
+  if (!s.ok()) return FromGrpcStatus(s);
+  if (!seen) return NotFound("WatchJob " + job_id + " ended without a job");
+  return last;
+}
+
+StatusOr<v1::Version> AssetApi::GetVersion(const std::string& asset, int64_t version) {
+  v1::Version out;
+  const grpc::Status s = impl_->GetVersion(asset, version, &out);
+  if (!s.ok()) return FromGrpcStatus(s);
+  return out;
+}
+
+StatusOr<v1::ListVersionsResponse> AssetApi::ListVersions(const std::string& asset, int32_t page_size,
+                                                          const std::string& page_token) {
+  grpc::ClientContext context;
+  impl_->Prepare(context);
+  v1::ListVersionsRequest r;
+  r.set_asset(asset);
+  r.set_page_size(page_size);
+  r.set_page_token(page_token);
+  v1::ListVersionsResponse page;
+  const grpc::Status s = impl_->stub().ListVersions(&context, r, &page);
+  if (!s.ok()) return FromGrpcStatus(s);
+  return page;
+}
+
+StatusOr<AssetApi::Exported> AssetApi::Export(const std::string& asset, int64_t version, v1::Format format) {
+  test_util::AssetClient::Exported e = impl_->Export(asset, version, format);
+  if (!e.status.ok()) return FromGrpcStatus(e.status);
+  return Exported{std::move(e.bytes), std::move(e.sha256)};
+}
+
+StatusOr<v1::Version> IngestAndWait(AssetApi& api, const std::string& asset, const std::string& file,
+                                    const std::vector<uint8_t>& bytes) {
+  Upload upload;
+  upload.asset = asset;
+  upload.file = file;
+  upload.bytes = &bytes;
+  MS_ASSIGN_OR_RETURN(const v1::IngestResponse response, api.Ingest(IngestMessages(upload)));
+  MS_ASSIGN_OR_RETURN(const v1::Job job, api.Watch(response.job_id()));
+  if (job.state() != v1::JOB_STATE_SUCCEEDED) {
+    return Internal("the job of " + file + " ended " + v1::JobState_Name(job.state()) + ": " + job.message());
+  }
+  return api.GetVersion(asset, response.version());
+}
+
+}  // namespace meshstream::bench

@@ -1,0 +1,118 @@
+#include "bench/stream/shaped_summary.h"
+
+#include <algorithm>
+#include <map>
+#include <string>
+
+#include "bench/bench_util.h"
+
+namespace meshstream::bench::stream {
+
+using json = nlohmann::json;
+
+namespace {
+
+json ShapedMsSummary(std::vector<double> v) {
+  json out = {{"n", v.size()}};
+  if (v.empty()) return out;
+  std::sort(v.begin(), v.end());
+  out["median_ms"] = Median(v);
+  out["min_ms"] = v.front();
+  out["max_ms"] = v.back();
+  out["runs_ms"] = v;
+  return out;
+}
+
+// What the successful runs of one cell measured, run by run.
+struct Cell {
+  std::vector<double> first, full, final_h, predicted, lost, received, rate, srtt, decreases, within1, within01;
+  uint64_t n = 0, failed = 0, fallbacks = 0;
+  json errors = json::array();
+
+  void Add(const json& r) {
+    ++n;
+    if (!r.value("ok", false)) {
+      ++failed;
+      if (errors.size() < 5) errors.push_back(r.value("error", std::string("?")));
+      return;
+    }
+    first.push_back(r["first_ms"]);
+    full.push_back(r["full_ms"]);
+    AddQuality(r["quality"]);
+    if (r.contains("predicted_vertices")) predicted.push_back(r["predicted_vertices"]);
+    if (r.contains("stats")) {
+      lost.push_back(r["stats"]["datagrams_lost"]);
+      received.push_back(r["stats"]["datagrams_received"]);
+      if (!r["stats"]["fallback_reason"].get<std::string>().empty()) ++fallbacks;
+    }
+    if (r.contains("server")) {
+      rate.push_back(r["server"]["final_rate_mbps"]);
+      srtt.push_back(r["server"]["srtt_ms"]);
+      decreases.push_back(r["server"]["decreases"]);
+    }
+  }
+
+  // The final distance, and when the mesh shown first came within 1 % and
+  // 0.1 % of the diagonal.
+  void AddQuality(const json& q) {
+    if (!q.empty() && q.back().contains("hausdorff_rel")) final_h.push_back(q.back()["hausdorff_rel"]);
+    double t1 = -1, t01 = -1;
+    for (const json& p : q) {
+      if (!p.contains("hausdorff_rel") || !p.contains("t_ms")) continue;
+      const double h = p["hausdorff_rel"];
+      if (t1 < 0 && h <= 0.01) t1 = p["t_ms"];
+      if (t01 < 0 && h <= 0.001) t01 = p["t_ms"];
+    }
+    if (t1 >= 0) within1.push_back(t1);
+    if (t01 >= 0) within01.push_back(t01);
+  }
+
+  json Json(int loss, const std::string& model, const std::string& kind) const {
+    json s = {{"loss_percent", loss}, {"model", model}, {"kind", kind}, {"runs", n}, {"failures", failed},
+              {"first_ms", ShapedMsSummary(first)}, {"full_ms", ShapedMsSummary(full)},
+              {"within_1pct_ms", ShapedMsSummary(within1)}, {"within_0_1pct_ms", ShapedMsSummary(within01)},
+              {"final_hausdorff_rel_median", Median(final_h)},
+              {"final_hausdorff_rel_max", final_h.empty() ? 0.0 : *std::max_element(final_h.begin(), final_h.end())}};
+    if (!errors.empty()) s["errors"] = errors;
+    if (kind != "draco_export") {
+      s["predicted_vertices_median"] = Median(predicted);
+      s["datagrams_lost_median"] = Median(lost);
+      s["datagrams_received_median"] = Median(received);
+      s["fallbacks"] = fallbacks;
+      s["server_final_rate_mbps_median"] = Median(rate);
+      s["server_srtt_ms_median"] = Median(srtt);
+      s["server_rate_decreases_median"] = Median(decreases);
+    }
+    return s;
+  }
+};
+
+}  // namespace
+
+json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& models, const json& runs) {
+  json summary = json::array();
+  for (int loss : losses) {
+    for (const Model& m : models) {
+      std::map<std::string, json> by_kind;
+      for (const char* kind : kShapedKinds) {
+        Cell cell;
+        for (const json& r : runs) {
+          if (r["loss_percent"] == loss && r["model"] == m.name && r["kind"] == kind) cell.Add(r);
+        }
+        by_kind[kind] = cell.Json(loss, m.name, kind);
+      }
+      const json& d = by_kind["draco_export"];
+      for (const char* kind : {"udp", "tcp_only"}) {
+        json& s = by_kind[kind];
+        if (s["first_ms"].contains("median_ms") && d["first_ms"].contains("median_ms")) {
+          s["vs_draco"] = {{"first", s["first_ms"]["median_ms"].get<double>() / d["first_ms"]["median_ms"].get<double>()},
+                           {"full", s["full_ms"]["median_ms"].get<double>() / d["full_ms"]["median_ms"].get<double>()}};
+        }
+      }
+      for (const char* kind : kShapedKinds) summary.push_back(by_kind[kind]);
+    }
+  }
+  return summary;
+}
+
+}  // namespace meshstream::bench::stream
