@@ -391,7 +391,14 @@ StatusOr<Exported> AssetClient::Export(const ExportRequest& request,
     if (out.chunks == 0) {
       out.version = chunk.version();
       total = chunk.total_size();
-      if (total > 0 && total < (uint64_t{8} << 30)) out.bytes.reserve(total);
+      // The announced size is the server's word: reserved only up to 64 MiB.
+      out.bytes.reserve(std::min<uint64_t>(total, uint64_t{64} << 20));
+    }
+    if (chunk.data().size() > request.max_bytes - out.bytes.size()) {
+      context.TryCancel();
+      (void)reader->Finish();
+      return ResourceExhausted("export of " + request.asset + ": more than " + std::to_string(request.max_bytes) +
+                               " bytes (ExportRequest::max_bytes)");
     }
     out.bytes.insert(out.bytes.end(), chunk.data().begin(), chunk.data().end());
     if (!chunk.sha256().empty()) out.sha256 = chunk.sha256();

@@ -2,8 +2,8 @@
 // the next version of an asset (resumable, with progress), follow its job,
 // list assets and versions, export a version with its digest checked. The
 // one client of the API in meshstream: the CLI's client verbs (ingest,
-// versions, assets, export), the tests and the benchmarks use it, and an
-// engine or a content pipeline can too (sessions: session.h).
+// versions, assets, export) and the tests use it, and an engine or a content
+// pipeline can too (sessions: session.h).
 //
 // Ownership: an AssetClient shares its Client (client.h: the channel, the
 // token, TLS, the request timeout); several AssetClients and Sessions may
@@ -22,7 +22,9 @@
 // address in the message ("127.0.0.1:1: the server cannot be reached").
 // Local files that cannot be read are kNotFound / kIoError / kInvalidInput
 // naming the path. Export refuses bytes whose SHA-256 is not the one the
-// server announced (kDataLoss; nothing is returned).
+// server announced (kDataLoss; nothing is returned). What the server sends
+// is not trusted further than that: an announced size reserves at most 64 MiB
+// ahead of the bytes themselves, and an export stops at ExportRequest::max_bytes.
 //
 // Retries: only where a retry cannot do harm twice.
 //   - Ingest: a resumable upload (IngestOptions::resume) whose stream broke
@@ -127,6 +129,9 @@ struct ExportRequest {
   int64_t version = 0;          // 0: the latest READY version
   v1::Format format = v1::FORMAT_GLB;
   std::optional<int32_t> lod;   // unset: the full mesh
+  // The most bytes accepted (the server's own cap is 4 GiB); beyond it the
+  // export is cancelled with kResourceExhausted.
+  uint64_t max_bytes = uint64_t{4} << 30;
 };
 
 struct Exported {

@@ -2,9 +2,9 @@
 // an upload the server holds part of is resumed, an upload whose server went
 // away in the middle is retried and resumed on the server that came back (one
 // version, not two), the progress callbacks see every byte, a watch sees the
-// job to its end, and an export whose bytes do not match the announced digest
-// is refused (that one needs a server that lies: an in-process AssetService
-// on loopback).
+// job to its end, and an export whose bytes do not match the announced digest,
+// or exceed what the caller accepts, is refused (that needs a server that
+// lies: an in-process AssetService on loopback).
 #include <signal.h>
 
 #include <chrono>
@@ -188,7 +188,7 @@ class LyingExports final : public v1::AssetService::Service {
   }
 };
 
-TEST(SdkAssetClient, AnExportWhoseDigestDoesNotMatchIsRefused) {
+TEST(SdkAssetClient, AnExportWhoseDigestDoesNotMatchOrIsTooLargeIsRefused) {
   LyingExports service;
   grpc::ServerBuilder builder;
   int port = 0;
@@ -204,6 +204,11 @@ TEST(SdkAssetClient, AnExportWhoseDigestDoesNotMatchIsRefused) {
   ASSERT_FALSE(exported.ok());
   EXPECT_EQ(exported.status().code(), StatusCode::kDataLoss) << exported.status().ToString();
   EXPECT_NE(exported.status().message().find(std::string(64, '0')), std::string::npos) << exported.status().ToString();
+  // More bytes than the caller accepts: cut off, not collected.
+  request.max_bytes = 3;
+  exported = (*client)->Export(request);
+  ASSERT_FALSE(exported.ok());
+  EXPECT_EQ(exported.status().code(), StatusCode::kResourceExhausted) << exported.status().ToString();
   server->Shutdown();
 }
 
