@@ -5,13 +5,13 @@
 #include <string>
 #include <vector>
 
+#include "cli/asset_target.h"
 #include "cli/exit_codes.h"
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
 #include "importers/import.h"
-#include "services/store/blob_store.h"
-#include "services/store/store.h"
+#include "sdk/asset_client.h"
 
 namespace meshstream::cli {
 
@@ -56,40 +56,22 @@ int RunExport(const ExportArgs& args) {
   const int64_t version = target->version;
   auto format = ParseFormat(args.format, args.out);
   if (!format.ok()) return ReportError("export", format.status());
-  auto stub = Connect(args.remote);
-  if (!stub.ok()) return ReportError("export", stub.status());
-  grpc::ClientContext context;
-  PrepareContext(context, args.remote, 0);
-  v1::ExportRequest request;
-  request.set_asset(asset);
-  request.set_version(version);
-  request.set_format(format.value());
-  if (args.lod) request.set_lod(*args.lod);
-  auto reader = (*stub)->Export(&context, request);
-  std::vector<uint8_t> bytes;
-  std::string sha256;
-  int64_t exported_version = version;
-  v1::ExportChunk chunk;
+  auto client = ConnectAssets(args.remote);
+  if (!client.ok()) return ReportError("export", client.status());
+  sdk::ExportRequest request;
+  request.asset = asset;
+  request.version = version;
+  request.format = format.value();
+  if (args.lod) request.lod = *args.lod;
   ProgressLine progress(!args.json);
-  uint64_t total = 0;
-  while (reader->Read(&chunk)) {
-    if (bytes.empty()) {
-      exported_version = chunk.version();
-      total = chunk.total_size();
-      if (total > 0 && total < (uint64_t{8} << 30)) bytes.reserve(total);
-    }
-    bytes.insert(bytes.end(), chunk.data().begin(), chunk.data().end());
-    if (!chunk.sha256().empty()) sha256 = chunk.sha256();
-    if (total > 0) progress.Show("downloading: " + std::to_string(100 * bytes.size() / total) + "%");
-  }
-  const grpc::Status rpc = reader->Finish();
+  auto exported = (*client)->Export(request, [&progress](uint64_t received, uint64_t total) {
+    if (total > 0) progress.Show("downloading: " + std::to_string(100 * received / total) + "%");
+  });
   progress.Clear();
-  if (!rpc.ok()) return ReportError("export", RemoteError(rpc, args.remote));
-  const std::string actual = Sha256Hex(bytes.data(), bytes.size());
-  if (sha256 != actual) {
-    return ReportError("export", DataLoss("the bytes received have SHA-256 " + actual + ", the server announced '" +
-                                          sha256 + "'; nothing written"));
-  }
+  if (!exported.ok()) return ReportError("export", RemoteError(exported.status(), args.remote));
+  const std::vector<uint8_t>& bytes = exported->bytes;
+  const std::string& sha256 = exported->sha256;
+  const int64_t exported_version = exported->version;
   const Status s = WriteFileBytes(args.out, bytes);
   if (!s.ok()) return ReportError("export", s);
   if (args.json) {

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "cli/asset_target.h"
 #include "cli/exit_codes.h"
 #include "cli/json_out.h"
 #include "cli/remote.h"
@@ -11,7 +12,6 @@
 #include "importers/import.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "services/store/store.h"
 
 namespace meshstream::cli {
 
@@ -47,16 +47,9 @@ int RunFetch(const FetchArgs& args) {
   const int64_t version = target->version;
   const std::string ext = FileExtension(args.out);
   if (ext != ".glb" && ext != ".gltf") return ReportError("fetch", InvalidArgument(args.out + ": the output is .glb or .gltf"));
-  sdk::ClientOptions client_options;
-  client_options.server = args.remote.server;
-  client_options.token = args.remote.token;
-  client_options.tls = args.remote.tls || !args.remote.tls_ca.empty();
-  if (!args.remote.tls_ca.empty()) {
-    auto pem = ReadFileBytes(args.remote.tls_ca, 1 << 20);
-    if (!pem.ok()) return ReportError("fetch", pem.status().WithContext("--tls-ca"));
-    client_options.tls_ca_pem.assign(pem->begin(), pem->end());
-  }
-  auto client = sdk::Client::Create(client_options);
+  auto client_options = ClientOptionsOf(args.remote);
+  if (!client_options.ok()) return ReportError("fetch", client_options.status());
+  auto client = sdk::Client::Create(client_options.value());
   if (!client.ok()) return ReportError("fetch", client.status());
   sdk::SessionOptions options;
   options.asset = asset;
@@ -70,10 +63,10 @@ int RunFetch(const FetchArgs& args) {
   if (!session.ok()) return ReportError("fetch", session.status());
   ProgressLine progress(!args.json);
   for (;;) {
-    const sdk::Event e = (*session)->Poll(static_cast<int32_t>(args.remote.timeout_s * 1000));
+    const sdk::Event e = (*session)->Poll(static_cast<int32_t>(args.remote.client.request_timeout_s * 1000));
     if (e.type == sdk::EventType::kNone) {
-      return ReportError("fetch", Unavailable(args.remote.server + ": nothing arrived for " +
-                                               std::to_string(static_cast<int>(args.remote.timeout_s)) + " s"));
+      return ReportError("fetch", Unavailable(args.remote.client.server + ": nothing arrived for " +
+                                               std::to_string(static_cast<int>(args.remote.client.request_timeout_s)) + " s"));
     }
     if (e.type == sdk::EventType::kError) {
       Status error = e.status;

@@ -27,8 +27,6 @@ const char kAssetsDetails[] =
     "Example:\n"
     "  meshstream assets --json";
 
-constexpr int32_t kPage = 50;
-
 struct ListArgs {
   std::string asset;
   bool json = false;
@@ -47,67 +45,46 @@ std::string Date(const google::protobuf::Timestamp& t) {
 int RunVersions(const ListArgs& args) {
   Status s = CheckName("ASSET", args.asset);
   if (!s.ok()) return ReportError("versions", s);
-  auto stub = Connect(args.remote);
-  if (!stub.ok()) return ReportError("versions", stub.status());
-  nlohmann::json list = nlohmann::json::array();
-  if (!args.json) {
-    std::printf("%-7s  %-10s  %10s  %10s  %6s  %12s  %-20s  %s\n", "VERSION", "STATE", "VERTICES", "FACES", "LEVELS",
-                "BYTES", "CREATED", "SOURCE");
+  auto client = ConnectAssets(args.remote);
+  if (!client.ok()) return ReportError("versions", client.status());
+  auto versions = (*client)->ListVersions(args.asset);
+  if (!versions.ok()) return ReportError("versions", RemoteError(versions.status(), args.remote));
+  if (args.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const v1::Version& v : versions.value()) list.push_back(VersionJson(v));
+    PrintJson({{"asset", args.asset}, {"versions", list}});
+    return kExitOk;
   }
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    PrepareContext(context, args.remote, args.remote.timeout_s);
-    v1::ListVersionsRequest request;
-    request.set_asset(args.asset);
-    request.set_page_size(kPage);
-    request.set_page_token(token);
-    v1::ListVersionsResponse response;
-    const grpc::Status rpc = (*stub)->ListVersions(&context, request, &response);
-    if (!rpc.ok()) return ReportError("versions", RemoteError(rpc, args.remote));
-    for (const v1::Version& v : response.versions()) {
-      if (args.json) {
-        list.push_back(VersionJson(v));
-        continue;
-      }
-      std::printf("%-7lld  %-10s  %10lld  %10lld  %6d  %12llu  %-20s  %s%s%s\n", static_cast<long long>(v.version()),
-                  ShortState(v.state()), static_cast<long long>(v.vertices()), static_cast<long long>(v.faces()),
-                  v.levels(), static_cast<unsigned long long>(v.progressive_bytes()), Date(v.created()).c_str(),
-                  Utf8(v.source_filename()).c_str(), v.error().empty() ? "" : ": ", Utf8(v.error()).c_str());
-    }
-    token = response.next_page_token();
-  } while (!token.empty());
-  if (args.json) PrintJson({{"asset", args.asset}, {"versions", list}});
+  std::printf("%-7s  %-10s  %10s  %10s  %6s  %12s  %-20s  %s\n", "VERSION", "STATE", "VERTICES", "FACES", "LEVELS",
+              "BYTES", "CREATED", "SOURCE");
+  for (const v1::Version& v : versions.value()) {
+    std::printf("%-7lld  %-10s  %10lld  %10lld  %6d  %12llu  %-20s  %s%s%s\n", static_cast<long long>(v.version()),
+                ShortState(v.state()), static_cast<long long>(v.vertices()), static_cast<long long>(v.faces()),
+                v.levels(), static_cast<unsigned long long>(v.progressive_bytes()), Date(v.created()).c_str(),
+                Utf8(v.source_filename()).c_str(), v.error().empty() ? "" : ": ", Utf8(v.error()).c_str());
+  }
   return kExitOk;
 }
 
 int RunAssets(const ListArgs& args) {
-  auto stub = Connect(args.remote);
-  if (!stub.ok()) return ReportError("assets", stub.status());
-  nlohmann::json list = nlohmann::json::array();
-  if (!args.json) std::printf("%-40s  %7s  %s\n", "ASSET", "LATEST", "UPDATED");
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    PrepareContext(context, args.remote, args.remote.timeout_s);
-    v1::ListAssetsRequest request;
-    request.set_page_size(kPage);
-    request.set_page_token(token);
-    v1::ListAssetsResponse response;
-    const grpc::Status rpc = (*stub)->ListAssets(&context, request, &response);
-    if (!rpc.ok()) return ReportError("assets", RemoteError(rpc, args.remote));
-    for (const v1::Asset& a : response.assets()) {
-      if (args.json) {
-        list.push_back({{"name", a.name()}, {"latest_version", a.latest_version()},
-                        {"updated_ms", a.updated().seconds() * 1000 + a.updated().nanos() / 1000000}});
-      } else {
-        std::printf("%-40s  %7lld  %s\n", a.name().c_str(), static_cast<long long>(a.latest_version()),
-                    Date(a.updated()).c_str());
-      }
+  auto client = ConnectAssets(args.remote);
+  if (!client.ok()) return ReportError("assets", client.status());
+  auto assets = (*client)->ListAssets();
+  if (!assets.ok()) return ReportError("assets", RemoteError(assets.status(), args.remote));
+  if (args.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const v1::Asset& a : assets.value()) {
+      list.push_back({{"name", a.name()}, {"latest_version", a.latest_version()},
+                      {"updated_ms", a.updated().seconds() * 1000 + a.updated().nanos() / 1000000}});
     }
-    token = response.next_page_token();
-  } while (!token.empty());
-  if (args.json) PrintJson({{"assets", list}});
+    PrintJson({{"assets", list}});
+    return kExitOk;
+  }
+  std::printf("%-40s  %7s  %s\n", "ASSET", "LATEST", "UPDATED");
+  for (const v1::Asset& a : assets.value()) {
+    std::printf("%-40s  %7lld  %s\n", a.name().c_str(), static_cast<long long>(a.latest_version()),
+                Date(a.updated()).c_str());
+  }
   return kExitOk;
 }
 

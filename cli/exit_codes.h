@@ -3,7 +3,8 @@
 //   1  bad input: the file is missing, malformed, unsupported or too large;
 //      also an internal error (an exception that should not have happened)
 //   2  bad usage: unknown verb or option, missing or out-of-range argument
-//   3  the server cannot be reached or is shutting down (retry later)
+//   3  the server cannot be reached, is shutting down, or a request ran out
+//      of time (--timeout): retry later (kUnavailable, kDeadlineExceeded)
 // Every failure prints exactly one line on stderr.
 #ifndef MESHSTREAM_CLI_EXIT_CODES_H_
 #define MESHSTREAM_CLI_EXIT_CODES_H_
@@ -23,7 +24,9 @@ constexpr int kExitUnavailable = 3;
 inline int ExitCodeFor(const Status& status) {
   if (status.ok()) return kExitOk;
   if (status.code() == StatusCode::kInvalidArgument) return kExitUsage;
-  if (status.code() == StatusCode::kUnavailable) return kExitUnavailable;
+  if (status.code() == StatusCode::kUnavailable || status.code() == StatusCode::kDeadlineExceeded) {
+    return kExitUnavailable;
+  }
   return kExitBadInput;
 }
 

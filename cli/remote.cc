@@ -8,76 +8,49 @@
 #include "cli/app.h"
 #include "cli/json_out.h"
 #include "importers/import.h"
-#include "services/api/grpc_status.h"
-#include "services/store/store.h"
 
 namespace meshstream::cli {
 
 void AddRemoteOptions(CLI::App* cmd, RemoteOptions& o) {
-  FromEnv(cmd->add_option("--server", o.server, "the server, HOST:PORT"))->capture_default_str();
-  FromEnv(cmd->add_option("--token", o.token, "API token (meshstream token create); sent as 'authorization: Bearer'"));
-  FromEnv(cmd->add_flag("--tls", o.tls, "connect with TLS (the server has --tls-cert)"));
+  FromEnv(cmd->add_option("--server", o.client.server, "the server, HOST:PORT"))->capture_default_str();
+  FromEnv(cmd->add_option("--token", o.client.token, "API token (meshstream token create); sent as 'authorization: Bearer'"));
+  FromEnv(cmd->add_flag("--tls", o.client.tls, "connect with TLS (the server has --tls-cert)"));
   FromEnv(cmd->add_option("--tls-ca", o.tls_ca, "PEM file of the roots that sign the server's certificate (implies --tls)"));
-  FromEnv(cmd->add_option("--timeout", o.timeout_s, "seconds per request (uploads and exports: per MiB)")
+  FromEnv(cmd->add_option("--timeout", o.client.request_timeout_s, "seconds per request (uploads: per MiB)")
               ->check(NumberIn(0.1, 86400)))
       ->capture_default_str();
 }
 
-StatusOr<std::unique_ptr<v1::AssetService::Stub>> Connect(const RemoteOptions& o) {
-  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
-  if (o.tls || !o.tls_ca.empty()) {
-    grpc::SslCredentialsOptions ssl;
-    if (!o.tls_ca.empty()) {
-      auto pem = ReadFileBytes(o.tls_ca, 1 << 20);
-      if (!pem.ok()) return pem.status().WithContext("--tls-ca");
-      ssl.pem_root_certs.assign(pem->begin(), pem->end());
-    }
-    credentials = grpc::SslCredentials(ssl);
+StatusOr<sdk::ClientOptions> ClientOptionsOf(const RemoteOptions& o) {
+  sdk::ClientOptions options = o.client;
+  if (!o.tls_ca.empty()) {
+    auto pem = ReadFileBytes(o.tls_ca, 1 << 20);
+    if (!pem.ok()) return pem.status().WithContext("--tls-ca");
+    options.tls = true;
+    options.tls_ca_pem.assign(pem->begin(), pem->end());
   }
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(2 << 20);
-  args.SetMaxSendMessageSize(2 << 20);
-  auto channel = grpc::CreateCustomChannel(o.server, credentials, args);
-  if (!channel) return InvalidArgument("--server " + o.server + ": not an address");
-  return v1::AssetService::NewStub(channel);
+  return options;
 }
 
-void PrepareContext(grpc::ClientContext& context, const RemoteOptions& o, double timeout_s) {
-  if (!o.token.empty()) context.AddMetadata("authorization", "Bearer " + o.token);
-  if (timeout_s > 0) {
-    context.set_deadline(std::chrono::system_clock::now() +
-                         std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1000)));
-  }
+StatusOr<std::unique_ptr<sdk::AssetClient>> ConnectAssets(const RemoteOptions& o) {
+  MS_ASSIGN_OR_RETURN(const sdk::ClientOptions options, ClientOptionsOf(o));
+  return sdk::AssetClient::Create(options);
 }
 
-Status RemoteError(const grpc::Status& status, const RemoteOptions& o) {
-  Status s = FromGrpcStatus(status);
+Status RemoteError(const Status& s, const RemoteOptions& o) {
   if (s.code() == StatusCode::kInvalidArgument) return InvalidInput(s.message());
   if (s.code() == StatusCode::kUnavailable) {
-    return Unavailable(o.server + ": " + s.message() + " (is `meshstream serve` running there?)");
+    return Unavailable(s.message() + " (is `meshstream serve` running there?)");
   }
-  if (s.code() == StatusCode::kUnauthenticated && o.token.empty()) {
+  if (s.code() == StatusCode::kDeadlineExceeded) {
+    char seconds[32];
+    std::snprintf(seconds, sizeof seconds, "%g", o.client.request_timeout_s);
+    return DeadlineExceeded(s.message() + " (--timeout " + seconds + " s per request, per MiB for uploads)");
+  }
+  if (s.code() == StatusCode::kUnauthenticated && o.client.token.empty()) {
     return Unauthenticated(s.message() + " (give --token or MESHSTREAM_TOKEN)");
   }
   return s;
-}
-
-StatusOr<AssetVersion> ParseAssetVersion(const std::string& target) {
-  AssetVersion out;
-  out.asset = target;
-  const size_t at = target.find('@');
-  if (at != std::string::npos) {
-    const std::string number = target.substr(at + 1);
-    out.asset = target.substr(0, at);
-    char* end = nullptr;
-    out.version = std::strtoll(number.c_str(), &end, 10);
-    if (number.empty() || *end != '\0' || out.version < 0) {
-      return InvalidArgument(target + ": expected ASSET or ASSET@VERSION (a number >= 0)");
-    }
-  }
-  Status s = CheckName("ASSET", out.asset);
-  if (!s.ok()) return s;
-  return out;
 }
 
 const char* ShortState(v1::JobState state) {

@@ -1,7 +1,9 @@
-// What the client verbs (ingest, versions, assets, export) share: the server
-// address, the token and TLS as options (each also from MESHSTREAM_<NAME>), a
-// connected stub, per-call metadata and deadlines, errors from the server as
-// Status, the JSON of the API's messages, and a progress line on a terminal.
+// What the client verbs (ingest, versions, assets, export, fetch) share: the
+// connection as options (--server, --token, --tls, --tls-ca, --timeout, each
+// also from MESHSTREAM_<NAME>) filling the SDK's one sdk::ClientOptions, a
+// connected sdk::AssetClient (sdk/asset_client.h: every call of the API goes
+// through it), the CLI's reading of the client's errors, the JSON of the API's
+// messages, and a progress line on a terminal.
 #ifndef MESHSTREAM_CLI_REMOTE_H_
 #define MESHSTREAM_CLI_REMOTE_H_
 
@@ -9,41 +11,30 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
-#include <grpcpp/grpcpp.h>
 #include <nlohmann/json.hpp>
 
 #include "codec/core/status.h"
-#include "meshstream/v1/asset_service.grpc.pb.h"
+#include "meshstream/v1/asset_service.pb.h"
+#include "sdk/asset_client.h"
+#include "sdk/client.h"
 
 namespace meshstream::cli {
 
-constexpr char kDefaultServer[] = "127.0.0.1:7600";
-
 struct RemoteOptions {
-  std::string server = kDefaultServer;
-  std::string token;
-  bool tls = false;
-  std::string tls_ca;  // PEM roots; empty: the system's
-  double timeout_s = 60.0;  // unary calls; streams take their own
+  sdk::ClientOptions client;  // server (default kDefaultAddress), token, tls, request_timeout_s (--timeout)
+  std::string tls_ca;         // --tls-ca: a PEM file, read into client.tls_ca_pem by ClientOptionsOf
 };
 
 void AddRemoteOptions(CLI::App* cmd, RemoteOptions& options);
 
-StatusOr<std::unique_ptr<v1::AssetService::Stub>> Connect(const RemoteOptions& options);
-// The token and a deadline (`timeout_s` <= 0: none).
-void PrepareContext(grpc::ClientContext& context, const RemoteOptions& options, double timeout_s);
-// A failed call as a Status. The server's INVALID_ARGUMENT is bad input here
-// (exit 1: the request, not the command line, was wrong); an unreachable
-// server says where it looked.
-Status RemoteError(const grpc::Status& status, const RemoteOptions& options);
-
-// "ASSET" or "ASSET@VERSION" (a number >= 0; 0 and none: the latest READY),
-// the asset checked as a name. InvalidArgument naming the argument otherwise.
-struct AssetVersion {
-  std::string asset;
-  int64_t version = 0;
-};
-StatusOr<AssetVersion> ParseAssetVersion(const std::string& target);
+// The SDK's options of the command line (--tls-ca read; it implies TLS).
+StatusOr<sdk::ClientOptions> ClientOptionsOf(const RemoteOptions& options);
+StatusOr<std::unique_ptr<sdk::AssetClient>> ConnectAssets(const RemoteOptions& options);
+// An error of the client as the CLI reports it. The server's
+// INVALID_ARGUMENT is bad input here (exit 1: the request, not the command
+// line, was wrong); an unreachable server gets a hint, a deadline names
+// --timeout, and a refusal for want of a token says where a token goes.
+Status RemoteError(const Status& status, const RemoteOptions& options);
 
 nlohmann::json JobJson(const v1::Job& job);
 nlohmann::json VersionJson(const v1::Version& version);

@@ -69,7 +69,9 @@ ms_status ToC(StatusCode code) {
     case StatusCode::kPermissionDenied: return MS_ERR_UNAUTHENTICATED;
     case StatusCode::kUnavailable:
     case StatusCode::kResourceExhausted:
-    case StatusCode::kAborted: return MS_ERR_UNAVAILABLE;
+    case StatusCode::kAborted:
+    case StatusCode::kCancelled: return MS_ERR_UNAVAILABLE;
+    case StatusCode::kDeadlineExceeded: return MS_ERR_TIMEOUT;
     default: return MS_ERR_INTERNAL;
   }
 }
@@ -190,6 +192,10 @@ ms_status ms_client_create(const ms_client_config* config, ms_client** out) {
     if (MS_FIELD_FITS(config, ms_client_config, tls)) options.tls = config->tls != 0;
     if (MS_FIELD_FITS(config, ms_client_config, tls_ca_pem) && config->tls_ca_pem != nullptr) {
       options.tls_ca_pem = config->tls_ca_pem;
+    }
+    if (MS_FIELD_FITS(config, ms_client_config, deadline_ms)) {
+      if (config->deadline_ms < 0) return Fail(MS_ERR_INVALID_ARGUMENT, "config->deadline_ms: not negative (0: none)");
+      options.session_deadline_ms = config->deadline_ms;
     }
     auto client = meshstream::sdk::Client::Create(options);
     if (!client.ok()) return Fail(client.status());

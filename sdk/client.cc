@@ -1,16 +1,20 @@
 #include "sdk/client.h"
 
+#include <chrono>
+
 namespace meshstream::sdk {
 
 StatusOr<std::unique_ptr<Client>> Client::Create(const ClientOptions& options) {
   if (options.server.empty()) return InvalidArgument("server: must not be empty (HOST:PORT)");
+  if (options.session_deadline_ms < 0) return InvalidArgument("session_deadline_ms: not negative (0: none)");
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  grpc::ChannelArguments args;
   if (options.tls || !options.tls_ca_pem.empty()) {
     grpc::SslCredentialsOptions ssl;
     ssl.pem_root_certs = options.tls_ca_pem;
     credentials = grpc::SslCredentials(ssl);
+    if (!options.tls_server_name.empty()) args.SetSslTargetNameOverride(options.tls_server_name);
   }
-  grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(256 << 20);  // a session start holds every base mesh and the scene
   auto channel = grpc::CreateCustomChannel(options.server, credentials, args);
   if (!channel) return InvalidArgument("server " + options.server + ": not an address");
@@ -19,6 +23,17 @@ StatusOr<std::unique_ptr<Client>> Client::Create(const ClientOptions& options) {
 
 void Client::Authorize(grpc::ClientContext& context) const {
   if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
+  if (options_.session_deadline_ms > 0) {
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(options_.session_deadline_ms));
+  }
+}
+
+void Client::Prepare(grpc::ClientContext& context, double timeout_s) const {
+  if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
+  if (timeout_s > 0) {
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::microseconds(static_cast<int64_t>(timeout_s * 1e6)));
+  }
 }
 
 }  // namespace meshstream::sdk

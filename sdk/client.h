@@ -1,35 +1,56 @@
-// The SDK's connection to a meshstream server: address, token and TLS, one
-// gRPC channel shared by every session opened on it.
+// The SDK's connection to a meshstream server: address, token, TLS and
+// deadlines in one ClientOptions, and one gRPC channel shared by every
+// session (session.h) and every AssetClient (asset_client.h) made on it.
+// ClientOptions is the one description of a connection: the CLI's --server,
+// --token, --tls, --tls-ca and --timeout fill it, the C API's ms_client_config
+// fills it, the tests fill it.
 //
 // Thread safety: a Client may be used from several threads at once; it must
-// outlive its sessions.
+// outlive its sessions (an AssetClient shares ownership of it).
 #ifndef MESHSTREAM_SDK_CLIENT_H_
 #define MESHSTREAM_SDK_CLIENT_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
 
 #include "codec/core/status.h"
+#include "proto/default_address.h"
 
 namespace meshstream::sdk {
 
 struct ClientOptions {
-  std::string server = "127.0.0.1:7600";
+  std::string server = kDefaultAddress;  // HOST:PORT, [v6]:port or unix:/path
   std::string token;          // sent as `authorization: Bearer TOKEN` when not empty
   bool tls = false;
   std::string tls_ca_pem;     // roots that sign the server's certificate (PEM text); empty: the system's
+  std::string tls_server_name;  // the name to check the certificate against; empty: the host of `server`
+  // AssetClient's deadline for one request, in seconds: unary calls get it as
+  // it is, an upload or an export gets it per MiB (at least a minute); a watch
+  // has none. <= 0: no deadline.
+  double request_timeout_s = 60.0;
+  // A deadline on each session (Session::Open) from its open to its end, in
+  // ms; 0: none. A session that has not ended in time fails with
+  // kDeadlineExceeded (MS_ERR_TIMEOUT in the C API).
+  int64_t session_deadline_ms = 0;
 };
 
 class Client {
  public:
+  // InvalidArgument for an empty server or a negative deadline. Does not
+  // connect: a server that cannot be reached shows at the first call.
   static StatusOr<std::unique_ptr<Client>> Create(const ClientOptions& options);
 
   const ClientOptions& options() const { return options_; }
   const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
-  // Adds the token to a call's metadata.
+  // Prepares a session's call: the token in its metadata and, when
+  // session_deadline_ms is set, its deadline.
   void Authorize(grpc::ClientContext& context) const;
+  // Prepares any other call: the token and a deadline `timeout_s` from now
+  // (<= 0: none).
+  void Prepare(grpc::ClientContext& context, double timeout_s) const;
 
  private:
   Client(ClientOptions options, std::shared_ptr<grpc::Channel> channel)

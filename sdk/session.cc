@@ -21,6 +21,7 @@
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
 #include "meshstream/v1/stream.grpc.pb.h"
+#include "proto/rpc_status.h"
 
 namespace meshstream::sdk {
 
@@ -30,25 +31,6 @@ using Clock = std::chrono::steady_clock;
 
 double MsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-// The status of a finished call as the SDK reports it.
-Status FromCall(const grpc::Status& s) {
-  const std::string& m = s.error_message();
-  switch (s.error_code()) {
-    case grpc::StatusCode::OK: return Status::Ok();
-    case grpc::StatusCode::INVALID_ARGUMENT: return InvalidArgument(m);
-    case grpc::StatusCode::NOT_FOUND: return NotFound(m);
-    case grpc::StatusCode::FAILED_PRECONDITION: return FailedPrecondition(m);
-    case grpc::StatusCode::UNAUTHENTICATED: return Unauthenticated(m);
-    case grpc::StatusCode::PERMISSION_DENIED: return PermissionDenied(m);
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return ResourceExhausted(m);
-    case grpc::StatusCode::DATA_LOSS: return DataLoss(m);
-    case grpc::StatusCode::UNAVAILABLE:
-    case grpc::StatusCode::DEADLINE_EXCEEDED: return Unavailable(m.empty() ? "the server cannot be reached" : m);
-    case grpc::StatusCode::CANCELLED: return Aborted("cancelled" + (m.empty() ? "" : ": " + m));
-    default: return Internal(m);
-  }
 }
 
 StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
@@ -182,7 +164,7 @@ struct Session::Impl {
     const grpc::Status s = stream->Finish();
     std::lock_guard<std::mutex> lock(mutex);
     finished = true;
-    final_status = FromCall(s);
+    final_status = FromGrpcStatus(s);
     arrived.notify_one();
   }
 
@@ -689,7 +671,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   if (options.expected_loss >= 0) open.mutable_open()->set_expected_loss(options.expected_loss);
   if (!impl->stream->Write(open)) {
     const grpc::Status s = impl->stream->Finish();
-    return FromCall(s).ok() ? Unavailable("the server closed the session at once") : FromCall(s);
+    return FromGrpcStatus(s).ok() ? Unavailable("the server closed the session at once") : FromGrpcStatus(s);
   }
   Impl* raw = impl.get();
   impl->reader = std::thread([raw] { raw->ReadAll(); });

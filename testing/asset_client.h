@@ -1,3 +1,8 @@
+// DEPRECATED: tests use sdk::AssetClient (sdk/asset_client.h) through
+// testing/asset_calls.h; only bench/ and tests/integration/stream_faults_test.cc
+// (both being rewritten elsewhere in issue 22) still include this file, until
+// they move to sdk::AssetClient too, and then it goes.
+//
 // A C++ client of meshstream.v1.AssetService for integration tests: real
 // gRPC over loopback with the generated stubs, and helpers that ingest a
 // file (with its .gltf resources), wait for a job and export a version.

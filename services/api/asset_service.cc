@@ -7,7 +7,7 @@
 #include <utility>
 
 #include "services/api/call_auth.h"
-#include "services/api/grpc_status.h"
+#include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/export/version_export.h"
 #include "services/store/page_token.h"
@@ -59,7 +59,7 @@ grpc::Status AssetServiceImpl::Ingest(grpc::ServerContext* context, grpc::Server
     if (s.ok() && !upload.begun()) s = InvalidArgument("the first message must be metadata");
     if (!s.ok()) return ToGrpcStatus(s);
   }
-  if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+  if (context->IsCancelled()) return ToGrpcStatus(Cancelled("the client went away"));
   auto version = upload.Finish();
   if (!version.ok()) return ToGrpcStatus(version.status());
   if (on_ingested_) on_ingested_();
@@ -109,14 +109,14 @@ grpc::Status AssetServiceImpl::WatchJob(grpc::ServerContext* context, const v1::
     if (!job.ok()) return ToGrpcStatus(job.status());
     v1::Job message = ToProto(job.value());
     if (!last || !SameJob(*last, message)) {
-      if (!writer->Write(message)) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+      if (!writer->Write(message)) return ToGrpcStatus(Cancelled("the client went away"));
       last = message;
       poll_ms = options_.watch_poll_ms;
     } else {
       poll_ms = std::min(options_.watch_poll_max_ms, poll_ms * 3 / 2);
     }
     if (Finished(job.value())) return grpc::Status::OK;
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+    if (context->IsCancelled()) return ToGrpcStatus(Cancelled("the client went away"));
     if (draining_ != nullptr && draining_->load()) {
       return ToGrpcStatus(Unavailable("the server is shutting down; watch the job again (it continues)"));
     }
@@ -189,10 +189,10 @@ grpc::Status AssetServiceImpl::Export(grpc::ServerContext* context, const v1::Ex
   const auto take_slot = [&]() -> Status {
     slot = exports_.Acquire(std::chrono::milliseconds(options_.export_wait_ms));
     if (!slot) return ResourceExhausted("Export: the server is busy with other exports; retry later");
-    if (context->IsCancelled()) return Aborted("the client went away");
+    if (context->IsCancelled()) return Cancelled("the client went away");
     return Status::Ok();
   };
-  if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+  if (context->IsCancelled()) return ToGrpcStatus(Cancelled("the client went away"));
   auto exported = ExportVersion(*store_, principal->tenant, request->asset(), request->version(), format.value(), lod,
                                 options_.max_export_bytes, take_slot);
   if (!exported.ok()) return ToGrpcStatus(exported.status());
@@ -209,7 +209,7 @@ grpc::Status AssetServiceImpl::Export(grpc::ServerContext* context, const v1::Ex
     chunk.set_data(bytes.data() + offset, n);
     offset += n;
     if (offset == bytes.size()) chunk.set_sha256(exported->sha256);
-    if (!writer->Write(chunk)) return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+    if (!writer->Write(chunk)) return ToGrpcStatus(Cancelled("the client went away"));
   } while (offset < bytes.size());
   return grpc::Status::OK;
 }

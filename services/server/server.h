@@ -21,11 +21,12 @@
 #include <string>
 
 #include "codec/core/status.h"
+#include "proto/default_address.h"
 
 namespace meshstream {
 
 struct ServerOptions {
-  std::string listen = "127.0.0.1:7600";  // host:port, [v6]:port or unix:/path; port 0 picks a free one
+  std::string listen = kDefaultAddress;   // host:port, [v6]:port or unix:/path; port 0 picks a free one
   std::string store = "./meshstream-data";  // a folder, or postgresql://...
   int workers = 0;                        // 0: the core count
   bool auth = false;

@@ -15,7 +15,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "testing/asset_client.h"
+#include "services/store/blob_store.h"
+#include "testing/asset_calls.h"
 #include "tests/common/cli_util.h"
 #include "testing/grpc_probe.h"
 #include "testing/serve_process.h"
@@ -24,9 +25,8 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
-using test_util::UploadFile;
+using sdk::UploadFile;
 namespace fs = std::filesystem;
 
 struct Model {
@@ -56,7 +56,7 @@ std::vector<Model> SharedModels() {
       if (entry.path().extension() == ".gltf") {
         m.path = entry.path().string();
       } else {
-        m.resources.push_back(AssetClient::Load(entry.path().string(), file));
+        m.resources.push_back(test_util::LoadFile(entry.path().string(), file));
       }
     }
     models.push_back(m);
@@ -76,21 +76,21 @@ class AssetApi : public ::testing::Test {
   static void SetUpTestSuite() {
     const Status started = suite_.Start();
     ASSERT_TRUE(started.ok()) << started.ToString();
-    client_ = new AssetClient(server_->address());
+    client_ = test_util::NewAssetClient(server_->address()).release();
     // Every model is sent first, then every job followed: the pool works on
     // them in parallel while the uploads go on.
     ingested_ = new std::vector<Ingested>();
     for (const Model& m : SharedModels()) {
       Ingested in;
       in.model = m;
-      const UploadFile main = AssetClient::Load(m.path, fs::path(m.path).filename().string());
-      const grpc::Status s = client_->Ingest(m.asset, main, &in.response, m.resources);
-      ASSERT_TRUE(s.ok()) << m.asset << ": " << s.error_message();
+      const UploadFile main = test_util::LoadFile(m.path, fs::path(m.path).filename().string());
+      const Status s = test_util::Ingest(*client_, m.asset, main, &in.response, m.resources);
+      ASSERT_TRUE(s.ok()) << m.asset << ": " << s.ToString();
       ingested_->push_back(std::move(in));
     }
     for (Ingested& in : *ingested_) {
-      ASSERT_TRUE(client_->Watch(in.response.job_id(), &in.job).ok()) << in.model.asset;
-      ASSERT_TRUE(client_->GetVersion(in.model.asset, in.response.version(), &in.version).ok()) << in.model.asset;
+      ASSERT_TRUE(test_util::Watch(*client_, in.response.job_id(), &in.job).ok()) << in.model.asset;
+      ASSERT_TRUE(test_util::GetVersion(*client_, in.model.asset, in.response.version(), &in.version).ok()) << in.model.asset;
     }
   }
   static void TearDownTestSuite() {
@@ -102,7 +102,7 @@ class AssetApi : public ::testing::Test {
 
   static grpc::Status Unary(std::function<grpc::Status(grpc::ClientContext*)> call) {
     grpc::ClientContext context;
-    client_->Prepare(context);
+    test_util::Prepare(*client_, context);
     return call(&context);
   }
 
@@ -115,14 +115,14 @@ class AssetApi : public ::testing::Test {
   static inline test_util::SuiteServer suite_;
   static inline test_util::TempDir*& dir_ = suite_.dir;
   static inline ServeProcess*& server_ = suite_.server;
-  static inline AssetClient* client_ = nullptr;
+  static inline sdk::AssetClient* client_ = nullptr;
   static inline std::vector<Ingested>* ingested_ = nullptr;
 };
 
 UploadFile SmallObj(const std::string& name, int variant = 0) {
   const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 " + std::to_string(1 + variant) +
                            "\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
-  return UploadFile{name, std::vector<uint8_t>(text.begin(), text.end())};
+  return UploadFile::FromBytes(name, std::vector<uint8_t>(text.begin(), text.end()));
 }
 
 TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
@@ -131,7 +131,7 @@ TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
     SCOPED_TRACE(in.model.asset);
     EXPECT_EQ(in.response.asset(), in.model.asset);
     EXPECT_EQ(in.response.version(), 1);
-    const UploadFile main = AssetClient::Load(in.model.path, "x");
+    const UploadFile main = test_util::LoadFile(in.model.path, "x");
     EXPECT_EQ(in.response.sha256(), Sha256Hex(main.bytes.data(), main.bytes.size()));
     EXPECT_EQ(in.job.state(), v1::JOB_STATE_SUCCEEDED) << in.job.message();
     EXPECT_DOUBLE_EQ(in.job.progress(), 1.0);
@@ -159,14 +159,14 @@ TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
 
 TEST_F(AssetApi, WatchJobReportsProgressUpToSucceeded) {
   // A fresh version of the bunny (another packing, so not from the cache).
-  const UploadFile main = AssetClient::Load(test_util::ModelPath("stanford-bunny.obj"), "bunny.obj");
-  auto messages = AssetClient::UploadMessages("bunny-watch", main);
+  const UploadFile main = test_util::LoadFile(test_util::ModelPath("stanford-bunny.obj"), "bunny.obj");
+  auto messages = test_util::UploadMessages("bunny-watch", main);
   messages[0].mutable_metadata()->mutable_options()->set_packing("bundled");
   v1::IngestResponse response;
-  ASSERT_TRUE(client_->IngestRaw(messages, &response).ok());
+  ASSERT_TRUE(test_util::IngestRaw(*client_, messages, &response).ok());
   v1::Job last;
   std::vector<v1::Job> all;
-  ASSERT_TRUE(client_->Watch(response.job_id(), &last, &all).ok());
+  ASSERT_TRUE(test_util::Watch(*client_, response.job_id(), &last, &all).ok());
   EXPECT_EQ(last.state(), v1::JOB_STATE_SUCCEEDED);
   ASSERT_GE(all.size(), 2u) << "at least one state before SUCCEEDED";
   for (size_t i = 1; i < all.size(); ++i) EXPECT_GE(all[i].progress(), all[i - 1].progress());
@@ -180,7 +180,7 @@ TEST_F(AssetApi, WatchJobReportsProgressUpToSucceeded) {
   EXPECT_EQ(got.asset(), "bunny-watch");
   EXPECT_EQ(got.version(), 1);
   v1::Version version;
-  ASSERT_TRUE(client_->GetVersion("bunny-watch", 1, &version).ok());
+  ASSERT_TRUE(test_util::GetVersion(*client_, "bunny-watch", 1, &version).ok());
   EXPECT_EQ(version.options().packing(), "bundled");
 }
 
@@ -195,8 +195,8 @@ TEST_F(AssetApi, ExportsEveryFormatThatValidatesAndDecodesOnTheGrid) {
                                                        {v1::FORMAT_OBJ, ".obj"},
                                                        {v1::FORMAT_PLY, ".ply"}};
     for (const auto& [format, suffix] : formats) {
-      const auto e = client_->Export(in.model.asset, 0, format);
-      ASSERT_TRUE(e.status.ok()) << v1::Format_Name(format) << ": " << e.status.error_message();
+      const auto e = test_util::Export(*client_, in.model.asset, 0, format);
+      ASSERT_TRUE(e.status.ok()) << v1::Format_Name(format) << ": " << e.status.ToString();
       EXPECT_EQ(e.version, 1);
       EXPECT_EQ(e.sha256, Sha256Hex(e.bytes.data(), e.bytes.size())) << "the last chunk carries the digest";
       EXPECT_LE(e.largest_chunk, size_t{1} << 20);
@@ -266,44 +266,44 @@ TEST_F(AssetApi, EveryModelStreamsOverUdpAndOverTcpToTheSameMesh) {
 }
 
 TEST_F(AssetApi, ExportAtALevelOfDetailAndInChunks) {
-  const auto full = client_->Export("horse", 0, v1::FORMAT_GLB);
-  const auto base = client_->Export("horse", 1, v1::FORMAT_GLB, 0);
-  ASSERT_TRUE(full.status.ok() && base.status.ok()) << base.status.error_message();
+  const auto full = test_util::Export(*client_, "horse", 0, v1::FORMAT_GLB);
+  const auto base = test_util::Export(*client_, "horse", 1, v1::FORMAT_GLB, 0);
+  ASSERT_TRUE(full.status.ok() && base.status.ok()) << base.status.ToString();
   EXPECT_LT(base.bytes.size(), full.bytes.size());
   EXPECT_GT(full.chunks, 1u) << "the horse's GLB is larger than one 1 MiB chunk";
   EXPECT_LE(full.largest_chunk, size_t{1} << 20);
-  const auto again = client_->Export("horse", 0, v1::FORMAT_GLB);
+  const auto again = test_util::Export(*client_, "horse", 0, v1::FORMAT_GLB);
   EXPECT_EQ(again.sha256, full.sha256) << "an export is deterministic (and cached)";
   v1::Version v;
-  ASSERT_TRUE(client_->GetVersion("horse", 1, &v).ok());
-  const auto beyond = client_->Export("horse", 1, v1::FORMAT_GLB, v.levels() + 1);
-  EXPECT_EQ(beyond.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_NE(beyond.status.error_message().find("lod"), std::string::npos) << beyond.status.error_message();
+  ASSERT_TRUE(test_util::GetVersion(*client_, "horse", 1, &v).ok());
+  const auto beyond = test_util::Export(*client_, "horse", 1, v1::FORMAT_GLB, v.levels() + 1);
+  EXPECT_EQ(beyond.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(beyond.status.message().find("lod"), std::string::npos) << beyond.status.ToString();
 }
 
 TEST_F(AssetApi, VersionsAreNumberedAndTheSameSourceIsEncodedOnce) {
   v1::IngestResponse first, second;
-  const UploadFile spot = AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj");
-  ASSERT_TRUE(client_->Ingest("spot", spot, &first).ok());
+  const UploadFile spot = test_util::LoadFile(test_util::ModelPath("spot.obj"), "spot.obj");
+  ASSERT_TRUE(test_util::Ingest(*client_, "spot", spot, &first).ok());
   EXPECT_EQ(first.version(), 2) << "the fixture made version 1";
-  ASSERT_TRUE(client_->Ingest("spot", spot, &second).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_, "spot", spot, &second).ok());
   EXPECT_EQ(second.version(), 3);
   v1::Job job;
-  ASSERT_TRUE(client_->Watch(second.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client_, second.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED);
   EXPECT_NE(job.message().find("reused"), std::string::npos) << "identical source and options: " << job.message();
-  const auto a = client_->Export("spot", 1, v1::FORMAT_PROGRESSIVE_GLB);
-  const auto b = client_->Export("spot", 3, v1::FORMAT_PROGRESSIVE_GLB);
+  const auto a = test_util::Export(*client_, "spot", 1, v1::FORMAT_PROGRESSIVE_GLB);
+  const auto b = test_util::Export(*client_, "spot", 3, v1::FORMAT_PROGRESSIVE_GLB);
   EXPECT_EQ(a.sha256, b.sha256);
   v1::Version latest;
-  ASSERT_TRUE(client_->GetVersion("spot", 0, &latest).ok());
+  ASSERT_TRUE(test_util::GetVersion(*client_, "spot", 0, &latest).ok());
   EXPECT_EQ(latest.version(), 3);
 }
 
 TEST_F(AssetApi, PaginationVisitsEveryVersionAndAssetOnce) {
   for (int i = 0; i < 5; ++i) {
     v1::IngestResponse r;
-    ASSERT_TRUE(client_->Ingest("paged", SmallObj("tet.obj", i), &r).ok());
+    ASSERT_TRUE(test_util::Ingest(*client_, "paged", SmallObj("tet.obj", i), &r).ok());
     EXPECT_EQ(r.version(), i + 1);
   }
   for (int page_size : {1, 2, 3, 100}) {
@@ -360,13 +360,13 @@ TEST_F(AssetApi, PaginationVisitsEveryVersionAndAssetOnce) {
 }
 
 TEST_F(AssetApi, AnInterruptedUploadResumesAtCommittedSize) {
-  const UploadFile horse = AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply");
-  auto messages = AssetClient::UploadMessages("resumed", horse, {}, 256 << 10);
+  const UploadFile horse = test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply");
+  auto messages = test_util::UploadMessages("resumed", horse, {}, 256 << 10);
   messages[0].mutable_metadata()->set_upload_id("resume-test-1");
   {
     // Half the chunks, then the client goes away.
     grpc::ClientContext context;
-    client_->Prepare(context);
+    test_util::Prepare(*client_, context);
     v1::IngestResponse response;
     auto writer = client_->stub().Ingest(&context, &response);
     for (size_t i = 0; i < messages.size() / 2; ++i) ASSERT_TRUE(writer->Write(messages[i]));
@@ -388,20 +388,20 @@ TEST_F(AssetApi, AnInterruptedUploadResumesAtCommittedSize) {
   auto wrong = messages;
   wrong[0].mutable_metadata()->set_write_offset(committed + 1);
   v1::IngestResponse refused;
-  const grpc::Status w = client_->IngestRaw({wrong[0]}, &refused);
+  const grpc::Status w = test_util::IngestRaw(*client_, {wrong[0]}, &refused);
   EXPECT_EQ(w.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_NE(w.error_message().find(std::to_string(committed)), std::string::npos) << w.error_message();
   // The rest, from committed_size.
   std::vector<v1::IngestRequest> rest = {messages[0]};
   rest[0].mutable_metadata()->set_write_offset(committed);
   std::vector<uint8_t> tail(horse.bytes.begin() + static_cast<long>(committed), horse.bytes.end());
-  AssetClient::AppendChunks(tail, 256 << 10, rest);
+  test_util::AppendChunks(tail, 256 << 10, rest);
   v1::IngestResponse response;
-  const grpc::Status ok = client_->IngestRaw(rest, &response);
+  const grpc::Status ok = test_util::IngestRaw(*client_, rest, &response);
   ASSERT_TRUE(ok.ok()) << ok.error_message();
   EXPECT_EQ(response.sha256(), Sha256Hex(horse.bytes.data(), horse.bytes.size()));
   v1::Job job;
-  ASSERT_TRUE(client_->Watch(response.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client_, response.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   // The upload is gone once it became a version.
   const grpc::Status gone = Unary([&](grpc::ClientContext* c) {
@@ -415,30 +415,30 @@ TEST_F(AssetApi, AnInterruptedUploadResumesAtCommittedSize) {
 TEST_F(AssetApi, ABadFileFailsItsJobAndNotTheServer) {
   const std::string junk = "this is not an OBJ\nf 1 2 3\nv nan nan\n";
   v1::IngestResponse r;
-  ASSERT_TRUE(client_->Ingest("junk", UploadFile{"junk.obj", std::vector<uint8_t>(junk.begin(), junk.end())}, &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_, "junk", UploadFile::FromBytes("junk.obj", std::vector<uint8_t>(junk.begin(), junk.end())), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client_->Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client_, r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_FAILED);
   EXPECT_NE(job.message().find("junk.obj"), std::string::npos) << "the importer's message: " << job.message();
   v1::Version v;
-  ASSERT_TRUE(client_->GetVersion("junk", r.version(), &v).ok());
+  ASSERT_TRUE(test_util::GetVersion(*client_, "junk", r.version(), &v).ok());
   EXPECT_EQ(v.state(), v1::VERSION_STATE_FAILED);
   EXPECT_EQ(v.error(), job.message());
-  const auto e = client_->Export("junk", r.version(), v1::FORMAT_GLB);
-  EXPECT_EQ(e.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  const auto latest = client_->Export("junk", 0, v1::FORMAT_GLB);
-  EXPECT_EQ(latest.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << "no READY version";
+  const auto e = test_util::Export(*client_, "junk", r.version(), v1::FORMAT_GLB);
+  EXPECT_EQ(e.status.code(), StatusCode::kFailedPrecondition);
+  const auto latest = test_util::Export(*client_, "junk", 0, v1::FORMAT_GLB);
+  EXPECT_EQ(latest.status.code(), StatusCode::kFailedPrecondition) << "no READY version";
   // A message quoting a huge URI is cut: the version stays readable.
   const std::string uri(3 << 20, 'x');
   const std::string gltf = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":4,\"uri\":\"../" + uri + "\"}]}";
   v1::IngestResponse big;
-  ASSERT_TRUE(client_->Ingest("long-uri", UploadFile{"long.gltf", std::vector<uint8_t>(gltf.begin(), gltf.end())}, &big).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_, "long-uri", UploadFile::FromBytes("long.gltf", std::vector<uint8_t>(gltf.begin(), gltf.end())), &big).ok());
   v1::Job failed;
-  ASSERT_TRUE(client_->Watch(big.job_id(), &failed).ok());
+  ASSERT_TRUE(test_util::Watch(*client_, big.job_id(), &failed).ok());
   EXPECT_EQ(failed.state(), v1::JOB_STATE_FAILED);
   EXPECT_LE(failed.message().size(), 1024u);
   v1::Version readable;
-  EXPECT_TRUE(client_->GetVersion("long-uri", 1, &readable).ok());
+  EXPECT_TRUE(test_util::GetVersion(*client_, "long-uri", 1, &readable).ok());
   ExpectHealthy();
 }
 
@@ -447,10 +447,10 @@ TEST_F(AssetApi, AListVersionsPageStaysUnderTheMessageLimit) {
   std::map<std::string, std::string> labels;
   for (int i = 0; i < 64; ++i) labels["label-" + std::to_string(i)] = std::string(1024, 'a' + i % 26);
   for (int i = 0; i < 30; ++i) {
-    auto m = AssetClient::UploadMessages("labelled", SmallObj("tet.obj", i % 3));
+    auto m = test_util::UploadMessages("labelled", SmallObj("tet.obj", i % 3));
     for (const auto& [k, v] : labels) (*m[0].mutable_metadata()->mutable_labels())[k] = v;
     v1::IngestResponse r;
-    ASSERT_TRUE(client_->IngestRaw(m, &r).ok());
+    ASSERT_TRUE(test_util::IngestRaw(*client_, m, &r).ok());
   }
   std::vector<int64_t> seen;
   std::string token;
@@ -482,78 +482,83 @@ TEST_F(AssetApi, EveryErrorHasItsCode) {
     EXPECT_EQ(s.error_code(), code) << s.error_message();
     EXPECT_NE(s.error_message().find(words), std::string::npos) << "'" << words << "' in: " << s.error_message();
   };
+  // The same for what the client returns.
+  auto expect_status = [](const Status& s, StatusCode code, const std::string& words) {
+    EXPECT_EQ(s.code(), code) << s.ToString();
+    EXPECT_NE(s.message().find(words), std::string::npos) << "'" << words << "' in: " << s.ToString();
+  };
   v1::IngestResponse r;
   {  // the first message is a chunk
     v1::IngestRequest chunk;
     chunk.set_chunk("v 0 0 0\n");
-    expect(client_->IngestRaw({chunk}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
+    expect(test_util::IngestRaw(*client_, {chunk}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
   }
-  expect(client_->IngestRaw({}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
+  expect(test_util::IngestRaw(*client_, {}, &r), grpc::StatusCode::INVALID_ARGUMENT, "metadata");
   {
-    auto m = AssetClient::UploadMessages("../etc", tet);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
-    m = AssetClient::UploadMessages(std::string(129, 'a'), tet);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
+    auto m = test_util::UploadMessages("../etc", tet);
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
+    m = test_util::UploadMessages(std::string(129, 'a'), tet);
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "asset");
   }
   {
-    auto m = AssetClient::UploadMessages("txt", UploadFile{"notes.txt", tet.bytes});
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "filename");
+    auto m = test_util::UploadMessages("txt", UploadFile::FromBytes("notes.txt", tet.bytes));
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "filename");
   }
   {  // lying sizes and digests: DATA_LOSS and no version
-    auto m = AssetClient::UploadMessages("liar", tet);
+    auto m = test_util::UploadMessages("liar", tet);
     m[0].mutable_metadata()->set_size(tet.bytes.size() + 10);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "size");
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::DATA_LOSS, "size");
     m[0].mutable_metadata()->set_size(tet.bytes.size() - 10);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "size");
-    m = AssetClient::UploadMessages("liar", tet);
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::DATA_LOSS, "size");
+    m = test_util::UploadMessages("liar", tet);
     m[0].mutable_metadata()->set_sha256(std::string(64, 'a'));
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::DATA_LOSS, "SHA-256");
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::DATA_LOSS, "SHA-256");
     m[0].mutable_metadata()->set_sha256("xyz");
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "sha256");
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "sha256");
     v1::Version v;
-    expect(client_->GetVersion("liar", 0, &v), grpc::StatusCode::NOT_FOUND, "liar");
+    expect_status(test_util::GetVersion(*client_, "liar", 0, &v), StatusCode::kNotFound, "liar");
   }
   {  // options out of range
-    auto m = AssetClient::UploadMessages("opts", tet);
+    auto m = test_util::UploadMessages("opts", tet);
     m[0].mutable_metadata()->mutable_options()->set_qp(99);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "qp");
-    m = AssetClient::UploadMessages("opts", tet);
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "qp");
+    m = test_util::UploadMessages("opts", tet);
     m[0].mutable_metadata()->mutable_options()->set_packing("zip");
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "packing");
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "packing");
   }
   {  // resources: only for a .gltf, and only relative paths inside the upload
-    const UploadFile gltf{"scene.gltf", std::vector<uint8_t>{'{', '}'}};
+    const UploadFile gltf = UploadFile::FromBytes("scene.gltf", std::vector<uint8_t>{'{', '}'});
     for (const char* name : {"../secret.bin", "/etc/passwd", "a/../../b.bin", "a\\b.bin", ""}) {
-      auto m = AssetClient::UploadMessages("traversal", gltf, {UploadFile{name, {1, 2, 3}}});
-      expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "resource");
+      auto m = test_util::UploadMessages("traversal", gltf, {UploadFile::FromBytes(name, {1, 2, 3})});
+      expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "resource");
     }
-    auto m = AssetClient::UploadMessages("traversal", tet, {UploadFile{"x.bin", {1, 2, 3}}});
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, ".gltf");
-    m = AssetClient::UploadMessages("collide", gltf, {UploadFile{"scene.gltf", {1}}});
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
-    m = AssetClient::UploadMessages("collide", gltf, {UploadFile{"a", {1}}, UploadFile{"a/b.bin", {2}}});
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
+    auto m = test_util::UploadMessages("traversal", tet, {UploadFile::FromBytes("x.bin", {1, 2, 3})});
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, ".gltf");
+    m = test_util::UploadMessages("collide", gltf, {UploadFile::FromBytes("scene.gltf", {1})});
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
+    m = test_util::UploadMessages("collide", gltf, {UploadFile::FromBytes("a", {1}), UploadFile::FromBytes("a/b.bin", {2})});
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "collides");
   }
   {  // NUL in a comment or a label
-    auto m = AssetClient::UploadMessages("nul", tet);
+    auto m = test_util::UploadMessages("nul", tet);
     m[0].mutable_metadata()->set_comment(std::string("a\0b", 3));
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "comment");
-    m = AssetClient::UploadMessages("nul", tet);
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "comment");
+    m = test_util::UploadMessages("nul", tet);
     (*m[0].mutable_metadata()->mutable_labels())["k"] = std::string("a\0b", 3);
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "labels");
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "labels");
   }
   {  // a chunk over 1 MiB
     std::vector<uint8_t> big((1 << 20) + 1, ' ');
-    auto m = AssetClient::UploadMessages("big", UploadFile{"big.obj", big}, {}, big.size());
-    expect(client_->IngestRaw(m, &r), grpc::StatusCode::INVALID_ARGUMENT, "chunk");
+    auto m = test_util::UploadMessages("big", UploadFile::FromBytes("big.obj", big), {}, big.size());
+    expect(test_util::IngestRaw(*client_, m, &r), grpc::StatusCode::INVALID_ARGUMENT, "chunk");
   }
   v1::Version v;
-  expect(client_->GetVersion("no-such-asset", 0, &v), grpc::StatusCode::NOT_FOUND, "no-such-asset");
-  expect(client_->GetVersion("spot", 999, &v), grpc::StatusCode::NOT_FOUND, "999");
-  expect(client_->GetVersion("spot", -1, &v), grpc::StatusCode::INVALID_ARGUMENT, "version");
-  expect(client_->Export("no-such-asset", 0, v1::FORMAT_GLB).status, grpc::StatusCode::NOT_FOUND, "no-such-asset");
-  expect(client_->Export("spot", 1, v1::FORMAT_UNSPECIFIED).status, grpc::StatusCode::INVALID_ARGUMENT, "format");
-  expect(client_->Export("spot", 1, v1::FORMAT_PROGRESSIVE_GLB, 1).status, grpc::StatusCode::INVALID_ARGUMENT, "lod");
+  expect_status(test_util::GetVersion(*client_, "no-such-asset", 0, &v), StatusCode::kNotFound, "no-such-asset");
+  expect_status(test_util::GetVersion(*client_, "spot", 999, &v), StatusCode::kNotFound, "999");
+  expect_status(test_util::GetVersion(*client_, "spot", -1, &v), StatusCode::kInvalidArgument, "version");
+  expect_status(test_util::Export(*client_, "no-such-asset", 0, v1::FORMAT_GLB).status, StatusCode::kNotFound, "no-such-asset");
+  expect_status(test_util::Export(*client_, "spot", 1, v1::FORMAT_UNSPECIFIED).status, StatusCode::kInvalidArgument, "format");
+  expect_status(test_util::Export(*client_, "spot", 1, v1::FORMAT_PROGRESSIVE_GLB, 1).status, StatusCode::kInvalidArgument, "lod");
   v1::Job job;
   expect(Unary([&](grpc::ClientContext* c) {
            v1::GetJobRequest q;

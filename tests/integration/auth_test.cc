@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "testing/grpc_probe.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -18,14 +18,13 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::RunCommand;
 using test_util::ServeProcess;
-using test_util::UploadFile;
+using sdk::UploadFile;
 
 UploadFile Tet() {
   const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
-  return UploadFile{"tet.obj", std::vector<uint8_t>(text.begin(), text.end())};
+  return UploadFile::FromBytes("tet.obj", std::vector<uint8_t>(text.begin(), text.end()));
 }
 
 // The token: the last line of `meshstream token create`'s stdout.
@@ -60,60 +59,64 @@ TEST(AuthAndTls, TenantsSeeOnlyTheirOwnAssets) {
   ASSERT_EQ(a.rfind("mst_", 0), 0u) << a;
   const std::string address = (*server)->address();
 
-  AssetClient none(address), bad(address, "mst_" + std::string(64, '0')), junk(address, "hello");
-  AssetClient client_a(address, a), reader_a(address, a_read), client_b(address, b);
+  const auto none = test_util::NewAssetClient(address);
+  const auto bad = test_util::NewAssetClient(address, "mst_" + std::string(64, '0'));
+  const auto junk = test_util::NewAssetClient(address, "hello");
+  const auto client_a = test_util::NewAssetClient(address, a);
+  const auto reader_a = test_util::NewAssetClient(address, a_read);
+  const auto client_b = test_util::NewAssetClient(address, b);
   v1::IngestResponse r;
-  EXPECT_EQ(none.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
-  EXPECT_EQ(bad.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
-  EXPECT_EQ(junk.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(test_util::Ingest(*none, "tet", Tet(), &r).code(), StatusCode::kUnauthenticated);
+  EXPECT_EQ(test_util::Ingest(*bad, "tet", Tet(), &r).code(), StatusCode::kUnauthenticated);
+  EXPECT_EQ(test_util::Ingest(*junk, "tet", Tet(), &r).code(), StatusCode::kUnauthenticated);
   v1::Version v;
-  EXPECT_EQ(none.GetVersion("tet", 0, &v).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(test_util::GetVersion(*none, "tet", 0, &v).code(), StatusCode::kUnauthenticated);
 
-  ASSERT_TRUE(client_a.Ingest("tet", Tet(), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_a, "tet", Tet(), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client_a.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client_a, r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 
   // Tenant B: the asset, its version, its job and its export do not exist.
-  const grpc::Status other = client_b.GetVersion("tet", 1, &v);
-  EXPECT_EQ(other.error_code(), grpc::StatusCode::NOT_FOUND);
+  const Status other = test_util::GetVersion(*client_b, "tet", 1, &v);
+  EXPECT_EQ(other.code(), StatusCode::kNotFound);
   v1::Version missing;
-  const grpc::Status truly_missing = client_b.GetVersion("never-made", 1, &missing);
-  EXPECT_EQ(truly_missing.error_code(), grpc::StatusCode::NOT_FOUND);
-  EXPECT_EQ(client_b.Export("tet", 0, v1::FORMAT_GLB).status.error_code(), grpc::StatusCode::NOT_FOUND);
+  const Status truly_missing = test_util::GetVersion(*client_b, "never-made", 1, &missing);
+  EXPECT_EQ(truly_missing.code(), StatusCode::kNotFound);
+  EXPECT_EQ(test_util::Export(*client_b, "tet", 0, v1::FORMAT_GLB).status.code(), StatusCode::kNotFound);
   v1::Job other_job;
-  EXPECT_EQ(client_b.Watch(r.job_id(), &other_job).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(test_util::Watch(*client_b, r.job_id(), &other_job).code(), StatusCode::kNotFound);
   {
     grpc::ClientContext c;
-    client_b.Prepare(c);
+    test_util::Prepare(*client_b, c);
     v1::ListAssetsResponse assets;
-    ASSERT_TRUE(client_b.stub().ListAssets(&c, v1::ListAssetsRequest(), &assets).ok());
+    ASSERT_TRUE(client_b->stub().ListAssets(&c, v1::ListAssetsRequest(), &assets).ok());
     EXPECT_EQ(assets.assets_size(), 0);
   }
   // B's own asset of the same name is its version 1, not A's version 2, and
   // the same bytes are encoded again for B: a cache hit would tell B that
   // another tenant has this file.
   v1::IngestResponse rb;
-  ASSERT_TRUE(client_b.Ingest("tet", Tet(), &rb).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_b, "tet", Tet(), &rb).ok());
   EXPECT_EQ(rb.version(), 1);
   v1::Job job_b;
-  ASSERT_TRUE(client_b.Watch(rb.job_id(), &job_b).ok());
+  ASSERT_TRUE(test_util::Watch(*client_b, rb.job_id(), &job_b).ok());
   EXPECT_EQ(job_b.state(), v1::JOB_STATE_SUCCEEDED);
   EXPECT_EQ(job_b.message().find("reused"), std::string::npos) << job_b.message();
   // ... while A's own second upload of it is a cache hit.
   v1::IngestResponse ra2;
-  ASSERT_TRUE(client_a.Ingest("tet", Tet(), &ra2).ok());
+  ASSERT_TRUE(test_util::Ingest(*client_a, "tet", Tet(), &ra2).ok());
   v1::Job job_a2;
-  ASSERT_TRUE(client_a.Watch(ra2.job_id(), &job_a2).ok());
+  ASSERT_TRUE(test_util::Watch(*client_a, ra2.job_id(), &job_a2).ok());
   EXPECT_NE(job_a2.message().find("reused"), std::string::npos) << job_a2.message();
   // Uploads and jobs are per tenant too.
   {
     grpc::ClientContext c;
-    client_b.Prepare(c);
+    test_util::Prepare(*client_b, c);
     v1::GetJobRequest q;
     q.set_job_id(r.job_id());
     v1::Job j;
-    const grpc::Status s = client_b.stub().GetJob(&c, q, &j);
+    const grpc::Status s = client_b->stub().GetJob(&c, q, &j);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
   }
   // The CLI with its token from the environment.
@@ -125,16 +128,16 @@ TEST(AuthAndTls, TenantsSeeOnlyTheirOwnAssets) {
   EXPECT_NE(no_token.err.find("MESHSTREAM_TOKEN"), std::string::npos) << no_token.err;
 
   // Read-only: reads and exports, never ingests.
-  EXPECT_TRUE(reader_a.GetVersion("tet", 1, &v).ok());
-  EXPECT_TRUE(reader_a.Export("tet", 1, v1::FORMAT_GLB).status.ok());
-  EXPECT_EQ(reader_a.Ingest("tet", Tet(), &r).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_TRUE(test_util::GetVersion(*reader_a, "tet", 1, &v).ok());
+  EXPECT_TRUE(test_util::Export(*reader_a, "tet", 1, v1::FORMAT_GLB).status.ok());
+  EXPECT_EQ(test_util::Ingest(*reader_a, "tet", Tet(), &r).code(), StatusCode::kPermissionDenied);
 
   // Revocation takes effect at the next request.
   const std::string id = TokenId(store, "studio-b");
   ASSERT_FALSE(id.empty());
   const auto revoked = RunCommand(test_util::Cli() + " token revoke --store " + test_util::Quote(store) + " " + id);
   ASSERT_EQ(revoked.exit_code, 0) << revoked.err;
-  EXPECT_EQ(client_b.GetVersion("tet", 1, &v).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(test_util::GetVersion(*client_b, "tet", 1, &v).code(), StatusCode::kUnauthenticated);
   const auto list = RunCommand(test_util::Cli() + " token list --store " + test_util::Quote(store));
   EXPECT_EQ(list.out.find(b), std::string::npos) << "token list never shows a secret";
   EXPECT_NE(list.out.find("revoked"), std::string::npos) << list.out;
@@ -174,20 +177,20 @@ TEST(AuthAndTls, TlsWithACertificateFromOpenssl) {
   ASSERT_EQ(made.exit_code, 0) << made.err;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--tls-cert", cert, "--tls-key", key});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  grpc::SslCredentialsOptions ssl;
-  ssl.pem_root_certs = test_util::ReadText(cert);
-  grpc::ChannelArguments args;
-  args.SetSslTargetNameOverride("localhost");
-  AssetClient tls((*server)->address(), "", grpc::SslCredentials(ssl), args);
+  sdk::ClientOptions tls_options;
+  tls_options.tls = true;
+  tls_options.tls_ca_pem = test_util::ReadText(cert);
+  tls_options.tls_server_name = "localhost";
+  const auto tls = test_util::NewAssetClient((*server)->address(), "", tls_options);
   v1::IngestResponse r;
-  ASSERT_TRUE(tls.Ingest("tet", Tet(), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*tls, "tet", Tet(), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(tls.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*tls, r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED);
   // A plaintext client gets nowhere.
-  AssetClient plain((*server)->address());
+  const auto plain = test_util::NewAssetClient((*server)->address());
   v1::Version v;
-  EXPECT_EQ(plain.GetVersion("tet", 1, &v).error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(test_util::GetVersion(*plain, "tet", 1, &v).code(), StatusCode::kUnavailable);
   // The CLI over TLS.
   const auto versions = RunCommand(test_util::Cli() + " versions tet --json --server " + (*server)->address() +
                                    " --tls-ca " + test_util::Quote(cert));
@@ -199,16 +202,16 @@ TEST(AuthAndTls, UploadsAboveMaxUploadAreRefusedBeforeAnyByte) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--max-upload", "1K", "--no-reflection"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   std::vector<uint8_t> big(4096, ' ');
   v1::IngestResponse r;
-  const grpc::Status s = client.Ingest("big", UploadFile{"big.obj", big}, &r);
-  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
-  EXPECT_NE(s.error_message().find("--max-upload"), std::string::npos) << s.error_message();
+  const Status s = test_util::Ingest(*client, "big", UploadFile::FromBytes("big.obj", big), &r);
+  EXPECT_EQ(s.code(), StatusCode::kResourceExhausted) << s.ToString();
+  EXPECT_NE(s.ToString().find("--max-upload"), std::string::npos) << s.ToString();
   // Reflection off when asked.
-  const auto [status, bytes] = test_util::ListServicesByReflection(client.channel());
+  const auto [status, bytes] = test_util::ListServicesByReflection(client->channel());
   EXPECT_EQ(status.error_code(), grpc::StatusCode::UNIMPLEMENTED) << bytes;
-  EXPECT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
+  EXPECT_EQ(test_util::CheckHealth(client->channel()).serving_status, 1);
   EXPECT_EQ((*server)->Terminate(), 0);
 }
 
@@ -216,23 +219,23 @@ TEST(AuthAndTls, WatchStreamsAreCapped) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-watchers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client, "horse", test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   // The first watch holds the only slot from its first message until the
   // job ends (the horse's encode takes seconds; the second watch starts
   // right after that first message).
   grpc::ClientContext first_context;
-  client.Prepare(first_context);
+  test_util::Prepare(*client, first_context);
   v1::GetJobRequest request;
   request.set_job_id(r.job_id());
-  auto first = client.stub().WatchJob(&first_context, request);
+  auto first = client->stub().WatchJob(&first_context, request);
   v1::Job seen;
   ASSERT_TRUE(first->Read(&seen));
   ASSERT_NE(seen.state(), v1::JOB_STATE_SUCCEEDED) << "the job must still run while the cap is tested";
   v1::Job second_last;
-  const grpc::Status second = client.Watch(r.job_id(), &second_last);
-  EXPECT_EQ(second.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << second.error_message();
+  const Status second = test_util::Watch(*client, r.job_id(), &second_last);
+  EXPECT_EQ(second.code(), StatusCode::kResourceExhausted) << second.ToString();
   while (first->Read(&seen)) {
   }
   EXPECT_TRUE(first->Finish().ok());

@@ -2,6 +2,11 @@
 // --json, a multi-file .gltf, resuming an upload the server already holds
 // part of), versions, assets, export in every format, the environment
 // variables, and exit code 3 when no server answers.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -9,7 +14,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "testing/asset_client.h"
+#include "services/store/blob_store.h"
+#include "testing/asset_calls.h"
 #include "tests/common/cli_util.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -18,7 +24,6 @@ namespace meshstream {
 namespace {
 
 using nlohmann::json;
-using test_util::AssetClient;
 using test_util::Cli;
 using test_util::ModelPath;
 using test_util::Quote;
@@ -144,15 +149,15 @@ TEST_F(CliRemote, IngestResumesAnUploadTheServerHoldsPartOf) {
   const std::string key = "horse\n" + digest;
   const std::string upload_id =
       "cli-" + Sha256Hex(reinterpret_cast<const uint8_t*>(key.data()), key.size()).substr(0, 48);
-  AssetClient client(server_->address());
-  auto messages = AssetClient::UploadMessages("horse", test_util::UploadFile{"horse.ply", horse}, {}, 512 << 10);
+  const auto client = test_util::NewAssetClient(server_->address());
+  auto messages = test_util::UploadMessages("horse", sdk::UploadFile::FromBytes("horse.ply", horse), {}, 512 << 10);
   messages.resize(2);  // metadata and the first chunk only
   messages[0].mutable_metadata()->set_upload_id(upload_id);
   {
     grpc::ClientContext context;
-    client.Prepare(context);
+    test_util::Prepare(*client, context);
     v1::IngestResponse response;
-    auto writer = client.stub().Ingest(&context, &response);
+    auto writer = client->stub().Ingest(&context, &response);
     ASSERT_TRUE(writer->Write(messages[0]) && writer->Write(messages[1]));
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     context.TryCancel();
@@ -172,6 +177,25 @@ TEST_F(CliRemote, ExitCodesForAMissingServerAndRefusedRequests) {
   const auto unreachable = RunCommand(Cli() + " versions x --server 127.0.0.1:1 --timeout 5");
   EXPECT_EQ(unreachable.exit_code, 3) << unreachable.err;
   EXPECT_NE(unreachable.err.find("127.0.0.1:1"), std::string::npos) << unreachable.err;
+  // A listener that never answers: the request's deadline (--timeout) runs
+  // out, which is exit 3 like an unreachable server (docs/cli.md).
+  {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof a;
+    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length), 0);
+    ASSERT_EQ(listen(fd, 16), 0);
+    const std::string stalled = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+    const auto late = RunCommand(Cli() + " versions x --server " + stalled + " --timeout 0.5");
+    close(fd);
+    EXPECT_EQ(late.exit_code, 3) << late.err;
+    EXPECT_NE(late.err.find("--timeout 0.5 s per request"), std::string::npos) << late.err;
+    EXPECT_NE(late.err.find(stalled), std::string::npos) << late.err;
+  }
   const auto missing = RunCommand(Cli() + " versions no-such-asset" + Remote());
   EXPECT_EQ(missing.exit_code, 1) << missing.err;
   const auto bad_name = RunCommand(Cli() + " export '../x' -o /tmp/x.glb" + Remote());

@@ -16,7 +16,7 @@
 
 #include <gtest/gtest.h>
 
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "testing/grpc_probe.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -24,9 +24,8 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
-using test_util::UploadFile;
+using sdk::UploadFile;
 namespace fs = std::filesystem;
 
 struct Ack {
@@ -62,7 +61,7 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   const std::string store = dir.File("store");
   std::vector<UploadFile> files;
   for (const char* name : {"spot.obj", "fandisk.obj", "rocker-arm.obj", "horse.ply"}) {
-    files.push_back(AssetClient::Load(test_util::ModelPath(name), name));
+    files.push_back(test_util::LoadFile(test_util::ModelPath(name), name));
   }
   std::mt19937 rng(Seed());
   std::vector<Ack> acked;
@@ -76,16 +75,17 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
     std::vector<std::thread> clients;
     for (int c = 0; c < 2; ++c) {
       clients.emplace_back([&, c] {
-        AssetClient client((*server)->address());
+        const auto client = test_util::NewAssetClient((*server)->address());
         for (size_t i = c; !stop; ++i) {
           const UploadFile& f = files[i % files.size()];
           // A small change per upload, so that not every job is a cache hit.
-          UploadFile changed = f;
+          std::vector<uint8_t> bytes = f.bytes;
           const std::string comment = "# round " + std::to_string(round) + " upload " + std::to_string(i) + "\n";
-          if (f.name.find(".obj") != std::string::npos) changed.bytes.insert(changed.bytes.begin(), comment.begin(), comment.end());
+          if (f.name.find(".obj") != std::string::npos) bytes.insert(bytes.begin(), comment.begin(), comment.end());
+          const UploadFile changed = UploadFile::FromBytes(f.name, std::move(bytes));
           v1::IngestResponse r;
           const std::string asset = "m-" + fs::path(f.name).stem().string();
-          if (client.Ingest(asset, changed, &r).ok()) {
+          if (test_util::Ingest(*client, asset, changed, &r).ok()) {
             std::lock_guard<std::mutex> lock(mutex);
             acked.push_back({r.asset(), r.version(), r.sha256(), r.job_id()});
           }
@@ -102,24 +102,24 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
 
   auto server = ServeProcess::Start({"--store", store, "--workers", "2", "--max-attempts", "20"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   // Every acknowledged version exists with its digest.
   for (const Ack& a : acked) {
     SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
     v1::Version v;
-    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok()) << "an acknowledged version is missing";
+    ASSERT_TRUE(test_util::GetVersion(*client, a.asset, a.version, &v).ok()) << "an acknowledged version is missing";
     EXPECT_EQ(v.source_sha256(), a.sha256);
   }
   // Every job finishes and every version exports with its digest.
   for (const Ack& a : acked) {
     SCOPED_TRACE(a.asset + " v" + std::to_string(a.version));
     v1::Job job;
-    ASSERT_TRUE(client.Watch(a.job_id, &job).ok());
+    ASSERT_TRUE(test_util::Watch(*client, a.job_id, &job).ok());
     EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
     v1::Version v;
-    ASSERT_TRUE(client.GetVersion(a.asset, a.version, &v).ok());
-    const auto e = client.Export(a.asset, a.version, v1::FORMAT_PROGRESSIVE_GLB);
-    ASSERT_TRUE(e.status.ok()) << e.status.error_message();
+    ASSERT_TRUE(test_util::GetVersion(*client, a.asset, a.version, &v).ok());
+    const auto e = test_util::Export(*client, a.asset, a.version, v1::FORMAT_PROGRESSIVE_GLB);
+    ASSERT_TRUE(e.status.ok()) << e.status.ToString();
     EXPECT_EQ(e.sha256, v.artifact_sha256());
   }
   // Once the jobs are done (a running job has its artifact's temporary file
@@ -130,19 +130,19 @@ TEST(Durability, SigkillDuringIngestsAndJobsLosesNothingAcknowledged) {
   std::set<std::string> referenced;
   for (const char* asset : {"m-spot", "m-fandisk", "m-rocker-arm", "m-horse"}) {
     grpc::ClientContext c;
-    client.Prepare(c);
+    test_util::Prepare(*client, c);
     v1::ListVersionsRequest q;
     q.set_asset(asset);
     q.set_page_size(1000);
     v1::ListVersionsResponse versions;
-    const grpc::Status s = client.stub().ListVersions(&c, q, &versions);
+    const grpc::Status s = client->stub().ListVersions(&c, q, &versions);
     if (s.error_code() == grpc::StatusCode::NOT_FOUND) continue;
     ASSERT_TRUE(s.ok()) << s.error_message();
     for (v1::Version v : versions.versions()) {
       if (v.state() == v1::VERSION_STATE_PROCESSING) {  // one whose answer was lost: its job runs too
         v1::Job job;
-        ASSERT_TRUE(client.Watch(v.job_id(), &job).ok());
-        ASSERT_TRUE(client.GetVersion(asset, v.version(), &v).ok());
+        ASSERT_TRUE(test_util::Watch(*client, v.job_id(), &job).ok());
+        ASSERT_TRUE(test_util::GetVersion(*client, asset, v.version(), &v).ok());
       }
       referenced.insert(v.source_sha256());
       if (!v.artifact_sha256().empty()) referenced.insert(v.artifact_sha256());
@@ -167,20 +167,20 @@ TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   auto server =
       ServeProcess::Start({"--store", store, "--workers", "1", "--grace-period", "0", "--drain-delay", "0.15"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
-  ASSERT_EQ(test_util::CheckHealth(client.channel()).serving_status, 1);
+  const auto client = test_util::NewAssetClient((*server)->address());
+  ASSERT_EQ(test_util::CheckHealth(client->channel()).serving_status, 1);
   v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client, "horse", test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   // Watch from another thread while the server drains.
-  grpc::Status watch_status;
+  Status watch_status;
   v1::Job last;
-  std::thread watcher([&] { watch_status = client.Watch(r.job_id(), &last); });
+  std::thread watcher([&] { watch_status = test_util::Watch(*client, r.job_id(), &last); });
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   kill((*server)->pid(), SIGTERM);
   // During --drain-delay the server still answers, and says NOT_SERVING.
   int serving = 1;
   for (int i = 0; i < 50 && serving == 1; ++i) {
-    serving = test_util::CheckHealth(client.channel()).serving_status;
+    serving = test_util::CheckHealth(client->channel()).serving_status;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_EQ(serving, 2) << "health did not turn NOT_SERVING while draining";
@@ -189,13 +189,13 @@ TEST(Durability, SigtermDrainsAndTheJobResumesAtTheNextStart) {
   EXPECT_EQ(code, 0) << (*server)->log();
   EXPECT_NE((*server)->log().find("draining"), std::string::npos) << (*server)->log();
   if (last.state() != v1::JOB_STATE_SUCCEEDED) {
-    EXPECT_EQ(watch_status.error_code(), grpc::StatusCode::UNAVAILABLE) << watch_status.error_message();
+    EXPECT_EQ(watch_status.code(), StatusCode::kUnavailable) << watch_status.ToString();
   }
   auto again = ServeProcess::Start({"--store", store, "--workers", "1"});
   ASSERT_TRUE(again.ok()) << again.status().ToString();
-  AssetClient second((*again)->address());
+  const auto second = test_util::NewAssetClient((*again)->address());
   v1::Job job;
-  ASSERT_TRUE(second.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*second, r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   if (last.state() != v1::JOB_STATE_SUCCEEDED) {
     EXPECT_GE(job.attempts(), 2) << "the interrupted job ran again at the next start";

@@ -14,7 +14,7 @@
 #include "importers/progressive_glb.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "tests/common/sdk_options.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -22,7 +22,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
 
 std::vector<sdk::Event> PollToEnd(sdk::Session& session) {
@@ -40,16 +39,16 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "2"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   for (const char* model : {"stanford-bunny.obj", "gltf/2CylinderEngine.glb"}) {
     SCOPED_TRACE(model);
     const std::string name = model;
     v1::IngestResponse r;
-    ASSERT_TRUE(client.Ingest("m", AssetClient::Load(test_util::ModelPath(model), "m" + name.substr(name.rfind('.'))), &r).ok());
+    ASSERT_TRUE(test_util::Ingest(*client, "m", test_util::LoadFile(test_util::ModelPath(model), "m" + name.substr(name.rfind('.'))), &r).ok());
     v1::Job job;
-    ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+    ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
     ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
-    const auto exported = client.Export("m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
+    const auto exported = test_util::Export(*client, "m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
     ASSERT_TRUE(exported.status.ok());
 
     auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
@@ -109,9 +108,9 @@ TEST(SdkSession, MaxLevelAndErrors) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   v1::Job job;
-  ASSERT_TRUE(client.IngestModel("spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
+  ASSERT_TRUE(test_util::IngestModel(*client, "spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
   auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(sdk_client.ok());
   auto three = sdk::Session::Open(**sdk_client, test_util::SessionFor("spot", 0, 3, true));
@@ -137,11 +136,11 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "1",
                                      "--max-sessions", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client, "horse", test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
   auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
   ASSERT_TRUE(sdk_client.ok());
 
@@ -200,7 +199,7 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
     if (e.type == sdk::EventType::kError || e.type == sdk::EventType::kComplete) break;
   }
   EXPECT_EQ(e.type, sdk::EventType::kError);
-  EXPECT_EQ(e.status.code(), StatusCode::kAborted) << e.status.ToString();
+  EXPECT_EQ(e.status.code(), StatusCode::kCancelled) << e.status.ToString();
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 

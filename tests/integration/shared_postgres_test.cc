@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "testing/pg_cluster.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -15,7 +15,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
 
 TEST(SharedPostgres, TwoServersShareOneDatabase) {
@@ -26,30 +25,31 @@ TEST(SharedPostgres, TwoServersShareOneDatabase) {
   ASSERT_TRUE(a.ok()) << a.status().ToString();
   auto b = ServeProcess::Start({"--store", spec, "--workers", "1", "--lease", "1500", "--server-id", "server-b"});
   ASSERT_TRUE(b.ok()) << b.status().ToString();
-  AssetClient on_a((*a)->address()), on_b((*b)->address());
+  const auto on_a = test_util::NewAssetClient((*a)->address());
+  const auto on_b = test_util::NewAssetClient((*b)->address());
 
   v1::IngestResponse r;
-  ASSERT_TRUE(on_a.Ingest("spot", AssetClient::Load(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*on_a, "spot", test_util::LoadFile(test_util::ModelPath("spot.obj"), "spot.obj"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(on_b.Watch(r.job_id(), &job).ok()) << "the job is visible on the other server";
+  ASSERT_TRUE(test_util::Watch(*on_b, r.job_id(), &job).ok()) << "the job is visible on the other server";
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
-  const auto from_a = on_a.Export("spot", 0, v1::FORMAT_DRACO_GLB);
-  const auto from_b = on_b.Export("spot", 0, v1::FORMAT_DRACO_GLB);
-  ASSERT_TRUE(from_a.status.ok() && from_b.status.ok()) << from_b.status.error_message();
+  const auto from_a = test_util::Export(*on_a, "spot", 0, v1::FORMAT_DRACO_GLB);
+  const auto from_b = test_util::Export(*on_b, "spot", 0, v1::FORMAT_DRACO_GLB);
+  ASSERT_TRUE(from_a.status.ok() && from_b.status.ok()) << from_b.status.ToString();
   EXPECT_EQ(from_a.sha256, from_b.sha256);
   v1::Version v;
-  ASSERT_TRUE(on_b.GetVersion("spot", 1, &v).ok());
+  ASSERT_TRUE(test_util::GetVersion(*on_b, "spot", 1, &v).ok());
   EXPECT_EQ(v.source_sha256(), r.sha256());
 
   // Only A works now; it is killed while it encodes the horse.
   EXPECT_EQ((*b)->Terminate(), 0) << (*b)->log();
-  ASSERT_TRUE(on_a.Ingest("horse", AssetClient::Load(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*on_a, "horse", test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   for (int i = 0; i < 600; ++i) {
     grpc::ClientContext c;
-    on_a.Prepare(c);
+    test_util::Prepare(*on_a, c);
     v1::GetJobRequest q;
     q.set_job_id(r.job_id());
-    ASSERT_TRUE(on_a.stub().GetJob(&c, q, &job).ok());
+    ASSERT_TRUE(on_a->stub().GetJob(&c, q, &job).ok());
     if (job.state() != v1::JOB_STATE_PENDING) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -57,11 +57,11 @@ TEST(SharedPostgres, TwoServersShareOneDatabase) {
   (*a)->Kill();
   auto b2 = ServeProcess::Start({"--store", spec, "--workers", "1", "--lease", "1500", "--server-id", "server-b2"});
   ASSERT_TRUE(b2.ok()) << b2.status().ToString();
-  AssetClient on_b2((*b2)->address());
-  ASSERT_TRUE(on_b2.Watch(r.job_id(), &job).ok());
+  const auto on_b2 = test_util::NewAssetClient((*b2)->address());
+  ASSERT_TRUE(test_util::Watch(*on_b2, r.job_id(), &job).ok());
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   EXPECT_GE(job.attempts(), 2) << "taken over after A's lease expired";
-  EXPECT_TRUE(on_b2.Export("horse", 0, v1::FORMAT_GLB).status.ok());
+  EXPECT_TRUE(test_util::Export(*on_b2, "horse", 0, v1::FORMAT_GLB).status.ok());
   EXPECT_EQ((*b2)->Terminate(), 0) << (*b2)->log();
 }
 

@@ -24,7 +24,7 @@
 #include "net/packet_crypto.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "tests/common/sdk_options.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -33,7 +33,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::Impairment;
 using test_util::RelayOptions;
 using test_util::ServeProcess;
@@ -79,16 +78,16 @@ class StreamOverRelay : public ::testing::Test {
     ASSERT_TRUE(server.ok()) << server.status().ToString();
     server_ = server.value().release();
     ASSERT_FALSE(server_->udp_address().empty()) << "serve says where its UDP endpoint is";
-    AssetClient assets(server_->address());
+    const auto assets = test_util::NewAssetClient(server_->address());
     std::vector<std::string> jobs;
     for (const auto& [asset, file] : Models()) {
       v1::IngestResponse r;
-      ASSERT_TRUE(assets.Ingest(asset, AssetClient::Load(test_util::ModelPath(file), file), &r).ok());
+      ASSERT_TRUE(test_util::Ingest(*assets, asset, test_util::LoadFile(test_util::ModelPath(file), file), &r).ok());
       jobs.push_back(r.job_id());
     }
     for (const std::string& id : jobs) {
       v1::Job job;
-      ASSERT_TRUE(assets.Watch(id, &job).ok());
+      ASSERT_TRUE(test_util::Watch(*assets, id, &job).ok());
       ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
     }
     client_ = sdk::Client::Create({server_->address(), "", false, ""}).value().release();

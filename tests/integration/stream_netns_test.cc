@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "tests/common/cli_util.h"
 #include "testing/netns.h"
 #include "testing/serve_process.h"
@@ -20,7 +20,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::NetNs;
 using test_util::ServeProcess;
 
@@ -40,11 +39,11 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--listen", (*ns)->host_ip() + ":0",
                                      "--insecure", "--hello-timeout", "1500"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient assets((*server)->address());
+  const auto assets = test_util::NewAssetClient((*server)->address());
   v1::IngestResponse r;
-  ASSERT_TRUE(assets.Ingest("bunny", AssetClient::Load(test_util::ModelPath("stanford-bunny.obj"), "bunny.obj"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*assets, "bunny", test_util::LoadFile(test_util::ModelPath("stanford-bunny.obj"), "bunny.obj"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(assets.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*assets, r.job_id(), &job).ok());
   ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 
   const nlohmann::json clean = FetchInside(**ns, (*server)->address(), dir.File("clean.glb"));

@@ -20,14 +20,13 @@
 #include "codec/bitstream/format.h"
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "services/pipeline/stream_layout.h"
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
 
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
 
 struct Received {
@@ -118,21 +117,21 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "2"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   for (const char* model : {"spot.obj", "gltf/2CylinderEngine.glb"}) {
     SCOPED_TRACE(model);
     v1::IngestResponse r;
-    ASSERT_TRUE(client.Ingest("m", AssetClient::Load(test_util::ModelPath(model), "m" + std::string(model).substr(std::string(model).rfind('.'))), &r).ok());
+    ASSERT_TRUE(test_util::Ingest(*client, "m", test_util::LoadFile(test_util::ModelPath(model), "m" + std::string(model).substr(std::string(model).rfind('.'))), &r).ok());
     v1::Job job;
-    ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+    ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
     ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
     // The stored artifact, parsed here independently.
-    const auto exported = client.Export("m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
+    const auto exported = test_util::Export(*client, "m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
     ASSERT_TRUE(exported.status.ok());
     auto layout = ComputeStreamLayout(exported.bytes.data(), exported.bytes.size());
     ASSERT_TRUE(layout.ok()) << layout.status().ToString();
 
-    const Received got = OpenSession(client.channel(), "m", 0, -1);
+    const Received got = OpenSession(client->channel(), "m", 0, -1);
     ASSERT_TRUE(got.status.ok()) << got.status.error_message();
     EXPECT_EQ(got.start.version(), r.version());
     EXPECT_EQ(got.start.transport(), v1::TRANSPORT_GRPC) << "the client asked for gRPC";
@@ -178,7 +177,7 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     EXPECT_LT(got.start.scene_glb().size(), base_bytes / 2 + 8192) << base_bytes << " bytes of base meshes";
     for (size_t k = 1; k < got.order.size(); ++k) EXPECT_LE(got.order[k - 1].second, got.order[k].second);
     // max_level cuts every primitive.
-    const Received two = OpenSession(client.channel(), "m", r.version(), 2);
+    const Received two = OpenSession(client->channel(), "m", r.version(), 2);
     ASSERT_TRUE(two.status.ok());
     EXPECT_EQ(two.end_reason, "max_level");
     for (const auto& [key, control] : two.control) EXPECT_LT(key.second, 2u);
@@ -190,14 +189,14 @@ TEST(StreamSession, WithoutAHelloTheDatagramsFallBackToTheStream) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--hello-timeout", "300"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("m", AssetClient::Load(test_util::ModelPath("spot.obj"), "m.obj"), &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client, "m", test_util::LoadFile(test_util::ModelPath("spot.obj"), "m.obj"), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
   ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   const auto begin = std::chrono::steady_clock::now();
-  const Received got = OpenSession(client.channel(), "m", 0, -1, "", v1::TRANSPORT_UDP);
+  const Received got = OpenSession(client->channel(), "m", 0, -1, "", v1::TRANSPORT_UDP);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
   ASSERT_TRUE(got.status.ok()) << got.status.error_message();
   // The server offered UDP with an endpoint and two distinct keys ...
@@ -228,18 +227,18 @@ TEST(StreamSession, ErrorsHaveTheirCodes) {
                                           " --tenant a");
   ASSERT_EQ(made.exit_code, 0) << made.err;
   const std::string token = nlohmann::json::parse(made.out)["token"].get<std::string>();
-  AssetClient client((*server)->address(), token);
-  EXPECT_EQ(OpenSession(client.channel(), "x", 0, -1).status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
-  EXPECT_EQ(OpenSession(client.channel(), "x", 0, -1, token).status.error_code(), grpc::StatusCode::NOT_FOUND);
-  EXPECT_EQ(OpenSession(client.channel(), "../x", 0, -1, token).status.error_code(),
+  const auto client = test_util::NewAssetClient((*server)->address(), token);
+  EXPECT_EQ(OpenSession(client->channel(), "x", 0, -1).status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(OpenSession(client->channel(), "x", 0, -1, token).status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(OpenSession(client->channel(), "../x", 0, -1, token).status.error_code(),
             grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(OpenSession(client.channel(), "x", 0, -5, token).status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(OpenSession(client->channel(), "x", 0, -5, token).status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   const std::string junk = "not an obj\n";
   v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest("junk", test_util::UploadFile{"junk.obj", std::vector<uint8_t>(junk.begin(), junk.end())}, &r).ok());
+  ASSERT_TRUE(test_util::Ingest(*client, "junk", sdk::UploadFile::FromBytes("junk.obj", std::vector<uint8_t>(junk.begin(), junk.end())), &r).ok());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
-  EXPECT_EQ(OpenSession(client.channel(), "junk", 0, -1, token).status.error_code(),
+  ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
+  EXPECT_EQ(OpenSession(client->channel(), "junk", 0, -1, token).status.error_code(),
             grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_EQ((*server)->Terminate(), 0);
 }
@@ -248,9 +247,9 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  AssetClient client((*server)->address());
+  const auto client = test_util::NewAssetClient((*server)->address());
   v1::Job job;
-  ASSERT_TRUE(client.IngestModel("spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
+  ASSERT_TRUE(test_util::IngestModel(*client, "spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
   ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 
   auto ask = [](std::vector<std::pair<uint32_t, std::vector<uint32_t>>> items, int times) {
@@ -267,7 +266,7 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   };
   // Datagram 1 of refinement 3 and 0 of refinement 12, the first asked twice: each sent once.
   std::vector<v1::RepairEnd> ends;
-  const Received repaired = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+  const Received repaired = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
                                         ask({{3, {1, 1}}, {12, {0}}}, 1), &ends);
   ASSERT_TRUE(repaired.status.ok()) << repaired.status.error_message();
   ASSERT_EQ(ends.size(), 1u);
@@ -279,21 +278,21 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   EXPECT_EQ(ends[0].bytes(), after[0].size() + after[1].size());
 
   // What does not fit the session: INVALID_ARGUMENT, nothing sent.
-  const Received beyond = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+  const Received beyond = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
                                       ask({{3, {999}}}, 1));
   EXPECT_EQ(beyond.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(beyond.status.error_message().find("datagram 999"), std::string::npos) << beyond.status.error_message();
   EXPECT_EQ(beyond.datagrams.count({UINT32_MAX, 0}), 0u);
-  const Received unknown = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+  const Received unknown = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
                                        ask({{200, {0}}}, 1));
   EXPECT_EQ(unknown.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   std::vector<v1::RepairEnd> twice_ends;
-  const Received twice = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
+  const Received twice = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
                                      ask({{3, {0}}}, 2), &twice_ends);
   EXPECT_TRUE(twice.status.ok()) << twice.status.error_message();
   EXPECT_EQ(twice_ends.size(), 1u) << "once per session: the second request is never read";
   EXPECT_EQ(twice.datagrams.at({UINT32_MAX, 0}).size(), 1u);
-  const Received unasked = OpenSession(client.channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, false,
+  const Received unasked = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, false,
                                        ask({{3, {0}}}, 1));
   EXPECT_EQ(unasked.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "a session opened without repair";
   EXPECT_EQ((*server)->Terminate(), 0);

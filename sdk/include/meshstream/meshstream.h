@@ -80,7 +80,7 @@ typedef enum {
   MS_ERR_NOT_FOUND,        /* the asset or version does not exist (for this token) */
   MS_ERR_UNAUTHENTICATED,  /* no token, a token that is not valid, or one that may not do this */
   MS_ERR_UNAVAILABLE,      /* the server cannot be reached, is busy, or ended the session early; retry */
-  MS_ERR_TIMEOUT,          /* a deadline ran out (reserved: the SDK reports none today, see docs/c-api.md) */
+  MS_ERR_TIMEOUT,          /* a deadline ran out: ms_client_config.deadline_ms, or the server's own */
   MS_ERR_INTERNAL          /* anything else: a file that cannot be written, damaged data, a bug */
 } ms_status;
 
@@ -91,6 +91,8 @@ typedef struct {
   /* Added beside the first version (MS_CLIENT_CONFIG_V0_SIZE ends above). */
   int32_t tls;             /* non-zero: TLS (also implied by tls_ca_pem) */
   const char* tls_ca_pem;  /* PEM text of the roots that sign the server's certificate; NULL: the system's */
+  int64_t deadline_ms;     /* each session must end within this many ms of ms_session_open; 0: no deadline.
+                            * One that does not fails with MS_ERR_TIMEOUT (from open or a poll). */
 } ms_client_config;
 #define MS_CLIENT_CONFIG_V0_SIZE (offsetof(ms_client_config, token) + sizeof(const char*))
 
@@ -209,7 +211,7 @@ MS_API ms_status ms_session_stats(const ms_session* session, ms_stats* out);
 MS_API ms_status ms_session_export(ms_session* session, const char* path);
 
 /* Stops the session: the server frees it and the next poll returns
- * MS_EVENT_ERROR with MS_ERR_UNAVAILABLE ("cancelled"), unless the session
+ * MS_EVENT_ERROR with MS_ERR_UNAVAILABLE ("CANCELLED: ..."), unless the session
  * was already over. May be called from another thread. */
 MS_API ms_status ms_session_cancel(ms_session* session);
 

@@ -1,4 +1,4 @@
-#include "services/api/grpc_status.h"
+#include "proto/rpc_status.h"
 
 namespace meshstream {
 
@@ -28,22 +28,23 @@ grpc::Status ToGrpcStatus(const Status& status) {
 
 Status FromGrpcStatus(const grpc::Status& status) {
   const std::string& m = status.error_message();
+  const auto or_else = [&m](const char* what) { return m.empty() ? std::string(what) : m; };
   switch (status.error_code()) {
     case grpc::StatusCode::OK: return Status::Ok();
     case grpc::StatusCode::INVALID_ARGUMENT:
-    case grpc::StatusCode::OUT_OF_RANGE: return InvalidArgument(m);
-    case grpc::StatusCode::NOT_FOUND: return NotFound(m);
-    case grpc::StatusCode::FAILED_PRECONDITION: return FailedPrecondition(m);
-    case grpc::StatusCode::DATA_LOSS: return DataLoss(m);
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return ResourceExhausted(m);
-    case grpc::StatusCode::UNAUTHENTICATED: return Unauthenticated(m);
-    case grpc::StatusCode::PERMISSION_DENIED: return PermissionDenied(m);
-    case grpc::StatusCode::UNAVAILABLE: return Unavailable(m.empty() ? "the server cannot be reached" : m);
-    case grpc::StatusCode::DEADLINE_EXCEEDED: return Unavailable("deadline exceeded" + (m.empty() ? "" : ": " + m));
-    case grpc::StatusCode::ABORTED: return Aborted(m);
-    case grpc::StatusCode::ALREADY_EXISTS: return AlreadyExists(m);
-    case grpc::StatusCode::CANCELLED: return Aborted("cancelled" + (m.empty() ? "" : ": " + m));
-    default: return Internal(m);
+    case grpc::StatusCode::OUT_OF_RANGE: return InvalidArgument(or_else("invalid argument"));
+    case grpc::StatusCode::NOT_FOUND: return NotFound(or_else("not found"));
+    case grpc::StatusCode::FAILED_PRECONDITION: return FailedPrecondition(or_else("failed precondition"));
+    case grpc::StatusCode::DATA_LOSS: return DataLoss(or_else("data loss"));
+    case grpc::StatusCode::RESOURCE_EXHAUSTED: return ResourceExhausted(or_else("resource exhausted"));
+    case grpc::StatusCode::UNAUTHENTICATED: return Unauthenticated(or_else("unauthenticated"));
+    case grpc::StatusCode::PERMISSION_DENIED: return PermissionDenied(or_else("permission denied"));
+    case grpc::StatusCode::UNAVAILABLE: return Unavailable(or_else("the server cannot be reached"));
+    case grpc::StatusCode::ABORTED: return Aborted(or_else("aborted"));
+    case grpc::StatusCode::ALREADY_EXISTS: return AlreadyExists(or_else("already exists"));
+    case grpc::StatusCode::CANCELLED: return Cancelled(or_else("cancelled"));
+    case grpc::StatusCode::DEADLINE_EXCEEDED: return DeadlineExceeded(or_else("deadline exceeded"));
+    default: return Internal(or_else("internal error"));
   }
 }
 

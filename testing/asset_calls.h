@@ -1,0 +1,166 @@
+// What the tests add to sdk::AssetClient (sdk/asset_client.h), the one client
+// of the asset API: a client on a test server, files loaded into memory (so a
+// test can change their bytes), and the raw calls a test of the API itself
+// needs and no real client makes: a hand-built Ingest stream (malformed,
+// partial, out of order) sent through the client's own stub and channel.
+// Everything here goes through an sdk::AssetClient.
+#ifndef MESHSTREAM_TESTING_ASSET_CALLS_H_
+#define MESHSTREAM_TESTING_ASSET_CALLS_H_
+
+#include <algorithm>
+#include <cstdlib>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <grpcpp/grpcpp.h>
+
+#include "importers/import.h"
+#include "meshstream/v1/asset_service.grpc.pb.h"
+#include "sdk/asset_client.h"
+
+namespace meshstream::test_util {
+
+// A client of the server at `address`; aborts the test binary when the
+// options are refused (they never are for a loopback address).
+inline std::unique_ptr<sdk::AssetClient> NewAssetClient(const std::string& address, const std::string& token = "",
+                                                        sdk::ClientOptions options = {}) {
+  options.server = address;
+  options.token = token;
+  options.request_timeout_s = 120;
+  auto client = sdk::AssetClient::Create(options);
+  if (!client.ok()) std::abort();
+  return std::move(client).value();
+}
+
+// The file at `path`, in memory, named `name` in the upload (empty when it
+// cannot be read: the upload then fails on the server's checks).
+inline sdk::UploadFile LoadFile(const std::string& path, const std::string& name) {
+  auto bytes = ReadFileBytes(path, uint64_t{1} << 30);
+  return sdk::UploadFile::FromBytes(name, bytes.ok() ? std::move(bytes).value() : std::vector<uint8_t>());
+}
+
+inline sdk::UploadFile FileOf(const std::string& name, const std::string& text) {
+  return sdk::UploadFile::FromBytes(name, std::vector<uint8_t>(text.begin(), text.end()));
+}
+
+inline sdk::Upload UploadOf(const std::string& asset, sdk::UploadFile main, std::vector<sdk::UploadFile> resources = {}) {
+  sdk::Upload upload;
+  upload.asset = asset;
+  upload.main = std::move(main);
+  upload.resources = std::move(resources);
+  return upload;
+}
+
+inline void AppendChunks(const std::vector<uint8_t>& bytes, size_t chunk, std::vector<v1::IngestRequest>& out) {
+  for (size_t offset = 0; offset < bytes.size(); offset += chunk) {
+    v1::IngestRequest c;
+    c.set_chunk(bytes.data() + offset, std::min(chunk, bytes.size() - offset));
+    out.push_back(c);
+  }
+}
+
+// The messages of a well-formed upload: metadata (size and sha256 of the
+// main file), its chunks, then each resource and its chunks.
+inline std::vector<v1::IngestRequest> UploadMessages(const std::string& asset, const sdk::UploadFile& main,
+                                                     const std::vector<sdk::UploadFile>& resources = {},
+                                                     size_t chunk = size_t{1} << 20) {
+  std::vector<v1::IngestRequest> messages(1);
+  v1::IngestMetadata& m = *messages[0].mutable_metadata();
+  m.set_asset(asset);
+  m.set_filename(main.name);
+  m.set_size(main.size);
+  m.set_sha256(main.sha256);
+  AppendChunks(main.bytes, chunk, messages);
+  for (const sdk::UploadFile& r : resources) {
+    v1::IngestRequest header;
+    header.mutable_resource()->set_name(r.name);
+    header.mutable_resource()->set_size(r.size);
+    header.mutable_resource()->set_sha256(r.sha256);
+    messages.push_back(header);
+    AppendChunks(r.bytes, chunk, messages);
+  }
+  return messages;
+}
+
+// Prepares a raw call's context as the client would (token, deadline).
+inline void Prepare(const sdk::AssetClient& client, grpc::ClientContext& context, double timeout_s = 120) {
+  client.client().Prepare(context, timeout_s);
+}
+
+// Sends exactly `messages` on one Ingest stream through the client's stub.
+inline grpc::Status IngestRaw(const sdk::AssetClient& client, const std::vector<v1::IngestRequest>& messages,
+                              v1::IngestResponse* response) {
+  grpc::ClientContext context;
+  Prepare(client, context);
+  auto writer = client.stub().Ingest(&context, response);
+  for (const v1::IngestRequest& m : messages) {
+    if (!writer->Write(m)) break;
+  }
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+
+// The shapes the tests assert on: the answer in an out-parameter and the
+// client's Status returned.
+inline Status Ingest(const sdk::AssetClient& client, const std::string& asset, sdk::UploadFile main,
+                     v1::IngestResponse* response, std::vector<sdk::UploadFile> resources = {}) {
+  auto result = client.Ingest(UploadOf(asset, std::move(main), std::move(resources)));
+  if (!result.ok()) return result.status();
+  *response = result->response;
+  return Status::Ok();
+}
+
+// Follows the job to its end (no reconnection); the last state in *last and,
+// when `all` is given, every state seen.
+inline Status Watch(const sdk::AssetClient& client, const std::string& job_id, v1::Job* last,
+                    std::vector<v1::Job>* all = nullptr) {
+  sdk::WatchOptions options;
+  options.on_update = [&](const v1::Job& job) {
+    *last = job;
+    if (all != nullptr) all->push_back(job);
+  };
+  return client.Watch(job_id, options).status();
+}
+
+// Uploads the file at `path` (named `name`) as `asset` and follows its job.
+inline Status IngestModel(const sdk::AssetClient& client, const std::string& asset, const std::string& path,
+                          const std::string& name, v1::Job* job) {
+  v1::IngestResponse response;
+  MS_RETURN_IF_ERROR(Ingest(client, asset, LoadFile(path, name), &response));
+  return Watch(client, response.job_id(), job);
+}
+
+inline Status GetVersion(const sdk::AssetClient& client, const std::string& asset, int64_t version, v1::Version* out) {
+  auto v = client.GetVersion(asset, version);
+  if (!v.ok()) return v.status();
+  *out = std::move(v).value();
+  return Status::Ok();
+}
+
+// An export, or its error in `status` (the bytes then empty).
+struct ExportResult : sdk::Exported {
+  Status status;
+};
+inline ExportResult Export(const sdk::AssetClient& client, const std::string& asset, int64_t version,
+                           v1::Format format, std::optional<int> lod = {}) {
+  sdk::ExportRequest request;
+  request.asset = asset;
+  request.version = version;
+  request.format = format;
+  if (lod) request.lod = *lod;
+  auto exported = client.Export(request);
+  ExportResult out;
+  if (exported.ok()) {
+    static_cast<sdk::Exported&>(out) = std::move(exported).value();
+  } else {
+    out.status = exported.status();
+  }
+  return out;
+}
+
+}  // namespace meshstream::test_util
+
+#endif  // MESHSTREAM_TESTING_ASSET_CALLS_H_
