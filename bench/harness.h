@@ -4,9 +4,9 @@
 // machine's facts, and the JSON written at the end. The option table is
 // bench/options.h.
 //
-// AssetApi is the one place the benchmarks reach an asset client library
-// (testing/asset_client.h today): switching the library changes harness.cc
-// only.
+// AssetApi is the one place the benchmarks reach the asset API, through
+// sdk::AssetClient (sdk/asset_client.h), the client the CLI, the tests and
+// engines use.
 //
 // Contract: for benchmark programs only. Functions named "Die" in their
 // comment end the process; the rest return a Status (or StatusOr) for what a
