@@ -139,7 +139,7 @@ bool SessionCore::AllDone() const {
 }
 
 void SessionCore::Fail(Status status) {
-  over_ = true;
+  phase_ = SessionPhase::kOver;
   events_.clear();
   Event e;
   e.type = EventType::kError;
@@ -326,8 +326,9 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
   // announced is an unknown primitive.
   switch (m.kind_case()) {
     case v1::ServerMessage::kSession: {
-      if (level_shown_ >= 0) return InvalidInput("a second session start");
+      if (phase_ != SessionPhase::kOpening) return InvalidInput("a second session start");
       MS_RETURN_IF_ERROR(Start(m.session(), now));
+      phase_ = end_reason_ == EndReason::kNone ? SessionPhase::kStreaming : SessionPhase::kEnding;
       Push(EventType::kBaseReady, 0);
       level_announced_ = 0;
       return Status::Ok();
@@ -372,7 +373,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
     }
     case v1::ServerMessage::kDatagram: {
       const std::string& d = m.datagram().payload();
-      if (repair_asked_ && !repair_ended_) {
+      if (phase_ == SessionPhase::kRepairing && !repair_ended_) {
         ++stats_.repaired_datagrams;
         stats_.repair_bytes += d.size();
       } else if (transport_ == SessionTransport::kUdp) {
@@ -391,6 +392,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       if (end_reason_ != EndReason::kNone) return Status::Ok();
       end_reason_ = EndReason::kServer;
       session_end_us_ = now;
+      if (phase_ == SessionPhase::kStreaming) phase_ = SessionPhase::kEnding;
       stats_.end_reason = m.end().reason();
       return Status::Ok();
     }
@@ -564,65 +566,77 @@ void SessionCore::UpdateStats() {
   stats_.datagrams_rejected = rejected + stray_rejected_ + udp_drops_seen_;
 }
 
-void SessionCore::CheckEnd(uint64_t now) {
-  if (over_ || !events_.empty()) return;
-  // A budget ran out: stop here with what arrived.
-  if (end_reason_ == EndReason::kNone && level_shown_ >= 0) {
-    const bool bytes_out =
-        options_.byte_budget > 0 && stats_.reliable_bytes + stats_.unreliable_bytes >= options_.byte_budget;
-    const bool time_out =
-        options_.time_budget_ms > 0 && MsSinceOpen(now) >= static_cast<double>(options_.time_budget_ms);
-    if (bytes_out || time_out) {
-      end_reason_ = bytes_out ? EndReason::kByteBudget : EndReason::kTimeBudget;
-      session_end_us_ = now;
-      stats_.end_reason = bytes_out ? "byte_budget" : "time_budget";
-      Finish(stats_.end_reason);
-      Status st = Advance(now, true);
-      if (!st.ok()) return Fail(st);
-    }
-  }
-  if (end_reason_ == EndReason::kNone || level_shown_ < 0) return;
-  // Everything is decoded, or the stragglers had their time. Late only once
-  // every arrival taken is handed over: a step that stopped at an event
-  // leaves the rest of its arrivals in the inbox (commit 186bb1d).
+// A budget ran out: stop here with what arrived.
+void SessionCore::CheckBudgets(uint64_t now) {
+  const bool bytes_out =
+      options_.byte_budget > 0 && stats_.reliable_bytes + stats_.unreliable_bytes >= options_.byte_budget;
+  const bool time_out = options_.time_budget_ms > 0 && MsSinceOpen(now) >= static_cast<double>(options_.time_budget_ms);
+  if (!bytes_out && !time_out) return;
+  end_reason_ = bytes_out ? EndReason::kByteBudget : EndReason::kTimeBudget;
+  session_end_us_ = now;
+  phase_ = SessionPhase::kEnding;
+  stats_.end_reason = bytes_out ? "byte_budget" : "time_budget";
+  Finish(stats_.end_reason);
+  Status st = Advance(now, true);
+  if (!st.ok()) Fail(st);
+}
+
+// The stream has ended: once everything is decoded, or the stragglers had
+// their time, the session completes, or with repair asks for what was lost.
+// Late only once every arrival taken is handed over: a step that stopped at
+// an event leaves the rest of its arrivals in the inbox (commit 186bb1d).
+void SessionCore::Settle(uint64_t now) {
   const uint64_t window_us = 2 * static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000;
   const bool late = handed_over() && StragglerClock(now) > session_end_us_ + window_us;
   const bool budget = end_reason_ == EndReason::kByteBudget || end_reason_ == EndReason::kTimeBudget;
-  if (!repair_asked_ && !ready_to_complete_ && (AllDone() || late || budget)) {
-    if (!AllDone()) {
-      Status st = Advance(now, true);
-      if (!st.ok()) return Fail(st);
-    }
-    stats_.time_to_full_ms = MsSinceOpen(now);
-    // With repair: ask for what was lost, then wait for it below.
-    if (!options_.repair || budget || !AskRepair(now)) ready_to_complete_ = true;
+  if (!AllDone() && !late && !budget) return;
+  if (!AllDone()) {
+    Status st = Advance(now, true);
+    if (!st.ok()) return Fail(st);
   }
-  if (repair_asked_ && !ready_to_complete_) {
-    const bool call_over = stream_ended_ && inbox_messages_.empty();
-    if (repair_ended_) {
-      Status st = DecodeAgain(now);
-      if (!st.ok()) return Fail(st);
-      stats_.time_to_exact_ms = MsSinceOpen(now);
-      ready_to_complete_ = true;
-    } else if (call_over || now >= repair_asked_us_ + kRepairWaitUs) {
-      // The predicted mesh stays.
-      stats_.repair_error = call_over ? "the server ended the session before the repair" : "no repair within 10 s";
-      ready_to_complete_ = true;
-    }
+  stats_.time_to_full_ms = MsSinceOpen(now);
+  // With repair: ask for what was lost, then wait for it.
+  if (options_.repair && !budget && AskRepair(now)) {
+    phase_ = SessionPhase::kRepairing;
+    return;
   }
-  if (ready_to_complete_) {
-    UpdateStats();
-    if (stats_.time_to_exact_ms == 0 && stats_.datagrams_lost == 0) stats_.time_to_exact_ms = stats_.time_to_full_ms;
-    Finish("complete");
-    if (udp_running_) udp_stop_ = true;
-    udp_running_ = false;
-    over_ = true;
-    Push(EventType::kComplete, level_shown_);
+  Complete();
+}
+
+// The repair asked for: its RepairEnd (decode again), or the call's end or
+// 10 s without it (the predicted mesh stays).
+void SessionCore::AwaitRepair(uint64_t now) {
+  if (repair_ended_) {
+    Status st = DecodeAgain(now);
+    if (!st.ok()) return Fail(st);
+    stats_.time_to_exact_ms = MsSinceOpen(now);
+    return Complete();
   }
+  const bool call_over = stream_ended_ && inbox_messages_.empty();
+  if (!call_over && now < repair_asked_us_ + kRepairWaitUs) return;
+  stats_.repair_error = call_over ? "the server ended the session before the repair" : "no repair within 10 s";
+  Complete();
+}
+
+void SessionCore::Complete() {
+  UpdateStats();
+  if (stats_.time_to_exact_ms == 0 && stats_.datagrams_lost == 0) stats_.time_to_exact_ms = stats_.time_to_full_ms;
+  Finish("complete");
+  if (udp_running_) udp_stop_ = true;
+  udp_running_ = false;
+  phase_ = SessionPhase::kOver;
+  Push(EventType::kComplete, level_shown_);
+}
+
+void SessionCore::CheckEnd(uint64_t now) {
+  if (!events_.empty()) return;
+  if (phase_ == SessionPhase::kStreaming) CheckBudgets(now);
+  if (phase_ == SessionPhase::kEnding) Settle(now);
+  if (phase_ == SessionPhase::kRepairing) AwaitRepair(now);
 }
 
 void SessionCore::HandleArrivals(uint64_t now) {
-  if (over_) return;
+  if (phase_ == SessionPhase::kOver) return;
   // The arrivals of both channels in the order they arrived, each decided on
   // with its own arrival time (a busy host thread must not time a refinement
   // out while its datagrams wait here), until one makes an event: the rest
@@ -644,14 +658,14 @@ void SessionCore::HandleArrivals(uint64_t now) {
       st = OfferDatagram(d.payload.data(), d.payload.size(), &d.packet_number, at);
     }
     if (!st.ok()) return Fail(st);
-    if (level_shown_ >= 0 && events_.empty()) {
+    if (phase_ != SessionPhase::kOpening && events_.empty()) {
       // A gRPC arrival may be stamped after datagrams that wait unread in
       // the socket: the horizon bounds the clock.
       st = AdvanceTouched(StragglerClock(at));
       if (!st.ok()) return Fail(st);
     }
   }
-  if (level_shown_ >= 0) {
+  if (phase_ != SessionPhase::kOpening && phase_ != SessionPhase::kOver) {
     if (handed_over() && events_.empty()) {
       Status st = Advance(StragglerClock(now), false);
       if (!st.ok()) return Fail(st);

@@ -18,7 +18,9 @@
 //     it delivered was taken before).
 //   - SetUdpCounters: the UDP receiver's counters (statistics, the RTT sample).
 //   - CheckEnd(now), HandleArrivals(now), or Step(now) for both: the session
-//     moves on at `now`.
+//     moves on at `now`, through its phases (SessionPhase): opening ->
+//     streaming -> ending (SessionEnd or a budget; the stragglers' window)
+//     -> [repairing] -> over.
 // Outputs:
 //   - NextEvent: kBaseReady, kLevelReady, kComplete or kError, in order
 //     (sdk/session.h); after kComplete or kError the core is over().
@@ -60,6 +62,10 @@ namespace meshstream::sdk {
 
 // How the datagrams travel (SessionStart.transport, TransportChange).
 enum class SessionTransport { kNone, kGrpc, kUdp };
+// Where a session is: before SessionStart; streaming; the stream has ended
+// (SessionEnd, or a budget ran out) and the stragglers have their window;
+// the repair is asked for and awaited; over (kComplete or kError queued).
+enum class SessionPhase { kOpening, kStreaming, kEnding, kRepairing, kOver };
 // Why the session's stream ended: the server said so (SessionEnd, its reason
 // in SessionStats::end_reason), or a budget of the client's ran out.
 enum class EndReason { kNone, kServer, kByteBudget, kTimeBudget };
@@ -127,7 +133,8 @@ class SessionCore {
 
   // Every arrival taken has been handed to the reconstructors.
   bool handed_over() const { return inbox_messages_.empty() && inbox_datagrams_.empty(); }
-  bool over() const { return over_; }
+  bool over() const { return phase_ == SessionPhase::kOver; }
+  SessionPhase phase() const { return phase_; }
   bool stream_ended() const { return stream_ended_; }
   SessionTransport transport() const { return transport_; }
   EndReason end_reason() const { return end_reason_; }
@@ -178,6 +185,10 @@ class SessionCore {
   bool AskRepair(uint64_t now);
   Status DecodeAgain(uint64_t now);
   void UpdateStats();
+  void CheckBudgets(uint64_t now);
+  void Settle(uint64_t now);
+  void AwaitRepair(uint64_t now);
+  void Complete();
   void Push(EventType type, int32_t level);
 
   SessionOptions options_;
@@ -201,11 +212,10 @@ class SessionCore {
   EndReason end_reason_ = EndReason::kNone;
   uint64_t session_end_us_ = 0;
   bool writes_done_ = false;
-  bool over_ = false;
+  SessionPhase phase_ = SessionPhase::kOpening;
   bool rtt_reported_ = false;
-  bool repair_asked_ = false;
+  bool repair_asked_ = false;  // a RepairRequest went out (RepairEnd is expected)
   bool repair_ended_ = false;
-  bool ready_to_complete_ = false;
   uint64_t repair_asked_us_ = 0;
   uint64_t kept_bytes_ = 0;
   ReconstructorOptions reconstructor_options_;

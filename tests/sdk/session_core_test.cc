@@ -217,6 +217,7 @@ TEST(SessionCore, TheRepairAsksForExactlyWhatWasLostAndGivesTheExactMesh) {
   ASSERT_FALSE(h.events.empty());
   EXPECT_NE(h.events.back().type, EventType::kComplete);
   EXPECT_TRUE(h.core.repair_asked());
+  EXPECT_EQ(h.core.phase(), SessionPhase::kRepairing);
   const v1::RepairRequest* request = nullptr;
   for (const Outgoing& out : h.sent)
     if (out.message.has_repair()) request = &out.message.repair();
@@ -245,6 +246,7 @@ TEST(SessionCore, TheRepairAsksForExactlyWhatWasLostAndGivesTheExactMesh) {
   EXPECT_EQ(h.core.predicted_vertices(), 0u);
   EXPECT_GT(h.core.stats().repaired_datagrams, 0u);
   EXPECT_TRUE(h.core.stats().repair_error.empty());
+  EXPECT_EQ(h.core.phase(), SessionPhase::kOver);
 }
 
 TEST(SessionCore, ARepairThatNeverComesKeepsThePredictedMesh) {
