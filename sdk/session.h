@@ -25,12 +25,48 @@
 // client's side: it tells the server it is done, decodes what arrived, and
 // Poll returns kComplete at the level reached.
 //
+// Untrusted input: everything the server sends (every ServerMessage, every
+// StreamDatagram and UDP payload) is checked before it is used, and no
+// bytes from it can make the client crash, hang or hold more than its
+// bounds (64 MiB of datagrams buffered per primitive, 65,536 UDP datagrams
+// queued, 256 MiB of copies kept for a repair). A bad one either ends the
+// session (Poll returns kError with the status; kInvalidInput unless named):
+//   - SessionStart: a second one; a primitive announced twice; a stream
+//     header that does not parse (kUnsupported for an unknown version);
+//     more refinements than its header has; a base mesh that does not
+//     decode, no POSITION or a malformed TEXCOORD_n attribute name; a
+//     scene_glb that does not import or lacks a refined primitive's mesh;
+//     with TRANSPORT_UDP, keys that are not 32 bytes or a port outside
+//     1..65535 (an endpoint that does not resolve: its own status);
+//   - ControlBlock: an unknown primitive, a refinement outside the session,
+//     a second block for a refinement, more datagrams than two per split,
+//     or split bits the decoder refuses;
+//   - RefinementEnd: an unknown primitive or a refinement outside the session;
+//   - RepairEnd without a repair asked for;
+//   - a refinement that fails to decode (FinishRefinement);
+//   - the call ending before SessionEnd: its status (kUnavailable if OK);
+// or is dropped and counted in SessionStats:
+//   - a datagram (on UDP or as a StreamDatagram) that does not parse, names
+//     a stream not in the session, does not fit its stream (kind, refinement,
+//     ordinals), announces in its END more than two datagrams per split,
+//     arrives before SessionStart, or does not fit the buffers:
+//     datagrams_rejected (with the UDP receiver's drops: unauthenticated,
+//     wrong session, malformed packets);
+//   - copies, replays and datagrams of refinements already decoded:
+//     datagrams_duplicate;
+// or is ignored: a ServerMessage of a kind this client does not know, a
+// TransportChange to anything but TRANSPORT_GRPC, a SessionEnd after the
+// first (the stragglers' window counts from the first) or after a budget
+// ran out, a second RepairEnd. (sdk/session_core.h is where it is decided;
+// tests/sdk/ and tests/fuzz/fuzz_sdk_session.cc check it.)
+//
 // Thread safety and ownership: a Session is used from one thread (Poll, the
 // mesh accessors); Cancel may also be called from another thread. Mesh
 // views stay valid until the next Poll. The Client must outlive the
 // session. Internally one thread reads the gRPC stream and one the UDP
 // socket, each into a queue; the decoding runs inside Poll, on the
-// caller's thread.
+// caller's thread, in a deterministic core (sdk/session_core.h) that the
+// driver hands every arrival with its arrival time, and the clock.
 #ifndef MESHSTREAM_SDK_SESSION_H_
 #define MESHSTREAM_SDK_SESSION_H_
 

@@ -336,4 +336,26 @@ std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint3
   return std::move(w.bytes());
 }
 
+std::vector<uint8_t> MakeStreamEndDatagram(const uint8_t* stream_header, size_t header_size, uint32_t stream,
+                                           uint32_t refinement, uint32_t datagrams) {
+  const uint8_t version = header_size > 0 ? stream_header[0] : kStreamVersion;
+  return MakeEndDatagram(stream, refinement, datagrams, version);
+}
+
+StatusOr<ParsedDatagram> ParsedDatagram::Parse(const uint8_t* data, size_t size) {
+  ByteReader r(data, size);
+  ParsedDatagram d;
+  MS_ASSIGN_OR_RETURN(d.header_, DatagramHeader::Parse(r));
+  d.data_ = data;
+  d.size_ = size;
+  d.payload_offset_ = r.position();
+  return d;
+}
+
+ParsedDatagram ParsedDatagram::Over(const uint8_t* copy) const {
+  ParsedDatagram d = *this;
+  d.data_ = copy;
+  return d;
+}
+
 }  // namespace meshstream

@@ -122,6 +122,32 @@ struct DatagramHeader {
   static StatusOr<DatagramHeader> Parse(ByteReader& r);
 };
 
+// A datagram whose header has been read, once (DatagramHeader::Parse): the
+// header and the bytes it was read from, so that the receiver's layers
+// (session, reconstructor, reader) share one parse. Made only by Parse, so a
+// header always satisfies Parse's checks and describes `data`; the stream's
+// own checks (DatagramFits, the stream id) are still each layer's.
+// Not owning: `data` must outlive the view.
+class ParsedDatagram {
+ public:
+  static StatusOr<ParsedDatagram> Parse(const uint8_t* data, size_t size);
+  const DatagramHeader& header() const { return header_; }
+  const uint8_t* data() const { return data_; }  // the whole datagram
+  size_t size() const { return size_; }
+  const uint8_t* payload() const { return data_ + payload_offset_; }  // after the header
+  size_t payload_size() const { return size_ - payload_offset_; }
+  // The same datagram over `copy`, a byte-identical copy of data() that the
+  // caller owns (a receiver that buffers it).
+  ParsedDatagram Over(const uint8_t* copy) const;
+
+ private:
+  ParsedDatagram() = default;
+  DatagramHeader header_;
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+  size_t payload_offset_ = 0;
+};
+
 // Whether a data datagram (not an END) fits a stream: its kind matches the
 // packing and its ordinals lie below the split count of its refinement
 // (which must exist). Stream number and timing are the receiver's business.
@@ -131,6 +157,16 @@ bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
 // datagrams of a refinement (docs/progressive-format.md, section 6).
 std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams,
                                      uint8_t version = kStreamVersion);
+
+// The END of refinement `refinement` of the stream whose header is
+// `stream_header` (its bytes as the artifact and SessionStart carry them):
+// the one form of a session's END, whether the server sends it as a datagram
+// or the client rebuilds it from RefinementEnd or for a repair. It carries
+// the stream's version, the header's first byte (docs/progressive-format.md,
+// sections 3 and 6; kStreamVersion for an empty header, which no reader
+// accepts anyway). Safe on any header bytes: only the first is read.
+std::vector<uint8_t> MakeStreamEndDatagram(const uint8_t* stream_header, size_t header_size, uint32_t stream,
+                                           uint32_t refinement, uint32_t datagrams);
 
 }  // namespace meshstream
 

@@ -157,14 +157,18 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
 }
 
 bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
-  ByteReader r(data, size);
-  auto parsed = DatagramHeader::Parse(r);
-  if (!parsed.ok() || !in_refinement_) {
+  auto parsed = ParsedDatagram::Parse(data, size);
+  if (!parsed.ok()) {
     ++stats_.rejected;
     return false;
   }
-  const DatagramHeader& h = parsed.value();
-  if (h.stream != stream_id_ || h.refinement != next_ || !DatagramFits(h, header_)) {
+  return OfferDatagram(parsed.value());
+}
+
+bool StreamReader::OfferDatagram(const ParsedDatagram& d) {
+  const DatagramHeader& h = d.header();
+  if (!in_refinement_ || h.kind == DatagramKind::kEnd || h.stream != stream_id_ || h.refinement != next_ ||
+      !DatagramFits(h, header_)) {
     ++stats_.rejected;
     return false;
   }
@@ -172,7 +176,7 @@ bool StreamReader::OfferDatagram(const uint8_t* data, size_t size) {
   const bool structure = h.kind != DatagramKind::kGeometry;
   const bool geometry = h.kind != DatagramKind::kStructure;
   const int ch = header_.grids.layout.channels();
-  RangeDecoder dec(data + r.position(), r.remaining());
+  RangeDecoder dec(d.payload(), d.payload_size());
   // (Member scratch, reused from datagram to datagram: no allocation once grown.)
   std::vector<std::array<uint16_t, 2>>& wings = datagram_wings_;
   std::vector<Vec3i>& deltas = datagram_deltas_;

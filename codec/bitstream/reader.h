@@ -52,6 +52,9 @@ class StreamReader {
 
   Status BeginRefinement(const uint8_t* control, size_t size);
   bool OfferDatagram(const uint8_t* data, size_t size);
+  // The same with the header already read (ParsedDatagram::Parse): the
+  // header is not parsed again; everything else is checked as above.
+  bool OfferDatagram(const ParsedDatagram& d);
   // Applies the current refinement; what was lost is recovered by `recovery`.
   // Within one stream every refinement must use the same recovery.
   Status FinishRefinement(Recovery recovery = Recovery::kPredict);

@@ -52,9 +52,9 @@ StreamReconstructor::Pending& StreamReconstructor::At(size_t k) {
   return pending_[k];
 }
 
-void StreamReconstructor::OfferOne(Pending& p, const uint8_t* data, size_t size) {
+void StreamReconstructor::OfferOne(Pending& p, const ParsedDatagram& d) {
   const uint64_t accepted = reader_.stats().accepted;
-  if (!reader_.OfferDatagram(data, size)) {
+  if (!reader_.OfferDatagram(d)) {
     ++stats_.rejected;
   } else if (reader_.stats().accepted != accepted) {
     ++stats_.accepted;
@@ -65,9 +65,9 @@ void StreamReconstructor::OfferOne(Pending& p, const uint8_t* data, size_t size)
 }
 
 void StreamReconstructor::Offer(Pending& p) {
-  for (const std::vector<uint8_t>& d : p.seen) {
-    OfferOne(p, d.data(), d.size());
-    buffered_bytes_ -= d.size() + kEntryOverhead;
+  for (const Buffered& b : p.seen) {
+    OfferOne(p, b.parsed.Over(b.bytes.data()));
+    buffered_bytes_ -= b.bytes.size() + kEntryOverhead;
   }
   p.seen = {};
   p.by_hash = {};
@@ -105,16 +105,22 @@ Status StreamReconstructor::OnControl(const uint8_t* control, size_t size, uint6
 }
 
 void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t now_us) {
-  (void)now_us;  // readiness is decided by control arrival times and Poll's clock
   if (!failed_.ok()) return;
-  ByteReader r(data, size);
-  auto parsed = DatagramHeader::Parse(r);
+  auto parsed = ParsedDatagram::Parse(data, size);
   if (!parsed.ok()) {
     ++stats_.datagrams;
     ++stats_.rejected;
     return;
   }
-  const DatagramHeader& h = parsed.value();
+  OnDatagram(parsed.value(), now_us);
+}
+
+void StreamReconstructor::OnDatagram(const ParsedDatagram& d, uint64_t now_us) {
+  (void)now_us;  // readiness is decided by control arrival times and Poll's clock
+  if (!failed_.ok()) return;
+  const DatagramHeader& h = d.header();
+  const uint8_t* data = d.data();
+  const size_t size = d.size();
   const bool end = h.kind == DatagramKind::kEnd;
   ++(end ? stats_.ends : stats_.datagrams);
   const StreamHeader& header = reader_.header();
@@ -146,13 +152,13 @@ void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t 
   }
   Pending& p = At(k);
   if (k == 0 && begun_) {
-    OfferOne(p, data, size);  // the refinement being decoded: straight to the reader
+    OfferOne(p, d);  // the refinement being decoded: straight to the reader
     return;
   }
   const uint64_t hash = HashBytes(data, size);
   const auto range = p.by_hash.equal_range(hash);
   for (auto it = range.first; it != range.second; ++it) {
-    const std::vector<uint8_t>& other = p.seen[it->second];
+    const std::vector<uint8_t>& other = p.seen[it->second].bytes;
     if (other.size() == size && (size == 0 || std::memcmp(other.data(), data, size) == 0)) {
       ++stats_.duplicates;
       return;
@@ -164,7 +170,7 @@ void StreamReconstructor::OnDatagram(const uint8_t* data, size_t size, uint64_t 
     return;
   }
   p.by_hash.emplace(hash, static_cast<uint32_t>(p.seen.size()));
-  p.seen.emplace_back(data, data + size);
+  p.seen.push_back(Buffered{std::vector<uint8_t>(data, data + size), d});
   buffered_bytes_ += cost;
 }
 

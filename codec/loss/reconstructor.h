@@ -88,6 +88,11 @@ class StreamReconstructor {
   Status OnControl(const uint8_t* control, size_t size, uint64_t now_us);
   // The unreliable channel: any datagram, any order, duplicates allowed.
   void OnDatagram(const uint8_t* data, size_t size, uint64_t now_us);
+  // The same with the header already read (ParsedDatagram::Parse, which only
+  // makes views that passed DatagramHeader::Parse): the header is read once
+  // on the receiver, and every other check above still applies. A buffered
+  // datagram keeps its parsed header beside its bytes.
+  void OnDatagram(const ParsedDatagram& d, uint64_t now_us);
   // Decodes every refinement that is ready at now_us; returns how many.
   StatusOr<size_t> Poll(uint64_t now_us);
   // The session is over: decodes every refinement whose control block arrived.
@@ -101,6 +106,10 @@ class StreamReconstructor {
  private:
   friend StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream&, uint32_t, QuantizedMesh,
                                                   const LossyDecodeOptions&, LossyDecodeReport*);
+  struct Buffered {
+    std::vector<uint8_t> bytes;
+    ParsedDatagram parsed;  // its header; points at the bytes it was parsed from (Over(bytes) to use)
+  };
   struct Pending {
     std::vector<uint8_t> control;
     bool has_control = false;
@@ -109,7 +118,7 @@ class StreamReconstructor {
     uint32_t announced = 0;                         // data datagrams the END announced
     // Distinct data datagrams (byte-identical copies are kept once) that
     // arrived before the refinement was begun, in arrival order.
-    std::vector<std::vector<uint8_t>> seen;
+    std::vector<Buffered> seen;
     std::unordered_multimap<uint64_t, uint32_t> by_hash;  // hash of bytes -> index in seen
     uint32_t usable = 0;  // datagrams that gave the reader a unit it did not have (completeness)
   };
@@ -118,7 +127,7 @@ class StreamReconstructor {
   Pending& At(size_t k);  // pending_[k], grown as needed
   Status BeginFront();    // begins refinement applied() when its control arrived
   void Offer(Pending& p);  // hands p's buffered datagrams to the reader and releases them
-  void OfferOne(Pending& p, const uint8_t* data, size_t size);
+  void OfferOne(Pending& p, const ParsedDatagram& d);
   bool Complete(const Pending& p) const;
   // Finishes refinement applied() if it is ready at now_us (or whenever its
   // control arrived, when flushing), then begins the next; returns whether it did.

@@ -1,0 +1,734 @@
+#include "sdk/session_core.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "codec/bitstream/format.h"
+#include "codec/bitstream/reader.h"
+#include "codec/mesh/quantized_mesh.h"
+#include "importers/draco_base_coder.h"
+#include "importers/gltf_import.h"
+
+namespace meshstream::sdk {
+
+namespace {
+
+StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
+  DracoAttributeIds ids;
+  for (const auto& [name, id] : p.draco_attributes()) {
+    if (name == "POSITION") {
+      ids.position = id;
+    } else if (name == "NORMAL") {
+      ids.normal = id;
+    } else if (name == "COLOR_0") {
+      ids.color = id;
+    } else if (name.rfind("TEXCOORD_", 0) == 0) {
+      const std::string index = name.substr(9);
+      if (index.empty() || index.size() > 2 || index.find_first_not_of("0123456789") != std::string::npos) {
+        return InvalidInput("primitive " + std::to_string(p.primitive()) + ": Draco attribute " + name);
+      }
+      const size_t k = static_cast<size_t>(std::stoi(index));
+      if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
+      ids.texcoords[k] = id;
+    }
+  }
+  if (ids.position < 0) return InvalidInput("primitive " + std::to_string(p.primitive()) + ": no POSITION");
+  return ids;
+}
+
+const uint8_t* Bytes(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }
+
+std::string Where(uint32_t stream) { return "primitive " + std::to_string(stream); }
+
+}  // namespace
+
+// What the client tracks of one refinement for its report.
+struct SessionCore::RefinementTrack {
+  bool has_control = false;
+  std::string control;             // held until the refinement's END arrives (then given to the reconstructor)
+  bool end_seen = false;           // its END datagram or its RefinementEnd arrived
+  uint32_t datagrams = 0;          // data datagrams the server sends
+  uint64_t first_packet_number = 0;
+  std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
+  uint64_t bytes = 0;
+  uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
+  bool reliable = false;           // its datagrams come on the gRPC stream (ControlBlock.reliable)
+  // With repair: the control block and every data datagram that arrived,
+  // kept until the session ends, and the ordinals the report found missing.
+  std::string kept_control;
+  std::vector<std::string> kept_datagrams;
+  std::vector<uint32_t> missing;
+};
+
+struct SessionCore::PrimitiveState {
+  v1::PrimitiveStart start;
+  std::unique_ptr<StreamReconstructor> reconstructor;
+  std::vector<RefinementTrack> tracks;  // per refinement of this session
+  size_t reported = 0;                  // refinements reported
+  size_t given = 0;                     // control blocks given to the reconstructor (in order)
+  size_t ended = 0;                     // refinements [0, ended) have had an END (theirs or a later one's)
+  size_t scene_slot = 0;                // index into its scene mesh's primitives
+  QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
+};
+
+void StampHold(Outgoing& o, uint64_t sent_at_us) {
+  if (!o.message.has_report()) return;
+  o.message.mutable_report()->set_hold_us(o.end_time_us != 0 && sent_at_us > o.end_time_us ? sent_at_us - o.end_time_us
+                                                                                            : 0);
+}
+
+SessionCore::SessionCore(const SessionOptions& options, uint64_t opened_us)
+    : options_(options), opened_us_(opened_us) {}
+
+SessionCore::~SessionCore() = default;
+
+void SessionCore::TakeMessage(v1::ServerMessage m, uint64_t at_us) { inbox_messages_.emplace_back(at_us, std::move(m)); }
+
+void SessionCore::TakeDatagram(std::vector<uint8_t> payload, uint64_t packet_number, uint64_t at_us) {
+  inbox_datagrams_.push_back(TakenDatagram{std::move(payload), packet_number, at_us});
+}
+
+void SessionCore::TakeStreamEnd(Status status) {
+  stream_ended_ = true;
+  stream_status_ = std::move(status);
+}
+
+void SessionCore::SetUdpCounters(const UdpCounters& c) { udp_ = c; }
+
+std::optional<Event> SessionCore::NextEvent() {
+  if (events_.empty()) return std::nullopt;
+  Event e = events_.front();
+  events_.pop_front();
+  return e;
+}
+
+std::vector<Outgoing> SessionCore::TakeOutgoing() { return std::exchange(outgoing_, {}); }
+
+std::optional<UdpStart> SessionCore::TakeUdpStart() { return std::exchange(udp_start_, std::nullopt); }
+
+bool SessionCore::TakeUdpStop() { return std::exchange(udp_stop_, false); }
+
+double SessionCore::MsSinceOpen(uint64_t now_us) const {
+  return now_us > opened_us_ ? static_cast<double>(now_us - opened_us_) / 1000.0 : 0.0;
+}
+
+void SessionCore::Push(EventType type, int32_t level) {
+  Event e;
+  e.type = type;
+  e.level = level;
+  events_.push_back(e);
+}
+
+// The level every primitive has reached (a primitive with fewer refinements
+// counts as done once it has all of its own).
+int32_t SessionCore::LevelEverywhere() const {
+  int32_t level = levels_;
+  for (const PrimitiveState& p : primitives_) {
+    const int32_t own = static_cast<int32_t>(p.start.refinements());
+    const int32_t applied = static_cast<int32_t>(p.reconstructor->applied());
+    if (applied < own) level = std::min(level, applied);
+  }
+  return level;
+}
+
+bool SessionCore::AllDone() const {
+  for (const PrimitiveState& p : primitives_) {
+    if (p.reconstructor->applied() < p.start.refinements()) return false;
+  }
+  return true;
+}
+
+void SessionCore::Fail(Status status) {
+  phase_ = SessionPhase::kOver;
+  events_.clear();
+  Event e;
+  e.type = EventType::kError;
+  e.status = std::move(status);
+  events_.push_back(e);
+  if (udp_running_) udp_stop_ = true;
+  udp_running_ = false;
+  udp_start_.reset();
+}
+
+void SessionCore::Finish(const std::string& reason) {
+  if (writes_done_) return;
+  Outgoing o;
+  o.message.mutable_done()->set_reason(reason);
+  o.half_close = true;
+  outgoing_.push_back(std::move(o));
+  writes_done_ = true;
+}
+
+StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
+  auto it = by_stream_.find(stream_id);
+  if (it == by_stream_.end()) return InvalidInput("a block for unknown primitive " + std::to_string(stream_id));
+  return it->second;
+}
+
+Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
+  transport_ = start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc;
+  stats_.transport = transport_ == SessionTransport::kUdp ? "udp" : "grpc";
+  ReconstructorOptions ro;
+  ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options_.straggler_timeout_ms)) * 1000;
+  // UDP may run ahead of the gRPC stream by many refinements (a loaded
+  // client, a TCP queue): buffer datagrams for any refinement of the
+  // stream, within the byte budget, rather than drop them for the window.
+  ro.window = kMaxRefinements;
+  ro.max_buffered_bytes = size_t{64} << 20;
+  reconstructor_options_ = ro;
+  for (const v1::PrimitiveStart& p : start.primitives()) {
+    const std::string where = Where(p.primitive());
+    if (by_stream_.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
+    PrimitiveState state;
+    state.start = p;
+    ro.lod = static_cast<int>(std::min<uint32_t>(p.refinements(), kMaxRefinements));
+    auto reconstructor = StreamReconstructor::Create(Bytes(p.header()), p.header().size(), p.primitive(), ro);
+    if (!reconstructor.ok()) return reconstructor.status().WithContext(where);
+    state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor).value());
+    if (p.refinements() > state.reconstructor->reader().refinement_count()) {
+      return InvalidInput(where + ": more refinements announced than its header has");
+    }
+    MS_ASSIGN_OR_RETURN(DracoAttributeIds ids, IdsOf(p));
+    auto base = DecodeDracoBase(Bytes(p.base_mesh()), p.base_mesh().size(), ids,
+                                state.reconstructor->reader().header().grids);
+    if (!base.ok()) return base.status().WithContext(where);
+    if (options_.repair) state.kept_base = base.value();
+    Status s = state.reconstructor->SetBase(std::move(base).value());
+    if (!s.ok()) return s.WithContext(where);
+    state.tracks.resize(p.refinements());
+    levels_ = std::max(levels_, static_cast<int32_t>(p.refinements()));
+    stats_.reliable_bytes += p.header().size() + p.base_mesh().size();
+    by_stream_[p.primitive()] = primitives_.size();
+    primitives_.push_back(std::move(state));
+  }
+  if (!start.scene_glb().empty()) {
+    const std::vector<uint8_t> glb(start.scene_glb().begin(), start.scene_glb().end());
+    MS_ASSIGN_OR_RETURN(scene_, ImportGltfBytes(glb, "", "the session's scene", ImportOptions{}));
+    for (PrimitiveState& p : primitives_) {
+      // The glTF primitive index counts carried primitives too (Mesh::Order).
+      const uint32_t m = p.start.mesh(), k = p.start.mesh_primitive();
+      const std::vector<Mesh::Ref> order = m < scene_.meshes.size() ? scene_.meshes[m].Order() : std::vector<Mesh::Ref>();
+      if (k >= order.size() || order[k].carried) {
+        return InvalidInput(Where(p.start.primitive()) + ": the scene has no refined mesh " + std::to_string(m) +
+                            " primitive " + std::to_string(k));
+      }
+      p.scene_slot = order[k].index;
+    }
+    stats_.reliable_bytes += start.scene_glb().size();
+    has_scene_ = true;
+  }
+  if (transport_ == SessionTransport::kUdp) {
+    if (start.client_to_server_key().size() != kPacketKeyBytes || start.server_to_client_key().size() != kPacketKeyBytes) {
+      return InvalidInput("session start: the UDP keys are not 32 bytes each");
+    }
+    if (start.udp().port() == 0 || start.udp().port() > 65535) return InvalidInput("session start: no UDP port");
+    UdpStart u;
+    u.host = start.udp().host();
+    u.port = static_cast<uint16_t>(start.udp().port());
+    u.session_id = start.udp_session_id();
+    std::copy(start.client_to_server_key().begin(), start.client_to_server_key().end(), u.keys.client_to_server.begin());
+    std::copy(start.server_to_client_key().begin(), start.server_to_client_key().end(), u.keys.server_to_client.begin());
+    udp_start_ = std::move(u);
+    udp_running_ = true;
+  }
+  stats_.time_to_base_ms = MsSinceOpen(now);
+  level_shown_ = 0;
+  return Status::Ok();
+}
+
+// The END of refinement `refinement` of `p` arrived on either channel (the
+// earlier ones were sent before it).
+void SessionCore::NoteEnd(PrimitiveState& p, size_t refinement) { p.ended = std::max(p.ended, refinement + 1); }
+
+// Gives the reconstructor the held control blocks of `p`, in order, as far
+// as they have arrived. A control block is held until its refinement's END
+// arrives on either channel (NoteEnd), so that the straggler timeout counts
+// from the end of the sending (a paced refinement may take longer to send
+// than the timeout), not from its start; and until every primitive has
+// reached its level, so that no primitive runs more than one refinement
+// ahead of the level shown and the views at an event are at the event's
+// level (a refinement of the reliable cut, on the stream, may overtake
+// another primitive's UDP datagrams). `flushing`: everything that arrived.
+Status SessionCore::GiveControls(PrimitiveState& p, uint64_t now, bool flushing) {
+  while (p.given < p.tracks.size() && p.tracks[p.given].has_control &&
+         (flushing || (p.given < p.ended && static_cast<int32_t>(p.given) <= LevelEverywhere()))) {
+    RefinementTrack& t = p.tracks[p.given];
+    Status s = p.reconstructor->OnControl(Bytes(t.control), t.control.size(), now);
+    if (!s.ok()) return s.WithContext(Where(p.start.primitive()));
+    if (options_.repair) t.kept_control = std::move(t.control);
+    t.control.clear();
+    t.control.shrink_to_fit();
+    ++p.given;
+  }
+  return Status::Ok();
+}
+
+Status SessionCore::GiveAllControls(uint64_t now, bool flushing) {
+  for (PrimitiveState& p : primitives_) MS_RETURN_IF_ERROR(GiveControls(p, now, flushing));
+  return Status::Ok();
+}
+
+// One datagram of either channel (`packet_number`: UDP's, null on the
+// stream). Its header is read here, once, and the reconstructor gets it parsed.
+Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now) {
+  auto parsed = ParsedDatagram::Parse(data, size);
+  if (!parsed.ok() || by_stream_.count(parsed->header().stream) == 0) {
+    ++stray_rejected_;  // the reconstructors never see it
+    return Status::Ok();
+  }
+  const DatagramHeader& h = parsed->header();
+  touched_ = by_stream_[h.stream];
+  PrimitiveState& p = primitives_[touched_];
+  const bool end = h.kind == DatagramKind::kEnd;
+  if (h.refinement < p.tracks.size()) {
+    RefinementTrack& t = p.tracks[h.refinement];
+    if (end) {
+      if (t.end_time_us == 0) t.end_time_us = now;
+      t.end_seen = true;
+    } else {
+      t.bytes += size;
+      if (packet_number != nullptr && t.packet_numbers.size() < 4 * (size_t{1} << 16)) {
+        t.packet_numbers.push_back(*packet_number);
+      }
+      // Copies are kept too (the reconstructor drops them again); the cap
+      // bounds what a hostile stream can make the client hold.
+      if (options_.repair && kept_bytes_ + size <= kMaxKeptBytes) {
+        t.kept_datagrams.emplace_back(reinterpret_cast<const char*>(data), size);
+        kept_bytes_ += size;
+      }
+    }
+  }
+  if (!end) stats_.unreliable_bytes += size;
+  p.reconstructor->OnDatagram(parsed.value(), now);
+  if (!end) return Status::Ok();
+  NoteEnd(p, h.refinement);
+  return GiveControls(p, now, false);
+}
+
+// The reliable copy of the END: the refinement is complete once its
+// announced datagrams are in, even when the END datagram was lost.
+Status SessionCore::OnRefinementEnd(const v1::RefinementEnd& e, uint64_t now) {
+  MS_ASSIGN_OR_RETURN(size_t index, PrimitiveOf(e.primitive()));
+  touched_ = index;
+  PrimitiveState& p = primitives_[index];
+  if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
+  p.tracks[e.refinement()].end_seen = true;
+  const std::vector<uint8_t> end = MakeStreamEndDatagram(Bytes(p.start.header()), p.start.header().size(),
+                                                         e.primitive(), e.refinement(), e.datagrams_sent());
+  p.reconstructor->OnDatagram(end.data(), end.size(), now);
+  NoteEnd(p, e.refinement());
+  return GiveControls(p, now, false);
+}
+
+// Handles one message of the gRPC stream.
+Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
+  // Nothing but the start before the start: a block for a primitive not yet
+  // announced is an unknown primitive.
+  switch (m.kind_case()) {
+    case v1::ServerMessage::kSession: {
+      if (phase_ != SessionPhase::kOpening) return InvalidInput("a second session start");
+      MS_RETURN_IF_ERROR(Start(m.session(), now));
+      phase_ = end_reason_ == EndReason::kNone ? SessionPhase::kStreaming : SessionPhase::kEnding;
+      Push(EventType::kBaseReady, 0);
+      level_announced_ = 0;
+      return Status::Ok();
+    }
+    case v1::ServerMessage::kTransportChange: {
+      if (m.transport_change().transport() == v1::TRANSPORT_GRPC) {
+        if (udp_running_) udp_stop_ = true;
+        udp_running_ = false;
+        udp_start_.reset();
+        transport_ = SessionTransport::kGrpc;
+        stats_.transport = "grpc";
+        stats_.fallback_reason = m.transport_change().reason();
+      }
+      return Status::Ok();
+    }
+    case v1::ServerMessage::kControl: {
+      const v1::ControlBlock& c = m.control();
+      MS_ASSIGN_OR_RETURN(size_t index, PrimitiveOf(c.primitive()));
+      touched_ = index;
+      PrimitiveState& p = primitives_[index];
+      if (c.refinement() >= p.tracks.size() || p.tracks[c.refinement()].has_control) {
+        return InvalidInput(Where(c.primitive()) + ": a control block for refinement " +
+                            std::to_string(c.refinement()) + " it does not expect");
+      }
+      // At most two data datagrams per split (structure and geometry), as
+      // for an END (reconstructor.h): the report sizes itself by this count.
+      const uint64_t splits = p.reconstructor->reader().header().split_counts[c.refinement()];
+      if (c.datagrams() > 2 * splits) {
+        return InvalidInput(Where(c.primitive()) + ": refinement " + std::to_string(c.refinement()) + " announces " +
+                            std::to_string(c.datagrams()) + " datagrams for " + std::to_string(splits) + " splits");
+      }
+      RefinementTrack& t = p.tracks[c.refinement()];
+      t.has_control = true;
+      t.control = c.control();
+      t.datagrams = c.datagrams();
+      t.first_packet_number = c.first_packet_number();
+      t.reliable = c.reliable();
+      // Counted as they come; the reliable copy is charged to the datagram bytes.
+      if (t.reliable && transport_ == SessionTransport::kUdp) ++stats_.reliable_refinements;
+      stats_.reliable_bytes += c.control().size();
+      return t.end_seen ? GiveControls(p, now, false) : Status::Ok();
+    }
+    case v1::ServerMessage::kDatagram: {
+      const std::string& d = m.datagram().payload();
+      if (phase_ == SessionPhase::kRepairing && !repair_ended_) {
+        ++stats_.repaired_datagrams;
+        stats_.repair_bytes += d.size();
+      } else if (transport_ == SessionTransport::kUdp) {
+        stats_.reliable_datagram_bytes += d.size();
+      }
+      return OfferDatagram(Bytes(d), d.size(), nullptr, now);
+    }
+    case v1::ServerMessage::kRepairEnd: {
+      if (!repair_asked_) return InvalidInput("a repair end for a repair not asked for");
+      repair_ended_ = true;
+      return Status::Ok();
+    }
+    case v1::ServerMessage::kRefinementEnd: return OnRefinementEnd(m.refinement_end(), now);
+    case v1::ServerMessage::kEnd: {
+      // A second end, or one after a budget ran out, changes nothing.
+      if (end_reason_ != EndReason::kNone) return Status::Ok();
+      end_reason_ = EndReason::kServer;
+      session_end_us_ = now;
+      if (phase_ == SessionPhase::kStreaming) phase_ = SessionPhase::kEnding;
+      stats_.end_reason = m.end().reason();
+      return Status::Ok();
+    }
+    default: return Status::Ok();  // a kind this client does not know: ignored
+  }
+}
+
+// Reports every refinement decoded since the last report.
+void SessionCore::Report() {
+  const bool udp = transport_ == SessionTransport::kUdp;
+  for (PrimitiveState& p : primitives_) {
+    while (p.reported < p.reconstructor->applied() && p.reported < p.tracks.size()) {
+      RefinementTrack& t = p.tracks[p.reported];
+      Outgoing o;
+      v1::ClientReport& r = *o.message.mutable_report();
+      r.set_primitive(p.start.primitive());
+      r.set_refinement(static_cast<uint32_t>(p.reported));
+      std::vector<uint8_t> got(t.datagrams, 0);
+      uint32_t received = 0;
+      if (udp && !t.packet_numbers.empty()) {
+        for (uint64_t pn : t.packet_numbers) {
+          const uint64_t ordinal = pn - t.first_packet_number;
+          if (ordinal < t.datagrams && !got[ordinal]) {
+            got[ordinal] = 1;
+            ++received;
+          }
+        }
+      } else if (!udp || t.datagrams == 0 || t.reliable) {
+        received = t.datagrams;  // over gRPC (the session's or the reliable cut's) nothing is lost
+        std::fill(got.begin(), got.end(), 1);
+      }
+      for (uint32_t k = 0; k < t.datagrams; ++k) {
+        if (got[k]) continue;
+        r.add_missing(k);
+        if (options_.repair) t.missing.push_back(k);
+      }
+      stats_.datagrams_lost += t.datagrams - received;
+      r.set_datagrams_received(received);
+      r.set_bytes_received(t.bytes);
+      r.set_end_received(t.end_time_us != 0);
+      o.end_time_us = t.end_time_us;  // hold_us: StampHold, when it is written (after the decode)
+      if (!rtt_reported_ && udp_running_ && udp_.hello_rtt_us > 0) {
+        r.add_rtt_samples_us(static_cast<uint32_t>(std::min<uint64_t>(udp_.hello_rtt_us, UINT32_MAX)));
+        rtt_reported_ = true;
+      }
+      if (!writes_done_) outgoing_.push_back(std::move(o));
+      t.packet_numbers.clear();
+      t.packet_numbers.shrink_to_fit();
+      ++p.reported;
+    }
+  }
+}
+
+// Decodes what is ready, reports it and queues the events it makes.
+Status SessionCore::Advance(uint64_t now, bool flush) {
+  // Flushing gives everything; otherwise what the levels reached let go.
+  MS_RETURN_IF_ERROR(GiveAllControls(now, flush));
+  for (PrimitiveState& p : primitives_) {
+    if (flush) {
+      Status s = p.reconstructor->Flush();
+      if (!s.ok()) return s.WithContext(Where(p.start.primitive()));
+    } else {
+      auto n = p.reconstructor->Poll(now);
+      if (!n.ok()) return n.status().WithContext(Where(p.start.primitive()));
+    }
+  }
+  Report();
+  AnnounceLevel();
+  return Status::Ok();
+}
+
+// After one arrival: decodes what became ready in the primitive it touched
+// (the others wait for the end of the batch, when every arrival has been
+// handed over), and reports and announces only if it advanced.
+Status SessionCore::AdvanceTouched(uint64_t now) {
+  if (touched_ == SIZE_MAX) return Status::Ok();
+  PrimitiveState& p = primitives_[touched_];
+  touched_ = SIZE_MAX;
+  const size_t before = p.reconstructor->applied();
+  auto n = p.reconstructor->Poll(now);
+  if (!n.ok()) return n.status().WithContext(Where(p.start.primitive()));
+  if (p.reconstructor->applied() == before) return Status::Ok();
+  // The level may have risen: the controls it held back go to their
+  // reconstructors, to be decoded at the next advance (after this event).
+  MS_RETURN_IF_ERROR(GiveAllControls(now, false));
+  Report();
+  AnnounceLevel();
+  return Status::Ok();
+}
+
+// One event for the level reached, even when several completed at once (a
+// viewer wants the latest, and the views show it).
+void SessionCore::AnnounceLevel() {
+  const int32_t level = LevelEverywhere();
+  if (level_announced_ >= 0 && level_announced_ < level) {
+    level_announced_ = level;
+    Push(EventType::kLevelReady, level);
+  }
+  level_shown_ = std::max(level_shown_, level);
+}
+
+// The repair request: every missing datagram of every refinement. False
+// when nothing is missing (no request is sent).
+bool SessionCore::AskRepair(uint64_t now) {
+  Outgoing o;
+  v1::RepairRequest& request = *o.message.mutable_repair();
+  for (const PrimitiveState& p : primitives_) {
+    for (size_t i = 0; i < p.tracks.size(); ++i) {
+      if (p.tracks[i].missing.empty()) continue;
+      v1::RepairItem& item = *request.add_items();
+      item.set_primitive(p.start.primitive());
+      item.set_refinement(static_cast<uint32_t>(i));
+      for (uint32_t k : p.tracks[i].missing) item.add_datagrams(k);
+    }
+  }
+  if (request.items_size() == 0 || writes_done_) return false;
+  repair_asked_ = true;
+  repair_asked_us_ = now;
+  outgoing_.push_back(std::move(o));
+  return true;
+}
+
+// Decodes every primitive again from its base with what it kept and what
+// the repair brought, through a fresh reconstructor (the same checks), and
+// swaps it in.
+Status SessionCore::DecodeAgain(uint64_t now) {
+  for (PrimitiveState& p : primitives_) {
+    const std::string where = Where(p.start.primitive());
+    ReconstructorOptions ro = reconstructor_options_;
+    ro.lod = static_cast<int>(std::min<uint32_t>(p.start.refinements(), kMaxRefinements));
+    auto fresh = StreamReconstructor::Create(Bytes(p.start.header()), p.start.header().size(), p.start.primitive(), ro);
+    if (!fresh.ok()) return fresh.status().WithContext(where);
+    Status s = fresh->SetBase(p.kept_base);
+    if (!s.ok()) return s.WithContext(where);
+    for (size_t i = 0; i < p.tracks.size(); ++i) {
+      const RefinementTrack& t = p.tracks[i];
+      s = fresh->OnControl(Bytes(t.kept_control), t.kept_control.size(), now);
+      if (!s.ok()) return s.WithContext(where);
+      for (const std::string& d : t.kept_datagrams) fresh->OnDatagram(Bytes(d), d.size(), now);
+      const std::vector<uint8_t> end = MakeStreamEndDatagram(Bytes(p.start.header()), p.start.header().size(),
+                                                             p.start.primitive(), static_cast<uint32_t>(i), t.datagrams);
+      fresh->OnDatagram(end.data(), end.size(), now);
+      auto n = fresh->Poll(now);
+      if (!n.ok()) return n.status().WithContext(where);
+    }
+    s = fresh->Flush();
+    if (!s.ok()) return s.WithContext(where);
+    *p.reconstructor = std::move(fresh).value();
+  }
+  return Status::Ok();
+}
+
+void SessionCore::UpdateStats() {
+  uint64_t accepted = 0, rejected = 0, duplicates = 0;
+  for (const PrimitiveState& p : primitives_) {
+    const ReconstructorStats& r = p.reconstructor->stats();
+    accepted += r.accepted;
+    rejected += r.rejected + r.overflow;
+    duplicates += r.duplicates + r.late;
+  }
+  stats_.datagrams_received = accepted;
+  if (udp_running_) {
+    // A repeated packet number is a copy the network made (or a replay: the
+    // two look alike); it counts with the duplicates, not as rejected.
+    udp_replays_seen_ = udp_.replayed;
+    udp_drops_seen_ = udp_.dropped - std::min(udp_.dropped, udp_.replayed);
+    stats_.hellos_sent = udp_.hellos_sent;
+    if (udp_.hello_rtt_us > 0) stats_.hello_rtt_ms = static_cast<double>(udp_.hello_rtt_us) / 1000.0;
+  }
+  stats_.datagrams_duplicate = duplicates + udp_replays_seen_;
+  stats_.datagrams_rejected = rejected + stray_rejected_ + udp_drops_seen_;
+}
+
+// A budget ran out: stop here with what arrived.
+void SessionCore::CheckBudgets(uint64_t now) {
+  const bool bytes_out =
+      options_.byte_budget > 0 && stats_.reliable_bytes + stats_.unreliable_bytes >= options_.byte_budget;
+  const bool time_out = options_.time_budget_ms > 0 && MsSinceOpen(now) >= static_cast<double>(options_.time_budget_ms);
+  if (!bytes_out && !time_out) return;
+  end_reason_ = bytes_out ? EndReason::kByteBudget : EndReason::kTimeBudget;
+  session_end_us_ = now;
+  phase_ = SessionPhase::kEnding;
+  stats_.end_reason = bytes_out ? "byte_budget" : "time_budget";
+  Finish(stats_.end_reason);
+  Status st = Advance(now, true);
+  if (!st.ok()) Fail(st);
+}
+
+// The stream has ended: once everything is decoded, or the stragglers had
+// their time, the session completes, or with repair asks for what was lost.
+// Late only once every arrival taken is handed over: a step that stopped at
+// an event leaves the rest of its arrivals in the inbox (commit 186bb1d).
+void SessionCore::Settle(uint64_t now) {
+  const uint64_t window_us = 2 * static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000;
+  const bool late = handed_over() && StragglerClock(now) > session_end_us_ + window_us;
+  const bool budget = end_reason_ == EndReason::kByteBudget || end_reason_ == EndReason::kTimeBudget;
+  if (!AllDone() && !late && !budget) return;
+  if (!AllDone()) {
+    Status st = Advance(now, true);
+    if (!st.ok()) return Fail(st);
+  }
+  stats_.time_to_full_ms = MsSinceOpen(now);
+  // With repair: ask for what was lost, then wait for it.
+  if (options_.repair && !budget && AskRepair(now)) {
+    phase_ = SessionPhase::kRepairing;
+    return;
+  }
+  Complete();
+}
+
+// The repair asked for: its RepairEnd (decode again), or the call's end or
+// 10 s without it (the predicted mesh stays).
+void SessionCore::AwaitRepair(uint64_t now) {
+  if (repair_ended_) {
+    Status st = DecodeAgain(now);
+    if (!st.ok()) return Fail(st);
+    stats_.time_to_exact_ms = MsSinceOpen(now);
+    return Complete();
+  }
+  const bool call_over = stream_ended_ && inbox_messages_.empty();
+  if (!call_over && now < repair_asked_us_ + kRepairWaitUs) return;
+  stats_.repair_error = call_over ? "the server ended the session before the repair" : "no repair within 10 s";
+  Complete();
+}
+
+void SessionCore::Complete() {
+  UpdateStats();
+  if (stats_.time_to_exact_ms == 0 && stats_.datagrams_lost == 0) stats_.time_to_exact_ms = stats_.time_to_full_ms;
+  Finish("complete");
+  if (udp_running_) udp_stop_ = true;
+  udp_running_ = false;
+  phase_ = SessionPhase::kOver;
+  Push(EventType::kComplete, level_shown_);
+}
+
+void SessionCore::CheckEnd(uint64_t now) {
+  if (!events_.empty()) return;
+  if (phase_ == SessionPhase::kStreaming) CheckBudgets(now);
+  if (phase_ == SessionPhase::kEnding) Settle(now);
+  if (phase_ == SessionPhase::kRepairing) AwaitRepair(now);
+}
+
+void SessionCore::HandleArrivals(uint64_t now) {
+  if (phase_ == SessionPhase::kOver) return;
+  // The arrivals of both channels in the order they arrived, each decided on
+  // with its own arrival time (a busy host thread must not time a refinement
+  // out while its datagrams wait here), until one makes an event: the rest
+  // waits for the next step, so the views match the event.
+  while (events_.empty() && !handed_over()) {
+    const bool message = !inbox_messages_.empty() &&
+                         (inbox_datagrams_.empty() || inbox_messages_.front().first <= inbox_datagrams_.front().at_us);
+    uint64_t at;
+    Status st;
+    if (message) {
+      at = inbox_messages_.front().first;
+      const v1::ServerMessage m = std::move(inbox_messages_.front().second);
+      inbox_messages_.pop_front();
+      st = Handle(m, at);
+    } else {
+      const TakenDatagram d = std::move(inbox_datagrams_.front());
+      inbox_datagrams_.pop_front();
+      at = d.at_us;
+      st = OfferDatagram(d.payload.data(), d.payload.size(), &d.packet_number, at);
+    }
+    if (!st.ok()) return Fail(st);
+    if (phase_ != SessionPhase::kOpening && events_.empty()) {
+      // A gRPC arrival may be stamped after datagrams that wait unread in
+      // the socket: the horizon bounds the clock.
+      st = AdvanceTouched(StragglerClock(at));
+      if (!st.ok()) return Fail(st);
+    }
+  }
+  if (phase_ != SessionPhase::kOpening && phase_ != SessionPhase::kOver) {
+    if (handed_over() && events_.empty()) {
+      Status st = Advance(StragglerClock(now), false);
+      if (!st.ok()) return Fail(st);
+    }
+    UpdateStats();
+  }
+  if (stream_ended_ && handed_over() && end_reason_ == EndReason::kNone && events_.empty()) {
+    Fail(stream_status_.ok() ? Unavailable("the server ended the session before its end") : stream_status_);
+  }
+}
+
+void SessionCore::Step(uint64_t now) {
+  CheckEnd(now);
+  if (events_.empty()) HandleArrivals(now);
+}
+
+size_t SessionCore::primitive_count() const { return primitives_.size(); }
+
+const StreamReader& SessionCore::reader(size_t primitive) const { return primitives_[primitive].reconstructor->reader(); }
+
+const v1::PrimitiveStart& SessionCore::start(size_t primitive) const { return primitives_[primitive].start; }
+
+uint64_t SessionCore::predicted_vertices() const {
+  uint64_t n = 0;
+  for (const PrimitiveState& p : primitives_) n += p.reconstructor->reader().unreliable_vertices();
+  return n;
+}
+
+Scene SessionCore::CurrentScene() const {
+  if (has_scene_) {
+    // The asset's scene, its refined primitives at the level reached (the
+    // material and everything else of the primitive as the scene has it).
+    Scene scene = scene_;
+    for (const PrimitiveState& p : primitives_) {
+      Primitive& slot = scene.meshes[p.start.mesh()].primitives[p.scene_slot];
+      const int32_t material = slot.material;
+      slot = DequantizeMesh(p.reconstructor->reader().Mesh(), material);
+    }
+    return scene;
+  }
+  Scene scene;
+  std::map<uint32_t, std::map<uint32_t, size_t>> by_mesh;  // glTF mesh -> primitive index -> ours
+  for (size_t i = 0; i < primitives_.size(); ++i) {
+    const v1::PrimitiveStart& p = primitives_[i].start;
+    by_mesh[p.mesh()][p.mesh_primitive()] = i;
+  }
+  SceneRoot root;
+  for (const auto& [mesh_index, primitives] : by_mesh) {
+    meshstream::Mesh mesh;
+    mesh.name = "mesh " + std::to_string(mesh_index);
+    for (const auto& [primitive_index, ours] : primitives) {
+      mesh.primitives.push_back(DequantizeMesh(primitives_[ours].reconstructor->reader().Mesh(), -1));
+    }
+    Node node;
+    node.name = mesh.name;
+    node.mesh = static_cast<int32_t>(scene.meshes.size());
+    root.nodes.push_back(static_cast<int32_t>(scene.nodes.size()));
+    scene.nodes.push_back(node);
+    scene.meshes.push_back(std::move(mesh));
+  }
+  scene.scenes.push_back(root);
+  scene.default_scene = 0;
+  return scene;
+}
+
+}  // namespace meshstream::sdk
