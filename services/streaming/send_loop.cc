@@ -22,6 +22,8 @@ struct SendLoop::Entry {
   SessionStream* stream = nullptr;  // null once removed
   std::shared_ptr<UdpEndpoint::Session> udp;
   bool start_unwritten = false;  // the SessionStart is queued: wait until it is written
+  // Waiting for its stream to write (no timer: the idle sweep looks at it).
+  std::atomic<bool> blocked{false};
   uint64_t scheduled_us = SenderAction::kNever;  // guarded by SendLoop::mutex_
 };
 
@@ -89,6 +91,7 @@ void SendLoop::Remove(Entry* entry) {
 void SendLoop::Run() {
   std::unique_lock<std::mutex> lock(mutex_);
   bool drained = false;
+  uint64_t next_sweep_us = 0;
   std::vector<std::shared_ptr<Entry>> ready;
   while (!stop_) {
     const uint64_t now = SteadyNowUs();
@@ -106,6 +109,15 @@ void SendLoop::Run() {
       if (t.entry->scheduled_us != t.due_us) continue;  // rescheduled sooner since
       t.entry->scheduled_us = SenderAction::kNever;
       ready.push_back(std::move(t.entry));
+    }
+    if (now >= next_sweep_us) {
+      // The sessions waiting for their streams have no timer (a stalled
+      // client would leave one per wait in the heap): their idle deadlines
+      // are looked at here, once per period.
+      next_sweep_us = now + kPeriodUs;
+      for (auto& [raw, entry] : entries_) {
+        if (entry->blocked.load()) ready.push_back(entry);
+      }
     }
     if (ready.empty()) {
       const uint64_t due = timers_.empty() ? now + kPeriodUs : std::min(timers_.top().due_us, now + kPeriodUs);
@@ -133,12 +145,11 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
     const size_t queued = stream.queued();
     const bool full = queued >= options_.max_queued || (entry->start_unwritten && queued > 0);
     if (full && !sender.stopping(now)) {
-      // Woken by the stream's next write, or at the idle deadline.
-      const uint64_t idle = sender.idle_deadline_us();
-      lock.unlock();
-      Schedule(entry, idle);
+      // Woken by the stream's next write, or by the idle sweep.
+      entry->blocked = true;
       return;
     }
+    entry->blocked = false;
     entry->start_unwritten = false;
     SenderAction a = sender.Next(now);
     switch (a.kind) {

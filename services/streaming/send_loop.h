@@ -9,9 +9,10 @@
 //
 // Back-pressure: a session whose stream holds `max_queued` unwritten
 // messages (a client that reads nothing, a slow link) is not stepped until
-// its stream reports a write (Registration::OnWritten), but is still woken at
-// its idle deadline, so that a stalled client is cut off (kFinish
-// DEADLINE_EXCEEDED) whatever the stream holds. After the SessionStart the
+// its stream reports a write (Registration::OnWritten); such sessions have
+// no timer, and the thread looks at their idle deadlines once per 100 ms, so
+// that a stalled client is cut off (kFinish DEADLINE_EXCEEDED) whatever the
+// stream holds. After the SessionStart the
 // session waits until the stream has written it before its HELLO wait starts.
 // While `draining` is true every session is stopped (UNAVAILABLE, "draining")
 // within the thread's 100 ms period.
