@@ -24,6 +24,7 @@ struct SendLoop::Entry {
   bool start_unwritten = false;  // the SessionStart is queued: wait until it is written
   // Waiting for its stream to write (no timer: the idle sweep looks at it).
   std::atomic<bool> blocked{false};
+  std::atomic<uint64_t> idle_deadline_us{0};  // the sender's, when it blocked
   uint64_t scheduled_us = SenderAction::kNever;  // guarded by SendLoop::mutex_
 };
 
@@ -116,7 +117,7 @@ void SendLoop::Run() {
       // are looked at here, once per period.
       next_sweep_us = now + kPeriodUs;
       for (auto& [raw, entry] : entries_) {
-        if (entry->blocked.load()) ready.push_back(entry);
+        if (entry->blocked.load() && now >= entry->idle_deadline_us.load()) ready.push_back(entry);
       }
     }
     if (ready.empty()) {
@@ -146,6 +147,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
     const bool full = queued >= options_.max_queued || (entry->start_unwritten && queued > 0);
     if (full && !sender.stopping(now)) {
       // Woken by the stream's next write, or by the idle sweep.
+      entry->idle_deadline_us = sender.idle_deadline_us();
       entry->blocked = true;
       return;
     }
