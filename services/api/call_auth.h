@@ -12,7 +12,7 @@
 
 namespace meshstream {
 
-inline StatusOr<Principal> AuthenticateCall(const Authenticator& auth, const grpc::ServerContext& context) {
+inline StatusOr<Principal> AuthenticateCall(const Authenticator& auth, const grpc::ServerContextBase& context) {
   std::optional<std::string> header;
   const auto& metadata = context.client_metadata();
   const auto it = metadata.find("authorization");

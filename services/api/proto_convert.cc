@@ -1,5 +1,7 @@
 #include "services/api/proto_convert.h"
 
+#include <algorithm>
+
 #include <google/protobuf/util/time_util.h>
 
 namespace meshstream {
@@ -57,6 +59,28 @@ IngestMeta FromProto(const v1::IngestMetadata& m) {
 }
 
 ResourceMeta FromProto(const v1::IngestResource& r) { return ResourceMeta{r.name(), r.size(), r.sha256()}; }
+
+ClientReportInfo FromProto(const v1::ClientReport& r) {
+  ClientReportInfo info;
+  info.stream = r.primitive();
+  info.refinement = r.refinement();
+  info.received = r.datagrams_received();
+  info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
+  info.end_received = r.end_received();
+  info.hold_us = r.hold_us();
+  for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
+  return info;
+}
+
+std::vector<RepairItem> FromProto(const v1::RepairRequest& request) {
+  std::vector<RepairItem> items;
+  items.reserve(static_cast<size_t>(request.items_size()));
+  for (const v1::RepairItem& item : request.items()) {
+    items.push_back(RepairItem{item.primitive(), item.refinement(),
+                               std::vector<uint32_t>(item.datagrams().begin(), item.datagrams().end())});
+  }
+  return items;
+}
 
 StatusOr<ExportFormat> FromProto(v1::Format format) {
   switch (format) {

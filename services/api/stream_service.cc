@@ -1,63 +1,25 @@
 #include "services/api/stream_service.h"
 
-#include <map>
+#include <deque>
+#include <memory>
 #include <mutex>
-#include <optional>
-#include <set>
 #include <string>
-#include <thread>
-#include <tuple>
 #include <utility>
+#include <vector>
 
+#include "net/packet_header.h"
+#include "net/steady_clock.h"
 #include "services/api/call_auth.h"
 #include "services/api/grpc_status.h"
+#include "services/api/proto_convert.h"
 #include "services/export/version_export.h"
 #include "services/store/blob_store.h"
 #include "services/streaming/session_plan.h"
-#include "services/streaming/session_runner.h"
+#include "services/streaming/session_sender.h"
 
 namespace meshstream {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-// How long a session waits after SessionEnd for the client to half-close.
-constexpr std::chrono::milliseconds kLinger{2000};
-// With OpenRequest.repair: how long after SessionEnd the server waits for the
-// client's RepairRequest (it flushes its last refinements first).
-constexpr std::chrono::milliseconds kRepairWait{10000};
-
-// The datagrams a RepairRequest names, checked against the session's plan:
-// every item a primitive and refinement of this session, every ordinal one of
-// its datagrams; repeats are sent once. InvalidArgument naming the first
-// item that does not fit.
-StatusOr<std::vector<ByteRange>> RepairDatagrams(const SessionPlan& plan, const v1::RepairRequest& request) {
-  std::map<std::pair<uint32_t, uint32_t>, const PlannedRefinement*> by_key;
-  for (const PlannedRefinement& r : plan.refinements) {
-    by_key[{plan.primitives[r.primitive].stream, r.refinement}] = &r;
-  }
-  std::set<std::tuple<uint32_t, uint32_t, uint32_t>> seen;
-  std::vector<ByteRange> out;
-  for (int i = 0; i < request.items_size(); ++i) {
-    const v1::RepairItem& item = request.items(i);
-    const std::string where = "repair.items[" + std::to_string(i) + "]";
-    auto it = by_key.find({item.primitive(), item.refinement()});
-    if (it == by_key.end()) {
-      return InvalidArgument(where + ": primitive " + std::to_string(item.primitive()) + " refinement " +
-                             std::to_string(item.refinement()) + " is not part of this session");
-    }
-    const PlannedRefinement& r = *it->second;
-    for (uint32_t k : item.datagrams()) {
-      if (k >= r.datagrams.size()) {
-        return InvalidArgument(where + ": datagram " + std::to_string(k) + " does not exist (the refinement has " +
-                               std::to_string(r.datagrams.size()) + ")");
-      }
-      if (seen.insert({item.primitive(), item.refinement(), k}).second) out.push_back(r.datagrams[k]);
-    }
-  }
-  return out;
-}
 
 std::string Slice(const std::vector<uint8_t>& bytes, const ByteRange& r) {
   return std::string(reinterpret_cast<const char*>(bytes.data() + r.offset), r.length);
@@ -67,15 +29,98 @@ v1::Transport ToProto(SessionTransport t) {
   return t == SessionTransport::kUdp ? v1::TRANSPORT_UDP : v1::TRANSPORT_GRPC;
 }
 
-// Writes the runner's blocks as ServerMessages on the call's stream.
-class GrpcSink final : public SessionSink {
- public:
-  GrpcSink(grpc::ServerReaderWriter<v1::ServerMessage, v1::ClientMessage>* stream, const SessionPlan& plan,
-           const std::vector<uint8_t>& artifact, const VersionRecord& version, const StreamServiceOptions& options,
-           const std::vector<uint8_t>& scene)
-      : stream_(stream), plan_(plan), artifact_(artifact), version_(version), options_(options), scene_(scene) {}
+Status CheckOpen(const v1::OpenRequest& open) {
+  MS_RETURN_IF_ERROR(CheckName("asset", open.asset()));
+  if (open.max_level() < -1) return InvalidArgument("max_level: -1 (all) or a level >= 0");
+  if (!v1::Transport_IsValid(open.transport())) return InvalidArgument("transport: unknown value");
+  if (open.has_expected_loss() && !(open.expected_loss() >= 0 && open.expected_loss() <= 1)) {
+    return InvalidArgument("expected_loss: a rate in [0, 1]");
+  }
+  return Status::Ok();
+}
 
-  bool Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
+}  // namespace
+
+// One Open call: the reactor gRPC drives, and the SessionStream the send
+// loop writes to. Its messages are written one at a time from a queue
+// (gRPC allows one write in flight); the send loop stops feeding the
+// session while the queue is full.
+class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>,
+                                      public SessionStream {
+ public:
+  using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
+
+  Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
+    service_->openers_.Post([this] { Admit(); });
+  }
+
+  // The reactor.
+  void OnReadDone(bool ok) override {
+    if (!opened_) {
+      opened_ = true;
+      if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
+        return FinishNow(InvalidArgument("the first message must be open"));
+      }
+      service_->openers_.Post([this] { OpenSession(); });
+      return;
+    }
+    if (!ok) return registration_.OnClientClosed(false);  // a half-close, or the call ended
+    switch (in_.kind_case()) {
+      case v1::ClientMessage::kReport:
+        registration_.OnReport(FromProto(in_.report()));
+        break;
+      case v1::ClientMessage::kRepair:
+        // Once per session: after its repair request the server reads
+        // nothing more from the client (a second one is never seen).
+        return registration_.OnRepair(FromProto(in_.repair()));
+      case v1::ClientMessage::kDone:
+        return registration_.OnClientClosed(true);
+      default:
+        registration_.OnClientMessage();
+        break;
+    }
+    StartRead(&in_);
+  }
+
+  void OnWriteDone(bool ok) override {
+    const v1::ServerMessage* next = nullptr;
+    bool finish = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      queue_.pop_front();
+      if (!ok) {
+        broken_ = true;
+        queue_.clear();
+      }
+      if (!queue_.empty()) {
+        next = &queue_.front();
+      } else {
+        writing_ = false;
+        finish = finish_wanted_ && !finished_;
+        finished_ = finished_ || finish;
+      }
+    }
+    if (next != nullptr) StartWrite(next);
+    if (finish) Reactor::Finish(finish_status_);
+    if (ok) {
+      registration_.OnWritten();
+    } else {
+      registration_.Cancel(Cancelled("the client went away"), "client went away");
+    }
+  }
+
+  void OnCancel() override {
+    cancelled_ = true;
+    if (registered_) Stop();
+  }
+
+  void OnDone() override {
+    registration_ = SendLoop::Registration();  // after any step of the send loop under way
+    delete this;
+  }
+
+  // The SessionStream.
+  void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
     v1::ServerMessage message;
     v1::SessionStart& start = *message.mutable_session();
     start.set_session_id(RandomHex(16));
@@ -83,312 +128,237 @@ class GrpcSink final : public SessionSink {
     start.set_version(version_.version);
     start.set_transport(ToProto(transport));
     start.set_max_datagram_bytes(static_cast<uint32_t>(kMaxDatagramBytes));
-    start.set_scene_glb(reinterpret_cast<const char*>(scene_.data()), scene_.size());
+    start.set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     if (udp != nullptr) {
-      start.mutable_udp()->set_host(options_.udp_advertise_host);
-      start.mutable_udp()->set_port(options_.udp_advertise_port);
+      start.mutable_udp()->set_host(service_->options_.udp_advertise_host);
+      start.mutable_udp()->set_port(service_->options_.udp_advertise_port);
       start.set_udp_session_id(udp->id());
-      start.set_client_to_server_key(std::string(udp->keys().client_to_server.begin(), udp->keys().client_to_server.end()));
-      start.set_server_to_client_key(std::string(udp->keys().server_to_client.begin(), udp->keys().server_to_client.end()));
+      const SessionKeys& keys = udp->keys();
+      start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
+      start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
     for (const PlannedPrimitive& p : plan_.primitives) {
       v1::PrimitiveStart& out = *start.add_primitives();
       out.set_primitive(p.stream);
       out.set_mesh(p.mesh);
       out.set_mesh_primitive(p.mesh_primitive);
-      out.set_header(Slice(artifact_, p.header));
-      out.set_base_mesh(Slice(artifact_, p.base));
+      out.set_header(Slice(*artifact_, p.header));
+      out.set_base_mesh(Slice(*artifact_, p.base));
       out.set_refinements(p.refinements);
       for (const auto& [name, id] : p.draco_attributes) (*out.mutable_draco_attributes())[name] = id;
     }
-    return stream_->Write(message);
+    Queue(std::move(message));
   }
 
-  bool TransportChanged(SessionTransport transport, const std::string& reason) override {
+  void TransportChanged(SessionTransport transport, const std::string& reason) override {
     v1::ServerMessage m;
     m.mutable_transport_change()->set_transport(ToProto(transport));
     m.mutable_transport_change()->set_reason(reason);
-    return stream_->Write(m);
+    Queue(std::move(m));
   }
 
-  bool Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
+  void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
                bool reliable) override {
     v1::ServerMessage m;
     v1::ControlBlock& c = *m.mutable_control();
     c.set_primitive(stream);
     c.set_refinement(r.refinement);
-    c.set_control(Slice(artifact_, r.control));
+    c.set_control(Slice(*artifact_, r.control));
     c.set_datagrams(datagrams);
     c.set_first_packet_number(first_packet_number);
     c.set_reliable(reliable);
-    return stream_->Write(m);
+    Queue(std::move(m));
   }
 
-  bool Datagram(const uint8_t* data, size_t size) override {
+  void Datagram(const uint8_t* data, size_t size) override {
     v1::ServerMessage m;
     m.mutable_datagram()->set_payload(reinterpret_cast<const char*>(data), size);
-    return stream_->Write(m);
+    Queue(std::move(m));
   }
 
-  bool RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) override {
+  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) override {
     v1::ServerMessage m;
     m.mutable_refinement_end()->set_primitive(stream);
     m.mutable_refinement_end()->set_refinement(refinement);
     m.mutable_refinement_end()->set_datagrams_sent(datagrams_sent);
-    return stream_->Write(m);
+    Queue(std::move(m));
   }
 
-  bool End(const std::string& reason) override {
+  void End(const std::string& reason) override {
     v1::ServerMessage m;
     m.mutable_end()->set_reason(reason);
-    return stream_->Write(m);
+    Queue(std::move(m));
+  }
+
+  void RepairEnd(uint32_t datagrams, uint64_t bytes) override {
+    v1::ServerMessage m;
+    m.mutable_repair_end()->set_datagrams(datagrams);
+    m.mutable_repair_end()->set_bytes(bytes);
+    Queue(std::move(m));
+  }
+
+  void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
+    if (service_->options_.log) {
+      service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " ended (" +
+                             reason + "): " + DescribeSession(stats));
+    }
+    bool now = false, cut = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      finish_wanted_ = true;
+      finish_status_ = ToGrpcStatus(status);
+      if (!writing_) {
+        now = !finished_;
+        finished_ = true;
+      } else if (!status.ok()) {
+        // A stalled client: what is queued is dropped, the write in flight
+        // fails with the cancellation and OnWriteDone finishes.
+        cut = true;
+        while (queue_.size() > 1) queue_.pop_back();
+      }
+    }
+    if (now) Reactor::Finish(finish_status_);
+    if (cut) context_->TryCancel();
+  }
+
+  size_t queued() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return queue_.size();
   }
 
  private:
-  grpc::ServerReaderWriter<v1::ServerMessage, v1::ClientMessage>* stream_;
-  const SessionPlan& plan_;
-  const std::vector<uint8_t>& artifact_;
-  const VersionRecord& version_;
-  const StreamServiceOptions& options_;
-  const std::vector<uint8_t>& scene_;
+  // On the opener pool: who, a slot, then the first message.
+  void Admit() {
+    auto principal = AuthenticateCall(*service_->auth_, *context_);
+    if (!principal.ok()) return FinishNow(principal.status());
+    tenant_ = principal->tenant;
+    slot_ = service_->sessions_.Acquire(std::chrono::milliseconds(0));
+    if (!slot_) {
+      return FinishNow(ResourceExhausted("Open: " + std::to_string(service_->sessions_.limit()) +
+                                         " sessions are running on this server; retry later"));
+    }
+    if (Draining()) return FinishNow(Unavailable("the server is shutting down; open the session on another server"));
+    StartRead(&in_);
+  }
+
+  // On the opener pool: the OpenRequest checked and planned, then the
+  // session joins the send loop.
+  void OpenSession() {
+    const Status s = Prepare(in_.open());
+    if (!s.ok()) return FinishNow(s);
+    const v1::OpenRequest& open = in_.open();
+    SessionSenderOptions options;
+    std::shared_ptr<UdpEndpoint::Session> udp;
+    if (open.transport() != v1::TRANSPORT_GRPC && service_->options_.udp != nullptr) {
+      auto registered = service_->options_.udp->RegisterSession();
+      if (registered.ok()) udp = std::move(registered).value();
+    }
+    options.transport = udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
+    if (udp) {
+      UdpEndpoint::Session* raw = udp.get();
+      options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
+    }
+    options.hello_timeout_us = static_cast<uint64_t>(service_->options_.hello_timeout.count()) * 1000;
+    options.idle_timeout_us = static_cast<uint64_t>(service_->options_.idle_timeout.count()) * 1000;
+    options.rate = service_->options_.rate;
+    options.server_share = service_->options_.server_share;
+    options.reliable_cut = service_->options_.reliable_cut;
+    options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
+    options.repair = open.repair();
+    auto sender = std::make_unique<SessionSender>(plan_, *artifact_, open.max_level(), std::move(options), SteadyNowUs());
+    if (service_->options_.log) {
+      service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
+                             (udp ? "udp" : "grpc") + ")");
+    }
+    registration_ = service_->loop_.Add(std::move(sender), this, std::move(udp));
+    registered_ = true;
+    if (cancelled_) Stop();
+    registration_.Begin();
+    StartRead(&in_);
+  }
+
+  Status Prepare(const v1::OpenRequest& open) {
+    MS_RETURN_IF_ERROR(CheckOpen(open));
+    MS_ASSIGN_OR_RETURN(version_, ResolveReadyVersion(*service_->store_, tenant_, open.asset(), open.version()));
+    const std::string& sha = version_.artifact.artifact_sha256;
+    MS_ASSIGN_OR_RETURN(artifact_, service_->artifacts_.Get(sha, [&] {
+      return service_->store_->GetBlob(sha, service_->options_.max_artifact_bytes);
+    }));
+    MS_ASSIGN_OR_RETURN(plan_, PlanSession(*artifact_, version_.artifact.layout_json, open.max_level()));
+    std::vector<std::pair<uint32_t, uint32_t>> refined;
+    for (const PlannedPrimitive& p : plan_.primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
+    MS_ASSIGN_OR_RETURN(scene_, service_->scenes_.Get(sha, *artifact_, refined));
+    return Status::Ok();
+  }
+
+  bool Draining() const { return service_->draining_ != nullptr && service_->draining_->load(); }
+
+  // The call was cancelled: by the client, or by the server draining.
+  void Stop() {
+    if (Draining()) {
+      registration_.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
+    } else {
+      registration_.Cancel(Cancelled("the client went away"), "client went away");
+    }
+  }
+
+  // Before the session joined the send loop: nothing is queued.
+  void FinishNow(const Status& status) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      finished_ = true;
+    }
+    Reactor::Finish(ToGrpcStatus(status));
+  }
+
+  void Queue(v1::ServerMessage message) {
+    const v1::ServerMessage* first = nullptr;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (broken_ || finish_wanted_) return;
+      queue_.push_back(std::move(message));  // keeps references to the others valid
+      if (writing_) return;
+      writing_ = true;
+      first = &queue_.front();
+    }
+    StartWrite(first);
+  }
+
+  StreamServiceImpl* service_;
+  grpc::CallbackServerContext* context_;
+  v1::ClientMessage in_;
+  bool opened_ = false;  // the first read's callback, then the reads' (one at a time)
+
+  // Set by the opener before the session joins the loop, read-only after.
+  std::string tenant_;
+  CallLimit::Slot slot_;
+  VersionRecord version_;
+  ArtifactCache::Bytes artifact_;
+  SessionPlan plan_;
+  std::shared_ptr<const std::vector<uint8_t>> scene_;
+  SendLoop::Registration registration_;
+  std::atomic<bool> registered_{false};
+  std::atomic<bool> cancelled_{false};
+
+  mutable std::mutex mutex_;  // below: the write queue
+  std::deque<v1::ServerMessage> queue_;  // its front is being written while writing_
+  bool writing_ = false;
+  bool broken_ = false;  // a write failed: the client is gone
+  bool finish_wanted_ = false;
+  bool finished_ = false;  // Finish was called
+  grpc::Status finish_status_;
 };
-
-}  // namespace
-
-struct StreamServiceImpl::Live {
-  grpc::ServerContext* context = nullptr;
-  std::atomic<int64_t> last_heard_ms{0};  // steady clock
-  std::atomic<bool> timed_out{false};
-};
-
-namespace {
-
-int64_t SteadyMs() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
 
 StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                                      const std::atomic<bool>* draining)
-    : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions) {
-  watchdog_ = std::thread([this] { Watch(); });
-}
+    : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
+      loop_(SendLoopOptions{32, draining}), openers_(options_.opener_threads) {}
 
-StreamServiceImpl::~StreamServiceImpl() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
-  }
-  wake_.notify_all();
-  watchdog_.join();
-}
+StreamServiceImpl::~StreamServiceImpl() = default;
 
-int StreamServiceImpl::active_sessions() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return static_cast<int>(live_.size());
-}
-
-void StreamServiceImpl::Watch() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (!stop_) {
-    wake_.wait_for(lock, std::chrono::milliseconds(100));
-    const int64_t now = SteadyMs();
-    for (Live* live : live_) {
-      const bool draining = draining_ != nullptr && draining_->load();
-      if (draining || now - live->last_heard_ms.load() > options_.idle_timeout.count()) {
-        if (!draining) live->timed_out = true;
-        live->context->TryCancel();
-      }
-    }
-  }
-}
-
-grpc::Status StreamServiceImpl::Open(grpc::ServerContext* context,
-                                     grpc::ServerReaderWriter<v1::ServerMessage, v1::ClientMessage>* stream) {
-  auto principal = AuthenticateCall(*auth_, *context);
-  if (!principal.ok()) return ToGrpcStatus(principal.status());
-  CallLimit::Slot slot = sessions_.Acquire(std::chrono::milliseconds(0));
-  if (!slot) {
-    return ToGrpcStatus(ResourceExhausted("Open: " + std::to_string(sessions_.limit()) +
-                                          " sessions are running on this server; retry later"));
-  }
-  if (draining_ != nullptr && draining_->load()) {
-    return ToGrpcStatus(Unavailable("the server is shutting down; open the session on another server"));
-  }
-  v1::ClientMessage first;
-  if (!stream->Read(&first)) return ToGrpcStatus(InvalidArgument("the first message must be open"));
-  if (first.kind_case() != v1::ClientMessage::kOpen) {
-    return ToGrpcStatus(InvalidArgument("the first message must be open"));
-  }
-  const v1::OpenRequest& open = first.open();
-  Status s = CheckName("asset", open.asset());
-  if (!s.ok()) return ToGrpcStatus(s);
-  if (open.max_level() < -1) return ToGrpcStatus(InvalidArgument("max_level: -1 (all) or a level >= 0"));
-  if (!v1::Transport_IsValid(open.transport())) return ToGrpcStatus(InvalidArgument("transport: unknown value"));
-  if (open.has_expected_loss() && !(open.expected_loss() >= 0 && open.expected_loss() <= 1)) {
-    return ToGrpcStatus(InvalidArgument("expected_loss: a rate in [0, 1]"));
-  }
-  auto version = ResolveReadyVersion(*store_, principal->tenant, open.asset(), open.version());
-  if (!version.ok()) return ToGrpcStatus(version.status());
-  auto artifact = store_->GetBlob(version->artifact.artifact_sha256, options_.max_artifact_bytes);
-  if (!artifact.ok()) return ToGrpcStatus(artifact.status());
-  auto plan = PlanSession(artifact.value(), version->artifact.layout_json, open.max_level());
-  if (!plan.ok()) return ToGrpcStatus(plan.status());
-  std::vector<std::pair<uint32_t, uint32_t>> refined;
-  for (const PlannedPrimitive& p : plan->primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
-  auto scene = scenes_.Get(version->artifact.artifact_sha256, artifact.value(), refined);
-  if (!scene.ok()) return ToGrpcStatus(scene.status());
-
-  SessionRunnerOptions runner_options;
-  runner_options.want_udp = open.transport() != v1::TRANSPORT_GRPC;
-  runner_options.udp = options_.udp;
-  runner_options.hello_timeout = options_.hello_timeout;
-  runner_options.rate = options_.rate;
-  runner_options.server_share = options_.server_share;
-  runner_options.reliable_cut = options_.reliable_cut;
-  runner_options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
-  SessionRunner runner(plan.value(), artifact.value(), open.max_level(), runner_options);
-
-  Live live;
-  live.context = context;
-  live.last_heard_ms = SteadyMs();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    live_.insert(&live);
-  }
-  // The client's reports, on their own thread (gRPC allows one reader and
-  // one writer at once); it ends when the client half-closes or the call is
-  // cancelled, both of which happen before Open returns.
-  std::atomic<bool> client_done{false};
-  std::atomic<bool> reader_finished{false};
-  // A RepairRequest, handed from the reader thread to this one (the writer).
-  std::mutex repair_mutex;
-  std::optional<v1::RepairRequest> repair_request;
-  std::thread reader([&] {
-    v1::ClientMessage m;
-    while (stream->Read(&m)) {
-      live.last_heard_ms = SteadyMs();
-      if (m.kind_case() == v1::ClientMessage::kReport) {
-        const v1::ClientReport& r = m.report();
-        ClientReportInfo info;
-        info.stream = r.primitive();
-        info.refinement = r.refinement();
-        info.received = r.datagrams_received();
-        info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
-        info.end_received = r.end_received();
-        info.hold_us = r.hold_us();
-        for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
-        runner.OnReport(info);
-      } else if (m.kind_case() == v1::ClientMessage::kRepair) {
-        // Once per session: after its repair request the server reads
-        // nothing more from the client (a second one is never seen).
-        std::lock_guard<std::mutex> lock(repair_mutex);
-        repair_request = m.repair();
-        break;
-      } else if (m.kind_case() == v1::ClientMessage::kDone) {
-        client_done = true;
-        break;
-      }
-    }
-    reader_finished = true;
-  });
-  GrpcSink sink(stream, plan.value(), artifact.value(), version.value(), options_, *scene.value());
-  const auto cancelled = [&] { return context->IsCancelled() || client_done.load(); };
-  StatusOr<std::string> result = runner.Run(sink, cancelled);
-  // The repair (OpenRequest.repair): once, after SessionEnd, the datagrams
-  // the client names, on the stream, then RepairEnd.
-  uint64_t repaired = 0, repaired_bytes = 0;
-  Status repair_status = Status::Ok();
-  if (result.ok() && open.repair()) {
-    // The reader stops at the request (reader_finished), so waiting for the
-    // reader is waiting for the request, or for the client to give up.
-    const auto wait_until = Clock::now() + kRepairWait;
-    while (!reader_finished && Clock::now() < wait_until && !context->IsCancelled()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    std::optional<v1::RepairRequest> request;
-    if (reader_finished) {
-      std::lock_guard<std::mutex> lock(repair_mutex);
-      request = repair_request;
-    }
-    if (request) {
-      auto ranges = RepairDatagrams(plan.value(), *request);
-      if (!ranges.ok()) {
-        repair_status = ranges.status();
-      } else {
-        bool written = true;
-        for (const ByteRange& d : ranges.value()) {
-          if (!(written = sink.Datagram(artifact->data() + d.offset, static_cast<size_t>(d.length)))) break;
-          ++repaired;
-          repaired_bytes += d.length;
-        }
-        v1::ServerMessage end;
-        end.mutable_repair_end()->set_datagrams(static_cast<uint32_t>(repaired));
-        end.mutable_repair_end()->set_bytes(repaired_bytes);
-        if (written) stream->Write(end);
-      }
-    }
-  }
-  if (!repair_status.ok()) {
-    // The reader stopped at the request: nothing is left to cancel.
-    reader.join();
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      live_.erase(&live);
-    }
-    return ToGrpcStatus(repair_status);
-  }
-  // After SessionEnd the client half-closes (or sends done); give it
-  // kLinger to do so, so that the call ends OK, then cut it.
-  if (result.ok()) {
-    const auto linger_until = Clock::now() + kLinger;
-    while (!reader_finished && Clock::now() < linger_until && !context->IsCancelled()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-  }
-  if (!reader_finished) context->TryCancel();
-  reader.join();
-  if (result.ok() && !open.repair() && reader_finished) {
-    std::lock_guard<std::mutex> lock(repair_mutex);
-    if (repair_request) {
-      std::lock_guard<std::mutex> live_lock(mutex_);
-      live_.erase(&live);
-      return ToGrpcStatus(InvalidArgument("repair: the session was not opened with repair"));
-    }
-  }
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    live_.erase(&live);
-  }
-  const SessionRunnerStats st = runner.stats();
-  const std::string reason = result.ok() ? result.value()
-                             : live.timed_out ? "timeout"
-                             : client_done ? "client done"
-                             : (draining_ != nullptr && draining_->load()) ? "draining"
-                                                                           : "client went away";
-  if (options_.log) {
-    char line[512];
-    std::snprintf(line, sizeof line,
-                  "session %s@%lld ended (%s): %s, %llu datagrams sent, %llu reports, %llu missing, rate %.1f Mbit/s, "
-                  "%u decreases, srtt %.2f ms, %u refinements reliable (%llu bytes, for loss %.3f), %llu repaired",
-                  version->asset.c_str(), static_cast<long long>(version->version), reason.c_str(),
-                  st.transport == SessionTransport::kUdp ? "udp" : "grpc",
-                  static_cast<unsigned long long>(st.datagrams_sent), static_cast<unsigned long long>(st.reports),
-                  static_cast<unsigned long long>(st.reported_missing), st.final_rate_bps / 1e6, st.rate_decreases,
-                  st.srtt_us / 1000.0, st.reliable_refinements, static_cast<unsigned long long>(st.reliable_bytes),
-                  st.cut_loss, static_cast<unsigned long long>(repaired));
-    options_.log(line);
-  }
-  if (result.ok()) return grpc::Status::OK;
-  if (live.timed_out) {
-    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
-                        "the session was idle for " + std::to_string(options_.idle_timeout.count() / 1000) + " s");
-  }
-  if (draining_ != nullptr && draining_->load()) {
-    return ToGrpcStatus(Unavailable("the server is shutting down; open the session again"));
-  }
-  return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>* StreamServiceImpl::Open(
+    grpc::CallbackServerContext* context) {
+  return new Call(this, context);
 }
 
 }  // namespace meshstream

@@ -1,29 +1,30 @@
 // meshstream.v1.StreamService: the reliable half of a streaming session
-// (docs/streaming-protocol.md, "Sessions"), a thin translation between
-// protobuf and the session runner (services/streaming/session_runner.h),
-// which sends the plan (services/streaming/session_plan.h) and paces the
-// UDP datagrams (services/streaming/udp_endpoint.h).
+// (docs/streaming-protocol.md, "Sessions") on gRPC's callback API, a thin
+// translation between protobuf and services/streaming/: each Open is a
+// grpc::ServerBidiReactor (StreamServiceImpl::Call) whose callbacks hand the
+// client's messages to the session's SessionSender (session_sender.h), which
+// one sending thread drives for every session (send_loop.h). No session has
+// a thread of its own.
 //
-// Per call: authenticate, resolve the version the token sees, plan, then a
-// reader thread takes the client's reports to the runner while the call's
-// thread runs it. A session whose client sends nothing (no report, no
-// HELLO) for `idle_timeout` is cancelled ("timeout"), as is one the server
-// drains.
+// Per call, on a small fixed pool of opener threads (work_queue.h), since a
+// gRPC callback must not block: authenticate, take a session slot
+// (RESOURCE_EXHAUSTED beyond `max_sessions`), read the OpenRequest, check
+// it, resolve the version the token sees, load the artifact, plan, build the
+// scene; then the session joins the send loop and the server logs
+// "session ASSET@VERSION opened (TRANSPORT)". A session whose client sends
+// nothing for `idle_timeout` ends DEADLINE_EXCEEDED ("timeout"); a draining
+// server ends its sessions UNAVAILABLE. One log line per session end.
 //
 // Thread safety: gRPC calls Open from its threads at once; the class holds
-// only pointers to thread-safe parts and a mutex-guarded registry.
+// pointers to thread-safe parts, the scene cache, the send loop and the pool.
 #ifndef MESHSTREAM_SERVICES_API_STREAM_SERVICE_H_
 #define MESHSTREAM_SERVICES_API_STREAM_SERVICE_H_
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
-#include <mutex>
-#include <set>
 #include <string>
-#include <thread>
 
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "net/pacer.h"
@@ -31,39 +32,41 @@
 #include "services/api/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/store/store.h"
+#include "services/streaming/artifact_cache.h"
+#include "services/streaming/send_loop.h"
 #include "services/streaming/session_scene.h"
 #include "services/streaming/udp_endpoint.h"
+#include "services/streaming/work_queue.h"
 
 namespace meshstream {
 
 struct StreamServiceOptions {
-  int max_sessions = 256;                         // concurrent sessions; then RESOURCE_EXHAUSTED
+  int max_sessions = 4096;                        // concurrent sessions; then RESOURCE_EXHAUSTED
   uint64_t max_artifact_bytes = uint64_t{4} << 30;
   UdpEndpoint* udp = nullptr;                     // null: every session over gRPC
   std::string udp_advertise_host;                 // what SessionStart names; empty: "the host you connected to"
   uint16_t udp_advertise_port = 0;
   std::chrono::milliseconds hello_timeout{1000};  // then fall back to gRPC
-  std::chrono::milliseconds idle_timeout{30000};  // no client message nor HELLO this long: cancelled
+  std::chrono::milliseconds idle_timeout{30000};  // no client message this long: DEADLINE_EXCEEDED
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate
   bool reliable_cut = true;                       // --no-reliable-cut: every datagram as UDP (the paper's scheme)
-  std::function<void(const std::string&)> log;    // one line per session end; may be empty
+  int opener_threads = 2;                         // the pool that opens sessions (store, plan, scene)
+  std::function<void(const std::string&)> log;    // one line per session start and end; may be empty
 };
 
-class StreamServiceImpl final : public v1::StreamService::Service {
+class StreamServiceImpl final : public v1::StreamService::CallbackService {
  public:
   StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                     const std::atomic<bool>* draining);
   ~StreamServiceImpl() override;
 
-  grpc::Status Open(grpc::ServerContext* context,
-                    grpc::ServerReaderWriter<v1::ServerMessage, v1::ClientMessage>* stream) override;
+  grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>* Open(grpc::CallbackServerContext* context) override;
 
-  int active_sessions() const;
+  size_t active_sessions() const { return loop_.sessions(); }
 
  private:
-  struct Live;  // one running session, as the watchdog sees it
-  void Watch();
+  class Call;
 
   Store* store_;
   const Authenticator* auth_;
@@ -71,12 +74,9 @@ class StreamServiceImpl final : public v1::StreamService::Service {
   const std::atomic<bool>* draining_;
   CallLimit sessions_;
   SessionSceneCache scenes_;
-
-  mutable std::mutex mutex_;
-  std::condition_variable wake_;
-  std::set<Live*> live_;
-  bool stop_ = false;
-  std::thread watchdog_;
+  ArtifactCache artifacts_;
+  SendLoop loop_;       // before openers_: the pool stops first
+  WorkQueue openers_;
 };
 
 }  // namespace meshstream

@@ -295,8 +295,12 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
                                                       &impl->draining);
   builder.RegisterService(impl->streams.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
-  // A bounded number of threads: calls beyond it are RESOURCE_EXHAUSTED
-  // instead of a thread each (a flood of WatchJob streams).
+  // A bounded number of threads for the synchronous AssetService: calls
+  // beyond it are RESOURCE_EXHAUSTED instead of a thread each (a flood of
+  // WatchJob streams). StreamService is a callback service: its sessions
+  // hold none of these threads (their bound is --max-sessions, and their
+  // sending is one thread of the service's own), so a server full of
+  // sessions still has every thread for AssetService and health.
   grpc::ResourceQuota quota("meshstream-serve");
   quota.SetMaxThreads(options.max_threads);
   builder.SetResourceQuota(quota);

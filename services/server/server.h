@@ -52,7 +52,10 @@ struct ServerOptions {
   std::string udp_advertise;
   double max_rate_bps = 1e9;              // all sessions together (--max-rate)
   double max_session_rate_bps = 400e6;    // one session
-  int max_sessions = 256;
+  // Streaming sessions at once; each costs memory (about 40 KiB stalled,
+  // plus its share of the artifact), no thread (docs/deploy.md, "Streaming
+  // sessions per server": 4096 measured).
+  int max_sessions = 4096;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
   int64_t session_idle_timeout_ms = 30000;

@@ -27,6 +27,7 @@ struct UdpEndpoint::SessionState {
 
   std::mutex mutex;  // everything below
   std::condition_variable proven_changed;
+  std::function<void()> on_hello;
   ReplayWindow window;
   struct Address {
     SocketAddress address;
@@ -126,6 +127,7 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
     return drop(DropReason::kBadPayload);
   }
   state->last_hello_us = SteadyNowUs();
+  if (state->on_hello) state->on_hello();
   SessionState::Address* entry = nullptr;
   for (SessionState::Address& a : state->addresses) {
     if (a.address == d.from) entry = &a;
@@ -150,6 +152,7 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
     entry->limit.MarkProven();
     state->proven = d.from;
     state->proven_changed.notify_all();
+    if (state->on_hello) state->on_hello();
     lock.unlock();
     return drop(DropReason::kNone);
   }
@@ -181,7 +184,15 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
   }
 }
 
-UdpEndpoint::Session::~Session() { endpoint_->Unregister(state_->id); }
+UdpEndpoint::Session::~Session() {
+  SetOnHello(nullptr);
+  endpoint_->Unregister(state_->id);
+}
+
+void UdpEndpoint::Session::SetOnHello(std::function<void()> on_hello) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  state_->on_hello = std::move(on_hello);
+}
 
 uint64_t UdpEndpoint::Session::id() const { return state_->id; }
 

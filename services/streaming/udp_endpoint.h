@@ -22,6 +22,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
@@ -101,6 +102,12 @@ class UdpEndpoint::Session {
   Status SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads, uint64_t first_packet_number);
   // Microseconds (steady clock) when an authenticated HELLO last arrived.
   uint64_t last_hello_us() const;
+  // Called on the endpoint's thread when an authenticated HELLO arrives and
+  // when it proves an address (so a session waiting for its HELLO wakes at
+  // once). It runs under the session's lock: it must only wake someone, not
+  // call back into the session. Null: none. Never called after it is
+  // replaced, nor after the handle is destroyed.
+  void SetOnHello(std::function<void()> on_hello);
 
  private:
   friend class UdpEndpoint;

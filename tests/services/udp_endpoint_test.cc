@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <thread>
 #include <vector>
@@ -194,6 +195,41 @@ TEST(UdpEndpoint, ASessionTakesAtMostFourAddresses) {
   const UdpEndpointStats st = (*endpoint)->stats();
   EXPECT_EQ(st.hello_acks_sent, UdpEndpoint::kMaxAddressesPerSession);
   EXPECT_EQ(st.addresses_refused, 2u);
+}
+
+}  // namespace
+}  // namespace meshstream
+
+namespace meshstream {
+namespace {
+
+// SetOnHello wakes a waiting session (the send loop's): once for an
+// authenticated HELLO, again when its echo proves the address; a forged
+// HELLO wakes nobody, and a hook that was replaced is never called again.
+TEST(UdpEndpoint, TheHelloHookFiresForAuthenticatedHellosAndTheProof) {
+  auto endpoint = UdpEndpoint::Start(*SocketAddress::Parse("127.0.0.1:0"));
+  ASSERT_TRUE(endpoint.ok()) << endpoint.status().ToString();
+  auto session = (*endpoint)->RegisterSession();
+  ASSERT_TRUE(session.ok());
+  UdpEndpoint::Session& s = **session;
+  std::atomic<int> calls{0};
+  s.SetOnHello([&calls] { ++calls; });
+  Peer client = Peer::Make();
+  PacketKey wrong{};
+  client.Send(**endpoint, client.Hello(s, Challenge{}, &wrong));
+  WaitCounted(**endpoint, 1);
+  EXPECT_EQ(calls.load(), 0) << "a forged HELLO wakes nobody";
+  client.Send(**endpoint, client.Hello(s, Challenge{}));
+  const std::vector<std::vector<uint8_t>> acks = client.Drain(300);
+  ASSERT_EQ(acks.size(), 1u);
+  EXPECT_EQ(calls.load(), 1) << "the authenticated HELLO";
+  client.Send(**endpoint, client.Hello(s, ChallengeOf(acks[0], s)));
+  ASSERT_TRUE(s.WaitProven(std::chrono::milliseconds(2000)));
+  EXPECT_EQ(calls.load(), 3) << "the echo: heard, then proven";
+  s.SetOnHello(nullptr);
+  client.Send(**endpoint, client.Hello(s, Challenge{}));
+  WaitCounted(**endpoint, 4);
+  EXPECT_EQ(calls.load(), 3) << "a replaced hook is not called";
 }
 
 }  // namespace

@@ -1,0 +1,147 @@
+// The server's sending thread (docs/streaming-protocol.md, "The server"):
+// one thread drives every session's SessionSender (session_sender.h) by its
+// next due time, from a timer heap, so that a session costs no thread of its
+// own. It hands each session's actions to that session's SessionStream (the
+// gRPC call, services/api/stream_service.cc, which queues them as
+// ServerMessages) and its UDP DATA to the UDP endpoint (udp_endpoint.h). The
+// call's callbacks feed the client's messages in through the session's
+// Registration, which also removes the session when it is destroyed (RAII).
+//
+// Back-pressure: a session whose stream holds `max_queued` unwritten
+// messages (a client that reads nothing, a slow link) is not stepped until
+// its stream reports a write (Registration::OnWritten); such sessions have
+// no timer, and the thread looks at their idle deadlines once per 100 ms, so
+// that a stalled client is cut off (kFinish DEADLINE_EXCEEDED) whatever the
+// stream holds. After the SessionStart the
+// session waits until the stream has written it before its HELLO wait starts.
+// While `draining` is true every session is stopped (UNAVAILABLE, "draining")
+// within the thread's 100 ms period.
+//
+// Contract: a SessionStream stays valid until its Registration is destroyed;
+// the loop calls it only from its thread, with the session's mutex held, and
+// calls Finish exactly once, last. The SendLoop outlives every Registration.
+// Thread safety: Add and every Registration method from any thread.
+#ifndef MESHSTREAM_SERVICES_STREAMING_SEND_LOOP_H_
+#define MESHSTREAM_SERVICES_STREAMING_SEND_LOOP_H_
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <queue>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "services/streaming/session_sender.h"
+#include "services/streaming/udp_endpoint.h"
+
+namespace meshstream {
+
+// A session's reliable channel, as the send loop sees it. Every method but
+// queued() queues one message and never blocks.
+class SessionStream {
+ public:
+  virtual ~SessionStream() = default;
+  // `udp` is null for TRANSPORT_GRPC.
+  virtual void Start(SessionTransport transport, const UdpEndpoint::Session* udp) = 0;
+  virtual void TransportChanged(SessionTransport transport, const std::string& reason) = 0;
+  // `reliable`: the refinement's datagrams follow on this stream.
+  virtual void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
+                       bool reliable) = 0;
+  virtual void Datagram(const uint8_t* data, size_t size) = 0;
+  virtual void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) = 0;
+  virtual void End(const std::string& reason) = 0;
+  virtual void RepairEnd(uint32_t datagrams, uint64_t bytes) = 0;
+  // The session is over: end the call with `status` once what is queued is
+  // written (at once, dropping it, when `status` is not OK). `reason` and
+  // `stats` are for the log.
+  virtual void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) = 0;
+  // Messages queued and not yet written.
+  virtual size_t queued() const = 0;
+};
+
+struct SendLoopOptions {
+  size_t max_queued = 32;                        // unwritten messages per session before it waits
+  const std::atomic<bool>* draining = nullptr;   // true: stop every session (UNAVAILABLE)
+};
+
+class SendLoop {
+ public:
+  class Registration;
+
+  explicit SendLoop(SendLoopOptions options = {});
+  ~SendLoop();  // stops the thread
+  SendLoop(const SendLoop&) = delete;
+  SendLoop& operator=(const SendLoop&) = delete;
+
+  // Registers `sender`; it is driven from Registration::Begin on. `udp` is
+  // the session's UDP registration (null over gRPC), held until the session
+  // falls back to gRPC or ends.
+  Registration Add(std::unique_ptr<SessionSender> sender, SessionStream* stream,
+                   std::shared_ptr<UdpEndpoint::Session> udp);
+
+  size_t sessions() const;
+
+ private:
+  struct Entry;
+  void Run();
+  void Step(const std::shared_ptr<Entry>& entry);
+  // Due at `due_us` (sooner wins); from any thread.
+  void Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us);
+  void Remove(Entry* entry);
+
+  SendLoopOptions options_;
+  mutable std::mutex mutex_;  // below
+  std::condition_variable wake_;
+  struct Timer {
+    uint64_t due_us;
+    uint64_t seq;
+    std::shared_ptr<Entry> entry;
+    bool operator>(const Timer& o) const { return due_us != o.due_us ? due_us > o.due_us : seq > o.seq; }
+  };
+  std::priority_queue<Timer, std::vector<Timer>, std::greater<Timer>> timers_;
+  uint64_t seq_ = 0;
+  std::unordered_map<Entry*, std::shared_ptr<Entry>> entries_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+// One session in the loop. Movable; destroying it removes the session (and
+// its sender) after any step under way, so the stream is never called again.
+class SendLoop::Registration {
+ public:
+  Registration() = default;
+  Registration(Registration&& other) noexcept { *this = std::move(other); }
+  Registration& operator=(Registration&& other) noexcept;
+  ~Registration();
+  explicit operator bool() const { return entry_ != nullptr; }
+
+  // The session's first step, at once (once the caller holds the registration).
+  void Begin();
+
+  // The client's messages, from the call's callbacks.
+  void OnClientMessage();
+  void OnReport(const ClientReportInfo& report);
+  void OnRepair(std::vector<RepairItem> items);
+  void OnClientClosed(bool done);
+  // The stream wrote a message: a session waiting for room goes on.
+  void OnWritten();
+  // Stop the session (the call was cancelled, a write failed).
+  void Cancel(Status status, std::string reason);
+
+ private:
+  friend class SendLoop;
+  Registration(SendLoop* loop, std::shared_ptr<Entry> entry) : loop_(loop), entry_(std::move(entry)) {}
+  void Reset();
+  SendLoop* loop_ = nullptr;
+  std::shared_ptr<Entry> entry_;
+};
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STREAMING_SEND_LOOP_H_

@@ -1,0 +1,349 @@
+#include "services/streaming/session_sender.h"
+
+#include <algorithm>
+#include <iomanip>
+#include <sstream>
+
+#include "codec/bitstream/format.h"
+#include "codec/loss/reliable_cut.h"
+#include "net/packet_header.h"
+
+namespace meshstream {
+
+std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
+                                       const PlannedRefinement& r, uint32_t count) {
+  const PlannedPrimitive& p = plan.primitives[r.primitive];
+  return MakeStreamEndDatagram(artifact.data() + p.header.offset, static_cast<size_t>(p.header.length), p.stream,
+                               r.refinement, count);
+}
+
+std::string DescribeSession(const SessionSenderStats& st) {
+  std::ostringstream out;
+  out << (st.transport == SessionTransport::kUdp ? "udp" : "grpc") << ", " << st.datagrams_sent << " datagrams sent, "
+      << st.reports << " reports, " << st.reported_missing << " missing, rate " << std::fixed << std::setprecision(1)
+      << st.final_rate_bps / 1e6 << " Mbit/s, " << st.rate_decreases << " decreases, srtt " << std::setprecision(2)
+      << st.srtt_us / 1000.0 << " ms, " << st.reliable_refinements << " refinements reliable (" << st.reliable_bytes
+      << " bytes, for loss " << std::setprecision(3) << st.cut_loss << "), " << st.repaired << " repaired";
+  return out.str();
+}
+
+SessionSender::SessionSender(const SessionPlan& plan, const std::vector<uint8_t>& artifact, int32_t max_level,
+                             SessionSenderOptions options, uint64_t now_us)
+    : plan_(plan), artifact_(artifact), max_level_(max_level), options_(std::move(options)),
+      transport_(options_.transport),
+      pacer_(options_.rate.initial_bps, std::max<size_t>(1, options_.burst_datagrams) * kMaxDatagramBytes),
+      controller_(options_.rate), last_heard_us_(now_us) {
+  options_.burst_datagrams = std::max<size_t>(1, options_.burst_datagrams);
+  stats_.transport = transport_;
+}
+
+void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }
+
+void SessionSender::OnReport(uint64_t now_us, const ClientReportInfo& report) {
+  OnClientMessage(now_us);
+  ++stats_.reports;
+  stats_.reported_received += report.received;
+  stats_.reported_missing += report.missing;
+  for (uint64_t sample : report.rtt_samples_us) {
+    if (sample > 0 && sample < 60000000) controller_.OnRttSample(sample);
+  }
+  auto it = end_sent_us_.find({report.stream, report.refinement});
+  if (it == end_sent_us_.end()) return;  // not a refinement this session sent over UDP (or reported twice)
+  uint64_t rtt = 0;
+  if (report.end_received && now_us > it->second + report.hold_us) rtt = now_us - it->second - report.hold_us;
+  end_sent_us_.erase(it);
+  udp_reported_received_ += report.received;
+  udp_reported_missing_ += report.missing;
+  controller_.OnReport(now_us, report.received, report.missing, rtt);
+}
+
+void SessionSender::OnRepair(uint64_t now_us, std::vector<RepairItem> items) {
+  OnClientMessage(now_us);
+  if (repair_received_) return;  // the driver reads nothing after the first
+  repair_received_ = true;
+  repair_items_ = std::move(items);
+}
+
+void SessionSender::OnClientClosed(uint64_t now_us, bool done) {
+  if (done) OnClientMessage(now_us);
+  client_closed_ = true;
+  client_done_ = client_done_ || done;
+}
+
+void SessionSender::OnHello(uint64_t last_hello_us, bool proven) {
+  last_hello_us_ = std::max(last_hello_us_, last_hello_us);
+  proven_ = proven_ || proven;
+}
+
+void SessionSender::Cancel(Status status, std::string reason) {
+  if (cancelled_ || phase_ == Phase::kFinished) return;
+  cancelled_ = true;
+  cancel_status_ = std::move(status);
+  end_reason_ = std::move(reason);
+}
+
+uint64_t SessionSender::idle_deadline_us() const {
+  if (options_.idle_timeout_us == 0 || phase_ == Phase::kFinished) return SenderAction::kNever;
+  return last_heard_us_ + options_.idle_timeout_us;
+}
+
+SessionSenderStats SessionSender::stats() const {
+  SessionSenderStats s = stats_;
+  s.transport = transport_;
+  s.final_rate_bps = controller_.rate_bps();
+  s.rate_decreases = controller_.decreases();
+  s.min_rtt_us = controller_.min_rtt_us();
+  s.srtt_us = controller_.srtt_us();
+  return s;
+}
+
+SenderAction SessionSender::Finish(Status status, std::string reason) {
+  phase_ = Phase::kFinished;
+  end_reason_ = std::move(reason);
+  SenderAction a;
+  a.kind = SenderAction::kFinish;
+  a.status = std::move(status);
+  return a;
+}
+
+SenderAction SessionSender::Next(uint64_t now_us) {
+  if (phase_ == Phase::kFinished) return SenderAction{};
+  if (cancelled_) return Finish(cancel_status_, end_reason_);
+  if (now_us >= idle_deadline_us()) {
+    return Finish(DeadlineExceeded("the session was idle for " + std::to_string(options_.idle_timeout_us / 1000000) +
+                                   " s"),
+                  "timeout");
+  }
+  const bool before_end = phase_ == Phase::kStart || phase_ == Phase::kHelloWait || phase_ == Phase::kRefinements;
+  if (client_done_ && before_end) return Finish(Cancelled("the client went away"), "client done");
+  SenderAction a;
+  switch (phase_) {
+    case Phase::kStart:
+      phase_ = transport_ == SessionTransport::kUdp ? Phase::kHelloWait : Phase::kRefinements;
+      a.kind = SenderAction::kStart;
+      a.transport = transport_;
+      return a;
+    case Phase::kHelloWait:
+      a = HelloWait(now_us);
+      break;
+    case Phase::kRefinements:
+      a = NextRefinementStep(now_us);
+      break;
+    default:
+      a = AfterEnd(now_us);
+      break;
+  }
+  if (a.kind == SenderAction::kWait) a.due_us = std::min(a.due_us, idle_deadline_us());
+  return a;
+}
+
+SenderAction SessionSender::HelloWait(uint64_t now_us) {
+  if (!hello_started_) {
+    // From when the start has been handed to the transport (a large start
+    // on a slow link takes a while to write), not from before it.
+    hello_started_ = true;
+    hello_registered_us_ = last_hello_us_;
+    hello_deadline_us_ = now_us + options_.hello_timeout_us;
+    hello_last_deadline_us_ = hello_deadline_us_ + 2 * options_.hello_timeout_us;
+  }
+  if (proven_) {
+    phase_ = Phase::kRefinements;
+    return NextRefinementStep(now_us);
+  }
+  // An authenticated HELLO that has not proven the address yet means the
+  // round trip is under way (a lost HELLO_ACK, a slow path): the wait is
+  // extended from it, up to three timeouts in all.
+  if (last_hello_us_ > hello_registered_us_) {
+    hello_deadline_us_ =
+        std::min(hello_last_deadline_us_, std::max(hello_deadline_us_, last_hello_us_ + options_.hello_timeout_us));
+  }
+  SenderAction a;
+  if (now_us < hello_deadline_us_) {
+    a.due_us = hello_deadline_us_;
+    return a;
+  }
+  transport_ = SessionTransport::kGrpc;
+  stats_.transport = transport_;
+  phase_ = Phase::kRefinements;
+  a.kind = SenderAction::kTransportChange;
+  a.transport = transport_;
+  a.reason = "no HELLO proved a UDP address within " + std::to_string(options_.hello_timeout_us / 1000) + " ms";
+  return a;
+}
+
+bool SessionSender::InReliableCut(const PlannedRefinement& r) {
+  if (!options_.reliable_cut) return false;
+  double loss = options_.expected_loss >= 0 ? options_.expected_loss : kReferenceLoss;
+  const uint64_t reported = udp_reported_received_ + udp_reported_missing_;
+  if (reported >= kMinReportedForCut) {
+    loss = static_cast<double>(udp_reported_missing_) / static_cast<double>(reported);
+  }
+  stats_.cut_loss = loss;
+  const std::vector<uint32_t> cut = ReliableCutFor(plan_.primitives[r.primitive], loss);
+  return std::binary_search(cut.begin(), cut.end(), r.refinement);
+}
+
+SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
+  SenderAction a;
+  if (index_ >= plan_.refinements.size()) {
+    phase_ = options_.repair ? Phase::kAwaitRepair : Phase::kLinger;
+    ended_us_ = now_us;
+    end_reason_ = max_level_ >= 0 ? "max_level" : "complete";
+    a.kind = SenderAction::kEnd;
+    a.reason = end_reason_;
+    return a;
+  }
+  const PlannedRefinement& r = plan_.refinements[index_];
+  const uint32_t stream = plan_.primitives[r.primitive].stream;
+  const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
+  if (step_ == Step::kControl) {
+    if (transport_ == SessionTransport::kUdp && InReliableCut(r)) {
+      // On the stream, but paced and charged to the server's share like the
+      // UDP datagrams: moving data to the stream does not lift --max-rate.
+      mode_ = Mode::kStreamPaced;
+      ++stats_.reliable_refinements;
+      stats_.reliable_datagrams += count;
+      for (const ByteRange& d : r.datagrams) stats_.reliable_bytes += d.length;
+    } else {
+      mode_ = transport_ == SessionTransport::kUdp ? Mode::kUdp : Mode::kStream;
+    }
+    first_packet_number_ = mode_ == Mode::kUdp ? options_.reserve_packet_numbers(count + 1) : 0;
+    end_datagram_ = ServerEndDatagram(plan_, artifact_, r, count);
+    payloads_.clear();
+    payloads_.reserve(count + 1);
+    for (const ByteRange& d : r.datagrams) payloads_.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+    payloads_.emplace_back(end_datagram_.data(), end_datagram_.size());
+    next_payload_ = 0;
+    batch_reserved_ = false;
+    step_ = Step::kDatagrams;
+    a.kind = SenderAction::kControl;
+    a.refinement = &r;
+    a.stream = stream;
+    a.count = count;
+    a.first_packet_number = first_packet_number_;
+    a.reliable = mode_ != Mode::kUdp;
+    return a;
+  }
+  if (step_ == Step::kDatagrams) {
+    if (next_payload_ < payloads_.size()) return NextBatch(now_us);
+    step_ = Step::kRefinementEnd;
+  }
+  stats_.datagrams_sent += count + 1;
+  if (mode_ == Mode::kUdp) {
+    end_sent_us_[{stream, r.refinement}] = now_us;
+    // Entries of refinements never reported stay bounded by the plan's size.
+  }
+  ++index_;
+  step_ = Step::kControl;
+  a.kind = SenderAction::kRefinementEnd;
+  a.refinement = &r;
+  a.stream = stream;
+  a.count = count;
+  return a;
+}
+
+SenderAction SessionSender::NextBatch(uint64_t now_us) {
+  SenderAction a;
+  const size_t left = payloads_.size() - next_payload_;
+  size_t take = left;
+  bool paced = true;
+  switch (mode_) {
+    case Mode::kStream:
+      take = std::min(options_.burst_datagrams, left);
+      paced = false;
+      break;
+    case Mode::kStreamPaced:
+      take = 1;
+      paced = left > 1;  // the END follows its data at once
+      break;
+    case Mode::kUdp:
+      take = std::min(options_.burst_datagrams, left);
+      break;
+  }
+  size_t bytes = 0;
+  for (size_t i = 0; i < take; ++i) bytes += payloads_[next_payload_ + i].second + kPacketOverheadBytes;
+  if (paced) {
+    if (!batch_reserved_) {
+      pacer_.SetRate(controller_.rate_bps());
+      uint64_t due = pacer_.DueUs(now_us, bytes);
+      if (options_.server_share != nullptr) due = std::max(due, options_.server_share->Reserve(now_us, bytes));
+      batch_reserved_ = true;
+      batch_due_us_ = due;
+    }
+    if (now_us < batch_due_us_) {
+      a.due_us = batch_due_us_;
+      return a;
+    }
+    batch_reserved_ = false;
+    pacer_.OnSent(now_us, bytes);
+  }
+  a.kind = SenderAction::kDatagrams;
+  a.on_stream = mode_ != Mode::kUdp;
+  a.first_packet_number = first_packet_number_ + next_payload_;
+  a.datagrams.assign(payloads_.begin() + static_cast<long>(next_payload_),
+                     payloads_.begin() + static_cast<long>(next_payload_ + take));
+  if (mode_ == Mode::kUdp) {
+    for (const auto& p : a.datagrams) stats_.bytes_sent += p.second;
+  }
+  next_payload_ += take;
+  return a;
+}
+
+SenderAction SessionSender::AfterEnd(uint64_t now_us) {
+  SenderAction a;
+  if (phase_ == Phase::kAwaitRepair) {
+    if (repair_received_) {
+      auto ranges = RepairDatagrams(plan_, repair_items_);
+      if (!ranges.ok()) return Finish(ranges.status(), end_reason_);
+      repair_ranges_ = std::move(ranges).value();
+      repair_next_ = 0;
+      phase_ = Phase::kRepairing;
+    } else if (client_closed_) {
+      return Finish(Status::Ok(), end_reason_);
+    } else if (now_us < ended_us_ + kRepairWaitUs) {
+      a.due_us = ended_us_ + kRepairWaitUs;
+      return a;
+    } else {
+      // No request: the client gets the linger to close, as without repair.
+      phase_ = Phase::kLinger;
+      ended_us_ = now_us;
+    }
+  }
+  if (phase_ == Phase::kRepairing) {
+    if (repair_next_ < repair_ranges_.size()) {
+      const size_t take = std::min(options_.burst_datagrams, repair_ranges_.size() - repair_next_);
+      a.kind = SenderAction::kDatagrams;
+      a.on_stream = true;
+      for (size_t i = 0; i < take; ++i) {
+        const ByteRange& d = repair_ranges_[repair_next_ + i];
+        a.datagrams.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+        ++stats_.repaired;
+        stats_.repaired_bytes += d.length;
+      }
+      repair_next_ += take;
+      return a;
+    }
+    // After its repair request the client sends nothing more the server
+    // reads: the session is over once RepairEnd is written.
+    phase_ = Phase::kLinger;
+    client_closed_ = true;
+    a.kind = SenderAction::kRepairEnd;
+    a.count = static_cast<uint32_t>(stats_.repaired);
+    a.bytes = stats_.repaired_bytes;
+    return a;
+  }
+  // kLinger: the client closes its side (or sends done) so that the call ends OK.
+  if (repair_received_ && !options_.repair) {
+    return Finish(InvalidArgument("repair: the session was not opened with repair"), end_reason_);
+  }
+  if (client_closed_) return Finish(Status::Ok(), end_reason_);
+  if (now_us >= ended_us_ + kLingerUs) {
+    return Finish(Cancelled("the client did not close the session within " + std::to_string(kLingerUs / 1000000) +
+                            " s of its end"),
+                  end_reason_);
+  }
+  a.due_us = ended_us_ + kLingerUs;
+  return a;
+}
+
+}  // namespace meshstream

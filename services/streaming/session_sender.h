@@ -1,0 +1,260 @@
+// One streaming session's sending side as a deterministic core
+// (docs/streaming-protocol.md, "Sessions"): the plan, the client's messages
+// and the caller's clock in, the next thing to do out. It reads no clock,
+// sleeps nowhere, starts no thread and touches no socket, as net/pacer.h and
+// net/rate_controller.h; services/streaming/send_loop.h drives it for real
+// (one thread for every session, the gRPC stream, the UDP endpoint), and
+// tests/services/session_sender_test.cc drives it with a scripted client and
+// a fake clock.
+//
+// What Next(now_us) hands out, in order:
+//   kStart             the SessionStart, with the transport (kUdp when the
+//                      driver registered a UDP session and the client wants it);
+//   kTransportChange   UDP only, when no HELLO proved an address: the HELLO
+//                      wait lasts `hello_timeout` from the first Next after the
+//                      start has been handed to the transport; an
+//                      authenticated HELLO that has not proven an address yet
+//                      (OnHello) extends it to `hello_timeout` after that
+//                      HELLO, up to three timeouts in all. Then every
+//                      refinement goes on the stream;
+//   per refinement in the plan's order: kControl; kDatagrams (its data
+//                      datagrams and the codec's END datagram, in batches:
+//                      over UDP paced at the session's rate (net/pacer.h,
+//                      net/rate_controller.h) and charged to the server's
+//                      RateShare, at most `burst_datagrams` per batch; on the
+//                      stream unpaced (TRANSPORT_GRPC) or, for the refinements
+//                      of the reliable cut over UDP, paced one datagram at a
+//                      time); kRefinementEnd;
+//   kEnd               "complete", or "max_level" when the plan was cut;
+//   after kEnd         with `repair`: up to kRepairWaitUs for OnRepair, then
+//                      the named datagrams on the stream (kDatagrams) and
+//                      kRepairEnd; then up to kLingerUs for the client to
+//                      close its side (OnClientClosed);
+//   kFinish            the call's status (OK, INVALID_ARGUMENT for a bad or
+//                      unasked repair, DEADLINE_EXCEEDED when the client said
+//                      nothing for `idle_timeout`, CANCELLED for `done`
+//                      before the end or a client that did not close within
+//                      the linger) and end_reason() for the log; last.
+//   kWait              nothing until `due_us` (kNever: until an event).
+// The cut is decided per refinement just before its control block, for the
+// loss the reports have shown (missing / (received + missing) over the UDP
+// refinements once 32 datagrams were reported; before, `expected_loss`, or
+// the reference loss).
+//
+// Contract: the plan and the artifact outlive the sender; the pointers in a
+// kDatagrams action stay valid until the next call. Times are microseconds of
+// one non-decreasing clock of the caller's. Reports are untrusted and only
+// steer the rate and the cut (a report of a refinement never sent over UDP,
+// or reported twice, counts in stats only).
+// Thread safety: none; the driver serialises every call (send_loop.h holds a
+// mutex per session).
+#ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_SENDER_H_
+#define MESHSTREAM_SERVICES_STREAMING_SESSION_SENDER_H_
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "codec/core/status.h"
+#include "net/pacer.h"
+#include "net/rate_controller.h"
+#include "services/streaming/repair_request.h"
+#include "services/streaming/session_plan.h"
+
+namespace meshstream {
+
+enum class SessionTransport { kUdp, kGrpc };
+
+struct SessionSenderOptions {
+  // kUdp: the driver registered a UDP session for it; kGrpc: the client asked
+  // for TRANSPORT_GRPC or the server has no UDP.
+  SessionTransport transport = SessionTransport::kGrpc;
+  uint64_t hello_timeout_us = 1000000;
+  uint64_t idle_timeout_us = 30000000;  // no client message this long: kFinish DEADLINE_EXCEEDED; 0: never
+  RateControllerOptions rate;
+  RateShare* server_share = nullptr;  // --max-rate; null: no server cap. Thread-safe, shared.
+  size_t burst_datagrams = 8;         // UDP datagrams handed out in one batch when due
+  // Over UDP, send the refinements of the artifact's reliable cut, adapted to
+  // the reported loss (ReliableCutFor), on the stream; false: every datagram
+  // as UDP (the paper's scheme; --no-reliable-cut).
+  bool reliable_cut = true;
+  double expected_loss = -1;  // OpenRequest.expected_loss; < 0: unknown
+  bool repair = false;        // OpenRequest.repair
+  // UDP: `count` consecutive packet numbers of the session's server->client
+  // counter, the first returned (UdpEndpoint::Session::ReservePacketNumbers;
+  // a counter in tests). Unused over gRPC.
+  std::function<uint64_t(uint64_t count)> reserve_packet_numbers;
+};
+
+struct ClientReportInfo {
+  uint32_t stream = 0;
+  uint32_t refinement = 0;
+  uint32_t received = 0;
+  uint32_t missing = 0;
+  bool end_received = false;  // the END datagram arrived ...
+  uint64_t hold_us = 0;       // ... this long before the report left
+  std::vector<uint64_t> rtt_samples_us;
+};
+
+struct SessionSenderStats {
+  SessionTransport transport = SessionTransport::kGrpc;
+  uint64_t datagrams_sent = 0;      // data and END datagrams of the refinements
+  uint64_t bytes_sent = 0;          // the payloads of those sent as UDP
+  uint64_t reports = 0;
+  uint64_t reported_received = 0;
+  uint64_t reported_missing = 0;
+  double final_rate_bps = 0;
+  uint32_t rate_decreases = 0;
+  uint64_t min_rtt_us = 0, srtt_us = 0;
+  uint32_t reliable_refinements = 0;  // sent on the stream over UDP (the reliable cut)
+  uint64_t reliable_datagrams = 0;    // their data datagrams
+  uint64_t reliable_bytes = 0;        // and bytes
+  double cut_loss = 0;                // the loss the last cut decision was made for
+  uint64_t repaired = 0;              // datagrams sent again for a RepairRequest
+  uint64_t repaired_bytes = 0;
+};
+
+struct SenderAction {
+  enum Kind {
+    kWait,
+    kStart,
+    kTransportChange,
+    kControl,
+    kDatagrams,
+    kRefinementEnd,
+    kEnd,
+    kRepairEnd,
+    kFinish,
+  };
+  static constexpr uint64_t kNever = std::numeric_limits<uint64_t>::max();
+
+  Kind kind = kWait;
+  uint64_t due_us = kNever;       // kWait
+  SessionTransport transport = SessionTransport::kGrpc;  // kStart, kTransportChange
+  std::string reason;             // kTransportChange, kEnd
+  const PlannedRefinement* refinement = nullptr;  // kControl, kRefinementEnd
+  uint32_t stream = 0;            // kControl, kRefinementEnd: the wire stream id
+  uint32_t count = 0;             // kControl, kRefinementEnd: data datagrams; kRepairEnd: datagrams
+  uint64_t bytes = 0;             // kRepairEnd
+  uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
+  bool reliable = false;          // kControl: the datagrams follow on the stream
+  bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
+  std::vector<std::pair<const uint8_t*, size_t>> datagrams;  // kDatagrams
+  Status status;                  // kFinish
+};
+
+class SessionSender {
+ public:
+  static constexpr uint64_t kRepairWaitUs = 10000000;  // after SessionEnd, for the RepairRequest
+  static constexpr uint64_t kLingerUs = 2000000;       // then for the client to close its side
+  static constexpr uint64_t kMinReportedForCut = 32;   // datagrams reported before the loss steers the cut
+
+  // `max_level` as OpenRequest.max_level (>= 0: the plan was cut there).
+  // `now_us`: the session's start, the first moment the idle timeout counts from.
+  SessionSender(const SessionPlan& plan, const std::vector<uint8_t>& artifact, int32_t max_level,
+                SessionSenderOptions options, uint64_t now_us);
+
+  SenderAction Next(uint64_t now_us);
+
+  // Any client message (report, repair, done) at now_us: the idle timeout
+  // counts from the last one.
+  void OnClientMessage(uint64_t now_us);
+  void OnReport(uint64_t now_us, const ClientReportInfo& report);
+  // The one RepairRequest of the session (the driver reads nothing after it).
+  void OnRepair(uint64_t now_us, std::vector<RepairItem> items);
+  // The client closed its side: `done` (ClientMessage.done) or a half-close.
+  // `done` before the end stops the session (CANCELLED, "client done").
+  void OnClientClosed(uint64_t now_us, bool done);
+  // UDP: the time of the last authenticated HELLO (the endpoint's clock,
+  // the same as now_us) and whether an address is proven.
+  void OnHello(uint64_t last_hello_us, bool proven);
+  // The driver stops the session: the next Next is kFinish with `status`
+  // and `reason` (e.g. Cancelled / "client went away", Unavailable / "draining").
+  void Cancel(Status status, std::string reason);
+
+  // True once kFinish was handed out.
+  bool finished() const { return phase_ == Phase::kFinished; }
+  // True when the next Next is kFinish whatever the stream can take (a
+  // Cancel, or the idle timeout ran out at now_us).
+  bool stopping(uint64_t now_us) const { return cancelled_ || now_us >= idle_deadline_us(); }
+  // When the idle timeout runs out (kNever: none); the driver wakes then
+  // even while the stream cannot take more.
+  uint64_t idle_deadline_us() const;
+  SessionTransport transport() const { return transport_; }
+  const std::string& end_reason() const { return end_reason_; }
+  SessionSenderStats stats() const;
+
+ private:
+  enum class Phase { kStart, kHelloWait, kRefinements, kAwaitRepair, kRepairing, kLinger, kFinished };
+  enum class Step { kControl, kDatagrams, kRefinementEnd };
+
+  SenderAction Finish(Status status, std::string reason);
+  SenderAction HelloWait(uint64_t now_us);
+  SenderAction NextRefinementStep(uint64_t now_us);
+  SenderAction AfterEnd(uint64_t now_us);
+  bool InReliableCut(const PlannedRefinement& r);
+  // The next batch of the current refinement: due now or kWait.
+  SenderAction NextBatch(uint64_t now_us);
+
+  const SessionPlan& plan_;
+  const std::vector<uint8_t>& artifact_;
+  int32_t max_level_;
+  SessionSenderOptions options_;
+  SessionTransport transport_;
+  Pacer pacer_;
+  RateController controller_;
+  SessionSenderStats stats_;
+  uint64_t udp_reported_received_ = 0, udp_reported_missing_ = 0;  // over UDP refinements
+  std::map<std::pair<uint32_t, uint32_t>, uint64_t> end_sent_us_;  // (stream, refinement) -> when its END left
+
+  Phase phase_ = Phase::kStart;
+  uint64_t last_heard_us_;
+  // The HELLO wait.
+  bool hello_started_ = false;
+  uint64_t hello_registered_us_ = 0, hello_deadline_us_ = 0, hello_last_deadline_us_ = 0;
+  uint64_t last_hello_us_ = 0;
+  bool proven_ = false;
+  // The refinement being sent.
+  size_t index_ = 0;
+  Step step_ = Step::kControl;
+  enum class Mode { kUdp, kStreamPaced, kStream } mode_ = Mode::kStream;
+  std::vector<std::pair<const uint8_t*, size_t>> payloads_;  // data datagrams, then the END
+  std::vector<uint8_t> end_datagram_;
+  size_t next_payload_ = 0;
+  uint64_t first_packet_number_ = 0;
+  uint64_t batch_due_us_ = 0;  // the pending batch's due time, once reserved
+  bool batch_reserved_ = false;
+  size_t batch_size_ = 0;
+  // After the end.
+  uint64_t ended_us_ = 0;
+  bool client_closed_ = false;
+  bool client_done_ = false;
+  bool repair_received_ = false;
+  std::vector<RepairItem> repair_items_;
+  std::vector<ByteRange> repair_ranges_;
+  size_t repair_next_ = 0;
+  // Cancel.
+  bool cancelled_ = false;
+  Status cancel_status_;
+  std::string end_reason_;
+};
+
+// The session's log line after "ended (reason): ": transport, datagrams,
+// reports, missing, the final rate, decreases, srtt, the refinements sent
+// reliably (bytes, the loss the cut was sized for) and the datagrams repaired.
+std::string DescribeSession(const SessionSenderStats& stats);
+
+// The codec's END datagram of refinement `r` carrying `count` data
+// datagrams, with its stream's version (the first byte of the stream header;
+// docs/progressive-format.md, sections 3 and 6). The server builds it here
+// and nowhere else.
+std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
+                                       const PlannedRefinement& r, uint32_t count);
+
+}  // namespace meshstream
+
+#endif  // MESHSTREAM_SERVICES_STREAMING_SESSION_SENDER_H_

@@ -1,0 +1,487 @@
+// The server's session core (services/streaming/session_sender.h) driven by
+// a scripted client and a fake clock: no socket, no thread, no sleep. Each
+// test would fail without the behaviour it names.
+#include "services/streaming/session_sender.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "codec/bitstream/format.h"
+#include "net/packet_header.h"
+
+namespace meshstream {
+namespace {
+
+constexpr uint32_t kStream = 7;
+constexpr uint32_t kRefinements = 6;
+constexpr uint32_t kDatagrams = 10;
+constexpr uint32_t kDatagramBytes = 1000;
+
+// One primitive of six refinements of ten 1000-byte datagrams. The stored
+// cut: a share of 10 % of a stream of ten refinements' bytes, ranked in
+// order, so 1 refinement at the reference loss, 2 at twice it, none below
+// half of it.
+struct Fixture {
+  std::vector<uint8_t> artifact;
+  SessionPlan plan;
+  Fixture() {
+    artifact.assign(16 + kRefinements * (16 + kDatagrams * kDatagramBytes), 0);
+    artifact[0] = kStreamVersion;
+    PlannedPrimitive p;
+    p.stream = kStream;
+    p.header = {0, 8};
+    p.base = {8, 8};
+    p.refinements = kRefinements;
+    p.delivery.share = 0.1;
+    uint64_t at = 16;
+    for (uint32_t r = 0; r < kRefinements; ++r) {
+      p.delivery.ranking.push_back(r);
+      p.refinement_bytes.push_back(kDatagrams * kDatagramBytes);
+      PlannedRefinement pr;
+      pr.primitive = 0;
+      pr.refinement = r;
+      pr.control = {at, 16};
+      at += 16;
+      for (uint32_t k = 0; k < kDatagrams; ++k) {
+        artifact[at] = static_cast<uint8_t>(r * 16 + k);
+        pr.datagrams.push_back({at, kDatagramBytes});
+        at += kDatagramBytes;
+      }
+      plan.refinements.push_back(pr);
+    }
+    p.stream_bytes = 10ull * kDatagrams * kDatagramBytes;
+    plan.primitives.push_back(p);
+    plan.levels = kRefinements;
+  }
+};
+
+SessionSenderOptions Options(SessionTransport transport, double rate_bps = 8e6) {
+  SessionSenderOptions o;
+  o.transport = transport;
+  o.rate.initial_bps = rate_bps;
+  o.rate.max_bps = rate_bps;
+  o.reliable_cut = false;
+  uint64_t next = 100;
+  o.reserve_packet_numbers = [next](uint64_t count) mutable {
+    const uint64_t first = next;
+    next += count;
+    return first;
+  };
+  return o;
+}
+
+// Everything a session hands out, as a client would see it, with the time.
+struct Script {
+  std::vector<SenderAction> actions;
+  std::vector<uint64_t> times;
+  // Per action, a copy of its datagrams (the END's bytes live only until the next call).
+  std::vector<std::vector<std::vector<uint8_t>>> bytes;
+  uint64_t now = 0;
+
+  // Drives `s` until it waits for nothing or `until` (advancing the fake
+  // clock to each due time), or until SessionEnd with `to_end`, returning
+  // the last action.
+  SenderAction Run(SessionSender& s, uint64_t until = UINT64_MAX, bool to_end = false) {
+    for (int guard = 0; guard < 100000; ++guard) {
+      SenderAction a = s.Next(now);
+      if (a.kind == SenderAction::kWait) {
+        if (a.due_us == SenderAction::kNever || a.due_us > until) {
+          if (until != UINT64_MAX && until > now) now = until;
+          return a;
+        }
+        now = a.due_us;
+        continue;
+      }
+      times.push_back(now);
+      bytes.emplace_back();
+      for (const auto& [data, size] : a.datagrams) bytes.back().emplace_back(data, data + size);
+      actions.push_back(a);
+      if (a.kind == SenderAction::kFinish || (to_end && a.kind == SenderAction::kEnd)) return a;
+    }
+    ADD_FAILURE() << "the session never waited nor finished";
+    return SenderAction{};
+  }
+  size_t Count(SenderAction::Kind kind) const {
+    size_t n = 0;
+    for (const SenderAction& a : actions) n += a.kind == kind;
+    return n;
+  }
+};
+
+TEST(SessionSender, OverGrpcEveryRefinementIsControlDatagramsEndThenSessionEnd) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  Script script;
+  script.Run(s, UINT64_MAX, true);
+  ASSERT_FALSE(script.actions.empty());
+  EXPECT_EQ(script.actions.front().kind, SenderAction::kStart);
+  EXPECT_EQ(script.Count(SenderAction::kControl), kRefinements);
+  EXPECT_EQ(script.Count(SenderAction::kRefinementEnd), kRefinements);
+  // Per refinement: its data datagrams, then the END datagram last.
+  size_t datagrams = 0;
+  uint32_t refinement = 0;
+  for (size_t i = 0; i < script.actions.size(); ++i) {
+    const SenderAction& a = script.actions[i];
+    if (a.kind == SenderAction::kControl) {
+      EXPECT_TRUE(a.reliable);
+      EXPECT_EQ(a.count, kDatagrams);
+      refinement = a.refinement->refinement;
+      datagrams = 0;
+    }
+    if (a.kind == SenderAction::kDatagrams) {
+      EXPECT_TRUE(a.on_stream);
+      for (const std::vector<uint8_t>& d : script.bytes[i]) {
+        if (datagrams < kDatagrams) {
+          EXPECT_EQ(d.size(), kDatagramBytes);
+          EXPECT_EQ(d[0], refinement * 16 + datagrams);
+        } else {
+          EXPECT_EQ(d, MakeEndDatagram(kStream, refinement, kDatagrams, kStreamVersion))
+              << "the END of refinement " << refinement;
+        }
+        ++datagrams;
+      }
+    }
+    if (a.kind == SenderAction::kRefinementEnd) EXPECT_EQ(datagrams, kDatagrams + 1);
+  }
+  const SenderAction& end = script.actions[script.actions.size() - 1];
+  EXPECT_EQ(end.kind, SenderAction::kEnd);
+  EXPECT_EQ(end.reason, "complete");
+  EXPECT_EQ(script.now, 0u) << "nothing over gRPC is paced";
+  // The client closes its side: the call ends OK.
+  s.OnClientClosed(script.now, false);
+  EXPECT_EQ(script.Run(s).kind, SenderAction::kFinish);
+  EXPECT_TRUE(script.actions.back().status.ok());
+  EXPECT_EQ(s.end_reason(), "complete");
+}
+
+TEST(SessionSender, MaxLevelNamesTheEnd) {
+  Fixture f;
+  f.plan.refinements.resize(2);  // what PlanSession keeps for max_level 2 of this plan
+  SessionSender s(f.plan, f.artifact, 2, Options(SessionTransport::kGrpc), 0);
+  Script script;
+  script.Run(s, UINT64_MAX, true);
+  EXPECT_EQ(script.Count(SenderAction::kControl), 2u);
+  EXPECT_EQ(script.actions.back().kind, SenderAction::kEnd);
+  EXPECT_EQ(script.actions.back().reason, "max_level");
+}
+
+TEST(SessionSender, UdpDatagramsArePacedAtTheRateInBursts) {
+  Fixture f;
+  const double rate = 8e6;  // 1 byte per microsecond
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kUdp, rate), 0);
+  s.OnHello(0, true);
+  Script script;
+  script.Run(s, UINT64_MAX, true);
+  uint64_t bytes = 0, first_pn = 0, expected_pn = 0;
+  bool first = true;
+  for (size_t i = 0; i < script.actions.size(); ++i) {
+    const SenderAction& a = script.actions[i];
+    if (a.kind == SenderAction::kControl) {
+      EXPECT_FALSE(a.reliable);
+      first_pn = a.first_packet_number;
+      expected_pn = first_pn;
+    }
+    if (a.kind != SenderAction::kDatagrams) continue;
+    EXPECT_FALSE(a.on_stream);
+    EXPECT_LE(a.datagrams.size(), 8u);
+    EXPECT_EQ(a.first_packet_number, expected_pn) << "consecutive packet numbers, the END last";
+    expected_pn += a.datagrams.size();
+    if (first) {
+      first = false;
+    } else {
+      // The batch left no earlier than the bytes before it, less the burst, drained at the rate.
+      const double earliest_us = (static_cast<double>(bytes) - 8.0 * kMaxDatagramBytes) * 8e6 / rate;
+      EXPECT_GE(static_cast<double>(script.times[i]), earliest_us - 1) << "batch " << i;
+    }
+    for (const auto& d : a.datagrams) bytes += d.second + kPacketOverheadBytes;
+  }
+  // All of it took about bytes / rate: paced, neither at once nor slower.
+  const double expected_us = static_cast<double>(bytes) * 8e6 / rate;
+  EXPECT_GT(static_cast<double>(script.now), expected_us * 0.8);
+  EXPECT_LT(static_cast<double>(script.now), expected_us * 1.05);
+  EXPECT_EQ(s.stats().datagrams_sent, kRefinements * (kDatagrams + 1));
+}
+
+TEST(SessionSender, WithoutAHelloTheSessionFallsBackToGrpcAfterTheTimeout) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.hello_timeout_us = 1000000;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  ASSERT_EQ(s.Next(0).kind, SenderAction::kStart);
+  // The start took 0.5 s to write: the wait counts from then.
+  script.now = 500000;
+  const SenderAction wait = s.Next(script.now);
+  ASSERT_EQ(wait.kind, SenderAction::kWait);
+  EXPECT_EQ(wait.due_us, 1500000u);
+  script.Run(s);
+  ASSERT_GE(script.actions.size(), 2u);
+  EXPECT_EQ(script.actions[0].kind, SenderAction::kTransportChange);
+  EXPECT_EQ(script.times[0], 1500000u);
+  EXPECT_EQ(script.actions[0].transport, SessionTransport::kGrpc);
+  EXPECT_EQ(script.actions[0].reason, "no HELLO proved a UDP address within 1000 ms");
+  for (const SenderAction& a : script.actions) {
+    if (a.kind == SenderAction::kDatagrams) EXPECT_TRUE(a.on_stream);
+  }
+  EXPECT_EQ(s.stats().transport, SessionTransport::kGrpc);
+}
+
+TEST(SessionSender, AHelloUnderWayExtendsTheWaitUpToThreeTimeouts) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.hello_timeout_us = 1000000;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, false);  // the registration
+  ASSERT_EQ(s.Next(0).kind, SenderAction::kStart);
+  EXPECT_EQ(s.Next(0).due_us, 1000000u);
+  s.OnHello(900000, false);  // an authenticated HELLO, no proof yet
+  EXPECT_EQ(s.Next(900000).due_us, 1900000u);
+  s.OnHello(2900000, false);
+  EXPECT_EQ(s.Next(2900000).due_us, 3000000u) << "at most three timeouts in all";
+  // Proven before that: the refinements go as UDP.
+  s.OnHello(2950000, true);
+  const SenderAction a = s.Next(2950000);
+  EXPECT_EQ(a.kind, SenderAction::kControl);
+  EXPECT_FALSE(a.reliable);
+}
+
+TEST(SessionSender, ReportsAdaptTheRate) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp, 16e6);
+  o.rate.max_bps = 400e6;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  const double start = s.stats().final_rate_bps;
+  // Refinement 0 over UDP, then a clean report with a short RTT: slow start doubles the rate.
+  while (script.Count(SenderAction::kRefinementEnd) < 1) script.actions.push_back(s.Next(script.now += 1000));
+  ClientReportInfo clean{kStream, 0, kDatagrams, 0, true, 0, {2000}};
+  s.OnReport(script.now + 2000, clean);
+  EXPECT_GT(s.stats().final_rate_bps, start);
+  const double after_clean = s.stats().final_rate_bps;
+  // Refinement 1, then a report whose RTT shows a queue: the rate drops to 0.7 x.
+  while (script.Count(SenderAction::kRefinementEnd) < 2) script.actions.push_back(s.Next(script.now += 1000));
+  ClientReportInfo queued{kStream, 1, kDatagrams, 0, true, 0, {}};
+  s.OnReport(script.now + 100000, queued);
+  EXPECT_NEAR(s.stats().final_rate_bps, after_clean * 0.7, 1);
+  EXPECT_EQ(s.stats().rate_decreases, 1u);
+  // A report of a refinement never sent (or sent twice) steers nothing.
+  s.OnReport(script.now + 200000, ClientReportInfo{kStream, 5, 0, kDatagrams, true, 0, {}});
+  EXPECT_EQ(s.stats().rate_decreases, 1u);
+  EXPECT_EQ(s.stats().reports, 3u);
+}
+
+TEST(SessionSender, ReportedLossMovesTheReliableCut) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.reliable_cut = true;
+  o.expected_loss = 0;  // before reports: half the stored share, no refinement fits
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  auto next_control = [&] {
+    for (;;) {
+      SenderAction a = s.Next(script.now);
+      if (a.kind == SenderAction::kWait) {
+        script.now = a.due_us;
+        continue;
+      }
+      if (a.kind == SenderAction::kControl) return a;
+    }
+  };
+  EXPECT_FALSE(next_control().reliable) << "refinement 0 at the expected loss of 0";
+  // 40 of 40 datagrams missing: loss 1, the most share (20 %): two refinements.
+  s.OnReport(script.now, ClientReportInfo{kStream, 0, 0, 40, true, 0, {}});
+  // Refinement 0's report counts only once its END left: finish it first.
+  SenderAction a = next_control();
+  EXPECT_EQ(a.refinement->refinement, 1u);
+  EXPECT_EQ(s.stats().cut_loss, 0.0) << "the report came before refinement 0's END: not counted";
+  ClientReportInfo lossy{kStream, 1, 0, 40, true, 0, {}};
+  // Finish refinement 1, report it lossy, and refinement 2 is decided on loss 1.
+  while (true) {
+    SenderAction b = s.Next(script.now);
+    if (b.kind == SenderAction::kWait) {
+      script.now = b.due_us;
+      continue;
+    }
+    if (b.kind == SenderAction::kRefinementEnd) break;
+  }
+  s.OnReport(script.now, lossy);
+  a = next_control();
+  EXPECT_EQ(s.stats().cut_loss, 1.0);
+  EXPECT_FALSE(a.reliable) << "refinement 2 is not in a cut of two refinements";
+  EXPECT_EQ(ReliableCutFor(f.plan.primitives[0], 1.0), (std::vector<uint32_t>{0, 1}));
+  EXPECT_EQ(ReliableCutFor(f.plan.primitives[0], 0.12), (std::vector<uint32_t>{0}));
+}
+
+TEST(SessionSender, TheReliableCutGoesOnTheStreamPacedOneByOne) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.reliable_cut = true;  // no expected loss: the reference loss, refinement 0 reliable
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  script.Run(s);
+  bool in_first = false;
+  size_t batches = 0;
+  for (const SenderAction& a : script.actions) {
+    if (a.kind == SenderAction::kControl) {
+      in_first = a.refinement->refinement == 0;
+      EXPECT_EQ(a.reliable, in_first);
+      EXPECT_EQ(a.first_packet_number == 0, in_first);
+    }
+    if (a.kind == SenderAction::kDatagrams && in_first) {
+      EXPECT_TRUE(a.on_stream);
+      EXPECT_EQ(a.datagrams.size(), 1u);
+      ++batches;
+    }
+  }
+  EXPECT_EQ(batches, kDatagrams + 1);
+  EXPECT_EQ(s.stats().reliable_refinements, 1u);
+  EXPECT_EQ(s.stats().reliable_bytes, kDatagrams * kDatagramBytes);
+}
+
+TEST(SessionSender, AStalledClientIsCutOffAtTheIdleTimeout) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp, 0.3e6);  // slow: mid-session for seconds
+  o.idle_timeout_us = 1000000;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  // The client reports at 0.3 s, then stops (SIGSTOP): nothing after.
+  script.Run(s, 300000);
+  s.OnReport(300000, ClientReportInfo{kStream, 0, kDatagrams, 0, true, 0, {}});
+  EXPECT_EQ(s.idle_deadline_us(), 1300000u);
+  EXPECT_FALSE(s.stopping(1299999));
+  EXPECT_TRUE(s.stopping(1300000)) << "the driver wakes it then even when its stream is full";
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(script.now, 1300000u) << "exactly at the idle timeout, not before";
+  EXPECT_EQ(last.status.code(), StatusCode::kDeadlineExceeded);
+  EXPECT_EQ(s.end_reason(), "timeout");
+  EXPECT_LT(script.Count(SenderAction::kRefinementEnd), kRefinements) << "cut mid-session";
+  EXPECT_EQ(s.Next(script.now + 1).kind, SenderAction::kWait) << "nothing after the finish";
+}
+
+TEST(SessionSender, CancelStopsAtOnce) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  EXPECT_EQ(s.Next(0).kind, SenderAction::kStart);
+  EXPECT_EQ(s.Next(0).kind, SenderAction::kControl);
+  s.Cancel(Cancelled("the client went away"), "client went away");
+  const SenderAction a = s.Next(0);
+  EXPECT_EQ(a.kind, SenderAction::kFinish);
+  EXPECT_EQ(a.status.code(), StatusCode::kCancelled);
+  EXPECT_EQ(s.end_reason(), "client went away");
+  EXPECT_TRUE(s.finished());
+}
+
+TEST(SessionSender, DoneBeforeTheEndStopsTheSession) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  EXPECT_EQ(s.Next(0).kind, SenderAction::kStart);
+  s.OnClientClosed(0, true);
+  const SenderAction a = s.Next(0);
+  EXPECT_EQ(a.kind, SenderAction::kFinish);
+  EXPECT_EQ(a.status.code(), StatusCode::kCancelled);
+  EXPECT_EQ(s.end_reason(), "client done");
+}
+
+TEST(SessionSender, AClientThatDoesNotCloseIsCutAfterTheLinger) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.idle_timeout_us = 0;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  ASSERT_EQ(script.Run(s, UINT64_MAX, true).kind, SenderAction::kEnd);
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(script.now, SessionSender::kLingerUs);
+  EXPECT_EQ(last.status.code(), StatusCode::kCancelled);
+  EXPECT_EQ(s.end_reason(), "complete");
+}
+
+TEST(SessionSender, OneRepairRequestSendsTheNamedDatagramsOnceThenRepairEnd) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  ASSERT_EQ(script.actions.back().kind, SenderAction::kEnd);
+  const size_t before = script.actions.size();
+  s.OnRepair(1000, {RepairItem{kStream, 2, {3, 1, 3}}, RepairItem{kStream, 5, {0}}});
+  // A second request is never read (the driver stops reading): the core ignores one too.
+  s.OnRepair(1000, {RepairItem{kStream, 99, {0}}});
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_TRUE(last.status.ok()) << last.status.ToString();
+  std::vector<uint8_t> firsts;
+  for (size_t i = before; i < script.actions.size(); ++i) {
+    if (script.actions[i].kind != SenderAction::kDatagrams) continue;
+    for (const auto& d : script.actions[i].datagrams) firsts.push_back(d.first[0]);
+  }
+  EXPECT_EQ(firsts, (std::vector<uint8_t>{2 * 16 + 3, 2 * 16 + 1, 5 * 16 + 0}));
+  const SenderAction& repair_end = script.actions[script.actions.size() - 2];
+  ASSERT_EQ(repair_end.kind, SenderAction::kRepairEnd);
+  EXPECT_EQ(repair_end.count, 3u);
+  EXPECT_EQ(repair_end.bytes, 3u * kDatagramBytes);
+}
+
+TEST(SessionSender, ARepairOfSomethingNotSentIsInvalidArgument) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, {RepairItem{kStream, 2, {kDatagrams}}});
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(last.status.message().find("datagram 10 does not exist"), std::string::npos) << last.status.ToString();
+}
+
+TEST(SessionSender, ARepairInASessionWithoutRepairIsInvalidArgument) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, {RepairItem{kStream, 2, {1}}});
+  const SenderAction last = script.Run(s);
+  EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
+}
+
+TEST(SessionSender, WithRepairButNoRequestTheSessionWaitsThenLingers) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  o.idle_timeout_us = 0;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(script.now, SessionSender::kRepairWaitUs + SessionSender::kLingerUs);
+}
+
+TEST(SessionSender, TheServerShareHoldsBackEverySession) {
+  Fixture f;
+  RateShare share(1e6);  // far below the sessions' own rate
+  SessionSenderOptions o = Options(SessionTransport::kUdp, 100e6);
+  o.server_share = &share;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  script.Run(s);
+  uint64_t bytes = 0;
+  for (const SenderAction& a : script.actions) {
+    for (const auto& d : a.datagrams) bytes += d.second + kPacketOverheadBytes;
+  }
+  EXPECT_GE(static_cast<double>(script.now), (static_cast<double>(bytes) - 64 * 1024) * 8) << "1 Mbit/s: 8 us per byte";
+}
+
+}  // namespace
+}  // namespace meshstream
