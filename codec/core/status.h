@@ -5,7 +5,7 @@
 // names what is wrong and where ("accessors[3]: count 900 exceeds bufferView 2").
 // Exactly one place per transport maps a Status to the outside world: the CLI
 // maps codes to exit codes (cli/exit_codes.h), the gRPC services map them to
-// grpc::Status and back (services/api/grpc_status.h).
+// grpc::Status and back (proto/rpc_status.h).
 // Thread safety: plain values, safe to copy and move between threads.
 #ifndef MESHSTREAM_CODEC_CORE_STATUS_H_
 #define MESHSTREAM_CODEC_CORE_STATUS_H_

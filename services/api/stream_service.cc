@@ -10,7 +10,7 @@
 #include "net/packet_header.h"
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
-#include "services/api/grpc_status.h"
+#include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/export/version_export.h"
 #include "services/store/blob_store.h"

@@ -11,7 +11,7 @@
 // proto code: libmeshstream registers meshstream/v1/*.proto with the
 // process's protobuf, and a second copy in the same process aborts
 // (docs/c-api.md, "One copy per process"). So the assets go in through the
-// CLI (`meshstream ingest`, `export`) rather than testing/asset_client.h.
+// CLI (`meshstream ingest`, `export`) rather than sdk::AssetClient.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>

@@ -21,7 +21,7 @@
 
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "tests/common/sdk_options.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -29,7 +29,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
 using Clock = std::chrono::steady_clock;
 
@@ -49,11 +48,10 @@ int64_t RssKiB(pid_t pid) {
 }
 
 void Ingest(const ServeProcess& server, const std::string& asset, const std::string& model) {
-  AssetClient client(server.address());
-  v1::IngestResponse r;
-  ASSERT_TRUE(client.Ingest(asset, AssetClient::Load(test_util::ModelPath(model), model.substr(model.rfind('/') + 1)), &r).ok());
+  auto client = test_util::NewAssetClient(server.address());
   v1::Job job;
-  ASSERT_TRUE(client.Watch(r.job_id(), &job).ok());
+  const Status s = test_util::IngestModel(*client, asset, test_util::ModelPath(model), model.substr(model.rfind('/') + 1), &job);
+  ASSERT_TRUE(s.ok()) << s.ToString();
   ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 }
 

@@ -27,7 +27,7 @@
 #include <gtest/gtest.h>
 
 #include "meshstream/v1/stream.grpc.pb.h"
-#include "testing/asset_client.h"
+#include "testing/asset_calls.h"
 #include "testing/grpc_probe.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
@@ -35,7 +35,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::AssetClient;
 using test_util::ServeProcess;
 using Clock = std::chrono::steady_clock;
 
@@ -183,11 +182,10 @@ std::unique_ptr<ServeProcess> StartServer(test_util::TempDir& dir, int sessions,
                                      std::to_string(sessions), "--max-threads", "32", "--session-idle-timeout", "600"});
   EXPECT_TRUE(server.ok()) << server.status().ToString();
   if (!server.ok()) return nullptr;
-  AssetClient client((*server)->address());
-  v1::IngestResponse r;
-  EXPECT_TRUE(client.Ingest("asset", AssetClient::Load(test_util::ModelPath(model), model), &r).ok());
+  auto client = test_util::NewAssetClient((*server)->address());
   v1::Job job;
-  EXPECT_TRUE(client.Watch(r.job_id(), &job).ok());
+  const Status ingested = test_util::IngestModel(*client, "asset", test_util::ModelPath(model), model, &job);
+  EXPECT_TRUE(ingested.ok()) << ingested.ToString();
   EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   return std::move(server).value();
 }
@@ -222,16 +220,16 @@ TEST(StreamSaturation, AFullServerOfStalledSessionsStillAnswersWithinOneSecond) 
   std::this_thread::sleep_for(std::chrono::seconds(2));
   const Held full = Measure(server->pid());
 
-  AssetClient client(server->address());
+  auto client = test_util::NewAssetClient(server->address());
   auto begin = Clock::now();
   v1::Version version;
-  const grpc::Status got = client.GetVersion("asset", 0, &version);
+  const Status got = test_util::GetVersion(*client, "asset", 0, &version);
   const double get_s = std::chrono::duration<double>(Clock::now() - begin).count();
-  EXPECT_TRUE(got.ok()) << got.error_message();
+  EXPECT_TRUE(got.ok()) << got.ToString();
   EXPECT_LT(get_s, 1.0) << "GetVersion";
 
   begin = Clock::now();
-  const test_util::HealthAnswer health = test_util::CheckHealth(client.channel());
+  const test_util::HealthAnswer health = test_util::CheckHealth(client->channel());
   const double health_s = std::chrono::duration<double>(Clock::now() - begin).count();
   EXPECT_TRUE(health.status.ok()) << health.status.error_message();
   EXPECT_EQ(health.serving_status, 1);
@@ -239,7 +237,7 @@ TEST(StreamSaturation, AFullServerOfStalledSessionsStillAnswersWithinOneSecond) 
 
   begin = Clock::now();
   {
-    auto stub = v1::StreamService::NewStub(client.channel());
+    auto stub = v1::StreamService::NewStub(client->channel());
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
     auto stream = stub->Open(&context);
