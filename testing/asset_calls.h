@@ -22,6 +22,13 @@
 
 namespace meshstream::test_util {
 
+// The connection options of a plain (no TLS, no token) client of `address`.
+inline sdk::ClientOptions PlainClientOptions(const std::string& address) {
+  sdk::ClientOptions options;
+  options.server = address;
+  return options;
+}
+
 // A client of the server at `address`; aborts the test binary when the
 // options are refused (they never are for a loopback address).
 inline std::unique_ptr<sdk::AssetClient> NewAssetClient(const std::string& address, const std::string& token = "",

@@ -20,6 +20,7 @@
 #include "bench/stream/sessions.h"
 #include "net/udp_socket.h"
 #include "sdk/client.h"
+#include "testing/asset_calls.h"
 
 namespace meshstream::bench::stream {
 
@@ -43,7 +44,7 @@ int RateClientMain(int argc, char** argv) {
   std::vector<std::thread> threads;
   for (int i = 0; i < sessions; ++i) {
     threads.emplace_back([&, i] {
-      auto client = ms::sdk::Client::Create({address, "", false, ""});
+      auto client = ms::sdk::Client::Create(meshstream::test_util::PlainClientOptions(address));
       if (client.ok()) RunSession(*client.value(), m, false, timeout_s);  // warm-up: the connection
       gate.Arrive();
       if (!client.ok()) return;

@@ -12,6 +12,7 @@
 #include "bench/bench_util.h"
 #include "bench/service_stats.h"
 #include "services/store/blob_store.h"
+#include "testing/asset_calls.h"
 
 namespace meshstream::bench::stream {
 
@@ -162,7 +163,7 @@ Round RunRound(Kind kind, int n, const std::string& address, const Model& m, con
         gate.Arrive();
         o = RunExport(api, m, draco_sha256);
       } else {
-        auto client = ms::sdk::Client::Create({address, "", false, ""});
+        auto client = ms::sdk::Client::Create(meshstream::test_util::PlainClientOptions(address));
         gate.Arrive();
         if (!client.ok()) {
           o.error = "Client::Create: " + client.status().ToString();

@@ -24,6 +24,7 @@
 #include "sdk/session.h"
 #include "testing/netns.h"
 #include "testing/udp_relay.h"
+#include "testing/asset_calls.h"
 
 namespace meshstream::bench::stream {
 
@@ -64,7 +65,7 @@ std::pair<std::string, int> Capture(const std::string& command) {
 // server (no namespace, no shaping), checked complete and without one
 // predicted vertex.
 Primitive ReferenceMesh(const std::string& address, const Model& m) {
-  auto client = Check(sdk::Client::Create({address, "", false, ""}), "the reference client");
+  auto client = Check(sdk::Client::Create(meshstream::test_util::PlainClientOptions(address)), "the reference client");
   sdk::SessionOptions so;
   so.asset = m.name;
   so.version = m.version;

@@ -18,6 +18,7 @@
 #include "sdk/client.h"
 #include "sdk/session.h"
 #include "services/store/blob_store.h"
+#include "testing/asset_calls.h"
 
 namespace meshstream::bench::stream {
 
@@ -226,7 +227,7 @@ void PollToEnd(sdk::Session& s, const ClientArgs& a, Clock::time_point t0, Recor
 
 // udp or tcp_only: one SDK session, timed from Open.
 void RunSession(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots) {
-  auto client = sdk::Client::Create({a.server, "", false, ""});
+  auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions(a.server));
   if (!client.ok()) {
     j["error"] = "Client::Create: " + client.status().ToString();
     return;

@@ -51,7 +51,7 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
     const auto exported = test_util::Export(*client, "m", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
     ASSERT_TRUE(exported.status.ok());
 
-    auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+    auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
     ASSERT_TRUE(sdk_client.ok());
     auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("m", 0, -1, true));
     ASSERT_TRUE(session.ok()) << session.status().ToString();
@@ -111,7 +111,7 @@ TEST(SdkSession, MaxLevelAndErrors) {
   const auto client = test_util::NewAssetClient((*server)->address());
   v1::Job job;
   ASSERT_TRUE(test_util::IngestModel(*client, "spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
-  auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(sdk_client.ok());
   auto three = sdk::Session::Open(**sdk_client, test_util::SessionFor("spot", 0, 3, true));
   ASSERT_TRUE(three.ok());
@@ -141,7 +141,7 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
   ASSERT_TRUE(test_util::Ingest(*client, "horse", test_util::LoadFile(test_util::ModelPath("horse.ply"), "horse.ply"), &r).ok());
   v1::Job job;
   ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
-  auto sdk_client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(sdk_client.ok());
 
   sdk::SessionOptions bytes = test_util::SessionFor("horse");

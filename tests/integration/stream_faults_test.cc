@@ -90,7 +90,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "40"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   Ingest(**server, "bunny", "stanford-bunny.obj");
-  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   const Outcome one = RunSession(**client, test_util::SessionFor("bunny", 0, -1, false));
   ASSERT_EQ(one.last, sdk::EventType::kComplete) << one.status.ToString();
@@ -144,7 +144,7 @@ TEST(StreamFaults, TheServerRateCapHoldsForAllSessionsTogether) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-rate", "0.5"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   Ingest(**server, "horse", "horse.ply");
-  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   Outcome a, b;
   const auto begin = Clock::now();
@@ -171,7 +171,7 @@ TEST(StreamFaults, AServerKilledMidSessionGivesTheClientAnErrorNotAHang) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "0.5"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   Ingest(**server, "horse", "horse.ply");
-  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   auto session = sdk::Session::Open(**client, test_util::SessionFor("horse", 0, -1, false));
   ASSERT_TRUE(session.ok());
@@ -238,7 +238,7 @@ TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
   EXPECT_TRUE(cut) << (*server)->log();
   EXPECT_LT(seconds, 8.0);
   // The slot is free again: a session completes.
-  auto client = sdk::Client::Create({(*server)->address(), "", false, ""});
+  auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   const Outcome o = RunSession(**client, test_util::SessionFor("horse", 0, 0, false), 15000);
   kill(child, SIGKILL);

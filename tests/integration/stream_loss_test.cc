@@ -90,7 +90,7 @@ class StreamOverRelay : public ::testing::Test {
       ASSERT_TRUE(test_util::Watch(*assets, id, &job).ok());
       ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
     }
-    client_ = sdk::Client::Create({server_->address(), "", false, ""}).value().release();
+    client_ = sdk::Client::Create(meshstream::test_util::PlainClientOptions(server_->address())).value().release();
     lossless_ = new std::map<std::string, Result>();
     for (const auto& [asset, file] : Models()) {
       Result r = RunSession(*client_, test_util::SessionFor(asset, 0, -1, true));

@@ -144,7 +144,9 @@ TEST(SessionSender, OverGrpcEveryRefinementIsControlDatagramsEndThenSessionEnd) 
         ++datagrams;
       }
     }
-    if (a.kind == SenderAction::kRefinementEnd) EXPECT_EQ(datagrams, kDatagrams + 1);
+    if (a.kind == SenderAction::kRefinementEnd) {
+      EXPECT_EQ(datagrams, kDatagrams + 1);
+    }
   }
   const SenderAction& end = script.actions[script.actions.size() - 1];
   EXPECT_EQ(end.kind, SenderAction::kEnd);
@@ -224,7 +226,9 @@ TEST(SessionSender, WithoutAHelloTheSessionFallsBackToGrpcAfterTheTimeout) {
   EXPECT_EQ(script.actions[0].transport, SessionTransport::kGrpc);
   EXPECT_EQ(script.actions[0].reason, "no HELLO proved a UDP address within 1000 ms");
   for (const SenderAction& a : script.actions) {
-    if (a.kind == SenderAction::kDatagrams) EXPECT_TRUE(a.on_stream);
+    if (a.kind == SenderAction::kDatagrams) {
+      EXPECT_TRUE(a.on_stream);
+    }
   }
   EXPECT_EQ(s.stats().transport, SessionTransport::kGrpc);
 }
