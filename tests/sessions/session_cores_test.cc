@@ -30,6 +30,7 @@
 // and tests/sdk run those over loopback).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <memory>
