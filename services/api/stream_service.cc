@@ -7,11 +7,11 @@
 #include <utility>
 #include <vector>
 
-#include "net/packet_header.h"
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
 #include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
+#include "services/api/server_messages.h"
 #include "services/export/version_export.h"
 #include "services/store/blob_store.h"
 #include "services/streaming/session_plan.h"
@@ -20,14 +20,6 @@
 namespace meshstream {
 
 namespace {
-
-std::string Slice(const std::vector<uint8_t>& bytes, const ByteRange& r) {
-  return std::string(reinterpret_cast<const char*>(bytes.data() + r.offset), r.length);
-}
-
-v1::Transport ToProto(SessionTransport t) {
-  return t == SessionTransport::kUdp ? v1::TRANSPORT_UDP : v1::TRANSPORT_GRPC;
-}
 
 Status CheckOpen(const v1::OpenRequest& open) {
   MS_RETURN_IF_ERROR(CheckName("asset", open.asset()));
@@ -121,13 +113,11 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 
   // The SessionStream.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    v1::ServerMessage message;
+    v1::ServerMessage message = SessionStartMessage(plan_, *artifact_, transport);
     v1::SessionStart& start = *message.mutable_session();
     start.set_session_id(RandomHex(16));
     start.set_asset(version_.asset);
     start.set_version(version_.version);
-    start.set_transport(ToProto(transport));
-    start.set_max_datagram_bytes(static_cast<uint32_t>(kMaxDatagramBytes));
     start.set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     if (udp != nullptr) {
       start.mutable_udp()->set_host(service_->options_.udp_advertise_host);
@@ -137,64 +127,32 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
       start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
-    for (const PlannedPrimitive& p : plan_.primitives) {
-      v1::PrimitiveStart& out = *start.add_primitives();
-      out.set_primitive(p.stream);
-      out.set_mesh(p.mesh);
-      out.set_mesh_primitive(p.mesh_primitive);
-      out.set_header(Slice(*artifact_, p.header));
-      out.set_base_mesh(Slice(*artifact_, p.base));
-      out.set_refinements(p.refinements);
-      for (const auto& [name, id] : p.draco_attributes) (*out.mutable_draco_attributes())[name] = id;
-    }
     Queue(std::move(message));
   }
 
   void TransportChanged(SessionTransport transport, const std::string& reason) override {
-    v1::ServerMessage m;
-    m.mutable_transport_change()->set_transport(ToProto(transport));
-    m.mutable_transport_change()->set_reason(reason);
-    Queue(std::move(m));
+    Queue(TransportChangeMessage(transport, reason));
   }
 
   void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
                bool reliable) override {
-    v1::ServerMessage m;
-    v1::ControlBlock& c = *m.mutable_control();
-    c.set_primitive(stream);
-    c.set_refinement(r.refinement);
-    c.set_control(Slice(*artifact_, r.control));
-    c.set_datagrams(datagrams);
-    c.set_first_packet_number(first_packet_number);
-    c.set_reliable(reliable);
-    Queue(std::move(m));
+    Queue(ControlMessage(*artifact_, r, stream, datagrams, first_packet_number, reliable));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {
-    v1::ServerMessage m;
-    m.mutable_datagram()->set_payload(reinterpret_cast<const char*>(data), size);
-    Queue(std::move(m));
+    Queue(DatagramMessage(data, size));
   }
 
   void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) override {
-    v1::ServerMessage m;
-    m.mutable_refinement_end()->set_primitive(stream);
-    m.mutable_refinement_end()->set_refinement(refinement);
-    m.mutable_refinement_end()->set_datagrams_sent(datagrams_sent);
-    Queue(std::move(m));
+    Queue(RefinementEndMessage(stream, refinement, datagrams_sent));
   }
 
   void End(const std::string& reason) override {
-    v1::ServerMessage m;
-    m.mutable_end()->set_reason(reason);
-    Queue(std::move(m));
+    Queue(EndMessage(reason));
   }
 
   void RepairEnd(uint32_t datagrams, uint64_t bytes) override {
-    v1::ServerMessage m;
-    m.mutable_repair_end()->set_datagrams(datagrams);
-    m.mutable_repair_end()->set_bytes(bytes);
-    Queue(std::move(m));
+    Queue(RepairEndMessage(datagrams, bytes));
   }
 
   void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {

@@ -1,0 +1,85 @@
+#include "services/api/server_messages.h"
+
+#include "net/packet_header.h"
+
+namespace meshstream {
+
+namespace {
+
+std::string Slice(const std::vector<uint8_t>& bytes, const ByteRange& r) {
+  return std::string(reinterpret_cast<const char*>(bytes.data() + r.offset), r.length);
+}
+
+}  // namespace
+
+v1::Transport ToProto(SessionTransport t) {
+  return t == SessionTransport::kUdp ? v1::TRANSPORT_UDP : v1::TRANSPORT_GRPC;
+}
+
+v1::ServerMessage SessionStartMessage(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
+                                      SessionTransport transport) {
+  v1::ServerMessage message;
+  v1::SessionStart& start = *message.mutable_session();
+  start.set_transport(ToProto(transport));
+  start.set_max_datagram_bytes(static_cast<uint32_t>(kMaxDatagramBytes));
+  for (const PlannedPrimitive& p : plan.primitives) {
+    v1::PrimitiveStart& out = *start.add_primitives();
+    out.set_primitive(p.stream);
+    out.set_mesh(p.mesh);
+    out.set_mesh_primitive(p.mesh_primitive);
+    out.set_header(Slice(artifact, p.header));
+    out.set_base_mesh(Slice(artifact, p.base));
+    out.set_refinements(p.refinements);
+    for (const auto& [name, id] : p.draco_attributes) (*out.mutable_draco_attributes())[name] = id;
+  }
+  return message;
+}
+
+v1::ServerMessage TransportChangeMessage(SessionTransport transport, const std::string& reason) {
+  v1::ServerMessage m;
+  m.mutable_transport_change()->set_transport(ToProto(transport));
+  m.mutable_transport_change()->set_reason(reason);
+  return m;
+}
+
+v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const PlannedRefinement& r, uint32_t stream,
+                                 uint32_t datagrams, uint64_t first_packet_number, bool reliable) {
+  v1::ServerMessage m;
+  v1::ControlBlock& c = *m.mutable_control();
+  c.set_primitive(stream);
+  c.set_refinement(r.refinement);
+  c.set_control(Slice(artifact, r.control));
+  c.set_datagrams(datagrams);
+  c.set_first_packet_number(first_packet_number);
+  c.set_reliable(reliable);
+  return m;
+}
+
+v1::ServerMessage DatagramMessage(const uint8_t* data, size_t size) {
+  v1::ServerMessage m;
+  m.mutable_datagram()->set_payload(reinterpret_cast<const char*>(data), size);
+  return m;
+}
+
+v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) {
+  v1::ServerMessage m;
+  m.mutable_refinement_end()->set_primitive(stream);
+  m.mutable_refinement_end()->set_refinement(refinement);
+  m.mutable_refinement_end()->set_datagrams_sent(datagrams_sent);
+  return m;
+}
+
+v1::ServerMessage EndMessage(const std::string& reason) {
+  v1::ServerMessage m;
+  m.mutable_end()->set_reason(reason);
+  return m;
+}
+
+v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes) {
+  v1::ServerMessage m;
+  m.mutable_repair_end()->set_datagrams(datagrams);
+  m.mutable_repair_end()->set_bytes(bytes);
+  return m;
+}
+
+}  // namespace meshstream

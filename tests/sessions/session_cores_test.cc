@@ -1,0 +1,643 @@
+// The two session cores against each other in one process (issue 22): the
+// server's SessionSender (services/streaming/session_sender.h) and the
+// client's SessionCore (sdk/session_core.h), on a simulated clock, through a
+// simulated network, deterministic by seed. No socket, thread or sleep.
+//
+// Simulated, as the real drivers do it:
+//   - the server's actions become ServerMessages through the builders
+//     StreamService uses (services/api/server_messages.h), and the client's
+//     ClientMessages reach the sender through proto_convert.h, as
+//     StreamService's reactor hands them over (report, repair: nothing read
+//     after it, done; a half-close);
+//   - the reliable channel (the gRPC stream, both ways): in order, delayed,
+//     never lost; the call's status follows the last message;
+//   - the unreliable channel (UDP DATA): each datagram is the codec's
+//     plaintext payload with the packet number send_loop hands to
+//     UdpEndpoint::SendData (first_packet_number + k), delivered to
+//     SessionCore::TakeDatagram as sdk/session.cc does after UdpReceiver has
+//     opened it: seeded loss, delay with jitter (so reordering) and copies;
+//   - the HELLO: when the client takes its UdpStart, a proven HELLO reaches
+//     the sender (OnHello, as send_loop reads it from the endpoint) one
+//     delay later, or never (UDP blocked: the fallback to gRPC);
+//   - the client is polled as sdk::Session::Poll does it: at most one event
+//     per poll, the arrivals taken (with their arrival times, the horizon
+//     the poll's time) only when no event waits.
+// Not simulated: the sealing and opening of datagrams (net/packet_crypto,
+// tested in tests/net and tests/services), replay drops (the copies reach
+// the core, which must ignore them itself), the send loop's back-pressure on
+// a full stream (the simulated stream takes everything), RST/cancellation,
+// the SessionStart's scene, and the real clocks and threads (tests/services
+// and tests/sdk run those over loopback).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <random>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "codec/bitstream/format.h"
+#include "codec/bitstream/reader.h"
+#include "importers/draco_base_coder.h"
+#include "sdk/session_core.h"
+#include "services/api/proto_convert.h"
+#include "services/api/server_messages.h"
+#include "services/pipeline/encode_options.h"
+#include "services/pipeline/process_source.h"
+#include "services/streaming/session_plan.h"
+#include "services/streaming/session_sender.h"
+#include "testing/test_util.h"
+
+namespace meshstream {
+namespace {
+
+// spot.obj through the pipeline, planned whole, and the exact decode of
+// every primitive (every datagram offered, by the codec's own reader).
+struct Artifact {
+  std::vector<uint8_t> glb;
+  SessionPlan plan;
+  std::vector<QuantizedMesh> exact;
+};
+
+DracoAttributeIds IdsOf(const PlannedPrimitive& p) {
+  DracoAttributeIds ids;
+  for (const auto& [name, id] : p.draco_attributes) {
+    if (name == "POSITION") ids.position = id;
+    if (name == "NORMAL") ids.normal = id;
+    if (name == "COLOR_0") ids.color = id;
+    if (name.rfind("TEXCOORD_", 0) == 0) {
+      const size_t k = std::stoul(name.substr(9));
+      if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
+      ids.texcoords[k] = id;
+    }
+  }
+  return ids;
+}
+
+const Artifact& Spot() {
+  static const Artifact a = [] {
+    Artifact out;
+    auto settings = ResolveSettings(EncodeSettings{});
+    EXPECT_TRUE(settings.ok());
+    auto r = ProcessSource(test_util::ModelPath("spot.obj"), settings.value(), nullptr);
+    EXPECT_TRUE(r.ok()) << r.status().ToString();
+    if (!r.ok()) return out;
+    out.glb = r->glb;
+    auto plan = PlanSession(out.glb, r->summary.layout_json, -1);
+    EXPECT_TRUE(plan.ok()) << plan.status().ToString();
+    if (!plan.ok()) return out;
+    out.plan = std::move(plan).value();
+    const uint8_t* g = out.glb.data();
+    for (size_t i = 0; i < out.plan.primitives.size(); ++i) {
+      const PlannedPrimitive& p = out.plan.primitives[i];
+      auto reader = StreamReader::Create(g + p.header.offset, p.header.length, p.stream);
+      EXPECT_TRUE(reader.ok());
+      auto base = DecodeDracoBase(g + p.base.offset, p.base.length, IdsOf(p), reader->header().grids);
+      EXPECT_TRUE(base.ok() && reader->SetBase(std::move(base).value()).ok());
+      for (const PlannedRefinement& pr : out.plan.refinements) {
+        if (pr.primitive != i) continue;
+        EXPECT_TRUE(reader->BeginRefinement(g + pr.control.offset, pr.control.length).ok());
+        for (const ByteRange& d : pr.datagrams) EXPECT_TRUE(reader->OfferDatagram(g + d.offset, d.length));
+        EXPECT_TRUE(reader->FinishRefinement().ok());
+      }
+      out.exact.push_back(reader->Mesh());
+    }
+    return out;
+  }();
+  return a;
+}
+
+struct NetOptions {
+  uint64_t seed = 1;
+  uint64_t delay_us = 20000;   // both channels, one way
+  uint64_t jitter_us = 0;      // UDP only: + uniform [0, jitter]
+  double loss = 0;             // UDP only
+  double duplicate = 0;        // UDP only: a delivered datagram arrives twice
+};
+
+// What travels, and when it arrives: a multimap on (time, sequence) is the
+// priority queue of deliveries.
+struct Delivery {
+  enum Kind { kToClient, kDatagram, kStreamEnd, kToServer, kHello } kind = kToClient;
+  v1::ServerMessage server;
+  v1::ClientMessage client;
+  bool half_close = false;
+  std::vector<uint8_t> payload;
+  uint64_t packet_number = 0;
+  Status status;
+};
+
+// The two channels between the cores: the reliable one in order and never
+// lost, the UDP one lossy, jittered and duplicating, by a seeded generator.
+class SimNetwork {
+ public:
+  explicit SimNetwork(const NetOptions& o) : o_(o), rng_(o.seed) {}
+
+  void Reliable(uint64_t now, Delivery d) {
+    uint64_t& last = d.kind == Delivery::kToServer ? to_server_at_ : to_client_at_;
+    last = std::max(last, now + o_.delay_us);
+    Push(last, std::move(d));
+  }
+  void Udp(uint64_t now, std::vector<uint8_t> payload, uint64_t packet_number) {
+    ++udp_sent_;
+    if (Chance(o_.loss)) {
+      dropped_.insert(packet_number);
+      return;
+    }
+    const int copies = Chance(o_.duplicate) ? 2 : 1;
+    for (int c = 0; c < copies; ++c) {
+      Delivery d;
+      d.kind = Delivery::kDatagram;
+      d.payload = payload;
+      d.packet_number = packet_number;
+      Push(now + o_.delay_us + Jitter(), std::move(d));
+    }
+  }
+  void Hello(uint64_t now) {
+    Delivery d;
+    d.kind = Delivery::kHello;
+    Push(now + o_.delay_us, std::move(d));
+  }
+
+  std::optional<uint64_t> next_at() const {
+    if (queue_.empty()) return std::nullopt;
+    return queue_.begin()->first.first;
+  }
+  // The first delivery due at or before `now`.
+  std::optional<std::pair<uint64_t, Delivery>> Pop(uint64_t now) {
+    if (queue_.empty() || queue_.begin()->first.first > now) return std::nullopt;
+    auto it = queue_.begin();
+    std::pair<uint64_t, Delivery> out(it->first.first, std::move(it->second));
+    queue_.erase(it);
+    return out;
+  }
+  const std::set<uint64_t>& dropped() const { return dropped_; }
+  uint64_t udp_sent() const { return udp_sent_; }
+
+ private:
+  bool Chance(double p) { return p > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
+  uint64_t Jitter() { return o_.jitter_us == 0 ? 0 : std::uniform_int_distribution<uint64_t>(0, o_.jitter_us)(rng_); }
+  void Push(uint64_t at, Delivery d) { queue_.emplace(std::make_pair(at, seq_++), std::move(d)); }
+
+  NetOptions o_;
+  std::mt19937_64 rng_;
+  std::multimap<std::pair<uint64_t, uint64_t>, Delivery> queue_;
+  uint64_t seq_ = 0;
+  uint64_t to_server_at_ = 0, to_client_at_ = 0;
+  std::set<uint64_t> dropped_;
+  uint64_t udp_sent_ = 0;
+};
+
+struct RunOptions {
+  NetOptions net;
+  bool udp = true;            // the server registered UDP and the client wants it
+  bool hello_proven = true;   // false: no HELLO ever reaches the server
+  bool repair = false;
+  uint64_t poll_every_us = 1000;
+  uint64_t stop_polling_after_events = UINT64_MAX;  // the client goes silent after that many events
+  uint64_t idle_timeout_us = 30000000;
+};
+
+// Where a UDP refinement's datagrams were numbered (its kControl).
+struct UdpRefinement {
+  uint32_t stream = 0, refinement = 0, count = 0;
+  uint64_t first = 0;
+};
+
+// The loop: one clock, the sender stepped when due or when a client message
+// arrived, the client polled every `poll_every_us`, the network's deliveries
+// in time order.
+class CoresLoop {
+ public:
+  explicit CoresLoop(const RunOptions& o) : o_(o), net_(o.net), core_(ClientOptions(o), 0) {
+    SessionSenderOptions s;
+    s.transport = o.udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
+    s.idle_timeout_us = o.idle_timeout_us;
+    s.repair = o.repair;
+    s.reserve_packet_numbers = [this](uint64_t count) {
+      const uint64_t first = next_packet_number_;
+      next_packet_number_ += count;
+      return first;
+    };
+    sender_ = std::make_unique<SessionSender>(Spot().plan, Spot().glb, -1, std::move(s), 0);
+  }
+
+  // Until nothing can move any more: true; false when `until_us` of
+  // simulated time (or the step guard) ran out first.
+  bool Run(uint64_t until_us = 120000000) {
+    uint64_t next_poll = 0;
+    for (int guard = 0; guard < 10000000 && now_ <= until_us; ++guard) {
+      while (auto d = net_.Pop(now_)) Deliver(d->first, std::move(d->second));
+      StepSender();
+      if (ClientActive() && now_ >= next_poll) {  // Poll drains the queued events first
+        Poll();
+        next_poll = now_ + o_.poll_every_us;
+      }
+      uint64_t next = sender_due_;
+      if (auto at = net_.next_at()) next = std::min(next, *at);
+      if (ClientActive()) next = std::min(next, next_poll);
+      if (next == SenderAction::kNever) return true;
+      now_ = std::max(now_, next);
+    }
+    return false;
+  }
+
+  SessionSender& sender() { return *sender_; }
+  sdk::SessionCore& core() { return core_; }
+  SimNetwork& net() { return net_; }
+  std::vector<sdk::Event> events;
+  std::vector<v1::ClientReport> reports;
+  std::vector<UdpRefinement> udp_refinements;
+  std::optional<Status> finish_status;
+  uint64_t finish_us = 0;
+  uint64_t last_heard_us = 0;  // the last client message the sender got
+  bool fell_back = false;      // a TransportChange reached the client's core
+  uint64_t transport_change_us = 0;
+
+ private:
+  static sdk::SessionOptions ClientOptions(const RunOptions& o) {
+    sdk::SessionOptions c;
+    c.asset = "spot";
+    c.tcp_only = !o.udp;
+    c.repair = o.repair;
+    return c;
+  }
+  // Polled until its last event (kComplete or kError) was taken.
+  bool ClientActive() const {
+    return events.size() < o_.stop_polling_after_events && (!core_.over() || core_.has_event());
+  }
+
+  void Deliver(uint64_t at, Delivery d) {
+    switch (d.kind) {
+      case Delivery::kToClient:
+        if (d.server.has_transport_change()) fell_back = true;
+        arrived_messages_.emplace_back(at, std::move(d.server));
+        break;
+      case Delivery::kDatagram:
+        arrived_datagrams_.push_back(std::move(d));
+        datagram_times_.push_back(at);
+        break;
+      case Delivery::kStreamEnd:
+        stream_end_ = d.status;
+        break;
+      case Delivery::kHello:
+        hello_us_ = at;
+        break;
+      case Delivery::kToServer:
+        ToSender(at, d.client, d.half_close);
+        break;
+    }
+  }
+
+  // As StreamService's reactor: nothing is read after a repair or done.
+  void ToSender(uint64_t at, const v1::ClientMessage& m, bool half_close) {
+    if (!reading_ || sender_->finished()) return;
+    last_heard_us = at;
+    sender_due_ = now_;  // stepped at once, as the Registration schedules it
+    switch (m.kind_case()) {
+      case v1::ClientMessage::kReport:
+        reports.push_back(m.report());
+        sender_->OnReport(at, FromProto(m.report()));
+        break;
+      case v1::ClientMessage::kRepair:
+        reading_ = false;
+        sender_->OnRepair(at, FromProto(m.repair()));
+        return;
+      case v1::ClientMessage::kDone:
+        reading_ = false;
+        sender_->OnClientClosed(at, true);
+        return;
+      default:
+        sender_->OnClientMessage(at);
+        break;
+    }
+    if (half_close) {
+      reading_ = false;
+      sender_->OnClientClosed(at, false);
+    }
+  }
+
+  void ToClient(v1::ServerMessage m) {
+    Delivery d;
+    d.kind = Delivery::kToClient;
+    d.server = std::move(m);
+    net_.Reliable(now_, std::move(d));
+  }
+
+  // As send_loop's Step: every action due now, into the stream or the network.
+  void StepSender() {
+    if (sender_->finished() || now_ < sender_due_) return;
+    const Artifact& a = Spot();
+    for (;;) {
+      if (hello_us_ && o_.hello_proven) sender_->OnHello(*hello_us_, true);
+      SenderAction act = sender_->Next(now_);
+      switch (act.kind) {
+        case SenderAction::kWait:
+          sender_due_ = std::min(act.due_us, sender_->idle_deadline_us());
+          return;
+        case SenderAction::kStart: {
+          v1::ServerMessage m = SessionStartMessage(a.plan, a.glb, act.transport);
+          v1::SessionStart& s = *m.mutable_session();
+          s.set_session_id("00112233445566778899aabbccddeeff");
+          s.set_asset("spot");
+          s.set_version(1);
+          if (act.transport == SessionTransport::kUdp) {
+            s.mutable_udp()->set_host("127.0.0.1");
+            s.mutable_udp()->set_port(7601);
+            s.set_udp_session_id(42);
+            s.set_client_to_server_key(std::string(kPacketKeyBytes, 'c'));
+            s.set_server_to_client_key(std::string(kPacketKeyBytes, 's'));
+          }
+          ToClient(std::move(m));
+          break;
+        }
+        case SenderAction::kTransportChange:
+          transport_change_us = now_;
+          ToClient(TransportChangeMessage(act.transport, act.reason));
+          break;
+        case SenderAction::kControl:
+          if (!act.reliable && sender_->transport() == SessionTransport::kUdp) {
+            udp_refinements.push_back({act.stream, act.refinement->refinement, act.count, act.first_packet_number});
+          }
+          ToClient(ControlMessage(a.glb, *act.refinement, act.stream, act.count, act.first_packet_number, act.reliable));
+          break;
+        case SenderAction::kDatagrams:
+          for (size_t k = 0; k < act.datagrams.size(); ++k) {
+            const auto& [data, size] = act.datagrams[k];
+            if (act.on_stream) {
+              ToClient(DatagramMessage(data, size));
+            } else {
+              net_.Udp(now_, std::vector<uint8_t>(data, data + size), act.first_packet_number + k);
+            }
+          }
+          break;
+        case SenderAction::kRefinementEnd:
+          ToClient(RefinementEndMessage(act.stream, act.refinement->refinement, act.count));
+          break;
+        case SenderAction::kEnd:
+          ToClient(EndMessage(act.reason));
+          break;
+        case SenderAction::kRepairEnd:
+          ToClient(RepairEndMessage(act.count, act.bytes));
+          break;
+        case SenderAction::kFinish: {
+          finish_status = act.status;
+          finish_us = now_;
+          Delivery d;
+          d.kind = Delivery::kStreamEnd;
+          d.status = act.status;
+          net_.Reliable(now_, std::move(d));
+          sender_due_ = SenderAction::kNever;
+          return;
+        }
+      }
+    }
+  }
+
+  // As sdk::Session::Poll: an event waiting is returned at once (one per
+  // poll); otherwise the end is checked, the arrivals taken and handed over.
+  void Poll() {
+    for (;;) {
+      if (auto e = core_.NextEvent()) {
+        events.push_back(*e);
+        return;
+      }
+      if (core_.over()) return;
+      core_.CheckEnd(now_);
+      Apply();
+      if (core_.has_event()) continue;
+      core_.SetArrivalHorizon(now_);
+      for (auto& [at, m] : arrived_messages_) core_.TakeMessage(std::move(m), at);
+      for (size_t i = 0; i < arrived_datagrams_.size(); ++i) {
+        core_.TakeDatagram(std::move(arrived_datagrams_[i].payload), arrived_datagrams_[i].packet_number,
+                           datagram_times_[i]);
+      }
+      arrived_messages_.clear();
+      arrived_datagrams_.clear();
+      datagram_times_.clear();
+      if (stream_end_ && !stream_end_taken_) {
+        stream_end_taken_ = true;
+        core_.TakeStreamEnd(*stream_end_);
+      }
+      core_.HandleArrivals(now_);
+      Apply();
+      if (!core_.has_event()) return;
+    }
+  }
+
+  // What the core asks for: its messages on the stream, the UDP half's HELLO.
+  void Apply() {
+    for (sdk::Outgoing& o : core_.TakeOutgoing()) {
+      sdk::StampHold(o, now_);
+      Delivery d;
+      d.kind = Delivery::kToServer;
+      d.client = std::move(o.message);
+      d.half_close = o.half_close;
+      net_.Reliable(now_, std::move(d));
+    }
+    if (core_.TakeUdpStart() && o_.hello_proven) net_.Hello(now_);
+    core_.TakeUdpStop();
+  }
+
+  RunOptions o_;
+  SimNetwork net_;
+  sdk::SessionCore core_;
+  std::unique_ptr<SessionSender> sender_;
+  uint64_t now_ = 0;
+  uint64_t sender_due_ = 0;
+  uint64_t next_packet_number_ = 1000;
+  std::optional<uint64_t> hello_us_;
+  bool reading_ = true;
+  std::vector<std::pair<uint64_t, v1::ServerMessage>> arrived_messages_;
+  std::vector<Delivery> arrived_datagrams_;
+  std::vector<uint64_t> datagram_times_;
+  std::optional<Status> stream_end_;
+  bool stream_end_taken_ = false;
+};
+
+bool SameMesh(const QuantizedMesh& a, const QuantizedMesh& b) {
+  return a.positions == b.positions && a.attributes == b.attributes && a.indices == b.indices;
+}
+
+void ExpectExactMeshes(sdk::SessionCore& core) {
+  const Artifact& a = Spot();
+  ASSERT_EQ(core.primitive_count(), a.exact.size());
+  for (size_t i = 0; i < a.exact.size(); ++i) {
+    EXPECT_TRUE(SameMesh(core.reader(i).Mesh(), a.exact[i])) << "primitive " << i;
+  }
+  EXPECT_EQ(core.predicted_vertices(), 0u);
+}
+
+// kBaseReady, increasing kLevelReady up to every level, then `last`.
+void ExpectEventsInOrder(const std::vector<sdk::Event>& events, sdk::EventType last) {
+  ASSERT_GE(events.size(), 2u);
+  EXPECT_EQ(events.front().type, sdk::EventType::kBaseReady);
+  int32_t level = 0;
+  for (size_t i = 1; i + 1 < events.size(); ++i) {
+    EXPECT_EQ(events[i].type, sdk::EventType::kLevelReady) << i;
+    EXPECT_GT(events[i].level, level);
+    level = events[i].level;
+  }
+  EXPECT_EQ(level, static_cast<int32_t>(Spot().plan.levels));
+  EXPECT_EQ(events.back().type, last) << events.back().status.ToString();
+}
+
+NetOptions Lossy(uint64_t seed) {
+  NetOptions n;
+  n.seed = seed;
+  n.jitter_us = 30000;  // datagrams overtake each other
+  n.loss = 0.12;
+  n.duplicate = 0.1;
+  return n;
+}
+
+// The data datagrams the network dropped, by (stream, refinement): ordinals.
+std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> DroppedData(CoresLoop& loop) {
+  std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> out;
+  for (const UdpRefinement& r : loop.udp_refinements) {
+    for (uint32_t k = 0; k < r.count; ++k) {
+      if (loop.net().dropped().count(r.first + k) != 0) out[{r.stream, r.refinement}].push_back(k);
+    }
+  }
+  return out;
+}
+
+TEST(SessionCores, NoLossOverUdpGivesTheExactMesh) {
+  ASSERT_FALSE(Spot().plan.refinements.empty());
+  RunOptions o;
+  o.net.jitter_us = 30000;
+  o.net.duplicate = 0.1;
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  ExpectEventsInOrder(loop.events, sdk::EventType::kComplete);
+  ExpectExactMeshes(loop.core());
+  EXPECT_EQ(loop.core().stats().transport, "udp");
+  EXPECT_EQ(loop.core().stats().datagrams_lost, 0u);
+  EXPECT_GT(loop.core().stats().datagrams_duplicate, 0u);
+  EXPECT_FALSE(loop.fell_back);
+  ASSERT_TRUE(loop.finish_status.has_value());
+  EXPECT_TRUE(loop.finish_status->ok()) << loop.finish_status->ToString();
+  EXPECT_EQ(loop.sender().end_reason(), "complete");
+  EXPECT_FALSE(loop.udp_refinements.empty());
+  EXPECT_GT(loop.net().udp_sent(), 0u);
+}
+
+struct LossyResult {
+  std::set<uint64_t> dropped;
+  std::vector<std::string> reports;
+  uint64_t predicted = 0;
+};
+
+LossyResult RunLossy(uint64_t seed) {
+  RunOptions o;
+  o.net = Lossy(seed);
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  LossyResult out;
+  ExpectEventsInOrder(loop.events, sdk::EventType::kComplete);
+  const auto dropped = DroppedData(loop);
+  uint64_t dropped_data = 0, reported_missing = 0;
+  for (const auto& [key, ordinals] : dropped) dropped_data += ordinals.size();
+  EXPECT_GT(dropped_data, 0u);
+  for (const v1::ClientReport& r : loop.reports) {
+    const auto it = dropped.find({r.primitive(), r.refinement()});
+    const std::vector<uint32_t> expected = it == dropped.end() ? std::vector<uint32_t>() : it->second;
+    EXPECT_EQ(std::vector<uint32_t>(r.missing().begin(), r.missing().end()), expected) << "refinement " << r.refinement();
+    reported_missing += static_cast<uint64_t>(r.missing_size());
+    out.reports.push_back(r.SerializeAsString());
+  }
+  EXPECT_EQ(reported_missing, dropped_data);
+  EXPECT_EQ(loop.core().stats().datagrams_lost, dropped_data);
+  // The sender's rate controller and cut saw those reports.
+  const SessionSenderStats s = loop.sender().stats();
+  EXPECT_EQ(s.reports, loop.reports.size());
+  EXPECT_EQ(s.reported_missing, dropped_data);
+  EXPECT_GT(s.min_rtt_us, 0u);
+  EXPECT_GT(loop.core().predicted_vertices(), 0u);
+  EXPECT_TRUE(loop.finish_status.has_value() && loop.finish_status->ok());
+  out.dropped = loop.net().dropped();
+  out.predicted = loop.core().predicted_vertices();
+  return out;
+}
+
+TEST(SessionCores, LossReorderingAndCopiesAreReportedExactlyAndPredicted) {
+  const LossyResult a = RunLossy(7);
+  const LossyResult b = RunLossy(7);
+  const LossyResult c = RunLossy(8);
+  EXPECT_EQ(a.dropped, b.dropped);
+  EXPECT_EQ(a.reports, b.reports);
+  EXPECT_EQ(a.predicted, b.predicted);
+  EXPECT_NE(a.dropped, c.dropped);
+}
+
+TEST(SessionCores, TheRepairMakesTheMeshExactUnderLoss) {
+  RunOptions o;
+  o.net = Lossy(11);
+  o.repair = true;
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  ExpectEventsInOrder(loop.events, sdk::EventType::kComplete);
+  EXPECT_FALSE(DroppedData(loop).empty());
+  ExpectExactMeshes(loop.core());
+  EXPECT_TRUE(loop.core().repair_asked());
+  EXPECT_GT(loop.sender().stats().repaired, 0u);
+  EXPECT_EQ(loop.core().stats().repaired_datagrams, loop.sender().stats().repaired);
+  EXPECT_TRUE(loop.finish_status.has_value() && loop.finish_status->ok());
+}
+
+// Commit 186bb1d over the two real cores: a client polled every 400 ms (far
+// beyond the 50 ms straggler window, several refinements arriving between
+// two polls, one event per poll) loses nothing that arrived. (Its `done`
+// comes after the sender's 2 s linger: the call ends CANCELLED, after every
+// message was delivered; the client's session still completes.)
+TEST(SessionCores, ASlowPollerLosesNothingThatArrived) {
+  RunOptions o;
+  o.net.jitter_us = 30000;
+  o.net.duplicate = 0.1;
+  o.poll_every_us = 400000;
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  ExpectEventsInOrder(loop.events, sdk::EventType::kComplete);
+  ExpectExactMeshes(loop.core());
+  EXPECT_EQ(loop.core().stats().datagrams_lost, 0u);
+  EXPECT_EQ(loop.core().stats().transport, "udp");
+}
+
+TEST(SessionCores, WithoutAProvenHelloTheSessionFallsBackToGrpc) {
+  RunOptions o;
+  o.net = Lossy(21);  // UDP would lose: nothing goes over it
+  o.hello_proven = false;
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  ExpectEventsInOrder(loop.events, sdk::EventType::kComplete);
+  ExpectExactMeshes(loop.core());
+  EXPECT_TRUE(loop.fell_back);
+  EXPECT_EQ(loop.sender().transport(), SessionTransport::kGrpc);
+  // The HELLO wait: one hello_timeout (1 s) after the start was handed out.
+  EXPECT_GE(loop.transport_change_us, 1000000u);
+  EXPECT_LE(loop.transport_change_us, 1000000u + 1000u);
+  EXPECT_EQ(loop.net().udp_sent(), 0u);
+  EXPECT_EQ(loop.core().stats().datagrams_lost, 0u);
+}
+
+TEST(SessionCores, ASilentClientIsCutOffAtTheIdleTimeout) {
+  RunOptions o;
+  o.idle_timeout_us = 1500000;
+  o.stop_polling_after_events = 6;  // a few levels (and their reports), then nothing more
+  CoresLoop loop(o);
+  EXPECT_TRUE(loop.Run()) << "the session never settled";
+  ASSERT_TRUE(loop.finish_status.has_value());
+  EXPECT_EQ(loop.finish_status->code(), StatusCode::kDeadlineExceeded) << loop.finish_status->ToString();
+  EXPECT_EQ(loop.finish_us, loop.last_heard_us + o.idle_timeout_us);
+  EXPECT_GT(loop.last_heard_us, 0u) << "the client had reported before it went silent";
+  EXPECT_EQ(loop.events.size(), 6u);
+  EXPECT_EQ(loop.sender().end_reason(), "timeout");
+}
+
+}  // namespace
+}  // namespace meshstream
