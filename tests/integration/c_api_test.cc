@@ -34,6 +34,7 @@
 #include "meshstream/meshstream.h"
 #include "tests/common/cli_util.h"
 #include "testing/serve_process.h"
+#include "testing/loopback_socket.h"
 #include "testing/test_util.h"
 
 namespace meshstream {
@@ -545,20 +546,8 @@ TEST_F(CApi, UnknownAssetIsNotFoundNamingTheAsset) {
 
 TEST_F(CApi, UnreachableServerIsUnavailable) {
   // A port nothing listens on: bound, then closed.
-  int port = 0;
-  {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    ASSERT_GE(fd, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t length = sizeof a;
-    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-    ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length), 0);
-    port = ntohs(a.sin_port);
-    close(fd);
-  }
-  const std::string address = "127.0.0.1:" + std::to_string(port);
+  const std::string address = test_util::UnusedLoopbackAddress();
+  ASSERT_FALSE(address.empty());
   const ms_client_config config = ClientConfig(address);
   ms_client* raw = nullptr;
   ASSERT_EQ(ms_client_create(&config, &raw), MS_OK) << "creating a client does not connect";
@@ -573,16 +562,10 @@ TEST_F(CApi, UnreachableServerIsUnavailable) {
 // ran out. Without the deadline the call would wait for gRPC's own connect
 // timeout (20 s) and end UNAVAILABLE.
 TEST_F(CApi, DeadlineAgainstAStalledListenerIsTimeout) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  ASSERT_GE(fd, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof a;
-  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length), 0);
-  ASSERT_EQ(listen(fd, 16), 0);  // the kernel completes the handshake; nobody ever accepts
-  const std::string address = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  // The kernel completes the handshake; nobody ever accepts.
+  test_util::LoopbackSocket listener(true);
+  ASSERT_TRUE(listener.ok());
+  const std::string address = listener.address();
   ms_client_config config = ClientConfig(address);
   config.deadline_ms = 300;
   ms_client* raw = nullptr;
@@ -591,7 +574,7 @@ TEST_F(CApi, DeadlineAgainstAStalledListenerIsTimeout) {
   const auto start = std::chrono::steady_clock::now();
   const auto [status, error] = FirstError(client.get(), SessionConfig("spot"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  close(fd);
+  listener.Close();
   EXPECT_EQ(status, MS_ERR_TIMEOUT) << error;
   EXPECT_NE(error.find("DEADLINE_EXCEEDED"), std::string::npos) << error;
   EXPECT_GE(seconds, 0.25) << "the deadline, not something else, ended it";

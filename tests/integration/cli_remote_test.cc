@@ -18,6 +18,7 @@
 #include "testing/asset_calls.h"
 #include "tests/common/cli_util.h"
 #include "testing/serve_process.h"
+#include "testing/loopback_socket.h"
 #include "testing/test_util.h"
 
 namespace meshstream {
@@ -180,18 +181,11 @@ TEST_F(CliRemote, ExitCodesForAMissingServerAndRefusedRequests) {
   // A listener that never answers: the request's deadline (--timeout) runs
   // out, which is exit 3 like an unreachable server (docs/cli.md).
   {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    ASSERT_GE(fd, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t length = sizeof a;
-    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-    ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&a), &length), 0);
-    ASSERT_EQ(listen(fd, 16), 0);
-    const std::string stalled = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+    test_util::LoopbackSocket listener(true);
+    ASSERT_TRUE(listener.ok());
+    const std::string stalled = listener.address();
     const auto late = RunCommand(Cli() + " versions x --server " + stalled + " --timeout 0.5");
-    close(fd);
+    listener.Close();
     EXPECT_EQ(late.exit_code, 3) << late.err;
     EXPECT_NE(late.err.find("--timeout 0.5 s per request"), std::string::npos) << late.err;
     EXPECT_NE(late.err.find(stalled), std::string::npos) << late.err;
