@@ -1,6 +1,8 @@
 #include "services/api/stream_service.h"
 
+#include <atomic>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -43,7 +45,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
 
   Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
-    service_->openers_.Post([this] { Admit(); });
+    PostToOpeners([this] { Admit(); });
   }
 
   // The reactor.
@@ -53,7 +55,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
-      service_->openers_.Post([this] { OpenSession(); });
+      PostToOpeners([this] { OpenSession(); });
       return;
     }
     if (!ok) return registration_.OnClientClosed(false);  // a half-close, or the call ended
@@ -106,10 +108,9 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     if (registered_) Stop();
   }
 
-  void OnDone() override {
-    registration_ = SendLoop::Registration();  // after any step of the send loop under way
-    delete this;
-  }
+  // gRPC's reference ends here; the call is deleted once no opener task
+  // holds one either (Release).
+  void OnDone() override { Release(); }
 
   // The SessionStream.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
@@ -229,10 +230,12 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
                              (udp ? "udp" : "grpc") + ")");
     }
     registration_ = service_->loop_.Add(std::move(sender), this, std::move(udp));
+    // The read before anything that lets the session finish: a Finish may
+    // follow at once (a cancelled call), and no read may start after it.
+    StartRead(&in_);
     registered_ = true;
     if (cancelled_) Stop();
     registration_.Begin();
-    StartRead(&in_);
   }
 
   Status Prepare(const v1::OpenRequest& open) {
@@ -261,6 +264,22 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   }
 
   // Before the session joined the send loop: nothing is queued.
+  // Runs `task` on the opener pool holding a reference, so that the call
+  // outlives the task even when gRPC ends it meanwhile (OnDone).
+  void PostToOpeners(std::function<void()> task) {
+    refs_.fetch_add(1, std::memory_order_relaxed);
+    service_->openers_.Post([this, task = std::move(task)] {
+      task();
+      Release();
+    });
+  }
+
+  void Release() {
+    if (refs_.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
+    registration_ = SendLoop::Registration();  // after any step of the send loop under way
+    delete this;
+  }
+
   void FinishNow(const Status& status) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -297,6 +316,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
+  std::atomic<int> refs_{1};  // gRPC's (released by OnDone) and one per opener task under way
 
   mutable std::mutex mutex_;  // below: the write queue
   std::deque<v1::ServerMessage> queue_;  // its front is being written while writing_
