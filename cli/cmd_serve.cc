@@ -77,7 +77,7 @@ int RunServe(ServeArgs& args) {
 
 Verb AddServe(CLI::App& root) {
   auto args = std::make_shared<ServeArgs>();
-  CLI::App* cmd = AddVerb(root, "serve", "Runs the asset service (gRPC) on an embedded or a PostgreSQL store.", kDetails);
+  CLI::App* cmd = AddVerb(root, "serve", "Runs the asset service (gRPC) and the streaming sessions (gRPC and UDP) on an embedded or a PostgreSQL store.", kDetails);
   ServerOptions& o = args->options;
   FromEnv(cmd->add_option("--listen", o.listen, "HOST:PORT, [V6]:PORT or unix:PATH"))->capture_default_str();
   FromEnv(cmd->add_option("--store", o.store, "a folder (embedded) or postgresql://... (shared)"))->capture_default_str();
