@@ -101,7 +101,8 @@ class AssetApi {
                                                   const std::string& page_token);
 
   // Every chunk of one Export, and the SHA-256 the server sent with the
-  // last; the caller checks the bytes against it (outside its clock).
+  // last; sdk::AssetClient::Export has checked the bytes against it (a
+  // mismatch is its DataLoss error).
   struct Exported {
     std::vector<uint8_t> bytes;
     std::string sha256;

@@ -70,8 +70,8 @@ struct Outcome {
 Outcome RunSession(const sdk::Client& client, const Model& m, bool tcp_only, double timeout_s);
 
 // One export of the version as FORMAT_DRACO_GLB until the last chunk, its
-// bytes checked against the SHA-256 the server sent (and `expect_sha256`
-// when not empty).
+// bytes checked against the SHA-256 the server sent (by the client library,
+// inside the clock) and against `expect_sha256` when not empty.
 Outcome RunExport(AssetApi& api, const Model& m, const std::string& expect_sha256);
 
 struct Round {
