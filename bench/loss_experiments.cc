@@ -91,8 +91,7 @@ Args ParseArgs(int argc, char** argv) {
   Args a;
   ms::bench::Options o("meshstream_loss_bench", kAbout);
   o.String("--out", "FILE", &a.out, "output JSON");
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  ms::bench::AddModelOptions(o, &a.models_dir, &a.only);
   o.Int("--seeds", "N", &a.seeds, 1, 10000, "seeds per cell for bunny and horse (default 20)");
   o.Int("--small-seeds", "N", &a.small_seeds, 1, 10000, "seeds per cell for fandisk, rocker-arm, spot (default 10)");
   o.Int("--level-seeds", "N", &a.level_seeds, 0, 10000, "seeds of the per-level subset (default 3)");
@@ -505,18 +504,8 @@ json TimeDecodes(const Model& m, int repeat) {
 std::vector<Model> PrepareModels(const Args& args) {
   const std::vector<double> kFullLosses = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.20, 0.30};
   const std::vector<double> kSmallLosses = {0.04, 0.08, 0.12, 0.20, 0.30};
-  const std::vector<std::string> all = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
-  std::vector<std::string> chosen;
-  const std::vector<std::string> only = args.only.empty() && args.quick ? std::vector<std::string>{"spot"} : args.only;
-  for (const auto& f : all) {
-    if (only.empty()) {
-      chosen.push_back(f);
-      continue;
-    }
-    for (const auto& o : only)
-      if (o == f || o == Stem(f)) chosen.push_back(f);
-  }
-  if (chosen.empty()) Die("no model matches --model");
+  const std::vector<std::string> chosen = ms::bench::ChooseSharedModels(
+      args.only.empty() && args.quick ? std::vector<std::string>{"spot"} : args.only);
 
   std::vector<Model> models;
   for (const auto& f : chosen) {

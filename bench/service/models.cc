@@ -16,8 +16,12 @@ using json = nlohmann::json;
 
 namespace {
 
-constexpr const char* kModelFiles[] = {"stanford-bunny.obj", "horse.ply",  "fandisk.obj",
-                                   "rocker-arm.obj",     "spot.obj",   "gltf/2CylinderEngine.glb"};
+// The shared models, then a glTF binary.
+std::vector<std::string> ModelFiles() {
+  std::vector<std::string> files = ms::bench::kSharedModels;
+  files.push_back("gltf/2CylinderEngine.glb");
+  return files;
+}
 
 }  // namespace
 
@@ -88,11 +92,11 @@ v1::EncodeOptions VariantOptions(const Model& m, int k) {
   return o;
 }
 
-// The models of --model (all of kModelFiles without it); spot.obj, which
+// The models of --model (all of ModelFiles() without it); spot.obj, which
 // the warm-up and the latency asset use, is loaded by the caller.
 std::vector<Model> LoadModels(const Args& args) {
   std::vector<Model> models;
-  for (const char* relative : kModelFiles) {
+  for (const std::string& relative : ModelFiles()) {
     const std::string stem = ms::bench::Stem(relative);
     if (!args.only.empty() && std::find(args.only.begin(), args.only.end(), stem) == args.only.end()) continue;
     models.push_back(LoadModel(args.models_dir, relative));
