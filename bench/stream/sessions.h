@@ -64,6 +64,15 @@ struct Outcome {
   uint64_t bytes = 0;
 };
 
+// Why a session that reached kComplete did not end well: "kComplete
+// without kBaseReady" (`based`: kBaseReady came first), or "kComplete at
+// level L of N (end reason '...')" short of the full mesh; "" when it did.
+std::string SessionEndError(const sdk::Session& s, bool based);
+
+// What a session not complete after `timeout_s` seconds says: "not
+// complete after T s (level L)".
+std::string SessionTimeoutError(const sdk::Session& s, double timeout_s);
+
 // One SDK session of `m` to kComplete; `client` made before the clock
 // starts. Not ok when it ends in kError, short of the full mesh or after
 // `timeout_s`.
