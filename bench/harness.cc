@@ -11,6 +11,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "bench/bench_util.h"
+#include "importers/import.h"
 #include "proto/rpc_status.h"
 #include "sdk/asset_client.h"
 #include "testing/asset_calls.h"
@@ -81,6 +82,17 @@ void WriteJson(const std::string& path, const json& out) {
   std::ofstream f(path);
   f << out.dump(1) << "\n";
   if (!f) Die(path + ": cannot write");
+}
+
+// ------------------------------------------------------------- the models
+
+ModelFile ReadModelFile(const std::string& dir, const std::string& relative) {
+  ModelFile m;
+  m.path = dir + "/" + relative;
+  m.file = fs::path(relative).filename().string();
+  m.name = Stem(relative);
+  m.bytes = Check(ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
+  return m;
 }
 
 // ---------------------------------------------------------- the asset API

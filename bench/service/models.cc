@@ -27,10 +27,7 @@ std::vector<std::string> ModelFiles() {
 
 Model LoadModel(const std::string& dir, const std::string& relative) {
   Model m;
-  m.path = dir + "/" + relative;
-  m.file = fs::path(relative).filename().string();
-  m.name = ms::bench::Stem(relative);
-  m.bytes = Check(ms::ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
+  static_cast<ModelFile&>(m) = ReadModelFile(dir, relative);
   const ms::Scene scene = Check(ms::ImportFile(m.path), m.path);
   for (const ms::Primitive* p : ms::bench::Primitives(scene)) {
     m.has_normals = m.has_normals || !p->normals.empty();
@@ -104,7 +101,5 @@ std::vector<Model> LoadModels(const Args& args) {
   if (models.empty()) Die("no model left (see --model)");
   return models;
 }
-
-double MBps(uint64_t bytes, double ms) { return ms > 0 ? static_cast<double>(bytes) / 1e6 / (ms / 1e3) : 0; }
 
 }  // namespace meshstream::bench::service

@@ -6,7 +6,6 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
-#include "importers/import.h"
 
 namespace meshstream::bench::stream {
 
@@ -47,11 +46,8 @@ std::string HorseModel(const std::string& dir) {
 
 Model LoadModel(const std::string& dir, const std::string& relative, std::vector<std::string> roles) {
   Model m;
-  m.path = dir + "/" + relative;
-  m.file = fs::path(relative).filename().string();
-  m.name = Stem(relative);
+  static_cast<ModelFile&>(m) = ReadModelFile(dir, relative);
   m.roles = std::move(roles);
-  m.bytes = Check(ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
   return m;
 }
 

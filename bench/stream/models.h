@@ -8,17 +8,15 @@
 #include <string>
 #include <vector>
 
+#include "bench/harness.h"
 #include "bench/stream/args.h"
 #include "meshstream/v1/asset_service.pb.h"
 
 namespace meshstream::bench::stream {
 
-struct Model {
-  std::string name;  // the stem: the asset's name
-  std::string file;  // the file name in the upload
-  std::string path;
+// name (the asset's), file (in the upload), path and bytes: ModelFile's.
+struct Model : ModelFile {
   std::vector<std::string> roles;  // "bunny", "horse", "largest"
-  std::vector<uint8_t> bytes;
   int64_t version = 0;  // 0 until ingested
   v1::Version info;
 };
