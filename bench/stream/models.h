@@ -5,6 +5,7 @@
 #define MESHSTREAM_BENCH_STREAM_MODELS_H_
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,10 @@ struct Model : ModelFile {
   int64_t version = 0;  // 0 until ingested
   v1::Version info;
 };
+
+// Every single-file model (.obj, .ply, .glb: a .gltf would need its
+// resources) anywhere under `dir`, sorted (std::filesystem::path order).
+std::vector<std::filesystem::path> SingleFileModels(const std::string& dir);
 
 // The bunny, the horse and the largest model by file size (one Model per
 // file, with every role it plays), filtered by --model (unless
