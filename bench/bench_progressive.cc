@@ -165,12 +165,8 @@ json MachineInfo(const Args& args) {
       {"draco", draco::kDracoVersion},
   };
   if (args.use_gltfpack) m["gltfpack"] = FirstLineOf(ShellQuote(args.gltfpack) + " -v 2>&1");
-  const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
-  if (!commit.empty()) {
-    const std::string dirty = FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) +
-                                          " status --porcelain --untracked-files=no 2>/dev/null");
-    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
-  }
+  const std::string commit = ms::bench::GitCommitLabel(MESHSTREAM_SOURCE_DIR);
+  if (!commit.empty()) m["git_commit"] = commit;
   return m;
 }
 

@@ -71,6 +71,10 @@ std::string UtcNow();
 // The short commit hash of the checkout at `dir`; "" when git cannot tell.
 std::string GitShortCommit(const std::string& dir);
 
+// GitShortCommit(dir), followed by " (with uncommitted changes)" when a
+// tracked file differs from it; "" when git cannot tell.
+std::string GitCommitLabel(const std::string& dir);
+
 // The shared models the codec benchmarks measure, in the order they report
 // them (files under the shared models' folder, MESHSTREAM_MODELS_DIR).
 inline const std::vector<std::string> kSharedModels = {"stanford-bunny.obj", "horse.ply", "fandisk.obj",

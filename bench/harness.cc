@@ -67,12 +67,8 @@ json MachineInfo(const std::string& work_dir, const std::string& source_dir, con
       {"work_dir_filesystem", FirstLineOf("findmnt -n -o FSTYPE,SOURCE --target " + ShellQuote(work_dir) +
                                           " 2>/dev/null")},
   };
-  const std::string commit = GitShortCommit(source_dir);
-  if (!commit.empty()) {
-    const std::string dirty = FirstLineOf("git -C " + ShellQuote(source_dir) +
-                                          " status --porcelain --untracked-files=no 2>/dev/null");
-    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
-  }
+  const std::string commit = GitCommitLabel(source_dir);
+  if (!commit.empty()) m["git_commit"] = commit;
   return m;
 }
 
