@@ -63,7 +63,6 @@ namespace ms = meshstream;
 using ms::bench::Check;
 using ms::bench::Clock;
 using ms::bench::Die;
-using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
 using ms::bench::Stem;
@@ -113,20 +112,12 @@ Args ParseArgs(int argc, char** argv) {
 // The machine, as docs/loss-results.md quotes it (keys differ from
 // meshstream_bench's: this JSON has its own readers).
 json MachineInfo() {
-  std::string cpu;
-  std::ifstream info("/proc/cpuinfo");
-  for (std::string line; std::getline(info, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      cpu = line.substr(line.find(':') + 2);
-      break;
-    }
-  }
-  json m = {{"cpu", cpu},
+  json m = {{"cpu", ms::bench::CpuModel()},
             {"cores", std::thread::hardware_concurrency()},
             {"os", ms::bench::KernelName()},
             {"compiler", __VERSION__},
             {"build_type", MESHSTREAM_BUILD_TYPE},
-            {"loadavg_at_start", FirstLineOf("cut -d' ' -f1-3 /proc/loadavg")}};
+            {"loadavg_at_start", ms::bench::LoadAverage()}};
   const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
   if (!commit.empty()) m["git_commit"] = commit;
   return m;
@@ -712,7 +703,7 @@ int main(int argc, char** argv) {
   }
   out["errors"] = errors;
   out["runtime_s"] = Ms(t0, Clock::now()) / 1000;
-  out["machine"]["loadavg_at_end"] = FirstLineOf("cut -d' ' -f1-3 /proc/loadavg");
+  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
   std::ofstream f(args.out);
   if (!f) Die("cannot write " + args.out);
   f << out.dump(1) << "\n";
