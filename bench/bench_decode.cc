@@ -67,10 +67,9 @@ struct Args {
 Args ParseArgs(int argc, char** argv) {
   Args a;
   ms::bench::Options o("meshstream_bench_decode", kAbout);
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only,
-           "only this model (file name, with or without extension); repeatable\n"
-           "(default: stanford-bunny, horse, fandisk, rocker-arm, spot)");
+  ms::bench::AddModelOptions(o, &a.models_dir, &a.only,
+                             "only this model (file name, with or without extension); repeatable\n"
+                             "(default: stanford-bunny, horse, fandisk, rocker-arm, spot)");
   o.Int("--qp", "N", &a.qp, 1, 30, "position bits of both codecs (default 11; normals 8, texcoords 10)");
   o.Int("--rounds", "N", &a.rounds, 1, 100000, "timed rounds (default 30)");
   o.String("--json", "FILE", &a.json_out, "also write the medians and ratios as JSON");
@@ -82,20 +81,6 @@ Args ParseArgs(int argc, char** argv) {
   o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
   o.Parse(argc, argv);
   return a;
-}
-
-// The file of `name` among the shared models (with or without extension).
-std::vector<std::string> ChooseModels(const std::vector<std::string>& only) {
-  const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj",
-                                          "spot.obj"};
-  std::vector<std::string> chosen;
-  for (const auto& f : files) {
-    bool take = only.empty();
-    for (const auto& o : only) take = take || o == f || o == Stem(f);
-    if (take) chosen.push_back(f);
-  }
-  if (chosen.empty()) Die("no model matches --model");
-  return chosen;
 }
 
 // FNV-1a over raw bytes.
@@ -189,7 +174,7 @@ double CpuMs() {
 }
 
 int Loop(const Args& args) {
-  const Model m = Prepare(args.models_dir, ChooseModels({args.loop_model}).front(), args.qp);
+  const Model m = Prepare(args.models_dir, ms::bench::ChooseSharedModels({args.loop_model}).front(), args.qp);
   const auto start = Clock::now();
   const double cpu_start = CpuMs();
   size_t runs = 0;
@@ -227,7 +212,7 @@ int main(int argc, char** argv) {
 
   std::printf("%-15s %8s %8s | %9s %9s %9s | %6s %6s | %s\n", "model", "vertices", "faces", "all ms", "base ms",
               "draco ms", "all/d", "base/d", "decode hash");
-  for (const std::string& file : ChooseModels(args.only)) {
+  for (const std::string& file : ms::bench::ChooseSharedModels(args.only)) {
     const Model m = Prepare(args.models_dir, file, args.qp);
     struct Timed {
       std::function<uint64_t()> run;

@@ -98,8 +98,7 @@ struct Args {
 Args ParseArgs(int argc, char** argv) {
   Args a;
   ms::bench::Options o("meshstream_bench", kAbout);
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  ms::bench::AddModelOptions(o, &a.models_dir, &a.only);
   o.IntList("--qp", "LIST", &a.qps, 1, 30, "position bits, comma-separated (default 11,14)");
   o.Int("--qn", "N", &a.qn, 2, 15, "normal bits (default 8, both codecs)");
   o.Int("--qt", "N", &a.qt, 1, 30, "texture coordinate bits (default 10, both codecs)");
@@ -166,12 +165,8 @@ json MachineInfo(const Args& args) {
       {"draco", draco::kDracoVersion},
   };
   if (args.use_gltfpack) m["gltfpack"] = FirstLineOf(ShellQuote(args.gltfpack) + " -v 2>&1");
-  const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
-  if (!commit.empty()) {
-    const std::string dirty = FirstLineOf("git -C " + ShellQuote(MESHSTREAM_SOURCE_DIR) +
-                                          " status --porcelain --untracked-files=no 2>/dev/null");
-    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
-  }
+  const std::string commit = ms::bench::GitCommitLabel(MESHSTREAM_SOURCE_DIR);
+  if (!commit.empty()) m["git_commit"] = commit;
   return m;
 }
 
@@ -568,20 +563,6 @@ struct WorkDir {
   }
 };
 
-// The shared models --model names (all five without it).
-std::vector<std::string> ChooseFiles(const Args& args) {
-  const std::vector<std::string> files = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
-  std::vector<std::string> chosen;
-  for (const auto& f : files) {
-    if (args.only.empty() || std::find(args.only.begin(), args.only.end(), f) != args.only.end() ||
-        std::find(args.only.begin(), args.only.end(), Stem(f)) != args.only.end()) {
-      chosen.push_back(f);
-    }
-  }
-  if (chosen.empty()) Die("no model matches --model");
-  return chosen;
-}
-
 json SettingsJson(const Args& args) {
   return {
       {"qps", args.qps},
@@ -866,7 +847,7 @@ int main(int argc, char** argv) {
   ms::bench::SetProgramName("meshstream_bench");
   const Args args = ParseArgs(argc, argv);
   const auto bench_start = Clock::now();
-  const std::vector<std::string> chosen = ChooseFiles(args);
+  const std::vector<std::string> chosen = ms::bench::ChooseSharedModels(args.only);
   bool gltfpack_ok = args.use_gltfpack;
   if (gltfpack_ok && Run(ShellQuote(args.gltfpack) + " -h >/dev/null 2>&1") < 0) {
     std::fprintf(stderr, "meshstream_bench: %s not found; skipping the gltfpack LODs\n", args.gltfpack.c_str());

@@ -103,6 +103,26 @@ std::string GitShortCommit(const std::string& dir) {
   return FirstLineOf("git -C " + ShellQuote(dir) + " rev-parse --short HEAD 2>/dev/null");
 }
 
+std::string GitCommitLabel(const std::string& dir) {
+  const std::string commit = GitShortCommit(dir);
+  if (commit.empty()) return "";
+  const std::string dirty =
+      FirstLineOf("git -C " + ShellQuote(dir) + " status --porcelain --untracked-files=no 2>/dev/null");
+  return commit + (dirty.empty() ? "" : " (with uncommitted changes)");
+}
+
+std::vector<std::string> ChooseSharedModels(const std::vector<std::string>& only) {
+  std::vector<std::string> chosen;
+  for (const std::string& f : kSharedModels) {
+    if (only.empty() || std::find(only.begin(), only.end(), f) != only.end() ||
+        std::find(only.begin(), only.end(), Stem(f)) != only.end()) {
+      chosen.push_back(f);
+    }
+  }
+  if (chosen.empty()) Die("no model matches --model");
+  return chosen;
+}
+
 std::vector<const Primitive*> Primitives(const Scene& scene) {
   std::vector<const Primitive*> out;
   for (const Mesh& m : scene.meshes)

@@ -71,6 +71,20 @@ std::string UtcNow();
 // The short commit hash of the checkout at `dir`; "" when git cannot tell.
 std::string GitShortCommit(const std::string& dir);
 
+// GitShortCommit(dir), followed by " (with uncommitted changes)" when a
+// tracked file differs from it; "" when git cannot tell.
+std::string GitCommitLabel(const std::string& dir);
+
+// The shared models the codec benchmarks measure, in the order they report
+// them (files under the shared models' folder, MESHSTREAM_MODELS_DIR).
+inline const std::vector<std::string> kSharedModels = {"stanford-bunny.obj", "horse.ply", "fandisk.obj",
+                                                       "rocker-arm.obj", "spot.obj"};
+
+// The files of kSharedModels that `only` names (a file name, with or
+// without its extension), in kSharedModels's order; all of them when `only`
+// is empty. Die("no model matches --model") when none is left.
+std::vector<std::string> ChooseSharedModels(const std::vector<std::string>& only);
+
 // The primitives of `scene` that have at least one face, in mesh order.
 std::vector<const Primitive*> Primitives(const Scene& scene);
 

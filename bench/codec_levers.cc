@@ -787,7 +787,7 @@ nlohmann::json MeasureModel(const std::string& name, int qp) {
 
 int main(int argc, char** argv) {
   ms::bench::SetProgramName("meshstream_codec_levers");
-  std::vector<std::string> models = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
+  std::vector<std::string> models = ms::bench::kSharedModels;
   int qp = 11;
   std::string out_path;
   ms::bench::Options o("meshstream_codec_levers",

@@ -11,6 +11,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "bench/bench_util.h"
+#include "importers/import.h"
 #include "proto/rpc_status.h"
 #include "sdk/asset_client.h"
 #include "testing/asset_calls.h"
@@ -66,12 +67,8 @@ json MachineInfo(const std::string& work_dir, const std::string& source_dir, con
       {"work_dir_filesystem", FirstLineOf("findmnt -n -o FSTYPE,SOURCE --target " + ShellQuote(work_dir) +
                                           " 2>/dev/null")},
   };
-  const std::string commit = GitShortCommit(source_dir);
-  if (!commit.empty()) {
-    const std::string dirty = FirstLineOf("git -C " + ShellQuote(source_dir) +
-                                          " status --porcelain --untracked-files=no 2>/dev/null");
-    m["git_commit"] = commit + (dirty.empty() ? "" : " (with uncommitted changes)");
-  }
+  const std::string commit = GitCommitLabel(source_dir);
+  if (!commit.empty()) m["git_commit"] = commit;
   return m;
 }
 
@@ -81,6 +78,17 @@ void WriteJson(const std::string& path, const json& out) {
   std::ofstream f(path);
   f << out.dump(1) << "\n";
   if (!f) Die(path + ": cannot write");
+}
+
+// ------------------------------------------------------------- the models
+
+ModelFile ReadModelFile(const std::string& dir, const std::string& relative) {
+  ModelFile m;
+  m.path = dir + "/" + relative;
+  m.file = fs::path(relative).filename().string();
+  m.name = Stem(relative);
+  m.bytes = Check(ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
+  return m;
 }
 
 // ---------------------------------------------------------- the asset API

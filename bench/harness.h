@@ -1,8 +1,8 @@
 // What the service and stream benchmarks (bench/service/, bench/stream/)
-// share: a meshstream server in this process on a temporary store, the asset
-// API as a benchmark drives it (ingest, watch, versions, export), the
-// machine's facts, and the JSON written at the end. The option table is
-// bench/options.h.
+// share: a meshstream server in this process on a temporary store, a model
+// file's bytes, the asset API as a benchmark drives it (ingest, watch,
+// versions, export), the machine's facts, and the JSON written at the end.
+// The option table is bench/options.h.
 //
 // AssetApi is the one place the benchmarks reach the asset API, through
 // sdk::AssetClient (sdk/asset_client.h), the client the CLI, the tests and
@@ -59,6 +59,21 @@ nlohmann::json MachineInfo(const std::string& work_dir, const std::string& sourc
 // when it cannot.
 void WriteJson(const std::string& path, const nlohmann::json& out);
 
+// ------------------------------------------------------------- the models
+
+// A model file as a benchmark uploads it; each benchmark's Model adds what
+// it knows of the model (bench/service/models.h, bench/stream/models.h).
+struct ModelFile {
+  std::string name;  // the stem: the asset's name
+  std::string file;  // the file name in the upload
+  std::string path;
+  std::vector<uint8_t> bytes;
+};
+
+// The model at `relative` under `dir` (path "<dir>/<relative>"), its bytes
+// read (at most 1 GiB); Die when they cannot be.
+ModelFile ReadModelFile(const std::string& dir, const std::string& relative);
+
 // ---------------------------------------------------------- the asset API
 
 // One upload: a file's bytes as an asset, with encode options and, for a
@@ -101,7 +116,8 @@ class AssetApi {
                                                   const std::string& page_token);
 
   // Every chunk of one Export, and the SHA-256 the server sent with the
-  // last; the caller checks the bytes against it (outside its clock).
+  // last; sdk::AssetClient::Export has checked the bytes against it (a
+  // mismatch is its DataLoss error).
   struct Exported {
     std::vector<uint8_t> bytes;
     std::string sha256;

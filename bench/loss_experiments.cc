@@ -63,7 +63,6 @@ namespace ms = meshstream;
 using ms::bench::Check;
 using ms::bench::Clock;
 using ms::bench::Die;
-using ms::bench::FirstLineOf;
 using ms::bench::Median;
 using ms::bench::Ms;
 using ms::bench::Stem;
@@ -91,8 +90,7 @@ Args ParseArgs(int argc, char** argv) {
   Args a;
   ms::bench::Options o("meshstream_loss_bench", kAbout);
   o.String("--out", "FILE", &a.out, "output JSON");
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only, "only this model (file name, with or without extension); repeatable");
+  ms::bench::AddModelOptions(o, &a.models_dir, &a.only);
   o.Int("--seeds", "N", &a.seeds, 1, 10000, "seeds per cell for bunny and horse (default 20)");
   o.Int("--small-seeds", "N", &a.small_seeds, 1, 10000, "seeds per cell for fandisk, rocker-arm, spot (default 10)");
   o.Int("--level-seeds", "N", &a.level_seeds, 0, 10000, "seeds of the per-level subset (default 3)");
@@ -114,20 +112,12 @@ Args ParseArgs(int argc, char** argv) {
 // The machine, as docs/loss-results.md quotes it (keys differ from
 // meshstream_bench's: this JSON has its own readers).
 json MachineInfo() {
-  std::string cpu;
-  std::ifstream info("/proc/cpuinfo");
-  for (std::string line; std::getline(info, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      cpu = line.substr(line.find(':') + 2);
-      break;
-    }
-  }
-  json m = {{"cpu", cpu},
+  json m = {{"cpu", ms::bench::CpuModel()},
             {"cores", std::thread::hardware_concurrency()},
             {"os", ms::bench::KernelName()},
             {"compiler", __VERSION__},
             {"build_type", MESHSTREAM_BUILD_TYPE},
-            {"loadavg_at_start", FirstLineOf("cut -d' ' -f1-3 /proc/loadavg")}};
+            {"loadavg_at_start", ms::bench::LoadAverage()}};
   const std::string commit = ms::bench::GitShortCommit(MESHSTREAM_SOURCE_DIR);
   if (!commit.empty()) m["git_commit"] = commit;
   return m;
@@ -505,18 +495,8 @@ json TimeDecodes(const Model& m, int repeat) {
 std::vector<Model> PrepareModels(const Args& args) {
   const std::vector<double> kFullLosses = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.20, 0.30};
   const std::vector<double> kSmallLosses = {0.04, 0.08, 0.12, 0.20, 0.30};
-  const std::vector<std::string> all = {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"};
-  std::vector<std::string> chosen;
-  const std::vector<std::string> only = args.only.empty() && args.quick ? std::vector<std::string>{"spot"} : args.only;
-  for (const auto& f : all) {
-    if (only.empty()) {
-      chosen.push_back(f);
-      continue;
-    }
-    for (const auto& o : only)
-      if (o == f || o == Stem(f)) chosen.push_back(f);
-  }
-  if (chosen.empty()) Die("no model matches --model");
+  const std::vector<std::string> chosen = ms::bench::ChooseSharedModels(
+      args.only.empty() && args.quick ? std::vector<std::string>{"spot"} : args.only);
 
   std::vector<Model> models;
   for (const auto& f : chosen) {
@@ -723,7 +703,7 @@ int main(int argc, char** argv) {
   }
   out["errors"] = errors;
   out["runtime_s"] = Ms(t0, Clock::now()) / 1000;
-  out["machine"]["loadavg_at_end"] = FirstLineOf("cut -d' ' -f1-3 /proc/loadavg");
+  out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();
   std::ofstream f(args.out);
   if (!f) Die("cannot write " + args.out);
   f << out.dump(1) << "\n";

@@ -158,4 +158,9 @@ std::string Options::Help() const {
   return out;
 }
 
+void AddModelOptions(Options& o, std::string* dir, std::vector<std::string>* only, const std::string& model_help) {
+  o.String("--models", "DIR", dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
+  o.Append("--model", "NAME", only, model_help);
+}
+
 }  // namespace meshstream::bench

@@ -93,6 +93,12 @@ class Options {
   std::set<std::string> given_;
 };
 
+// --models DIR (the shared models' folder) into *dir and --model NAME
+// (repeatable, `model_help` its help) into *only: the model options of
+// every program that reads the shared models.
+void AddModelOptions(Options& o, std::string* dir, std::vector<std::string>* only,
+                     const std::string& model_help = "only this model (file name, with or without extension); repeatable");
+
 }  // namespace meshstream::bench
 
 #endif  // MESHSTREAM_BENCH_OPTIONS_H_

@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
   o.Parse(argc, argv);
   nlohmann::json results = nlohmann::json::array();
   std::printf("%-20s %-7s %7s %8s %12s %16s\n", "model", "rule", "levels", "base", "growth_mean", "split_bits_bpv");
-  for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {
+  for (const std::string& name : meshstream::bench::kSharedModels) {
     auto scene = meshstream::ImportFile(std::string(MESHSTREAM_MODELS_DIR) + "/" + name);
     if (!scene.ok()) {
       std::fprintf(stderr, "%s\n", scene.status().ToString().c_str());
@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
       const size_t levels = h->batches.size();
       const char* rule_name = rule == meshstream::BatchRule::kStrict ? "strict" : "paper";
       const double v = static_cast<double>(q->vertex_count());
-      std::printf("%-20s %-7s %7zu %8.0f %12.3f %16.2f\n", name, rule_name, levels, sizes.back(),
+      std::printf("%-20s %-7s %7zu %8.0f %12.3f %16.2f\n", name.c_str(), rule_name, levels, sizes.back(),
                   levels ? growth / levels : 0.0, bits / v);
       results.push_back({{"model", name}, {"rule", rule_name}, {"levels", levels}, {"base_vertices", sizes.back()},
                          {"growth_mean", levels ? growth / levels : 0.0}, {"split_bits_order0_bpv", bits / v}});

@@ -49,4 +49,6 @@ nlohmann::json RunsSummary(const std::vector<double>& runs_ms) {
   return out;
 }
 
+double MBps(uint64_t bytes, double ms) { return ms > 0 ? static_cast<double>(bytes) / 1e6 / (ms / 1e3) : 0; }
+
 }  // namespace meshstream::bench

@@ -6,6 +6,7 @@
 #ifndef MESHSTREAM_BENCH_SERVICE_STATS_H_
 #define MESHSTREAM_BENCH_SERVICE_STATS_H_
 
+#include <cstdint>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -26,6 +27,9 @@ nlohmann::json LatencySummary(std::vector<double> latencies_us);
 // A few repeated timings (ms): {"runs_ms": [...], "median_ms", "min_ms",
 // "max_ms"}.
 nlohmann::json RunsSummary(const std::vector<double>& runs_ms);
+
+// 10^6 bytes per second of `bytes` in `ms` milliseconds; 0 for no time.
+double MBps(uint64_t bytes, double ms);
 
 }  // namespace meshstream::bench
 

@@ -25,8 +25,7 @@ Args ParseArgs(int argc, char** argv) {
   Args a;
   ms::bench::Options o("meshstream_bench_service", kAbout);
   o.Flag("--quick", &a.quick, "a short run: bunny, horse and spot, one of each ingest, fewer calls");
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only, "only this model (file stem, e.g. horse); repeatable");
+  AddModelOptions(o, &a.models_dir, &a.only, "only this model (file stem, e.g. horse); repeatable");
   o.Custom("--backends", "LIST", [&a](const std::string& v) {
     a.backends = SplitList(v);
     for (const auto& b : a.backends) {

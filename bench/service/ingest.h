@@ -45,8 +45,9 @@ struct ExportTiming {
   std::string sha256;
 };
 
-// One export of `asset`@`version` in `format`, timed until the last chunk,
-// its bytes then checked against the server's SHA-256.
+// One export of `asset`@`version` in `format`, timed until the last chunk
+// (the client library checks the bytes against the server's SHA-256 inside
+// the clock).
 ExportTiming TimeExport(Backend& b, const std::string& asset, int64_t version, v1::Format format);
 
 // Warm-up: the first connection of each client, PostgreSQL's pool, the

@@ -135,9 +135,9 @@ std::string MakeLatencyAsset(Backend& b, const Model& spot, const std::string& a
   return second;
 }
 
-// One latency entry: a target's merged calls at `clients` clients.
-json LatencyEntry(const LatencyTarget& target, int clients, const ms::bench::LoadResult& r, double process_s,
-                  uint64_t busy, uint64_t total) {
+// One latency entry: a target's merged calls at `clients` clients (their
+// CPU summed over the rounds).
+json LatencyEntry(const LatencyTarget& target, int clients, const ms::bench::LoadResult& r) {
   json entry = ms::bench::LatencySummary(r.latencies_us);
   entry["backend"] = target.backend.empty() ? "echo" : target.backend;
   entry["rpc"] = target.rpc;
@@ -151,9 +151,9 @@ json LatencyEntry(const LatencyTarget& target, int clients, const ms::bench::Loa
   // CPU while the timed calls ran: the machine's busy share of its cores
   // (every process), and this process's CPU (clients and servers) per call.
   const double calls = static_cast<double>(r.calls_per_client) * clients;
-  entry["cpu"] = {{"machine_busy", total ? static_cast<double>(busy) / total : 0.0},
-                  {"process_s", process_s},
-                  {"process_us_per_call", calls > 0 ? process_s * 1e6 / calls : 0.0}};
+  entry["cpu"] = {{"machine_busy", r.machine_total ? static_cast<double>(r.machine_busy) / r.machine_total : 0.0},
+                  {"process_s", r.process_cpu_s},
+                  {"process_us_per_call", calls > 0 ? r.process_cpu_s * 1e6 / calls : 0.0}};
   if (r.failed > 0) {
     std::fprintf(stderr, "meshstream_bench_service: %s %s, %d clients: %llu calls FAILED: %s\n",
                  entry["backend"].get<std::string>().c_str(), target.rpc.c_str(), clients,
@@ -167,19 +167,11 @@ void MeasureLatencyAt(const Args& args, const std::vector<LatencyTarget>& target
   const int per_client = std::max(args.min_calls, args.calls / clients);
   const int per_round = std::max(1, per_client / args.rounds);
   std::vector<ms::bench::LoadResult> merged(targets.size());
-  struct Cpu {
-    double process_s = 0;
-    uint64_t busy = 0, total = 0;
-  };
-  std::vector<Cpu> cpu(targets.size());
   for (int round = 0; round < args.rounds; ++round) {
     for (size_t t = 0; t < targets.size(); ++t) {
       std::fprintf(stderr, "meshstream_bench_service: %3d clients, round %d: %s %s\n", clients, round + 1,
                    targets[t].backend.empty() ? "echo server" : targets[t].backend.c_str(), targets[t].rpc.c_str());
       ms::bench::LoadResult r = ms::bench::RunLoad(targets[t].target, clients, per_round, 3);
-      cpu[t].process_s += r.process_cpu_s;
-      cpu[t].busy += r.machine_busy;
-      cpu[t].total += r.machine_total;
       ms::bench::LoadResult& m = merged[t];
       m.clients = clients;
       m.calls_per_client += r.calls_per_client;
@@ -188,10 +180,13 @@ void MeasureLatencyAt(const Args& args, const std::vector<LatencyTarget>& target
       m.warmup_failed += r.warmup_failed;
       if (m.first_error.empty()) m.first_error = r.first_error;
       m.wall_s += r.wall_s;
+      m.process_cpu_s += r.process_cpu_s;
+      m.machine_busy += r.machine_busy;
+      m.machine_total += r.machine_total;
     }
   }
   for (size_t t = 0; t < targets.size(); ++t) {
-    latency.push_back(LatencyEntry(targets[t], clients, merged[t], cpu[t].process_s, cpu[t].busy, cpu[t].total));
+    latency.push_back(LatencyEntry(targets[t], clients, merged[t]));
   }
 }
 

@@ -16,17 +16,18 @@ using json = nlohmann::json;
 
 namespace {
 
-constexpr const char* kModelFiles[] = {"stanford-bunny.obj", "horse.ply",  "fandisk.obj",
-                                   "rocker-arm.obj",     "spot.obj",   "gltf/2CylinderEngine.glb"};
+// The shared models, then a glTF binary.
+std::vector<std::string> ModelFiles() {
+  std::vector<std::string> files = ms::bench::kSharedModels;
+  files.push_back("gltf/2CylinderEngine.glb");
+  return files;
+}
 
 }  // namespace
 
 Model LoadModel(const std::string& dir, const std::string& relative) {
   Model m;
-  m.path = dir + "/" + relative;
-  m.file = fs::path(relative).filename().string();
-  m.name = ms::bench::Stem(relative);
-  m.bytes = Check(ms::ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
+  static_cast<ModelFile&>(m) = ReadModelFile(dir, relative);
   const ms::Scene scene = Check(ms::ImportFile(m.path), m.path);
   for (const ms::Primitive* p : ms::bench::Primitives(scene)) {
     m.has_normals = m.has_normals || !p->normals.empty();
@@ -88,11 +89,11 @@ v1::EncodeOptions VariantOptions(const Model& m, int k) {
   return o;
 }
 
-// The models of --model (all of kModelFiles without it); spot.obj, which
+// The models of --model (all of ModelFiles() without it); spot.obj, which
 // the warm-up and the latency asset use, is loaded by the caller.
 std::vector<Model> LoadModels(const Args& args) {
   std::vector<Model> models;
-  for (const char* relative : kModelFiles) {
+  for (const std::string& relative : ModelFiles()) {
     const std::string stem = ms::bench::Stem(relative);
     if (!args.only.empty() && std::find(args.only.begin(), args.only.end(), stem) == args.only.end()) continue;
     models.push_back(LoadModel(args.models_dir, relative));
@@ -100,7 +101,5 @@ std::vector<Model> LoadModels(const Args& args) {
   if (models.empty()) Die("no model left (see --model)");
   return models;
 }
-
-double MBps(uint64_t bytes, double ms) { return ms > 0 ? static_cast<double>(bytes) / 1e6 / (ms / 1e3) : 0; }
 
 }  // namespace meshstream::bench::service

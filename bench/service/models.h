@@ -8,16 +8,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/harness.h"
 #include "bench/service/args.h"
 #include "meshstream/v1/asset_service.pb.h"
 
 namespace meshstream::bench::service {
 
-struct Model {
-  std::string name;      // the stem: the asset's name
-  std::string file;      // the file name in the upload
-  std::string path;
-  std::vector<uint8_t> bytes;
+// name (the asset's), file (in the upload), path and bytes: ModelFile's.
+struct Model : ModelFile {
   bool has_normals = false, has_texcoords = false;  // in any primitive
 };
 
@@ -37,9 +35,6 @@ std::vector<uint8_t> VariantBytes(const Model& m, int k);
 // The encode options of variant k: the defaults but the bits of an
 // attribute the model does not have (see models.cc).
 v1::EncodeOptions VariantOptions(const Model& m, int k);
-
-// 10^6 bytes per second of `bytes` in `ms` milliseconds; 0 for no time.
-double MBps(uint64_t bytes, double ms);
 
 }  // namespace meshstream::bench::service
 

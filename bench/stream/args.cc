@@ -22,8 +22,7 @@ void LoopbackOptions(Options& o, Args& a) {
   o.Flag("--quick", &a.quick,
          "a short run: --samples 20 --min-rounds 1 --largest-rounds-at-100 1, 1 s\n"
          "rate and loopback runs (about 25 s), --shaped-runs 2 (about 80 s)");
-  o.String("--models", "DIR", &a.models_dir, "folder of the shared models (default: the build's MESHSTREAM_MODELS_DIR)");
-  o.Append("--model", "NAME", &a.only, "only this model (file stem, e.g. horse); repeatable");
+  AddModelOptions(o, &a.models_dir, &a.only, "only this model (file stem, e.g. horse); repeatable");
   o.IntList("--concurrency", "LIST", &a.concurrency, 1, 200, "concurrent sessions of the latency rows (default 1,10,100)");
   o.Int("--samples", "N", &a.samples, 1, 100000, "timed sessions per row at least: ceil(N / sessions) rounds (default 200)");
   o.Int("--min-rounds", "N", &a.min_rounds, 1, 1000, "rounds per row at least (default 3)");

@@ -6,7 +6,6 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
-#include "importers/import.h"
 
 namespace meshstream::bench::stream {
 
@@ -14,20 +13,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The largest single-file model (.obj, .ply, .glb: a .gltf would need its
-// resources) anywhere under `dir`, by file size; its path relative to dir.
+// The largest of SingleFileModels(dir) by file size (the first of equals);
+// its path relative to dir.
 std::string LargestModel(const std::string& dir) {
   std::string best;
   uintmax_t best_size = 0;
   std::error_code ec;
-  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    if (!it->is_regular_file(ec)) continue;
-    const std::string ext = it->path().extension().string();
-    if (ext != ".obj" && ext != ".ply" && ext != ".glb") continue;
-    const uintmax_t size = it->file_size(ec);
+  for (const fs::path& p : SingleFileModels(dir)) {
+    const uintmax_t size = fs::file_size(p, ec);
     if (!ec && size > best_size) {
       best_size = size;
-      best = fs::relative(it->path(), dir, ec).string();
+      best = fs::relative(p, dir, ec).string();
     }
   }
   if (best.empty()) Die(dir + ": no .obj, .ply or .glb model");
@@ -45,13 +41,22 @@ std::string HorseModel(const std::string& dir) {
 
 }  // namespace
 
+std::vector<fs::path> SingleFileModels(const std::string& dir) {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!it->is_regular_file(ec)) continue;
+    const std::string ext = it->path().extension().string();
+    if (ext == ".obj" || ext == ".ply" || ext == ".glb") files.push_back(it->path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 Model LoadModel(const std::string& dir, const std::string& relative, std::vector<std::string> roles) {
   Model m;
-  m.path = dir + "/" + relative;
-  m.file = fs::path(relative).filename().string();
-  m.name = Stem(relative);
+  static_cast<ModelFile&>(m) = ReadModelFile(dir, relative);
   m.roles = std::move(roles);
-  m.bytes = Check(ReadFileBytes(m.path, uint64_t{1} << 30), m.path);
   return m;
 }
 

@@ -5,23 +5,26 @@
 #define MESHSTREAM_BENCH_STREAM_MODELS_H_
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
+#include "bench/harness.h"
 #include "bench/stream/args.h"
 #include "meshstream/v1/asset_service.pb.h"
 
 namespace meshstream::bench::stream {
 
-struct Model {
-  std::string name;  // the stem: the asset's name
-  std::string file;  // the file name in the upload
-  std::string path;
+// name (the asset's), file (in the upload), path and bytes: ModelFile's.
+struct Model : ModelFile {
   std::vector<std::string> roles;  // "bunny", "horse", "largest"
-  std::vector<uint8_t> bytes;
   int64_t version = 0;  // 0 until ingested
   v1::Version info;
 };
+
+// Every single-file model (.obj, .ply, .glb: a .gltf would need its
+// resources) anywhere under `dir`, sorted (std::filesystem::path order).
+std::vector<std::filesystem::path> SingleFileModels(const std::string& dir);
 
 // The bunny, the horse and the largest model by file size (one Model per
 // file, with every role it plays), filtered by --model (unless

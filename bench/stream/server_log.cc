@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <thread>
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
@@ -41,7 +40,10 @@ void ServerLog::Add(const std::string& line) {
   lines_.push_back(line);
   if (verbose_) std::fprintf(stderr, "[server] %s\n", line.c_str());
   SessionLogLine s;
-  if (ParseSessionLine(line, &s)) sessions_.push_back(s);
+  if (ParseSessionLine(line, &s)) {
+    sessions_.push_back(s);
+    session_added_.notify_all();
+  }
 }
 
 size_t ServerLog::line_count() {
@@ -55,12 +57,8 @@ size_t ServerLog::session_count() {
 }
 
 bool ServerLog::WaitSessions(size_t n, std::chrono::milliseconds timeout) {
-  const auto until = Clock::now() + timeout;
-  while (session_count() < n) {
-    if (Clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return true;
+  std::unique_lock<std::mutex> lock(mutex_);
+  return session_added_.wait_for(lock, timeout, [&] { return sessions_.size() >= n; });
 }
 
 std::vector<SessionLogLine> ServerLog::SessionsFrom(size_t first) {

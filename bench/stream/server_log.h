@@ -8,6 +8,7 @@
 #define MESHSTREAM_BENCH_STREAM_SERVER_LOG_H_
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -50,6 +51,7 @@ class ServerLog {
 
  private:
   std::mutex mutex_;
+  std::condition_variable session_added_;  // notified when a session line is added
   std::vector<std::string> lines_;
   std::vector<SessionLogLine> sessions_;
   const bool verbose_;

@@ -64,14 +64,23 @@ struct Outcome {
   uint64_t bytes = 0;
 };
 
+// Why a session that reached kComplete did not end well: "kComplete
+// without kBaseReady" (`based`: kBaseReady came first), or "kComplete at
+// level L of N (end reason '...')" short of the full mesh; "" when it did.
+std::string SessionEndError(const sdk::Session& s, bool based);
+
+// What a session not complete after `timeout_s` seconds says: "not
+// complete after T s (level L)".
+std::string SessionTimeoutError(const sdk::Session& s, double timeout_s);
+
 // One SDK session of `m` to kComplete; `client` made before the clock
 // starts. Not ok when it ends in kError, short of the full mesh or after
 // `timeout_s`.
 Outcome RunSession(const sdk::Client& client, const Model& m, bool tcp_only, double timeout_s);
 
 // One export of the version as FORMAT_DRACO_GLB until the last chunk, its
-// bytes checked against the SHA-256 the server sent (and `expect_sha256`
-// when not empty).
+// bytes checked against the SHA-256 the server sent (by the client library,
+// inside the clock) and against `expect_sha256` when not empty.
 Outcome RunExport(AssetApi& api, const Model& m, const std::string& expect_sha256);
 
 struct Round {

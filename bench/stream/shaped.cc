@@ -86,20 +86,13 @@ Primitive ReferenceMesh(const std::string& address, const Model& m) {
   return Geometry(session->CurrentScene());
 }
 
-// The largest single-file model (.obj, .ply, .glb) anywhere under `dir` by
-// vertex count (imported, every primitive of the scene counted once).
+// The largest of SingleFileModels(dir) by vertex count (imported, every
+// primitive of the scene counted once; the first of equals).
 std::string LargestModelByVertices(const std::string& dir, uint64_t* vertices) {
   std::string best;
   uint64_t most = 0;
   std::error_code ec;
-  std::vector<fs::path> files;
-  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    if (!it->is_regular_file(ec)) continue;
-    const std::string ext = it->path().extension().string();
-    if (ext == ".obj" || ext == ".ply" || ext == ".glb") files.push_back(it->path());
-  }
-  std::sort(files.begin(), files.end());
-  for (const fs::path& p : files) {
+  for (const fs::path& p : SingleFileModels(dir)) {
     auto scene = ImportFile(p.string());
     if (!scene.ok()) continue;
     const uint64_t v = scene.value().total_vertices();

@@ -12,12 +12,12 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
+#include "bench/stream/sessions.h"
 #include "bench/stream/snapshots.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
-#include "services/store/blob_store.h"
 #include "testing/asset_calls.h"
 
 namespace meshstream::bench::stream {
@@ -99,10 +99,6 @@ void RunDownload(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots)
     return;
   }
   const AssetApi::Exported& e = exported.value();
-  if (ms::Sha256Hex(e.bytes.data(), e.bytes.size()) != e.sha256) {
-    j["error"] = "Export FORMAT_DRACO_GLB: the bytes do not match the sha256";
-    return;
-  }
   auto scene = ms::ImportGltfBytes(e.bytes, "", a.asset + ".glb", ms::ImportOptions());
   const auto decoded = Clock::now();
   if (!scene.ok()) {
@@ -177,13 +173,11 @@ void OnComplete(const sdk::Session& s, bool based, json& j) {
   j["level"] = s.level_shown();
   j["levels"] = s.levels();
   j["predicted_vertices"] = s.predicted_vertices();
-  if (!based) {
-    j["error"] = "kComplete without kBaseReady";
-  } else if (s.level_shown() < s.levels()) {
-    j["error"] = "kComplete at level " + std::to_string(s.level_shown()) + " of " + std::to_string(s.levels()) +
-                 " (end reason '" + st.end_reason + "')";
-  } else {
+  const std::string error = SessionEndError(s, based);
+  if (error.empty()) {
     j["ok"] = true;
+  } else {
+    j["error"] = error;
   }
 }
 
@@ -193,8 +187,7 @@ void PollToEnd(sdk::Session& s, const ClientArgs& a, Clock::time_point t0, Recor
   bool based = false;
   for (;;) {
     if (Clock::now() > deadline) {
-      j["error"] = "not complete after " + std::to_string(static_cast<int>(a.timeout_s)) + " s (level " +
-                   std::to_string(s.level_shown()) + ")";
+      j["error"] = SessionTimeoutError(s, a.timeout_s);
       s.Cancel();
       return;
     }

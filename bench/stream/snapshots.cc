@@ -80,5 +80,4 @@ Primitive Geometry(const Scene& scene) {
   return g;
 }
 
-// The levels a session snapshots besides the base and kComplete: all of
 }  // namespace meshstream::bench::stream

@@ -11,7 +11,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <fstream>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -23,6 +22,7 @@
 #include "sdk/session.h"
 #include "testing/asset_calls.h"
 #include "tests/common/sdk_options.h"
+#include "testing/proc_status.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
 
@@ -31,21 +31,6 @@ namespace {
 
 using test_util::ServeProcess;
 using Clock = std::chrono::steady_clock;
-
-// Resident memory of a process in KiB (VmRSS).
-int64_t RssKiB(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      int64_t kib = 0;
-      in >> kib;
-      return kib;
-    }
-    std::getline(in, key);
-  }
-  return -1;
-}
 
 void Ingest(const ServeProcess& server, const std::string& asset, const std::string& model) {
   auto client = test_util::NewAssetClient(server.address());
@@ -94,7 +79,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   ASSERT_TRUE(client.ok());
   const Outcome one = RunSession(**client, test_util::SessionFor("bunny", 0, -1, false));
   ASSERT_EQ(one.last, sdk::EventType::kComplete) << one.status.ToString();
-  const int64_t before = RssKiB((*server)->pid());
+  const int64_t before = test_util::ReadProcStatus((*server)->pid()).rss_kib;
   ASSERT_GT(before, 0);
 
   constexpr int kSessions = 100;
@@ -103,7 +88,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   std::atomic<int64_t> peak{before};
   std::thread sampler([&] {
     while (running) {
-      const int64_t rss = RssKiB((*server)->pid());
+      const int64_t rss = test_util::ReadProcStatus((*server)->pid()).rss_kib;
       if (rss > peak) peak = rss;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }

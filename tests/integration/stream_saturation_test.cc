@@ -16,7 +16,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdlib>
-#include <fstream>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -29,6 +28,7 @@
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "testing/asset_calls.h"
 #include "testing/grpc_probe.h"
+#include "testing/proc_status.h"
 #include "testing/serve_process.h"
 #include "testing/test_util.h"
 
@@ -50,13 +50,9 @@ struct Held {
 
 Held Measure(pid_t pid) {
   Held h;
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") in >> h.rss_kib;
-    if (key == "Threads:") in >> h.threads;
-    std::getline(in, key);
-  }
+  const test_util::ProcStatus status = test_util::ReadProcStatus(pid);
+  h.threads = status.threads;
+  h.rss_kib = status.rss_kib;
   h.fds = 0;
   if (DIR* d = opendir(("/proc/" + std::to_string(pid) + "/fd").c_str())) {
     while (readdir(d) != nullptr) ++h.fds;
@@ -176,10 +172,15 @@ class ReadingClient final : public grpc::ClientBidiReactor<v1::ClientMessage, v1
   bool finished_ = false;
 };
 
+// How long a UDP session waits for its client's HELLO before it falls back
+// to the stream (--hello-timeout, here its default).
+constexpr int kHelloTimeoutMs = 1000;
+
 std::unique_ptr<ServeProcess> StartServer(test_util::TempDir& dir, int sessions, const std::string& model) {
   // Far fewer gRPC threads than sessions: a session must not hold one.
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-sessions",
-                                     std::to_string(sessions), "--max-threads", "32", "--session-idle-timeout", "600"});
+                                     std::to_string(sessions), "--max-threads", "32", "--session-idle-timeout", "600",
+                                     "--hello-timeout", std::to_string(kHelloTimeoutMs)});
   EXPECT_TRUE(server.ok()) << server.status().ToString();
   if (!server.ok()) return nullptr;
   auto client = test_util::NewAssetClient((*server)->address());
@@ -216,8 +217,9 @@ TEST(StreamSaturation, AFullServerOfStalledSessionsStillAnswersWithinOneSecond) 
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   ASSERT_EQ(opened, static_cast<size_t>(kSessions)) << server->log().substr(0, 4000);
-  // Past the HELLO wait: every session has written what its stream takes and stalls.
-  std::this_thread::sleep_for(std::chrono::seconds(2));
+  // Past the HELLO wait (twice --hello-timeout): every session has written
+  // what its stream takes and stalls.
+  std::this_thread::sleep_for(std::chrono::milliseconds(2 * kHelloTimeoutMs));
   const Held full = Measure(server->pid());
 
   auto client = test_util::NewAssetClient(server->address());

@@ -7,14 +7,17 @@
   order docs/architecture.md writes down; what a folder may use includes what
   its dependencies may use);
 - importers/ uses codec/ and third-party libraries, never services/, sdk/,
-  cli/, bench/ or tests/;
+  cli/, bench/, tests/ or testing/;
 - net/ uses codec/ and third-party libraries, never services/, sdk/, cli/,
-  bench/ or tests/;
-- services/ and sdk/ never include cli/, bench/ or tests/; sdk/ never
-  includes services/;
+  bench/, tests/ or testing/;
+- services/ and sdk/ never include cli/, bench/, tests/ or testing/; sdk/
+  never includes services/;
+- cli/ never includes bench/, tests/ or testing/: no part of the product
+  (codec/, importers/, net/, services/, sdk/, cli/) uses testing/;
 - testing/ (what tests/ and bench/ share) never includes cli/, bench/ or
-  tests/; bench/ never includes tests/; the folders of services/ depend on each other in one
-  direction too (SERVICES_DEPENDS, as docs/architecture.md writes it).
+  tests/; bench/ never includes tests/; the folders of services/ depend on
+  each other in one direction too (SERVICES_DEPENDS, as docs/architecture.md
+  writes it).
 Exits 1 naming every include that points the wrong way.
 """
 import os
@@ -44,11 +47,13 @@ SERVICES_DEPENDS = {
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
-    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "proto"],
-    "importers": ["services", "sdk", "cli", "bench", "tests"],
-    "net": ["services", "sdk", "cli", "bench", "tests"],
-    "services": ["sdk", "cli", "bench", "tests"],
-    "sdk": ["services", "cli", "bench", "tests"],
+    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
+    "importers": ["services", "sdk", "cli", "bench", "tests", "testing"],
+    "net": ["services", "sdk", "cli", "bench", "tests", "testing"],
+    "services": ["sdk", "cli", "bench", "tests", "testing"],
+    "sdk": ["services", "cli", "bench", "tests", "testing"],
+    # The command line is the product too: what tests share is not for it.
+    "cli": ["bench", "tests", "testing"],
     # The library tests/ and bench/ share; it serves them and uses none of them.
     "testing": ["cli", "bench", "tests"],
     # Benchmarks use the product and testing/, never the test suites.
