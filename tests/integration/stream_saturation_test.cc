@@ -320,7 +320,9 @@ TEST(StreamSaturation, SessionsStreamingAtOnceWithoutAThreadEach) {
                   static_cast<long long>(ReadingClient::by_code[code].load()), code);
     }
   }
-  if (kSessions <= 1024) EXPECT_TRUE(all) << "every client completed a session";
+  if (kSessions <= 1024) {
+    EXPECT_TRUE(all) << "every client completed a session";
+  }
   EXPECT_LT(peak.threads, idle.threads + 16) << "threads grew with the sessions";
   EXPECT_EQ(server->Terminate(), 0);
 }
