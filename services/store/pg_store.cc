@@ -286,31 +286,35 @@ StatusOr<VersionRecord> PgStore::DoGetLatestReadyVersion(const std::string& tena
   });
 }
 
-StatusOr<std::vector<AssetRecord>> PgStore::DoListAssets(const std::string& tenant, const std::string& after,
-                                                         int64_t limit) {
-  return Run("listing assets", [&](pqxx::connection& c) -> StatusOr<std::vector<AssetRecord>> {
+StatusOr<PageRows<AssetRecord>> PgStore::DoListAssets(const std::string& tenant, const std::string& after,
+                                                      int64_t limit) {
+  return Run("listing assets", [&](pqxx::connection& c) -> StatusOr<PageRows<AssetRecord>> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows = tx.exec_params(
         "SELECT name, latest_version, updated_ms FROM meshstream.assets WHERE tenant = $1 AND name > $2 "
         "ORDER BY name LIMIT $3",
-        tenant, after, limit);
+        tenant, after, limit + 1);  // one row more: whether more follow
     tx.commit();
-    std::vector<AssetRecord> assets;
+    PageRows<AssetRecord> assets;
     for (const pqxx::row& row : rows) {
+      if (static_cast<int64_t>(assets.items.size()) == limit) {
+        assets.more = true;
+        break;
+      }
       AssetRecord a;
       a.tenant = tenant;
       a.name = row["name"].as<std::string>();
       a.latest_version = row["latest_version"].as<int64_t>();
       a.updated_ms = row["updated_ms"].as<int64_t>();
-      assets.push_back(std::move(a));
+      assets.items.push_back(std::move(a));
     }
     return assets;
   });
 }
 
-StatusOr<std::vector<VersionRecord>> PgStore::DoListVersions(const std::string& tenant, const std::string& asset,
-                                                             int64_t after, int64_t limit) {
-  return Run("listing versions of asset " + asset, [&](pqxx::connection& c) -> StatusOr<std::vector<VersionRecord>> {
+StatusOr<PageRows<VersionRecord>> PgStore::DoListVersions(const std::string& tenant, const std::string& asset,
+                                                          int64_t after, int64_t limit) {
+  return Run("listing versions of asset " + asset, [&](pqxx::connection& c) -> StatusOr<PageRows<VersionRecord>> {
     pqxx::transaction<pqxx::repeatable_read, pqxx::read_only> tx(c);
     if (tx.exec_params("SELECT 1 FROM meshstream.assets WHERE tenant = $1 AND name = $2", tenant, asset).empty()) {
       return AssetNotFound(asset);
@@ -318,13 +322,17 @@ StatusOr<std::vector<VersionRecord>> PgStore::DoListVersions(const std::string& 
     const pqxx::result rows = tx.exec_params("SELECT " + PgVersionColumns() +
                                                  " FROM meshstream.versions WHERE tenant = $1 AND asset = $2 AND "
                                                  "version > $3 ORDER BY version LIMIT $4",
-                                             tenant, asset, after, limit);
-    std::vector<VersionRecord> versions;
+                                             tenant, asset, after, limit + 1);  // one row more: whether more follow
+    PageRows<VersionRecord> versions;
     for (const pqxx::row& row : rows) {
+      if (static_cast<int64_t>(versions.items.size()) == limit) {
+        versions.more = true;
+        break;
+      }
       MS_ASSIGN_OR_RETURN(VersionRecord v, ReadVersion(row));
-      versions.push_back(std::move(v));
+      versions.items.push_back(std::move(v));
     }
-    LoadResources(tx, &versions);
+    LoadResources(tx, &versions.items);
     tx.commit();
     return versions;
   });

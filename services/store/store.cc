@@ -98,8 +98,8 @@ StatusOr<Page<AssetRecord>> Store::ListAssets(const std::string& tenant, int32_t
   MS_RETURN_IF_ERROR(CheckName("tenant", tenant));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
   MS_ASSIGN_OR_RETURN(const std::string after, DecodeAssetsPageToken(page_token));
-  MS_ASSIGN_OR_RETURN(std::vector<AssetRecord> rows, DoListAssets(tenant, after, int64_t{size} + 1));
-  return TrimPage(std::move(rows), size, [](const AssetRecord& a) { return EncodeAssetsPageToken(a.name); });
+  MS_ASSIGN_OR_RETURN(PageRows<AssetRecord> rows, DoListAssets(tenant, after, size));
+  return MakePage(std::move(rows), [](const AssetRecord& a) { return EncodeAssetsPageToken(a.name); });
 }
 
 StatusOr<Page<VersionRecord>> Store::ListVersions(const std::string& tenant, const std::string& asset,
@@ -108,8 +108,8 @@ StatusOr<Page<VersionRecord>> Store::ListVersions(const std::string& tenant, con
   MS_RETURN_IF_ERROR(CheckName("asset", asset));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
   MS_ASSIGN_OR_RETURN(const int64_t after, DecodeVersionsPageToken(page_token));
-  MS_ASSIGN_OR_RETURN(std::vector<VersionRecord> rows, DoListVersions(tenant, asset, after, int64_t{size} + 1));
-  return TrimPage(std::move(rows), size, [](const VersionRecord& v) { return EncodeVersionsPageToken(v.version); });
+  MS_ASSIGN_OR_RETURN(PageRows<VersionRecord> rows, DoListVersions(tenant, asset, after, size));
+  return MakePage(std::move(rows), [](const VersionRecord& v) { return EncodeVersionsPageToken(v.version); });
 }
 
 StatusOr<JobRecord> Store::GetJob(const std::string& tenant, const std::string& job_id) {

@@ -2,7 +2,7 @@
 // two backends"): the JSON columns, the range check of stored states, the
 // messages of every refusal a backend decides (a missing asset, version, job,
 // upload, token or blob; an upload offset; a lost or finished lease; a
-// version no longer PROCESSING), and the trimming of a page. A backend maps
+// version no longer PROCESSING), and the token of a page. A backend maps
 // its rows with these, so both backends answer with one code and one
 // message.
 //
@@ -79,17 +79,13 @@ Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, bo
 Status VersionNotProcessing(const std::string& job_id);
 
 // --- pages -------------------------------------------------------------------
-// A page of at most `size` items from `rows` (which a backend read with a
-// limit of size + 1): when there are more rows than `size`, the extra one is
-// dropped and the token is `token_of(last item)`.
+// The page of a backend's listing (store.h, DoListAssets): its items, and
+// when more rows follow them, the token `token_of(last item)`.
 template <typename T, typename TokenOf>
-Page<T> TrimPage(std::vector<T> rows, int32_t size, TokenOf token_of) {
+Page<T> MakePage(PageRows<T> rows, TokenOf token_of) {
   Page<T> page;
-  if (size >= 0 && rows.size() > static_cast<size_t>(size)) {
-    rows.resize(static_cast<size_t>(size));
-    if (!rows.empty()) page.next_page_token = token_of(rows.back());
-  }
-  page.items = std::move(rows);
+  if (rows.more && !rows.items.empty()) page.next_page_token = token_of(rows.items.back());
+  page.items = std::move(rows.items);
   return page;
 }
 
