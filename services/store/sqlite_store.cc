@@ -449,7 +449,7 @@ Status SqliteStore::CheckLeaseLocked(const std::string& job_id, const std::strin
   MS_ASSIGN_OR_RETURN(const bool row, s.Step());
   if (!row) return JobNotFound(job_id);
   MS_ASSIGN_OR_RETURN(*job, ReadJobRow(s));
-  return CheckLeaseHolder(job_id, worker, true, job->state, job->lease_owner);
+  return CheckLeaseHolder(job_id, worker, job->state, job->lease_owner);
 }
 
 Status SqliteStore::DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,

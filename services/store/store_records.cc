@@ -110,9 +110,8 @@ Status BlobDamaged(const std::string& sha256) {
   return DataLoss("blob " + sha256 + " does not match its digest (the stored bytes are damaged)");
 }
 
-Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, bool found, JobState state,
+Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, JobState state,
                         const std::string& lease_owner) {
-  if (!found) return JobNotFound(job_id);
   if (lease_owner != worker) return Aborted("job " + job_id + ": the lease is held by another worker");
   if (state != JobState::kRunning) {
     return Aborted("job " + job_id + ": already " + JobStateName(state) + ", the lease is over");

@@ -66,13 +66,13 @@ Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes
 Status BlobDamaged(const std::string& sha256);
 
 // The lease check of RenewLease, CompleteJob and FailJob, from what the
-// backend read of job `job_id`: `found` false is NotFound; a job RUNNING
-// under another owner, or no longer RUNNING under another owner (taken and
+// backend read of job `job_id` (a missing job is the backend's JobNotFound,
+// before this check): a job RUNNING under another owner, or no longer RUNNING under another owner (taken and
 // released), is Aborted "job J: the lease is held by another worker"; a job
 // of this worker that is no longer RUNNING (finished, or released to
 // PENDING) is Aborted "job J: already SUCCEEDED, the lease is over". OK only
 // when `worker` holds the RUNNING job.
-Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, bool found, JobState state,
+Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, JobState state,
                         const std::string& lease_owner);
 // CompleteJob or FailJob found the job's version no longer PROCESSING:
 // FailedPrecondition, and nothing changes.
