@@ -524,7 +524,7 @@ StatusOr<TokenRecord> PgStore::DoFindToken(const std::string& token_hash) {
   return Run("looking up a token", [&](pqxx::connection& c) -> StatusOr<TokenRecord> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows = tx.exec_params(
-        "SELECT id, tenant, read_only, created_ms, revoked FROM meshstream.tokens WHERE token_hash = $1 AND NOT revoked",
+        std::string("SELECT ") + kPgTokenColumns + " FROM meshstream.tokens WHERE token_hash = $1 AND NOT revoked",
         token_hash);
     tx.commit();
     if (rows.empty()) return NoLiveToken();
@@ -536,7 +536,7 @@ StatusOr<std::vector<TokenRecord>> PgStore::DoListTokens() {
   return Run("listing tokens", [&](pqxx::connection& c) -> StatusOr<std::vector<TokenRecord>> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows =
-        tx.exec("SELECT id, tenant, read_only, created_ms, revoked FROM meshstream.tokens ORDER BY created_ms, id");
+        tx.exec(std::string("SELECT ") + kPgTokenColumns + " FROM meshstream.tokens ORDER BY created_ms, id");
     tx.commit();
     std::vector<TokenRecord> tokens;
     for (const pqxx::row& row : rows) tokens.push_back(ReadToken(row));
