@@ -14,7 +14,7 @@ namespace meshstream {
 // --- BlobSink ----------------------------------------------------------------
 
 Status BlobSink::Append(const uint8_t* data, size_t size) {
-  if (data == nullptr && size > 0) return InvalidArgument("data: null with " + std::to_string(size) + " bytes");
+  MS_RETURN_IF_ERROR(CheckBytes(data, size));
   return DoAppend(data, size);
 }
 

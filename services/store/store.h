@@ -164,7 +164,7 @@ constexpr int32_t kMaxPageSize = 1000;
 class BlobSink {
  public:
   virtual ~BlobSink() = default;
-  // InvalidArgument for null data with a size.
+  // InvalidArgument for null data with a size (store_checks.h, CheckBytes).
   Status Append(const uint8_t* data, size_t size);
   virtual uint64_t size() const = 0;
   // Makes the blob durable and returns its digest; with a non-empty
