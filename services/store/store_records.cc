@@ -82,8 +82,6 @@ Status NoLiveToken() { return NotFound("no live token has this hash"); }
 
 Status TokenHashExists() { return AlreadyExists("token_hash: a token with this hash exists"); }
 
-Status BlobNotFound(const std::string& sha256) { return NotFound("blob " + sha256 + " does not exist"); }
-
 Status BlobMissing(const std::string& field, const std::string& sha256) {
   return FailedPrecondition(field + ": blob " + sha256 + " does not exist (store the bytes first)");
 }
@@ -93,21 +91,8 @@ Status UploadOffsetMismatch(const std::string& upload_id, uint64_t durable, uint
                             " durable bytes; an append must start there, not at offset " + std::to_string(offset));
 }
 
-Status DigestMismatch(const std::string& actual, const std::string& expected) {
-  return DataLoss("the bytes have SHA-256 " + actual + ", not the " + expected + " announced; nothing stored");
-}
-
 Status UploadDiscarded(const std::string& upload_id, const Status& why) {
   return DataLoss("upload " + upload_id + ": " + why.message() + "; the upload is discarded");
-}
-
-Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes) {
-  return ResourceExhausted("blob " + sha256 + " has " + std::to_string(size) + " bytes, more than " +
-                           std::to_string(max_bytes));
-}
-
-Status BlobDamaged(const std::string& sha256) {
-  return DataLoss("blob " + sha256 + " does not match its digest (the stored bytes are damaged)");
 }
 
 Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, JobState state,

@@ -4,7 +4,9 @@
 // upload, token or blob; an upload offset; a lost or finished lease; a
 // version no longer PROCESSING), and the token of a page. A backend maps
 // its rows with these, so both backends answer with one code and one
-// message.
+// message. The refusals about blobs (missing, too large, damaged, a digest
+// mismatch) are the blob folder's too: they are declared in blob_store.h,
+// the lowest layer, which this header includes.
 //
 // Contract: the *FromRow and *FromJson functions read what the database
 // holds, which may be damaged: anything they cannot read is DataLoss naming
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "services/store/blob_store.h"  // BlobNotFound, BlobTooLarge, BlobDamaged, DigestMismatch
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -47,23 +50,16 @@ Status UploadNotFound(const std::string& upload_id);                 // NotFound
 Status TokenNotFound(const std::string& id);                         // NotFound
 Status NoLiveToken();                                                // NotFound
 Status TokenHashExists();                                            // AlreadyExists
-Status BlobNotFound(const std::string& sha256);                      // NotFound
 // A row would name blob `sha256`, which does not exist: FailedPrecondition
 // "<field>: blob X does not exist (store the bytes first)".
 Status BlobMissing(const std::string& field, const std::string& sha256);
 // An append at `offset` to an upload with `durable` bytes: FailedPrecondition
 // naming both.
 Status UploadOffsetMismatch(const std::string& upload_id, uint64_t durable, uint64_t offset);
-// Bytes whose digest is `actual` where `expected` was announced: DataLoss.
-Status DigestMismatch(const std::string& actual, const std::string& expected);
 // CommitUpload found bytes that can never become the blob (`why`: a digest
 // mismatch, missing bytes) and discarded the upload: DataLoss
 // "upload U: <why>; the upload is discarded".
 Status UploadDiscarded(const std::string& upload_id, const Status& why);
-// A read of `max_bytes` at most of a blob of `size` bytes: ResourceExhausted.
-Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes);
-// Stored bytes that do not hash to their name: DataLoss.
-Status BlobDamaged(const std::string& sha256);
 
 // The lease check of RenewLease, CompleteJob and FailJob, from what the
 // backend read of job `job_id` (a missing job is the backend's JobNotFound,
