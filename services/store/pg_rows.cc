@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <exception>
 #include <map>
+#include <utility>
 
 #include "services/store/store_records.h"
 
@@ -184,6 +185,13 @@ void LoadResources(pqxx::transaction_base& tx, std::vector<VersionRecord>* versi
     file.size = static_cast<uint64_t>(row["size"].as<int64_t>());
     it->second->resources.push_back(std::move(file));
   }
+}
+
+StatusOr<VersionRecord> ReadVersionWithResources(pqxx::transaction_base& tx, const pqxx::row& row) {
+  MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(row));
+  std::vector<VersionRecord> records = {std::move(record)};
+  LoadResources(tx, &records);
+  return std::move(records.front());
 }
 
 // --- blobs and leases ------------------------------------------------------------

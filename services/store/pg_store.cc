@@ -257,11 +257,9 @@ StatusOr<VersionRecord> PgStore::DoGetVersion(const std::string& tenant, const s
         "SELECT " + PgVersionColumns() + " FROM meshstream.versions WHERE tenant = $1 AND asset = $2 AND version = $3",
         tenant, asset, number);
     if (rows.empty()) return VersionNotFound(asset, number);
-    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(rows[0]));
-    std::vector<VersionRecord> records = {std::move(record)};
-    LoadResources(tx, &records);
+    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersionWithResources(tx, rows[0]));
     tx.commit();
-    return std::move(records.front());
+    return record;
   });
 }
 
@@ -278,11 +276,9 @@ StatusOr<VersionRecord> PgStore::DoGetLatestReadyVersion(const std::string& tena
                               .empty();
       return known ? NoReadyVersion(asset) : AssetNotFound(asset);
     }
-    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(rows[0]));
-    std::vector<VersionRecord> records = {std::move(record)};
-    LoadResources(tx, &records);
+    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersionWithResources(tx, rows[0]));
     tx.commit();
-    return std::move(records.front());
+    return record;
   });
 }
 
