@@ -5,7 +5,6 @@
 #include <sodium.h>
 
 #include <algorithm>
-#include <limits>
 #include <new>
 #include <utility>
 
@@ -243,8 +242,7 @@ StatusOr<bool> PgStore::DoHasBlob(const std::string& sha256) {
 }
 
 StatusOr<uint64_t> PgStore::DoRemoveOrphanBlobs(int64_t min_age_ms) {
-  const int64_t now = NowMs();
-  const int64_t cutoff = min_age_ms > now ? std::numeric_limits<int64_t>::min() : now - min_age_ms;
+  const int64_t cutoff = NowMs() - min_age_ms;  // min_age_ms >= 0 (checked by Store): no overflow
   static const char kUnnamed[] =
       "NOT EXISTS (SELECT 1 FROM meshstream.versions v WHERE v.source_sha256 = b.sha256) "
       "AND NOT EXISTS (SELECT 1 FROM meshstream.versions v WHERE v.artifact_sha256 = b.sha256) "

@@ -7,7 +7,6 @@
 #include <sodium.h>
 
 #include <algorithm>
-#include <limits>
 #include <set>
 #include <utility>
 
@@ -168,8 +167,7 @@ Status PgStore::DoDiscardUpload(const std::string& tenant, const std::string& up
 }
 
 StatusOr<uint64_t> PgStore::DoExpireUploads(int64_t max_idle_ms) {
-  const int64_t now = NowMs();
-  const int64_t cutoff = max_idle_ms > now ? std::numeric_limits<int64_t>::min() : now - max_idle_ms;
+  const int64_t cutoff = NowMs() - max_idle_ms;  // max_idle_ms >= 0 (checked by Store): no overflow
   // The periodic sweep also takes idle staging rows (see RemoveOrphanBlobs),
   // so that a dead server's leftovers go even when no server restarts.
   MS_RETURN_IF_ERROR(RemoveIdleStaging(cutoff));
