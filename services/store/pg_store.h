@@ -2,8 +2,9 @@
 // shared store (PostgreSQL)"), so that any number of `meshstream serve`
 // processes work on one database. Blobs are rows of at most 1 MiB of bytea
 // under their SHA-256; the schema is migrated at open (services/store/pg_schema.h).
-// A blob being written is staged in the database chunk by chunk (PgBlobSink
-// below), so a sink holds at most one chunk in memory whatever the blob's size.
+// A blob being written is staged in the database chunk by chunk (PgBlobSink,
+// services/store/pg_blob_sink.h), so a sink holds at most one chunk in memory
+// whatever the blob's size.
 //
 // Concurrency: every guarantee of store.h holds across processes, not just
 // threads, because it is enforced by PostgreSQL: version numbers come from a

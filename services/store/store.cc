@@ -181,6 +181,9 @@ Status Store::RevokeToken(const std::string& id) {
 
 // --- helpers -------------------------------------------------------------------
 
+namespace {
+
+// `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
 std::string TruncateMessage(const std::string& message, size_t max_bytes) {
   if (message.size() <= max_bytes) return message;
   const std::string ellipsis = "...";
@@ -189,6 +192,8 @@ std::string TruncateMessage(const std::string& message, size_t max_bytes) {
   while (cut > 0 && (static_cast<unsigned char>(message[cut]) & 0xC0) == 0x80) --cut;
   return message.substr(0, cut) + ellipsis;
 }
+
+}  // namespace
 
 std::string StorableMessage(const std::string& message, size_t max_bytes) {
   std::string text = ToValidUtf8(message);

@@ -341,12 +341,10 @@ class Store {
 // travels in every GetJob, WatchJob, GetVersion and ListVersions answer, and
 // an importer's message may quote what a client sent.
 constexpr size_t kMaxJobMessageBytes = 1024;
-// `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
-std::string TruncateMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
 // `message` as the store accepts it (store_checks.h, CheckText): ill-formed
-// UTF-8 replaced by U+FFFD, NUL bytes by spaces, then cut as TruncateMessage
-// does. For the job messages a worker writes, which may quote what a client
-// sent (an importer's error).
+// UTF-8 replaced by U+FFFD, NUL bytes by spaces, then cut to at most
+// `max_bytes` at a UTF-8 boundary, with "..." when cut. For the job messages
+// a worker writes, which may quote what a client sent (an importer's error).
 std::string StorableMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
 
 // Milliseconds since the Unix epoch (the store's clock for created/updated).

@@ -6,6 +6,21 @@
 
 namespace meshstream {
 
+namespace {
+
+// The name of a job state, for messages.
+const char* JobStateName(JobState state) {
+  switch (state) {
+    case JobState::kPending: return "PENDING";
+    case JobState::kRunning: return "RUNNING";
+    case JobState::kSucceeded: return "SUCCEEDED";
+    case JobState::kFailed: return "FAILED";
+  }
+  return "in an unknown state";
+}
+
+}  // namespace
+
 // nlohmann throws; nothing escapes these functions.
 
 std::string LabelsToJson(const std::map<std::string, std::string>& labels) {
@@ -52,16 +67,6 @@ StatusOr<JobState> JobStateFromRow(int64_t state) {
     return DataLoss("jobs row has the unknown state " + std::to_string(state));
   }
   return static_cast<JobState>(state);
-}
-
-const char* JobStateName(JobState state) {
-  switch (state) {
-    case JobState::kPending: return "PENDING";
-    case JobState::kRunning: return "RUNNING";
-    case JobState::kSucceeded: return "SUCCEEDED";
-    case JobState::kFailed: return "FAILED";
-  }
-  return "in an unknown state";
 }
 
 Status AssetNotFound(const std::string& asset) { return NotFound("asset " + asset + " does not exist"); }

@@ -39,7 +39,6 @@ StatusOr<std::vector<int64_t>> LevelsFromJson(const std::string& text);
 // not a value of the enum.
 StatusOr<VersionState> VersionStateFromRow(int64_t state);
 StatusOr<JobState> JobStateFromRow(int64_t state);
-const char* JobStateName(JobState state);
 
 // --- refusals a backend decides ------------------------------------------------
 Status AssetNotFound(const std::string& asset);                      // NotFound
