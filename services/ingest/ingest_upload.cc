@@ -198,27 +198,19 @@ StatusOr<VersionRecord> IngestUpload::Finish() {
   if (!begun_) return InvalidArgument("the first message must be metadata");
   if (finished_) return Internal("Finish called twice");
   finished_ = true;
-  // Every size is checked before anything is committed; each digest as its
-  // part is committed.
-  Status s = CheckPartComplete(main_, meta_.filename);
-  if (!s.ok()) return s;
-  for (const Part& r : resources_) {
-    s = CheckPartComplete(r, "resource '" + r.file.name + "'");
-    if (!s.ok()) return s;
-  }
+  // Every size is checked before the main file is committed; each digest as
+  // its part is committed. The resources before the last were checked and
+  // committed when the next one began (BeginResource), and Chunk only writes
+  // to the last: FinishResource checks and commits that one.
+  MS_RETURN_IF_ERROR(CheckPartComplete(main_, meta_.filename));
   if (!resources_.empty()) MS_RETURN_IF_ERROR(FinishResource(resources_.back()));
   // The main file: its sink, or the store's resumable upload, hashes the
   // bytes once and checks the announced digest (DataLoss, nothing stored; a
   // resumable upload is discarded).
-  if (main_.sink) {
-    auto digest = main_.sink->Commit(main_.file.sha256);
-    if (!digest.ok()) return digest.status().WithContext(meta_.filename);
-    main_.sha256 = digest.value();
-  } else {
-    auto digest = store_->CommitUpload(principal_.tenant, meta_.upload_id, main_.file.sha256);
-    if (!digest.ok()) return digest.status().WithContext(meta_.filename);
-    main_.sha256 = digest.value();
-  }
+  auto digest = main_.sink ? main_.sink->Commit(main_.file.sha256)
+                           : store_->CommitUpload(principal_.tenant, meta_.upload_id, main_.file.sha256);
+  if (!digest.ok()) return digest.status().WithContext(meta_.filename);
+  main_.sha256 = digest.value();
   NewVersion version;
   version.tenant = principal_.tenant;
   version.asset = meta_.asset;

@@ -12,7 +12,6 @@
 #include <unistd.h>
 
 #include "services/store/file_util.h"
-#include "services/store/store_records.h"
 
 namespace meshstream {
 
@@ -28,6 +27,21 @@ Status InitSodium() {
 }
 
 }  // namespace
+
+Status BlobNotFound(const std::string& sha256) { return NotFound("blob " + sha256 + " does not exist"); }
+
+Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes) {
+  return ResourceExhausted("blob " + sha256 + " has " + std::to_string(size) + " bytes, more than " +
+                           std::to_string(max_bytes));
+}
+
+Status BlobDamaged(const std::string& sha256) {
+  return DataLoss("blob " + sha256 + " does not match its digest (the stored bytes are damaged)");
+}
+
+Status DigestMismatch(const std::string& actual, const std::string& expected) {
+  return DataLoss("the bytes have SHA-256 " + actual + ", not the " + expected + " announced; nothing stored");
+}
 
 std::string ToHex(const uint8_t* bytes, size_t n) {
   static const char kDigits[] = "0123456789abcdef";

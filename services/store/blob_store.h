@@ -40,6 +40,17 @@ std::string ToHex(const uint8_t* data, size_t size);
 // `bytes` random bytes from libsodium, as hex (ids, temporary names, tokens).
 std::string RandomHex(size_t bytes);
 
+// The refusals about blobs, worded once for the blob folder and both store
+// backends (services/store/store_records.h words the rest and includes this
+// header; the blob store is the lowest layer and includes neither).
+Status BlobNotFound(const std::string& sha256);  // NotFound
+// A read of `max_bytes` at most of a blob of `size` bytes: ResourceExhausted.
+Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes);
+// Stored bytes that do not hash to their name: DataLoss.
+Status BlobDamaged(const std::string& sha256);
+// Bytes whose digest is `actual` where `expected` was announced: DataLoss.
+Status DigestMismatch(const std::string& actual, const std::string& expected);
+
 // Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
 class Sha256Hasher {
  public:

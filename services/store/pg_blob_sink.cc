@@ -5,7 +5,6 @@
 #include <sodium.h>
 
 #include <algorithm>
-#include <limits>
 #include <new>
 #include <utility>
 
@@ -41,9 +40,7 @@ Status PgBlobSink::DoAppend(const uint8_t* data, size_t size) {
       if (buffer_.size() == PgBlobSink::kChunkBytes) {
         const Status flushed = Flush();
         if (!flushed.ok()) {
-          done_ = true;  // a chunk is missing from staging: refuse to commit
-          DropStaged();
-          std::vector<uint8_t>().swap(buffer_);
+          Close();  // a chunk is missing from staging: refuse to commit
           return flushed;
         }
       }
@@ -59,9 +56,7 @@ Status PgBlobSink::DoAppend(const uint8_t* data, size_t size) {
       size -= n;
     }
   } catch (const std::bad_alloc&) {
-    done_ = true;  // the hash and the bytes may disagree now: refuse to commit
-    DropStaged();
-    std::vector<uint8_t>().swap(buffer_);
+    Close();  // the hash and the bytes may disagree now: refuse to commit
     return ResourceExhausted("blob sink: out of memory after " + std::to_string(size_) + " bytes");
   }
   return Status::Ok();
@@ -82,6 +77,12 @@ void PgBlobSink::DropStaged() {
   if (store_->DropStaging(staging_id_).ok()) maybe_staged_rows_ = false;
 }
 
+void PgBlobSink::Close() {
+  done_ = true;
+  DropStaged();
+  std::vector<uint8_t>().swap(buffer_);
+}
+
 StatusOr<std::string> PgBlobSink::DoCommit(const std::string& expected_sha256) {
   if (done_) return FailedPrecondition("blob sink: committed twice, or after a failed append");
   done_ = true;
@@ -89,12 +90,8 @@ StatusOr<std::string> PgBlobSink::DoCommit(const std::string& expected_sha256) {
   Status stored = Status::Ok();
   if (!expected_sha256.empty() && expected_sha256 != digest) stored = DigestMismatch(digest, expected_sha256);
   if (stored.ok()) stored = store_->CommitStaged(digest, size_, staging_id_, staged_, buffer_);
-  if (stored.ok()) {
-    maybe_staged_rows_ = false;  // moved into blob_chunks, or deleted
-  } else {
-    DropStaged();
-  }
-  std::vector<uint8_t>().swap(buffer_);
+  if (stored.ok()) maybe_staged_rows_ = false;  // moved into blob_chunks, or deleted
+  Close();  // after a failure, drops the staged rows
   if (!stored.ok()) return stored;
   return digest;
 }
@@ -245,8 +242,7 @@ StatusOr<bool> PgStore::DoHasBlob(const std::string& sha256) {
 }
 
 StatusOr<uint64_t> PgStore::DoRemoveOrphanBlobs(int64_t min_age_ms) {
-  const int64_t now = NowMs();
-  const int64_t cutoff = min_age_ms > now ? std::numeric_limits<int64_t>::min() : now - min_age_ms;
+  const int64_t cutoff = NowMs() - min_age_ms;  // min_age_ms >= 0 (checked by Store): no overflow
   static const char kUnnamed[] =
       "NOT EXISTS (SELECT 1 FROM meshstream.versions v WHERE v.source_sha256 = b.sha256) "
       "AND NOT EXISTS (SELECT 1 FROM meshstream.versions v WHERE v.artifact_sha256 = b.sha256) "

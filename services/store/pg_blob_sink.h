@@ -61,6 +61,10 @@ class PgBlobSink final : public BlobSink {
   Status Flush();
   // Deletes the staged rows, when there may be any.
   void DropStaged();
+  // Ends the sink, after a commit or a failure: no append or commit after
+  // it, the staged rows that may be left are deleted (DropStaged) and the
+  // buffer is freed.
+  void Close();
 
   PgStore* store_;
   const std::string staging_id_;  // 32 random hex digits

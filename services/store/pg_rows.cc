@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <exception>
 #include <map>
+#include <utility>
 
 #include "services/store/store_records.h"
 
@@ -186,6 +187,13 @@ void LoadResources(pqxx::transaction_base& tx, std::vector<VersionRecord>* versi
   }
 }
 
+StatusOr<VersionRecord> ReadVersionWithResources(pqxx::transaction_base& tx, const pqxx::row& row) {
+  MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(row));
+  std::vector<VersionRecord> records = {std::move(record)};
+  LoadResources(tx, &records);
+  return std::move(records.front());
+}
+
 // --- blobs and leases ------------------------------------------------------------
 
 std::set<std::string> LockBlobs(pqxx::transaction_base& tx, const std::vector<std::string>& digests) {
@@ -226,7 +234,7 @@ Status LeaseError(pqxx::transaction_base& tx, const std::string& job_id, const s
   const pqxx::result rows = tx.exec_params("SELECT state, lease_owner FROM meshstream.jobs WHERE id = $1", job_id);
   if (rows.empty()) return JobNotFound(job_id);
   MS_ASSIGN_OR_RETURN(const JobState state, JobStateFromRow(rows[0][0].as<int64_t>()));
-  const Status refused = CheckLeaseHolder(job_id, worker, true, state, rows[0][1].as<std::string>());
+  const Status refused = CheckLeaseHolder(job_id, worker, state, rows[0][1].as<std::string>());
   // The guarded UPDATE missed a row that now looks held by `worker`: the
   // lease changed hands in between (released and claimed again). Not ours.
   if (refused.ok()) return Aborted("job " + job_id + ": the lease is held by another worker");

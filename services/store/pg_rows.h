@@ -56,6 +56,8 @@ StatusOr<JobRecord> ReadJob(const pqxx::row& row);
 TokenRecord ReadToken(const pqxx::row& row);
 // Fills the resources of `versions` (all of one asset) from version_resources.
 void LoadResources(pqxx::transaction_base& tx, std::vector<VersionRecord>* versions);
+// One version: ReadVersion of `row`, then its resources (LoadResources) in `tx`.
+StatusOr<VersionRecord> ReadVersionWithResources(pqxx::transaction_base& tx, const pqxx::row& row);
 
 // --- blobs and leases ------------------------------------------------------------
 // Locks blob rows against removal for the rest of the transaction (the

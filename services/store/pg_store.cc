@@ -7,7 +7,6 @@
 #include <sodium.h>
 
 #include <algorithm>
-#include <limits>
 #include <set>
 #include <utility>
 
@@ -168,8 +167,7 @@ Status PgStore::DoDiscardUpload(const std::string& tenant, const std::string& up
 }
 
 StatusOr<uint64_t> PgStore::DoExpireUploads(int64_t max_idle_ms) {
-  const int64_t now = NowMs();
-  const int64_t cutoff = max_idle_ms > now ? std::numeric_limits<int64_t>::min() : now - max_idle_ms;
+  const int64_t cutoff = NowMs() - max_idle_ms;  // max_idle_ms >= 0 (checked by Store): no overflow
   // The periodic sweep also takes idle staging rows (see RemoveOrphanBlobs),
   // so that a dead server's leftovers go even when no server restarts.
   MS_RETURN_IF_ERROR(RemoveIdleStaging(cutoff));
@@ -257,11 +255,9 @@ StatusOr<VersionRecord> PgStore::DoGetVersion(const std::string& tenant, const s
         "SELECT " + PgVersionColumns() + " FROM meshstream.versions WHERE tenant = $1 AND asset = $2 AND version = $3",
         tenant, asset, number);
     if (rows.empty()) return VersionNotFound(asset, number);
-    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(rows[0]));
-    std::vector<VersionRecord> records = {std::move(record)};
-    LoadResources(tx, &records);
+    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersionWithResources(tx, rows[0]));
     tx.commit();
-    return std::move(records.front());
+    return record;
   });
 }
 
@@ -278,39 +274,41 @@ StatusOr<VersionRecord> PgStore::DoGetLatestReadyVersion(const std::string& tena
                               .empty();
       return known ? NoReadyVersion(asset) : AssetNotFound(asset);
     }
-    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersion(rows[0]));
-    std::vector<VersionRecord> records = {std::move(record)};
-    LoadResources(tx, &records);
+    MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersionWithResources(tx, rows[0]));
     tx.commit();
-    return std::move(records.front());
+    return record;
   });
 }
 
-StatusOr<std::vector<AssetRecord>> PgStore::DoListAssets(const std::string& tenant, const std::string& after,
-                                                         int64_t limit) {
-  return Run("listing assets", [&](pqxx::connection& c) -> StatusOr<std::vector<AssetRecord>> {
+StatusOr<PageRows<AssetRecord>> PgStore::DoListAssets(const std::string& tenant, const std::string& after,
+                                                      int64_t limit) {
+  return Run("listing assets", [&](pqxx::connection& c) -> StatusOr<PageRows<AssetRecord>> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows = tx.exec_params(
         "SELECT name, latest_version, updated_ms FROM meshstream.assets WHERE tenant = $1 AND name > $2 "
         "ORDER BY name LIMIT $3",
-        tenant, after, limit);
+        tenant, after, limit + 1);  // one row more: whether more follow
     tx.commit();
-    std::vector<AssetRecord> assets;
+    PageRows<AssetRecord> assets;
     for (const pqxx::row& row : rows) {
+      if (static_cast<int64_t>(assets.items.size()) == limit) {
+        assets.more = true;
+        break;
+      }
       AssetRecord a;
       a.tenant = tenant;
       a.name = row["name"].as<std::string>();
       a.latest_version = row["latest_version"].as<int64_t>();
       a.updated_ms = row["updated_ms"].as<int64_t>();
-      assets.push_back(std::move(a));
+      assets.items.push_back(std::move(a));
     }
     return assets;
   });
 }
 
-StatusOr<std::vector<VersionRecord>> PgStore::DoListVersions(const std::string& tenant, const std::string& asset,
-                                                             int64_t after, int64_t limit) {
-  return Run("listing versions of asset " + asset, [&](pqxx::connection& c) -> StatusOr<std::vector<VersionRecord>> {
+StatusOr<PageRows<VersionRecord>> PgStore::DoListVersions(const std::string& tenant, const std::string& asset,
+                                                          int64_t after, int64_t limit) {
+  return Run("listing versions of asset " + asset, [&](pqxx::connection& c) -> StatusOr<PageRows<VersionRecord>> {
     pqxx::transaction<pqxx::repeatable_read, pqxx::read_only> tx(c);
     if (tx.exec_params("SELECT 1 FROM meshstream.assets WHERE tenant = $1 AND name = $2", tenant, asset).empty()) {
       return AssetNotFound(asset);
@@ -318,13 +316,17 @@ StatusOr<std::vector<VersionRecord>> PgStore::DoListVersions(const std::string& 
     const pqxx::result rows = tx.exec_params("SELECT " + PgVersionColumns() +
                                                  " FROM meshstream.versions WHERE tenant = $1 AND asset = $2 AND "
                                                  "version > $3 ORDER BY version LIMIT $4",
-                                             tenant, asset, after, limit);
-    std::vector<VersionRecord> versions;
+                                             tenant, asset, after, limit + 1);  // one row more: whether more follow
+    PageRows<VersionRecord> versions;
     for (const pqxx::row& row : rows) {
+      if (static_cast<int64_t>(versions.items.size()) == limit) {
+        versions.more = true;
+        break;
+      }
       MS_ASSIGN_OR_RETURN(VersionRecord v, ReadVersion(row));
-      versions.push_back(std::move(v));
+      versions.items.push_back(std::move(v));
     }
-    LoadResources(tx, &versions);
+    LoadResources(tx, &versions.items);
     tx.commit();
     return versions;
   });
@@ -516,7 +518,7 @@ StatusOr<TokenRecord> PgStore::DoFindToken(const std::string& token_hash) {
   return Run("looking up a token", [&](pqxx::connection& c) -> StatusOr<TokenRecord> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows = tx.exec_params(
-        "SELECT id, tenant, read_only, created_ms, revoked FROM meshstream.tokens WHERE token_hash = $1 AND NOT revoked",
+        std::string("SELECT ") + kPgTokenColumns + " FROM meshstream.tokens WHERE token_hash = $1 AND NOT revoked",
         token_hash);
     tx.commit();
     if (rows.empty()) return NoLiveToken();
@@ -528,7 +530,7 @@ StatusOr<std::vector<TokenRecord>> PgStore::DoListTokens() {
   return Run("listing tokens", [&](pqxx::connection& c) -> StatusOr<std::vector<TokenRecord>> {
     pqxx::nontransaction tx(c);  // one statement: no BEGIN and COMMIT round trips
     const pqxx::result rows =
-        tx.exec("SELECT id, tenant, read_only, created_ms, revoked FROM meshstream.tokens ORDER BY created_ms, id");
+        tx.exec(std::string("SELECT ") + kPgTokenColumns + " FROM meshstream.tokens ORDER BY created_ms, id");
     tx.commit();
     std::vector<TokenRecord> tokens;
     for (const pqxx::row& row : rows) tokens.push_back(ReadToken(row));

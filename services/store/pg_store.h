@@ -2,8 +2,9 @@
 // shared store (PostgreSQL)"), so that any number of `meshstream serve`
 // processes work on one database. Blobs are rows of at most 1 MiB of bytea
 // under their SHA-256; the schema is migrated at open (services/store/pg_schema.h).
-// A blob being written is staged in the database chunk by chunk (PgBlobSink
-// below), so a sink holds at most one chunk in memory whatever the blob's size.
+// A blob being written is staged in the database chunk by chunk (PgBlobSink,
+// services/store/pg_blob_sink.h), so a sink holds at most one chunk in memory
+// whatever the blob's size.
 //
 // Concurrency: every guarantee of store.h holds across processes, not just
 // threads, because it is enforced by PostgreSQL: version numbers come from a
@@ -91,10 +92,10 @@ class PgStore final : public Store {
   StatusOr<VersionRecord> DoCreateVersion(const NewVersion& version) override;
   StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
   StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
-  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
-                                                  int64_t limit) override;
-  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
-                                                      int64_t after, int64_t limit) override;
+  StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                               int64_t limit) override;
+  StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                   int64_t after, int64_t limit) override;
 
   StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) override;
   StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;

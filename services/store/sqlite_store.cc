@@ -351,39 +351,47 @@ StatusOr<VersionRecord> SqliteStore::DoGetLatestReadyVersion(const std::string& 
   return ReadVersionLocked(tenant, asset, version);
 }
 
-StatusOr<std::vector<AssetRecord>> SqliteStore::DoListAssets(const std::string& tenant, const std::string& after,
-                                                             int64_t limit) {
+StatusOr<PageRows<AssetRecord>> SqliteStore::DoListAssets(const std::string& tenant, const std::string& after,
+                                                          int64_t limit) {
   std::lock_guard<std::mutex> lock(mu_);
-  std::vector<AssetRecord> assets;
+  PageRows<AssetRecord> assets;
   Stmt s(db_,
          "SELECT name, latest_version, updated_ms FROM assets WHERE tenant = ? AND name > ? ORDER BY name LIMIT ?");
-  s.Bind(tenant, after, limit);
+  s.Bind(tenant, after, limit + 1);  // one row more: whether more follow
   for (;;) {
     MS_ASSIGN_OR_RETURN(const bool row, s.Step());
     if (!row) break;
-    assets.push_back(AssetRecord{tenant, s.Text(0), s.Int(1), s.Int(2)});
+    if (static_cast<int64_t>(assets.items.size()) == limit) {
+      assets.more = true;
+      break;
+    }
+    assets.items.push_back(AssetRecord{tenant, s.Text(0), s.Int(1), s.Int(2)});
   }
   return assets;
 }
 
-StatusOr<std::vector<VersionRecord>> SqliteStore::DoListVersions(const std::string& tenant, const std::string& asset,
-                                                                 int64_t after, int64_t limit) {
+StatusOr<PageRows<VersionRecord>> SqliteStore::DoListVersions(const std::string& tenant, const std::string& asset,
+                                                              int64_t after, int64_t limit) {
   std::lock_guard<std::mutex> lock(mu_);
   MS_RETURN_IF_ERROR(CheckAssetLocked(tenant, asset));
   std::vector<int64_t> numbers;
+  PageRows<VersionRecord> versions;
   {
     Stmt s(db_, "SELECT version FROM versions WHERE tenant = ? AND asset = ? AND version > ? ORDER BY version LIMIT ?");
-    s.Bind(tenant, asset, after, limit);
+    s.Bind(tenant, asset, after, limit + 1);  // one row more: whether more follow
     for (;;) {
       MS_ASSIGN_OR_RETURN(const bool row, s.Step());
       if (!row) break;
+      if (static_cast<int64_t>(numbers.size()) == limit) {
+        versions.more = true;
+        break;
+      }
       numbers.push_back(s.Int(0));
     }
   }
-  std::vector<VersionRecord> versions;
   for (const int64_t number : numbers) {
     MS_ASSIGN_OR_RETURN(VersionRecord record, ReadVersionLocked(tenant, asset, number));
-    versions.push_back(std::move(record));
+    versions.items.push_back(std::move(record));
   }
   return versions;
 }
@@ -441,7 +449,7 @@ Status SqliteStore::CheckLeaseLocked(const std::string& job_id, const std::strin
   MS_ASSIGN_OR_RETURN(const bool row, s.Step());
   if (!row) return JobNotFound(job_id);
   MS_ASSIGN_OR_RETURN(*job, ReadJobRow(s));
-  return CheckLeaseHolder(job_id, worker, true, job->state, job->lease_owner);
+  return CheckLeaseHolder(job_id, worker, job->state, job->lease_owner);
 }
 
 Status SqliteStore::DoRenewLease(const std::string& job_id, const std::string& worker, int64_t now_ms,

@@ -109,10 +109,10 @@ class SqliteStore final : public Store {
   StatusOr<VersionRecord> DoCreateVersion(const NewVersion& version) override;
   StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset, int64_t version) override;
   StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) override;
-  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
-                                                  int64_t limit) override;
-  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
-                                                      int64_t after, int64_t limit) override;
+  StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                               int64_t limit) override;
+  StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                   int64_t after, int64_t limit) override;
 
   StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) override;
   StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms, int64_t lease_ms) override;

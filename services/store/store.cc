@@ -14,7 +14,7 @@ namespace meshstream {
 // --- BlobSink ----------------------------------------------------------------
 
 Status BlobSink::Append(const uint8_t* data, size_t size) {
-  if (data == nullptr && size > 0) return InvalidArgument("data: null with " + std::to_string(size) + " bytes");
+  MS_RETURN_IF_ERROR(CheckBytes(data, size));
   return DoAppend(data, size);
 }
 
@@ -98,8 +98,8 @@ StatusOr<Page<AssetRecord>> Store::ListAssets(const std::string& tenant, int32_t
   MS_RETURN_IF_ERROR(CheckName("tenant", tenant));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
   MS_ASSIGN_OR_RETURN(const std::string after, DecodeAssetsPageToken(page_token));
-  MS_ASSIGN_OR_RETURN(std::vector<AssetRecord> rows, DoListAssets(tenant, after, int64_t{size} + 1));
-  return TrimPage(std::move(rows), size, [](const AssetRecord& a) { return EncodeAssetsPageToken(a.name); });
+  MS_ASSIGN_OR_RETURN(PageRows<AssetRecord> rows, DoListAssets(tenant, after, size));
+  return MakePage(std::move(rows), [](const AssetRecord& a) { return EncodeAssetsPageToken(a.name); });
 }
 
 StatusOr<Page<VersionRecord>> Store::ListVersions(const std::string& tenant, const std::string& asset,
@@ -108,8 +108,8 @@ StatusOr<Page<VersionRecord>> Store::ListVersions(const std::string& tenant, con
   MS_RETURN_IF_ERROR(CheckName("asset", asset));
   MS_ASSIGN_OR_RETURN(const int32_t size, EffectivePageSize(page_size));
   MS_ASSIGN_OR_RETURN(const int64_t after, DecodeVersionsPageToken(page_token));
-  MS_ASSIGN_OR_RETURN(std::vector<VersionRecord> rows, DoListVersions(tenant, asset, after, int64_t{size} + 1));
-  return TrimPage(std::move(rows), size, [](const VersionRecord& v) { return EncodeVersionsPageToken(v.version); });
+  MS_ASSIGN_OR_RETURN(PageRows<VersionRecord> rows, DoListVersions(tenant, asset, after, size));
+  return MakePage(std::move(rows), [](const VersionRecord& v) { return EncodeVersionsPageToken(v.version); });
 }
 
 StatusOr<JobRecord> Store::GetJob(const std::string& tenant, const std::string& job_id) {
@@ -181,6 +181,9 @@ Status Store::RevokeToken(const std::string& id) {
 
 // --- helpers -------------------------------------------------------------------
 
+namespace {
+
+// `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
 std::string TruncateMessage(const std::string& message, size_t max_bytes) {
   if (message.size() <= max_bytes) return message;
   const std::string ellipsis = "...";
@@ -189,6 +192,8 @@ std::string TruncateMessage(const std::string& message, size_t max_bytes) {
   while (cut > 0 && (static_cast<unsigned char>(message[cut]) & 0xC0) == 0x80) --cut;
   return message.substr(0, cut) + ellipsis;
 }
+
+}  // namespace
 
 std::string StorableMessage(const std::string& message, size_t max_bytes) {
   std::string text = ToValidUtf8(message);

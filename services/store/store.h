@@ -142,6 +142,14 @@ struct Page {
   std::string next_page_token;  // empty on the last page
 };
 
+// What a backend's listing gives Store (DoListAssets, DoListVersions): the
+// rows of one page and whether more rows follow them.
+template <typename T>
+struct PageRows {
+  std::vector<T> items;
+  bool more = false;
+};
+
 // Page sizes: 0 means kDefaultPageSize; above kMaxPageSize is clamped;
 // negative is InvalidArgument.
 constexpr int32_t kDefaultPageSize = 50;
@@ -156,7 +164,7 @@ constexpr int32_t kMaxPageSize = 1000;
 class BlobSink {
  public:
   virtual ~BlobSink() = default;
-  // InvalidArgument for null data with a size.
+  // InvalidArgument for null data with a size (store_checks.h, CheckBytes).
   Status Append(const uint8_t* data, size_t size);
   virtual uint64_t size() const = 0;
   // Makes the blob durable and returns its digest; with a non-empty
@@ -294,15 +302,19 @@ class Store {
   virtual StatusOr<VersionRecord> DoGetVersion(const std::string& tenant, const std::string& asset,
                                                int64_t version) = 0;
   virtual StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& tenant, const std::string& asset) = 0;
+  // The listings: `limit` is the page size (1 .. kMaxPageSize). A backend
+  // reads at most `limit` + 1 rows, so as to learn whether more follow
+  // (`more`), but returns (and parses, and loads the resources of) at most
+  // `limit`; Store makes the token from the last item (MakePage).
+  //
   // At most `limit` assets whose names are above `after` ("" for the first
-  // page), ascending; Store::ListAssets asks for one more than a page and
-  // makes the token (TrimPage).
-  virtual StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
-                                                          int64_t limit) = 0;
+  // page), ascending.
+  virtual StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string& tenant, const std::string& after,
+                                                       int64_t limit) = 0;
   // At most `limit` versions numbered above `after`, ascending; NotFound
   // for an unknown asset.
-  virtual StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
-                                                              int64_t after, int64_t limit) = 0;
+  virtual StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string& tenant, const std::string& asset,
+                                                           int64_t after, int64_t limit) = 0;
 
   virtual StatusOr<JobRecord> DoGetJob(const std::string& tenant, const std::string& job_id) = 0;
   virtual StatusOr<std::optional<JobRecord>> DoClaimJob(const std::string& worker, int64_t now_ms,
@@ -329,12 +341,10 @@ class Store {
 // travels in every GetJob, WatchJob, GetVersion and ListVersions answer, and
 // an importer's message may quote what a client sent.
 constexpr size_t kMaxJobMessageBytes = 1024;
-// `message` cut to at most `max_bytes` at a UTF-8 boundary, with "..." when cut.
-std::string TruncateMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
 // `message` as the store accepts it (store_checks.h, CheckText): ill-formed
-// UTF-8 replaced by U+FFFD, NUL bytes by spaces, then cut as TruncateMessage
-// does. For the job messages a worker writes, which may quote what a client
-// sent (an importer's error).
+// UTF-8 replaced by U+FFFD, NUL bytes by spaces, then cut to at most
+// `max_bytes` at a UTF-8 boundary, with "..." when cut. For the job messages
+// a worker writes, which may quote what a client sent (an importer's error).
 std::string StorableMessage(const std::string& message, size_t max_bytes = kMaxJobMessageBytes);
 
 // Milliseconds since the Unix epoch (the store's clock for created/updated).

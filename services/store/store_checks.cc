@@ -125,8 +125,13 @@ Status CheckNewVersion(const NewVersion& v) {
   return Status::Ok();
 }
 
-Status CheckAppend(uint64_t offset, const uint8_t* data, size_t size) {
+Status CheckBytes(const uint8_t* data, size_t size) {
   if (data == nullptr && size > 0) return InvalidArgument("data: null with " + std::to_string(size) + " bytes");
+  return Status::Ok();
+}
+
+Status CheckAppend(uint64_t offset, const uint8_t* data, size_t size) {
+  MS_RETURN_IF_ERROR(CheckBytes(data, size));
   MS_RETURN_IF_ERROR(CheckFitsInt64("offset", offset));
   if (size > static_cast<uint64_t>(kInt64Max) - offset) {
     return InvalidArgument("offset: offset plus size overflows a 64-bit signed integer");

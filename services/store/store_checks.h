@@ -64,8 +64,12 @@ Status CheckSummary(const ArtifactSummary& summary);
 // and resources, sizes, options, comment and labels.
 Status CheckNewVersion(const NewVersion& version);
 
-// AppendUpload: bytes present when announced, and offset + size
-// representable as a signed 64-bit integer.
+// Bytes given as `data` and `size` (BlobSink::Append, AppendUpload):
+// present when a size is announced ("data: null with N bytes" otherwise).
+Status CheckBytes(const uint8_t* data, size_t size);
+
+// AppendUpload: the bytes (CheckBytes), and offset + size representable as a
+// signed 64-bit integer.
 Status CheckAppend(uint64_t offset, const uint8_t* data, size_t size);
 
 }  // namespace meshstream

@@ -6,6 +6,21 @@
 
 namespace meshstream {
 
+namespace {
+
+// The name of a job state, for messages.
+const char* JobStateName(JobState state) {
+  switch (state) {
+    case JobState::kPending: return "PENDING";
+    case JobState::kRunning: return "RUNNING";
+    case JobState::kSucceeded: return "SUCCEEDED";
+    case JobState::kFailed: return "FAILED";
+  }
+  return "in an unknown state";
+}
+
+}  // namespace
+
 // nlohmann throws; nothing escapes these functions.
 
 std::string LabelsToJson(const std::map<std::string, std::string>& labels) {
@@ -54,16 +69,6 @@ StatusOr<JobState> JobStateFromRow(int64_t state) {
   return static_cast<JobState>(state);
 }
 
-const char* JobStateName(JobState state) {
-  switch (state) {
-    case JobState::kPending: return "PENDING";
-    case JobState::kRunning: return "RUNNING";
-    case JobState::kSucceeded: return "SUCCEEDED";
-    case JobState::kFailed: return "FAILED";
-  }
-  return "in an unknown state";
-}
-
 Status AssetNotFound(const std::string& asset) { return NotFound("asset " + asset + " does not exist"); }
 
 Status VersionNotFound(const std::string& asset, int64_t version) {
@@ -82,8 +87,6 @@ Status NoLiveToken() { return NotFound("no live token has this hash"); }
 
 Status TokenHashExists() { return AlreadyExists("token_hash: a token with this hash exists"); }
 
-Status BlobNotFound(const std::string& sha256) { return NotFound("blob " + sha256 + " does not exist"); }
-
 Status BlobMissing(const std::string& field, const std::string& sha256) {
   return FailedPrecondition(field + ": blob " + sha256 + " does not exist (store the bytes first)");
 }
@@ -93,26 +96,12 @@ Status UploadOffsetMismatch(const std::string& upload_id, uint64_t durable, uint
                             " durable bytes; an append must start there, not at offset " + std::to_string(offset));
 }
 
-Status DigestMismatch(const std::string& actual, const std::string& expected) {
-  return DataLoss("the bytes have SHA-256 " + actual + ", not the " + expected + " announced; nothing stored");
-}
-
 Status UploadDiscarded(const std::string& upload_id, const Status& why) {
   return DataLoss("upload " + upload_id + ": " + why.message() + "; the upload is discarded");
 }
 
-Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes) {
-  return ResourceExhausted("blob " + sha256 + " has " + std::to_string(size) + " bytes, more than " +
-                           std::to_string(max_bytes));
-}
-
-Status BlobDamaged(const std::string& sha256) {
-  return DataLoss("blob " + sha256 + " does not match its digest (the stored bytes are damaged)");
-}
-
-Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, bool found, JobState state,
+Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, JobState state,
                         const std::string& lease_owner) {
-  if (!found) return JobNotFound(job_id);
   if (lease_owner != worker) return Aborted("job " + job_id + ": the lease is held by another worker");
   if (state != JobState::kRunning) {
     return Aborted("job " + job_id + ": already " + JobStateName(state) + ", the lease is over");

@@ -2,9 +2,11 @@
 // two backends"): the JSON columns, the range check of stored states, the
 // messages of every refusal a backend decides (a missing asset, version, job,
 // upload, token or blob; an upload offset; a lost or finished lease; a
-// version no longer PROCESSING), and the trimming of a page. A backend maps
+// version no longer PROCESSING), and the token of a page. A backend maps
 // its rows with these, so both backends answer with one code and one
-// message.
+// message. The refusals about blobs (missing, too large, damaged, a digest
+// mismatch) are the blob folder's too: they are declared in blob_store.h,
+// the lowest layer, which this header includes.
 //
 // Contract: the *FromRow and *FromJson functions read what the database
 // holds, which may be damaged: anything they cannot read is DataLoss naming
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "services/store/blob_store.h"  // BlobNotFound, BlobTooLarge, BlobDamaged, DigestMismatch
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -36,7 +39,6 @@ StatusOr<std::vector<int64_t>> LevelsFromJson(const std::string& text);
 // not a value of the enum.
 StatusOr<VersionState> VersionStateFromRow(int64_t state);
 StatusOr<JobState> JobStateFromRow(int64_t state);
-const char* JobStateName(JobState state);
 
 // --- refusals a backend decides ------------------------------------------------
 Status AssetNotFound(const std::string& asset);                      // NotFound
@@ -47,49 +49,38 @@ Status UploadNotFound(const std::string& upload_id);                 // NotFound
 Status TokenNotFound(const std::string& id);                         // NotFound
 Status NoLiveToken();                                                // NotFound
 Status TokenHashExists();                                            // AlreadyExists
-Status BlobNotFound(const std::string& sha256);                      // NotFound
 // A row would name blob `sha256`, which does not exist: FailedPrecondition
 // "<field>: blob X does not exist (store the bytes first)".
 Status BlobMissing(const std::string& field, const std::string& sha256);
 // An append at `offset` to an upload with `durable` bytes: FailedPrecondition
 // naming both.
 Status UploadOffsetMismatch(const std::string& upload_id, uint64_t durable, uint64_t offset);
-// Bytes whose digest is `actual` where `expected` was announced: DataLoss.
-Status DigestMismatch(const std::string& actual, const std::string& expected);
 // CommitUpload found bytes that can never become the blob (`why`: a digest
 // mismatch, missing bytes) and discarded the upload: DataLoss
 // "upload U: <why>; the upload is discarded".
 Status UploadDiscarded(const std::string& upload_id, const Status& why);
-// A read of `max_bytes` at most of a blob of `size` bytes: ResourceExhausted.
-Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes);
-// Stored bytes that do not hash to their name: DataLoss.
-Status BlobDamaged(const std::string& sha256);
 
 // The lease check of RenewLease, CompleteJob and FailJob, from what the
-// backend read of job `job_id`: `found` false is NotFound; a job RUNNING
-// under another owner, or no longer RUNNING under another owner (taken and
+// backend read of job `job_id` (a missing job is the backend's JobNotFound,
+// before this check): a job RUNNING under another owner, or no longer RUNNING under another owner (taken and
 // released), is Aborted "job J: the lease is held by another worker"; a job
 // of this worker that is no longer RUNNING (finished, or released to
 // PENDING) is Aborted "job J: already SUCCEEDED, the lease is over". OK only
 // when `worker` holds the RUNNING job.
-Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, bool found, JobState state,
+Status CheckLeaseHolder(const std::string& job_id, const std::string& worker, JobState state,
                         const std::string& lease_owner);
 // CompleteJob or FailJob found the job's version no longer PROCESSING:
 // FailedPrecondition, and nothing changes.
 Status VersionNotProcessing(const std::string& job_id);
 
 // --- pages -------------------------------------------------------------------
-// A page of at most `size` items from `rows` (which a backend read with a
-// limit of size + 1): when there are more rows than `size`, the extra one is
-// dropped and the token is `token_of(last item)`.
+// The page of a backend's listing (store.h, DoListAssets): its items, and
+// when more rows follow them, the token `token_of(last item)`.
 template <typename T, typename TokenOf>
-Page<T> TrimPage(std::vector<T> rows, int32_t size, TokenOf token_of) {
+Page<T> MakePage(PageRows<T> rows, TokenOf token_of) {
   Page<T> page;
-  if (size >= 0 && rows.size() > static_cast<size_t>(size)) {
-    rows.resize(static_cast<size_t>(size));
-    if (!rows.empty()) page.next_page_token = token_of(rows.back());
-  }
-  page.items = std::move(rows);
+  if (rows.more && !rows.items.empty()) page.next_page_token = token_of(rows.items.back());
+  page.items = std::move(rows.items);
   return page;
 }
 

@@ -65,11 +65,11 @@ class BlobOnlyStore : public Store {
   StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string&, const std::string&) override {
     return Unsupported("blobs only");
   }
-  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
+  StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
     return Unsupported("blobs only");
   }
-  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
-                                                      int64_t) override {
+  StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
+                                                   int64_t) override {
     return Unsupported("blobs only");
   }
   StatusOr<JobRecord> DoGetJob(const std::string&, const std::string&) override { return Unsupported("blobs only"); }

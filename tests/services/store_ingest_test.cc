@@ -90,11 +90,11 @@ class WatchedStore final : public Store {
   StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string& t, const std::string& a) override {
     return inner_->GetLatestReadyVersion(t, a);
   }
-  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
+  StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
     return Unsupported("not used by ingest");
   }
-  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
-                                                      int64_t) override {
+  StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
+                                                   int64_t) override {
     return Unsupported("not used by ingest");
   }
   StatusOr<JobRecord> DoGetJob(const std::string& t, const std::string& j) override { return inner_->GetJob(t, j); }

@@ -59,6 +59,22 @@ ClusterHolder& Cluster() {
 
 std::atomic<int> g_next_database{0};
 
+// Runs `update(tx)` in a transaction of its own connection to `conninfo`
+// and commits it when exactly one row changed.
+template <typename Update>
+Status UpdateOneRow(const std::string& conninfo, Update update) {
+  try {
+    pqxx::connection c(conninfo);
+    pqxx::work tx(c);
+    const pqxx::result r = update(tx);
+    if (r.affected_rows() != 1) return NotFound("changed " + std::to_string(r.affected_rows()) + " rows");
+    tx.commit();
+    return Status::Ok();
+  } catch (const std::exception& e) {
+    return Internal(std::string("raw update: ") + e.what());
+  }
+}
+
 }  // namespace
 
 // A new, empty database on the cluster: its conninfo.
@@ -93,36 +109,25 @@ StoreBackend PgBackend() {
   // Writes a state behind the store's back. A state outside the enum needs
   // the table's CHECK constraint gone first, as in a database restored from
   // a damaged dump: the store's range check is the defence that remains.
-  const auto raw_update = [conninfo](const std::string& table, int64_t state, const std::string& where,
-                                     const std::vector<std::string>& params) -> Status {
-    try {
-      pqxx::connection c(*conninfo);
-      pqxx::work tx(c);
-      const int64_t highest = table == "versions" ? 3 : 4;
-      if (state < 1 || state > highest) {
-        tx.exec("ALTER TABLE meshstream." + table + " DROP CONSTRAINT IF EXISTS " + table + "_state_check");
+  backend.set_version_state = [conninfo](const std::string& tenant, const std::string& asset, int64_t version,
+                                         int64_t state) {
+    return UpdateOneRow(*conninfo, [&](pqxx::work& tx) {
+      if (state < static_cast<int64_t>(VersionState::kProcessing) ||
+          state > static_cast<int64_t>(VersionState::kFailed)) {
+        tx.exec("ALTER TABLE meshstream.versions DROP CONSTRAINT IF EXISTS versions_state_check");
       }
-      pqxx::result r;
-      if (params.size() == 1) {
-        r = tx.exec_params("UPDATE meshstream." + table + " SET state = $1 WHERE " + where, state, params[0]);
-      } else {
-        r = tx.exec_params("UPDATE meshstream." + table + " SET state = $1 WHERE " + where, state, params[0],
-                           params[1], std::stoll(params[2]));
+      return tx.exec_params(
+          "UPDATE meshstream.versions SET state = $1 WHERE tenant = $2 AND asset = $3 AND version = $4", state,
+          tenant, asset, version);
+    });
+  };
+  backend.set_job_state = [conninfo](const std::string& job_id, int64_t state) {
+    return UpdateOneRow(*conninfo, [&](pqxx::work& tx) {
+      if (state < static_cast<int64_t>(JobState::kPending) || state > static_cast<int64_t>(JobState::kFailed)) {
+        tx.exec("ALTER TABLE meshstream.jobs DROP CONSTRAINT IF EXISTS jobs_state_check");
       }
-      if (r.affected_rows() != 1) return NotFound(table + ": changed " + std::to_string(r.affected_rows()) + " rows");
-      tx.commit();
-      return Status::Ok();
-    } catch (const std::exception& e) {
-      return Internal(std::string("raw update: ") + e.what());
-    }
-  };
-  backend.set_version_state = [raw_update](const std::string& tenant, const std::string& asset, int64_t version,
-                                           int64_t state) {
-    return raw_update("versions", state, "tenant = $2 AND asset = $3 AND version = $4",
-                      {tenant, asset, std::to_string(version)});
-  };
-  backend.set_job_state = [raw_update](const std::string& job_id, int64_t state) {
-    return raw_update("jobs", state, "id = $2", {job_id});
+      return tx.exec_params("UPDATE meshstream.jobs SET state = $1 WHERE id = $2", state, job_id);
+    });
   };
   return backend;
 }

@@ -14,7 +14,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +22,7 @@
 
 #include "services/store/blob_store.h"
 #include "services/store/open_store.h"
+#include "services/store/sqlite_db.h"
 #include "testing/test_util.h"
 #include "tests/services/store_suite.h"
 
@@ -32,11 +32,11 @@ namespace {
 namespace fs = std::filesystem;
 using test_util::TempDir;
 
-// Runs `sql` on the store's database through a connection of its own (as a
-// hand edit would): ?1 is `number`, then the texts, then `last` when given.
-// Exactly one row must change.
-Status RawUpdate(const std::string& folder, const char* sql, int64_t number, const std::vector<std::string>& texts,
-                 std::optional<int64_t> last) {
+// Runs `sql` with `params` bound (sqlite_db.h's Stmt) on the store's
+// database through a connection of its own, as a hand edit would. Exactly
+// one row must change.
+template <typename... Params>
+Status RawUpdate(const std::string& folder, const char* sql, const Params&... params) {
   sqlite3* db = nullptr;
   const std::string path = folder + "/meta.sqlite3";
   if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
@@ -44,22 +44,16 @@ Status RawUpdate(const std::string& folder, const char* sql, int64_t number, con
     return IoError("cannot open " + path);
   }
   sqlite3_busy_timeout(db, 5000);
-  sqlite3_stmt* stmt = nullptr;
-  int rc = sqlite3_prepare_v2(db, sql, -1, &stmt, nullptr);
-  int index = 1;
-  if (rc == SQLITE_OK) rc = sqlite3_bind_int64(stmt, index++, number);
-  for (const std::string& text : texts) {
-    if (rc == SQLITE_OK) rc = sqlite3_bind_text(stmt, index++, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+  Status status;
+  {
+    Stmt stmt(db, sql);
+    status = stmt.Bind(params...).Run();
+    if (status.ok() && stmt.Changes() != 1) {
+      status = NotFound(std::string(sql) + ": changed " + std::to_string(stmt.Changes()) + " rows");
+    }
   }
-  if (rc == SQLITE_OK && last) rc = sqlite3_bind_int64(stmt, index++, *last);
-  if (rc == SQLITE_OK) rc = sqlite3_step(stmt);
-  const int changed = sqlite3_changes(db);
-  const std::string error = sqlite3_errmsg(db);
-  sqlite3_finalize(stmt);
   sqlite3_close_v2(db);
-  if (rc != SQLITE_DONE) return Internal(std::string(sql) + ": " + error);
-  if (changed != 1) return NotFound(std::string(sql) + ": changed " + std::to_string(changed) + " rows");
-  return Status::Ok();
+  return status;
 }
 
 StatusOr<StoreBackend> MakeSqliteBackend() {
@@ -74,10 +68,10 @@ StatusOr<StoreBackend> MakeSqliteBackend() {
   backend.set_version_state = [folder](const std::string& tenant, const std::string& asset, int64_t version,
                                        int64_t state) {
     return RawUpdate(folder, "UPDATE versions SET state = ?1 WHERE tenant = ?2 AND asset = ?3 AND version = ?4",
-                     state, {tenant, asset}, version);
+                     state, tenant, asset, version);
   };
   backend.set_job_state = [folder](const std::string& job_id, int64_t state) {
-    return RawUpdate(folder, "UPDATE jobs SET state = ?1 WHERE id = ?2", state, {job_id}, std::nullopt);
+    return RawUpdate(folder, "UPDATE jobs SET state = ?1 WHERE id = ?2", state, job_id);
   };
   return backend;
 }

@@ -113,6 +113,13 @@ const Status& StatusOf(const StatusOr<T>& value) {
     const ::meshstream::Status ms_c_ = ::meshstream::StatusOf(expr);            \
     EXPECT_EQ(ms_c_.code(), code_) << #expr << " gave " << ms_c_.ToString();    \
   } while (false)
+// `status` (a Status or StatusOr) has code `code` and exactly `message`.
+template <typename S>
+void ExpectStatus(const S& status_or, StatusCode code, const std::string& message) {
+  const Status& status = StatusOf(status_or);
+  EXPECT_EQ(status.code(), code) << message << ": " << status.ToString();
+  EXPECT_EQ(status.message(), message);
+}
 // `lhs = value of expr`, or the test stops with the status.
 #define MS_ASSERT_OK_AND_ASSIGN(lhs, expr) \
   MS_ASSERT_OK_AND_ASSIGN_IMPL_(MS_STATUS_CONCAT_(ms_assert_, __LINE__), lhs, expr)

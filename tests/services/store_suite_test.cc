@@ -1067,61 +1067,55 @@ TEST_P(StoreSuite, AStoredStateThatIsNoKnownValueIsDataLoss) {
   MS_ASSERT_OK_AND_ASSIGN(const VersionRecord v, store().CreateVersion(MakeVersion("acme", "chair", src)));
   MS_ASSERT_OK(backend_.set_version_state("acme", "chair", 1, 7));
   MS_ASSERT_OK(backend_.set_job_state(v.job_id, 0));
-  const auto expect_data_loss = [](const Status& status, const std::string& message) {
-    EXPECT_EQ(status.code(), StatusCode::kDataLoss) << status.ToString();
-    EXPECT_EQ(status.message(), message);
-  };
-  expect_data_loss(StatusOf(store().GetVersion("acme", "chair", 1)), "versions row has the unknown state 7");
-  expect_data_loss(StatusOf(store().GetVersion("acme", "chair", 0)), "versions row has the unknown state 7");
-  expect_data_loss(StatusOf(store().ListVersions("acme", "chair", 0, "")), "versions row has the unknown state 7");
-  expect_data_loss(StatusOf(store().GetJob("acme", v.job_id)), "jobs row has the unknown state 0");
+  ExpectStatus(store().GetVersion("acme", "chair", 1), StatusCode::kDataLoss, "versions row has the unknown state 7");
+  ExpectStatus(store().GetVersion("acme", "chair", 0), StatusCode::kDataLoss, "versions row has the unknown state 7");
+  ExpectStatus(store().ListVersions("acme", "chair", 0, ""), StatusCode::kDataLoss,
+               "versions row has the unknown state 7");
+  ExpectStatus(store().GetJob("acme", v.job_id), StatusCode::kDataLoss, "jobs row has the unknown state 0");
   MS_ASSERT_OK(backend_.set_job_state(v.job_id, static_cast<int64_t>(JobState::kRunning)));
   MS_ASSERT_OK(backend_.set_job_state(v.job_id, -3));
-  expect_data_loss(store().RenewLease(v.job_id, "w", NowMs(), kLease, 0.5, ""), "jobs row has the unknown state -3");
+  ExpectStatus(store().RenewLease(v.job_id, "w", NowMs(), kLease, 0.5, ""), StatusCode::kDataLoss,
+               "jobs row has the unknown state -3");
 }
 
 TEST_P(StoreSuite, NulBytesAndBadUtf8AreInvalidArgumentNamingTheField) {
   MS_ASSERT_OK_AND_ASSIGN(const std::string src, PutBlob(store(), "source"));
   MS_ASSERT_OK_AND_ASSIGN(const std::string art, PutBlob(store(), "artifact"));
   const std::string nul("cut\0here", 8), bad_utf8 = "\xC3\x28", overlong = "\xC0\xAF", surrogate = "\xED\xA0\x80";
-  const auto expect_refused = [](const Status& status, const std::string& message) {
-    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << message << ": " << status.ToString();
-    EXPECT_EQ(status.message(), message);
-  };
   for (const std::string& text : {nul, bad_utf8, overlong, surrogate}) {
     const std::string why = text == nul ? "contains a NUL byte" : "is not valid UTF-8";
     NewVersion v = MakeVersion("acme", "chair", src);
     v.comment = text;
-    expect_refused(StatusOf(store().CreateVersion(v)), "comment: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "comment: " + why);
     v = MakeVersion("acme", "chair", src);
     v.source.name = "a" + text + ".glb";
-    expect_refused(StatusOf(store().CreateVersion(v)), "source.name: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "source.name: " + why);
     v = MakeVersion("acme", "chair", src);
     v.resources = {SourceFile{"ok.bin", src, 6}, SourceFile{text, src, 6}};
-    expect_refused(StatusOf(store().CreateVersion(v)), "resources[1].name: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "resources[1].name: " + why);
     v = MakeVersion("acme", "chair", src);
     v.options_json = text;
-    expect_refused(StatusOf(store().CreateVersion(v)), "options_json: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "options_json: " + why);
     v = MakeVersion("acme", "chair", src);
     v.labels = {{"k", text}};
-    expect_refused(StatusOf(store().CreateVersion(v)), "labels[k]: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "labels[k]: " + why);
     v = MakeVersion("acme", "chair", src);
     v.labels = {{text, "v"}};
-    expect_refused(StatusOf(store().CreateVersion(v)), "labels: a key: " + why);
-    expect_refused(StatusOf(store().ClaimJob("w" + text, NowMs(), kLease)), "worker: " + why);
-    expect_refused(StatusOf(store().FindArtifact("key" + text)), "cache_key: " + why);
-    expect_refused(StatusOf(store().FindToken(text)), "token_hash: " + why);
-    expect_refused(StatusOf(store().CreateToken("acme", false, text)), "token_hash: " + why);
+    ExpectStatus(store().CreateVersion(v), StatusCode::kInvalidArgument, "labels: a key: " + why);
+    ExpectStatus(store().ClaimJob("w" + text, NowMs(), kLease), StatusCode::kInvalidArgument, "worker: " + why);
+    ExpectStatus(store().FindArtifact("key" + text), StatusCode::kInvalidArgument, "cache_key: " + why);
+    ExpectStatus(store().FindToken(text), StatusCode::kInvalidArgument, "token_hash: " + why);
+    ExpectStatus(store().CreateToken("acme", false, text), StatusCode::kInvalidArgument, "token_hash: " + why);
     ArtifactSummary summary = MakeSummary(art);
     summary.encoder = text;
-    expect_refused(store().PutArtifact("key", summary), "summary.encoder: " + why);
+    ExpectStatus(store().PutArtifact("key", summary), StatusCode::kInvalidArgument, "summary.encoder: " + why);
   }
   NewVersion empty_name = MakeVersion("acme", "chair", src);
   empty_name.source.name = "";
-  expect_refused(StatusOf(store().CreateVersion(empty_name)), "source.name: must not be empty");
+  ExpectStatus(store().CreateVersion(empty_name), StatusCode::kInvalidArgument, "source.name: must not be empty");
   NewVersion empty_key = MakeVersion("acme", "chair", src);
   empty_key.labels = {{"", "v"}};
-  expect_refused(StatusOf(store().CreateVersion(empty_key)), "labels: a key must not be empty");
+  ExpectStatus(store().CreateVersion(empty_key), StatusCode::kInvalidArgument, "labels: a key must not be empty");
   // Nothing was stored by any of them.
   EXPECT_TRUE(store().ListAssets("acme", 0, "").value().items.empty());
   EXPECT_FALSE(store().FindArtifact("key").value().has_value());
@@ -1130,8 +1124,9 @@ TEST_P(StoreSuite, NulBytesAndBadUtf8AreInvalidArgumentNamingTheField) {
   // Text of a running job: the message of a renewal or a failure.
   MS_ASSERT_OK_AND_ASSIGN(const VersionRecord v, store().CreateVersion(MakeVersion("acme", "chair", src)));
   ASSERT_TRUE(store().ClaimJob("w", NowMs(), kLease).value().has_value());
-  expect_refused(store().RenewLease(v.job_id, "w", NowMs(), kLease, 0.5, nul), "message: contains a NUL byte");
-  expect_refused(store().FailJob(v.job_id, "w", bad_utf8), "message: is not valid UTF-8");
+  ExpectStatus(store().RenewLease(v.job_id, "w", NowMs(), kLease, 0.5, nul), StatusCode::kInvalidArgument,
+               "message: contains a NUL byte");
+  ExpectStatus(store().FailJob(v.job_id, "w", bad_utf8), StatusCode::kInvalidArgument, "message: is not valid UTF-8");
   EXPECT_EQ(store().GetJob("acme", v.job_id).value().state, JobState::kRunning);
   // Valid UTF-8 of every length, quotes and SQL are stored as they are.
   NewVersion quoted = MakeVersion("acme", "quoted", src);
@@ -1147,118 +1142,119 @@ TEST_P(StoreSuite, LimitsAreInvalidArgumentNamingTheField) {
   MS_ASSERT_OK_AND_ASSIGN(const std::string src, PutBlob(store(), "source"));
   MS_ASSERT_OK_AND_ASSIGN(const std::string art, PutBlob(store(), "artifact"));
   const uint64_t too_big = uint64_t{1} << 63;
-  const auto expect_refused = [](const Status& status, const std::string& message) {
-    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << message << ": " << status.ToString();
-    EXPECT_EQ(status.message(), message);
-  };
   // Names: 128 characters at most, no "." or "..".
   MS_EXPECT_OK(store().CreateVersion(MakeVersion("acme", std::string(128, 'n'), src)));
-  expect_refused(StatusOf(store().CreateVersion(MakeVersion("acme", std::string(129, 'n'), src))),
-                 "asset: 129 characters, at most 128");
-  expect_refused(StatusOf(store().GetVersion("..", "chair", 0)), "tenant: '..' is not a name");
-  expect_refused(StatusOf(store().UploadSize("acme", ".")), "upload_id: '.' is not a name");
-  expect_refused(store().RevokeToken("not a token id"), "id: only letters, digits, '.', '_' and '-' are allowed");
+  ExpectStatus(store().CreateVersion(MakeVersion("acme", std::string(129, 'n'), src)), StatusCode::kInvalidArgument,
+               "asset: 129 characters, at most 128");
+  ExpectStatus(store().GetVersion("..", "chair", 0), StatusCode::kInvalidArgument, "tenant: '..' is not a name");
+  ExpectStatus(store().UploadSize("acme", "."), StatusCode::kInvalidArgument, "upload_id: '.' is not a name");
+  ExpectStatus(store().RevokeToken("not a token id"), StatusCode::kInvalidArgument,
+               "id: only letters, digits, '.', '_' and '-' are allowed");
   // Keys: 1024 bytes at most.
   MS_EXPECT_OK(store().FindArtifact(std::string(1024, 'k')));
-  expect_refused(StatusOf(store().FindArtifact(std::string(1025, 'k'))), "cache_key: 1025 bytes, at most 1024");
-  expect_refused(StatusOf(store().ClaimJob(std::string(1025, 'w'), NowMs(), kLease)),
-                 "worker: 1025 bytes, at most 1024");
+  ExpectStatus(store().FindArtifact(std::string(1025, 'k')), StatusCode::kInvalidArgument,
+               "cache_key: 1025 bytes, at most 1024");
+  ExpectStatus(store().ClaimJob(std::string(1025, 'w'), NowMs(), kLease), StatusCode::kInvalidArgument,
+               "worker: 1025 bytes, at most 1024");
   // Sizes the database keeps as signed 64-bit integers.
   NewVersion huge = MakeVersion("acme", "chair", src);
   huge.source.size = too_big;
-  expect_refused(StatusOf(store().CreateVersion(huge)),
-                 "source.size: 9223372036854775808 does not fit a 64-bit signed integer");
+  ExpectStatus(store().CreateVersion(huge), StatusCode::kInvalidArgument,
+               "source.size: 9223372036854775808 does not fit a 64-bit signed integer");
   huge = MakeVersion("acme", "chair", src);
   huge.resources = {SourceFile{"a.bin", src, too_big}};
-  expect_refused(StatusOf(store().CreateVersion(huge)),
-                 "resources[0].size: 9223372036854775808 does not fit a 64-bit signed integer");
+  ExpectStatus(store().CreateVersion(huge), StatusCode::kInvalidArgument,
+               "resources[0].size: 9223372036854775808 does not fit a 64-bit signed integer");
   ArtifactSummary summary = MakeSummary(art);
   summary.unreliable_bytes = too_big;
-  expect_refused(store().PutArtifact("key", summary),
-                 "summary.unreliable_bytes: 9223372036854775808 does not fit a 64-bit signed integer");
+  ExpectStatus(store().PutArtifact("key", summary), StatusCode::kInvalidArgument,
+               "summary.unreliable_bytes: 9223372036854775808 does not fit a 64-bit signed integer");
   summary = MakeSummary(art);
   summary.faces = -1;
-  expect_refused(store().PutArtifact("key", summary), "summary.faces: -1 is negative");
-  expect_refused(store().PutArtifact("key", MakeSummary("ABC")),
-                 "summary.artifact_sha256: not a SHA-256 (64 lower-case hex digits)");
+  ExpectStatus(store().PutArtifact("key", summary), StatusCode::kInvalidArgument, "summary.faces: -1 is negative");
+  ExpectStatus(store().PutArtifact("key", MakeSummary("ABC")), StatusCode::kInvalidArgument,
+               "summary.artifact_sha256: not a SHA-256 (64 lower-case hex digits)");
   // Uploads: an offset plus size beyond int64, null bytes with a size.
-  expect_refused(store().AppendUpload("acme", "up", too_big, Data("x"), 1),
-                 "offset: 9223372036854775808 does not fit a 64-bit signed integer");
-  expect_refused(store().AppendUpload("acme", "up", too_big - 1, Data("xy"), 2),
-                 "offset: offset plus size overflows a 64-bit signed integer");
-  expect_refused(store().AppendUpload("acme", "up", 0, nullptr, 3), "data: null with 3 bytes");
+  ExpectStatus(store().AppendUpload("acme", "up", too_big, Data("x"), 1), StatusCode::kInvalidArgument,
+               "offset: 9223372036854775808 does not fit a 64-bit signed integer");
+  ExpectStatus(store().AppendUpload("acme", "up", too_big - 1, Data("xy"), 2), StatusCode::kInvalidArgument,
+               "offset: offset plus size overflows a 64-bit signed integer");
+  ExpectStatus(store().AppendUpload("acme", "up", 0, nullptr, 3), StatusCode::kInvalidArgument,
+               "data: null with 3 bytes");
   EXPECT_CODE(store().UploadSize("acme", "up"), StatusCode::kNotFound);
   // Leases: a clock and a length that add up, a progress within 0..1.
   const int64_t now = NowMs();
-  expect_refused(StatusOf(store().ClaimJob("w", -1, kLease)), "now_ms: -1 is negative");
-  expect_refused(StatusOf(store().ClaimJob("w", now, 0)), "lease_ms: 0 is not positive");
-  expect_refused(StatusOf(store().ClaimJob("w", INT64_MAX - 5, 10)), "lease_ms: now_ms + lease_ms overflows");
-  expect_refused(store().RenewLease("job", "w", now, kLease, std::nan(""), ""), "progress: must be between 0 and 1");
-  expect_refused(store().RenewLease("job", "w", now, kLease, -0.1, ""), "progress: must be between 0 and 1");
-  expect_refused(StatusOf(store().RemoveOrphanBlobs(-1)), "min_age_ms: -1 is negative");
-  expect_refused(StatusOf(store().ExpireUploads(-2)), "max_idle_ms: -2 is negative");
-  expect_refused(StatusOf(store().GetVersion("acme", "chair", -1)), "version: -1 is negative");
+  ExpectStatus(store().ClaimJob("w", -1, kLease), StatusCode::kInvalidArgument, "now_ms: -1 is negative");
+  ExpectStatus(store().ClaimJob("w", now, 0), StatusCode::kInvalidArgument, "lease_ms: 0 is not positive");
+  ExpectStatus(store().ClaimJob("w", INT64_MAX - 5, 10), StatusCode::kInvalidArgument,
+               "lease_ms: now_ms + lease_ms overflows");
+  ExpectStatus(store().RenewLease("job", "w", now, kLease, std::nan(""), ""), StatusCode::kInvalidArgument,
+               "progress: must be between 0 and 1");
+  ExpectStatus(store().RenewLease("job", "w", now, kLease, -0.1, ""), StatusCode::kInvalidArgument,
+               "progress: must be between 0 and 1");
+  ExpectStatus(store().RemoveOrphanBlobs(-1), StatusCode::kInvalidArgument, "min_age_ms: -1 is negative");
+  ExpectStatus(store().ExpireUploads(-2), StatusCode::kInvalidArgument, "max_idle_ms: -2 is negative");
+  ExpectStatus(store().GetVersion("acme", "chair", -1), StatusCode::kInvalidArgument, "version: -1 is negative");
   // Digests: 64 lower-case hex digits, named by their field.
-  expect_refused(StatusOf(store().GetBlob(std::string(64, 'A'), 1)), "sha256: not a SHA-256 (64 lower-case hex digits)");
-  expect_refused(StatusOf(store().CommitUpload("acme", "up", "xyz")),
-                 "expected_sha256: not a SHA-256 (64 lower-case hex digits)");
+  ExpectStatus(store().GetBlob(std::string(64, 'A'), 1), StatusCode::kInvalidArgument,
+               "sha256: not a SHA-256 (64 lower-case hex digits)");
+  ExpectStatus(store().CommitUpload("acme", "up", "xyz"), StatusCode::kInvalidArgument,
+               "expected_sha256: not a SHA-256 (64 lower-case hex digits)");
   NewVersion bad_digest = MakeVersion("acme", "chair", "'; DROP TABLE blobs; --");
-  expect_refused(StatusOf(store().CreateVersion(bad_digest)), "source.sha256: not a SHA-256 (64 lower-case hex digits)");
+  ExpectStatus(store().CreateVersion(bad_digest), StatusCode::kInvalidArgument,
+               "source.sha256: not a SHA-256 (64 lower-case hex digits)");
   MS_ASSERT_OK_AND_ASSIGN(std::unique_ptr<BlobSink> sink, store().NewBlob());
-  expect_refused(sink->Append(nullptr, 1), "data: null with 1 bytes");
+  ExpectStatus(sink->Append(nullptr, 1), StatusCode::kInvalidArgument, "data: null with 1 bytes");
   MS_ASSERT_OK(sink->Append(Data("abc"), 3));
-  expect_refused(StatusOf(sink->Commit("nothex")), "expected_sha256: not a SHA-256 (64 lower-case hex digits)");
+  ExpectStatus(sink->Commit("nothex"), StatusCode::kInvalidArgument,
+               "expected_sha256: not a SHA-256 (64 lower-case hex digits)");
 }
 
 TEST_P(StoreSuite, WhatABackendRefusesIsWordedOnce) {
   MS_ASSERT_OK_AND_ASSIGN(const std::string src, PutBlob(store(), "source"));
   const std::string missing = Sha("never stored");
-  const auto expect = [](const Status& status, StatusCode code, const std::string& message) {
-    EXPECT_EQ(status.code(), code) << status.ToString();
-    EXPECT_EQ(status.message(), message);
-  };
-  expect(StatusOf(store().GetVersion("acme", "chair", 0)), StatusCode::kNotFound, "asset chair does not exist");
-  expect(StatusOf(store().ListVersions("acme", "chair", 0, "")), StatusCode::kNotFound, "asset chair does not exist");
-  expect(StatusOf(store().GetLatestReadyVersion("acme", "chair")), StatusCode::kNotFound,
-         "asset chair does not exist");
+  ExpectStatus(store().GetVersion("acme", "chair", 0), StatusCode::kNotFound, "asset chair does not exist");
+  ExpectStatus(store().ListVersions("acme", "chair", 0, ""), StatusCode::kNotFound, "asset chair does not exist");
+  ExpectStatus(store().GetLatestReadyVersion("acme", "chair"), StatusCode::kNotFound,
+               "asset chair does not exist");
   MS_ASSERT_OK(store().CreateVersion(MakeVersion("acme", "chair", src)));
-  expect(StatusOf(store().GetVersion("acme", "chair", 5)), StatusCode::kNotFound, "asset chair has no version 5");
-  expect(StatusOf(store().GetLatestReadyVersion("acme", "chair")), StatusCode::kNotFound,
-         "asset chair has no READY version");
-  expect(StatusOf(store().GetJob("acme", "nojob")), StatusCode::kNotFound, "job nojob does not exist");
-  expect(StatusOf(store().UploadSize("acme", "up")), StatusCode::kNotFound, "upload up does not exist");
-  expect(store().DiscardUpload("acme", "up"), StatusCode::kNotFound, "upload up does not exist");
-  expect(StatusOf(store().CommitUpload("acme", "up", "")), StatusCode::kNotFound, "upload up does not exist");
-  expect(StatusOf(store().GetBlob(missing, 10)), StatusCode::kNotFound, "blob " + missing + " does not exist");
-  expect(StatusOf(store().GetBlob(src, 2)), StatusCode::kResourceExhausted,
-         "blob " + src + " has 6 bytes, more than 2");
-  expect(store().RevokeToken("0123456789abcdef"), StatusCode::kNotFound, "token 0123456789abcdef does not exist");
-  expect(StatusOf(store().FindToken(Sha("t"))), StatusCode::kNotFound, "no live token has this hash");
+  ExpectStatus(store().GetVersion("acme", "chair", 5), StatusCode::kNotFound, "asset chair has no version 5");
+  ExpectStatus(store().GetLatestReadyVersion("acme", "chair"), StatusCode::kNotFound,
+               "asset chair has no READY version");
+  ExpectStatus(store().GetJob("acme", "nojob"), StatusCode::kNotFound, "job nojob does not exist");
+  ExpectStatus(store().UploadSize("acme", "up"), StatusCode::kNotFound, "upload up does not exist");
+  ExpectStatus(store().DiscardUpload("acme", "up"), StatusCode::kNotFound, "upload up does not exist");
+  ExpectStatus(store().CommitUpload("acme", "up", ""), StatusCode::kNotFound, "upload up does not exist");
+  ExpectStatus(store().GetBlob(missing, 10), StatusCode::kNotFound, "blob " + missing + " does not exist");
+  ExpectStatus(store().GetBlob(src, 2), StatusCode::kResourceExhausted,
+               "blob " + src + " has 6 bytes, more than 2");
+  ExpectStatus(store().RevokeToken("0123456789abcdef"), StatusCode::kNotFound, "token 0123456789abcdef does not exist");
+  ExpectStatus(store().FindToken(Sha("t")), StatusCode::kNotFound, "no live token has this hash");
   MS_ASSERT_OK(store().CreateToken("acme", false, Sha("t")));
-  expect(StatusOf(store().CreateToken("acme", false, Sha("t"))), StatusCode::kAlreadyExists,
-         "token_hash: a token with this hash exists");
-  expect(StatusOf(store().CreateVersion(MakeVersion("acme", "chair", missing))), StatusCode::kFailedPrecondition,
-         "source.sha256: blob " + missing + " does not exist (store the bytes first)");
-  expect(store().PutArtifact("key", MakeSummary(missing)), StatusCode::kFailedPrecondition,
-         "summary.artifact_sha256: blob " + missing + " does not exist (store the bytes first)");
+  ExpectStatus(store().CreateToken("acme", false, Sha("t")), StatusCode::kAlreadyExists,
+               "token_hash: a token with this hash exists");
+  ExpectStatus(store().CreateVersion(MakeVersion("acme", "chair", missing)), StatusCode::kFailedPrecondition,
+               "source.sha256: blob " + missing + " does not exist (store the bytes first)");
+  ExpectStatus(store().PutArtifact("key", MakeSummary(missing)), StatusCode::kFailedPrecondition,
+               "summary.artifact_sha256: blob " + missing + " does not exist (store the bytes first)");
   MS_ASSERT_OK(store().AppendUpload("acme", "up", 0, Data("abc"), 3));
-  expect(store().AppendUpload("acme", "up", 1, Data("x"), 1), StatusCode::kFailedPrecondition,
-         "upload up has 3 durable bytes; an append must start there, not at offset 1");
-  expect(store().AppendUpload("acme", "fresh", 4, Data("x"), 1), StatusCode::kFailedPrecondition,
-         "upload fresh has 0 durable bytes; an append must start there, not at offset 4");
-  expect(StatusOf(store().CommitUpload("acme", "up", Sha("abd"))), StatusCode::kDataLoss,
-         "upload up: the bytes have SHA-256 " + Sha("abc") + ", not the " + Sha("abd") +
-             " announced; nothing stored; the upload is discarded");
+  ExpectStatus(store().AppendUpload("acme", "up", 1, Data("x"), 1), StatusCode::kFailedPrecondition,
+               "upload up has 3 durable bytes; an append must start there, not at offset 1");
+  ExpectStatus(store().AppendUpload("acme", "fresh", 4, Data("x"), 1), StatusCode::kFailedPrecondition,
+               "upload fresh has 0 durable bytes; an append must start there, not at offset 4");
+  ExpectStatus(store().CommitUpload("acme", "up", Sha("abd")), StatusCode::kDataLoss,
+               "upload up: the bytes have SHA-256 " + Sha("abc") + ", not the " + Sha("abd") +
+                   " announced; nothing stored; the upload is discarded");
   MS_ASSERT_OK_AND_ASSIGN(std::unique_ptr<BlobSink> sink, store().NewBlob());
   MS_ASSERT_OK(sink->Append(Data("abc"), 3));
-  expect(StatusOf(sink->Commit(Sha("abd"))), StatusCode::kDataLoss,
-         "the bytes have SHA-256 " + Sha("abc") + ", not the " + Sha("abd") + " announced; nothing stored");
+  ExpectStatus(sink->Commit(Sha("abd")), StatusCode::kDataLoss,
+               "the bytes have SHA-256 " + Sha("abc") + ", not the " + Sha("abd") + " announced; nothing stored");
   const std::string bad_token = EncodePageToken(kVersionsPageKind, "3");
-  expect(StatusOf(store().ListAssets("acme", 1, bad_token)), StatusCode::kInvalidArgument,
-         "page_token: not a token this server issued");
-  expect(StatusOf(store().ListVersions("acme", "chair", 1, "!")), StatusCode::kInvalidArgument,
-         "page_token: not a token this server issued");
-  expect(StatusOf(store().ListAssets("acme", -1, "")), StatusCode::kInvalidArgument, "page_size: must not be negative");
+  ExpectStatus(store().ListAssets("acme", 1, bad_token), StatusCode::kInvalidArgument,
+               "page_token: not a token this server issued");
+  ExpectStatus(store().ListVersions("acme", "chair", 1, "!"), StatusCode::kInvalidArgument,
+               "page_token: not a token this server issued");
+  ExpectStatus(store().ListAssets("acme", -1, ""), StatusCode::kInvalidArgument, "page_size: must not be negative");
 }
 
 // --- restarts ------------------------------------------------------------------

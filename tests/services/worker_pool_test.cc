@@ -138,11 +138,11 @@ class FakeStore : public Store {
   StatusOr<VersionRecord> DoGetLatestReadyVersion(const std::string&, const std::string&) override {
     return Unsupported("fake");
   }
-  StatusOr<std::vector<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
+  StatusOr<PageRows<AssetRecord>> DoListAssets(const std::string&, const std::string&, int64_t) override {
     return Unsupported("fake");
   }
-  StatusOr<std::vector<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
-                                                      int64_t) override {
+  StatusOr<PageRows<VersionRecord>> DoListVersions(const std::string&, const std::string&, int64_t,
+                                                   int64_t) override {
     return Unsupported("fake");
   }
 
