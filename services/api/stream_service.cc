@@ -263,7 +263,6 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     }
   }
 
-  // Before the session joined the send loop: nothing is queued.
   // Runs `task` on the opener pool holding a reference, so that the call
   // outlives the task even when gRPC ends it meanwhile (OnDone).
   void PostToOpeners(std::function<void()> task) {
@@ -280,6 +279,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     delete this;
   }
 
+  // Before the session joined the send loop: nothing is queued.
   void FinishNow(const Status& status) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
