@@ -2,7 +2,6 @@
 
 #include <atomic>
 #include <deque>
-#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -45,7 +44,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
 
   Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
-    PostToOpeners([this] { Admit(); });
+    service_->openers_.Post([this] { Admit(); });
   }
 
   // The reactor.
@@ -55,7 +54,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
-      PostToOpeners([this] { OpenSession(); });
+      service_->openers_.Post([this] { OpenSession(); });
       return;
     }
     if (!ok) return registration_.OnClientClosed(false);  // a half-close, or the call ended
@@ -108,9 +107,13 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     if (registered_) Stop();
   }
 
-  // gRPC's reference ends here; the call is deleted once no opener task
-  // holds one either (Release).
-  void OnDone() override { Release(); }
+  // gRPC calls it once Finish was called and every reaction has returned.
+  // No opener task runs then: each ends with its last touch of the call
+  // (FinishNow, StartRead, or Begin, before which nothing can Finish).
+  void OnDone() override {
+    registration_ = SendLoop::Registration();  // after any step of the send loop under way
+    delete this;
+  }
 
   // The SessionStream.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
@@ -229,13 +232,14 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
                              (udp ? "udp" : "grpc") + ")");
     }
+    // Until Begin the send loop does not step the session (send_loop.h): the
+    // client's messages and a cancel are only recorded, nothing can Finish
+    // the call, and so gRPC cannot end it (OnDone) while this runs.
     registration_ = service_->loop_.Add(std::move(sender), this, std::move(udp));
-    // The read before anything that lets the session finish: a Finish may
-    // follow at once (a cancelled call), and no read may start after it.
     StartRead(&in_);
     registered_ = true;
     if (cancelled_) Stop();
-    registration_.Begin();
+    registration_.Begin();  // the last touch of `this`: the session may finish at once
   }
 
   Status Prepare(const v1::OpenRequest& open) {
@@ -261,22 +265,6 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     } else {
       registration_.Cancel(Cancelled("the client went away"), "client went away");
     }
-  }
-
-  // Runs `task` on the opener pool holding a reference, so that the call
-  // outlives the task even when gRPC ends it meanwhile (OnDone).
-  void PostToOpeners(std::function<void()> task) {
-    refs_.fetch_add(1, std::memory_order_relaxed);
-    service_->openers_.Post([this, task = std::move(task)] {
-      task();
-      Release();
-    });
-  }
-
-  void Release() {
-    if (refs_.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
-    registration_ = SendLoop::Registration();  // after any step of the send loop under way
-    delete this;
   }
 
   // Before the session joined the send loop: nothing is queued.
@@ -316,7 +304,6 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
-  std::atomic<int> refs_{1};  // gRPC's (released by OnDone) and one per opener task under way
 
   mutable std::mutex mutex_;  // below: the write queue
   std::deque<v1::ServerMessage> queue_;  // its front is being written while writing_

@@ -25,7 +25,10 @@ struct SendLoop::Entry {
   // Waiting for its stream to write (no timer: the idle sweep looks at it).
   std::atomic<bool> blocked{false};
   std::atomic<uint64_t> idle_deadline_us{0};  // the sender's, when it blocked
-  uint64_t scheduled_us = SenderAction::kNever;  // guarded by SendLoop::mutex_
+  // Guarded by SendLoop::mutex_: Registration::Begin was called (before,
+  // nothing schedules the session), and when it is due.
+  bool begun = false;
+  uint64_t scheduled_us = SenderAction::kNever;
 };
 
 SendLoop::SendLoop(SendLoopOptions options) : options_(options) {
@@ -70,7 +73,8 @@ SendLoop::Registration SendLoop::Add(std::unique_ptr<SessionSender> sender, Sess
 void SendLoop::Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (due_us >= entry->scheduled_us) return;
+    // Before Begin a step is only wanted: Begin's own, at once, takes it up.
+    if (!entry->begun || due_us >= entry->scheduled_us) return;
     entry->scheduled_us = due_us;
     timers_.push(Timer{due_us, seq_++, entry});
   }
@@ -99,6 +103,7 @@ void SendLoop::Run() {
     if (!drained && options_.draining != nullptr && options_.draining->load()) {
       drained = true;
       for (auto& [raw, entry] : entries_) {
+        if (!entry->begun) continue;  // its first step (Begin) sees `draining`
         entry->scheduled_us = 0;
         timers_.push(Timer{0, seq_++, entry});
       }
@@ -244,7 +249,20 @@ void SendLoop::Registration::OnClientClosed(bool done) {
   loop_->Schedule(entry_, 0);
 }
 
-void SendLoop::Registration::Begin() { loop_->Schedule(entry_, 0); }
+void SendLoop::Begin(std::shared_ptr<Entry> entry) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    entry->begun = true;
+  }
+  Schedule(entry, 0);
+}
+
+void SendLoop::Registration::Begin() {
+  // Copies: once scheduled the session may finish and its owner destroy
+  // this registration while Begin still runs.
+  SendLoop* loop = loop_;
+  loop->Begin(entry_);
+}
 
 void SendLoop::Registration::OnWritten() { loop_->Schedule(entry_, 0); }
 
