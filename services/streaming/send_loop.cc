@@ -233,10 +233,10 @@ void SendLoop::Registration::OnReport(const ClientReportInfo& report) {
   if (entry_->sender) entry_->sender->OnReport(SteadyNowUs(), report);
 }
 
-void SendLoop::Registration::OnRepair(std::vector<RepairItem> items) {
+void SendLoop::Registration::OnRepair(const std::vector<RepairItem>& items) {
   {
     std::lock_guard<std::mutex> lock(entry_->mutex);
-    if (entry_->sender) entry_->sender->OnRepair(SteadyNowUs(), std::move(items));
+    if (entry_->sender) entry_->sender->OnRepair(SteadyNowUs(), items);
   }
   loop_->Schedule(entry_, 0);
 }

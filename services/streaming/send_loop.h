@@ -136,7 +136,8 @@ class SendLoop::Registration {
   // The client's messages, from the call's callbacks.
   void OnClientMessage();
   void OnReport(const ClientReportInfo& report);
-  void OnRepair(std::vector<RepairItem> items);
+  // The request is judged at once, on the caller's thread (SessionSender::OnRepair).
+  void OnRepair(const std::vector<RepairItem>& items);
   void OnClientClosed(bool done);
   // The stream wrote a message: a session waiting for room goes on.
   void OnWritten();

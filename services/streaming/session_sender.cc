@@ -57,11 +57,20 @@ void SessionSender::OnReport(uint64_t now_us, const ClientReportInfo& report) {
   controller_.OnReport(now_us, report.received, report.missing, rtt);
 }
 
-void SessionSender::OnRepair(uint64_t now_us, std::vector<RepairItem> items) {
+void SessionSender::OnRepair(uint64_t now_us, const std::vector<RepairItem>& items) {
   OnClientMessage(now_us);
   if (repair_received_) return;  // the driver reads nothing after the first
   repair_received_ = true;
-  repair_items_ = std::move(items);
+  if (!options_.repair) {
+    repair_status_ = InvalidArgument("repair: the session was not opened with repair");
+    return;
+  }
+  auto ranges = RepairDatagrams(plan_, items);
+  if (!ranges.ok()) {
+    repair_status_ = ranges.status();
+    return;
+  }
+  repair_ranges_ = std::move(ranges).value();
 }
 
 void SessionSender::OnClientClosed(uint64_t now_us, bool done) {
@@ -293,9 +302,7 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
   SenderAction a;
   if (phase_ == Phase::kAwaitRepair) {
     if (repair_received_) {
-      auto ranges = RepairDatagrams(plan_, repair_items_);
-      if (!ranges.ok()) return Finish(ranges.status(), end_reason_);
-      repair_ranges_ = std::move(ranges).value();
+      if (!repair_status_.ok()) return Finish(repair_status_, end_reason_);
       repair_next_ = 0;
       phase_ = Phase::kRepairing;
     } else if (client_closed_) {
@@ -333,9 +340,7 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
     return a;
   }
   // kLinger: the client closes its side (or sends done) so that the call ends OK.
-  if (repair_received_ && !options_.repair) {
-    return Finish(InvalidArgument("repair: the session was not opened with repair"), end_reason_);
-  }
+  if (!repair_status_.ok()) return Finish(repair_status_, end_reason_);  // a request without repair
   if (client_closed_) return Finish(Status::Ok(), end_reason_);
   if (now_us >= ended_us_ + kLingerUs) {
     return Finish(Cancelled("the client did not close the session within " + std::to_string(kLingerUs / 1000000) +

@@ -164,8 +164,10 @@ class SessionSender {
   // counts from the last one.
   void OnClientMessage(uint64_t now_us);
   void OnReport(uint64_t now_us, const ClientReportInfo& report);
-  // The one RepairRequest of the session (the driver reads nothing after it).
-  void OnRepair(uint64_t now_us, std::vector<RepairItem> items);
+  // The one RepairRequest of the session (the driver reads nothing after
+  // it), judged here, on the caller's thread (RepairDatagrams against the
+  // plan): only the byte ranges it names, or its refusal, are kept for Next.
+  void OnRepair(uint64_t now_us, const std::vector<RepairItem>& items);
   // The client closed its side: `done` (ClientMessage.done) or a half-close.
   // `done` before the end stops the session (CANCELLED, "client done").
   void OnClientClosed(uint64_t now_us, bool done);
@@ -234,8 +236,8 @@ class SessionSender {
   bool client_closed_ = false;
   bool client_done_ = false;
   bool repair_received_ = false;
-  std::vector<RepairItem> repair_items_;
-  std::vector<ByteRange> repair_ranges_;
+  Status repair_status_;                // the request's refusal (not OK), or OK
+  std::vector<ByteRange> repair_ranges_;  // the datagrams it names, each once
   size_t repair_next_ = 0;
   // Cancel.
   bool cancelled_ = false;

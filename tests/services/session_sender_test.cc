@@ -449,6 +449,41 @@ TEST(SessionSender, ARepairOfSomethingNotSentIsInvalidArgument) {
   EXPECT_NE(last.status.message().find("datagram 10 does not exist"), std::string::npos) << last.status.ToString();
 }
 
+// The judge runs on the gRPC thread, and a request names at most one item
+// per refinement of the session: more (a million empty items fit in a
+// message) is refused whole, naming the count and the limit.
+TEST(SessionSender, ARepairOfMoreItemsThanRefinementsIsInvalidArgument) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, std::vector<RepairItem>(kRefinements + 1, RepairItem{kStream, 2, {}}));
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(last.status.message().find("7 items, more than the 6 refinements"), std::string::npos)
+      << last.status.ToString();
+  EXPECT_EQ(script.Count(SenderAction::kRepairEnd), 0u);
+}
+
+TEST(SessionSender, AsManyItemsAsRefinementsAreRepaired) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, std::vector<RepairItem>(kRefinements, RepairItem{kStream, 2, {4}}));
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_TRUE(last.status.ok()) << last.status.ToString();
+  const SenderAction& repair_end = script.actions[script.actions.size() - 2];
+  ASSERT_EQ(repair_end.kind, SenderAction::kRepairEnd);
+  EXPECT_EQ(repair_end.count, 1u) << "a repeat is sent once";
+}
+
 TEST(SessionSender, ARepairInASessionWithoutRepairIsInvalidArgument) {
   Fixture f;
   SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
