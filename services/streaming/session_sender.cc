@@ -123,6 +123,12 @@ SenderAction SessionSender::Next(uint64_t now_us) {
                                    " s"),
                   "timeout");
   }
+  // The driver reads nothing after a repair request: in a session without
+  // repair nothing can make it end otherwise than refused, so it ends now
+  // rather than after every refinement (or at the idle timeout).
+  if (repair_received_ && !options_.repair) {
+    return Finish(repair_status_, end_reason_.empty() ? "unasked repair" : end_reason_);
+  }
   const bool before_end = phase_ == Phase::kStart || phase_ == Phase::kHelloWait || phase_ == Phase::kRefinements;
   if (client_done_ && before_end) return Finish(Cancelled("the client went away"), "client done");
   SenderAction a;
@@ -340,7 +346,6 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
     return a;
   }
   // kLinger: the client closes its side (or sends done) so that the call ends OK.
-  if (!repair_status_.ok()) return Finish(repair_status_, end_reason_);  // a request without repair
   if (client_closed_) return Finish(Status::Ok(), end_reason_);
   if (now_us >= ended_us_ + kLingerUs) {
     return Finish(Cancelled("the client did not close the session within " + std::to_string(kLingerUs / 1000000) +

@@ -31,7 +31,8 @@
 //                      kRepairEnd; then up to kLingerUs for the client to
 //                      close its side (OnClientClosed);
 //   kFinish            the call's status (OK, INVALID_ARGUMENT for a bad or
-//                      unasked repair, DEADLINE_EXCEEDED when the client said
+//                      unasked repair, the latter at once whatever the phase,
+//                      DEADLINE_EXCEEDED when the client said
 //                      nothing for `idle_timeout`, CANCELLED for `done`
 //                      before the end or a client that did not close within
 //                      the linger) and end_reason() for the log; last.

@@ -494,6 +494,25 @@ TEST(SessionSender, ARepairInASessionWithoutRepairIsInvalidArgument) {
   EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
 }
 
+// The driver reads nothing after a repair request, so in a session opened
+// without repair the refusal comes at once, not after the last refinement
+// (a long stream would first run into the idle timeout, DEADLINE_EXCEEDED).
+TEST(SessionSender, ARepairInASessionWithoutRepairEndsItAtOnce) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kUdp), 0);
+  s.OnHello(0, true);
+  Script script;
+  script.Run(s, 10000);  // 8 Mbit/s: a fifth of the 60 datagrams' time
+  ASSERT_GT(script.Count(SenderAction::kDatagrams), 0u);
+  ASSERT_EQ(script.Count(SenderAction::kEnd), 0u) << "the stream should still be under way";
+  s.OnRepair(10000, {RepairItem{kStream, 0, {1}}});
+  const SenderAction a = s.Next(10000);
+  ASSERT_EQ(a.kind, SenderAction::kFinish);
+  EXPECT_EQ(a.status.code(), StatusCode::kInvalidArgument) << a.status.ToString();
+  EXPECT_NE(a.status.message().find("not opened with repair"), std::string::npos) << a.status.ToString();
+  EXPECT_EQ(s.end_reason(), "unasked repair");
+}
+
 TEST(SessionSender, WithRepairButNoRequestTheSessionWaitsThenLingers) {
   Fixture f;
   SessionSenderOptions o = Options(SessionTransport::kGrpc);
