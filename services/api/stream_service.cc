@@ -115,14 +115,12 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     delete this;
   }
 
-  // The SessionStream.
+  // The SessionStream. Start: the SessionStart the opener built, with what
+  // only the send loop knows.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    v1::ServerMessage message = SessionStartMessage(plan_, *artifact_, transport);
-    v1::SessionStart& start = *message.mutable_session();
+    v1::SessionStart& start = *start_.mutable_session();
+    start.set_transport(ToProto(transport));
     start.set_session_id(RandomHex(16));
-    start.set_asset(version_.asset);
-    start.set_version(version_.version);
-    start.set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     if (udp != nullptr) {
       start.mutable_udp()->set_host(service_->options_.udp_advertise_host);
       start.mutable_udp()->set_port(service_->options_.udp_advertise_port);
@@ -131,7 +129,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
       start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
-    Queue(std::move(message));
+    Queue(std::move(start_));
   }
 
   void TransportChanged(SessionTransport transport, const std::string& reason) override {
@@ -227,6 +225,12 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     options.reliable_cut = service_->options_.reliable_cut;
     options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
     options.repair = open.repair();
+    // Every header, base mesh and the scene copied here, on the opener pool,
+    // not on the send thread under the session's lock.
+    start_ = SessionStartMessage(plan_, *artifact_, options.transport);
+    start_.mutable_session()->set_asset(version_.asset);
+    start_.mutable_session()->set_version(version_.version);
+    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     auto sender = std::make_unique<SessionSender>(plan_, *artifact_, open.max_level(), std::move(options), SteadyNowUs());
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
@@ -301,6 +305,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   ArtifactCache::Bytes artifact_;
   SessionPlan plan_;
   std::shared_ptr<const std::vector<uint8_t>> scene_;
+  v1::ServerMessage start_;  // the SessionStart but for Start's fields; moved out by Start
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
