@@ -20,7 +20,7 @@ struct SendLoop::Entry {
   std::mutex mutex;  // below; held while the loop steps the session
   std::unique_ptr<SessionSender> sender;
   SessionStream* stream = nullptr;  // null once removed
-  std::shared_ptr<UdpEndpoint::Session> udp;
+  std::shared_ptr<UdpEndpoint::Session> udp;  // the only reference to it
   bool start_unwritten = false;  // the SessionStart is queued: wait until it is written
   // Waiting for its stream to write (no timer: the idle sweep looks at it).
   std::atomic<bool> blocked{false};
@@ -29,6 +29,10 @@ struct SendLoop::Entry {
   // nothing schedules the session), and when it is due.
   bool begun = false;
   uint64_t scheduled_us = SenderAction::kNever;
+
+  // Over gRPC from here: ~Session, run here, clears the HELLO hook (no HELLO
+  // wakes the entry after) and leaves the endpoint's table.
+  void DropUdp() { udp.reset(); }
 };
 
 SendLoop::SendLoop(SendLoopOptions options) : options_(options) {
@@ -84,10 +88,9 @@ void SendLoop::Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us) {
 void SendLoop::Remove(Entry* entry) {
   {
     std::lock_guard<std::mutex> session_lock(entry->mutex);  // after any step under way
-    if (entry->udp) entry->udp->SetOnHello(nullptr);
     entry->stream = nullptr;
     entry->sender.reset();
-    entry->udp.reset();
+    entry->DropUdp();
   }
   std::lock_guard<std::mutex> lock(mutex_);
   entries_.erase(entry);
@@ -171,8 +174,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         break;
       case SenderAction::kTransportChange:
         stream.TransportChanged(a.transport, a.reason);
-        entry->udp->SetOnHello(nullptr);
-        entry->udp.reset();
+        entry->DropUdp();
         break;
       case SenderAction::kControl:
         stream.Control(*a.refinement, a.stream, a.count, a.first_packet_number, a.reliable);
@@ -194,8 +196,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         stream.RepairEnd(a.count, a.bytes);
         break;
       case SenderAction::kFinish:
-        if (entry->udp) entry->udp->SetOnHello(nullptr);
-        entry->udp.reset();
+        entry->DropUdp();
         stream.Finish(a.status, sender.end_reason(), sender.stats());
         return;
     }
