@@ -21,6 +21,7 @@ struct SendLoop::Entry {
   std::unique_ptr<SessionSender> sender;
   SessionStream* stream = nullptr;  // null once removed
   std::shared_ptr<UdpEndpoint::Session> udp;  // the only reference to it
+  bool hello_hooked = false;  // udp's HELLO hook wakes the entry (until the sender's HELLO wait is over)
   bool start_unwritten = false;  // the SessionStart is queued: wait until it is written
   // Waiting for its stream to write (no timer: the idle sweep looks at it).
   std::atomic<bool> blocked{false};
@@ -32,7 +33,10 @@ struct SendLoop::Entry {
 
   // Over gRPC from here: ~Session, run here, clears the HELLO hook (no HELLO
   // wakes the entry after) and leaves the endpoint's table.
-  void DropUdp() { udp.reset(); }
+  void DropUdp() {
+    udp.reset();
+    hello_hooked = false;
+  }
 };
 
 SendLoop::SendLoop(SendLoopOptions options) : options_(options) {
@@ -66,6 +70,7 @@ SendLoop::Registration SendLoop::Add(std::unique_ptr<SessionSender> sender, Sess
     entry->udp->SetOnHello([this, weak] {
       if (auto e = weak.lock()) Schedule(e, 0);
     });
+    entry->hello_hooked = true;
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -150,7 +155,16 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
   }
   for (int n = 0; n < kActionsPerTurn; ++n) {
     const uint64_t now = SteadyNowUs();
-    if (entry->udp) sender.OnHello(entry->udp->last_hello_us(), entry->udp->proven());
+    if (entry->hello_hooked && entry->udp) {
+      if (sender.awaiting_hello()) {
+        sender.OnHello(entry->udp->last_hello_us(), entry->udp->proven());
+      } else {
+        // The wait is over: a HELLO (a client's retry, a copy) no longer
+        // wakes the session, and no step asks the endpoint's lock.
+        entry->udp->SetOnHello(nullptr);
+        entry->hello_hooked = false;
+      }
+    }
     const size_t queued = stream.queued();
     const bool full = queued >= options_.max_queued || (entry->start_unwritten && queued > 0);
     if (full && !sender.stopping(now)) {

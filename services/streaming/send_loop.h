@@ -14,6 +14,9 @@
 // that a stalled client is cut off (kFinish DEADLINE_EXCEEDED) whatever the
 // stream holds. After the SessionStart the
 // session waits until the stream has written it before its HELLO wait starts.
+// An authenticated HELLO wakes its session while the sender waits for one
+// (SessionSender::awaiting_hello); once the wait is over the hook is cleared
+// and the endpoint is no longer asked whether an address is proven.
 // While `draining` is true every session is stopped (UNAVAILABLE, "draining")
 // within the thread's 100 ms period.
 //
@@ -80,8 +83,8 @@ class SendLoop {
   SendLoop& operator=(const SendLoop&) = delete;
 
   // Registers `sender`; it is driven from Registration::Begin on. Before
-  // Begin the Registration's methods and the session's HELLOs only feed the
-  // sender: the loop never steps it, so it calls neither the stream nor
+  // Begin the Registration's methods only feed the sender and a HELLO wakes
+  // nothing: the loop never steps it, so it calls neither the stream nor
   // Finish, and the caller may still set the call up. Begin's step at once
   // takes up whatever they asked for. `udp` is the session's UDP
   // registration (null over gRPC), held until the session falls back to gRPC

@@ -173,7 +173,8 @@ class SessionSender {
   // `done` before the end stops the session (CANCELLED, "client done").
   void OnClientClosed(uint64_t now_us, bool done);
   // UDP: the time of the last authenticated HELLO (the endpoint's clock,
-  // the same as now_us) and whether an address is proven.
+  // the same as now_us) and whether an address is proven. Read only while
+  // awaiting_hello().
   void OnHello(uint64_t last_hello_us, bool proven);
   // The driver stops the session: the next Next is kFinish with `status`
   // and `reason` (e.g. Cancelled / "client went away", Unavailable / "draining").
@@ -188,6 +189,11 @@ class SessionSender {
   // even while the stream cannot take more.
   uint64_t idle_deadline_us() const;
   SessionTransport transport() const { return transport_; }
+  // UDP, until the HELLO wait is over (an address proven, or the fallback to
+  // gRPC): after, HELLOs change nothing and the driver need not feed OnHello.
+  bool awaiting_hello() const {
+    return transport_ == SessionTransport::kUdp && (phase_ == Phase::kStart || phase_ == Phase::kHelloWait);
+  }
   const std::string& end_reason() const { return end_reason_; }
   SessionSenderStats stats() const;
 

@@ -3,7 +3,9 @@
 // before Registration::Begin, whatever its call reports meanwhile (a
 // cancel, a repair request), so the loop can neither call the stream nor
 // Finish (and so let gRPC delete the call) while the opener still sets the
-// call up; Begin's first step takes up what was reported.
+// call up; Begin's first step takes up what was reported. Over UDP (a real
+// endpoint on loopback), a HELLO wakes the session only until an address is
+// proven.
 #include "services/streaming/send_loop.h"
 
 #include <chrono>
@@ -16,6 +18,8 @@
 #include <gtest/gtest.h>
 
 #include "codec/bitstream/format.h"
+#include "net/hello.h"
+#include "net/packet_crypto.h"
 #include "net/steady_clock.h"
 
 namespace meshstream {
@@ -59,7 +63,16 @@ class RecordingStream : public SessionStream {
     finished_ = true;
     changed_.notify_all();
   }
-  size_t queued() const override { return 0; }
+  // The loop asks before every action: the count of its steps' actions.
+  size_t queued() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++asked_;
+    return 0;
+  }
+  size_t asked() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return asked_;
+  }
 
   std::vector<std::string> calls() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -83,6 +96,7 @@ class RecordingStream : public SessionStream {
   std::vector<std::string> calls_;
   bool finished_ = false;
   Status status_;
+  mutable size_t asked_ = 0;
 };
 
 std::unique_ptr<SessionSender> Sender(const Fixture& f, bool repair = false) {
@@ -176,6 +190,100 @@ TEST(SendLoop, AfterBeginARepairStepsTheSessionAtOnce) {
   Status status;
   ASSERT_TRUE(stream.WaitFinished(kSoonerThanTheLinger, &status)) << "the repair did not wake the session";
   EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << status.ToString();
+}
+
+// A client on loopback: HELLOs sealed with the session's keys.
+struct HelloClient {
+  UdpSocket socket = std::move(UdpSocket::Bind(*SocketAddress::Parse("127.0.0.1:0"))).value();
+  uint64_t next_pn = 0;
+  void Hello(const UdpEndpoint& endpoint, const UdpEndpoint::Session& s, const Challenge& echo) {
+    const std::vector<uint8_t> payload = HelloPayload(echo);
+    const std::vector<uint8_t> sealed =
+        SealPacket(PacketType::kHello, s.id(), next_pn++, s.keys().client_to_server, payload.data(), payload.size())
+            .value();
+    ASSERT_TRUE(socket.SendTo(endpoint.local(), sealed.data(), sealed.size()).ok());
+  }
+  // The challenge of the first HELLO_ACK within `ms`.
+  bool Ack(const UdpEndpoint::Session& s, int ms, Challenge* challenge) {
+    std::vector<IncomingDatagram> in(16);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+    while (std::chrono::steady_clock::now() < until) {
+      auto n = socket.ReceiveBatch(&in, 2000, 10);
+      if (!n.ok()) return false;
+      for (size_t i = 0; i < n.value(); ++i) {
+        OpenedPacket p;
+        if (OpenPacket(in[i].data.data(), in[i].data.size(), Direction::kServerToClient, s.keys().server_to_client,
+                       &p) != DropReason::kNone ||
+            p.header.type != PacketType::kHelloAck) {
+          continue;
+        }
+        auto c = ParseHelloAckPayload(p.payload);
+        if (!c.ok()) continue;
+        *challenge = c.value();
+        return true;
+      }
+    }
+    return false;
+  }
+};
+
+// Waits until the endpoint has looked at `count` datagrams.
+void WaitCounted(const UdpEndpoint& e, uint64_t count) {
+  const auto until = std::chrono::steady_clock::now() + kDeadline;
+  while (std::chrono::steady_clock::now() < until) {
+    const UdpEndpointStats s = e.stats();
+    if (s.received.accepted() + s.received.dropped() >= count) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ADD_FAILURE() << "the endpoint did not see " << count << " datagrams";
+}
+
+TEST(SendLoop, OnceAnAddressIsProvenHellosNoLongerWakeTheSession) {
+  auto endpoint = UdpEndpoint::Start(*SocketAddress::Parse("127.0.0.1:0"));
+  ASSERT_TRUE(endpoint.ok()) << endpoint.status().ToString();
+  auto registered = (*endpoint)->RegisterSession();
+  ASSERT_TRUE(registered.ok());
+  std::shared_ptr<UdpEndpoint::Session> udp = std::move(registered).value();
+  const UdpEndpoint::Session& s = *udp;
+
+  Fixture f;
+  SessionSenderOptions options;
+  options.transport = SessionTransport::kUdp;
+  options.hello_timeout_us = 10000000;
+  UdpEndpoint::Session* raw = udp.get();
+  options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
+  SendLoop loop;
+  RecordingStream stream;
+  SendLoop::Registration reg =
+      loop.Add(std::make_unique<SessionSender>(f.plan, f.artifact, -1, options, SteadyNowUs()), &stream, udp);
+  reg.Begin();
+
+  // The round trip proves the client's address; the proof wakes the session
+  // at once (the HELLO timeout is 10 s), which sends its refinement as UDP.
+  HelloClient client;
+  client.Hello(**endpoint, s, Challenge{});
+  Challenge challenge{};
+  ASSERT_TRUE(client.Ack(s, 2000, &challenge));
+  client.Hello(**endpoint, s, challenge);
+  const auto until = std::chrono::steady_clock::now() + kDeadline;
+  while (std::chrono::steady_clock::now() < until) {
+    const std::vector<std::string> calls = stream.calls();
+    if (!calls.empty() && calls.back() == "end") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_EQ(stream.calls(), (std::vector<std::string>{"start", "control", "refinement_end", "end"}));
+
+  // In the linger now (2 s): HELLOs, copies or retries, wake nothing.
+  const size_t asked = stream.asked();
+  for (int i = 0; i < 5; ++i) client.Hello(**endpoint, s, Challenge{});
+  WaitCounted(**endpoint, 7);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(stream.asked(), asked) << "a HELLO after the proof stepped the session";
+
+  reg.Cancel(Cancelled("the client went away"), "client went away");
+  Status status;
+  ASSERT_TRUE(stream.WaitFinished(kDeadline, &status));
+  EXPECT_EQ(status.code(), StatusCode::kCancelled);
 }
 
 }  // namespace

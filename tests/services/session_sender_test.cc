@@ -252,6 +252,33 @@ TEST(SessionSender, AHelloUnderWayExtendsTheWaitUpToThreeTimeouts) {
   EXPECT_FALSE(a.reliable);
 }
 
+// The driver feeds HELLOs (and wakes the session on them) only while the
+// sender waits for one: over UDP until an address is proven or the fallback.
+TEST(SessionSender, TheHelloWaitEndsWithTheProofOrTheFallback) {
+  Fixture f;
+  SessionSender grpc(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  EXPECT_FALSE(grpc.awaiting_hello());
+
+  SessionSender proven(f.plan, f.artifact, -1, Options(SessionTransport::kUdp), 0);
+  EXPECT_TRUE(proven.awaiting_hello());
+  ASSERT_EQ(proven.Next(0).kind, SenderAction::kStart);
+  EXPECT_TRUE(proven.awaiting_hello());
+  EXPECT_EQ(proven.Next(0).kind, SenderAction::kWait);
+  EXPECT_TRUE(proven.awaiting_hello());
+  proven.OnHello(100, true);
+  EXPECT_EQ(proven.Next(100).kind, SenderAction::kControl);
+  EXPECT_FALSE(proven.awaiting_hello());
+
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.hello_timeout_us = 1000;
+  SessionSender fallback(f.plan, f.artifact, -1, o, 0);
+  ASSERT_EQ(fallback.Next(0).kind, SenderAction::kStart);
+  EXPECT_EQ(fallback.Next(0).due_us, 1000u);
+  EXPECT_TRUE(fallback.awaiting_hello());
+  EXPECT_EQ(fallback.Next(1000).kind, SenderAction::kTransportChange);
+  EXPECT_FALSE(fallback.awaiting_hello());
+}
+
 TEST(SessionSender, ReportsAdaptTheRate) {
   Fixture f;
   SessionSenderOptions o = Options(SessionTransport::kUdp, 16e6);
