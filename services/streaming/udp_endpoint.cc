@@ -1,5 +1,6 @@
 #include "services/streaming/udp_endpoint.h"
 
+#include <chrono>
 #include <cstring>
 
 #include "codec/core/byte_io.h"
@@ -26,7 +27,6 @@ struct UdpEndpoint::SessionState {
   std::atomic<uint64_t> last_hello_us{0};
 
   std::mutex mutex;  // everything below
-  std::condition_variable proven_changed;
   std::function<void()> on_hello;
   ReplayWindow window;
   struct Address {
@@ -151,7 +151,6 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
   if (entry->challenged && SameChallenge(echo.value(), entry->challenge)) {
     entry->limit.MarkProven();
     state->proven = d.from;
-    state->proven_changed.notify_all();
     if (state->on_hello) state->on_hello();
     lock.unlock();
     return drop(DropReason::kNone);
@@ -197,11 +196,6 @@ void UdpEndpoint::Session::SetOnHello(std::function<void()> on_hello) {
 uint64_t UdpEndpoint::Session::id() const { return state_->id; }
 
 const SessionKeys& UdpEndpoint::Session::keys() const { return state_->keys; }
-
-bool UdpEndpoint::Session::WaitProven(std::chrono::milliseconds timeout) {
-  std::unique_lock<std::mutex> lock(state_->mutex);
-  return state_->proven_changed.wait_for(lock, timeout, [this] { return !state_->proven.empty(); });
-}
 
 bool UdpEndpoint::Session::proven() const {
   std::lock_guard<std::mutex> lock(state_->mutex);
