@@ -34,7 +34,6 @@ SessionSender::SessionSender(const SessionPlan& plan, const std::vector<uint8_t>
       pacer_(options_.rate.initial_bps, std::max<size_t>(1, options_.burst_datagrams) * kMaxDatagramBytes),
       controller_(options_.rate), last_heard_us_(now_us) {
   options_.burst_datagrams = std::max<size_t>(1, options_.burst_datagrams);
-  stats_.transport = transport_;
 }
 
 void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }
@@ -97,7 +96,7 @@ uint64_t SessionSender::idle_deadline_us() const {
 }
 
 SessionSenderStats SessionSender::stats() const {
-  SessionSenderStats s = stats_;
+  SessionSenderStats s = stats_;  // its transport and rate fields are filled here
   s.transport = transport_;
   s.final_rate_bps = controller_.rate_bps();
   s.rate_decreases = controller_.decreases();
@@ -178,7 +177,6 @@ SenderAction SessionSender::HelloWait(uint64_t now_us) {
     return a;
   }
   transport_ = SessionTransport::kGrpc;
-  stats_.transport = transport_;
   phase_ = Phase::kRefinements;
   a.kind = SenderAction::kTransportChange;
   a.transport = transport_;
