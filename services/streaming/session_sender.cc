@@ -77,7 +77,10 @@ void SessionSender::OnRepair(uint64_t now_us, const std::vector<RepairItem>& ite
     repair_status_ = ranges.status();
     return;
   }
-  repair_ranges_ = std::move(ranges).value();
+  repair_payloads_.reserve(ranges->size());
+  for (const ByteRange& d : ranges.value()) {
+    repair_payloads_.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+  }
 }
 
 void SessionSender::OnClientClosed(uint64_t now_us, bool done) {
@@ -301,8 +304,7 @@ SenderAction SessionSender::NextBatch(uint64_t now_us) {
   a.kind = SenderAction::kDatagrams;
   a.on_stream = mode_ != Mode::kUdp;
   a.first_packet_number = first_packet_number_ + next_payload_;
-  a.datagrams.assign(payloads_.begin() + static_cast<long>(next_payload_),
-                     payloads_.begin() + static_cast<long>(next_payload_ + take));
+  a.datagrams = PayloadSpan(payloads_.data() + next_payload_, take);
   if (mode_ == Mode::kUdp) {
     for (const auto& p : a.datagrams) stats_.bytes_sent += p.second;
   }
@@ -329,15 +331,14 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
     }
   }
   if (phase_ == Phase::kRepairing) {
-    if (repair_next_ < repair_ranges_.size()) {
-      const size_t take = std::min(options_.burst_datagrams, repair_ranges_.size() - repair_next_);
+    if (repair_next_ < repair_payloads_.size()) {
+      const size_t take = std::min(options_.burst_datagrams, repair_payloads_.size() - repair_next_);
       a.kind = SenderAction::kDatagrams;
       a.on_stream = true;
-      for (size_t i = 0; i < take; ++i) {
-        const ByteRange& d = repair_ranges_[repair_next_ + i];
-        a.datagrams.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+      a.datagrams = PayloadSpan(repair_payloads_.data() + repair_next_, take);
+      for (const DatagramPayload& d : a.datagrams) {
         ++stats_.repaired;
-        stats_.repaired_bytes += d.length;
+        stats_.repaired_bytes += d.second;
       }
       repair_next_ += take;
       return a;

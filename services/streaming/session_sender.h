@@ -42,8 +42,10 @@
 // refinements once 32 datagrams were reported; before, `expected_loss`, or
 // the reference loss).
 //
-// Contract: the plan and the artifact outlive the sender; the pointers in a
-// kDatagrams action stay valid until the next call. Times are microseconds of
+// Contract: the plan and the artifact outlive the sender; a kDatagrams
+// action's span views the sender's own list of the refinement's payloads
+// (or of the repair's), so it and the pointers in it stay valid until the
+// next call (no copy per batch). Times are microseconds of
 // one non-decreasing clock of the caller's. Reports are untrusted and only
 // steer the rate and the cut (a report of a refinement never sent over UDP,
 // or reported twice, counts in stats only).
@@ -63,6 +65,7 @@
 #include "codec/core/status.h"
 #include "net/pacer.h"
 #include "net/rate_controller.h"
+#include "services/streaming/payload_span.h"
 #include "services/streaming/repair_request.h"
 #include "services/streaming/session_plan.h"
 
@@ -144,7 +147,7 @@ struct SenderAction {
   uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
   bool reliable = false;          // kControl: the datagrams follow on the stream
   bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
-  std::vector<std::pair<const uint8_t*, size_t>> datagrams;  // kDatagrams
+  PayloadSpan datagrams;          // kDatagrams: valid until the next call (above)
   Status status;                  // kFinish
 };
 
@@ -231,7 +234,7 @@ class SessionSender {
   size_t index_ = 0;
   Step step_ = Step::kControl;
   enum class Mode { kUdp, kStreamPaced, kStream } mode_ = Mode::kStream;
-  std::vector<std::pair<const uint8_t*, size_t>> payloads_;  // data datagrams, then the END
+  std::vector<DatagramPayload> payloads_;  // data datagrams, then the END; kDatagrams views it
   std::vector<uint8_t> end_datagram_;
   size_t next_payload_ = 0;
   uint64_t first_packet_number_ = 0;
@@ -244,7 +247,7 @@ class SessionSender {
   bool client_done_ = false;
   bool repair_received_ = false;
   Status repair_status_;                // the request's refusal (not OK), or OK
-  std::vector<ByteRange> repair_ranges_;  // the datagrams it names, each once
+  std::vector<DatagramPayload> repair_payloads_;  // the datagrams it names, each once; kDatagrams views it
   size_t repair_next_ = 0;
   // Cancel.
   bool cancelled_ = false;

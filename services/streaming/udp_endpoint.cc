@@ -213,8 +213,7 @@ uint64_t UdpEndpoint::Session::ReservePacketNumbers(uint64_t count) {
 
 uint64_t UdpEndpoint::Session::last_hello_us() const { return state_->last_hello_us.load(); }
 
-Status UdpEndpoint::Session::SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads,
-                                      uint64_t first_packet_number) {
+Status UdpEndpoint::Session::SendData(PayloadSpan payloads, uint64_t first_packet_number) {
   SocketAddress to;
   {
     std::lock_guard<std::mutex> lock(state_->mutex);

@@ -36,6 +36,7 @@
 #include "net/packet_crypto.h"
 #include "net/replay_window.h"
 #include "net/udp_socket.h"
+#include "services/streaming/payload_span.h"
 
 namespace meshstream {
 
@@ -96,7 +97,7 @@ class UdpEndpoint::Session {
   // Seals each payload as DATA with packet numbers first, first + 1, ... and
   // sends them to the proven address in one batch. FailedPrecondition
   // before an address is proven.
-  Status SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads, uint64_t first_packet_number);
+  Status SendData(PayloadSpan payloads, uint64_t first_packet_number);
   // Microseconds (steady clock) when an authenticated HELLO last arrived.
   uint64_t last_hello_us() const;
   // Called on the endpoint's thread when an authenticated HELLO arrives and

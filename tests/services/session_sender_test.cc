@@ -79,6 +79,9 @@ struct Script {
   std::vector<uint64_t> times;
   // Per action, a copy of its datagrams (the END's bytes live only until the next call).
   std::vector<std::vector<std::vector<uint8_t>>> bytes;
+  // Per action, a copy of its (pointer, length) list, which the stored
+  // action's span views (the sender's own list changes on the next call).
+  std::vector<std::vector<DatagramPayload>> payloads;
   uint64_t now = 0;
 
   // Drives `s` until it waits for nothing or `until` (advancing the fake
@@ -98,6 +101,8 @@ struct Script {
       times.push_back(now);
       bytes.emplace_back();
       for (const auto& [data, size] : a.datagrams) bytes.back().emplace_back(data, data + size);
+      payloads.emplace_back(a.datagrams.begin(), a.datagrams.end());
+      a.datagrams = PayloadSpan(payloads.back());
       actions.push_back(a);
       if (a.kind == SenderAction::kFinish || (to_end && a.kind == SenderAction::kEnd)) return a;
     }

@@ -85,7 +85,8 @@ TEST(UdpEndpoint, TheRoundTripProvesTheAddressThenDataFlows) {
   UdpEndpoint::Session& s = **session;
   EXPECT_EQ((*endpoint)->session_count(), 1u);
   const uint8_t data[] = {1, 2, 3};
-  EXPECT_EQ(s.SendData({{data, 3}}, 0).code(), StatusCode::kFailedPrecondition) << "no DATA before a proof";
+  const std::vector<DatagramPayload> one = {{data, 3}};
+  EXPECT_EQ(s.SendData(one, 0).code(), StatusCode::kFailedPrecondition) << "no DATA before a proof";
 
   Peer client = Peer::Make();
   client.Send(**endpoint, client.Hello(s, Challenge{}));
@@ -100,7 +101,8 @@ TEST(UdpEndpoint, TheRoundTripProvesTheAddressThenDataFlows) {
 
   const uint64_t first = s.ReservePacketNumbers(2);
   const uint8_t more[] = {4, 5};
-  ASSERT_TRUE(s.SendData({{data, 3}, {more, 2}}, first).ok());
+  const std::vector<DatagramPayload> two = {{data, 3}, {more, 2}};
+  ASSERT_TRUE(s.SendData(two, first).ok());
   auto got = client.Drain(300);
   ASSERT_EQ(got.size(), 2u);
   OpenedPacket p;
@@ -184,7 +186,8 @@ TEST(UdpEndpoint, ACopiedHelloEarnsAtMostAnAckAndCannotRedirect) {
   // The session's DATA still goes to the proven client.
   EXPECT_EQ(s.address(), client.socket.local());
   const uint8_t d[] = {7};
-  ASSERT_TRUE(s.SendData({{d, 1}}, s.ReservePacketNumbers(1)).ok());
+  const std::vector<DatagramPayload> one = {{d, 1}};
+  ASSERT_TRUE(s.SendData(one, s.ReservePacketNumbers(1)).ok());
   EXPECT_EQ(client.Drain(200).size(), 1u);
   EXPECT_TRUE(attacker.Drain(100).empty());
 }
