@@ -265,7 +265,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   // The call was cancelled: by the client, or by the server draining.
   void Stop() {
     if (Draining()) {
-      registration_.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
+      registration_.Drain();
     } else {
       registration_.Cancel(Cancelled("the client went away"), "client went away");
     }

@@ -14,6 +14,11 @@ constexpr uint64_t kPeriodUs = 100000;
 // Actions one session may take in a row before the others get their turn.
 constexpr int kActionsPerTurn = 64;
 
+// How a draining server stops a session (the loop's sweep, Registration::Drain).
+void CancelForDraining(SessionSender& sender) {
+  sender.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
+}
+
 }  // namespace
 
 struct SendLoop::Entry {
@@ -150,9 +155,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
   if (entry->stream == nullptr || entry->sender == nullptr || entry->sender->finished()) return;
   SessionSender& sender = *entry->sender;
   SessionStream& stream = *entry->stream;
-  if (options_.draining != nullptr && options_.draining->load()) {
-    sender.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
-  }
+  if (options_.draining != nullptr && options_.draining->load()) CancelForDraining(sender);
   for (int n = 0; n < kActionsPerTurn; ++n) {
     const uint64_t now = SteadyNowUs();
     if (entry->hello_hooked && entry->udp) {
@@ -280,6 +283,14 @@ void SendLoop::Registration::Begin() {
 }
 
 void SendLoop::Registration::OnWritten() { loop_->Schedule(entry_, 0); }
+
+void SendLoop::Registration::Drain() {
+  {
+    std::lock_guard<std::mutex> lock(entry_->mutex);
+    if (entry_->sender) CancelForDraining(*entry_->sender);
+  }
+  loop_->Schedule(entry_, 0);
+}
 
 void SendLoop::Registration::Cancel(Status status, std::string reason) {
   {

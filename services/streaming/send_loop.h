@@ -146,6 +146,8 @@ class SendLoop::Registration {
   void OnWritten();
   // Stop the session (the call was cancelled, a write failed).
   void Cancel(Status status, std::string reason);
+  // Stop it as `draining` stops every session (UNAVAILABLE, "draining").
+  void Drain();
 
  private:
   friend class SendLoop;
