@@ -32,6 +32,12 @@ Status CheckOpen(const v1::OpenRequest& open) {
   return Status::Ok();
 }
 
+SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
+  SendLoopOptions options;  // the default max_queued
+  options.draining = draining;
+  return options;
+}
+
 }  // namespace
 
 // One Open call: the reactor gRPC drives, and the SessionStream the send
@@ -322,7 +328,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                                      const std::atomic<bool>* draining)
     : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      loop_(SendLoopOptions{32, draining}), openers_(options_.opener_threads) {}
+      loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
 
 StreamServiceImpl::~StreamServiceImpl() = default;
 
