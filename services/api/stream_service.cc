@@ -2,7 +2,6 @@
 
 #include <atomic>
 #include <deque>
-#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -33,6 +32,12 @@ Status CheckOpen(const v1::OpenRequest& open) {
   return Status::Ok();
 }
 
+SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
+  SendLoopOptions options;  // the default max_queued
+  options.draining = draining;
+  return options;
+}
+
 }  // namespace
 
 // One Open call: the reactor gRPC drives, and the SessionStream the send
@@ -45,7 +50,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
 
   Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
-    PostToOpeners([this] { Admit(); });
+    service_->openers_.Post([this] { Admit(); });
   }
 
   // The reactor.
@@ -55,7 +60,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
-      PostToOpeners([this] { OpenSession(); });
+      service_->openers_.Post([this] { OpenSession(); });
       return;
     }
     if (!ok) return registration_.OnClientClosed(false);  // a half-close, or the call ended
@@ -108,18 +113,20 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     if (registered_) Stop();
   }
 
-  // gRPC's reference ends here; the call is deleted once no opener task
-  // holds one either (Release).
-  void OnDone() override { Release(); }
+  // gRPC calls it once Finish was called and every reaction has returned.
+  // No opener task runs then: each ends with its last touch of the call
+  // (FinishNow, StartRead, or Begin, before which nothing can Finish).
+  void OnDone() override {
+    registration_ = SendLoop::Registration();  // after any step of the send loop under way
+    delete this;
+  }
 
-  // The SessionStream.
+  // The SessionStream. Start: the SessionStart the opener built, with what
+  // only the send loop knows.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    v1::ServerMessage message = SessionStartMessage(plan_, *artifact_, transport);
-    v1::SessionStart& start = *message.mutable_session();
+    v1::SessionStart& start = *start_.mutable_session();
+    start.set_transport(ToProto(transport));
     start.set_session_id(RandomHex(16));
-    start.set_asset(version_.asset);
-    start.set_version(version_.version);
-    start.set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     if (udp != nullptr) {
       start.mutable_udp()->set_host(service_->options_.udp_advertise_host);
       start.mutable_udp()->set_port(service_->options_.udp_advertise_port);
@@ -128,7 +135,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
       start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
-    Queue(std::move(message));
+    Queue(std::move(start_));
   }
 
   void TransportChanged(SessionTransport transport, const std::string& reason) override {
@@ -224,18 +231,25 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     options.reliable_cut = service_->options_.reliable_cut;
     options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
     options.repair = open.repair();
+    // Every header, base mesh and the scene copied here, on the opener pool,
+    // not on the send thread under the session's lock.
+    start_ = SessionStartMessage(plan_, *artifact_, options.transport);
+    start_.mutable_session()->set_asset(version_.asset);
+    start_.mutable_session()->set_version(version_.version);
+    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
     auto sender = std::make_unique<SessionSender>(plan_, *artifact_, open.max_level(), std::move(options), SteadyNowUs());
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
                              (udp ? "udp" : "grpc") + ")");
     }
+    // Until Begin the send loop does not step the session (send_loop.h): the
+    // client's messages and a cancel are only recorded, nothing can Finish
+    // the call, and so gRPC cannot end it (OnDone) while this runs.
     registration_ = service_->loop_.Add(std::move(sender), this, std::move(udp));
-    // The read before anything that lets the session finish: a Finish may
-    // follow at once (a cancelled call), and no read may start after it.
     StartRead(&in_);
     registered_ = true;
     if (cancelled_) Stop();
-    registration_.Begin();
+    registration_.Begin();  // the last touch of `this`: the session may finish at once
   }
 
   Status Prepare(const v1::OpenRequest& open) {
@@ -257,29 +271,13 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   // The call was cancelled: by the client, or by the server draining.
   void Stop() {
     if (Draining()) {
-      registration_.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
+      registration_.Drain();
     } else {
       registration_.Cancel(Cancelled("the client went away"), "client went away");
     }
   }
 
   // Before the session joined the send loop: nothing is queued.
-  // Runs `task` on the opener pool holding a reference, so that the call
-  // outlives the task even when gRPC ends it meanwhile (OnDone).
-  void PostToOpeners(std::function<void()> task) {
-    refs_.fetch_add(1, std::memory_order_relaxed);
-    service_->openers_.Post([this, task = std::move(task)] {
-      task();
-      Release();
-    });
-  }
-
-  void Release() {
-    if (refs_.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
-    registration_ = SendLoop::Registration();  // after any step of the send loop under way
-    delete this;
-  }
-
   void FinishNow(const Status& status) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -313,10 +311,10 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   ArtifactCache::Bytes artifact_;
   SessionPlan plan_;
   std::shared_ptr<const std::vector<uint8_t>> scene_;
+  v1::ServerMessage start_;  // the SessionStart but for Start's fields; moved out by Start
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
-  std::atomic<int> refs_{1};  // gRPC's (released by OnDone) and one per opener task under way
 
   mutable std::mutex mutex_;  // below: the write queue
   std::deque<v1::ServerMessage> queue_;  // its front is being written while writing_
@@ -330,7 +328,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                                      const std::atomic<bool>* draining)
     : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      loop_(SendLoopOptions{32, draining}), openers_(options_.opener_threads) {}
+      loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
 
 StreamServiceImpl::~StreamServiceImpl() = default;
 

@@ -4,6 +4,10 @@
 // services/api/proto_convert.h; this is where its content is judged.
 //
 // Contract: safe on untrusted input (tests/fuzz/fuzz_service_repair.cc).
+// A request names at most as many items as the plan has refinements (one
+// per refinement is what a client needs); more is InvalidArgument naming
+// the count and the limit, before any item is looked at, so that a request
+// of a million empty items (within gRPC's message limit) costs nothing.
 // Every item must be a primitive (its wire stream id) and refinement of this
 // session and every ordinal one of that refinement's data datagrams;
 // otherwise InvalidArgument naming the first item that does not fit.

@@ -14,18 +14,34 @@ constexpr uint64_t kPeriodUs = 100000;
 // Actions one session may take in a row before the others get their turn.
 constexpr int kActionsPerTurn = 64;
 
+// How a draining server stops a session (the loop's sweep, Registration::Drain).
+void CancelForDraining(SessionSender& sender) {
+  sender.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
+}
+
 }  // namespace
 
 struct SendLoop::Entry {
   std::mutex mutex;  // below; held while the loop steps the session
   std::unique_ptr<SessionSender> sender;
   SessionStream* stream = nullptr;  // null once removed
-  std::shared_ptr<UdpEndpoint::Session> udp;
+  std::shared_ptr<UdpEndpoint::Session> udp;  // the only reference to it
+  bool hello_hooked = false;  // udp's HELLO hook wakes the entry (until the sender's HELLO wait is over)
   bool start_unwritten = false;  // the SessionStart is queued: wait until it is written
   // Waiting for its stream to write (no timer: the idle sweep looks at it).
   std::atomic<bool> blocked{false};
   std::atomic<uint64_t> idle_deadline_us{0};  // the sender's, when it blocked
-  uint64_t scheduled_us = SenderAction::kNever;  // guarded by SendLoop::mutex_
+  // Guarded by SendLoop::mutex_: Registration::Begin was called (before,
+  // nothing schedules the session), and when it is due.
+  bool begun = false;
+  uint64_t scheduled_us = SenderAction::kNever;
+
+  // Over gRPC from here: ~Session, run here, clears the HELLO hook (no HELLO
+  // wakes the entry after) and leaves the endpoint's table.
+  void DropUdp() {
+    udp.reset();
+    hello_hooked = false;
+  }
 };
 
 SendLoop::SendLoop(SendLoopOptions options) : options_(options) {
@@ -59,6 +75,7 @@ SendLoop::Registration SendLoop::Add(std::unique_ptr<SessionSender> sender, Sess
     entry->udp->SetOnHello([this, weak] {
       if (auto e = weak.lock()) Schedule(e, 0);
     });
+    entry->hello_hooked = true;
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -70,7 +87,8 @@ SendLoop::Registration SendLoop::Add(std::unique_ptr<SessionSender> sender, Sess
 void SendLoop::Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (due_us >= entry->scheduled_us) return;
+    // Before Begin a step is only wanted: Begin's own, at once, takes it up.
+    if (!entry->begun || due_us >= entry->scheduled_us) return;
     entry->scheduled_us = due_us;
     timers_.push(Timer{due_us, seq_++, entry});
   }
@@ -80,10 +98,9 @@ void SendLoop::Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us) {
 void SendLoop::Remove(Entry* entry) {
   {
     std::lock_guard<std::mutex> session_lock(entry->mutex);  // after any step under way
-    if (entry->udp) entry->udp->SetOnHello(nullptr);
     entry->stream = nullptr;
     entry->sender.reset();
-    entry->udp.reset();
+    entry->DropUdp();
   }
   std::lock_guard<std::mutex> lock(mutex_);
   entries_.erase(entry);
@@ -99,6 +116,7 @@ void SendLoop::Run() {
     if (!drained && options_.draining != nullptr && options_.draining->load()) {
       drained = true;
       for (auto& [raw, entry] : entries_) {
+        if (!entry->begun) continue;  // its first step (Begin) sees `draining`
         entry->scheduled_us = 0;
         timers_.push(Timer{0, seq_++, entry});
       }
@@ -137,12 +155,19 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
   if (entry->stream == nullptr || entry->sender == nullptr || entry->sender->finished()) return;
   SessionSender& sender = *entry->sender;
   SessionStream& stream = *entry->stream;
-  if (options_.draining != nullptr && options_.draining->load()) {
-    sender.Cancel(Unavailable("the server is shutting down; open the session again"), "draining");
-  }
+  if (options_.draining != nullptr && options_.draining->load()) CancelForDraining(sender);
   for (int n = 0; n < kActionsPerTurn; ++n) {
     const uint64_t now = SteadyNowUs();
-    if (entry->udp) sender.OnHello(entry->udp->last_hello_us(), entry->udp->proven());
+    if (entry->hello_hooked && entry->udp) {
+      if (sender.awaiting_hello()) {
+        sender.OnHello(entry->udp->last_hello_us(), entry->udp->proven());
+      } else {
+        // The wait is over: a HELLO (a client's retry, a copy) no longer
+        // wakes the session, and no step asks the endpoint's lock.
+        entry->udp->SetOnHello(nullptr);
+        entry->hello_hooked = false;
+      }
+    }
     const size_t queued = stream.queued();
     const bool full = queued >= options_.max_queued || (entry->start_unwritten && queued > 0);
     if (full && !sender.stopping(now)) {
@@ -166,8 +191,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         break;
       case SenderAction::kTransportChange:
         stream.TransportChanged(a.transport, a.reason);
-        entry->udp->SetOnHello(nullptr);
-        entry->udp.reset();
+        entry->DropUdp();
         break;
       case SenderAction::kControl:
         stream.Control(*a.refinement, a.stream, a.count, a.first_packet_number, a.reliable);
@@ -189,8 +213,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         stream.RepairEnd(a.count, a.bytes);
         break;
       case SenderAction::kFinish:
-        if (entry->udp) entry->udp->SetOnHello(nullptr);
-        entry->udp.reset();
+        entry->DropUdp();
         stream.Finish(a.status, sender.end_reason(), sender.stats());
         return;
     }
@@ -228,10 +251,10 @@ void SendLoop::Registration::OnReport(const ClientReportInfo& report) {
   if (entry_->sender) entry_->sender->OnReport(SteadyNowUs(), report);
 }
 
-void SendLoop::Registration::OnRepair(std::vector<RepairItem> items) {
+void SendLoop::Registration::OnRepair(const std::vector<RepairItem>& items) {
   {
     std::lock_guard<std::mutex> lock(entry_->mutex);
-    if (entry_->sender) entry_->sender->OnRepair(SteadyNowUs(), std::move(items));
+    if (entry_->sender) entry_->sender->OnRepair(SteadyNowUs(), items);
   }
   loop_->Schedule(entry_, 0);
 }
@@ -244,9 +267,30 @@ void SendLoop::Registration::OnClientClosed(bool done) {
   loop_->Schedule(entry_, 0);
 }
 
-void SendLoop::Registration::Begin() { loop_->Schedule(entry_, 0); }
+void SendLoop::Begin(std::shared_ptr<Entry> entry) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    entry->begun = true;
+  }
+  Schedule(entry, 0);
+}
+
+void SendLoop::Registration::Begin() {
+  // Copies: once scheduled the session may finish and its owner destroy
+  // this registration while Begin still runs.
+  SendLoop* loop = loop_;
+  loop->Begin(entry_);
+}
 
 void SendLoop::Registration::OnWritten() { loop_->Schedule(entry_, 0); }
+
+void SendLoop::Registration::Drain() {
+  {
+    std::lock_guard<std::mutex> lock(entry_->mutex);
+    if (entry_->sender) CancelForDraining(*entry_->sender);
+  }
+  loop_->Schedule(entry_, 0);
+}
 
 void SendLoop::Registration::Cancel(Status status, std::string reason) {
   {

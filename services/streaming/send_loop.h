@@ -14,6 +14,9 @@
 // that a stalled client is cut off (kFinish DEADLINE_EXCEEDED) whatever the
 // stream holds. After the SessionStart the
 // session waits until the stream has written it before its HELLO wait starts.
+// An authenticated HELLO wakes its session while the sender waits for one
+// (SessionSender::awaiting_hello); once the wait is over the hook is cleared
+// and the endpoint is no longer asked whether an address is proven.
 // While `draining` is true every session is stopped (UNAVAILABLE, "draining")
 // within the thread's 100 ms period.
 //
@@ -79,9 +82,13 @@ class SendLoop {
   SendLoop(const SendLoop&) = delete;
   SendLoop& operator=(const SendLoop&) = delete;
 
-  // Registers `sender`; it is driven from Registration::Begin on. `udp` is
-  // the session's UDP registration (null over gRPC), held until the session
-  // falls back to gRPC or ends.
+  // Registers `sender`; it is driven from Registration::Begin on. Before
+  // Begin the Registration's methods only feed the sender and a HELLO wakes
+  // nothing: the loop never steps it, so it calls neither the stream nor
+  // Finish, and the caller may still set the call up. Begin's step at once
+  // takes up whatever they asked for. `udp` is the session's UDP
+  // registration (null over gRPC), held until the session falls back to gRPC
+  // or ends.
   Registration Add(std::unique_ptr<SessionSender> sender, SessionStream* stream,
                    std::shared_ptr<UdpEndpoint::Session> udp);
 
@@ -91,8 +98,10 @@ class SendLoop {
   struct Entry;
   void Run();
   void Step(const std::shared_ptr<Entry>& entry);
-  // Due at `due_us` (sooner wins); from any thread.
+  // Due at `due_us` (sooner wins); from any thread. Before Begin nothing
+  // is scheduled (Begin steps the session at once).
   void Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us);
+  void Begin(std::shared_ptr<Entry> entry);
   void Remove(Entry* entry);
 
   SendLoopOptions options_;
@@ -121,18 +130,24 @@ class SendLoop::Registration {
   ~Registration();
   explicit operator bool() const { return entry_ != nullptr; }
 
-  // The session's first step, at once (once the caller holds the registration).
+  // The session's first step, at once (once the caller holds the
+  // registration and has set up what the stream needs). From then on the
+  // session may finish at any moment: for a caller that the stream's Finish
+  // lets go (a gRPC call deleted in OnDone), Begin is its last touch of the call.
   void Begin();
 
   // The client's messages, from the call's callbacks.
   void OnClientMessage();
   void OnReport(const ClientReportInfo& report);
-  void OnRepair(std::vector<RepairItem> items);
+  // The request is judged at once, on the caller's thread (SessionSender::OnRepair).
+  void OnRepair(const std::vector<RepairItem>& items);
   void OnClientClosed(bool done);
   // The stream wrote a message: a session waiting for room goes on.
   void OnWritten();
   // Stop the session (the call was cancelled, a write failed).
   void Cancel(Status status, std::string reason);
+  // Stop it as `draining` stops every session (UNAVAILABLE, "draining").
+  void Drain();
 
  private:
   friend class SendLoop;

@@ -10,12 +10,20 @@
 
 namespace meshstream {
 
+namespace {
+
+// The codec's END datagram of refinement `r` carrying `count` data
+// datagrams, with its stream's version (the first byte of the stream header;
+// docs/progressive-format.md, sections 3 and 6). The server builds it here
+// and nowhere else.
 std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
                                        const PlannedRefinement& r, uint32_t count) {
   const PlannedPrimitive& p = plan.primitives[r.primitive];
   return MakeStreamEndDatagram(artifact.data() + p.header.offset, static_cast<size_t>(p.header.length), p.stream,
                                r.refinement, count);
 }
+
+}  // namespace
 
 std::string DescribeSession(const SessionSenderStats& st) {
   std::ostringstream out;
@@ -34,7 +42,6 @@ SessionSender::SessionSender(const SessionPlan& plan, const std::vector<uint8_t>
       pacer_(options_.rate.initial_bps, std::max<size_t>(1, options_.burst_datagrams) * kMaxDatagramBytes),
       controller_(options_.rate), last_heard_us_(now_us) {
   options_.burst_datagrams = std::max<size_t>(1, options_.burst_datagrams);
-  stats_.transport = transport_;
 }
 
 void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }
@@ -57,11 +64,23 @@ void SessionSender::OnReport(uint64_t now_us, const ClientReportInfo& report) {
   controller_.OnReport(now_us, report.received, report.missing, rtt);
 }
 
-void SessionSender::OnRepair(uint64_t now_us, std::vector<RepairItem> items) {
+void SessionSender::OnRepair(uint64_t now_us, const std::vector<RepairItem>& items) {
   OnClientMessage(now_us);
   if (repair_received_) return;  // the driver reads nothing after the first
   repair_received_ = true;
-  repair_items_ = std::move(items);
+  if (!options_.repair) {
+    repair_status_ = InvalidArgument("repair: the session was not opened with repair");
+    return;
+  }
+  auto ranges = RepairDatagrams(plan_, items);
+  if (!ranges.ok()) {
+    repair_status_ = ranges.status();
+    return;
+  }
+  repair_payloads_.reserve(ranges->size());
+  for (const ByteRange& d : ranges.value()) {
+    repair_payloads_.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+  }
 }
 
 void SessionSender::OnClientClosed(uint64_t now_us, bool done) {
@@ -88,7 +107,7 @@ uint64_t SessionSender::idle_deadline_us() const {
 }
 
 SessionSenderStats SessionSender::stats() const {
-  SessionSenderStats s = stats_;
+  SessionSenderStats s = stats_;  // its transport and rate fields are filled here
   s.transport = transport_;
   s.final_rate_bps = controller_.rate_bps();
   s.rate_decreases = controller_.decreases();
@@ -113,6 +132,12 @@ SenderAction SessionSender::Next(uint64_t now_us) {
     return Finish(DeadlineExceeded("the session was idle for " + std::to_string(options_.idle_timeout_us / 1000000) +
                                    " s"),
                   "timeout");
+  }
+  // The driver reads nothing after a repair request: in a session without
+  // repair nothing can make it end otherwise than refused, so it ends now
+  // rather than after every refinement (or at the idle timeout).
+  if (repair_received_ && !options_.repair) {
+    return Finish(repair_status_, end_reason_.empty() ? "unasked repair" : end_reason_);
   }
   const bool before_end = phase_ == Phase::kStart || phase_ == Phase::kHelloWait || phase_ == Phase::kRefinements;
   if (client_done_ && before_end) return Finish(Cancelled("the client went away"), "client done");
@@ -163,7 +188,6 @@ SenderAction SessionSender::HelloWait(uint64_t now_us) {
     return a;
   }
   transport_ = SessionTransport::kGrpc;
-  stats_.transport = transport_;
   phase_ = Phase::kRefinements;
   a.kind = SenderAction::kTransportChange;
   a.transport = transport_;
@@ -280,8 +304,7 @@ SenderAction SessionSender::NextBatch(uint64_t now_us) {
   a.kind = SenderAction::kDatagrams;
   a.on_stream = mode_ != Mode::kUdp;
   a.first_packet_number = first_packet_number_ + next_payload_;
-  a.datagrams.assign(payloads_.begin() + static_cast<long>(next_payload_),
-                     payloads_.begin() + static_cast<long>(next_payload_ + take));
+  a.datagrams = PayloadSpan(payloads_.data() + next_payload_, take);
   if (mode_ == Mode::kUdp) {
     for (const auto& p : a.datagrams) stats_.bytes_sent += p.second;
   }
@@ -293,9 +316,7 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
   SenderAction a;
   if (phase_ == Phase::kAwaitRepair) {
     if (repair_received_) {
-      auto ranges = RepairDatagrams(plan_, repair_items_);
-      if (!ranges.ok()) return Finish(ranges.status(), end_reason_);
-      repair_ranges_ = std::move(ranges).value();
+      if (!repair_status_.ok()) return Finish(repair_status_, end_reason_);
       repair_next_ = 0;
       phase_ = Phase::kRepairing;
     } else if (client_closed_) {
@@ -310,15 +331,14 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
     }
   }
   if (phase_ == Phase::kRepairing) {
-    if (repair_next_ < repair_ranges_.size()) {
-      const size_t take = std::min(options_.burst_datagrams, repair_ranges_.size() - repair_next_);
+    if (repair_next_ < repair_payloads_.size()) {
+      const size_t take = std::min(options_.burst_datagrams, repair_payloads_.size() - repair_next_);
       a.kind = SenderAction::kDatagrams;
       a.on_stream = true;
-      for (size_t i = 0; i < take; ++i) {
-        const ByteRange& d = repair_ranges_[repair_next_ + i];
-        a.datagrams.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
+      a.datagrams = PayloadSpan(repair_payloads_.data() + repair_next_, take);
+      for (const DatagramPayload& d : a.datagrams) {
         ++stats_.repaired;
-        stats_.repaired_bytes += d.length;
+        stats_.repaired_bytes += d.second;
       }
       repair_next_ += take;
       return a;
@@ -333,9 +353,6 @@ SenderAction SessionSender::AfterEnd(uint64_t now_us) {
     return a;
   }
   // kLinger: the client closes its side (or sends done) so that the call ends OK.
-  if (repair_received_ && !options_.repair) {
-    return Finish(InvalidArgument("repair: the session was not opened with repair"), end_reason_);
-  }
   if (client_closed_) return Finish(Status::Ok(), end_reason_);
   if (now_us >= ended_us_ + kLingerUs) {
     return Finish(Cancelled("the client did not close the session within " + std::to_string(kLingerUs / 1000000) +

@@ -31,7 +31,8 @@
 //                      kRepairEnd; then up to kLingerUs for the client to
 //                      close its side (OnClientClosed);
 //   kFinish            the call's status (OK, INVALID_ARGUMENT for a bad or
-//                      unasked repair, DEADLINE_EXCEEDED when the client said
+//                      unasked repair, the latter at once whatever the phase,
+//                      DEADLINE_EXCEEDED when the client said
 //                      nothing for `idle_timeout`, CANCELLED for `done`
 //                      before the end or a client that did not close within
 //                      the linger) and end_reason() for the log; last.
@@ -41,8 +42,10 @@
 // refinements once 32 datagrams were reported; before, `expected_loss`, or
 // the reference loss).
 //
-// Contract: the plan and the artifact outlive the sender; the pointers in a
-// kDatagrams action stay valid until the next call. Times are microseconds of
+// Contract: the plan and the artifact outlive the sender; a kDatagrams
+// action's span views the sender's own list of the refinement's payloads
+// (or of the repair's), so it and the pointers in it stay valid until the
+// next call (no copy per batch). Times are microseconds of
 // one non-decreasing clock of the caller's. Reports are untrusted and only
 // steer the rate and the cut (a report of a refinement never sent over UDP,
 // or reported twice, counts in stats only).
@@ -62,6 +65,7 @@
 #include "codec/core/status.h"
 #include "net/pacer.h"
 #include "net/rate_controller.h"
+#include "services/streaming/payload_span.h"
 #include "services/streaming/repair_request.h"
 #include "services/streaming/session_plan.h"
 
@@ -143,7 +147,7 @@ struct SenderAction {
   uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
   bool reliable = false;          // kControl: the datagrams follow on the stream
   bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
-  std::vector<std::pair<const uint8_t*, size_t>> datagrams;  // kDatagrams
+  PayloadSpan datagrams;          // kDatagrams: valid until the next call (above)
   Status status;                  // kFinish
 };
 
@@ -164,13 +168,16 @@ class SessionSender {
   // counts from the last one.
   void OnClientMessage(uint64_t now_us);
   void OnReport(uint64_t now_us, const ClientReportInfo& report);
-  // The one RepairRequest of the session (the driver reads nothing after it).
-  void OnRepair(uint64_t now_us, std::vector<RepairItem> items);
+  // The one RepairRequest of the session (the driver reads nothing after
+  // it), judged here, on the caller's thread (RepairDatagrams against the
+  // plan): only the byte ranges it names, or its refusal, are kept for Next.
+  void OnRepair(uint64_t now_us, const std::vector<RepairItem>& items);
   // The client closed its side: `done` (ClientMessage.done) or a half-close.
   // `done` before the end stops the session (CANCELLED, "client done").
   void OnClientClosed(uint64_t now_us, bool done);
   // UDP: the time of the last authenticated HELLO (the endpoint's clock,
-  // the same as now_us) and whether an address is proven.
+  // the same as now_us) and whether an address is proven. Read only while
+  // awaiting_hello().
   void OnHello(uint64_t last_hello_us, bool proven);
   // The driver stops the session: the next Next is kFinish with `status`
   // and `reason` (e.g. Cancelled / "client went away", Unavailable / "draining").
@@ -185,6 +192,11 @@ class SessionSender {
   // even while the stream cannot take more.
   uint64_t idle_deadline_us() const;
   SessionTransport transport() const { return transport_; }
+  // UDP, until the HELLO wait is over (an address proven, or the fallback to
+  // gRPC): after, HELLOs change nothing and the driver need not feed OnHello.
+  bool awaiting_hello() const {
+    return transport_ == SessionTransport::kUdp && (phase_ == Phase::kStart || phase_ == Phase::kHelloWait);
+  }
   const std::string& end_reason() const { return end_reason_; }
   SessionSenderStats stats() const;
 
@@ -222,7 +234,7 @@ class SessionSender {
   size_t index_ = 0;
   Step step_ = Step::kControl;
   enum class Mode { kUdp, kStreamPaced, kStream } mode_ = Mode::kStream;
-  std::vector<std::pair<const uint8_t*, size_t>> payloads_;  // data datagrams, then the END
+  std::vector<DatagramPayload> payloads_;  // data datagrams, then the END; kDatagrams views it
   std::vector<uint8_t> end_datagram_;
   size_t next_payload_ = 0;
   uint64_t first_packet_number_ = 0;
@@ -234,8 +246,8 @@ class SessionSender {
   bool client_closed_ = false;
   bool client_done_ = false;
   bool repair_received_ = false;
-  std::vector<RepairItem> repair_items_;
-  std::vector<ByteRange> repair_ranges_;
+  Status repair_status_;                // the request's refusal (not OK), or OK
+  std::vector<DatagramPayload> repair_payloads_;  // the datagrams it names, each once; kDatagrams views it
   size_t repair_next_ = 0;
   // Cancel.
   bool cancelled_ = false;
@@ -247,13 +259,6 @@ class SessionSender {
 // reports, missing, the final rate, decreases, srtt, the refinements sent
 // reliably (bytes, the loss the cut was sized for) and the datagrams repaired.
 std::string DescribeSession(const SessionSenderStats& stats);
-
-// The codec's END datagram of refinement `r` carrying `count` data
-// datagrams, with its stream's version (the first byte of the stream header;
-// docs/progressive-format.md, sections 3 and 6). The server builds it here
-// and nowhere else.
-std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
-                                       const PlannedRefinement& r, uint32_t count);
 
 }  // namespace meshstream
 

@@ -1,5 +1,6 @@
 #include "services/streaming/udp_endpoint.h"
 
+#include <chrono>
 #include <cstring>
 
 #include "codec/core/byte_io.h"
@@ -26,7 +27,6 @@ struct UdpEndpoint::SessionState {
   std::atomic<uint64_t> last_hello_us{0};
 
   std::mutex mutex;  // everything below
-  std::condition_variable proven_changed;
   std::function<void()> on_hello;
   ReplayWindow window;
   struct Address {
@@ -151,7 +151,6 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
   if (entry->challenged && SameChallenge(echo.value(), entry->challenge)) {
     entry->limit.MarkProven();
     state->proven = d.from;
-    state->proven_changed.notify_all();
     if (state->on_hello) state->on_hello();
     lock.unlock();
     return drop(DropReason::kNone);
@@ -198,11 +197,6 @@ uint64_t UdpEndpoint::Session::id() const { return state_->id; }
 
 const SessionKeys& UdpEndpoint::Session::keys() const { return state_->keys; }
 
-bool UdpEndpoint::Session::WaitProven(std::chrono::milliseconds timeout) {
-  std::unique_lock<std::mutex> lock(state_->mutex);
-  return state_->proven_changed.wait_for(lock, timeout, [this] { return !state_->proven.empty(); });
-}
-
 bool UdpEndpoint::Session::proven() const {
   std::lock_guard<std::mutex> lock(state_->mutex);
   return !state_->proven.empty();
@@ -219,8 +213,7 @@ uint64_t UdpEndpoint::Session::ReservePacketNumbers(uint64_t count) {
 
 uint64_t UdpEndpoint::Session::last_hello_us() const { return state_->last_hello_us.load(); }
 
-Status UdpEndpoint::Session::SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads,
-                                      uint64_t first_packet_number) {
+Status UdpEndpoint::Session::SendData(PayloadSpan payloads, uint64_t first_packet_number) {
   SocketAddress to;
   {
     std::lock_guard<std::mutex> lock(state_->mutex);

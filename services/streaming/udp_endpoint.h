@@ -13,14 +13,13 @@
 // Contract: safe on any bytes arriving at the socket. A session accepts at
 // most kMaxAddressesPerSession addresses (HELLOs from more are dropped and
 // counted as addresses_refused). Memory: per session a fixed amount.
-// Thread safety: every method may be called from any thread; a session's
-// handle is used by its own sending thread.
+// Thread safety: every method, the endpoint's and a session handle's, may
+// be called from any thread (the send loop calls every session's from its
+// one thread; the HELLO hook runs on the endpoint's receiving thread).
 #ifndef MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
 #define MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
 
 #include <atomic>
-#include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -37,6 +36,7 @@
 #include "net/packet_crypto.h"
 #include "net/replay_window.h"
 #include "net/udp_socket.h"
+#include "services/streaming/payload_span.h"
 
 namespace meshstream {
 
@@ -89,8 +89,6 @@ class UdpEndpoint::Session {
   ~Session();
   uint64_t id() const;
   const SessionKeys& keys() const;
-  // Waits until a client address is proven (true) or the time runs out.
-  bool WaitProven(std::chrono::milliseconds timeout);
   bool proven() const;
   SocketAddress address() const;  // the proven address (empty before)
   // `count` consecutive packet numbers of this session's server->client
@@ -99,7 +97,7 @@ class UdpEndpoint::Session {
   // Seals each payload as DATA with packet numbers first, first + 1, ... and
   // sends them to the proven address in one batch. FailedPrecondition
   // before an address is proven.
-  Status SendData(const std::vector<std::pair<const uint8_t*, size_t>>& payloads, uint64_t first_packet_number);
+  Status SendData(PayloadSpan payloads, uint64_t first_packet_number);
   // Microseconds (steady clock) when an authenticated HELLO last arrived.
   uint64_t last_hello_us() const;
   // Called on the endpoint's thread when an authenticated HELLO arrives and

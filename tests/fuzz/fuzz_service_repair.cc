@@ -3,9 +3,10 @@
 // translation of services/api/proto_convert.h and the session core,
 // services/streaming/session_sender.h): the request comes from the client,
 // so whatever its bytes the server answers with the datagrams it names,
-// each once, or INVALID_ARGUMENT naming the first item that does not fit;
-// never a crash, never a datagram of another session, never more than the
-// plan holds.
+// each once, or INVALID_ARGUMENT naming the first item that does not fit
+// (or the item count, beyond one per refinement of the plan); never a
+// crash, never a datagram of another session, never more than the plan
+// holds.
 //
 // Input: byte 0 shapes the session's plan (1-3 primitives with wire stream
 // ids 0, 5 and 2^31 + 7), byte 1 its refinements (0-4 per primitive) and
@@ -75,24 +76,26 @@ Session MakeSession(uint8_t shape, uint8_t sizes) {
 }
 
 // The oracle: (offsets of the datagrams named, each once, in first-named
-// order) or the index of the first item that does not fit.
+// order), or too many items, or the index of the first item that does not fit.
 struct Expected {
   bool ok = true;
+  bool too_many = false;
   size_t bad_item = 0;
   std::vector<uint64_t> offsets;
 };
 
 Expected Judge(const Session& s, const std::vector<RepairItem>& items) {
   Expected e;
+  if (items.size() > s.plan.refinements.size()) return Expected{false, true, 0, {}};
   std::set<std::tuple<uint32_t, uint32_t, uint32_t>> seen;
   for (size_t i = 0; i < items.size(); ++i) {
     const PlannedRefinement* found = nullptr;
     for (const PlannedRefinement& r : s.plan.refinements) {
       if (s.plan.primitives[r.primitive].stream == items[i].stream && r.refinement == items[i].refinement) found = &r;
     }
-    if (found == nullptr) return Expected{false, i, {}};
+    if (found == nullptr) return Expected{false, false, i, {}};
     for (uint32_t k : items[i].datagrams) {
-      if (k >= found->datagrams.size()) return Expected{false, i, {}};
+      if (k >= found->datagrams.size()) return Expected{false, false, i, {}};
       if (seen.insert({items[i].stream, items[i].refinement, k}).second) e.offsets.push_back(found->datagrams[k].offset);
     }
   }
@@ -111,9 +114,12 @@ void Check(const Session& s, const std::vector<RepairItem>& items) {
     for (const ByteRange& r : got.value()) offsets.push_back(r.offset);
     if (offsets != want.offsets) Bug("not the datagrams named, once each, in order");
   } else {
-    if (got.ok()) Bug("accepted item " + std::to_string(want.bad_item) + ", which does not fit");
+    if (got.ok()) Bug("accepted a request that does not fit");
     if (got.status().code() != StatusCode::kInvalidArgument) Bug("not INVALID_ARGUMENT: " + got.status().ToString());
-    const std::string where = "repair.items[" + std::to_string(want.bad_item) + "]";
+    const std::string where =
+        want.too_many ? "repair: " + std::to_string(items.size()) + " items, more than the " +
+                            std::to_string(s.plan.refinements.size()) + " refinements"
+                      : "repair.items[" + std::to_string(want.bad_item) + "]";
     if (got.status().message().rfind(where, 0) != 0) Bug("does not name " + where + ": " + got.status().message());
   }
 

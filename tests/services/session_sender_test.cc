@@ -79,6 +79,9 @@ struct Script {
   std::vector<uint64_t> times;
   // Per action, a copy of its datagrams (the END's bytes live only until the next call).
   std::vector<std::vector<std::vector<uint8_t>>> bytes;
+  // Per action, a copy of its (pointer, length) list, which the stored
+  // action's span views (the sender's own list changes on the next call).
+  std::vector<std::vector<DatagramPayload>> payloads;
   uint64_t now = 0;
 
   // Drives `s` until it waits for nothing or `until` (advancing the fake
@@ -98,6 +101,8 @@ struct Script {
       times.push_back(now);
       bytes.emplace_back();
       for (const auto& [data, size] : a.datagrams) bytes.back().emplace_back(data, data + size);
+      payloads.emplace_back(a.datagrams.begin(), a.datagrams.end());
+      a.datagrams = PayloadSpan(payloads.back());
       actions.push_back(a);
       if (a.kind == SenderAction::kFinish || (to_end && a.kind == SenderAction::kEnd)) return a;
     }
@@ -250,6 +255,33 @@ TEST(SessionSender, AHelloUnderWayExtendsTheWaitUpToThreeTimeouts) {
   const SenderAction a = s.Next(2950000);
   EXPECT_EQ(a.kind, SenderAction::kControl);
   EXPECT_FALSE(a.reliable);
+}
+
+// The driver feeds HELLOs (and wakes the session on them) only while the
+// sender waits for one: over UDP until an address is proven or the fallback.
+TEST(SessionSender, TheHelloWaitEndsWithTheProofOrTheFallback) {
+  Fixture f;
+  SessionSender grpc(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
+  EXPECT_FALSE(grpc.awaiting_hello());
+
+  SessionSender proven(f.plan, f.artifact, -1, Options(SessionTransport::kUdp), 0);
+  EXPECT_TRUE(proven.awaiting_hello());
+  ASSERT_EQ(proven.Next(0).kind, SenderAction::kStart);
+  EXPECT_TRUE(proven.awaiting_hello());
+  EXPECT_EQ(proven.Next(0).kind, SenderAction::kWait);
+  EXPECT_TRUE(proven.awaiting_hello());
+  proven.OnHello(100, true);
+  EXPECT_EQ(proven.Next(100).kind, SenderAction::kControl);
+  EXPECT_FALSE(proven.awaiting_hello());
+
+  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  o.hello_timeout_us = 1000;
+  SessionSender fallback(f.plan, f.artifact, -1, o, 0);
+  ASSERT_EQ(fallback.Next(0).kind, SenderAction::kStart);
+  EXPECT_EQ(fallback.Next(0).due_us, 1000u);
+  EXPECT_TRUE(fallback.awaiting_hello());
+  EXPECT_EQ(fallback.Next(1000).kind, SenderAction::kTransportChange);
+  EXPECT_FALSE(fallback.awaiting_hello());
 }
 
 TEST(SessionSender, ReportsAdaptTheRate) {
@@ -449,6 +481,41 @@ TEST(SessionSender, ARepairOfSomethingNotSentIsInvalidArgument) {
   EXPECT_NE(last.status.message().find("datagram 10 does not exist"), std::string::npos) << last.status.ToString();
 }
 
+// The judge runs on the gRPC thread, and a request names at most one item
+// per refinement of the session: more (a million empty items fit in a
+// message) is refused whole, naming the count and the limit.
+TEST(SessionSender, ARepairOfMoreItemsThanRefinementsIsInvalidArgument) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, std::vector<RepairItem>(kRefinements + 1, RepairItem{kStream, 2, {}}));
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(last.status.message().find("7 items, more than the 6 refinements"), std::string::npos)
+      << last.status.ToString();
+  EXPECT_EQ(script.Count(SenderAction::kRepairEnd), 0u);
+}
+
+TEST(SessionSender, AsManyItemsAsRefinementsAreRepaired) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kGrpc);
+  o.repair = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  script.Run(s, 1000);
+  s.OnRepair(1000, std::vector<RepairItem>(kRefinements, RepairItem{kStream, 2, {4}}));
+  const SenderAction last = script.Run(s);
+  ASSERT_EQ(last.kind, SenderAction::kFinish);
+  EXPECT_TRUE(last.status.ok()) << last.status.ToString();
+  const SenderAction& repair_end = script.actions[script.actions.size() - 2];
+  ASSERT_EQ(repair_end.kind, SenderAction::kRepairEnd);
+  EXPECT_EQ(repair_end.count, 1u) << "a repeat is sent once";
+}
+
 TEST(SessionSender, ARepairInASessionWithoutRepairIsInvalidArgument) {
   Fixture f;
   SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
@@ -457,6 +524,25 @@ TEST(SessionSender, ARepairInASessionWithoutRepairIsInvalidArgument) {
   s.OnRepair(1000, {RepairItem{kStream, 2, {1}}});
   const SenderAction last = script.Run(s);
   EXPECT_EQ(last.status.code(), StatusCode::kInvalidArgument);
+}
+
+// The driver reads nothing after a repair request, so in a session opened
+// without repair the refusal comes at once, not after the last refinement
+// (a long stream would first run into the idle timeout, DEADLINE_EXCEEDED).
+TEST(SessionSender, ARepairInASessionWithoutRepairEndsItAtOnce) {
+  Fixture f;
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kUdp), 0);
+  s.OnHello(0, true);
+  Script script;
+  script.Run(s, 10000);  // 8 Mbit/s: a fifth of the 60 datagrams' time
+  ASSERT_GT(script.Count(SenderAction::kDatagrams), 0u);
+  ASSERT_EQ(script.Count(SenderAction::kEnd), 0u) << "the stream should still be under way";
+  s.OnRepair(10000, {RepairItem{kStream, 0, {1}}});
+  const SenderAction a = s.Next(10000);
+  ASSERT_EQ(a.kind, SenderAction::kFinish);
+  EXPECT_EQ(a.status.code(), StatusCode::kInvalidArgument) << a.status.ToString();
+  EXPECT_NE(a.status.message().find("not opened with repair"), std::string::npos) << a.status.ToString();
+  EXPECT_EQ(s.end_reason(), "unasked repair");
 }
 
 TEST(SessionSender, WithRepairButNoRequestTheSessionWaitsThenLingers) {

@@ -58,6 +58,16 @@ Challenge ChallengeOf(const std::vector<uint8_t>& ack, const UdpEndpoint::Sessio
   return ParseHelloAckPayload(opened.payload).value();
 }
 
+// Waits until the session has a proven address (true) or `ms` ran out.
+bool WaitProven(const UdpEndpoint::Session& s, int ms) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+  while (!s.proven()) {
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
 // Waits until the endpoint has looked at `count` datagrams.
 void WaitCounted(const UdpEndpoint& e, uint64_t count) {
   for (int i = 0; i < 200; ++i) {
@@ -75,7 +85,8 @@ TEST(UdpEndpoint, TheRoundTripProvesTheAddressThenDataFlows) {
   UdpEndpoint::Session& s = **session;
   EXPECT_EQ((*endpoint)->session_count(), 1u);
   const uint8_t data[] = {1, 2, 3};
-  EXPECT_EQ(s.SendData({{data, 3}}, 0).code(), StatusCode::kFailedPrecondition) << "no DATA before a proof";
+  const std::vector<DatagramPayload> one = {{data, 3}};
+  EXPECT_EQ(s.SendData(one, 0).code(), StatusCode::kFailedPrecondition) << "no DATA before a proof";
 
   Peer client = Peer::Make();
   client.Send(**endpoint, client.Hello(s, Challenge{}));
@@ -85,12 +96,13 @@ TEST(UdpEndpoint, TheRoundTripProvesTheAddressThenDataFlows) {
   EXPECT_FALSE(s.proven()) << "a HELLO alone proves nothing";
   const Challenge challenge = ChallengeOf(replies[0], s);
   client.Send(**endpoint, client.Hello(s, challenge));
-  ASSERT_TRUE(s.WaitProven(std::chrono::milliseconds(2000)));
+  ASSERT_TRUE(WaitProven(s, 2000));
   EXPECT_EQ(s.address(), client.socket.local());
 
   const uint64_t first = s.ReservePacketNumbers(2);
   const uint8_t more[] = {4, 5};
-  ASSERT_TRUE(s.SendData({{data, 3}, {more, 2}}, first).ok());
+  const std::vector<DatagramPayload> two = {{data, 3}, {more, 2}};
+  ASSERT_TRUE(s.SendData(two, first).ok());
   auto got = client.Drain(300);
   ASSERT_EQ(got.size(), 2u);
   OpenedPacket p;
@@ -154,7 +166,7 @@ TEST(UdpEndpoint, ACopiedHelloEarnsAtMostAnAckAndCannotRedirect) {
   auto acks = client.Drain(300);
   ASSERT_EQ(acks.size(), 1u);
   client.Send(**endpoint, client.Hello(s, ChallengeOf(acks[0], s)));
-  ASSERT_TRUE(s.WaitProven(std::chrono::milliseconds(2000)));
+  ASSERT_TRUE(WaitProven(s, 2000));
   // An on-path attacker copies a genuine HELLO (fresh packet number, as if
   // it had captured one in flight) and sends it from its own address.
   const std::vector<uint8_t> captured = client.Hello(s, Challenge{});
@@ -174,7 +186,8 @@ TEST(UdpEndpoint, ACopiedHelloEarnsAtMostAnAckAndCannotRedirect) {
   // The session's DATA still goes to the proven client.
   EXPECT_EQ(s.address(), client.socket.local());
   const uint8_t d[] = {7};
-  ASSERT_TRUE(s.SendData({{d, 1}}, s.ReservePacketNumbers(1)).ok());
+  const std::vector<DatagramPayload> one = {{d, 1}};
+  ASSERT_TRUE(s.SendData(one, s.ReservePacketNumbers(1)).ok());
   EXPECT_EQ(client.Drain(200).size(), 1u);
   EXPECT_TRUE(attacker.Drain(100).empty());
 }
@@ -224,7 +237,7 @@ TEST(UdpEndpoint, TheHelloHookFiresForAuthenticatedHellosAndTheProof) {
   ASSERT_EQ(acks.size(), 1u);
   EXPECT_EQ(calls.load(), 1) << "the authenticated HELLO";
   client.Send(**endpoint, client.Hello(s, ChallengeOf(acks[0], s)));
-  ASSERT_TRUE(s.WaitProven(std::chrono::milliseconds(2000)));
+  ASSERT_TRUE(WaitProven(s, 2000));
   EXPECT_EQ(calls.load(), 3) << "the echo: heard, then proven";
   s.SetOnHello(nullptr);
   client.Send(**endpoint, client.Hello(s, Challenge{}));
