@@ -677,11 +677,6 @@ void SessionCore::HandleArrivals(uint64_t now) {
   }
 }
 
-void SessionCore::Step(uint64_t now) {
-  CheckEnd(now);
-  if (events_.empty()) HandleArrivals(now);
-}
-
 size_t SessionCore::primitive_count() const { return primitives_.size(); }
 
 const StreamReader& SessionCore::reader(size_t primitive) const { return primitives_[primitive].reconstructor->reader(); }

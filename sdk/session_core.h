@@ -9,16 +9,16 @@
 // Inputs (all times in microseconds of one non-decreasing clock):
 //   - TakeMessage / TakeDatagram: the arrivals of the two channels, each in
 //     its channel's order, stamped with when they arrived. They wait in the
-//     core's inbox until Step hands them over, oldest first across both
-//     channels.
+//     core's inbox until HandleArrivals hands them over, oldest first
+//     across both channels.
 //   - SetArrivalHorizon: every datagram that reached the UDP socket before
 //     this time has been taken (UdpReceiver::caught_up_us; without UDP the
 //     driver's clock). Stragglers are timed out by min(time, horizon).
 //   - TakeStreamEnd: the gRPC stream ended with this status (every message
 //     it delivered was taken before).
 //   - SetUdpCounters: the UDP receiver's counters (statistics, the RTT sample).
-//   - CheckEnd(now), HandleArrivals(now), or Step(now) for both: the session
-//     moves on at `now`, through its phases (SessionPhase): opening ->
+//   - CheckEnd(now), then HandleArrivals(now) unless an event is waiting: the
+//     session moves on at `now`, through its phases (SessionPhase): opening ->
 //     streaming -> ending (SessionEnd or a budget; the stragglers' window)
 //     -> [repairing] -> over.
 // Outputs:
@@ -120,8 +120,6 @@ class SessionCore {
   // (the rest waits: the views match the event), then decodes what the
   // clock lets go; a stream that ended before SessionEnd is an error.
   void HandleArrivals(uint64_t now_us);
-  // CheckEnd, then HandleArrivals unless an event is waiting.
-  void Step(uint64_t now_us);
   // Ends the session with `status` (kError next; earlier events are dropped).
   void Fail(Status status);
 
@@ -135,8 +133,6 @@ class SessionCore {
   bool handed_over() const { return inbox_messages_.empty() && inbox_datagrams_.empty(); }
   bool over() const { return phase_ == SessionPhase::kOver; }
   SessionPhase phase() const { return phase_; }
-  bool stream_ended() const { return stream_ended_; }
-  SessionTransport transport() const { return transport_; }
   EndReason end_reason() const { return end_reason_; }
   bool repair_asked() const { return repair_asked_; }
 
