@@ -48,10 +48,6 @@ inline sdk::UploadFile LoadFile(const std::string& path, const std::string& name
   return sdk::UploadFile::FromBytes(name, bytes.ok() ? std::move(bytes).value() : std::vector<uint8_t>());
 }
 
-inline sdk::UploadFile FileOf(const std::string& name, const std::string& text) {
-  return sdk::UploadFile::FromBytes(name, std::vector<uint8_t>(text.begin(), text.end()));
-}
-
 inline sdk::Upload UploadOf(const std::string& asset, sdk::UploadFile main, std::vector<sdk::UploadFile> resources = {}) {
   sdk::Upload upload;
   upload.asset = asset;
