@@ -330,7 +330,6 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       MS_RETURN_IF_ERROR(Start(m.session(), now));
       phase_ = end_reason_ == EndReason::kNone ? SessionPhase::kStreaming : SessionPhase::kEnding;
       Push(EventType::kBaseReady, 0);
-      level_announced_ = 0;
       return Status::Ok();
     }
     case v1::ServerMessage::kTransportChange: {
@@ -484,14 +483,14 @@ Status SessionCore::AdvanceTouched(uint64_t now) {
 }
 
 // One event for the level reached, even when several completed at once (a
-// viewer wants the latest, and the views show it).
+// viewer wants the latest, and the views show it). Called only after the
+// start (level_shown_ is 0 from then on).
 void SessionCore::AnnounceLevel() {
   const int32_t level = LevelEverywhere();
-  if (level_announced_ >= 0 && level_announced_ < level) {
-    level_announced_ = level;
+  if (level_shown_ >= 0 && level_shown_ < level) {
+    level_shown_ = level;
     Push(EventType::kLevelReady, level);
   }
-  level_shown_ = std::max(level_shown_, level);
 }
 
 // The repair request: every missing datagram of every refinement. False

@@ -202,8 +202,7 @@ class SessionCore {
   bool has_scene_ = false;
   std::map<uint32_t, size_t> by_stream_;  // stream id -> index in primitives_
   int32_t levels_ = 0;
-  int32_t level_shown_ = -1;  // -1: not even the base
-  int32_t level_announced_ = -1;
+  int32_t level_shown_ = -1;  // -1: not even the base; the last level announced (kBaseReady: 0)
   SessionTransport transport_ = SessionTransport::kNone;
   EndReason end_reason_ = EndReason::kNone;
   uint64_t session_end_us_ = 0;
