@@ -145,6 +145,12 @@ void SessionCore::Fail(Status status) {
   e.type = EventType::kError;
   e.status = std::move(status);
   events_.push_back(e);
+  StopUdp();
+}
+
+// The UDP half ends (the server fell back to gRPC, or the session is over):
+// a start not yet taken is dropped, a running half is asked to stop.
+void SessionCore::StopUdp() {
   if (udp_running_) udp_stop_ = true;
   udp_running_ = false;
   udp_start_.reset();
@@ -334,9 +340,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
     }
     case v1::ServerMessage::kTransportChange: {
       if (m.transport_change().transport() == v1::TRANSPORT_GRPC) {
-        if (udp_running_) udp_stop_ = true;
-        udp_running_ = false;
-        udp_start_.reset();
+        StopUdp();
         transport_ = SessionTransport::kGrpc;
         stats_.transport = "grpc";
         stats_.fallback_reason = m.transport_change().reason();
@@ -621,8 +625,7 @@ void SessionCore::Complete() {
   UpdateStats();
   if (stats_.time_to_exact_ms == 0 && stats_.datagrams_lost == 0) stats_.time_to_exact_ms = stats_.time_to_full_ms;
   Finish("complete");
-  if (udp_running_) udp_stop_ = true;
-  udp_running_ = false;
+  StopUdp();
   phase_ = SessionPhase::kOver;
   Push(EventType::kComplete, level_shown_);
 }

@@ -166,6 +166,7 @@ class SessionCore {
   int32_t LevelEverywhere() const;
   bool AllDone() const;
   void Finish(const std::string& reason);
+  void StopUdp();
   StatusOr<size_t> PrimitiveOf(uint32_t stream_id) const;
   Status Start(const v1::SessionStart& start, uint64_t now);
   static void NoteEnd(PrimitiveState& p, size_t refinement);
