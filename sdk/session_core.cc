@@ -187,10 +187,8 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (by_stream_.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
     PrimitiveState state;
     state.start = p;
-    ro.lod = static_cast<int>(std::min<uint32_t>(p.refinements(), kMaxRefinements));
-    auto reconstructor = StreamReconstructor::Create(Bytes(p.header()), p.header().size(), p.primitive(), ro);
-    if (!reconstructor.ok()) return reconstructor.status().WithContext(where);
-    state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor).value());
+    MS_ASSIGN_OR_RETURN(StreamReconstructor reconstructor, NewReconstructor(p));
+    state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor));
     if (p.refinements() > state.reconstructor->reader().refinement_count()) {
       return InvalidInput(where + ": more refinements announced than its header has");
     }
@@ -240,6 +238,16 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   stats_.time_to_base_ms = MsSinceOpen(now);
   level_shown_ = 0;
   return Status::Ok();
+}
+
+// A reconstructor for the primitive `p` announces, with the session's
+// options (reconstructor_options_) and its refinements as the level of detail.
+StatusOr<StreamReconstructor> SessionCore::NewReconstructor(const v1::PrimitiveStart& p) const {
+  ReconstructorOptions ro = reconstructor_options_;
+  ro.lod = static_cast<int>(std::min<uint32_t>(p.refinements(), kMaxRefinements));
+  auto reconstructor = StreamReconstructor::Create(Bytes(p.header()), p.header().size(), p.primitive(), ro);
+  if (!reconstructor.ok()) return reconstructor.status().WithContext(Where(p.primitive()));
+  return reconstructor;
 }
 
 // The END of refinement `refinement` of `p` arrived on either channel (the
@@ -524,10 +532,8 @@ bool SessionCore::AskRepair(uint64_t now) {
 Status SessionCore::DecodeAgain(uint64_t now) {
   for (PrimitiveState& p : primitives_) {
     const std::string where = Where(p.start.primitive());
-    ReconstructorOptions ro = reconstructor_options_;
-    ro.lod = static_cast<int>(std::min<uint32_t>(p.start.refinements(), kMaxRefinements));
-    auto fresh = StreamReconstructor::Create(Bytes(p.start.header()), p.start.header().size(), p.start.primitive(), ro);
-    if (!fresh.ok()) return fresh.status().WithContext(where);
+    auto fresh = NewReconstructor(p.start);
+    if (!fresh.ok()) return fresh.status();
     Status s = fresh->SetBase(p.kept_base);
     if (!s.ok()) return s.WithContext(where);
     for (size_t i = 0; i < p.tracks.size(); ++i) {

@@ -169,6 +169,7 @@ class SessionCore {
   void StopUdp();
   StatusOr<size_t> PrimitiveOf(uint32_t stream_id) const;
   Status Start(const v1::SessionStart& start, uint64_t now);
+  StatusOr<StreamReconstructor> NewReconstructor(const v1::PrimitiveStart& p) const;
   static void NoteEnd(PrimitiveState& p, size_t refinement);
   Status GiveControls(PrimitiveState& p, uint64_t now, bool flushing);
   Status GiveAllControls(uint64_t now, bool flushing);
