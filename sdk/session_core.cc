@@ -165,6 +165,12 @@ void SessionCore::Finish(const std::string& reason) {
   writes_done_ = true;
 }
 
+// The transport and its name in the statistics, together.
+void SessionCore::SetTransport(SessionTransport t) {
+  transport_ = t;
+  stats_.transport = t == SessionTransport::kUdp ? "udp" : "grpc";
+}
+
 StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
   auto it = by_stream_.find(stream_id);
   if (it == by_stream_.end()) return InvalidInput("a block for unknown primitive " + std::to_string(stream_id));
@@ -172,8 +178,7 @@ StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
 }
 
 Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
-  transport_ = start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc;
-  stats_.transport = transport_ == SessionTransport::kUdp ? "udp" : "grpc";
+  SetTransport(start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc);
   ReconstructorOptions ro;
   ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options_.straggler_timeout_ms)) * 1000;
   // UDP may run ahead of the gRPC stream by many refinements (a loaded
@@ -349,8 +354,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
     case v1::ServerMessage::kTransportChange: {
       if (m.transport_change().transport() == v1::TRANSPORT_GRPC) {
         StopUdp();
-        transport_ = SessionTransport::kGrpc;
-        stats_.transport = "grpc";
+        SetTransport(SessionTransport::kGrpc);
         stats_.fallback_reason = m.transport_change().reason();
       }
       return Status::Ok();

@@ -167,6 +167,7 @@ class SessionCore {
   bool AllDone() const;
   void Finish(const std::string& reason);
   void StopUdp();
+  void SetTransport(SessionTransport t);
   StatusOr<size_t> PrimitiveOf(uint32_t stream_id) const;
   Status Start(const v1::SessionStart& start, uint64_t now);
   StatusOr<StreamReconstructor> NewReconstructor(const v1::PrimitiveStart& p) const;
