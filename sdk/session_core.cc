@@ -291,12 +291,13 @@ Status SessionCore::GiveAllControls(uint64_t now, bool flushing) {
 // stream). Its header is read here, once, and the reconstructor gets it parsed.
 Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now) {
   auto parsed = ParsedDatagram::Parse(data, size);
-  if (!parsed.ok() || by_stream_.count(parsed->header().stream) == 0) {
+  const auto primitive = parsed.ok() ? by_stream_.find(parsed->header().stream) : by_stream_.end();
+  if (primitive == by_stream_.end()) {
     ++stray_rejected_;  // the reconstructors never see it
     return Status::Ok();
   }
   const DatagramHeader& h = parsed->header();
-  touched_ = by_stream_[h.stream];
+  touched_ = primitive->second;
   PrimitiveState& p = primitives_[touched_];
   const bool end = h.kind == DatagramKind::kEnd;
   if (h.refinement < p.tracks.size()) {
