@@ -61,7 +61,7 @@ struct SessionCore::RefinementTrack {
 };
 
 struct SessionCore::PrimitiveState {
-  v1::PrimitiveStart start;
+  v1::PrimitiveStart start;             // as announced, without base_mesh (decoded, not kept)
   std::unique_ptr<StreamReconstructor> reconstructor;
   std::vector<RefinementTrack> tracks;  // per refinement of this session
   size_t reported = 0;                  // refinements reported
@@ -192,6 +192,9 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (by_stream_.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
     PrimitiveState state;
     state.start = p;
+    // The base is decoded from `p` below and never read again: the copy kept
+    // does not hold its bytes.
+    std::string().swap(*state.start.mutable_base_mesh());
     MS_ASSIGN_OR_RETURN(StreamReconstructor reconstructor, NewReconstructor(p));
     state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor));
     if (p.refinements() > state.reconstructor->reader().refinement_count()) {

@@ -139,7 +139,7 @@ class SessionCore {
   // The views (sdk/session.h): valid until the next call that moves the session.
   size_t primitive_count() const;
   const StreamReader& reader(size_t primitive) const;
-  const v1::PrimitiveStart& start(size_t primitive) const;
+  const v1::PrimitiveStart& start(size_t primitive) const;  // without base_mesh (not kept)
   int32_t levels() const { return levels_; }
   int32_t level_shown() const { return level_shown_; }
   uint64_t predicted_vertices() const;
