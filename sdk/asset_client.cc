@@ -111,6 +111,28 @@ Status SendFile(grpc::ClientWriter<v1::IngestRequest>& writer, const UploadFile&
   }
 }
 
+// Every page of a list call, in the server's order: `request` goes out with
+// kPageSize and each page's token (one `call` on `stub` per page, with the
+// request timeout), and the `items` of each response are moved to the end of
+// `out`. The first failed call's status (`out` then holds the pages before it).
+template <typename Request, typename Response, typename Item>
+grpc::Status EveryPage(const Client& client, v1::AssetService::Stub& stub,
+                       grpc::Status (v1::AssetService::Stub::*call)(grpc::ClientContext*, const Request&, Response*),
+                       Request request, google::protobuf::RepeatedPtrField<Item>* (Response::*items)(),
+                       std::vector<Item>& out) {
+  request.set_page_size(kPageSize);
+  do {
+    grpc::ClientContext context;
+    client.Prepare(context, client.options().request_timeout_s);
+    Response response;
+    const grpc::Status rpc = (stub.*call)(&context, request, &response);
+    if (!rpc.ok()) return rpc;
+    for (Item& item : *(response.*items)()) out.push_back(std::move(item));
+    request.set_page_token(response.next_page_token());
+  } while (!request.page_token().empty());
+  return grpc::Status::OK;
+}
+
 }  // namespace
 
 StatusOr<UploadFile> UploadFile::FromPath(const std::string& path, const std::string& name) {
@@ -326,38 +348,19 @@ StatusOr<v1::Job> AssetClient::Watch(const std::string& job_id, const WatchOptio
 
 StatusOr<std::vector<v1::Asset>> AssetClient::ListAssets() const {
   std::vector<v1::Asset> assets;
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    client_->Prepare(context, client_->options().request_timeout_s);
-    v1::ListAssetsRequest request;
-    request.set_page_size(kPageSize);
-    request.set_page_token(token);
-    v1::ListAssetsResponse response;
-    const grpc::Status rpc = stub_->ListAssets(&context, request, &response);
-    if (!rpc.ok()) return CallStatus(rpc);
-    for (v1::Asset& a : *response.mutable_assets()) assets.push_back(std::move(a));
-    token = response.next_page_token();
-  } while (!token.empty());
+  const grpc::Status rpc = EveryPage(*client_, *stub_, &v1::AssetService::Stub::ListAssets, v1::ListAssetsRequest(),
+                                     &v1::ListAssetsResponse::mutable_assets, assets);
+  if (!rpc.ok()) return CallStatus(rpc);
   return assets;
 }
 
 StatusOr<std::vector<v1::Version>> AssetClient::ListVersions(const std::string& asset) const {
+  v1::ListVersionsRequest request;
+  request.set_asset(asset);
   std::vector<v1::Version> versions;
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    client_->Prepare(context, client_->options().request_timeout_s);
-    v1::ListVersionsRequest request;
-    request.set_asset(asset);
-    request.set_page_size(kPageSize);
-    request.set_page_token(token);
-    v1::ListVersionsResponse response;
-    const grpc::Status rpc = stub_->ListVersions(&context, request, &response);
-    if (!rpc.ok()) return CallStatus(rpc);
-    for (v1::Version& v : *response.mutable_versions()) versions.push_back(std::move(v));
-    token = response.next_page_token();
-  } while (!token.empty());
+  const grpc::Status rpc = EveryPage(*client_, *stub_, &v1::AssetService::Stub::ListVersions, std::move(request),
+                                     &v1::ListVersionsResponse::mutable_versions, versions);
+  if (!rpc.ok()) return CallStatus(rpc);
   return versions;
 }
 
