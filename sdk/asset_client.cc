@@ -185,6 +185,24 @@ std::string DefaultUploadId(const std::string& asset, const std::string& main_sh
   return "cli-" + Sha256Hex(reinterpret_cast<const uint8_t*>(key.data()), key.size()).substr(0, 48);
 }
 
+v1::IngestRequest IngestMetadataMessage(const std::string& asset, const UploadFile& main) {
+  v1::IngestRequest request;
+  v1::IngestMetadata& m = *request.mutable_metadata();
+  m.set_asset(asset);
+  m.set_filename(main.name);
+  m.set_size(main.size);
+  m.set_sha256(main.sha256);
+  return request;
+}
+
+v1::IngestRequest IngestResourceMessage(const UploadFile& resource) {
+  v1::IngestRequest request;
+  request.mutable_resource()->set_name(resource.name);
+  request.mutable_resource()->set_size(resource.size);
+  request.mutable_resource()->set_sha256(resource.sha256);
+  return request;
+}
+
 StatusOr<std::unique_ptr<AssetClient>> AssetClient::Create(const ClientOptions& options) {
   MS_ASSIGN_OR_RETURN(std::unique_ptr<Client> client, Client::Create(options));
   return std::make_unique<AssetClient>(std::shared_ptr<const Client>(std::move(client)));
@@ -243,12 +261,8 @@ StatusOr<IngestResult> AssetClient::Ingest(const Upload& upload, const IngestOpt
     grpc::ClientContext context;
     client_->Prepare(context, timeout_s <= 0 ? 0 : std::max(60.0, timeout_s * (1.0 + Mib(total))));
     auto writer = stub_->Ingest(&context, &result.response);
-    v1::IngestRequest request;
+    v1::IngestRequest request = IngestMetadataMessage(upload.asset, upload.main);
     v1::IngestMetadata& m = *request.mutable_metadata();
-    m.set_asset(upload.asset);
-    m.set_filename(upload.main.name);
-    m.set_size(upload.main.size);
-    m.set_sha256(upload.main.sha256);
     *m.mutable_options() = upload.options;
     m.set_comment(upload.comment);
     for (const auto& [key, value] : upload.labels) (*m.mutable_labels())[key] = value;
@@ -263,12 +277,8 @@ StatusOr<IngestResult> AssetClient::Ingest(const Upload& upload, const IngestOpt
     Status local = streamed ? SendFile(*writer, upload.main, offset, options, progress, streamed) : Status::Ok();
     for (size_t i = 0; local.ok() && streamed && i < upload.resources.size(); ++i) {
       const UploadFile& r = upload.resources[i];
-      v1::IngestRequest header;
-      header.mutable_resource()->set_name(r.name);
-      header.mutable_resource()->set_size(r.size);
-      header.mutable_resource()->set_sha256(r.sha256);
       progress.file = r.name;
-      streamed = writer->Write(header);
+      streamed = writer->Write(IngestResourceMessage(r));
       if (streamed) local = SendFile(*writer, r, 0, options, progress, streamed);
     }
     if (!local.ok()) {
