@@ -67,16 +67,6 @@ class FileReader {
   std::string path_;
 };
 
-std::string BaseName(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
-std::string Folder(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? "" : path.substr(0, slash + 1);
-}
-
 double Mib(uint64_t bytes) { return static_cast<double>(bytes) / 1048576.0; }
 
 // Sends `file` from `offset` as chunks on `writer`. `streamed` is false when
@@ -168,12 +158,12 @@ UploadFile UploadFile::FromBytes(std::string name, std::vector<uint8_t> bytes) {
 StatusOr<Upload> UploadFromPath(const std::string& asset, const std::string& path) {
   Upload upload;
   upload.asset = asset;
-  MS_ASSIGN_OR_RETURN(upload.main, UploadFile::FromPath(path, BaseName(path)));
+  MS_ASSIGN_OR_RETURN(upload.main, UploadFile::FromPath(path, FileBaseName(path)));
   if (upload.main.size == 0) return InvalidInput(path + ": the file is empty");
   if (FileExtension(path) != ".gltf") return upload;
   MS_ASSIGN_OR_RETURN(const std::vector<std::string> names, GltfExternalFiles(path));
   for (const std::string& name : names) {
-    auto file = UploadFile::FromPath(Folder(path) + name, name);
+    auto file = UploadFile::FromPath(FileFolder(path) + name, name);
     if (!file.ok()) return file.status().WithContext(path + ": " + name);
     upload.resources.push_back(std::move(file).value());
   }
