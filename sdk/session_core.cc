@@ -7,38 +7,27 @@
 #include "codec/bitstream/reader.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
+#include "importers/draco_codec.h"
 #include "importers/gltf_import.h"
 
 namespace meshstream::sdk {
 
 namespace {
 
+std::string Where(uint32_t stream) { return "primitive " + std::to_string(stream); }
+
+// The glTF semantics of the primitive's Draco attributes (POSITION required).
 StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
   DracoAttributeIds ids;
   for (const auto& [name, id] : p.draco_attributes()) {
-    if (name == "POSITION") {
-      ids.position = id;
-    } else if (name == "NORMAL") {
-      ids.normal = id;
-    } else if (name == "COLOR_0") {
-      ids.color = id;
-    } else if (name.rfind("TEXCOORD_", 0) == 0) {
-      const std::string index = name.substr(9);
-      if (index.empty() || index.size() > 2 || index.find_first_not_of("0123456789") != std::string::npos) {
-        return InvalidInput("primitive " + std::to_string(p.primitive()) + ": Draco attribute " + name);
-      }
-      const size_t k = static_cast<size_t>(std::stoi(index));
-      if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
-      ids.texcoords[k] = id;
-    }
+    Status s = AddDracoAttribute(name, id, ids);
+    if (!s.ok()) return s.WithContext(Where(p.primitive()));
   }
-  if (ids.position < 0) return InvalidInput("primitive " + std::to_string(p.primitive()) + ": no POSITION");
+  if (ids.position < 0) return InvalidInput(Where(p.primitive()) + ": no POSITION");
   return ids;
 }
 
 const uint8_t* Bytes(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }
-
-std::string Where(uint32_t stream) { return "primitive " + std::to_string(stream); }
 
 }  // namespace
 
