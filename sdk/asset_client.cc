@@ -337,7 +337,8 @@ StatusOr<v1::Job> AssetClient::Watch(const std::string& job_id, const WatchOptio
     }
     const grpc::Status rpc = reader->Finish();
     // A draining or restarting server: watch again (the job continues).
-    if ((rpc.ok() || rpc.error_code() == grpc::StatusCode::UNAVAILABLE) && attempt < options.reconnects) {
+    const StatusCode code = FromGrpcStatus(rpc).code();
+    if ((code == StatusCode::kOk || code == StatusCode::kUnavailable) && attempt < options.reconnects) {
       std::this_thread::sleep_for(options.reconnect_wait);
       continue;
     }
