@@ -13,7 +13,7 @@
 #include "importers/import.h"
 #include "sdk/asset_client.h"
 #include "services/pipeline/resource_path.h"
-#include "services/store/store.h"
+#include "services/store/store_checks.h"
 
 namespace meshstream::cli {
 
