@@ -2,7 +2,7 @@
 
 #include <cstdlib>
 
-#include "services/store/store.h"
+#include "services/store/store_checks.h"
 
 namespace meshstream::cli {
 

@@ -10,7 +10,7 @@
 namespace meshstream::cli {
 
 // VERSION is a number >= 0 (0 and none: the latest READY); the asset is
-// checked as a name (services/store/store.h CheckName). InvalidArgument
+// checked as a name (services/store/store_checks.h CheckName). InvalidArgument
 // naming the argument otherwise.
 struct AssetVersion {
   std::string asset;

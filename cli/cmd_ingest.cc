@@ -13,7 +13,7 @@
 #include "importers/import.h"
 #include "sdk/asset_client.h"
 #include "services/pipeline/resource_path.h"
-#include "services/store/store.h"
+#include "services/store/store_checks.h"
 
 namespace meshstream::cli {
 
@@ -46,11 +46,6 @@ struct IngestArgs {
   RemoteOptions remote;
 };
 
-std::string BaseName(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 std::string Mib(uint64_t bytes) {
   char text[32];
   std::snprintf(text, sizeof text, "%.1f MiB", bytes / 1048576.0);
@@ -76,13 +71,14 @@ StatusOr<sdk::Upload> Describe(const IngestArgs& args) {
 
 int RunIngest(IngestArgs& args) {
   if (args.asset.empty()) {
-    std::string stem = BaseName(args.file);
-    stem = stem.substr(0, stem.rfind('.'));
-    args.asset = stem;
+    // Not FileStem: a name that is only an extension (".obj") leaves no
+    // asset name here, and the check below says so.
+    const std::string name = FileBaseName(args.file);
+    args.asset = name.substr(0, name.rfind('.'));
   }
   Status s = CheckName("--asset", args.asset);
   if (!s.ok()) return ReportError("ingest", s);
-  s = CheckMainFilename(BaseName(args.file));
+  s = CheckMainFilename(FileBaseName(args.file));
   if (!s.ok()) return ReportError("ingest", s.WithContext(args.file));
   for (const std::string& label : args.labels) {
     if (label.empty() || label[0] == '=') return ReportError("ingest", InvalidArgument("--label '" + label + "': expected KEY=VALUE"));

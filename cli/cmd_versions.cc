@@ -8,7 +8,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
-#include "services/store/store.h"
+#include "services/store/store_checks.h"
 
 namespace meshstream::cli {
 

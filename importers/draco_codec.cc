@@ -207,4 +207,34 @@ StatusOr<Primitive> DecodeDracoPrimitive(const uint8_t* data, size_t size, const
   return CatchExceptions(std::string("Draco decode"), [&] { return DecodeDracoPrimitiveUnguarded(data, size, ids); });
 }
 
+std::map<std::string, int> DracoAttributeNames(const DracoAttributeIds& ids) {
+  std::map<std::string, int> names;
+  if (ids.position >= 0) names["POSITION"] = ids.position;
+  if (ids.normal >= 0) names["NORMAL"] = ids.normal;
+  for (size_t k = 0; k < ids.texcoords.size(); ++k) {
+    if (ids.texcoords[k] >= 0) names["TEXCOORD_" + std::to_string(k)] = ids.texcoords[k];
+  }
+  if (ids.color >= 0) names["COLOR_0"] = ids.color;
+  return names;
+}
+
+Status AddDracoAttribute(const std::string& semantic, int id, DracoAttributeIds& ids) {
+  if (semantic == "POSITION") {
+    ids.position = id;
+  } else if (semantic == "NORMAL") {
+    ids.normal = id;
+  } else if (semantic == "COLOR_0") {
+    ids.color = id;
+  } else if (semantic.rfind("TEXCOORD_", 0) == 0) {
+    const std::string index = semantic.substr(9);
+    if (index.empty() || index.size() > 2 || index.find_first_not_of("0123456789") != std::string::npos) {
+      return InvalidInput("Draco attribute " + semantic);
+    }
+    const size_t k = static_cast<size_t>(std::stoi(index));
+    if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
+    ids.texcoords[k] = id;
+  }
+  return Status::Ok();
+}
+
 }  // namespace meshstream

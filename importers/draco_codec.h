@@ -18,6 +18,8 @@
 #define MESHSTREAM_IMPORTERS_DRACO_CODEC_H_
 
 #include <cstdint>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "codec/mesh/mesh.h"
@@ -33,6 +35,14 @@ struct DracoAttributeIds {
   std::vector<int> texcoords;  // TEXCOORD_0, TEXCOORD_1, ...
   int color = -1;
 };
+
+// KHR_draco_mesh_compression's "attributes" object, both ways: the glTF
+// semantic of each Draco attribute of `ids` (POSITION, NORMAL, TEXCOORD_n,
+// COLOR_0; those at -1 left out), and the one entry `semantic` -> `id` set in
+// `ids` (a semantic meshstream does not keep is ignored). InvalidInput
+// "Draco attribute SEMANTIC" for a TEXCOORD_ without an index of 1 or 2 digits.
+std::map<std::string, int> DracoAttributeNames(const DracoAttributeIds& ids);
+Status AddDracoAttribute(const std::string& semantic, int id, DracoAttributeIds& ids);
 
 struct DracoEncodeOptions {
   int qp = 11;  // position bits

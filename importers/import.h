@@ -34,6 +34,14 @@ Status WriteFileBytes(const std::string& path, const std::vector<uint8_t>& bytes
 
 // Lower-case extension of `path` including the dot ("" when there is none).
 std::string FileExtension(const std::string& path);
+// The file name of `path`: what follows its last '/' (all of it without one).
+std::string FileBaseName(const std::string& path);
+// The folder of `path` with its trailing '/' ("" without one), so that
+// FileFolder(path) + FileBaseName(path) == path.
+std::string FileFolder(const std::string& path);
+// The file name without its extension (the last '.' and what follows); a
+// name that starts with its only dot is all stem (".obj" stays ".obj").
+std::string FileStem(const std::string& path);
 
 }  // namespace meshstream
 

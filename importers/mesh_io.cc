@@ -18,6 +18,7 @@
 #include "importers/stl_import.h"
 #include "importers/text_scan.h"
 #include "importers/exception_boundary.h"
+#include "importers/import.h"
 
 namespace meshstream {
 namespace {
@@ -43,19 +44,11 @@ void NormalizeNormals(Primitive* prim, std::vector<std::string>* warnings) {
   if (zero > 0) warnings->push_back(Num(zero) + " normals have zero length");
 }
 
-std::string Stem(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  const size_t dot = name.find_last_of('.');
-  if (dot != std::string::npos && dot > 0) name.resize(dot);
-  return name;
-}
-
 // The file's stem as the mesh and node name, made valid UTF-8 (names reach
 // JSON writers); a replacement is reported in `warnings`.
 std::string NameFromPath(const std::string& path, std::vector<std::string>* warnings) {
   bool replaced = false;
-  std::string name = ToValidUtf8(Stem(path), &replaced);
+  std::string name = ToValidUtf8(FileStem(path), &replaced);
   if (replaced) {
     warnings->push_back("the file name is not valid UTF-8; the mesh is named '" + name +
                         "' (each invalid byte sequence replaced by U+FFFD)");

@@ -67,16 +67,6 @@ class FileReader {
   std::string path_;
 };
 
-std::string BaseName(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
-std::string Folder(const std::string& path) {
-  const size_t slash = path.rfind('/');
-  return slash == std::string::npos ? "" : path.substr(0, slash + 1);
-}
-
 double Mib(uint64_t bytes) { return static_cast<double>(bytes) / 1048576.0; }
 
 // Sends `file` from `offset` as chunks on `writer`. `streamed` is false when
@@ -109,6 +99,28 @@ Status SendFile(grpc::ClientWriter<v1::IngestRequest>& writer, const UploadFile&
       return Status::Ok();
     }
   }
+}
+
+// Every page of a list call, in the server's order: `request` goes out with
+// kPageSize and each page's token (one `call` on `stub` per page, with the
+// request timeout), and the `items` of each response are moved to the end of
+// `out`. The first failed call's status (`out` then holds the pages before it).
+template <typename Request, typename Response, typename Item>
+grpc::Status EveryPage(const Client& client, v1::AssetService::Stub& stub,
+                       grpc::Status (v1::AssetService::Stub::*call)(grpc::ClientContext*, const Request&, Response*),
+                       Request request, google::protobuf::RepeatedPtrField<Item>* (Response::*items)(),
+                       std::vector<Item>& out) {
+  request.set_page_size(kPageSize);
+  do {
+    grpc::ClientContext context;
+    client.Prepare(context, client.options().request_timeout_s);
+    Response response;
+    const grpc::Status rpc = (stub.*call)(&context, request, &response);
+    if (!rpc.ok()) return rpc;
+    for (Item& item : *(response.*items)()) out.push_back(std::move(item));
+    request.set_page_token(response.next_page_token());
+  } while (!request.page_token().empty());
+  return grpc::Status::OK;
 }
 
 }  // namespace
@@ -146,12 +158,12 @@ UploadFile UploadFile::FromBytes(std::string name, std::vector<uint8_t> bytes) {
 StatusOr<Upload> UploadFromPath(const std::string& asset, const std::string& path) {
   Upload upload;
   upload.asset = asset;
-  MS_ASSIGN_OR_RETURN(upload.main, UploadFile::FromPath(path, BaseName(path)));
+  MS_ASSIGN_OR_RETURN(upload.main, UploadFile::FromPath(path, FileBaseName(path)));
   if (upload.main.size == 0) return InvalidInput(path + ": the file is empty");
   if (FileExtension(path) != ".gltf") return upload;
   MS_ASSIGN_OR_RETURN(const std::vector<std::string> names, GltfExternalFiles(path));
   for (const std::string& name : names) {
-    auto file = UploadFile::FromPath(Folder(path) + name, name);
+    auto file = UploadFile::FromPath(FileFolder(path) + name, name);
     if (!file.ok()) return file.status().WithContext(path + ": " + name);
     upload.resources.push_back(std::move(file).value());
   }
@@ -161,6 +173,24 @@ StatusOr<Upload> UploadFromPath(const std::string& asset, const std::string& pat
 std::string DefaultUploadId(const std::string& asset, const std::string& main_sha256) {
   const std::string key = asset + "\n" + main_sha256;
   return "cli-" + Sha256Hex(reinterpret_cast<const uint8_t*>(key.data()), key.size()).substr(0, 48);
+}
+
+v1::IngestRequest IngestMetadataMessage(const std::string& asset, const UploadFile& main) {
+  v1::IngestRequest request;
+  v1::IngestMetadata& m = *request.mutable_metadata();
+  m.set_asset(asset);
+  m.set_filename(main.name);
+  m.set_size(main.size);
+  m.set_sha256(main.sha256);
+  return request;
+}
+
+v1::IngestRequest IngestResourceMessage(const UploadFile& resource) {
+  v1::IngestRequest request;
+  request.mutable_resource()->set_name(resource.name);
+  request.mutable_resource()->set_size(resource.size);
+  request.mutable_resource()->set_sha256(resource.sha256);
+  return request;
 }
 
 StatusOr<std::unique_ptr<AssetClient>> AssetClient::Create(const ClientOptions& options) {
@@ -221,12 +251,8 @@ StatusOr<IngestResult> AssetClient::Ingest(const Upload& upload, const IngestOpt
     grpc::ClientContext context;
     client_->Prepare(context, timeout_s <= 0 ? 0 : std::max(60.0, timeout_s * (1.0 + Mib(total))));
     auto writer = stub_->Ingest(&context, &result.response);
-    v1::IngestRequest request;
+    v1::IngestRequest request = IngestMetadataMessage(upload.asset, upload.main);
     v1::IngestMetadata& m = *request.mutable_metadata();
-    m.set_asset(upload.asset);
-    m.set_filename(upload.main.name);
-    m.set_size(upload.main.size);
-    m.set_sha256(upload.main.sha256);
     *m.mutable_options() = upload.options;
     m.set_comment(upload.comment);
     for (const auto& [key, value] : upload.labels) (*m.mutable_labels())[key] = value;
@@ -241,12 +267,8 @@ StatusOr<IngestResult> AssetClient::Ingest(const Upload& upload, const IngestOpt
     Status local = streamed ? SendFile(*writer, upload.main, offset, options, progress, streamed) : Status::Ok();
     for (size_t i = 0; local.ok() && streamed && i < upload.resources.size(); ++i) {
       const UploadFile& r = upload.resources[i];
-      v1::IngestRequest header;
-      header.mutable_resource()->set_name(r.name);
-      header.mutable_resource()->set_size(r.size);
-      header.mutable_resource()->set_sha256(r.sha256);
       progress.file = r.name;
-      streamed = writer->Write(header);
+      streamed = writer->Write(IngestResourceMessage(r));
       if (streamed) local = SendFile(*writer, r, 0, options, progress, streamed);
     }
     if (!local.ok()) {
@@ -315,7 +337,8 @@ StatusOr<v1::Job> AssetClient::Watch(const std::string& job_id, const WatchOptio
     }
     const grpc::Status rpc = reader->Finish();
     // A draining or restarting server: watch again (the job continues).
-    if ((rpc.ok() || rpc.error_code() == grpc::StatusCode::UNAVAILABLE) && attempt < options.reconnects) {
+    const StatusCode code = FromGrpcStatus(rpc).code();
+    if ((code == StatusCode::kOk || code == StatusCode::kUnavailable) && attempt < options.reconnects) {
       std::this_thread::sleep_for(options.reconnect_wait);
       continue;
     }
@@ -326,38 +349,19 @@ StatusOr<v1::Job> AssetClient::Watch(const std::string& job_id, const WatchOptio
 
 StatusOr<std::vector<v1::Asset>> AssetClient::ListAssets() const {
   std::vector<v1::Asset> assets;
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    client_->Prepare(context, client_->options().request_timeout_s);
-    v1::ListAssetsRequest request;
-    request.set_page_size(kPageSize);
-    request.set_page_token(token);
-    v1::ListAssetsResponse response;
-    const grpc::Status rpc = stub_->ListAssets(&context, request, &response);
-    if (!rpc.ok()) return CallStatus(rpc);
-    for (v1::Asset& a : *response.mutable_assets()) assets.push_back(std::move(a));
-    token = response.next_page_token();
-  } while (!token.empty());
+  const grpc::Status rpc = EveryPage(*client_, *stub_, &v1::AssetService::Stub::ListAssets, v1::ListAssetsRequest(),
+                                     &v1::ListAssetsResponse::mutable_assets, assets);
+  if (!rpc.ok()) return CallStatus(rpc);
   return assets;
 }
 
 StatusOr<std::vector<v1::Version>> AssetClient::ListVersions(const std::string& asset) const {
+  v1::ListVersionsRequest request;
+  request.set_asset(asset);
   std::vector<v1::Version> versions;
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    client_->Prepare(context, client_->options().request_timeout_s);
-    v1::ListVersionsRequest request;
-    request.set_asset(asset);
-    request.set_page_size(kPageSize);
-    request.set_page_token(token);
-    v1::ListVersionsResponse response;
-    const grpc::Status rpc = stub_->ListVersions(&context, request, &response);
-    if (!rpc.ok()) return CallStatus(rpc);
-    for (v1::Version& v : *response.mutable_versions()) versions.push_back(std::move(v));
-    token = response.next_page_token();
-  } while (!token.empty());
+  const grpc::Status rpc = EveryPage(*client_, *stub_, &v1::AssetService::Stub::ListVersions, std::move(request),
+                                     &v1::ListVersionsResponse::mutable_versions, versions);
+  if (!rpc.ok()) return CallStatus(rpc);
   return versions;
 }
 

@@ -92,6 +92,14 @@ StatusOr<Upload> UploadFromPath(const std::string& asset, const std::string& pat
 // is the CLI's, docs/cli.md, kept so that both resume each other's uploads).
 std::string DefaultUploadId(const std::string& asset, const std::string& main_sha256);
 
+// The messages of an Ingest stream that name its files (docs/api.md): the
+// first, the metadata with the asset and the main file's name, size and
+// sha256 (Ingest adds the upload's options, comment, labels, upload id and
+// offset), and the header before each resource's chunks (its name, size and
+// sha256). Tests of the API build raw streams from them.
+v1::IngestRequest IngestMetadataMessage(const std::string& asset, const UploadFile& main);
+v1::IngestRequest IngestResourceMessage(const UploadFile& resource);
+
 struct IngestProgress {
   std::string file;     // the file being sent
   uint64_t sent = 0;    // bytes of the whole upload the server has or was sent, resumed bytes included

@@ -22,7 +22,9 @@ StatusOr<std::unique_ptr<Client>> Client::Create(const ClientOptions& options) {
 }
 
 void Client::Authorize(grpc::ClientContext& context) const {
-  if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
+  // The token as for any call; the deadline in whole milliseconds, not through
+  // Prepare's seconds (ms / 1000.0 * 1e6 truncates some to a microsecond less).
+  Prepare(context, 0);
   if (options_.session_deadline_ms > 0) {
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(options_.session_deadline_ms));
   }

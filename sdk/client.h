@@ -28,8 +28,8 @@ struct ClientOptions {
   std::string tls_ca_pem;     // roots that sign the server's certificate (PEM text); empty: the system's
   std::string tls_server_name;  // the name to check the certificate against; empty: the host of `server`
   // AssetClient's deadline for one request, in seconds: unary calls get it as
-  // it is, an upload or an export gets it per MiB (at least a minute); a watch
-  // has none. <= 0: no deadline.
+  // it is, an upload gets it per MiB (at least a minute); a watch and an
+  // export have none. <= 0: no deadline.
   double request_timeout_s = 60.0;
   // A deadline on each session (Session::Open) from its open to its end, in
   // ms; 0: none. A session that has not ended in time fails with

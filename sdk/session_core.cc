@@ -7,38 +7,27 @@
 #include "codec/bitstream/reader.h"
 #include "codec/mesh/quantized_mesh.h"
 #include "importers/draco_base_coder.h"
+#include "importers/draco_codec.h"
 #include "importers/gltf_import.h"
 
 namespace meshstream::sdk {
 
 namespace {
 
+std::string Where(uint32_t stream) { return "primitive " + std::to_string(stream); }
+
+// The glTF semantics of the primitive's Draco attributes (POSITION required).
 StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
   DracoAttributeIds ids;
   for (const auto& [name, id] : p.draco_attributes()) {
-    if (name == "POSITION") {
-      ids.position = id;
-    } else if (name == "NORMAL") {
-      ids.normal = id;
-    } else if (name == "COLOR_0") {
-      ids.color = id;
-    } else if (name.rfind("TEXCOORD_", 0) == 0) {
-      const std::string index = name.substr(9);
-      if (index.empty() || index.size() > 2 || index.find_first_not_of("0123456789") != std::string::npos) {
-        return InvalidInput("primitive " + std::to_string(p.primitive()) + ": Draco attribute " + name);
-      }
-      const size_t k = static_cast<size_t>(std::stoi(index));
-      if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
-      ids.texcoords[k] = id;
-    }
+    Status s = AddDracoAttribute(name, id, ids);
+    if (!s.ok()) return s.WithContext(Where(p.primitive()));
   }
-  if (ids.position < 0) return InvalidInput("primitive " + std::to_string(p.primitive()) + ": no POSITION");
+  if (ids.position < 0) return InvalidInput(Where(p.primitive()) + ": no POSITION");
   return ids;
 }
 
 const uint8_t* Bytes(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }
-
-std::string Where(uint32_t stream) { return "primitive " + std::to_string(stream); }
 
 }  // namespace
 
@@ -61,7 +50,7 @@ struct SessionCore::RefinementTrack {
 };
 
 struct SessionCore::PrimitiveState {
-  v1::PrimitiveStart start;
+  v1::PrimitiveStart start;             // as announced, without base_mesh (decoded, not kept)
   std::unique_ptr<StreamReconstructor> reconstructor;
   std::vector<RefinementTrack> tracks;  // per refinement of this session
   size_t reported = 0;                  // refinements reported
@@ -145,6 +134,12 @@ void SessionCore::Fail(Status status) {
   e.type = EventType::kError;
   e.status = std::move(status);
   events_.push_back(e);
+  StopUdp();
+}
+
+// The UDP half ends (the server fell back to gRPC, or the session is over):
+// a start not yet taken is dropped, a running half is asked to stop.
+void SessionCore::StopUdp() {
   if (udp_running_) udp_stop_ = true;
   udp_running_ = false;
   udp_start_.reset();
@@ -159,6 +154,12 @@ void SessionCore::Finish(const std::string& reason) {
   writes_done_ = true;
 }
 
+// The transport and its name in the statistics, together.
+void SessionCore::SetTransport(SessionTransport t) {
+  transport_ = t;
+  stats_.transport = t == SessionTransport::kUdp ? "udp" : "grpc";
+}
+
 StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
   auto it = by_stream_.find(stream_id);
   if (it == by_stream_.end()) return InvalidInput("a block for unknown primitive " + std::to_string(stream_id));
@@ -166,8 +167,7 @@ StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
 }
 
 Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
-  transport_ = start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc;
-  stats_.transport = transport_ == SessionTransport::kUdp ? "udp" : "grpc";
+  SetTransport(start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc);
   ReconstructorOptions ro;
   ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options_.straggler_timeout_ms)) * 1000;
   // UDP may run ahead of the gRPC stream by many refinements (a loaded
@@ -181,10 +181,11 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (by_stream_.count(p.primitive()) != 0) return InvalidInput(where + " announced twice");
     PrimitiveState state;
     state.start = p;
-    ro.lod = static_cast<int>(std::min<uint32_t>(p.refinements(), kMaxRefinements));
-    auto reconstructor = StreamReconstructor::Create(Bytes(p.header()), p.header().size(), p.primitive(), ro);
-    if (!reconstructor.ok()) return reconstructor.status().WithContext(where);
-    state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor).value());
+    // The base is decoded from `p` below and never read again: the copy kept
+    // does not hold its bytes.
+    std::string().swap(*state.start.mutable_base_mesh());
+    MS_ASSIGN_OR_RETURN(StreamReconstructor reconstructor, NewReconstructor(p));
+    state.reconstructor = std::make_unique<StreamReconstructor>(std::move(reconstructor));
     if (p.refinements() > state.reconstructor->reader().refinement_count()) {
       return InvalidInput(where + ": more refinements announced than its header has");
     }
@@ -236,6 +237,16 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   return Status::Ok();
 }
 
+// A reconstructor for the primitive `p` announces, with the session's
+// options (reconstructor_options_) and its refinements as the level of detail.
+StatusOr<StreamReconstructor> SessionCore::NewReconstructor(const v1::PrimitiveStart& p) const {
+  ReconstructorOptions ro = reconstructor_options_;
+  ro.lod = static_cast<int>(std::min<uint32_t>(p.refinements(), kMaxRefinements));
+  auto reconstructor = StreamReconstructor::Create(Bytes(p.header()), p.header().size(), p.primitive(), ro);
+  if (!reconstructor.ok()) return reconstructor.status().WithContext(Where(p.primitive()));
+  return reconstructor;
+}
+
 // The END of refinement `refinement` of `p` arrived on either channel (the
 // earlier ones were sent before it).
 void SessionCore::NoteEnd(PrimitiveState& p, size_t refinement) { p.ended = std::max(p.ended, refinement + 1); }
@@ -272,12 +283,13 @@ Status SessionCore::GiveAllControls(uint64_t now, bool flushing) {
 // stream). Its header is read here, once, and the reconstructor gets it parsed.
 Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now) {
   auto parsed = ParsedDatagram::Parse(data, size);
-  if (!parsed.ok() || by_stream_.count(parsed->header().stream) == 0) {
+  const auto primitive = parsed.ok() ? by_stream_.find(parsed->header().stream) : by_stream_.end();
+  if (primitive == by_stream_.end()) {
     ++stray_rejected_;  // the reconstructors never see it
     return Status::Ok();
   }
   const DatagramHeader& h = parsed->header();
-  touched_ = by_stream_[h.stream];
+  touched_ = primitive->second;
   PrimitiveState& p = primitives_[touched_];
   const bool end = h.kind == DatagramKind::kEnd;
   if (h.refinement < p.tracks.size()) {
@@ -330,16 +342,12 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       MS_RETURN_IF_ERROR(Start(m.session(), now));
       phase_ = end_reason_ == EndReason::kNone ? SessionPhase::kStreaming : SessionPhase::kEnding;
       Push(EventType::kBaseReady, 0);
-      level_announced_ = 0;
       return Status::Ok();
     }
     case v1::ServerMessage::kTransportChange: {
       if (m.transport_change().transport() == v1::TRANSPORT_GRPC) {
-        if (udp_running_) udp_stop_ = true;
-        udp_running_ = false;
-        udp_start_.reset();
-        transport_ = SessionTransport::kGrpc;
-        stats_.transport = "grpc";
+        StopUdp();
+        SetTransport(SessionTransport::kGrpc);
         stats_.fallback_reason = m.transport_change().reason();
       }
       return Status::Ok();
@@ -484,14 +492,14 @@ Status SessionCore::AdvanceTouched(uint64_t now) {
 }
 
 // One event for the level reached, even when several completed at once (a
-// viewer wants the latest, and the views show it).
+// viewer wants the latest, and the views show it). Called only after the
+// start (level_shown_ is 0 from then on).
 void SessionCore::AnnounceLevel() {
   const int32_t level = LevelEverywhere();
-  if (level_announced_ >= 0 && level_announced_ < level) {
-    level_announced_ = level;
+  if (level_shown_ >= 0 && level_shown_ < level) {
+    level_shown_ = level;
     Push(EventType::kLevelReady, level);
   }
-  level_shown_ = std::max(level_shown_, level);
 }
 
 // The repair request: every missing datagram of every refinement. False
@@ -521,10 +529,8 @@ bool SessionCore::AskRepair(uint64_t now) {
 Status SessionCore::DecodeAgain(uint64_t now) {
   for (PrimitiveState& p : primitives_) {
     const std::string where = Where(p.start.primitive());
-    ReconstructorOptions ro = reconstructor_options_;
-    ro.lod = static_cast<int>(std::min<uint32_t>(p.start.refinements(), kMaxRefinements));
-    auto fresh = StreamReconstructor::Create(Bytes(p.start.header()), p.start.header().size(), p.start.primitive(), ro);
-    if (!fresh.ok()) return fresh.status().WithContext(where);
+    auto fresh = NewReconstructor(p.start);
+    if (!fresh.ok()) return fresh.status();
     Status s = fresh->SetBase(p.kept_base);
     if (!s.ok()) return s.WithContext(where);
     for (size_t i = 0; i < p.tracks.size(); ++i) {
@@ -622,8 +628,7 @@ void SessionCore::Complete() {
   UpdateStats();
   if (stats_.time_to_exact_ms == 0 && stats_.datagrams_lost == 0) stats_.time_to_exact_ms = stats_.time_to_full_ms;
   Finish("complete");
-  if (udp_running_) udp_stop_ = true;
-  udp_running_ = false;
+  StopUdp();
   phase_ = SessionPhase::kOver;
   Push(EventType::kComplete, level_shown_);
 }
@@ -675,11 +680,6 @@ void SessionCore::HandleArrivals(uint64_t now) {
   if (stream_ended_ && handed_over() && end_reason_ == EndReason::kNone && events_.empty()) {
     Fail(stream_status_.ok() ? Unavailable("the server ended the session before its end") : stream_status_);
   }
-}
-
-void SessionCore::Step(uint64_t now) {
-  CheckEnd(now);
-  if (events_.empty()) HandleArrivals(now);
 }
 
 size_t SessionCore::primitive_count() const { return primitives_.size(); }

@@ -9,16 +9,16 @@
 // Inputs (all times in microseconds of one non-decreasing clock):
 //   - TakeMessage / TakeDatagram: the arrivals of the two channels, each in
 //     its channel's order, stamped with when they arrived. They wait in the
-//     core's inbox until Step hands them over, oldest first across both
-//     channels.
+//     core's inbox until HandleArrivals hands them over, oldest first
+//     across both channels.
 //   - SetArrivalHorizon: every datagram that reached the UDP socket before
 //     this time has been taken (UdpReceiver::caught_up_us; without UDP the
 //     driver's clock). Stragglers are timed out by min(time, horizon).
 //   - TakeStreamEnd: the gRPC stream ended with this status (every message
 //     it delivered was taken before).
 //   - SetUdpCounters: the UDP receiver's counters (statistics, the RTT sample).
-//   - CheckEnd(now), HandleArrivals(now), or Step(now) for both: the session
-//     moves on at `now`, through its phases (SessionPhase): opening ->
+//   - CheckEnd(now), then HandleArrivals(now) unless an event is waiting: the
+//     session moves on at `now`, through its phases (SessionPhase): opening ->
 //     streaming -> ending (SessionEnd or a budget; the stragglers' window)
 //     -> [repairing] -> over.
 // Outputs:
@@ -120,8 +120,6 @@ class SessionCore {
   // (the rest waits: the views match the event), then decodes what the
   // clock lets go; a stream that ended before SessionEnd is an error.
   void HandleArrivals(uint64_t now_us);
-  // CheckEnd, then HandleArrivals unless an event is waiting.
-  void Step(uint64_t now_us);
   // Ends the session with `status` (kError next; earlier events are dropped).
   void Fail(Status status);
 
@@ -135,15 +133,13 @@ class SessionCore {
   bool handed_over() const { return inbox_messages_.empty() && inbox_datagrams_.empty(); }
   bool over() const { return phase_ == SessionPhase::kOver; }
   SessionPhase phase() const { return phase_; }
-  bool stream_ended() const { return stream_ended_; }
-  SessionTransport transport() const { return transport_; }
   EndReason end_reason() const { return end_reason_; }
   bool repair_asked() const { return repair_asked_; }
 
   // The views (sdk/session.h): valid until the next call that moves the session.
   size_t primitive_count() const;
   const StreamReader& reader(size_t primitive) const;
-  const v1::PrimitiveStart& start(size_t primitive) const;
+  const v1::PrimitiveStart& start(size_t primitive) const;  // without base_mesh (not kept)
   int32_t levels() const { return levels_; }
   int32_t level_shown() const { return level_shown_; }
   uint64_t predicted_vertices() const;
@@ -170,8 +166,11 @@ class SessionCore {
   int32_t LevelEverywhere() const;
   bool AllDone() const;
   void Finish(const std::string& reason);
+  void StopUdp();
+  void SetTransport(SessionTransport t);
   StatusOr<size_t> PrimitiveOf(uint32_t stream_id) const;
   Status Start(const v1::SessionStart& start, uint64_t now);
+  StatusOr<StreamReconstructor> NewReconstructor(const v1::PrimitiveStart& p) const;
   static void NoteEnd(PrimitiveState& p, size_t refinement);
   Status GiveControls(PrimitiveState& p, uint64_t now, bool flushing);
   Status GiveAllControls(uint64_t now, bool flushing);
@@ -206,8 +205,7 @@ class SessionCore {
   bool has_scene_ = false;
   std::map<uint32_t, size_t> by_stream_;  // stream id -> index in primitives_
   int32_t levels_ = 0;
-  int32_t level_shown_ = -1;  // -1: not even the base
-  int32_t level_announced_ = -1;
+  int32_t level_shown_ = -1;  // -1: not even the base; the last level announced (kBaseReady: 0)
   SessionTransport transport_ = SessionTransport::kNone;
   EndReason end_reason_ = EndReason::kNone;
   uint64_t session_end_us_ = 0;

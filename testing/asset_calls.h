@@ -48,10 +48,6 @@ inline sdk::UploadFile LoadFile(const std::string& path, const std::string& name
   return sdk::UploadFile::FromBytes(name, bytes.ok() ? std::move(bytes).value() : std::vector<uint8_t>());
 }
 
-inline sdk::UploadFile FileOf(const std::string& name, const std::string& text) {
-  return sdk::UploadFile::FromBytes(name, std::vector<uint8_t>(text.begin(), text.end()));
-}
-
 inline sdk::Upload UploadOf(const std::string& asset, sdk::UploadFile main, std::vector<sdk::UploadFile> resources = {}) {
   sdk::Upload upload;
   upload.asset = asset;
@@ -73,19 +69,10 @@ inline void AppendChunks(const std::vector<uint8_t>& bytes, size_t chunk, std::v
 inline std::vector<v1::IngestRequest> UploadMessages(const std::string& asset, const sdk::UploadFile& main,
                                                      const std::vector<sdk::UploadFile>& resources = {},
                                                      size_t chunk = size_t{1} << 20) {
-  std::vector<v1::IngestRequest> messages(1);
-  v1::IngestMetadata& m = *messages[0].mutable_metadata();
-  m.set_asset(asset);
-  m.set_filename(main.name);
-  m.set_size(main.size);
-  m.set_sha256(main.sha256);
+  std::vector<v1::IngestRequest> messages = {sdk::IngestMetadataMessage(asset, main)};
   AppendChunks(main.bytes, chunk, messages);
   for (const sdk::UploadFile& r : resources) {
-    v1::IngestRequest header;
-    header.mutable_resource()->set_name(r.name);
-    header.mutable_resource()->set_size(r.size);
-    header.mutable_resource()->set_sha256(r.sha256);
-    messages.push_back(header);
+    messages.push_back(sdk::IngestResourceMessage(r));
     AppendChunks(r.bytes, chunk, messages);
   }
   return messages;

@@ -30,12 +30,6 @@ using test_util::ServeProcess;
 
 constexpr size_t kChunk = 256 << 10;
 
-sdk::ClientOptions At(const std::string& address) {
-  sdk::ClientOptions options;
-  options.server = address;
-  return options;
-}
-
 // Leaves what an interrupted client leaves: the metadata and the first
 // `chunks` chunks of `file` under `upload_id`, then the stream cut.
 void UploadPart(const sdk::AssetClient& client, const std::string& asset, const sdk::UploadFile& file,
@@ -62,7 +56,7 @@ TEST(SdkAssetClient, ResumesAnUploadTheServerHoldsPartOfWithProgress) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  auto client = sdk::AssetClient::Create(At((*server)->address()));
+  auto client = sdk::AssetClient::Create(test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok()) << client.status().ToString();
   auto upload = sdk::UploadFromPath("horse", test_util::ModelPath("horse.ply"));
   ASSERT_TRUE(upload.ok()) << upload.status().ToString();
@@ -129,7 +123,7 @@ TEST(SdkAssetClient, RetriesAnUploadWhoseServerWentAwayAndMakesOneVersion) {
   ASSERT_TRUE(first.ok()) << first.status().ToString();
   const std::string address = (*first)->address();
   std::unique_ptr<ServeProcess> second;
-  auto client = sdk::AssetClient::Create(At(address));
+  auto client = sdk::AssetClient::Create(test_util::PlainClientOptions(address));
   ASSERT_TRUE(client.ok());
   auto upload = sdk::UploadFromPath("bunny", test_util::ModelPath("stanford-bunny.obj"));
   ASSERT_TRUE(upload.ok()) << upload.status().ToString();
@@ -196,7 +190,7 @@ TEST(SdkAssetClient, AnExportWhoseDigestDoesNotMatchOrIsTooLargeIsRefused) {
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   ASSERT_NE(server, nullptr);
-  auto client = sdk::AssetClient::Create(At("127.0.0.1:" + std::to_string(port)));
+  auto client = sdk::AssetClient::Create(test_util::PlainClientOptions("127.0.0.1:" + std::to_string(port)));
   ASSERT_TRUE(client.ok());
   sdk::ExportRequest request;
   request.asset = "anything";

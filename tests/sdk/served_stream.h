@@ -27,6 +27,7 @@
 #include "codec/loss/simulator.h"
 #include "codec/progressive/encoder.h"
 #include "importers/draco_base_coder.h"
+#include "importers/draco_codec.h"
 #include "sdk/session_core.h"
 #include "tests/common/sphere.h"
 
@@ -92,10 +93,7 @@ inline v1::PrimitiveStart StartOf(const ServedPrimitive& p, uint32_t mesh, uint3
   s.set_header(AsString(p.stream.header));
   s.set_base_mesh(p.base_bytes);
   s.set_refinements(refinements);
-  auto& a = *s.mutable_draco_attributes();
-  a["POSITION"] = p.ids.position;
-  if (p.ids.normal >= 0) a["NORMAL"] = p.ids.normal;
-  for (size_t k = 0; k < p.ids.texcoords.size(); ++k) a["TEXCOORD_" + std::to_string(k)] = p.ids.texcoords[k];
+  for (const auto& [name, id] : DracoAttributeNames(p.ids)) (*s.mutable_draco_attributes())[name] = id;
   return s;
 }
 

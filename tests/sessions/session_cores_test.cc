@@ -44,6 +44,7 @@
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/reader.h"
 #include "importers/draco_base_coder.h"
+#include "importers/draco_codec.h"
 #include "sdk/session_core.h"
 #include "services/api/proto_convert.h"
 #include "services/api/server_messages.h"
@@ -67,14 +68,8 @@ struct Artifact {
 DracoAttributeIds IdsOf(const PlannedPrimitive& p) {
   DracoAttributeIds ids;
   for (const auto& [name, id] : p.draco_attributes) {
-    if (name == "POSITION") ids.position = id;
-    if (name == "NORMAL") ids.normal = id;
-    if (name == "COLOR_0") ids.color = id;
-    if (name.rfind("TEXCOORD_", 0) == 0) {
-      const size_t k = std::stoul(name.substr(9));
-      if (ids.texcoords.size() <= k) ids.texcoords.resize(k + 1, -1);
-      ids.texcoords[k] = id;
-    }
+    const Status s = AddDracoAttribute(name, id, ids);
+    if (!s.ok()) ADD_FAILURE() << s.ToString();
   }
   return ids;
 }
