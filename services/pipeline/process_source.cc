@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "codec/core/utf8.h"
+#include "importers/import.h"
 #include "services/pipeline/stream_layout.h"
 #include "services/store/blob_store.h"
 
@@ -21,11 +22,6 @@ constexpr double kEncoded = 0.95;
 // exception boundary turns it into a Status, which the flag below explains.
 struct CancelledError {};
 
-std::string BaseName(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 void ReplaceAll(std::string& s, const std::string& from, const std::string& to) {
   if (from.empty()) return;
   for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
@@ -34,10 +30,8 @@ void ReplaceAll(std::string& s, const std::string& from, const std::string& to) 
 // Messages name files as the upload does: "bunny.obj: ...", not the work folder.
 class PathScrubber {
  public:
-  explicit PathScrubber(const std::string& main_path) : main_path_(main_path), name_(BaseName(main_path)) {
-    const size_t slash = main_path.find_last_of('/');
-    if (slash != std::string::npos) dir_ = main_path.substr(0, slash + 1);
-  }
+  explicit PathScrubber(const std::string& main_path)
+      : main_path_(main_path), name_(FileBaseName(main_path)), dir_(FileFolder(main_path)) {}
   const std::string& name() const { return name_; }
   std::string Scrub(std::string message) const {
     ReplaceAll(message, main_path_, name_);
@@ -159,7 +153,7 @@ void FillFigures(const ProgressiveGlbReport& report, ArtifactSummary* summary) {
 
 StatusOr<ProcessResult> ProcessSource(const std::string& main_path, const EncodeSettings& settings,
                                       const ProgressCallback& progress, const ProcessOptions& options) {
-  const std::string name = BaseName(main_path);
+  const std::string name = FileBaseName(main_path);
   try {
     return ProcessUnguarded(main_path, settings, progress, options);
   } catch (const CancelledError&) {
