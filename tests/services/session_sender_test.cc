@@ -440,13 +440,23 @@ TEST(SessionSender, AClientThatDoesNotCloseIsCutAfterTheLinger) {
   EXPECT_EQ(s.end_reason(), "complete");
 }
 
-TEST(SessionSender, OneRepairRequestSendsTheNamedDatagramsOnceThenRepairEnd) {
+// A gRPC session opened with repair, streamed to its END (a millisecond in).
+struct StreamedWithRepair {
+  static SessionSenderOptions RepairOptions() {
+    SessionSenderOptions o = Options(SessionTransport::kGrpc);
+    o.repair = true;
+    return o;
+  }
+  StreamedWithRepair() { script.Run(s, 1000); }
   Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kGrpc);
-  o.repair = true;
-  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  SessionSender s{f.plan, f.artifact, -1, RepairOptions(), 0};
   Script script;
-  script.Run(s, 1000);
+};
+
+TEST(SessionSender, OneRepairRequestSendsTheNamedDatagramsOnceThenRepairEnd) {
+  StreamedWithRepair r;
+  SessionSender& s = r.s;
+  Script& script = r.script;
   ASSERT_EQ(script.actions.back().kind, SenderAction::kEnd);
   const size_t before = script.actions.size();
   s.OnRepair(1000, {RepairItem{kStream, 2, {3, 1, 3}}, RepairItem{kStream, 5, {0}}});
@@ -468,12 +478,9 @@ TEST(SessionSender, OneRepairRequestSendsTheNamedDatagramsOnceThenRepairEnd) {
 }
 
 TEST(SessionSender, ARepairOfSomethingNotSentIsInvalidArgument) {
-  Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kGrpc);
-  o.repair = true;
-  SessionSender s(f.plan, f.artifact, -1, o, 0);
-  Script script;
-  script.Run(s, 1000);
+  StreamedWithRepair r;
+  SessionSender& s = r.s;
+  Script& script = r.script;
   s.OnRepair(1000, {RepairItem{kStream, 2, {kDatagrams}}});
   const SenderAction last = script.Run(s);
   ASSERT_EQ(last.kind, SenderAction::kFinish);
@@ -485,12 +492,9 @@ TEST(SessionSender, ARepairOfSomethingNotSentIsInvalidArgument) {
 // per refinement of the session: more (a million empty items fit in a
 // message) is refused whole, naming the count and the limit.
 TEST(SessionSender, ARepairOfMoreItemsThanRefinementsIsInvalidArgument) {
-  Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kGrpc);
-  o.repair = true;
-  SessionSender s(f.plan, f.artifact, -1, o, 0);
-  Script script;
-  script.Run(s, 1000);
+  StreamedWithRepair r;
+  SessionSender& s = r.s;
+  Script& script = r.script;
   s.OnRepair(1000, std::vector<RepairItem>(kRefinements + 1, RepairItem{kStream, 2, {}}));
   const SenderAction last = script.Run(s);
   ASSERT_EQ(last.kind, SenderAction::kFinish);
@@ -501,12 +505,9 @@ TEST(SessionSender, ARepairOfMoreItemsThanRefinementsIsInvalidArgument) {
 }
 
 TEST(SessionSender, AsManyItemsAsRefinementsAreRepaired) {
-  Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kGrpc);
-  o.repair = true;
-  SessionSender s(f.plan, f.artifact, -1, o, 0);
-  Script script;
-  script.Run(s, 1000);
+  StreamedWithRepair r;
+  SessionSender& s = r.s;
+  Script& script = r.script;
   s.OnRepair(1000, std::vector<RepairItem>(kRefinements, RepairItem{kStream, 2, {4}}));
   const SenderAction last = script.Run(s);
   ASSERT_EQ(last.kind, SenderAction::kFinish);
