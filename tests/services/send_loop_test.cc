@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -166,29 +167,34 @@ void RunToTheEnd(const RecordingStream& stream) {
 
 constexpr std::chrono::milliseconds kSoonerThanTheLinger{SessionSender::kLingerUs / 2000};
 
-TEST(SendLoop, AfterBeginACancelStepsTheSessionAtOnce) {
+// Streams a session without repair to its end, pokes it, and says whether
+// it finished sooner than the linger, and with what.
+bool FinishesAtOnceAfter(const std::function<void(SendLoop::Registration&)>& poke, Status* status) {
   Fixture f;
   SendLoop loop;
   RecordingStream stream;
   SendLoop::Registration reg = loop.Add(Sender(f), &stream, nullptr);
   reg.Begin();
   RunToTheEnd(stream);
-  reg.Cancel(Cancelled("the client went away"), "client went away");
+  poke(reg);
+  return stream.WaitFinished(kSoonerThanTheLinger, status);
+}
+
+TEST(SendLoop, AfterBeginACancelStepsTheSessionAtOnce) {
   Status status;
-  ASSERT_TRUE(stream.WaitFinished(kSoonerThanTheLinger, &status)) << "the cancel did not wake the session";
+  ASSERT_TRUE(FinishesAtOnceAfter(
+      [](SendLoop::Registration& reg) { reg.Cancel(Cancelled("the client went away"), "client went away"); },
+      &status))
+      << "the cancel did not wake the session";
   EXPECT_EQ(status.code(), StatusCode::kCancelled);
 }
 
 TEST(SendLoop, AfterBeginARepairStepsTheSessionAtOnce) {
-  Fixture f;
-  SendLoop loop;
-  RecordingStream stream;
-  SendLoop::Registration reg = loop.Add(Sender(f), &stream, nullptr);
-  reg.Begin();
-  RunToTheEnd(stream);
-  reg.OnRepair({RepairItem{3, 0, {1}}});  // in a session opened without repair
   Status status;
-  ASSERT_TRUE(stream.WaitFinished(kSoonerThanTheLinger, &status)) << "the repair did not wake the session";
+  ASSERT_TRUE(FinishesAtOnceAfter(
+      [](SendLoop::Registration& reg) { reg.OnRepair({RepairItem{3, 0, {1}}}); },  // opened without repair
+      &status))
+      << "the repair did not wake the session";
   EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << status.ToString();
 }
 
