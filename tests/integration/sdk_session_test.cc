@@ -35,6 +35,32 @@ std::vector<sdk::Event> PollToEnd(sdk::Session& session) {
   return events;
 }
 
+// A session of a server with one slot, opened once the previous session's
+// slot is free, with its first event. The slot frees when the server sees
+// the previous session's done; until then the refusal (RESOURCE_EXHAUSTED)
+// comes either from Open (the server ended the call before the open was
+// written: a loaded machine) or with the first poll. Null after 50 refusals
+// or another error (a test failure).
+std::unique_ptr<sdk::Session> OpenWhenFree(const sdk::Client& client, const sdk::SessionOptions& options,
+                                           sdk::Event* first) {
+  for (int i = 0; i < 50; ++i) {
+    auto s = sdk::Session::Open(client, options);
+    Status refused = s.status();
+    if (s.ok()) {
+      *first = (*s)->Poll(10000);
+      if (first->type != sdk::EventType::kError) return std::move(s).value();
+      refused = first->status;
+    }
+    if (refused.code() != StatusCode::kResourceExhausted) {
+      ADD_FAILURE() << "opening " << options.asset << ": " << refused.ToString();
+      return nullptr;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ADD_FAILURE() << "the server's slot never freed";
+  return nullptr;
+}
+
 TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "2"});
@@ -159,19 +185,12 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
 
   sdk::SessionOptions time = test_util::SessionFor("horse");
   time.time_budget_ms = 300;
-  std::unique_ptr<sdk::Session> by_time;
-  // The previous session's slot frees when the server sees its done.
-  for (int i = 0; i < 50 && !by_time; ++i) {
-    auto s = sdk::Session::Open(**sdk_client, time);
-    ASSERT_TRUE(s.ok());
-    events = PollToEnd(**s);
-    if (events.back().type == sdk::EventType::kError && events.back().status.code() == StatusCode::kResourceExhausted) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      continue;
-    }
-    by_time = std::move(s).value();
-  }
+  sdk::Event e;
+  std::unique_ptr<sdk::Session> by_time = OpenWhenFree(**sdk_client, time, &e);
   ASSERT_TRUE(by_time);
+  ASSERT_EQ(e.type, sdk::EventType::kBaseReady) << e.status.ToString();
+  events = PollToEnd(*by_time);
+  ASSERT_FALSE(events.empty());
   ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
   EXPECT_EQ(by_time->stats().end_reason, "time_budget");
   EXPECT_LT(by_time->level_shown(), by_time->levels());
@@ -179,18 +198,7 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
   EXPECT_LT(by_time->stats().time_to_full_ms, 2000.0);
   by_time.reset();
 
-  std::unique_ptr<sdk::Session> cancelled;
-  sdk::Event e;
-  for (int i = 0; i < 50 && !cancelled; ++i) {
-    auto s = sdk::Session::Open(**sdk_client, test_util::SessionFor("horse"));
-    ASSERT_TRUE(s.ok());
-    e = (*s)->Poll(10000);
-    if (e.type == sdk::EventType::kError && e.status.code() == StatusCode::kResourceExhausted) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      continue;
-    }
-    cancelled = std::move(s).value();
-  }
+  std::unique_ptr<sdk::Session> cancelled = OpenWhenFree(**sdk_client, test_util::SessionFor("horse"), &e);
   ASSERT_TRUE(cancelled);
   ASSERT_EQ(e.type, sdk::EventType::kBaseReady) << e.status.ToString();
   cancelled->Cancel();
