@@ -10,6 +10,7 @@
 
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
+#include "services/api/call_peer.h"
 #include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/api/server_messages.h"
@@ -142,9 +143,8 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     Queue(TransportChangeMessage(transport, reason));
   }
 
-  void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
-               bool reliable) override {
-    Queue(ControlMessage(*artifact_, r, stream, datagrams, first_packet_number, reliable));
+  void Control(const SenderAction& control) override {
+    Queue(ControlMessage(*artifact_, control));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {
@@ -216,7 +216,8 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     SessionSenderOptions options;
     std::shared_ptr<UdpEndpoint::Session> udp;
     if (open.transport() != v1::TRANSPORT_GRPC && service_->options_.udp != nullptr) {
-      auto registered = service_->options_.udp->RegisterSession();
+      auto registered =
+          service_->options_.udp->RegisterSession(service_->options_.udp_peer_proof ? PeerHost(context_->peer()) : "");
       if (registered.ok()) udp = std::move(registered).value();
     }
     options.transport = udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
