@@ -139,9 +139,6 @@ Verb AddServe(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_flag("--no-reliable-cut", o.no_reliable_cut,
                         "send every datagram as UDP, also those of the artifact's reliable cut (the paper's scheme)"));
-  FromEnv(cmd->add_flag("--no-udp-peer-proof", o.no_udp_peer_proof,
-                        "make every client address prove itself by the HELLO round trip, also the first one from the "
-                        "host of the session's gRPC connection (which otherwise starts DATA one round trip sooner)"));
   FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
                           "seconds a session may go without a message from its client")
               ->check(CLI::Range(0.1, 86400.0)))

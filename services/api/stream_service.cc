@@ -10,7 +10,6 @@
 
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
-#include "services/api/call_peer.h"
 #include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
 #include "services/api/server_messages.h"
@@ -216,8 +215,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     SessionSenderOptions options;
     std::shared_ptr<UdpEndpoint::Session> udp;
     if (open.transport() != v1::TRANSPORT_GRPC && service_->options_.udp != nullptr) {
-      auto registered =
-          service_->options_.udp->RegisterSession(service_->options_.udp_peer_proof ? PeerHost(context_->peer()) : "");
+      auto registered = service_->options_.udp->RegisterSession();
       if (registered.ok()) udp = std::move(registered).value();
     }
     options.transport = udp ? SessionTransport::kUdp : SessionTransport::kGrpc;

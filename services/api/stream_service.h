@@ -51,7 +51,6 @@ struct StreamServiceOptions {
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate
   bool reliable_cut = true;                       // --no-reliable-cut: every datagram as UDP (the paper's scheme)
-  bool udp_peer_proof = true;                     // --no-udp-peer-proof: every address needs the HELLO round trip
   int opener_threads = 2;                         // the pool that opens sessions (store, plan, scene)
   std::function<void(const std::string&)> log;    // one line per session start and end; may be empty
 };

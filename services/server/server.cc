@@ -117,7 +117,6 @@ StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
   setup.service.max_sessions = o.max_sessions;
   setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
   setup.service.reliable_cut = !o.no_reliable_cut;
-  setup.service.udp_peer_proof = !o.no_udp_peer_proof;
   setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);
   setup.service.rate.max_bps = o.max_session_rate_bps;
   setup.service.rate.initial_bps = std::min(setup.service.rate.initial_bps, o.max_session_rate_bps);
@@ -391,9 +390,7 @@ void Server::Wait() {
     }
     s.log("udp: " + std::to_string(u.received.accepted()) + " datagrams accepted, " +
           std::to_string(u.received.dropped()) + " dropped" + (drops.empty() ? "" : " (" + drops + ")") + ", " +
-          std::to_string(u.addresses_refused) + " addresses refused, " + std::to_string(u.proven_by_peer) +
-          " proven by the gRPC peer and " + std::to_string(u.proven_by_round_trip) + " by the round trip, " +
-          std::to_string(u.hello_acks_sent) +
+          std::to_string(u.addresses_refused) + " addresses refused, " + std::to_string(u.hello_acks_sent) +
           " HELLO_ACKs and " + std::to_string(u.data_sent) + " DATA sent, " + std::to_string(u.send_errors) +
           " send errors");
   }

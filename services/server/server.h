@@ -58,7 +58,6 @@ struct ServerOptions {
   int max_sessions = 4096;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
-  bool no_udp_peer_proof = false;         // the first HELLO from the gRPC peer's host does not prove its address
   int64_t session_idle_timeout_ms = 30000;
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.

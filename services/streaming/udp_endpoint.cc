@@ -18,18 +18,6 @@ uint64_t RandomSessionId() {
   return id;
 }
 
-// The host part of an address as text, an IPv4-mapped IPv6 address as the
-// IPv4 one ("::ffff:1.2.3.4" -> "1.2.3.4"), so that a dual-stack socket and
-// gRPC's peer string name one host alike.
-std::string CanonicalHost(std::string host) {
-  constexpr const char kMapped[] = "::ffff:";
-  if (host.size() > sizeof(kMapped) - 1 && host.compare(0, sizeof(kMapped) - 1, kMapped) == 0 &&
-      host.find('.') != std::string::npos) {
-    host.erase(0, sizeof(kMapped) - 1);
-  }
-  return host;
-}
-
 }  // namespace
 
 struct UdpEndpoint::SessionState {
@@ -37,7 +25,6 @@ struct UdpEndpoint::SessionState {
   SessionKeys keys;
   std::atomic<uint64_t> next_packet_number{0};
   std::atomic<uint64_t> last_hello_us{0};
-  std::string peer_host;  // canonical; empty: every address needs the round trip
 
   std::mutex mutex;  // everything below
   std::function<void()> on_hello;
@@ -66,12 +53,11 @@ UdpEndpoint::~UdpEndpoint() {
   if (thread_.joinable()) thread_.join();
 }
 
-StatusOr<std::shared_ptr<UdpEndpoint::Session>> UdpEndpoint::RegisterSession(const std::string& peer_host) {
+StatusOr<std::shared_ptr<UdpEndpoint::Session>> UdpEndpoint::RegisterSession() {
   auto keys = NewSessionKeys();
   if (!keys.ok()) return keys.status();
   auto state = std::make_shared<SessionState>();
   state->keys = keys.value();
-  state->peer_host = peer_host.empty() ? std::string() : CanonicalHost(peer_host);
   state->last_hello_us = SteadyNowUs();
   std::unique_lock<std::shared_mutex> lock(table_mutex_);
   do {
@@ -110,11 +96,9 @@ void UdpEndpoint::Run() {
 }
 
 void UdpEndpoint::Handle(const IncomingDatagram& d) {
-  bool by_peer = false;  // this HELLO proved its address by the session's gRPC peer
-  auto drop = [this, &by_peer](DropReason reason) {
+  auto drop = [this](DropReason reason) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     stats_.received.Count(reason);
-    if (by_peer) ++stats_.proven_by_peer;
   };
   if (d.truncated) return drop(DropReason::kTooLong);
   PacketHeader header;
@@ -169,19 +153,7 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
     state->proven = d.from;
     if (state->on_hello) state->on_hello();
     lock.unlock();
-    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-    stats_.received.Count(DropReason::kNone);
-    ++stats_.proven_by_round_trip;
-    return;
-  }
-  // The first address of a session, from the host its gRPC call came from:
-  // proven at once (that host holds the session's key and receives there, as
-  // its TCP connection shows). It is still answered, for the client's RTT.
-  if (state->proven.empty() && !state->peer_host.empty() && CanonicalHost(d.from.host()) == state->peer_host) {
-    entry->limit.MarkProven();
-    state->proven = d.from;
-    by_peer = true;
-    if (state->on_hello) state->on_hello();
+    return drop(DropReason::kNone);
   }
   // Not proven: a fresh challenge, within the address's budget.
   auto challenge = NewChallenge();
@@ -204,7 +176,6 @@ void UdpEndpoint::Handle(const IncomingDatagram& d) {
   const Status sent = socket_.SendTo(to, sealed->data(), sealed->size());
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   stats_.received.Count(DropReason::kNone);
-  if (by_peer) ++stats_.proven_by_peer;
   if (sent.ok()) {
     ++stats_.hello_acks_sent;
   } else {

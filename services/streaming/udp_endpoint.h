@@ -3,9 +3,8 @@
 // thread that answers HELLOs, and the table of live sessions.
 //
 // A session registers (RegisterSession) before its SessionStart is sent and
-// gets its id and keys; its client's HELLOs then prove an address (the
-// challenge's round trip, or for the session's first address its gRPC
-// peer's host), and the session sends its DATA to that address only (SendData). Every datagram
+// gets its id and keys; its client's HELLOs then prove an address, and the
+// session sends its DATA to that address only (SendData). Every datagram
 // that fails a step of "Receiving" is dropped and counted, never answered.
 // Towards an address that is not proven the endpoint sends only HELLO_ACKs,
 // and never more bytes than it received from that address in authenticated
@@ -44,8 +43,6 @@ namespace meshstream {
 struct UdpEndpointStats {
   DropCounters received;          // every datagram that arrived, by what became of it
   uint64_t addresses_refused = 0; // authenticated HELLOs from one address too many
-  uint64_t proven_by_round_trip = 0;  // addresses proven by echoing a challenge
-  uint64_t proven_by_peer = 0;        // first addresses proven by the gRPC peer's host
   uint64_t hello_acks_sent = 0;
   uint64_t data_sent = 0;         // DATA datagrams
   uint64_t data_bytes_sent = 0;
@@ -65,11 +62,8 @@ class UdpEndpoint {
 
   const SocketAddress& local() const { return socket_.local(); }
   // A new session with fresh keys and a random id; it stays in the table
-  // until the handle is destroyed. `peer_host`: the numeric host its gRPC
-  // call came from (docs/streaming-protocol.md, "HELLO and address
-  // validation"): the first authenticated HELLO from that host proves its
-  // address at once; empty: every address needs the round trip.
-  StatusOr<std::shared_ptr<Session>> RegisterSession(const std::string& peer_host = "");
+  // until the handle is destroyed.
+  StatusOr<std::shared_ptr<Session>> RegisterSession();
   UdpEndpointStats stats() const;
   size_t session_count() const;
 

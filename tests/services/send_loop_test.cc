@@ -274,8 +274,8 @@ TEST(SendLoop, OnceAnAddressIsProvenHellosNoLongerWakeTheSession) {
       loop.Add(std::make_unique<SessionSender>(f.plan, f.artifact, -1, options, SteadyNowUs()), &stream, udp);
   reg.Begin();
 
-  // The round trip proves the client's address (a registration without the
-  // gRPC peer's host); once the stream has room, the refinement goes as UDP.
+  // The round trip proves the client's address; once the stream has room,
+  // the refinement goes as UDP.
   HelloClient client;
   client.Hello(**endpoint, s, Challenge{});
   Challenge challenge{};
