@@ -193,15 +193,6 @@ bool SessionSender::InReliableCut(const PlannedRefinement& r) {
 
 SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   SenderAction a;
-  if (index_ >= plan_.refinements.size() && transport_ == SessionTransport::kUdp && !proven_) {
-    // Every refinement went on the stream before a proof: the session used
-    // no UDP, and says so (the client's statistics, its UDP half stops).
-    transport_ = SessionTransport::kGrpc;
-    a.kind = SenderAction::kTransportChange;
-    a.transport = transport_;
-    a.reason = "the stream was sent before a HELLO proved a UDP address";
-    return a;
-  }
   if (index_ >= plan_.refinements.size()) {
     phase_ = options_.repair ? Phase::kAwaitRepair : Phase::kLinger;
     ended_us_ = now_us;

@@ -16,9 +16,7 @@
 //                      authenticated HELLO that has not proven an address yet
 //                      (OnHello) extends it to `hello_timeout` after that
 //                      HELLO, up to three timeouts in all. Looked at before
-//                      each refinement; then every refinement goes on the stream.
-//                      Also before kEnd when no address was ever proven (the
-//                      whole stream went on the stream before the HELLO);
+//                      each refinement; then every refinement goes on the stream;
 //   per refinement in the plan's order: kControl; kDatagrams (its data
 //                      datagrams and the codec's END datagram, in batches:
 //                      over UDP paced at the session's rate (net/pacer.h,
