@@ -98,6 +98,7 @@ int RunFetch(const FetchArgs& args) {
                       {"levels_applied", (*session)->level_shown()},
                       {"transport", st.transport},
                       {"datagrams_received", st.datagrams_received},
+                      {"udp_datagrams_received", st.udp_datagrams_received},
                       {"datagrams_lost", st.datagrams_lost},
                       {"datagrams_duplicate", st.datagrams_duplicate},
                       {"datagrams_rejected", st.datagrams_rejected},

@@ -126,6 +126,7 @@ struct SessionStats {
   uint64_t reliable_bytes = 0;      // headers, base meshes, control blocks
   uint64_t unreliable_bytes = 0;    // datagram payloads
   uint64_t datagrams_received = 0;  // data datagrams that brought something new
+  uint64_t udp_datagrams_received = 0;  // data datagrams that came as UDP (the rest of them came on the stream)
   uint64_t datagrams_lost = 0;      // data datagrams sent and never received (predicted instead)
   uint64_t datagrams_rejected = 0;  // malformed, forged, replayed, or not fitting their stream
   uint64_t datagrams_duplicate = 0; // copies (a packet number seen before), and datagrams of refinements already decoded

@@ -332,6 +332,7 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
     }
   }
   if (!end) stats_.unreliable_bytes += size;
+  if (!end && packet_number != nullptr) ++stats_.udp_datagrams_received;
   p.reconstructor->OnDatagram(parsed.value(), now);
   if (packet_number != nullptr) {
     NotePacketNumber(*packet_number, now);
