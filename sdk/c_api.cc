@@ -343,6 +343,9 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
     if (MS_FIELD_FITS(out, ms_stats, reliable_datagram_bytes)) {
       out->reliable_datagram_bytes = stats.reliable_datagram_bytes;
     }
+    if (MS_FIELD_FITS(out, ms_stats, early_datagram_bytes)) out->early_datagram_bytes = stats.early_datagram_bytes;
+    if (MS_FIELD_FITS(out, ms_stats, datagrams_late)) out->datagrams_late = stats.datagrams_late;
+    if (MS_FIELD_FITS(out, ms_stats, losses_declared)) out->losses_declared = stats.losses_declared;
     return Ok();
   });
 }

@@ -194,8 +194,11 @@ Event Session::Poll(int32_t timeout_ms) {
     {
       std::unique_lock<std::mutex> lock(s.mutex);
       if (core.handed_over()) {
-        // Wake at least every 10 ms: refinements become ready by the clock too.
-        const auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
+        // Wake at least every 10 ms (refinements become ready by the clock
+        // too), and when a declared loss is due.
+        auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
+        const uint64_t due = core.next_due_us(), now_us = SteadyNowUs();
+        if (due != UINT64_MAX) wake = std::min(wake, Clock::now() + std::chrono::microseconds(due > now_us ? due - now_us : 0));
         s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
       }
       // Read before the queue is taken: every datagram that reached the

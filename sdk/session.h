@@ -88,7 +88,11 @@ struct SessionOptions {
   bool tcp_only = false;  // ask for the datagrams over gRPC
   uint64_t byte_budget = 0;       // 0: none
   int64_t time_budget_ms = 0;     // 0: none
-  int32_t straggler_timeout_ms = 50;  // after a refinement's END: reordering and jitter
+  // After a refinement's END, at most: reordering and jitter. A UDP refinement
+  // is decoded sooner once later datagrams show that what is missing is lost
+  // (three later packet numbers, or an eighth of the HELLO round trip after a
+  // later one arrived).
+  int32_t straggler_timeout_ms = 50;
   // "HOST:PORT": send the HELLO (so the whole UDP half) there instead of the
   // endpoint the server advertises: a relay that shapes the link, a tunnel,
   // debugging. Empty: the advertised endpoint.
@@ -122,6 +126,7 @@ struct SessionStats {
   uint64_t reliable_bytes = 0;      // headers, base meshes, control blocks
   uint64_t unreliable_bytes = 0;    // datagram payloads
   uint64_t datagrams_received = 0;  // data datagrams that brought something new
+  uint64_t udp_datagrams_received = 0;  // data datagrams that came as UDP (the rest of them came on the stream)
   uint64_t datagrams_lost = 0;      // data datagrams sent and never received (predicted instead)
   uint64_t datagrams_rejected = 0;  // malformed, forged, replayed, or not fitting their stream
   uint64_t datagrams_duplicate = 0; // copies (a packet number seen before), and datagrams of refinements already decoded
@@ -135,10 +140,18 @@ struct SessionStats {
   std::string udp_local;            // the client's UDP socket ("0.0.0.0:PORT"), empty without UDP
   uint32_t reliable_refinements = 0;  // refinements whose datagrams came on the gRPC stream over UDP (the reliable cut)
   uint64_t reliable_datagram_bytes = 0;
+  uint32_t early_refinements = 0;   // ... on the stream because no UDP address was proven yet (no wait for the HELLO)
+  uint64_t early_datagram_bytes = 0;
   uint64_t repaired_datagrams = 0;  // datagrams the repair brought
   uint64_t repair_bytes = 0;        // their bytes
   double time_to_exact_ms = 0;      // from open to the exact mesh: time_to_full_ms without loss, after the repair with it
   std::string repair_error;         // why a repair asked for did not complete (the predicted mesh stays)
+  // Loss detection by packet numbers (docs/streaming-protocol.md, "The client"):
+  uint32_t losses_declared = 0;     // UDP refinements decoded incomplete because later datagrams had arrived
+  uint32_t losses_spurious = 0;     // ... of which a datagram declared lost came after all (reordering)
+  uint64_t datagrams_late = 0;      // UDP data datagrams that came after their refinement was decoded without
+                                    // them (in datagrams_lost and datagrams_duplicate too: their vertices stay predicted)
+  double reorder_window_ms = 0;     // the wait after a later datagram, as it ended (0: no RTT sample, straggler_timeout_ms)
 };
 
 class Session {

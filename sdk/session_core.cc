@@ -42,6 +42,10 @@ struct SessionCore::RefinementTrack {
   uint64_t bytes = 0;
   uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
   bool reliable = false;           // its datagrams come on the gRPC stream (ControlBlock.reliable)
+  bool before_proof = false;       // ... because no UDP address was proven yet (ControlBlock.before_proof)
+  uint64_t later_us = 0;           // UDP: when a datagram numbered after its data arrived (0: none yet)
+  bool declared = false;           // UDP: what is missing was declared lost
+  bool spurious = false;           // ... and a datagram of it came after all
   // With repair: the control block and every data datagram that arrived,
   // kept until the session ends, and the ordinals the report found missing.
   std::string kept_control;
@@ -281,7 +285,8 @@ Status SessionCore::GiveAllControls(uint64_t now, bool flushing) {
 
 // One datagram of either channel (`packet_number`: UDP's, null on the
 // stream). Its header is read here, once, and the reconstructor gets it parsed.
-Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now) {
+Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now,
+                                  bool reliable_over_udp) {
   auto parsed = ParsedDatagram::Parse(data, size);
   const auto primitive = parsed.ok() ? by_stream_.find(parsed->header().stream) : by_stream_.end();
   if (primitive == by_stream_.end()) {
@@ -294,6 +299,22 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
   const bool end = h.kind == DatagramKind::kEnd;
   if (h.refinement < p.tracks.size()) {
     RefinementTrack& t = p.tracks[h.refinement];
+    // A datagram of the stream over UDP: the reliable cut's, or one sent
+    // before an address was proven.
+    if (reliable_over_udp && !end) (t.before_proof ? stats_.early_datagram_bytes : stats_.reliable_datagram_bytes) += size;
+    if (!end && packet_number != nullptr && h.refinement < p.reconstructor->applied()) {
+      ++stats_.datagrams_late;  // decoded without it (declared lost, or the straggler timeout)
+    }
+    if (!end && packet_number != nullptr && t.declared && !t.spurious &&
+        std::find(t.packet_numbers.begin(), t.packet_numbers.end(), *packet_number) == t.packet_numbers.end()) {
+      // Declared lost, yet here: reordering beyond the rules. The packet
+      // rule stops and the time window doubles (RFC 9002 section 6.1.2's
+      // adaptive thresholds), up to the straggler timeout.
+      t.spurious = true;
+      ++stats_.losses_spurious;
+      packet_rule_ = false;
+      grown_window_us_ = std::min(2 * ReorderWindowUs(), static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000);
+    }
     if (end) {
       if (t.end_time_us == 0) t.end_time_us = now;
       t.end_seen = true;
@@ -311,10 +332,103 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
     }
   }
   if (!end) stats_.unreliable_bytes += size;
+  if (!end && packet_number != nullptr) ++stats_.udp_datagrams_received;
   p.reconstructor->OnDatagram(parsed.value(), now);
+  if (packet_number != nullptr) {
+    NotePacketNumber(*packet_number, now);
+    MS_RETURN_IF_ERROR(DeclareLosses(StragglerClock(now)));
+  }
   if (!end) return Status::Ok();
   NoteEnd(p, h.refinement);
   return GiveControls(p, now, false);
+}
+
+// The wait after a later datagram before what is missing counts as lost: an
+// eighth of the HELLO round trip (at least 1 ms), or what spurious losses
+// grew it to; never more than the straggler timeout, which is also the wait
+// without an RTT sample (the rules are then off).
+uint64_t SessionCore::ReorderWindowUs() const {
+  const uint64_t straggler = static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000;
+  if (!LossRulesActive()) return straggler;
+  // Reordering seen (a datagram that came after a later-numbered one, by
+  // how long) widens it at once, with RFC 9002's 9/8 margin.
+  const uint64_t seen = reorder_seen_us_ + reorder_seen_us_ / 8;
+  const uint64_t base = std::clamp<uint64_t>(std::max(udp_.hello_rtt_us / 8, seen), kMinReorderWindowUs, straggler);
+  return std::min(std::max(base, grown_window_us_), straggler);
+}
+
+// A UDP datagram numbered `packet_number` arrived at `at`: the refinements
+// whose data was all sent before it have had a later datagram.
+void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
+  if (!any_packet_number_ || packet_number > highest_packet_number_) {
+    highest_packet_number_ = packet_number;
+    rises_.emplace_back(packet_number, at);
+    if (rises_.size() > kRiseHistory) {
+      rises_.pop_front();
+      rises_forgotten_ = true;
+    }
+  } else {
+    // Reordered: it comes after the first datagram numbered above it (long
+    // ago when that one is forgotten: the window then goes to its cap).
+    const auto later = std::upper_bound(rises_.begin(), rises_.end(), std::make_pair(packet_number, UINT64_MAX));
+    uint64_t since = later == rises_.end() || at < later->second ? 0 : at - later->second;
+    if (later == rises_.begin() && rises_forgotten_) since = UINT64_MAX / 2;
+    reorder_seen_us_ = std::max(reorder_seen_us_, since);
+    if (highest_packet_number_ >= packet_number + kPacketThreshold) packet_rule_ = false;
+  }
+  any_packet_number_ = true;
+  for (PrimitiveState& p : primitives_) {
+    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
+      RefinementTrack& t = p.tracks[r];
+      if (t.reliable || t.declared || t.later_us != 0 || t.datagrams == 0) continue;
+      if (packet_number >= t.first_packet_number + t.datagrams) t.later_us = at;
+    }
+  }
+}
+
+// Declares lost what UDP refinements miss once later datagrams show it will
+// not come (RFC 9002 section 6.1 on the receiver): a datagram numbered
+// kPacketThreshold past the refinement's last data datagram arrived, or the
+// reorder window has passed (by `clock`, the arrival horizon's) since the
+// first datagram numbered after them arrived. Only with an RTT sample.
+Status SessionCore::DeclareLosses(uint64_t clock) {
+  if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return Status::Ok();
+  const uint64_t window = ReorderWindowUs();
+  for (PrimitiveState& p : primitives_) {
+    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
+      const RefinementTrack& t = p.tracks[r];
+      if (t.reliable || t.declared || t.datagrams == 0) continue;
+      const uint64_t last_data = t.first_packet_number + t.datagrams - 1;
+      const bool by_packets =
+          packet_rule_ && any_packet_number_ && highest_packet_number_ >= last_data + kPacketThreshold;
+      const bool by_time = t.later_us != 0 && clock >= t.later_us + window;
+      if (by_packets || by_time) MS_RETURN_IF_ERROR(Declare(p, r, clock));
+    }
+  }
+  return Status::Ok();
+}
+
+Status SessionCore::Declare(PrimitiveState& p, size_t refinement, uint64_t now) {
+  RefinementTrack& t = p.tracks[refinement];
+  t.declared = true;
+  if (t.packet_numbers.size() < t.datagrams) ++stats_.losses_declared;
+  p.reconstructor->Declare(static_cast<uint32_t>(refinement));
+  if (t.end_seen) return GiveControls(p, now, false);
+  // Its END datagram was lost too: the control block's count makes it.
+  return GiveEnd(p, static_cast<uint32_t>(refinement), t.datagrams, now);
+}
+
+uint64_t SessionCore::next_due_us() const {
+  if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return UINT64_MAX;
+  uint64_t due = UINT64_MAX;
+  const uint64_t window = ReorderWindowUs();
+  for (const PrimitiveState& p : primitives_) {
+    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
+      const RefinementTrack& t = p.tracks[r];
+      if (!t.reliable && !t.declared && t.later_us != 0) due = std::min(due, t.later_us + window);
+    }
+  }
+  return due;
 }
 
 // The reliable copy of the END: the refinement is complete once its
@@ -324,11 +438,17 @@ Status SessionCore::OnRefinementEnd(const v1::RefinementEnd& e, uint64_t now) {
   touched_ = index;
   PrimitiveState& p = primitives_[index];
   if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
-  p.tracks[e.refinement()].end_seen = true;
+  return GiveEnd(p, e.refinement(), e.datagrams_sent(), now);
+}
+
+// An END for `refinement` of `p` announcing `datagrams`, made here (from
+// RefinementEnd, or a declaration's count) rather than received.
+Status SessionCore::GiveEnd(PrimitiveState& p, uint32_t refinement, uint32_t datagrams, uint64_t now) {
+  p.tracks[refinement].end_seen = true;
   const std::vector<uint8_t> end = MakeStreamEndDatagram(Bytes(p.start.header()), p.start.header().size(),
-                                                         e.primitive(), e.refinement(), e.datagrams_sent());
+                                                         p.start.primitive(), refinement, datagrams);
   p.reconstructor->OnDatagram(end.data(), end.size(), now);
-  NoteEnd(p, e.refinement());
+  NoteEnd(p, refinement);
   return GiveControls(p, now, false);
 }
 
@@ -374,20 +494,26 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       t.datagrams = c.datagrams();
       t.first_packet_number = c.first_packet_number();
       t.reliable = c.reliable();
+      t.before_proof = c.reliable() && c.before_proof();
+      // UDP may run ahead of the stream: datagrams numbered after this
+      // refinement's may have come already; the window counts from now.
+      if (!t.reliable && t.datagrams > 0 && any_packet_number_ &&
+          highest_packet_number_ >= t.first_packet_number + t.datagrams) {
+        t.later_us = now;
+      }
       // Counted as they come; the reliable copy is charged to the datagram bytes.
-      if (t.reliable && transport_ == SessionTransport::kUdp) ++stats_.reliable_refinements;
+      if (t.reliable && transport_ == SessionTransport::kUdp) ++(t.before_proof ? stats_.early_refinements : stats_.reliable_refinements);
       stats_.reliable_bytes += c.control().size();
       return t.end_seen ? GiveControls(p, now, false) : Status::Ok();
     }
     case v1::ServerMessage::kDatagram: {
       const std::string& d = m.datagram().payload();
-      if (phase_ == SessionPhase::kRepairing && !repair_ended_) {
+      const bool repair = phase_ == SessionPhase::kRepairing && !repair_ended_;
+      if (repair) {
         ++stats_.repaired_datagrams;
         stats_.repair_bytes += d.size();
-      } else if (transport_ == SessionTransport::kUdp) {
-        stats_.reliable_datagram_bytes += d.size();
       }
-      return OfferDatagram(Bytes(d), d.size(), nullptr, now);
+      return OfferDatagram(Bytes(d), d.size(), nullptr, now, !repair && transport_ == SessionTransport::kUdp);
     }
     case v1::ServerMessage::kRepairEnd: {
       if (!repair_asked_) return InvalidInput("a repair end for a repair not asked for");
@@ -456,6 +582,7 @@ void SessionCore::Report() {
 
 // Decodes what is ready, reports it and queues the events it makes.
 Status SessionCore::Advance(uint64_t now, bool flush) {
+  if (!flush) MS_RETURN_IF_ERROR(DeclareLosses(now));
   // Flushing gives everything; otherwise what the levels reached let go.
   MS_RETURN_IF_ERROR(GiveAllControls(now, flush));
   for (PrimitiveState& p : primitives_) {
@@ -569,6 +696,7 @@ void SessionCore::UpdateStats() {
     if (udp_.hello_rtt_us > 0) stats_.hello_rtt_ms = static_cast<double>(udp_.hello_rtt_us) / 1000.0;
   }
   stats_.datagrams_duplicate = duplicates + udp_replays_seen_;
+  stats_.reorder_window_ms = LossRulesActive() ? static_cast<double>(ReorderWindowUs()) / 1000.0 : 0.0;
   stats_.datagrams_rejected = rejected + stray_rejected_ + udp_drops_seen_;
 }
 

@@ -129,6 +129,11 @@ class SessionCore {
   std::optional<UdpStart> TakeUdpStart();
   bool TakeUdpStop();
 
+  // When a refinement becomes ready by the clock (loss declared by a later
+  // datagram's arrival plus the reorder window), by the arrival horizon's
+  // clock; SenderAction::kNever-like UINT64_MAX: nothing is waiting. The
+  // driver wakes then rather than on a fixed period.
+  uint64_t next_due_us() const;
   // Every arrival taken has been handed to the reconstructors.
   bool handed_over() const { return inbox_messages_.empty() && inbox_datagrams_.empty(); }
   bool over() const { return phase_ == SessionPhase::kOver; }
@@ -174,9 +179,20 @@ class SessionCore {
   static void NoteEnd(PrimitiveState& p, size_t refinement);
   Status GiveControls(PrimitiveState& p, uint64_t now, bool flushing);
   Status GiveAllControls(uint64_t now, bool flushing);
-  Status OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now);
+  // `reliable_over_udp`: a StreamDatagram of a UDP session (not a repair),
+  // for the statistics.
+  Status OfferDatagram(const uint8_t* data, size_t size, const uint64_t* packet_number, uint64_t now,
+                       bool reliable_over_udp = false);
+  // Loss detection by packet numbers (RFC 9002's rules on the receiver):
+  // the window, a UDP datagram's effect on it, and the declarations.
+  uint64_t ReorderWindowUs() const;
+  bool LossRulesActive() const { return udp_.hello_rtt_us > 0; }
+  void NotePacketNumber(uint64_t packet_number, uint64_t at);
+  Status DeclareLosses(uint64_t clock);
+  Status Declare(PrimitiveState& p, size_t refinement, uint64_t now);
   Status Handle(const v1::ServerMessage& m, uint64_t now);
   Status OnRefinementEnd(const v1::RefinementEnd& e, uint64_t now);
+  Status GiveEnd(PrimitiveState& p, uint32_t refinement, uint32_t datagrams, uint64_t now);
   void Report();
   Status Advance(uint64_t now, bool flush);
   Status AdvanceTouched(uint64_t now);
@@ -225,6 +241,19 @@ class SessionCore {
   uint64_t udp_drops_seen_ = 0;
   uint64_t udp_replays_seen_ = 0;
   uint64_t stray_rejected_ = 0;  // datagrams no primitive's reconstructor could take
+  // Loss detection by packet numbers.
+  static constexpr uint64_t kPacketThreshold = 3;
+  static constexpr uint64_t kMinReorderWindowUs = 2000;
+  static constexpr size_t kRiseHistory = 4096;
+  bool any_packet_number_ = false;
+  uint64_t highest_packet_number_ = 0;
+  bool packet_rule_ = true;           // off once reordering beyond it was seen
+  uint64_t grown_window_us_ = 0;      // after spurious declarations: the window, doubled each time
+  uint64_t reorder_seen_us_ = 0;      // the longest a datagram came after a later-numbered one
+  // Each new highest packet number and when it arrived (increasing in both;
+  // the last kRiseHistory): how late a reordered datagram is.
+  std::deque<std::pair<uint64_t, uint64_t>> rises_;
+  bool rises_forgotten_ = false;
   size_t touched_ = SIZE_MAX;    // the primitive the last arrival went to
 };
 

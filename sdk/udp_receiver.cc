@@ -71,7 +71,7 @@ void UdpReceiver::Run() {
     if (!n.ok()) continue;
     for (size_t i = 0; i < n.value(); ++i) Handle(batch[i]);
     if (n.value() < batch.size()) caught_up_us_.store(before);
-    wait_ms = n.value() == 0 && wait_ms == 0 ? 20 : 0;
+    wait_ms = n.value() == 0 && wait_ms == 0 ? kIdleWaitMs : 0;
   }
 }
 

@@ -42,6 +42,9 @@ class UdpReceiver {
  public:
   static constexpr int kHelloIntervalMs = 100;
   static constexpr int kMaxHellos = 50;
+  // The longest wait on an empty socket: the horizon is at most this old
+  // while nothing arrives (a declared loss waits for it, sdk/session_core.h).
+  static constexpr int kIdleWaitMs = 5;
 
   static StatusOr<std::unique_ptr<UdpReceiver>> Start(const SocketAddress& server, uint64_t session_id,
                                                       const SessionKeys& keys,

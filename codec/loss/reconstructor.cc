@@ -181,14 +181,19 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   const Pending& p = pending_.front();
   const bool complete = Complete(p);
   const bool timed_out = now_us >= p.control_time_us && now_us - p.control_time_us >= options_.straggler_timeout_us;
-  if (!complete && !timed_out && !flushing) return false;
+  if (!complete && !timed_out && !p.declared && !flushing) return false;
   const Status finished = reader_.FinishRefinement(options_.recovery);
   if (!finished.ok()) return failed_ = finished.WithContext("reconstructor");
-  ++(complete ? stats_.finished_complete : stats_.finished_timeout);
+  ++(complete ? stats_.finished_complete : p.declared && !timed_out ? stats_.finished_declared : stats_.finished_timeout);
   begun_ = false;
   pending_.pop_front();
   if (!done() && !pending_.empty() && pending_.front().has_control) MS_RETURN_IF_ERROR(BeginFront());
   return true;
+}
+
+void StreamReconstructor::Declare(uint32_t refinement) {
+  if (!failed_.ok() || refinement < applied() || refinement >= limit()) return;
+  At(refinement - applied()).declared = true;
 }
 
 StatusOr<size_t> StreamReconstructor::Poll(uint64_t now_us) {

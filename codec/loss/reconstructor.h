@@ -6,7 +6,9 @@
 //     arrived; unreliable: its END datagram has arrived) and every datagram
 //     the END announces has arrived; or
 //   - its control block arrived at least `straggler_timeout_us` ago by the
-//     caller's clock (stragglers, and a lost END datagram, are too late).
+//     caller's clock (stragglers, and a lost END datagram, are too late); or
+//   - its control block has arrived and the caller declared what is missing
+//     lost (Declare: the client's packet numbers show later datagrams arrived).
 // Refinements are decoded in order; a refinement whose data is incomplete
 // goes through the reader's recovery (prediction or LwoP). Datagrams of a
 // refinement already decoded are counted as late and dropped.
@@ -76,6 +78,7 @@ struct ReconstructorStats {
   uint64_t ends = 0;           // END datagrams received (duplicates included)
   uint64_t finished_complete = 0;  // refinements handed over with both ENDs and all datagrams
   uint64_t finished_timeout = 0;   // refinements handed over by the clock
+  uint64_t finished_declared = 0;  // refinements handed over incomplete because the caller declared the rest lost
 };
 
 class StreamReconstructor {
@@ -93,6 +96,11 @@ class StreamReconstructor {
   // on the receiver, and every other check above still applies. A buffered
   // datagram keeps its parsed header beside its bytes.
   void OnDatagram(const ParsedDatagram& d, uint64_t now_us);
+  // The caller knows that whatever of `refinement` has not arrived will not
+  // (later datagrams arrived): it is ready once its control block is in,
+  // complete or not. Ignored for a refinement already decoded or beyond the
+  // level of detail.
+  void Declare(uint32_t refinement);
   // Decodes every refinement that is ready at now_us; returns how many.
   StatusOr<size_t> Poll(uint64_t now_us);
   // The session is over: decodes every refinement whose control block arrived.
@@ -115,6 +123,7 @@ class StreamReconstructor {
     bool has_control = false;
     uint64_t control_time_us = 0;
     bool has_end = false;
+    bool declared = false;                          // Declare: wait no longer
     uint32_t announced = 0;                         // data datagrams the END announced
     // Distinct data datagrams (byte-identical copies are kept once) that
     // arrived before the refinement was begun, in arrival order.

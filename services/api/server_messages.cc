@@ -42,16 +42,16 @@ v1::ServerMessage TransportChangeMessage(SessionTransport transport, const std::
   return m;
 }
 
-v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const PlannedRefinement& r, uint32_t stream,
-                                 uint32_t datagrams, uint64_t first_packet_number, bool reliable) {
+v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const SenderAction& control) {
   v1::ServerMessage m;
   v1::ControlBlock& c = *m.mutable_control();
-  c.set_primitive(stream);
-  c.set_refinement(r.refinement);
-  c.set_control(Slice(artifact, r.control));
-  c.set_datagrams(datagrams);
-  c.set_first_packet_number(first_packet_number);
-  c.set_reliable(reliable);
+  c.set_primitive(control.stream);
+  c.set_refinement(control.refinement->refinement);
+  c.set_control(Slice(artifact, control.refinement->control));
+  c.set_datagrams(control.count);
+  c.set_first_packet_number(control.first_packet_number);
+  c.set_reliable(control.reliable);
+  c.set_before_proof(control.before_proof);
   return m;
 }
 

@@ -25,8 +25,8 @@ v1::Transport ToProto(SessionTransport t);
 v1::ServerMessage SessionStartMessage(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
                                       SessionTransport transport);
 v1::ServerMessage TransportChangeMessage(SessionTransport transport, const std::string& reason);
-v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const PlannedRefinement& r, uint32_t stream,
-                                 uint32_t datagrams, uint64_t first_packet_number, bool reliable);
+// The ControlBlock of a kControl action.
+v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const SenderAction& control);
 v1::ServerMessage DatagramMessage(const uint8_t* data, size_t size);
 v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent);
 v1::ServerMessage EndMessage(const std::string& reason);

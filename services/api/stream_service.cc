@@ -142,9 +142,8 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     Queue(TransportChangeMessage(transport, reason));
   }
 
-  void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
-               bool reliable) override {
-    Queue(ControlMessage(*artifact_, r, stream, datagrams, first_packet_number, reliable));
+  void Control(const SenderAction& control) override {
+    Queue(ControlMessage(*artifact_, control));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {

@@ -194,7 +194,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         entry->DropUdp();
         break;
       case SenderAction::kControl:
-        stream.Control(*a.refinement, a.stream, a.count, a.first_packet_number, a.reliable);
+        stream.Control(a);
         break;
       case SenderAction::kDatagrams:
         if (a.on_stream) {

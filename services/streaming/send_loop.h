@@ -53,9 +53,10 @@ class SessionStream {
   // `udp` is null for TRANSPORT_GRPC.
   virtual void Start(SessionTransport transport, const UdpEndpoint::Session* udp) = 0;
   virtual void TransportChanged(SessionTransport transport, const std::string& reason) = 0;
-  // `reliable`: the refinement's datagrams follow on this stream.
-  virtual void Control(const PlannedRefinement& r, uint32_t stream, uint32_t datagrams, uint64_t first_packet_number,
-                       bool reliable) = 0;
+  // A kControl action: its refinement, stream id, count, first packet
+  // number, and whether its datagrams follow on this stream (`reliable`,
+  // `before_proof`).
+  virtual void Control(const SenderAction& control) = 0;
   virtual void Datagram(const uint8_t* data, size_t size) = 0;
   virtual void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) = 0;
   virtual void End(const std::string& reason) = 0;

@@ -30,7 +30,8 @@ std::string DescribeSession(const SessionSenderStats& st) {
   out << (st.transport == SessionTransport::kUdp ? "udp" : "grpc") << ", " << st.datagrams_sent << " datagrams sent, "
       << st.reports << " reports, " << st.reported_missing << " missing, rate " << std::fixed << std::setprecision(1)
       << st.final_rate_bps / 1e6 << " Mbit/s, " << st.rate_decreases << " decreases, srtt " << std::setprecision(2)
-      << st.srtt_us / 1000.0 << " ms, " << st.reliable_refinements << " refinements reliable (" << st.reliable_bytes
+      << st.srtt_us / 1000.0 << " ms, " << st.early_refinements << " refinements before the proof (" << st.early_bytes
+      << " bytes), " << st.reliable_refinements << " refinements reliable (" << st.reliable_bytes
       << " bytes, for loss " << std::setprecision(3) << st.cut_loss << "), " << st.repaired << " repaired";
   return out.str();
 }
@@ -139,18 +140,15 @@ SenderAction SessionSender::Next(uint64_t now_us) {
   if (repair_received_ && !options_.repair) {
     return Finish(repair_status_, end_reason_.empty() ? "unasked repair" : end_reason_);
   }
-  const bool before_end = phase_ == Phase::kStart || phase_ == Phase::kHelloWait || phase_ == Phase::kRefinements;
+  const bool before_end = phase_ == Phase::kStart || phase_ == Phase::kRefinements;
   if (client_done_ && before_end) return Finish(Cancelled("the client went away"), "client done");
   SenderAction a;
   switch (phase_) {
     case Phase::kStart:
-      phase_ = transport_ == SessionTransport::kUdp ? Phase::kHelloWait : Phase::kRefinements;
+      phase_ = Phase::kRefinements;
       a.kind = SenderAction::kStart;
       a.transport = transport_;
       return a;
-    case Phase::kHelloWait:
-      a = HelloWait(now_us);
-      break;
     case Phase::kRefinements:
       a = NextRefinementStep(now_us);
       break;
@@ -162,7 +160,7 @@ SenderAction SessionSender::Next(uint64_t now_us) {
   return a;
 }
 
-SenderAction SessionSender::HelloWait(uint64_t now_us) {
+bool SessionSender::HelloWaitOver(uint64_t now_us) {
   if (!hello_started_) {
     // From when the start has been handed to the transport (a large start
     // on a slow link takes a while to write), not from before it.
@@ -171,10 +169,6 @@ SenderAction SessionSender::HelloWait(uint64_t now_us) {
     hello_deadline_us_ = now_us + options_.hello_timeout_us;
     hello_last_deadline_us_ = hello_deadline_us_ + 2 * options_.hello_timeout_us;
   }
-  if (proven_) {
-    phase_ = Phase::kRefinements;
-    return NextRefinementStep(now_us);
-  }
   // An authenticated HELLO that has not proven the address yet means the
   // round trip is under way (a lost HELLO_ACK, a slow path): the wait is
   // extended from it, up to three timeouts in all.
@@ -182,17 +176,7 @@ SenderAction SessionSender::HelloWait(uint64_t now_us) {
     hello_deadline_us_ =
         std::min(hello_last_deadline_us_, std::max(hello_deadline_us_, last_hello_us_ + options_.hello_timeout_us));
   }
-  SenderAction a;
-  if (now_us < hello_deadline_us_) {
-    a.due_us = hello_deadline_us_;
-    return a;
-  }
-  transport_ = SessionTransport::kGrpc;
-  phase_ = Phase::kRefinements;
-  a.kind = SenderAction::kTransportChange;
-  a.transport = transport_;
-  a.reason = "no HELLO proved a UDP address within " + std::to_string(options_.hello_timeout_us / 1000) + " ms";
-  return a;
+  return now_us >= hello_deadline_us_;
 }
 
 bool SessionSender::InReliableCut(const PlannedRefinement& r) {
@@ -221,7 +205,24 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   const uint32_t stream = plan_.primitives[r.primitive].stream;
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   if (step_ == Step::kControl) {
-    if (transport_ == SessionTransport::kUdp && InReliableCut(r)) {
+    bool early = false;
+    const bool unproven = transport_ == SessionTransport::kUdp && !proven_;
+    if (unproven && HelloWaitOver(now_us)) {
+      transport_ = SessionTransport::kGrpc;
+      a.kind = SenderAction::kTransportChange;
+      a.transport = transport_;
+      a.reason = "no HELLO proved a UDP address within " + std::to_string(options_.hello_timeout_us / 1000) + " ms";
+      return a;
+    }
+    const bool cut = transport_ == SessionTransport::kUdp && InReliableCut(r);
+    early = unproven && !cut;
+    if (early) {
+      // No address to send DATA to yet: the refinement goes on the stream,
+      // paced as UDP would be, and the next one looks again.
+      mode_ = Mode::kStreamPaced;
+      ++stats_.early_refinements;
+      for (const ByteRange& d : r.datagrams) stats_.early_bytes += d.length;
+    } else if (cut) {
       // On the stream, but paced and charged to the server's share like the
       // UDP datagrams: moving data to the stream does not lift --max-rate.
       mode_ = Mode::kStreamPaced;
@@ -246,6 +247,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     a.count = count;
     a.first_packet_number = first_packet_number_;
     a.reliable = mode_ != Mode::kUdp;
+    a.before_proof = early;
     return a;
   }
   if (step_ == Step::kDatagrams) {

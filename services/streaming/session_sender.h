@@ -15,15 +15,17 @@
 //                      start has been handed to the transport; an
 //                      authenticated HELLO that has not proven an address yet
 //                      (OnHello) extends it to `hello_timeout` after that
-//                      HELLO, up to three timeouts in all. Then every
-//                      refinement goes on the stream;
+//                      HELLO, up to three timeouts in all. Looked at before
+//                      each refinement; then every refinement goes on the stream;
 //   per refinement in the plan's order: kControl; kDatagrams (its data
 //                      datagrams and the codec's END datagram, in batches:
 //                      over UDP paced at the session's rate (net/pacer.h,
 //                      net/rate_controller.h) and charged to the server's
 //                      RateShare, at most `burst_datagrams` per batch; on the
-//                      stream unpaced (TRANSPORT_GRPC) or, for the refinements
-//                      of the reliable cut over UDP, paced one datagram at a
+//                      stream unpaced (TRANSPORT_GRPC) or, over UDP for the
+//                      refinements begun before an address was proven (no
+//                      round trip is spent waiting: data moves from the start)
+//                      and those of the reliable cut, paced one datagram at a
 //                      time); kRefinementEnd;
 //   kEnd               "complete", or "max_level" when the plan was cut;
 //   after kEnd         with `repair`: up to kRepairWaitUs for OnRepair, then
@@ -114,6 +116,8 @@ struct SessionSenderStats {
   double final_rate_bps = 0;
   uint32_t rate_decreases = 0;
   uint64_t min_rtt_us = 0, srtt_us = 0;
+  uint32_t early_refinements = 0;     // sent on the stream over UDP before an address was proven (not of the cut)
+  uint64_t early_bytes = 0;           // their data datagrams' bytes
   uint32_t reliable_refinements = 0;  // sent on the stream over UDP (the reliable cut)
   uint64_t reliable_datagrams = 0;    // their data datagrams
   uint64_t reliable_bytes = 0;        // and bytes
@@ -146,6 +150,7 @@ struct SenderAction {
   uint64_t bytes = 0;             // kRepairEnd
   uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
   bool reliable = false;          // kControl: the datagrams follow on the stream
+  bool before_proof = false;      // kControl, UDP: ... because no address was proven yet
   bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
   PayloadSpan datagrams;          // kDatagrams: valid until the next call (above)
   Status status;                  // kFinish
@@ -195,17 +200,19 @@ class SessionSender {
   // UDP, until the HELLO wait is over (an address proven, or the fallback to
   // gRPC): after, HELLOs change nothing and the driver need not feed OnHello.
   bool awaiting_hello() const {
-    return transport_ == SessionTransport::kUdp && (phase_ == Phase::kStart || phase_ == Phase::kHelloWait);
+    return transport_ == SessionTransport::kUdp && !proven_ &&
+           (phase_ == Phase::kStart || phase_ == Phase::kRefinements);
   }
   const std::string& end_reason() const { return end_reason_; }
   SessionSenderStats stats() const;
 
  private:
-  enum class Phase { kStart, kHelloWait, kRefinements, kAwaitRepair, kRepairing, kLinger, kFinished };
+  enum class Phase { kStart, kRefinements, kAwaitRepair, kRepairing, kLinger, kFinished };
   enum class Step { kControl, kDatagrams, kRefinementEnd };
 
   SenderAction Finish(Status status, std::string reason);
-  SenderAction HelloWait(uint64_t now_us);
+  // UDP before a proof: whether the HELLO wait has run out at now_us.
+  bool HelloWaitOver(uint64_t now_us);
   SenderAction NextRefinementStep(uint64_t now_us);
   SenderAction AfterEnd(uint64_t now_us);
   bool InReliableCut(const PlannedRefinement& r);

@@ -73,8 +73,13 @@ class StreamOverRelay : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new test_util::TempDir();
-    // A HELLO round trip through 30 % bursts may take more than the default second.
-    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2", "--hello-timeout", "4000"});
+    // A HELLO round trip through 30 % bursts may take more than the default
+    // second. 4 Mbit/s per session: what goes on the stream before the HELLO
+    // proves an address (no round trip is waited for; tens of ms on a loaded
+    // machine) stays a small part of every session, so the loss these tests
+    // are about has UDP datagrams to hit.
+    auto server = ServeProcess::Start({"--store", dir_->File("store"), "--workers", "2", "--hello-timeout", "4000",
+                                       "--max-session-rate", "4"});
     ASSERT_TRUE(server.ok()) << server.status().ToString();
     server_ = server.value().release();
     ASSERT_FALSE(server_->udp_address().empty()) << "serve says where its UDP endpoint is";
@@ -110,11 +115,17 @@ class StreamOverRelay : public ::testing::Test {
   static std::vector<std::pair<std::string, std::string>> Models() {
     return {{"bunny", "stanford-bunny.obj"}, {"horse", "horse.ply"}, {"spot", "spot.obj"}};
   }
+  // `both` ways, except that the HELLOs (all that goes to the server) are
+  // not lost: a lost HELLO only leaves the session on the stream a while
+  // longer (no round trip is waited for), which is not what these tests
+  // lose data for. The HELLO wait's fallback is StreamSession's test.
   static std::unique_ptr<UdpRelay> Relay(const Impairment& both) {
     RelayOptions o;
     o.upstream = SocketAddress::Parse(server_->udp_address()).value();
     o.to_client = both;
     o.to_server = both;
+    o.to_server.loss = 0;
+    o.to_server.p_bad = 0;
     o.to_server.seed = both.seed + 1000;
     o.record = 100000;
     return UdpRelay::Start(o).value();
@@ -184,17 +195,24 @@ TEST_F(StreamOverRelay, LossBurstsDelayReorderingAndDuplicates) {
   }
   uint64_t moved = 0, duplicates = 0;
   for (const Case& c : cases) {
-    // The reliable cut keeps a small model's coarse refinements off UDP: one
-    // small session may lose nothing by chance, the case as a whole must.
+    // The reliable cut keeps a small model's coarse refinements off UDP, and
+    // what is sent before the HELLO proves an address goes on the stream (on
+    // loopback the whole spot, and a share of the others that depends on
+    // the machine's load): one session may lose nothing by chance, the case
+    // as a whole must.
     uint64_t case_lost = 0;
     for (const auto& [asset, file] : Models()) {
       SCOPED_TRACE(std::string(c.name) + ", " + asset);
       auto relay = Relay(c.impairment);
       const Result got = RunSession(*client_, test_util::SessionFor(asset, 0, -1, false, relay->front().ToString()));
-      moved += ExpectLikeLossless(got, lossless_->at(asset), asset == "bunny");
+      moved += ExpectLikeLossless(got, lossless_->at(asset), false);
       case_lost += got.stats.datagrams_lost;
       const auto down = relay->to_client();
-      EXPECT_LE(got.stats.datagrams_lost, down.dropped) << "what is lost was dropped by the relay";
+      // Or came after its refinement was declared lost (the relay's jitter
+      // reorders datagrams by up to 3 ms, and the reorder window starts at 1 ms).
+      EXPECT_LE(got.stats.datagrams_lost, down.dropped + got.stats.datagrams_late)
+          << "what is lost was dropped by the relay, or came late";
+      EXPECT_LE(got.stats.datagrams_late, got.stats.datagrams_lost);
       duplicates += got.stats.datagrams_duplicate;
       EXPECT_EQ(got.stats.datagrams_rejected, 0u);
     }
@@ -254,6 +272,8 @@ TEST_F(StreamOverRelay, ReliableCutFollowsTheLossTheClientExpects) {
   ASSERT_EQ(calm.last.type, sdk::EventType::kComplete) << calm.last.status.ToString();
   EXPECT_EQ(calm.stats.datagrams_lost, 0u);
   EXPECT_GT(calm.stats.reliable_refinements, 0u) << "the coarsest refinements go on the stream in every session";
+  // (The refinements sent before the HELLO proved an address are counted
+  // apart, as early: they say nothing of the cut.)
   EXPECT_GT(calm.stats.reliable_datagram_bytes, 0u);
 
   auto lossy = Relay(Impairment::Loss(0.30, 31));

@@ -36,8 +36,10 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
   auto ns = NetNs::Create();
   if (!ns.ok()) GTEST_SKIP() << ns.status().message();
   test_util::TempDir dir;
+  // 2 Mbit/s: most of a session goes as UDP once the HELLO proved the
+  // address (before, the refinements go on the stream).
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--listen", (*ns)->host_ip() + ":0",
-                                     "--insecure", "--hello-timeout", "1500"});
+                                     "--insecure", "--hello-timeout", "1500", "--max-session-rate", "2"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
   const auto assets = test_util::NewAssetClient((*server)->address());
   v1::IngestResponse r;
@@ -53,26 +55,39 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
   ASSERT_GT(vertices, 0);
 
   ASSERT_TRUE((*ns)->SetLoss(12, true).ok());
-  const nlohmann::json udp_loss = FetchInside(**ns, (*server)->address(), dir.File("udp12.glb"));
-  EXPECT_EQ(udp_loss["transport"], "udp") << udp_loss.dump();
-  EXPECT_EQ(udp_loss["vertices"], vertices) << "the lossless vertex count";
-  const double lost = udp_loss.value("datagrams_lost", 0.0);
-  const double received = udp_loss.value("datagrams_received", 0.0);
-  ASSERT_GT(lost + received, 0.0);
-  // 116 datagrams at 12 %: 3 sigma is about 9 %.
-  EXPECT_GT(lost / (lost + received), 0.02) << udp_loss.dump();
-  EXPECT_LT(lost / (lost + received), 0.25) << udp_loss.dump();
-  EXPECT_GT(udp_loss.value("predicted_vertices", 0), 0) << udp_loss.dump();
+  // Two sessions, their UDP datagrams together (the stream's never lose).
+  double lost = 0, received = 0;
+  for (int i = 0; i < 2; ++i) {
+    const nlohmann::json udp_loss = FetchInside(**ns, (*server)->address(), dir.File("udp12.glb"));
+    EXPECT_EQ(udp_loss["transport"], "udp") << udp_loss.dump();
+    EXPECT_EQ(udp_loss["vertices"], vertices) << "the lossless vertex count";
+    EXPECT_EQ(udp_loss["datagrams_lost"] > 0, udp_loss.value("predicted_vertices", 0) > 0) << udp_loss.dump();
+    lost += udp_loss.value("datagrams_lost", 0.0);
+    received += udp_loss.value("udp_datagrams_received", 0.0);
+  }
+  ASSERT_GT(received, 60.0) << "most of the two sessions went as UDP";
+  // About 90 datagrams at 12 %: 3 sigma is about 10 %.
+  EXPECT_GT(lost / (lost + received), 0.02);
+  EXPECT_LT(lost / (lost + received), 0.25);
 
   ASSERT_TRUE((*ns)->SetLoss(12, false).ok());
   const nlohmann::json both = FetchInside(**ns, (*server)->address(), dir.File("both12.glb"));
   EXPECT_EQ(both["vertices"], vertices) << both.dump();
   EXPECT_EQ(both["end_reason"], "complete") << both.dump();
 
+  // Inbound UDP blocked (the client's HELLOs still get out): no address is
+  // proven, so nothing is sent into the void; the refinements go on the
+  // stream from the start, and the session falls back to gRPC if it outlasts
+  // the HELLO wait (a bunny on this link does not: it is all early).
   ASSERT_TRUE((*ns)->SetLoss(100, true).ok());
   const nlohmann::json blocked = FetchInside(**ns, (*server)->address(), dir.File("blocked.glb"));
-  EXPECT_EQ(blocked["transport"], "grpc") << blocked.dump();
-  EXPECT_NE(blocked.value("fallback_reason", std::string()).find("HELLO"), std::string::npos) << blocked.dump();
+  if (blocked["transport"] == "grpc") {
+    EXPECT_NE(blocked.value("fallback_reason", std::string()).find("HELLO"), std::string::npos) << blocked.dump();
+  }
+  EXPECT_EQ(blocked["datagrams_lost"], 0) << blocked.dump();
+  EXPECT_EQ(blocked.value("early_datagram_bytes", 0) + blocked.value("reliable_datagram_bytes", 0),
+            blocked.value("unreliable_bytes", -1))
+      << "every datagram came on the stream: " << blocked.dump();
   EXPECT_EQ(blocked["vertices"], vertices);
   EXPECT_EQ(blocked["predicted_vertices"], 0);
   const nlohmann::json same = test_util::RunCliJson("compare --json " + test_util::Quote(dir.File("clean.glb")) + " " +

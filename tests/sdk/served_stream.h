@@ -275,6 +275,8 @@ struct SimHost {
   Status stream_end_status;
   bool stream_end_taken = false;
   std::vector<Event> events;
+  std::vector<uint64_t> event_times;  // when each event was handed out
+  UdpCounters udp;                  // what the UDP receiver would show (hello_rtt_us: the loss rules)
   std::vector<Outgoing> sent;       // what the client wrote on the stream, in order
   bool half_closed = false;
   std::optional<UdpStart> udp_started;
@@ -333,9 +335,11 @@ struct SimHost {
     for (int round = 0; round < 2; ++round) {
       if (auto e = core.NextEvent()) {
         events.push_back(*e);
+        event_times.push_back(now_us);
         return e;
       }
       if (core.over()) return std::nullopt;
+      core.SetUdpCounters(udp);
       core.CheckEnd(now_us);
       Apply();
       if (core.has_event()) continue;
@@ -346,6 +350,7 @@ struct SimHost {
     }
     if (auto e = core.NextEvent()) {
       events.push_back(*e);
+      event_times.push_back(now_us);
       return e;
     }
     return std::nullopt;

@@ -36,10 +36,11 @@ struct Driven {
 
 Driven Drive(const std::vector<const ServedPrimitive*>& primitives, const NetworkOptions& n, const SessionOptions& o,
           uint64_t poll_every_us = 1000, uint64_t udp_lag_us = 0, uint64_t first_poll_us = 0,
-          bool stream_ends = true, uint64_t run_for_us = 60000000) {
+          bool stream_ends = true, uint64_t run_for_us = 60000000, uint64_t hello_rtt_us = 0) {
   Driven r;
   r.schedule = Serve(primitives, n);
   r.host = std::make_unique<SimHost>(o, n.start_us - 5000);
+  r.host->udp.hello_rtt_us = hello_rtt_us;
   r.host->pending = r.schedule.arrivals;
   r.host->udp_lag_us = udp_lag_us;
   r.host->stream_end_after_last = stream_ends;
@@ -204,6 +205,54 @@ TEST(SessionCore, ASlowPollerUnderLossStillDecodesWhatArrived) {
   // The same datagrams arrived: the same predicted mesh whatever the poll rate.
   EXPECT_TRUE(SameMesh(slow.host->core.reader(0).Mesh(), fast.host->core.reader(0).Mesh()));
   EXPECT_EQ(slow.host->core.stats().datagrams_lost, fast.host->core.stats().datagrams_lost);
+}
+
+// Loss detection by packet numbers: with an RTT sample (the HELLO's) a UDP
+// refinement that lost a datagram is decoded once three later packet numbers
+// or an eighth of the round trip after a later datagram have passed, not the
+// straggler timeout after its END; the same datagrams make the same mesh.
+TEST(SessionCore, ALostDatagramIsDeclaredByLaterPacketNumbersNotAfterAFixedWait) {
+  double saved_ms = 0;
+  for (uint64_t seed = 51; seed <= 56; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    NetworkOptions n = Lossless(seed);
+    n.model.reorder = 0;
+    n.model.duplicate = 0;
+    n.model.loss = 0.3;
+    Driven fixed = Drive({&Sphere()}, n, Options());
+    Driven rules = Drive({&Sphere()}, n, Options(), 1000, 0, 0, true, 60000000, /*hello_rtt_us=*/40000);
+    ExpectEventsInOrder(rules.host->events, EventType::kComplete);
+    EXPECT_TRUE(SameMesh(fixed.host->core.reader(0).Mesh(), rules.host->core.reader(0).Mesh()));
+    EXPECT_EQ(fixed.host->core.stats().datagrams_lost, rules.host->core.stats().datagrams_lost);
+    EXPECT_EQ(fixed.host->core.stats().losses_declared, 0u) << "without an RTT sample, the straggler timeout";
+    EXPECT_GT(rules.host->core.stats().losses_declared, 0u);
+    EXPECT_EQ(rules.host->core.stats().losses_spurious, 0u);
+    EXPECT_EQ(rules.host->core.stats().reorder_window_ms, 5.0);
+    const double a = fixed.host->core.stats().time_to_full_ms, b = rules.host->core.stats().time_to_full_ms;
+    EXPECT_LE(b, a) << "never later";
+    saved_ms = std::max(saved_ms, a - b);
+  }
+  EXPECT_GE(saved_ms, 30.0) << "a lossy last refinement no longer waits 50 ms";
+}
+
+// Reordering beyond the rules (datagrams up to 5 ms late, at a 0.1 ms
+// spacing, against a 1 ms window): a datagram declared lost that comes after
+// all stops the packet rule and doubles the window, so the session adapts
+// after a few mistakes instead of predicting what arrives late forever.
+TEST(SessionCore, ReorderingBeyondTheRulesGrowsTheWindow) {
+  NetworkOptions n = Lossless(61);
+  n.model.duplicate = 0;
+  n.model.reorder = 0.3;
+  n.timing.reliable_latency_us = 2000;  // the control blocks come first: the rules watch every datagram
+  Driven r = Drive({&Sphere(), &SecondSphere()}, n, Options(), 1000, 0, 0, true, 60000000, /*hello_rtt_us=*/8000);
+  SimHost& h = *r.host;
+  ExpectEventsInOrder(h.events, EventType::kComplete);
+  const SessionStats& s = h.core.stats();
+  EXPECT_GT(s.losses_spurious, 0u);
+  EXPECT_LE(s.losses_spurious, 6u) << "the window grew instead";
+  EXPECT_GE(s.reorder_window_ms, 4.0) << "from 1 ms, doubled";
+  EXPECT_LE(s.reorder_window_ms, 50.0) << "never beyond the straggler timeout";
+  EXPECT_EQ(h.core.primitive_count(), 2u);
 }
 
 TEST(SessionCore, TheRepairAsksForExactlyWhatWasLostAndGivesTheExactMesh) {

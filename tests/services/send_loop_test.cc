@@ -52,7 +52,7 @@ class RecordingStream : public SessionStream {
  public:
   void Start(SessionTransport, const UdpEndpoint::Session*) override { Record("start"); }
   void TransportChanged(SessionTransport, const std::string&) override { Record("transport_change"); }
-  void Control(const PlannedRefinement&, uint32_t, uint32_t, uint64_t, bool) override { Record("control"); }
+  void Control(const SenderAction&) override { Record("control"); }
   void Datagram(const uint8_t*, size_t) override { Record("datagram"); }
   void RefinementEnd(uint32_t, uint32_t, uint32_t) override { Record("refinement_end"); }
   void End(const std::string&) override { Record("end"); }
@@ -65,10 +65,16 @@ class RecordingStream : public SessionStream {
     changed_.notify_all();
   }
   // The loop asks before every action: the count of its steps' actions.
+  // While `hold` is set the stream reports itself full (a client that reads
+  // slowly): the loop steps nothing until a write completes.
   size_t queued() const override {
     std::lock_guard<std::mutex> lock(mutex_);
     ++asked_;
-    return 0;
+    return hold_ ? size_t{1} << 20 : 0;
+  }
+  void Hold(bool hold) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hold_ = hold;
   }
   size_t asked() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -98,6 +104,7 @@ class RecordingStream : public SessionStream {
   bool finished_ = false;
   Status status_;
   mutable size_t asked_ = 0;
+  bool hold_ = false;
 };
 
 std::unique_ptr<SessionSender> Sender(const Fixture& f, bool repair = false) {
@@ -260,17 +267,24 @@ TEST(SendLoop, OnceAnAddressIsProvenHellosNoLongerWakeTheSession) {
   options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
   SendLoop loop;
   RecordingStream stream;
+  // The stream is full until the address is proven, so the refinement is
+  // not begun on the stream before (sessions do not wait for the proof).
+  stream.Hold(true);
   SendLoop::Registration reg =
       loop.Add(std::make_unique<SessionSender>(f.plan, f.artifact, -1, options, SteadyNowUs()), &stream, udp);
   reg.Begin();
 
-  // The round trip proves the client's address; the proof wakes the session
-  // at once (the HELLO timeout is 10 s), which sends its refinement as UDP.
+  // The round trip proves the client's address; once the stream has room,
+  // the refinement goes as UDP.
   HelloClient client;
   client.Hello(**endpoint, s, Challenge{});
   Challenge challenge{};
   ASSERT_TRUE(client.Ack(s, 2000, &challenge));
   client.Hello(**endpoint, s, challenge);
+  WaitCounted(**endpoint, 2);
+  ASSERT_TRUE(s.proven());
+  stream.Hold(false);
+  reg.OnWritten();
   const auto until = std::chrono::steady_clock::now() + kDeadline;
   while (std::chrono::steady_clock::now() < until) {
     const std::vector<std::string> calls = stream.calls();
@@ -278,6 +292,7 @@ TEST(SendLoop, OnceAnAddressIsProvenHellosNoLongerWakeTheSession) {
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   ASSERT_EQ(stream.calls(), (std::vector<std::string>{"start", "control", "refinement_end", "end"}));
+  EXPECT_EQ((*endpoint)->stats().data_sent, 3u) << "two data datagrams and the END, as UDP";
 
   // In the linger now (2 s): HELLOs, copies or retries, wake nothing.
   const size_t asked = stream.asked();

@@ -3,6 +3,7 @@
 // test would fail without the behaviour it names.
 #include "services/streaming/session_sender.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,7 +28,9 @@ constexpr uint32_t kDatagramBytes = 1000;
 struct Fixture {
   std::vector<uint8_t> artifact;
   SessionPlan plan;
-  Fixture() {
+  // `refinements` of `datagrams` each (the HELLO tests want many short ones).
+  explicit Fixture(uint32_t refinements = kRefinements, uint32_t datagrams = kDatagrams) {
+    const uint32_t kRefinements = refinements, kDatagrams = datagrams;
     artifact.assign(16 + kRefinements * (16 + kDatagrams * kDatagramBytes), 0);
     artifact[0] = kStreamVersion;
     PlannedPrimitive p;
@@ -63,6 +66,7 @@ SessionSenderOptions Options(SessionTransport transport, double rate_bps = 8e6) 
   o.transport = transport;
   o.rate.initial_bps = rate_bps;
   o.rate.max_bps = rate_bps;
+  o.rate.min_bps = std::min(o.rate.min_bps, rate_bps);
   o.reliable_cut = false;
   uint64_t next = 100;
   o.reserve_packet_numbers = [next](uint64_t count) mutable {
@@ -212,55 +216,118 @@ TEST(SessionSender, UdpDatagramsArePacedAtTheRateInBursts) {
   EXPECT_EQ(s.stats().datagrams_sent, kRefinements * (kDatagrams + 1));
 }
 
+// Sixty refinements of one datagram, 1036 bytes on the wire each, at 82.88
+// kbit/s: a control block every 0.1 s once the pacer's burst is spent.
+constexpr uint32_t kShortRefinements = 60;
+constexpr double kTenPerSecond = 1036 * 8 * 10;
+
+// The time of the first action of `kind` (UINT64_MAX: none), and its index.
+size_t FirstOf(const Script& script, SenderAction::Kind kind) {
+  for (size_t i = 0; i < script.actions.size(); ++i) {
+    if (script.actions[i].kind == kind) return i;
+  }
+  return SIZE_MAX;
+}
+
+// No round trip is spent before data moves: while no address is proven the
+// refinements go on the stream, paced, from the first step; the first one
+// after the proof goes as UDP DATA.
+TEST(SessionSender, RefinementsStartOnTheStreamAndMoveToUdpOnceAnAddressIsProven) {
+  Fixture f(kShortRefinements, 1);
+  SessionSender s(f.plan, f.artifact, -1, Options(SessionTransport::kUdp, kTenPerSecond), 0);
+  Script script;
+  script.Run(s, 250000);  // the HELLO round trip takes a quarter of a second
+  ASSERT_GE(script.actions.size(), 3u);
+  EXPECT_EQ(script.actions[0].kind, SenderAction::kStart);
+  EXPECT_EQ(script.actions[1].kind, SenderAction::kControl);
+  EXPECT_EQ(script.times[1], 0u) << "the first refinement does not wait for the HELLO";
+  EXPECT_TRUE(script.actions[1].reliable);
+  const size_t before = script.Count(SenderAction::kControl);
+  EXPECT_GE(before, 3u);
+  s.OnHello(250000, true);
+  script.Run(s);
+  bool proven = false;
+  size_t early = 0, udp = 0;
+  for (size_t i = 0; i < script.actions.size(); ++i) {
+    const SenderAction& a = script.actions[i];
+    if (a.kind == SenderAction::kControl) {
+      // The refinement under way at the proof finishes on the stream.
+      if (script.times[i] > 250000) proven = true;
+      EXPECT_EQ(a.reliable, !proven) << "refinement " << a.refinement->refinement;
+      EXPECT_EQ(a.first_packet_number == 0, !proven);
+      (proven ? udp : early) += 1;
+    }
+    if (a.kind == SenderAction::kDatagrams) EXPECT_EQ(a.on_stream, !proven);
+  }
+  EXPECT_EQ(early + udp, kShortRefinements);
+  EXPECT_GT(udp, 0u);
+  EXPECT_EQ(s.stats().early_refinements, early);
+  EXPECT_EQ(s.stats().early_bytes, early * kDatagramBytes);
+  EXPECT_EQ(script.Count(SenderAction::kTransportChange), 0u);
+  EXPECT_EQ(s.stats().transport, SessionTransport::kUdp);
+}
+
 TEST(SessionSender, WithoutAHelloTheSessionFallsBackToGrpcAfterTheTimeout) {
-  Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  Fixture f(kShortRefinements, 1);
+  SessionSenderOptions o = Options(SessionTransport::kUdp, kTenPerSecond);
   o.hello_timeout_us = 1000000;
   SessionSender s(f.plan, f.artifact, -1, o, 0);
   Script script;
   ASSERT_EQ(s.Next(0).kind, SenderAction::kStart);
   // The start took 0.5 s to write: the wait counts from then.
   script.now = 500000;
-  const SenderAction wait = s.Next(script.now);
-  ASSERT_EQ(wait.kind, SenderAction::kWait);
-  EXPECT_EQ(wait.due_us, 1500000u);
-  script.Run(s);
-  ASSERT_GE(script.actions.size(), 2u);
-  EXPECT_EQ(script.actions[0].kind, SenderAction::kTransportChange);
-  EXPECT_EQ(script.times[0], 1500000u);
-  EXPECT_EQ(script.actions[0].transport, SessionTransport::kGrpc);
-  EXPECT_EQ(script.actions[0].reason, "no HELLO proved a UDP address within 1000 ms");
-  for (const SenderAction& a : script.actions) {
-    if (a.kind == SenderAction::kDatagrams) {
-      EXPECT_TRUE(a.on_stream);
+  script.Run(s, UINT64_MAX, true);
+  const size_t change = FirstOf(script, SenderAction::kTransportChange);
+  ASSERT_NE(change, SIZE_MAX);
+  EXPECT_EQ(script.Count(SenderAction::kTransportChange), 1u);
+  EXPECT_GE(script.times[change], 1500000u);
+  EXPECT_LE(script.times[change], 1600000u) << "looked at before each refinement";
+  EXPECT_EQ(script.actions[change].transport, SessionTransport::kGrpc);
+  EXPECT_EQ(script.actions[change].reason, "no HELLO proved a UDP address within 1000 ms");
+  EXPECT_EQ(script.actions[change + 1].kind, SenderAction::kControl) << "between two refinements";
+  size_t controls_before = 0;
+  for (size_t i = 0; i < script.actions.size(); ++i) {
+    const SenderAction& a = script.actions[i];
+    if (a.kind == SenderAction::kControl) {
+      EXPECT_TRUE(a.reliable);
+      controls_before += i < change;
     }
+    if (a.kind == SenderAction::kDatagrams) EXPECT_TRUE(a.on_stream);
   }
+  EXPECT_GE(controls_before, 10u) << "data moved during the wait";
+  EXPECT_EQ(s.stats().early_refinements, controls_before);
+  // After the fallback the stream is not paced: the rest goes at once.
+  EXPECT_EQ(script.times.back(), script.times[change]);
   EXPECT_EQ(s.stats().transport, SessionTransport::kGrpc);
 }
 
 TEST(SessionSender, AHelloUnderWayExtendsTheWaitUpToThreeTimeouts) {
-  Fixture f;
-  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  Fixture f(kShortRefinements, 1);
+  SessionSenderOptions o = Options(SessionTransport::kUdp, kTenPerSecond);
   o.hello_timeout_us = 1000000;
   SessionSender s(f.plan, f.artifact, -1, o, 0);
   s.OnHello(0, false);  // the registration
-  ASSERT_EQ(s.Next(0).kind, SenderAction::kStart);
-  EXPECT_EQ(s.Next(0).due_us, 1000000u);
-  s.OnHello(900000, false);  // an authenticated HELLO, no proof yet
-  EXPECT_EQ(s.Next(900000).due_us, 1900000u);
-  s.OnHello(2900000, false);
-  EXPECT_EQ(s.Next(2900000).due_us, 3000000u) << "at most three timeouts in all";
-  // Proven before that: the refinements go as UDP.
-  s.OnHello(2950000, true);
-  const SenderAction a = s.Next(2950000);
-  EXPECT_EQ(a.kind, SenderAction::kControl);
-  EXPECT_FALSE(a.reliable);
+  Script script;
+  script.Run(s, 900000);
+  s.OnHello(900000, false);  // an authenticated HELLO, no proof yet: until 1.9 s
+  script.Run(s, 1850000);
+  EXPECT_EQ(script.Count(SenderAction::kTransportChange), 0u) << "the first timeout was extended";
+  s.OnHello(1850000, false);  // until 2.85 s
+  script.Run(s, 2800000);
+  EXPECT_EQ(script.Count(SenderAction::kTransportChange), 0u);
+  s.OnHello(2800000, false);  // until 3.8 s, but at most three timeouts: 3 s
+  script.Run(s);
+  const size_t change = FirstOf(script, SenderAction::kTransportChange);
+  ASSERT_NE(change, SIZE_MAX);
+  EXPECT_GE(script.times[change], 3000000u);
+  EXPECT_LE(script.times[change], 3100000u) << "at most three timeouts in all";
 }
 
 // The driver feeds HELLOs (and wakes the session on them) only while the
-// sender waits for one: over UDP until an address is proven or the fallback.
+// sender waits for one: over UDP until an address is proven or the fallback,
+// while refinements already move on the stream.
 TEST(SessionSender, TheHelloWaitEndsWithTheProofOrTheFallback) {
-  Fixture f;
+  Fixture f(kShortRefinements, 1);
   SessionSender grpc(f.plan, f.artifact, -1, Options(SessionTransport::kGrpc), 0);
   EXPECT_FALSE(grpc.awaiting_hello());
 
@@ -268,19 +335,19 @@ TEST(SessionSender, TheHelloWaitEndsWithTheProofOrTheFallback) {
   EXPECT_TRUE(proven.awaiting_hello());
   ASSERT_EQ(proven.Next(0).kind, SenderAction::kStart);
   EXPECT_TRUE(proven.awaiting_hello());
-  EXPECT_EQ(proven.Next(0).kind, SenderAction::kWait);
-  EXPECT_TRUE(proven.awaiting_hello());
+  EXPECT_EQ(proven.Next(0).kind, SenderAction::kControl);
+  EXPECT_TRUE(proven.awaiting_hello()) << "sending on the stream, still waiting";
   proven.OnHello(100, true);
-  EXPECT_EQ(proven.Next(100).kind, SenderAction::kControl);
   EXPECT_FALSE(proven.awaiting_hello());
 
-  SessionSenderOptions o = Options(SessionTransport::kUdp);
+  SessionSenderOptions o = Options(SessionTransport::kUdp, kTenPerSecond);
   o.hello_timeout_us = 1000;
   SessionSender fallback(f.plan, f.artifact, -1, o, 0);
-  ASSERT_EQ(fallback.Next(0).kind, SenderAction::kStart);
-  EXPECT_EQ(fallback.Next(0).due_us, 1000u);
+  Script script;
+  script.Run(fallback, 500);
   EXPECT_TRUE(fallback.awaiting_hello());
-  EXPECT_EQ(fallback.Next(1000).kind, SenderAction::kTransportChange);
+  script.Run(fallback, 200000);
+  EXPECT_EQ(script.Count(SenderAction::kTransportChange), 1u);
   EXPECT_FALSE(fallback.awaiting_hello());
 }
 

@@ -159,6 +159,9 @@ typedef struct {
   uint64_t repaired_datagrams;  /* datagrams the repair brought (config->repair) */
   double time_to_exact_ms;      /* from open to the exact mesh; 0 while the mesh is predicted */
   uint64_t reliable_datagram_bytes; /* datagram bytes the server sent on the gRPC stream (its reliable cut) over UDP */
+  uint64_t early_datagram_bytes; /* ... and before the UDP address was proven (no wait for the HELLO) */
+  uint64_t datagrams_late;      /* UDP datagrams that came after their refinement was decoded without them */
+  uint32_t losses_declared;     /* UDP refinements decoded once later packet numbers showed their loss */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
