@@ -302,9 +302,6 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
     // A datagram of the stream over UDP: the reliable cut's, or one sent
     // before an address was proven.
     if (reliable_over_udp && !end) (t.before_proof ? stats_.early_datagram_bytes : stats_.reliable_datagram_bytes) += size;
-    if (!end && packet_number != nullptr && h.refinement < p.reconstructor->applied()) {
-      ++stats_.datagrams_late;  // decoded without it (declared lost, or the straggler timeout)
-    }
     if (!end && packet_number != nullptr && t.declared && !t.spurious &&
         std::find(t.packet_numbers.begin(), t.packet_numbers.end(), *packet_number) == t.packet_numbers.end()) {
       // Declared lost, yet here: reordering beyond the rules. The packet
@@ -359,9 +356,20 @@ uint64_t SessionCore::ReorderWindowUs() const {
 
 // A UDP datagram numbered `packet_number` arrived at `at`: the refinements
 // whose data was all sent before it have had a later datagram.
+template <typename Primitives, typename F>
+Status SessionCore::ForOpenUdpRefinements(Primitives& primitives, F f) {
+  for (auto& p : primitives) {
+    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
+      auto& t = p.tracks[r];
+      if (t.reliable || t.declared || t.datagrams == 0) continue;
+      MS_RETURN_IF_ERROR(f(p, r, t));
+    }
+  }
+  return Status::Ok();
+}
+
 void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
-  if (!any_packet_number_ || packet_number > highest_packet_number_) {
-    highest_packet_number_ = packet_number;
+  if (!SeenPacketNumber(packet_number)) {
     rises_.emplace_back(packet_number, at);
     if (rises_.size() > kRiseHistory) {
       rises_.pop_front();
@@ -374,16 +382,12 @@ void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
     uint64_t since = later == rises_.end() || at < later->second ? 0 : at - later->second;
     if (later == rises_.begin() && rises_forgotten_) since = UINT64_MAX / 2;
     reorder_seen_us_ = std::max(reorder_seen_us_, since);
-    if (highest_packet_number_ >= packet_number + kPacketThreshold) packet_rule_ = false;
+    if (SeenPacketNumber(packet_number + kPacketThreshold)) packet_rule_ = false;
   }
-  any_packet_number_ = true;
-  for (PrimitiveState& p : primitives_) {
-    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
-      RefinementTrack& t = p.tracks[r];
-      if (t.reliable || t.declared || t.later_us != 0 || t.datagrams == 0) continue;
-      if (packet_number >= t.first_packet_number + t.datagrams) t.later_us = at;
-    }
-  }
+  (void)ForOpenUdpRefinements(primitives_, [&](PrimitiveState&, size_t, RefinementTrack& t) {
+    if (t.later_us == 0 && packet_number >= t.first_packet_number + t.datagrams) t.later_us = at;
+    return Status::Ok();
+  });
 }
 
 // Declares lost what UDP refinements miss once later datagrams show it will
@@ -394,18 +398,12 @@ void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
 Status SessionCore::DeclareLosses(uint64_t clock) {
   if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return Status::Ok();
   const uint64_t window = ReorderWindowUs();
-  for (PrimitiveState& p : primitives_) {
-    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
-      const RefinementTrack& t = p.tracks[r];
-      if (t.reliable || t.declared || t.datagrams == 0) continue;
-      const uint64_t last_data = t.first_packet_number + t.datagrams - 1;
-      const bool by_packets =
-          packet_rule_ && any_packet_number_ && highest_packet_number_ >= last_data + kPacketThreshold;
-      const bool by_time = t.later_us != 0 && clock >= t.later_us + window;
-      if (by_packets || by_time) MS_RETURN_IF_ERROR(Declare(p, r, clock));
-    }
-  }
-  return Status::Ok();
+  return ForOpenUdpRefinements(primitives_, [&](PrimitiveState& p, size_t r, const RefinementTrack& t) {
+    const uint64_t last_data = t.first_packet_number + t.datagrams - 1;
+    const bool by_packets = packet_rule_ && SeenPacketNumber(last_data + kPacketThreshold);
+    const bool by_time = t.later_us != 0 && clock >= t.later_us + window;
+    return by_packets || by_time ? Declare(p, r, clock) : Status::Ok();
+  });
 }
 
 Status SessionCore::Declare(PrimitiveState& p, size_t refinement, uint64_t now) {
@@ -422,12 +420,10 @@ uint64_t SessionCore::next_due_us() const {
   if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return UINT64_MAX;
   uint64_t due = UINT64_MAX;
   const uint64_t window = ReorderWindowUs();
-  for (const PrimitiveState& p : primitives_) {
-    for (size_t r = p.reconstructor->applied(); r < p.tracks.size() && p.tracks[r].has_control; ++r) {
-      const RefinementTrack& t = p.tracks[r];
-      if (!t.reliable && !t.declared && t.later_us != 0) due = std::min(due, t.later_us + window);
-    }
-  }
+  (void)ForOpenUdpRefinements(primitives_, [&](const PrimitiveState&, size_t, const RefinementTrack& t) {
+    if (t.later_us != 0) due = std::min(due, t.later_us + window);
+    return Status::Ok();
+  });
   return due;
 }
 
@@ -497,8 +493,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       t.before_proof = c.reliable() && c.before_proof();
       // UDP may run ahead of the stream: datagrams numbered after this
       // refinement's may have come already; the window counts from now.
-      if (!t.reliable && t.datagrams > 0 && any_packet_number_ &&
-          highest_packet_number_ >= t.first_packet_number + t.datagrams) {
+      if (!t.reliable && t.datagrams > 0 && SeenPacketNumber(t.first_packet_number + t.datagrams)) {
         t.later_us = now;
       }
       // Counted as they come; the reliable copy is charged to the datagram bytes.
@@ -679,13 +674,15 @@ Status SessionCore::DecodeAgain(uint64_t now) {
 }
 
 void SessionCore::UpdateStats() {
-  uint64_t accepted = 0, rejected = 0, duplicates = 0;
+  uint64_t accepted = 0, rejected = 0, duplicates = 0, late = 0;
   for (const PrimitiveState& p : primitives_) {
     const ReconstructorStats& r = p.reconstructor->stats();
     accepted += r.accepted;
     rejected += r.rejected + r.overflow;
     duplicates += r.duplicates + r.late;
+    late += r.late;
   }
+  stats_.datagrams_late = late;
   stats_.datagrams_received = accepted;
   if (udp_running_) {
     // A repeated packet number is a copy the network made (or a replay: the

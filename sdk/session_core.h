@@ -188,6 +188,15 @@ class SessionCore {
   uint64_t ReorderWindowUs() const;
   bool LossRulesActive() const { return udp_.hello_rtt_us > 0; }
   void NotePacketNumber(uint64_t packet_number, uint64_t at);
+  // Calls f(p, refinement, track) for every UDP refinement of `primitives`
+  // (primitives_, const or not) whose control block has come and that is not
+  // decoded, declared lost, or on the stream; stops at the first error.
+  template <typename Primitives, typename F>
+  static Status ForOpenUdpRefinements(Primitives& primitives, F f);
+  // Whether a UDP datagram numbered `packet_number` or above has come.
+  bool SeenPacketNumber(uint64_t packet_number) const {
+    return !rises_.empty() && rises_.back().first >= packet_number;
+  }
   Status DeclareLosses(uint64_t clock);
   Status Declare(PrimitiveState& p, size_t refinement, uint64_t now);
   Status Handle(const v1::ServerMessage& m, uint64_t now);
@@ -245,13 +254,12 @@ class SessionCore {
   static constexpr uint64_t kPacketThreshold = 3;
   static constexpr uint64_t kMinReorderWindowUs = 2000;
   static constexpr size_t kRiseHistory = 4096;
-  bool any_packet_number_ = false;
-  uint64_t highest_packet_number_ = 0;
   bool packet_rule_ = true;           // off once reordering beyond it was seen
   uint64_t grown_window_us_ = 0;      // after spurious declarations: the window, doubled each time
   uint64_t reorder_seen_us_ = 0;      // the longest a datagram came after a later-numbered one
   // Each new highest packet number and when it arrived (increasing in both;
-  // the last kRiseHistory): how late a reordered datagram is.
+  // the last kRiseHistory): how late a reordered datagram is; its back is the
+  // highest packet number seen (empty: no UDP datagram yet).
   std::deque<std::pair<uint64_t, uint64_t>> rises_;
   bool rises_forgotten_ = false;
   size_t touched_ = SIZE_MAX;    // the primitive the last arrival went to

@@ -205,7 +205,6 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   const uint32_t stream = plan_.primitives[r.primitive].stream;
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   if (step_ == Step::kControl) {
-    bool early = false;
     const bool unproven = transport_ == SessionTransport::kUdp && !proven_;
     if (unproven && HelloWaitOver(now_us)) {
       transport_ = SessionTransport::kGrpc;
@@ -215,7 +214,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
       return a;
     }
     const bool cut = transport_ == SessionTransport::kUdp && InReliableCut(r);
-    early = unproven && !cut;
+    const bool early = unproven && !cut;
     if (early) {
       // No address to send DATA to yet: the refinement goes on the stream,
       // paced as UDP would be, and the next one looks again.
