@@ -346,6 +346,9 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
     if (MS_FIELD_FITS(out, ms_stats, early_datagram_bytes)) out->early_datagram_bytes = stats.early_datagram_bytes;
     if (MS_FIELD_FITS(out, ms_stats, datagrams_late)) out->datagrams_late = stats.datagrams_late;
     if (MS_FIELD_FITS(out, ms_stats, losses_declared)) out->losses_declared = stats.losses_declared;
+    if (MS_FIELD_FITS(out, ms_stats, decode_after_last_byte_ms)) {
+      out->decode_after_last_byte_ms = stats.decode_after_last_byte_ms;
+    }
     return Ok();
   });
 }

@@ -5,7 +5,9 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <thread>
+#include <ctime>
 #include <utility>
 
 #include "codec/mesh/quantized_mesh.h"
@@ -26,6 +28,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// The CPU time of the calling thread.
+double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) / 1e6;
+}
+
 // The host part of "HOST:PORT" / "[V6]:PORT" / "dns:///HOST:PORT".
 std::string HostOfTarget(std::string target) {
   const size_t scheme = target.find(":///");
@@ -45,19 +54,33 @@ struct Session::Impl {
   std::unique_ptr<v1::StreamService::Stub> stub;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>> stream;
   std::thread reader;
+  std::thread worker;  // the session thread: Run
 
-  // Filled by the reader thread and the UDP receiver.
+  // Filled by the reader thread and the UDP receiver, taken by the session
+  // thread; the events it makes, taken by Poll.
   std::mutex mutex;
-  std::condition_variable arrived;
+  std::condition_variable arrived;    // for the session thread
+  std::condition_variable published;  // for Poll
   std::deque<std::pair<uint64_t, v1::ServerMessage>> queue;  // with when it arrived
   std::deque<UdpPacket> packets;
   bool finished = false;  // the stream ended (status below)
   Status final_status;
+  bool stopping = false;  // the session is being destroyed
+  bool worker_over = false;  // the session thread has made its last event
+  std::deque<std::pair<Event, std::shared_ptr<const SessionView>>> outbox;
+  SessionStats live_stats;  // the core's, as of its last step
 
-  // Owned by the Poll thread.
+  // Owned by the session thread.
   std::unique_ptr<UdpReceiver> udp;
   std::unique_ptr<SessionCore> core;
   bool stream_end_taken = false;
+  SessionView building;  // the view as of the last event (unchanged primitives shared)
+  ViewBuffers buffers;   // the arrays of views no longer shown (Recycle under the mutex)
+  std::optional<Event> waiting_level;  // a level to queue once Poll takes the one before
+
+  // Owned by the Poll thread.
+  std::shared_ptr<const SessionView> shown = std::make_shared<const SessionView>();
+  SessionStats stats;
 
   explicit Impl(const SessionOptions& o) : options(o), core(std::make_unique<SessionCore>(o, SteadyNowUs())) {}
 
@@ -79,7 +102,7 @@ struct Session::Impl {
   void Deliver(UdpPacket&& p) {
     std::lock_guard<std::mutex> lock(mutex);
     // Bounded: the reconstructors bound what they buffer; this queue only
-    // bridges to the Poll thread. Beyond it the datagram counts as lost.
+    // bridges to the session thread. Beyond it the datagram counts as lost.
     if (packets.size() >= kMaxQueuedPackets) return;
     packets.push_back(std::move(p));
     arrived.notify_one();
@@ -130,13 +153,107 @@ struct Session::Impl {
     }
   }
 
-  // The event to return; an error ends the call and the UDP half.
-  Event Returned(Event e) {
+  // The session thread's statistics: the core's, and its own CPU.
+  SessionStats StatsNow() const {
+    SessionStats st = core->stats();
+    st.session_thread_cpu_ms = ThreadCpuMs();
+    return st;
+  }
+
+  // Hands an event to Poll with the views it shows. An error ends the call
+  // and the UDP half. While a level waits untaken in the outbox a higher one
+  // waits here, without views (a copy of every mesh per level would cost a
+  // host that polls once a frame more than the decoding): it follows once
+  // Poll takes the one before (PublishWaitingLevel), or before an end.
+  void Publish(const Event& e) {
     if (e.type == EventType::kError) {
       udp.reset();
       context.TryCancel();
     }
-    return e;
+    if (e.type == EventType::kLevelReady) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!outbox.empty() && outbox.back().first.type == EventType::kLevelReady) {
+        waiting_level = e;
+        return;
+      }
+    }
+    if (waiting_level && e.type != EventType::kLevelReady) Queue(*std::exchange(waiting_level, std::nullopt));
+    waiting_level.reset();
+    Queue(e);
+  }
+
+  void PublishWaitingLevel() {
+    if (!waiting_level) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!outbox.empty() && outbox.back().first.type == EventType::kLevelReady) return;
+    }
+    Queue(*std::exchange(waiting_level, std::nullopt));
+  }
+
+  // Takes the views (into the arrays Poll no longer shows) and queues them with `e`.
+  void Queue(const Event& e) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      buffers.Recycle();
+    }
+    core->TakeView(building, &buffers);
+    auto view = std::make_shared<const SessionView>(building);
+    SessionStats st = StatsNow();
+    std::lock_guard<std::mutex> lock(mutex);
+    outbox.emplace_back(e, std::move(view));
+    live_stats = std::move(st);
+    published.notify_one();
+  }
+
+  // The session thread: hands the core every arrival and the clock, and
+  // publishes its events, until the session is over or destroyed.
+  void Run() {
+    SessionCore& c = *core;
+    for (;;) {
+      while (auto e = c.NextEvent()) Publish(*e);
+      PublishWaitingLevel();
+      if (c.over()) break;
+      ShowUdpCounters();
+      c.CheckEnd(SteadyNowUs());
+      Apply();
+      if (c.has_event()) continue;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        if (stopping) break;
+        live_stats = StatsNow();
+        if (c.handed_over()) {
+          // Wake at least every 10 ms (refinements become ready by the clock
+          // too, and the budgets and waits run out), and when a declared
+          // loss is due.
+          auto wake = Clock::now() + std::chrono::milliseconds(10);
+          const uint64_t due = c.next_due_us(), now_us = SteadyNowUs();
+          if (due != UINT64_MAX) wake = std::min(wake, Clock::now() + std::chrono::microseconds(due > now_us ? due - now_us : 0));
+          arrived.wait_until(lock, wake, [this] {
+            return !queue.empty() || !packets.empty() || finished || stopping || (waiting_level && outbox.empty());
+          });
+          if (stopping) break;
+        }
+        // Read before the queue is taken: every datagram that reached the
+        // socket before it is in the queue now.
+        c.SetArrivalHorizon(udp ? udp->caught_up_us() : SteadyNowUs());
+        for (auto& [at, m] : queue) c.TakeMessage(std::move(m), at);
+        for (UdpPacket& p : packets) c.TakeDatagram(std::move(p.payload), p.packet_number, p.time_us);
+        queue.clear();
+        packets.clear();
+        if (finished && !stream_end_taken) {
+          stream_end_taken = true;
+          c.TakeStreamEnd(final_status);
+        }
+      }
+      ShowUdpCounters();
+      c.HandleArrivals(SteadyNowUs());
+      Apply();
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    live_stats = StatsNow();
+    worker_over = true;
+    published.notify_all();
   }
 };
 
@@ -144,8 +261,14 @@ Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 Session::~Session() {
   if (!impl_) return;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->stopping = true;
+    impl_->arrived.notify_all();
+  }
+  impl_->context.TryCancel();  // a write the session thread is in returns
+  if (impl_->worker.joinable()) impl_->worker.join();
   impl_->udp.reset();
-  impl_->context.TryCancel();
   if (impl_->reader.joinable()) impl_->reader.join();
 }
 
@@ -177,87 +300,62 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   }
   Impl* raw = impl.get();
   impl->reader = std::thread([raw] { raw->ReadAll(); });
+  impl->worker = std::thread([raw] { raw->Run(); });
   return std::unique_ptr<Session>(new Session(std::move(impl)));
 }
 
 Event Session::Poll(int32_t timeout_ms) {
   Impl& s = *impl_;
-  SessionCore& core = *s.core;
   const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
-  for (;;) {
-    if (auto e = core.NextEvent()) return s.Returned(*e);
-    if (core.over()) return Event{};
-    s.ShowUdpCounters();
-    core.CheckEnd(SteadyNowUs());
-    s.Apply();
-    if (core.has_event()) continue;
-    {
-      std::unique_lock<std::mutex> lock(s.mutex);
-      if (core.handed_over()) {
-        // Wake at least every 10 ms (refinements become ready by the clock
-        // too), and when a declared loss is due.
-        auto wake = std::min(deadline, Clock::now() + std::chrono::milliseconds(10));
-        const uint64_t due = core.next_due_us(), now_us = SteadyNowUs();
-        if (due != UINT64_MAX) wake = std::min(wake, Clock::now() + std::chrono::microseconds(due > now_us ? due - now_us : 0));
-        s.arrived.wait_until(lock, wake, [&s] { return !s.queue.empty() || !s.packets.empty() || s.finished; });
-      }
-      // Read before the queue is taken: every datagram that reached the
-      // socket before it is in the queue now.
-      core.SetArrivalHorizon(s.udp ? s.udp->caught_up_us() : SteadyNowUs());
-      for (auto& [at, m] : s.queue) core.TakeMessage(std::move(m), at);
-      for (UdpPacket& p : s.packets) core.TakeDatagram(std::move(p.payload), p.packet_number, p.time_us);
-      s.queue.clear();
-      s.packets.clear();
-      if (s.finished && !s.stream_end_taken) {
-        s.stream_end_taken = true;
-        core.TakeStreamEnd(s.final_status);
-      }
-    }
-    s.ShowUdpCounters();
-    core.HandleArrivals(SteadyNowUs());
-    s.Apply();
-    if (!core.has_event() && Clock::now() >= deadline) return Event{};
-  }
+  std::unique_lock<std::mutex> lock(s.mutex);
+  s.published.wait_until(lock, deadline, [&s] { return !s.outbox.empty() || s.worker_over; });
+  s.stats = s.live_stats;
+  if (s.outbox.empty()) return Event{};
+  Event e = s.outbox.front().first;
+  s.shown = std::move(s.outbox.front().second);  // the views shown before go (under the lock: ViewBuffers)
+  s.outbox.pop_front();
+  s.arrived.notify_one();  // a level may wait for this one to be taken
+  return e;
 }
 
 void Session::Cancel() { impl_->context.TryCancel(); }
 
-size_t Session::primitive_count() const { return impl_->core->primitive_count(); }
+size_t Session::primitive_count() const { return impl_->shown->primitives.size(); }
 
 StatusOr<Primitive> Session::Mesh(size_t primitive) const {
   if (primitive >= primitive_count()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
-  return DequantizeMesh(impl_->core->reader(primitive).Mesh(), -1);
+  return DequantizeMesh(*impl_->shown->primitives[primitive].mesh, -1);
 }
 
 StatusOr<std::vector<uint8_t>> Session::Predicted(size_t primitive) const {
   if (primitive >= primitive_count()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
-  const StreamReader& r = impl_->core->reader(primitive);
-  const size_t n = r.Mesh().vertex_count();
+  const PrimitiveView& v = impl_->shown->primitives[primitive];
+  const size_t n = v.mesh->vertex_count();
   std::vector<uint8_t> predicted(n, 0);
-  const std::vector<uint8_t>& reliable = r.reliable();
-  for (size_t v = 0; v < n && v < reliable.size(); ++v) predicted[v] = reliable[v] ? 0 : 1;
+  const std::vector<uint8_t>& reliable = *v.reliable;
+  for (size_t i = 0; i < n && i < reliable.size(); ++i) predicted[i] = reliable[i] ? 0 : 1;
   return predicted;
 }
 
 std::pair<uint32_t, uint32_t> Session::GltfPosition(size_t primitive) const {
   if (primitive >= primitive_count()) return {0, 0};
-  const v1::PrimitiveStart& p = impl_->core->start(primitive);
-  return {p.mesh(), p.mesh_primitive()};
+  const SessionLayout::Place& p = impl_->shown->layout->places[primitive];
+  return {p.mesh, p.mesh_primitive};
 }
 
-int32_t Session::levels() const { return impl_->core->levels(); }
+int32_t Session::levels() const { return impl_->shown->levels; }
 
-int32_t Session::level_shown() const { return impl_->core->level_shown(); }
+int32_t Session::level_shown() const { return impl_->shown->level_shown; }
 
-uint64_t Session::predicted_vertices() const { return impl_->core->predicted_vertices(); }
+uint64_t Session::predicted_vertices() const { return impl_->shown->predicted_vertices; }
 
-Scene Session::CurrentScene() const { return impl_->core->CurrentScene(); }
+Scene Session::CurrentScene() const { return ViewScene(*impl_->shown); }
 
 Status Session::Export(const std::string& path) const {
   if (level_shown() < 0) return FailedPrecondition("export: the base mesh has not arrived yet");
   return ExportGltfFile(CurrentScene(), path, ExportOptions{});
 }
 
-const SessionStats& Session::stats() const { return impl_->core->stats(); }
+const SessionStats& Session::stats() const { return impl_->stats; }
 
 }  // namespace meshstream::sdk

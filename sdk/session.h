@@ -5,10 +5,10 @@
 //
 // Events, in order: kBaseReady (every primitive's base mesh decoded), then
 // kLevelReady with the level every primitive has reached (or all it has),
-// increasing, one event per poll that reaches a new level (levels completed
-// together come as one event for the highest), then kComplete; or kError with
-// the status, after which the session is over. At each event the meshes are
-// at the event's level (arrivals after it wait for the next poll).
+// increasing (levels completed before the host polls come as one event for
+// the highest), then kComplete; or kError with the status, after which the
+// session is over. At each event the meshes are at the event's level (the
+// decoding goes on meanwhile; the next event shows what it did).
 //
 // Transport: UDP unless tcp_only (or the server has UDP off, or no HELLO
 // got through: the server then says so and the datagrams come over gRPC).
@@ -64,9 +64,13 @@
 // mesh accessors); Cancel may also be called from another thread. Mesh
 // views stay valid until the next Poll. The Client must outlive the
 // session. Internally one thread reads the gRPC stream and one the UDP
-// socket, each into a queue; the decoding runs inside Poll, on the
-// caller's thread, in a deterministic core (sdk/session_core.h) that the
-// driver hands every arrival with its arrival time, and the clock.
+// socket, each into a queue, and the session's own thread decodes as the
+// data arrives, in a deterministic core (sdk/session_core.h) that it hands
+// every arrival with its arrival time, and the clock: a host that polls
+// seldom, or spends its frame elsewhere, never holds the decoding back. At
+// each event that thread takes the views (each primitive's mesh as the
+// event shows it: a copy of what changed since the last event); Poll only
+// hands over the events and their views, and stats() as of the last Poll.
 #ifndef MESHSTREAM_SDK_SESSION_H_
 #define MESHSTREAM_SDK_SESSION_H_
 
@@ -152,6 +156,10 @@ struct SessionStats {
   uint64_t datagrams_late = 0;      // UDP data datagrams that came after their refinement was decoded without
                                     // them (in datagrams_lost and datagrams_duplicate too: their vertices stay predicted)
   double reorder_window_ms = 0;     // the wait after a later datagram, as it ended (0: no RTT sample, straggler_timeout_ms)
+  // Where the time to full went (docs/streaming-protocol.md, "The client"):
+  double last_arrival_ms = 0;       // from open to the last arrival before the full mesh (either channel)
+  double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
+  double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
 };
 
 class Session {

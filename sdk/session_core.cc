@@ -60,7 +60,6 @@ struct SessionCore::PrimitiveState {
   size_t reported = 0;                  // refinements reported
   size_t given = 0;                     // control blocks given to the reconstructor (in order)
   size_t ended = 0;                     // refinements [0, ended) have had an END (theirs or a later one's)
-  size_t scene_slot = 0;                // index into its scene mesh's primitives
   QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
 };
 
@@ -206,22 +205,27 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     by_stream_[p.primitive()] = primitives_.size();
     primitives_.push_back(std::move(state));
   }
+  auto layout = std::make_shared<SessionLayout>();
+  for (const PrimitiveState& p : primitives_) layout->places.push_back({p.start.mesh(), p.start.mesh_primitive(), 0});
   if (!start.scene_glb().empty()) {
     const std::vector<uint8_t> glb(start.scene_glb().begin(), start.scene_glb().end());
-    MS_ASSIGN_OR_RETURN(scene_, ImportGltfBytes(glb, "", "the session's scene", ImportOptions{}));
-    for (PrimitiveState& p : primitives_) {
+    MS_ASSIGN_OR_RETURN(layout->scene, ImportGltfBytes(glb, "", "the session's scene", ImportOptions{}));
+    for (size_t i = 0; i < primitives_.size(); ++i) {
       // The glTF primitive index counts carried primitives too (Mesh::Order).
-      const uint32_t m = p.start.mesh(), k = p.start.mesh_primitive();
-      const std::vector<Mesh::Ref> order = m < scene_.meshes.size() ? scene_.meshes[m].Order() : std::vector<Mesh::Ref>();
+      SessionLayout::Place& place = layout->places[i];
+      const uint32_t m = place.mesh, k = place.mesh_primitive;
+      const std::vector<Mesh::Ref> order =
+          m < layout->scene.meshes.size() ? layout->scene.meshes[m].Order() : std::vector<Mesh::Ref>();
       if (k >= order.size() || order[k].carried) {
-        return InvalidInput(Where(p.start.primitive()) + ": the scene has no refined mesh " + std::to_string(m) +
-                            " primitive " + std::to_string(k));
+        return InvalidInput(Where(primitives_[i].start.primitive()) + ": the scene has no refined mesh " +
+                            std::to_string(m) + " primitive " + std::to_string(k));
       }
-      p.scene_slot = order[k].index;
+      place.scene_slot = order[k].index;
     }
     stats_.reliable_bytes += start.scene_glb().size();
-    has_scene_ = true;
+    layout->has_scene = true;
   }
+  layout_ = std::move(layout);
   if (transport_ == SessionTransport::kUdp) {
     if (start.client_to_server_key().size() != kPacketKeyBytes || start.server_to_client_key().size() != kPacketKeyBytes) {
       return InvalidInput("session start: the UDP keys are not 32 bytes each");
@@ -670,6 +674,7 @@ Status SessionCore::DecodeAgain(uint64_t now) {
     if (!s.ok()) return s.WithContext(where);
     *p.reconstructor = std::move(fresh).value();
   }
+  ++decodes_again_;
   return Status::Ok();
 }
 
@@ -726,6 +731,8 @@ void SessionCore::Settle(uint64_t now) {
     if (!st.ok()) return Fail(st);
   }
   stats_.time_to_full_ms = MsSinceOpen(now);
+  stats_.last_arrival_ms = MsSinceOpen(last_arrival_us_);
+  stats_.decode_after_last_byte_ms = std::max(0.0, stats_.time_to_full_ms - stats_.last_arrival_ms);
   // With repair: ask for what was lost, then wait for it.
   if (options_.repair && !budget && AskRepair(now)) {
     phase_ = SessionPhase::kRepairing;
@@ -788,6 +795,7 @@ void SessionCore::HandleArrivals(uint64_t now) {
       st = OfferDatagram(d.payload.data(), d.payload.size(), &d.packet_number, at);
     }
     if (!st.ok()) return Fail(st);
+    last_arrival_us_ = std::max(last_arrival_us_, at);
     if (phase_ != SessionPhase::kOpening && events_.empty()) {
       // A gRPC arrival may be stamped after datagrams that wait unread in
       // the socket: the horizon bounds the clock.
@@ -819,30 +827,103 @@ uint64_t SessionCore::predicted_vertices() const {
   return n;
 }
 
-Scene SessionCore::CurrentScene() const {
-  if (has_scene_) {
+namespace {
+
+// A spare of `spares` to overwrite, or a new one.
+template <typename T>
+std::shared_ptr<T> Spare(std::vector<std::shared_ptr<T>>* spares) {
+  if (spares == nullptr || spares->empty()) return std::make_shared<T>();
+  std::shared_ptr<T> t = std::move(spares->back());
+  spares->pop_back();
+  return t;
+}
+
+// Room for `n` in `v`, grown geometrically: a spare from a level before is
+// smaller than the mesh it is to hold (the mesh grows every level).
+template <typename T>
+void Grow(std::vector<T>& v, size_t n) {
+  if (v.capacity() < n) v.reserve(std::max(n, v.capacity() + v.capacity() / 2 + n / 4));
+}
+
+template <typename T>
+void Retire(std::shared_ptr<const T>& old, std::vector<std::shared_ptr<const T>>* retired) {
+  if (old && retired != nullptr) retired->push_back(std::move(old));
+}
+
+template <typename T>
+void RecycleInto(std::vector<std::shared_ptr<const T>>& retired, std::vector<std::shared_ptr<T>>& spares) {
+  for (size_t i = 0; i < retired.size();) {
+    if (retired[i].use_count() == 1) {
+      spares.push_back(std::const_pointer_cast<T>(std::move(retired[i])));
+      retired[i] = std::move(retired.back());
+      retired.pop_back();
+    } else {
+      ++i;
+    }
+  }
+}
+
+}  // namespace
+
+void ViewBuffers::Recycle() {
+  RecycleInto(retired_meshes, spare_meshes);
+  RecycleInto(retired_bits, spare_bits);
+}
+
+void SessionCore::TakeView(SessionView& view, ViewBuffers* buffers) const {
+  if (view.layout != layout_) view = SessionView{layout_, {}, 0, -1, 0};
+  view.primitives.resize(primitives_.size());
+  for (size_t i = 0; i < primitives_.size(); ++i) {
+    const StreamReader& r = primitives_[i].reconstructor->reader();
+    PrimitiveView& v = view.primitives[i];
+    const uint64_t version = (decodes_again_ << 32) + primitives_[i].reconstructor->applied();
+    if (v.mesh && v.version == version) continue;
+    std::shared_ptr<QuantizedMesh> mesh = Spare(buffers ? &buffers->spare_meshes : nullptr);
+    const RefinementState& state = r.state();
+    Grow(mesh->positions, state.positions.size());
+    Grow(mesh->attributes, state.attributes.size());
+    Grow(mesh->indices, 3 * state.connectivity.face_count());
+    r.MeshInto(*mesh);
+    std::shared_ptr<std::vector<uint8_t>> bits = Spare(buffers ? &buffers->spare_bits : nullptr);
+    Grow(*bits, r.reliable().size());
+    bits->assign(r.reliable().begin(), r.reliable().end());
+    Retire(v.mesh, buffers ? &buffers->retired_meshes : nullptr);
+    Retire(v.reliable, buffers ? &buffers->retired_bits : nullptr);
+    v.mesh = std::move(mesh);
+    v.reliable = std::move(bits);
+    v.unreliable_vertices = r.unreliable_vertices();
+    v.version = version;
+  }
+  view.levels = levels_;
+  view.level_shown = level_shown_;
+  view.predicted_vertices = predicted_vertices();
+}
+
+Scene ViewScene(const SessionView& view) {
+  if (!view.layout) return Scene{};
+  const SessionLayout& layout = *view.layout;
+  if (layout.has_scene) {
     // The asset's scene, its refined primitives at the level reached (the
     // material and everything else of the primitive as the scene has it).
-    Scene scene = scene_;
-    for (const PrimitiveState& p : primitives_) {
-      Primitive& slot = scene.meshes[p.start.mesh()].primitives[p.scene_slot];
+    Scene scene = layout.scene;
+    for (size_t i = 0; i < view.primitives.size() && i < layout.places.size(); ++i) {
+      Primitive& slot = scene.meshes[layout.places[i].mesh].primitives[layout.places[i].scene_slot];
       const int32_t material = slot.material;
-      slot = DequantizeMesh(p.reconstructor->reader().Mesh(), material);
+      slot = DequantizeMesh(*view.primitives[i].mesh, material);
     }
     return scene;
   }
   Scene scene;
   std::map<uint32_t, std::map<uint32_t, size_t>> by_mesh;  // glTF mesh -> primitive index -> ours
-  for (size_t i = 0; i < primitives_.size(); ++i) {
-    const v1::PrimitiveStart& p = primitives_[i].start;
-    by_mesh[p.mesh()][p.mesh_primitive()] = i;
+  for (size_t i = 0; i < view.primitives.size() && i < layout.places.size(); ++i) {
+    by_mesh[layout.places[i].mesh][layout.places[i].mesh_primitive] = i;
   }
   SceneRoot root;
   for (const auto& [mesh_index, primitives] : by_mesh) {
     meshstream::Mesh mesh;
     mesh.name = "mesh " + std::to_string(mesh_index);
     for (const auto& [primitive_index, ours] : primitives) {
-      mesh.primitives.push_back(DequantizeMesh(primitives_[ours].reconstructor->reader().Mesh(), -1));
+      mesh.primitives.push_back(DequantizeMesh(*view.primitives[ours].mesh, -1));
     }
     Node node;
     node.name = mesh.name;

@@ -54,6 +54,7 @@
 #include "codec/core/status.h"
 #include "codec/loss/reconstructor.h"
 #include "codec/mesh/mesh.h"
+#include "codec/mesh/quantized_mesh.h"
 #include "meshstream/v1/stream.pb.h"
 #include "net/packet_crypto.h"
 #include "sdk/session.h"
@@ -95,6 +96,53 @@ struct Outgoing {
 // Fills a report's hold_us: the time from its END datagram's arrival to
 // `sent_at_us`, when it is written (0 without an END datagram).
 void StampHold(Outgoing& o, uint64_t sent_at_us);
+
+// What a host sees of the session at an event (sdk/session.h's views),
+// taken from the core when the event is made (SessionCore::TakeView), so
+// that the decoding goes on while the host reads the event's meshes. A
+// primitive that did not change since the view before shares its arrays
+// with it. Immutable once taken: any thread may read it.
+struct PrimitiveView {
+  std::shared_ptr<const QuantizedMesh> mesh;
+  std::shared_ptr<const std::vector<uint8_t>> reliable;  // the reader's reliability bits, per vertex
+  uint64_t unreliable_vertices = 0;
+  uint64_t version = 0;  // when taken: the refinements applied, and the decodes again (repair)
+};
+// What SessionStart fixed: where each primitive sits in the asset's glTF.
+struct SessionLayout {
+  struct Place {
+    uint32_t mesh = 0;            // glTF mesh
+    uint32_t mesh_primitive = 0;  // glTF primitive index (carried ones counted)
+    size_t scene_slot = 0;        // index into the scene mesh's primitives (with a scene)
+  };
+  std::vector<Place> places;  // per primitive, in the session's order
+  Scene scene;                // the asset's scene at level 0 (SessionStart.scene_glb), if has_scene
+  bool has_scene = false;
+};
+struct SessionView {
+  std::shared_ptr<const SessionLayout> layout;  // null before SessionStart
+  std::vector<PrimitiveView> primitives;
+  int32_t levels = 0;
+  int32_t level_shown = -1;
+  uint64_t predicted_vertices = 0;
+};
+// The arrays of views no longer shown, kept for the next views to reuse:
+// a view per level would otherwise allocate (and fault in) every mesh anew.
+// TakeView retires what it replaces and reuses the spares; Recycle moves
+// the retired arrays nobody else holds to the spares. Call Recycle where the
+// other holders' last reads are ordered before it (the driver: under the
+// lock its Poll drops views under).
+struct ViewBuffers {
+  std::vector<std::shared_ptr<QuantizedMesh>> spare_meshes;
+  std::vector<std::shared_ptr<std::vector<uint8_t>>> spare_bits;
+  std::vector<std::shared_ptr<const QuantizedMesh>> retired_meshes;
+  std::vector<std::shared_ptr<const std::vector<uint8_t>>> retired_bits;
+  void Recycle();
+};
+// The asset's scene with every refined primitive as `view` shows it (from a
+// server that sends no scene: one glTF mesh per mesh of the refined
+// primitives, one node each, no materials).
+Scene ViewScene(const SessionView& view);
 
 class SessionCore {
  public:
@@ -148,7 +196,10 @@ class SessionCore {
   int32_t levels() const { return levels_; }
   int32_t level_shown() const { return level_shown_; }
   uint64_t predicted_vertices() const;
-  Scene CurrentScene() const;
+  // Brings `view` to what the views show now: copies the meshes of the
+  // primitives that changed since `view` was taken (all on a fresh one),
+  // into `buffers`' spares where it has them (null: new arrays).
+  void TakeView(SessionView& view, ViewBuffers* buffers = nullptr) const;
   // The statistics; the driver adds udp_local.
   const SessionStats& stats() const { return stats_; }
   SessionStats& mutable_stats() { return stats_; }
@@ -226,8 +277,9 @@ class SessionCore {
   bool udp_running_ = false;  // asked to start and not asked to stop
 
   std::vector<PrimitiveState> primitives_;
-  Scene scene_;  // the asset's scene at level 0 (SessionStart.scene_glb)
-  bool has_scene_ = false;
+  std::shared_ptr<SessionLayout> layout_;  // made by Start
+  uint64_t decodes_again_ = 0;  // DecodeAgain calls: a view's version of every primitive
+  uint64_t last_arrival_us_ = 0;  // the latest arrival handed over (decode after the last byte)
   std::map<uint32_t, size_t> by_stream_;  // stream id -> index in primitives_
   int32_t levels_ = 0;
   int32_t level_shown_ = -1;  // -1: not even the base; the last level announced (kBaseReady: 0)

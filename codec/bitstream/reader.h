@@ -75,6 +75,8 @@ class StreamReader {
   // The current level. Vertices that LwoP never created are left out (the
   // others keep their relative order), so no vertex is unreferenced.
   QuantizedMesh Mesh() const { return state_.Snapshot(header_.grids); }
+  // The same into `out`, reusing its arrays' capacity.
+  void MeshInto(QuantizedMesh& out) const { state_.SnapshotInto(header_.grids, out); }
 
  private:
   StreamHeader header_;

@@ -153,17 +153,24 @@ void RefinementState::Reserve(uint32_t final_vertices) {
 
 QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const {
   QuantizedMesh out;
+  SnapshotInto(base_layout, out);
+  return out;
+}
+
+void RefinementState::SnapshotInto(const QuantizedMesh& base_layout, QuantizedMesh& out) const {
   out.position_grid = base_layout.position_grid;
   out.layout = base_layout.layout;
-  out.indices = connectivity.Indices();
+  connectivity.IndicesInto(out.indices);
   if (!any_absent) {
-    out.positions = positions;
-    out.attributes = attributes;
-    return out;
+    out.positions.assign(positions.begin(), positions.end());
+    out.attributes.assign(attributes.begin(), attributes.end());
+    return;
   }
   // Leave out the vertices LwoP never created; the others keep their order.
   std::vector<uint32_t> remap(positions.size(), 0);
   uint32_t kept = 0;
+  out.positions.clear();
+  out.attributes.clear();
   for (size_t v = 0; v < positions.size(); ++v) {
     if (flags[v] & kAbsent) continue;
     remap[v] = kept++;
@@ -172,7 +179,6 @@ QuantizedMesh RefinementState::Snapshot(const QuantizedMesh& base_layout) const 
                           attributes.begin() + (v + 1) * channels);
   }
   for (uint32_t& i : out.indices) i = remap[i];
-  return out;
 }
 
 }  // namespace meshstream

@@ -86,6 +86,9 @@ struct RefinementState {
   // Room for this many vertices, so that splits do not reallocate.
   void Reserve(uint32_t final_vertices);
   QuantizedMesh Snapshot(const QuantizedMesh& base_layout) const;
+  // The same into `out`, reusing its arrays' capacity (a caller that takes
+  // a snapshot per level allocates, and faults pages in, only once).
+  void SnapshotInto(const QuantizedMesh& base_layout, QuantizedMesh& out) const;
 };
 
 }  // namespace meshstream

@@ -321,9 +321,14 @@ uint32_t SplitConnectivity::SplitOpenAt(uint32_t w, const std::vector<uint32_t>&
 
 std::vector<uint32_t> SplitConnectivity::Indices() const {
   std::vector<uint32_t> out;
-  out.reserve(faces_.size() * 3);
-  for (const Face& f : faces_) out.insert(out.end(), f.begin(), f.end());
+  IndicesInto(out);
   return out;
+}
+
+void SplitConnectivity::IndicesInto(std::vector<uint32_t>& out) const {
+  out.resize(faces_.size() * 3);
+  uint32_t* to = out.data();
+  for (const Face& f : faces_) to = std::copy(f.begin(), f.end(), to);
 }
 
 }  // namespace meshstream

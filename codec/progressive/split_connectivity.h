@@ -82,6 +82,8 @@ class SplitConnectivity {
   void Reserve(uint32_t vertices, size_t faces);
 
   std::vector<uint32_t> Indices() const;
+  // The same into `out` (its capacity reused: no allocation once it fits).
+  void IndicesInto(std::vector<uint32_t>& out) const;
 
   // Hints for a vertex about to be split (no effect on the state): its
   // slot, then its triangle list (reads the slot), then its triangles

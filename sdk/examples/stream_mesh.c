@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
       goto done;
     }
     if (event.type == MS_EVENT_COMPLETE) break;
-    /* BASE_READY is level 0; LEVEL_READY every level after it. */
+    /* BASE_READY is level 0; LEVEL_READY the highest level decoded since the last poll. */
     status = sum_meshes(session, &t);
     if (status != MS_OK) {
       code = fail("mesh", status);

@@ -130,6 +130,57 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
 
+// The SDK decodes on its own thread as the data arrives: a host that does
+// not poll for three seconds finds the session decoded to the full mesh,
+// and gets the base (its view at level 0, though the decoding went on), one
+// event for the last level and the end.
+TEST(SdkSession, AHostThatDoesNotPollDoesNotHoldTheDecodingBack) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  const auto client = test_util::NewAssetClient((*server)->address());
+  v1::IngestResponse r;
+  ASSERT_TRUE(test_util::Ingest(*client, "bunny", test_util::LoadFile(test_util::ModelPath("stanford-bunny.obj"), "b.obj"), &r).ok());
+  v1::Job job;
+  ASSERT_TRUE(test_util::Watch(*client, r.job_id(), &job).ok());
+  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  const auto exported = test_util::Export(*client, "bunny", r.version(), v1::FORMAT_PROGRESSIVE_GLB);
+  ASSERT_TRUE(exported.status.ok());
+  ProgressiveDecodeReport report;
+  ASSERT_TRUE(DecodeProgressiveGlb(exported.bytes, ProgressiveDecodeOptions{}, &report).ok());
+  ASSERT_GE(report.level_vertices.size(), 3u);
+
+  auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
+  ASSERT_TRUE(sdk_client.ok());
+  for (const bool tcp_only : {true, false}) {
+    SCOPED_TRACE(tcp_only ? "tcp_only" : "udp");
+    auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("bunny", 0, -1, tcp_only));
+    ASSERT_TRUE(session.ok()) << session.status().ToString();
+    constexpr int kAwayMs = 3000;
+    std::this_thread::sleep_for(std::chrono::milliseconds(kAwayMs));
+    const sdk::Event base = (*session)->Poll(10000);
+    ASSERT_EQ(base.type, sdk::EventType::kBaseReady) << base.status.ToString();
+    auto mesh = (*session)->Mesh(0);
+    ASSERT_TRUE(mesh.ok());
+    EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.front()) << "the base's view";
+    const std::vector<sdk::Event> rest = PollToEnd(**session);
+    ASSERT_EQ(rest.size(), 2u);
+    EXPECT_EQ(rest[0].type, sdk::EventType::kLevelReady);
+    EXPECT_EQ(rest[0].level, (*session)->levels());
+    EXPECT_EQ(rest[1].type, sdk::EventType::kComplete) << rest[1].status.ToString();
+    mesh = (*session)->Mesh(0);
+    ASSERT_TRUE(mesh.ok());
+    EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.back());
+    const sdk::SessionStats& st = (*session)->stats();
+    EXPECT_GT(st.time_to_full_ms, 0);
+    EXPECT_LT(st.time_to_full_ms, kAwayMs) << "decoded while the host was away";
+    EXPECT_LE(st.last_arrival_ms, st.time_to_full_ms);
+    EXPECT_GE(st.decode_after_last_byte_ms, 0);
+    EXPECT_GT(st.session_thread_cpu_ms, 0);
+  }
+  EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
+}
+
 TEST(SdkSession, MaxLevelAndErrors) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});

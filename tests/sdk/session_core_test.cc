@@ -124,6 +124,65 @@ TEST(SessionCore, OverGrpcEverythingIsExact) {
   EXPECT_EQ(r.host->core.stats().datagrams_lost, 0u);
 }
 
+// The views a host reads while the decoding goes on (SessionCore::TakeView):
+// a view keeps the meshes of its event whatever is decoded after it; a
+// primitive that did not change shares its arrays with the view before;
+// arrays of views nobody holds any more are reused, not allocated anew.
+TEST(SessionCore, AViewKeepsItsEventsMeshesSharesWhatDidNotChangeAndReusesOldArrays) {
+  NetworkOptions n = Lossless(5);
+  n.udp = false;
+  SimHost h(Options(), n.start_us - 5000);
+  h.pending = Serve({&Sphere(), &SecondSphere()}, n).arrivals;
+  h.stream_end_after_last = true;
+  ViewBuffers buffers;
+  // Polls until the next event, at most one simulated minute.
+  auto next_event = [&h]() -> std::optional<Event> {
+    for (int i = 0; i < 60000; ++i, h.now_us += 1000) {
+      if (auto e = h.PollOnce()) return e;
+    }
+    return std::nullopt;
+  };
+  auto e = next_event();
+  ASSERT_TRUE(e && e->type == EventType::kBaseReady);
+  SessionView base;
+  h.core.TakeView(base, &buffers);
+  ASSERT_EQ(base.primitives.size(), 2u);
+  EXPECT_EQ(base.level_shown, 0);
+  EXPECT_TRUE(SameMesh(*base.primitives[0].mesh, Sphere().levels[0]));
+  EXPECT_TRUE(SameMesh(*base.primitives[1].mesh, SecondSphere().levels[0]));
+  SessionView again = base;
+  h.core.TakeView(again, &buffers);
+  EXPECT_EQ(again.primitives[0].mesh, base.primitives[0].mesh) << "nothing changed: shared";
+  EXPECT_EQ(ViewScene(again).meshes.size(), 2u);
+
+  e = next_event();
+  ASSERT_TRUE(e && e->type == EventType::kLevelReady);
+  SessionView level = again;
+  h.core.TakeView(level, &buffers);
+  EXPECT_EQ(level.level_shown, e->level);
+  EXPECT_NE(level.primitives[0].mesh, base.primitives[0].mesh);
+  EXPECT_TRUE(SameMesh(*level.primitives[0].mesh, Sphere().levels[h.core.reader(0).applied()]));
+  EXPECT_TRUE(SameMesh(*base.primitives[0].mesh, Sphere().levels[0])) << "the base's view stays the base";
+  ASSERT_EQ(buffers.retired_meshes.size(), 2u);  // the base's arrays, still held by `base`
+
+  // Once no view holds the base's arrays they are the next view's.
+  const QuantizedMesh* old = base.primitives[0].mesh.get();
+  buffers.Recycle();
+  EXPECT_TRUE(buffers.spare_meshes.empty()) << "still held by the views base and again";
+  base = SessionView{};
+  again = SessionView{};
+  buffers.Recycle();
+  ASSERT_EQ(buffers.spare_meshes.size(), 2u);
+  while ((e = next_event()) && e->type == EventType::kLevelReady) {
+    SessionView later = level;
+    h.core.TakeView(later, &buffers);
+    EXPECT_TRUE(SameMesh(*later.primitives[0].mesh, Sphere().levels[h.core.reader(0).applied()]));
+    const bool reused = later.primitives[0].mesh.get() == old || later.primitives[1].mesh.get() == old;
+    EXPECT_TRUE(reused) << "a spare was there";
+    break;
+  }
+}
+
 TEST(SessionCore, UnderLossTheMeshIsPredictedAndTheReportsNameWhatWasLost) {
   for (uint64_t seed = 11; seed <= 14; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));

@@ -2,9 +2,10 @@
  *
  * A client is a connection to a meshstream server; a session streams one
  * asset version over it: the base mesh first, then one level of refinement
- * after another. The host polls the session on its own thread and reads the
- * current meshes after each event; no callback ever runs on an internal
- * thread.
+ * after another. The library decodes on a thread of its own as data
+ * arrives; the host polls the session on its own thread and reads the
+ * meshes of each event (levels decoded between two polls come as one
+ * event for the highest); no callback ever runs on an internal thread.
  *
  *   ms_client_config cc = {0};  cc.struct_size = sizeof cc;  cc.server = "127.0.0.1:7600";
  *   ms_client* client;          ms_client_create(&cc, &client);
@@ -162,6 +163,7 @@ typedef struct {
   uint64_t early_datagram_bytes; /* ... and before the UDP address was proven (no wait for the HELLO) */
   uint64_t datagrams_late;      /* UDP datagrams that came after their refinement was decoded without them */
   uint32_t losses_declared;     /* UDP refinements decoded once later packet numbers showed their loss */
+  double decode_after_last_byte_ms; /* at COMPLETE: from the last arrival to the full mesh (the decoding left) */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
