@@ -15,6 +15,16 @@
 //    per srtt, and slow start ends.
 //  - Otherwise, at most once per srtt: in slow start the rate doubles,
 //    after it grows by max(kAdditiveMin, 5 % of the rate).
+//  - Delivery rate (BBR's bottleneck estimate, RFC 9002's pacing): each
+//    delivery sample (OnDeliverySample: the bytes of a refinement's
+//    datagrams over the time they took to arrive, measured by the receiver:
+//    a train sent in bursts leaves a bottleneck at its rate) feeds a max
+//    filter over the last kBandwidthWindowRounds rounds (btlbw). Once there
+//    is one, slow start never goes past kStartupGain x btlbw, and ends when
+//    btlbw has not grown by a quarter in kFullPipeRounds rounds (the pipe is
+//    full; the rate drops to btlbw); after slow start the rate never goes
+//    past kProbeGain x btlbw. So a sender never runs far past what the path
+//    delivers, however late the queue shows (the 64-on-20 Mbit/s overshoot).
 //  - The rate stays within [min_bps, max_bps].
 //
 // Contract: times in microseconds of the caller's non-decreasing clock;
@@ -24,6 +34,8 @@
 #define MESHSTREAM_NET_RATE_CONTROLLER_H_
 
 #include <cstdint>
+#include <deque>
+#include <utility>
 
 namespace meshstream {
 
@@ -39,6 +51,10 @@ class RateController {
   static constexpr double kDecrease = 0.7;
   static constexpr double kAdditiveMinBps = 500e3;
   static constexpr uint64_t kQueueDelayFloorUs = 4000;
+  static constexpr double kStartupGain = 2.0;
+  static constexpr double kProbeGain = 1.25;
+  static constexpr int kFullPipeRounds = 3;
+  static constexpr int kBandwidthWindowRounds = 10;
 
   explicit RateController(const RateControllerOptions& options = {});
 
@@ -47,6 +63,8 @@ class RateController {
   void OnReport(uint64_t now_us, uint32_t received, uint32_t lost, uint64_t rtt_us);
   // An RTT sample alone (the HELLO round trip).
   void OnRttSample(uint64_t rtt_us);
+  // A delivery rate the receiver measured (bits per second; 0: none).
+  void OnDeliverySample(uint64_t now_us, double bps);
 
   double rate_bps() const { return rate_bps_; }
   bool slow_start() const { return slow_start_; }
@@ -54,9 +72,11 @@ class RateController {
   uint64_t srtt_us() const { return srtt_us_; }
   double smoothed_loss() const { return loss_; }
   uint32_t decreases() const { return decreases_; }
+  double btlbw_bps() const;  // the max filter of the delivery samples; 0: none yet
 
  private:
   uint64_t RoundUs() const;
+  double Cap() const;  // what the rate may not pass now (max_bps without a delivery sample)
   RateControllerOptions options_;
   double rate_bps_;
   bool slow_start_ = true;
@@ -67,6 +87,11 @@ class RateController {
   uint64_t last_change_us_ = 0;
   bool changed_ = false;
   uint32_t decreases_ = 0;
+  // Delivery samples: (when, bps), the last kBandwidthWindowRounds rounds.
+  std::deque<std::pair<uint64_t, double>> delivery_;
+  double full_pipe_bps_ = 0;  // btlbw when it last grew by a quarter
+  int rounds_without_growth_ = 0;
+  uint64_t last_growth_check_us_ = 0;
 };
 
 }  // namespace meshstream

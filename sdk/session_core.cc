@@ -41,6 +41,9 @@ struct SessionCore::RefinementTrack {
   std::vector<uint64_t> packet_numbers;  // UDP DATA that arrived (any order, no repeats: the replay window)
   uint64_t bytes = 0;
   uint64_t end_time_us = 0;        // when its END datagram arrived (0: never)
+  uint64_t udp_first_us = 0;       // when its first UDP data datagram arrived (0: none yet) ...
+  uint64_t udp_last_us = 0;        // ... its latest one
+  uint64_t span_bytes = 0;         // the bytes of those after the first (the delivery rate)
   bool reliable = false;           // its datagrams come on the gRPC stream (ControlBlock.reliable)
   bool before_proof = false;       // ... because no UDP address was proven yet (ControlBlock.before_proof)
   uint64_t later_us = 0;           // UDP: when a datagram numbered after its data arrived (0: none yet)
@@ -324,6 +327,14 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
       if (packet_number != nullptr && t.packet_numbers.size() < 4 * (size_t{1} << 16)) {
         t.packet_numbers.push_back(*packet_number);
       }
+      if (packet_number != nullptr) {
+        if (t.udp_first_us == 0) {
+          t.udp_first_us = now;
+        } else {
+          t.span_bytes += size;
+        }
+        t.udp_last_us = std::max(t.udp_last_us, now);
+      }
       // Copies are kept too (the reconstructor drops them again); the cap
       // bounds what a hostile stream can make the client hold.
       if (options_.repair && kept_bytes_ + size <= kMaxKeptBytes) {
@@ -566,6 +577,10 @@ void SessionCore::Report() {
       r.set_datagrams_received(received);
       r.set_bytes_received(t.bytes);
       r.set_end_received(t.end_time_us != 0);
+      if (t.span_bytes > 0 && t.udp_last_us > t.udp_first_us) {
+        r.set_arrival_span_us(t.udp_last_us - t.udp_first_us);
+        r.set_span_bytes(t.span_bytes);
+      }
       o.end_time_us = t.end_time_us;  // hold_us: StampHold, when it is written (after the decode)
       if (!rtt_reported_ && udp_running_ && udp_.hello_rtt_us > 0) {
         r.add_rtt_samples_us(static_cast<uint32_t>(std::min<uint64_t>(udp_.hello_rtt_us, UINT32_MAX)));

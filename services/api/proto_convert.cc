@@ -68,6 +68,8 @@ ClientReportInfo FromProto(const v1::ClientReport& r) {
   info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
   info.end_received = r.end_received();
   info.hold_us = r.hold_us();
+  info.arrival_span_us = r.arrival_span_us();
+  info.span_bytes = r.span_bytes();
   for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
   return info;
 }

@@ -62,6 +62,10 @@ void SessionSender::OnReport(uint64_t now_us, const ClientReportInfo& report) {
   end_sent_us_.erase(it);
   udp_reported_received_ += report.received;
   udp_reported_missing_ += report.missing;
+  if (report.arrival_span_us > 0 && report.span_bytes > 0) {
+    controller_.OnDeliverySample(now_us, 8e6 * static_cast<double>(report.span_bytes) /
+                                             static_cast<double>(report.arrival_span_us));
+  }
   controller_.OnReport(now_us, report.received, report.missing, rtt);
 }
 

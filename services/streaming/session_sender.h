@@ -104,6 +104,10 @@ struct ClientReportInfo {
   bool end_received = false;  // the END datagram arrived ...
   uint64_t hold_us = 0;       // ... this long before the report left
   std::vector<uint64_t> rtt_samples_us;
+  // The delivery rate the client saw: span_bytes over arrival_span_us (0:
+  // none). Last, so that positional initialisers keep their meaning.
+  uint64_t arrival_span_us = 0;
+  uint64_t span_bytes = 0;
 };
 
 struct SessionSenderStats {

@@ -83,5 +83,67 @@ TEST(RateController, TheMinimumAndSmoothedRtt) {
   EXPECT_EQ(c.srtt_us(), (7 * 8000 + 16000) / 8u);
 }
 
+// A 20 Mbit/s path whose bottleneck drops rather than queues (a policer, a
+// shallow tbf): the RTT never grows, so only the delivery rate can stop the
+// rate. Each round the receiver measures min(rate, 20 Mbit/s).
+double RunOnAPolicedPath(RateController& c, bool delivery_samples, int rounds, bool* ended_slow_start) {
+  constexpr double kPath = 20e6;
+  constexpr uint64_t kRound = 40000;
+  c.OnRttSample(kRound);
+  double highest = 0;
+  uint64_t t = 1000000;
+  for (int i = 0; i < rounds; ++i, t += kRound) {
+    if (delivery_samples) c.OnDeliverySample(t, std::min(c.rate_bps(), kPath));
+    c.OnReport(t, 10, 0, kRound);
+    highest = std::max(highest, c.rate_bps());
+  }
+  *ended_slow_start = !c.slow_start();
+  return highest;
+}
+
+TEST(RateController, TheDeliveryRateBoundsTheRateWhereNoQueueShows) {
+  RateControllerOptions o;
+  o.initial_bps = 16e6;
+  o.max_bps = 400e6;
+  bool ended = false;
+  RateController blind(o);
+  EXPECT_DOUBLE_EQ(RunOnAPolicedPath(blind, false, 12, &ended), 400e6) << "without delivery samples it runs away";
+  RateController c(o);
+  const double highest = RunOnAPolicedPath(c, true, 12, &ended);
+  EXPECT_LE(highest, RateController::kStartupGain * 20e6) << "startup: never past twice the path";
+  EXPECT_TRUE(ended) << "the delivery rate stopped growing: the pipe is full";
+  EXPECT_LE(c.rate_bps(), RateController::kProbeGain * 20e6);
+  EXPECT_GE(c.rate_bps(), 20e6);
+  EXPECT_DOUBLE_EQ(c.btlbw_bps(), 20e6);
+}
+
+TEST(RateController, SlowStartGoesOnWhileTheDeliveryRateGrows) {
+  RateControllerOptions o;
+  o.initial_bps = 1e6;
+  o.max_bps = 1e9;
+  RateController c(o);
+  c.OnRttSample(10000);
+  uint64_t t = 1000000;
+  for (int i = 0; i < 6; ++i, t += 10000) {
+    c.OnDeliverySample(t, c.rate_bps());  // the path takes everything: app-limited samples
+    c.OnReport(t, 10, 0, 10000);
+    EXPECT_TRUE(c.slow_start()) << "round " << i;
+  }
+  EXPECT_DOUBLE_EQ(c.rate_bps(), 64e6);
+}
+
+TEST(RateController, DeliverySamplesAgeOutOfTheFilter) {
+  RateController c(Options());
+  c.OnRttSample(10000);
+  c.OnDeliverySample(1000000, 80e6);
+  c.OnDeliverySample(1005000, 30e6);
+  EXPECT_DOUBLE_EQ(c.btlbw_bps(), 80e6);
+  // Ten rounds (100 ms) later the 80 has gone.
+  c.OnDeliverySample(1000000 + 10 * 10000 + 1, 20e6);
+  EXPECT_DOUBLE_EQ(c.btlbw_bps(), 30e6);
+  c.OnDeliverySample(1200000, 0);  // no sample
+  EXPECT_DOUBLE_EQ(c.btlbw_bps(), 30e6);
+}
+
 }  // namespace
 }  // namespace meshstream

@@ -183,6 +183,33 @@ TEST(SessionCore, AViewKeepsItsEventsMeshesSharesWhatDidNotChangeAndReusesOldArr
   }
 }
 
+// The delivery rate the client saw goes back in the reports of UDP
+// refinements of two datagrams or more (the sender's bottleneck estimate:
+// net/rate_controller.h); the stream's refinements carry none.
+TEST(SessionCore, ReportsCarryTheDeliveryRateOfUdpRefinements) {
+  for (const bool udp : {true, false}) {
+    SCOPED_TRACE(udp ? "udp" : "grpc");
+    NetworkOptions n = Lossless(8);
+    n.udp = udp;
+    Driven r = Drive({&Sphere()}, n, Options());
+    size_t with_span = 0;
+    for (const v1::ClientReport* report : Reports(*r.host)) {
+      if (report->arrival_span_us() == 0) {
+        EXPECT_EQ(report->span_bytes(), 0u);
+        continue;
+      }
+      ++with_span;
+      EXPECT_GT(report->span_bytes(), 0u);
+      EXPECT_LT(report->span_bytes(), report->bytes_received()) << "the first datagram's bytes are not in the span";
+    }
+    if (udp) {
+      EXPECT_GT(with_span, 0u);
+    } else {
+      EXPECT_EQ(with_span, 0u);
+    }
+  }
+}
+
 TEST(SessionCore, UnderLossTheMeshIsPredictedAndTheReportsNameWhatWasLost) {
   for (uint64_t seed = 11; seed <= 14; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));

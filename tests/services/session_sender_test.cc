@@ -377,6 +377,29 @@ TEST(SessionSender, ReportsAdaptTheRate) {
   EXPECT_EQ(s.stats().reports, 3u);
 }
 
+// The client's delivery samples (ClientReport.arrival_span_us, span_bytes)
+// bound the rate: 16 Mbit/s doubling in slow start stops at twice what the
+// path delivered (here 4 Mbit/s: 5,000 bytes over 10 ms), with no queue in sight.
+TEST(SessionSender, DeliverySamplesInReportsBoundTheRate) {
+  Fixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp, 16e6);
+  o.rate.max_bps = 400e6;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  Script script;
+  while (script.Count(SenderAction::kRefinementEnd) < 1) script.actions.push_back(s.Next(script.now += 1000));
+  ClientReportInfo slow{kStream, 0, kDatagrams, 0, true, 0, {2000}, 10000, 5000};
+  s.OnReport(script.now + 2000, slow);
+  EXPECT_LE(s.stats().final_rate_bps, RateController::kStartupGain * 4e6 + 1);
+  // Without the sample the same report doubles the rate.
+  SessionSender blind(f.plan, f.artifact, -1, o, 0);
+  blind.OnHello(0, true);
+  Script other;
+  while (other.Count(SenderAction::kRefinementEnd) < 1) other.actions.push_back(blind.Next(other.now += 1000));
+  blind.OnReport(other.now + 2000, ClientReportInfo{kStream, 0, kDatagrams, 0, true, 0, {2000}});
+  EXPECT_DOUBLE_EQ(blind.stats().final_rate_bps, 32e6);
+}
+
 TEST(SessionSender, ReportedLossMovesTheReliableCut) {
   Fixture f;
   SessionSenderOptions o = Options(SessionTransport::kUdp);
