@@ -26,6 +26,9 @@ json ShapedMsSummary(std::vector<double> v) {
 // What the successful runs of one cell measured, run by run.
 struct Cell {
   std::vector<double> first, full, final_h, predicted, lost, received, rate, srtt, decreases, within1, within01;
+  // Where a session's time went (SessionStats): the base, the last arrival,
+  // the decoding left after it, the session thread's CPU, the HELLO.
+  std::vector<double> base, last_arrival, decode_after, thread_cpu, hello_rtt, connect;
   uint64_t n = 0, failed = 0, fallbacks = 0;
   json errors = json::array();
 
@@ -40,7 +43,18 @@ struct Cell {
     full.push_back(r["full_ms"]);
     AddQuality(r["quality"]);
     if (r.contains("predicted_vertices")) predicted.push_back(r["predicted_vertices"]);
+    if (r.contains("connect_ms")) connect.push_back(r["connect_ms"]);
+    if (r.contains("last_byte_ms")) {  // the Draco download: its last byte, then its decode
+      last_arrival.push_back(r["last_byte_ms"]);
+      decode_after.push_back(r.value("decode_ms", 0.0));
+    }
     if (r.contains("stats")) {
+      const json& st = r["stats"];
+      base.push_back(st.value("time_to_base_ms", 0.0));
+      last_arrival.push_back(st.value("last_arrival_ms", 0.0));
+      decode_after.push_back(st.value("decode_after_last_byte_ms", 0.0));
+      thread_cpu.push_back(st.value("session_thread_cpu_ms", 0.0));
+      hello_rtt.push_back(st.value("hello_rtt_ms", 0.0));
       lost.push_back(r["stats"]["datagrams_lost"]);
       received.push_back(r["stats"]["datagrams_received"]);
       if (!r["stats"]["fallback_reason"].get<std::string>().empty()) ++fallbacks;
@@ -82,6 +96,17 @@ struct Cell {
       s["server_final_rate_mbps_median"] = Median(rate);
       s["server_srtt_ms_median"] = Median(srtt);
       s["server_rate_decreases_median"] = Median(decreases);
+      // Medians, each over the runs on its own (they need not add up).
+      s["breakdown_ms"] = {{"connect", Median(connect)},
+                           {"open_to_base", Median(base)},
+                           {"open_to_last_arrival", Median(last_arrival)},
+                           {"decode_after_last_byte", Median(decode_after)},
+                           {"session_thread_cpu", Median(thread_cpu)},
+                           {"hello_rtt", Median(hello_rtt)}};
+    } else {
+      s["breakdown_ms"] = {{"connect", Median(connect)},
+                           {"open_to_last_arrival", Median(last_arrival)},
+                           {"decode_after_last_byte", Median(decode_after)}};
     }
     return s;
   }
