@@ -82,6 +82,15 @@ bench-stream: build
 	$(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
 	$(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
 
+# The soak (docs/stream-benchmarks.md, "Soak"): sessions opened at 20 per second for 30 minutes
+# against a `meshstream serve` process, the clients in a network namespace losing 5 % (root);
+# the server's memory over time. Not part of `make bench` (half an hour). SOAK_ARGS e.g. "--quick".
+SOAK_ARGS ?=
+.PHONY: bench-soak
+bench-soak: build
+	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_bench_soak --out docs/bench/soak.json $(SOAK_ARGS)
+
 # libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
 # service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.
 fuzz: deps
