@@ -191,7 +191,9 @@ struct Session::Impl {
     Queue(*std::exchange(waiting_level, std::nullopt));
   }
 
-  // Takes the views (into the arrays Poll no longer shows) and queues them with `e`.
+  // Takes the views (into the arrays Poll no longer shows) and queues them
+  // with `e`; a level replaces one untaken before it (a waiting level queued
+  // at the end: one event for the levels since the host's last poll).
   void Queue(const Event& e) {
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -201,7 +203,11 @@ struct Session::Impl {
     auto view = std::make_shared<const SessionView>(building);
     SessionStats st = StatsNow();
     std::lock_guard<std::mutex> lock(mutex);
-    outbox.emplace_back(e, std::move(view));
+    if (e.type == EventType::kLevelReady && !outbox.empty() && outbox.back().first.type == EventType::kLevelReady) {
+      outbox.back() = {e, std::move(view)};
+    } else {
+      outbox.emplace_back(e, std::move(view));
+    }
     live_stats = std::move(st);
     published.notify_one();
   }
