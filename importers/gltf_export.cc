@@ -53,6 +53,24 @@ class DocumentBuilder {
     return static_cast<int>(views_.size()) - 1;
   }
 
+  // A bufferView whose bytes go after everything else in the buffer
+  // (PlaceDeferredViews): a progressive primitive's refinements, so that the
+  // file up to its first refinement holds every base mesh, the scene and its
+  // images (docs/progressive-format.md, "Layout"). `bytes` outlives Build.
+  int AddDeferredView(const std::vector<uint8_t>* bytes) {
+    views_.push_back({{"buffer", 0}, {"byteOffset", 0}, {"byteLength", bytes->size()}});
+    deferred_.emplace_back(static_cast<int>(views_.size()) - 1, bytes);
+    return deferred_.back().first;
+  }
+  void PlaceDeferredViews() {
+    for (const auto& [view, bytes] : deferred_) {
+      while (bin_.size() % 4) bin_.push_back(0);
+      views_[view]["byteOffset"] = bin_.size();
+      bin_.insert(bin_.end(), bytes->begin(), bytes->end());
+    }
+    deferred_.clear();
+  }
+
   int AddAccessor(json accessor) {
     accessors_.push_back(std::move(accessor));
     return static_cast<int>(accessors_.size()) - 1;
@@ -108,6 +126,7 @@ class DocumentBuilder {
 
   const ExportOptions& options_;
   std::vector<uint8_t> bin_;
+  std::vector<std::pair<int, const std::vector<uint8_t>*>> deferred_;  // AddDeferredView
   json views_ = json::array();
   json accessors_ = json::array();
 };
@@ -200,7 +219,7 @@ json DocumentBuilder::PrecodedJson(const PrecodedPrimitive& pre) {
   encoded.ids = pre.ids;
   json prim = DracoJson(encoded, pre.decoded);
   if (!pre.extension_name.empty()) {
-    const int view = AddView(pre.extension_bytes.data(), pre.extension_bytes.size(), 0);
+    const int view = AddDeferredView(&pre.extension_bytes);
     json ext = {{"bufferView", view}, {"version", pre.extension_version}};
     if (!pre.extension_fields.empty()) {
       const json fields = json::parse(pre.extension_fields);  // kept alive: items() refers into it
@@ -405,6 +424,7 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
   if (!animations.empty()) doc["animations"] = animations;
   if (!images.empty()) doc["images"] = images;
   if (!accessors_.empty()) doc["accessors"] = accessors_;
+  PlaceDeferredViews();
   if (!views_.empty()) doc["bufferViews"] = views_;
   while (bin_.size() % 4) bin_.push_back(0);
   if (!bin_.empty()) doc["buffers"] = json::array({{{"byteLength", bin_.size()}}});
