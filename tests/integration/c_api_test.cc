@@ -331,6 +331,16 @@ TEST_F(CApi, EventsInOrderWithTheMeshesOfEachLevel) {
     if (levels > 0) { EXPECT_GT(stats.datagrams_received, 0u); }
     EXPECT_GT(stats.time_to_base_ms, 0.0);
     EXPECT_GE(stats.time_to_full_ms, stats.time_to_base_ms);
+    {
+      // The decoding left after the last arrival: written (the caller's -1 replaced), within the time to full.
+      ms_stats where;
+      std::memset(&where, 0, sizeof where);
+      where.struct_size = sizeof where;
+      where.decode_after_last_byte_ms = -1;
+      ASSERT_EQ(ms_session_stats(session.get(), &where), MS_OK) << ms_last_error();
+      EXPECT_GE(where.decode_after_last_byte_ms, 0.0);
+      EXPECT_LE(where.decode_after_last_byte_ms, where.time_to_full_ms);
+    }
     // Over: the next poll returns at once with nothing.
     ms_event after;
     EXPECT_EQ(ms_session_poll(session.get(), 5000, &after), MS_OK);
