@@ -1,6 +1,7 @@
 #include "services/api/stream_service.h"
 
 #include <atomic>
+#include <cstdio>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -32,6 +33,15 @@ Status CheckOpen(const v1::OpenRequest& open) {
   return Status::Ok();
 }
 
+// The session log line's last field: the server's own time from the Open's
+// arrival to the SessionStart (the base meshes) handed to gRPC, when it was.
+std::string OpenToBase(uint64_t open_us, uint64_t base_us) {
+  if (base_us == 0 || base_us < open_us) return "";
+  char text[64];
+  std::snprintf(text, sizeof text, ", open to base %.3f ms", static_cast<double>(base_us - open_us) / 1000.0);
+  return text;
+}
+
 SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
   SendLoopOptions options;  // the default max_queued
   options.draining = draining;
@@ -57,6 +67,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   void OnReadDone(bool ok) override {
     if (!opened_) {
       opened_ = true;
+      open_received_us_ = SteadyNowUs();
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
@@ -136,6 +147,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
     Queue(std::move(start_));
+    base_handed_us_ = SteadyNowUs();
   }
 
   void TransportChanged(SessionTransport transport, const std::string& reason) override {
@@ -165,7 +177,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " ended (" +
-                             reason + "): " + DescribeSession(stats));
+                             reason + "): " + DescribeSession(stats) + OpenToBase(open_received_us_, base_handed_us_));
     }
     bool now = false, cut = false;
     {
@@ -302,6 +314,8 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   grpc::CallbackServerContext* context_;
   v1::ClientMessage in_;
   bool opened_ = false;  // the first read's callback, then the reads' (one at a time)
+  uint64_t open_received_us_ = 0;  // when the OpenRequest arrived (SteadyNowUs)
+  uint64_t base_handed_us_ = 0;    // when Start handed the SessionStart to gRPC (the send loop's thread)
 
   // Set by the opener before the session joins the loop, read-only after.
   std::string tenant_;
