@@ -7,8 +7,10 @@
 //     temporary folder; the models are ingested once, before anything is
 //     timed: the bunny, the horse and the largest single-file model of the
 //     shared folder (by file size) (models.h);
-//   - the clients: threads of this process, each with its own sdk::Client
-//     (or asset API client for the reference) (sessions.h).
+//   - the clients: threads of a child process (this program again with
+//     --round-client, round_client.h; the rate run's with --rate-client),
+//     each with its own sdk::Client (or asset API client for the
+//     reference) (sessions.h), so that this process's CPU is the server's.
 // What it measures:
 //   1. per model and number of concurrent sessions (1, 10, 100): SDK
 //      sessions over UDP and over the gRPC stream (tcp_only), each polled
@@ -55,6 +57,7 @@
 #include "bench/stream/loopback.h"
 #include "bench/stream/models.h"
 #include "bench/stream/rate.h"
+#include "bench/stream/round_client.h"
 #include "bench/stream/shaped.h"
 #include "bench/stream/shaped_client.h"
 
@@ -114,6 +117,7 @@ int main(int argc, char** argv) {
   ms::bench::SetProgramName("meshstream_bench_stream");
   if (argc > 1 && std::string(argv[1]) == "--rate-client") return stream::RateClientMain(argc, argv);
   if (argc > 1 && std::string(argv[1]) == "--shaped-client") return stream::ShapedClientMain(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "--round-client") return stream::RoundClientMain(argc, argv);
   const stream::Args args = stream::ParseArgs(argc, argv);
   const auto run_start = Clock::now();
   json out;
