@@ -155,7 +155,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   }
 
   void Control(const SenderAction& control) override {
-    Queue(ControlMessage(*artifact_, control));
+    Queue(ControlMessage(hot_->bytes, control));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {
@@ -244,11 +244,12 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     options.repair = open.repair();
     // Every header, base mesh and the scene copied here, on the opener pool,
     // not on the send thread under the session's lock.
-    start_ = SessionStartMessage(plan_, *artifact_, options.transport);
+    start_ = SessionStartMessage(*plan_, hot_->bytes, options.transport);
     start_.mutable_session()->set_asset(version_.asset);
     start_.mutable_session()->set_version(version_.version);
-    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
-    auto sender = std::make_unique<SessionSender>(plan_, *artifact_, open.max_level(), std::move(options), SteadyNowUs());
+    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(hot_->scene.data()), hot_->scene.size());
+    auto sender =
+        std::make_unique<SessionSender>(*plan_, hot_->bytes, open.max_level(), std::move(options), SteadyNowUs());
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
                              (udp ? "udp" : "grpc") + ")");
@@ -266,14 +267,19 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   Status Prepare(const v1::OpenRequest& open) {
     MS_RETURN_IF_ERROR(CheckOpen(open));
     MS_ASSIGN_OR_RETURN(version_, ResolveReadyVersion(*service_->store_, tenant_, open.asset(), open.version()));
+    // The artifact, its plan and its scene: kept in memory between sessions
+    // (artifact_cache.h); the store's read, which checks the digest, only
+    // when the cache has none.
     const std::string& sha = version_.artifact.artifact_sha256;
-    MS_ASSIGN_OR_RETURN(artifact_, service_->artifacts_.Get(sha, [&] {
+    MS_ASSIGN_OR_RETURN(hot_, service_->artifacts_.Get(sha, version_.artifact.layout_json, [&] {
       return service_->store_->GetBlob(sha, service_->options_.max_artifact_bytes);
     }));
-    MS_ASSIGN_OR_RETURN(plan_, PlanSession(*artifact_, version_.artifact.layout_json, open.max_level()));
-    std::vector<std::pair<uint32_t, uint32_t>> refined;
-    for (const PlannedPrimitive& p : plan_.primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
-    MS_ASSIGN_OR_RETURN(scene_, service_->scenes_.Get(sha, *artifact_, refined));
+    if (open.max_level() < 0) {
+      plan_ = &hot_->plan;
+    } else {
+      cut_plan_ = CutPlan(hot_->plan, open.max_level());
+      plan_ = &cut_plan_;
+    }
     return Status::Ok();
   }
 
@@ -321,9 +327,9 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   std::string tenant_;
   CallLimit::Slot slot_;
   VersionRecord version_;
-  ArtifactCache::Bytes artifact_;
-  SessionPlan plan_;
-  std::shared_ptr<const std::vector<uint8_t>> scene_;
+  ArtifactCache::Entry hot_;  // the artifact, its plan and scene, shared with the cache
+  SessionPlan cut_plan_;      // with max_level: the session's own cut of hot_->plan
+  const SessionPlan* plan_ = nullptr;  // &hot_->plan or &cut_plan_
   v1::ServerMessage start_;  // the SessionStart but for Start's fields; moved out by Start
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
@@ -341,7 +347,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                                      const std::atomic<bool>* draining)
     : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
+      artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
 
 StreamServiceImpl::~StreamServiceImpl() = default;
 
