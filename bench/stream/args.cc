@@ -38,6 +38,9 @@ void LoopbackOptions(Options& o, Args& a) {
   o.Double("--session-timeout-s", "S", &a.session_timeout_s, 0, kMax,
            "a session or export not complete by then is a failure (default 120)", true);
   o.Int("--workers", "N", &a.workers, 1, 64, "job workers of the server (default 2; also its concurrent decoding exports)");
+  o.Int("--client-nice", "N", &a.client_nice, 0, 19,
+        "niceness of the clients' processes on loopback (default 0: the server's;\n"
+        "19: the server first, as on a machine of its own)");
   o.String("--work-dir", "DIR", &a.work_dir, "where the store lives (default: $TMPDIR or /tmp)");
   o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/stream.json)");
   o.Flag("--verbose", &a.verbose, "the server's log lines on stderr");

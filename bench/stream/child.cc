@@ -10,11 +10,12 @@
 
 namespace meshstream::bench::stream {
 
-ChildProcess::ChildProcess(const std::vector<std::string>& args) : what_(args.empty() ? "" : args.front()) {
+ChildProcess::ChildProcess(const std::vector<std::string>& args, int nice) : what_(args.empty() ? "" : args.front()) {
   int in_pipe[2], out_pipe[2];
   if (pipe(in_pipe) != 0 || pipe(out_pipe) != 0) Die("pipe failed");
   const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
   std::vector<std::string> all = {self};
+  if (nice != 0) all = {"/usr/bin/nice", "-n", std::to_string(nice), self};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (std::string& a : all) argv.push_back(a.data());
@@ -24,7 +25,9 @@ ChildProcess::ChildProcess(const std::vector<std::string>& args) : what_(args.em
   posix_spawn_file_actions_adddup2(&actions, in_pipe[0], STDIN_FILENO);
   posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
   for (int fd : {in_pipe[0], in_pipe[1], out_pipe[0], out_pipe[1]}) posix_spawn_file_actions_addclose(&actions, fd);
-  if (posix_spawn(&pid_, self.c_str(), &actions, nullptr, argv.data(), environ) != 0) Die(self + ": cannot start");
+  if (posix_spawn(&pid_, all.front().c_str(), &actions, nullptr, argv.data(), environ) != 0) {
+    Die(all.front() + ": cannot start");
+  }
   posix_spawn_file_actions_destroy(&actions);
   close(in_pipe[0]);
   close(out_pipe[1]);

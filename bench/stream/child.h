@@ -16,8 +16,10 @@ namespace meshstream::bench::stream {
 
 class ChildProcess {
  public:
-  // /proc/self/exe with `args` (argv[1..]); Die when it cannot start.
-  explicit ChildProcess(const std::vector<std::string>& args);
+  // /proc/self/exe with `args` (argv[1..]), at niceness `nice` (0: this
+  // process's; through nice(1) otherwise, so that every thread of the child
+  // has it); Die when it cannot start.
+  explicit ChildProcess(const std::vector<std::string>& args, int nice = 0);
   ~ChildProcess();
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;

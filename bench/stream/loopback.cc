@@ -206,6 +206,7 @@ json Settings(const Args& args, json model_info, const ServerOptions& server_opt
           {"largest_rounds_at_100", args.largest_rounds_at_100},
           {"session_timeout_s", args.session_timeout_s},
           {"workers", args.workers},
+          {"client_nice", args.client_nice},
           {"quick", args.quick},
           {"server", {{"max_rate_bps", server_options.max_rate_bps},
                       {"max_session_rate_bps", server_options.max_session_rate_bps},
@@ -341,7 +342,7 @@ uint64_t RunLoopbackParts(const Args& args, std::vector<Model>& models, const st
   (*out)["settings"] = Settings(args, IngestModels(address, models), server_options, *server);
 
   // The clients in a process of their own: the server's CPU is its own.
-  RoundClient clients(address);
+  RoundClient clients(address, args.client_nice);
   const Warmup warmup = WarmUp(args, address, models, clients);
   uint64_t failures = warmup.failures.size();
   log.WaitSessions(2 * models.size(), std::chrono::seconds(5));

@@ -97,10 +97,11 @@ namespace {
 // N UDP sessions at a time, session after session, on `m` for `seconds`,
 // their clients in a child process; the server in this one.
 json DatagramRate(const std::string& address, const Model& m, int sessions, double seconds, double timeout_s,
-                  ServerLog& log) {
+                  int nice, ServerLog& log) {
   const size_t logged_before = log.session_count();
   ChildProcess child({"--rate-client", address, m.name, std::to_string(m.version), std::to_string(sessions),
-                      std::to_string(seconds), std::to_string(timeout_s)});
+                      std::to_string(seconds), std::to_string(timeout_s)},
+                     nice);
   auto next_line = [&child] { return child.NextLine(); };
   if (next_line() != "start") Die("the rate client did not start");
   const auto udp_before = KernelUdp();
@@ -131,6 +132,7 @@ json DatagramRate(const std::string& address, const Model& m, int sessions, doub
   const double client_cpu = client["process_cpu_s"].get<double>();
   json j = {{"model", m.name},
             {"concurrent_sessions", sessions},
+            {"client_nice", nice},
             {"seconds_asked", seconds},
             {"wall_s", wall},
             {"client", client},
@@ -272,7 +274,7 @@ json RunDatagramRate(const Args& args, const std::vector<Model>& models, const s
                args.rate_sessions, rate_model->name.c_str(), args.rate_seconds, args.rate_bps);
   std::unique_ptr<ms::Server> rate_server = Check(ms::Server::Start(rate_options), "rate server");
   json rate = DatagramRate(rate_server->address(), *rate_model, args.rate_sessions, args.rate_seconds,
-                           args.session_timeout_s, rate_log);
+                           args.session_timeout_s, args.client_nice, rate_log);
   *failures += rate["client"]["sessions_failed"].get<uint64_t>();
   const std::string udp_totals = StopAndTakeUdpTotals(rate_server, rate_log);
   if (!udp_totals.empty()) rate["server_udp_totals_line"] = udp_totals;

@@ -107,7 +107,7 @@ int RoundClientMain(int argc, char** argv) {
   return 0;
 }
 
-RoundClient::RoundClient(const std::string& address) : child_({"--round-client", address}) {}
+RoundClient::RoundClient(const std::string& address, int nice) : child_({"--round-client", address}, nice) {}
 
 RoundClient::~RoundClient() = default;
 

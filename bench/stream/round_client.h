@@ -23,7 +23,8 @@ int RoundClientMain(int argc, char** argv);
 // The parent's side: the child process and its rounds.
 class RoundClient {
  public:
-  explicit RoundClient(const std::string& address);
+  // The child at niceness `nice` (--client-nice).
+  RoundClient(const std::string& address, int nice);
   ~RoundClient();
 
   // One round in the child. The Round's CPU samples (cpu_before,

@@ -25,6 +25,10 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <tuple>
 #include <functional>
 #include <string>
 
@@ -70,12 +74,24 @@ class StreamServiceImpl final : public v1::StreamService::CallbackService {
  private:
   class Call;
 
+  // The READY version a session names: ResolveReadyVersion, except that a
+  // version named by its number (> 0) is looked up in the store once and
+  // kept (kMaxReadyVersions, the oldest out first): a READY version never
+  // changes (versions are never deleted nor re-processed), and the store's
+  // lookup was most of a session's opening. Version 0 (the latest) is
+  // always asked of the store.
+  StatusOr<VersionRecord> ResolveVersion(const std::string& tenant, const std::string& asset, int64_t version);
+  static constexpr size_t kMaxReadyVersions = 1024;
+
   Store* store_;
   const Authenticator* auth_;
   StreamServiceOptions options_;
   const std::atomic<bool>* draining_;
   CallLimit sessions_;
   ArtifactCache artifacts_;
+  std::mutex ready_mutex_;  // below
+  std::map<std::tuple<std::string, std::string, int64_t>, VersionRecord> ready_;
+  std::deque<std::tuple<std::string, std::string, int64_t>> ready_order_;  // oldest first
   SendLoop loop_;       // before openers_: the pool stops first
   WorkQueue openers_;
 };
