@@ -50,7 +50,9 @@ void LoopbackOptions(Options& o, Args& a) {
 void ShapedOptions(Options& o, Args& a) {
   o.Section("The shaped link (needs root: ip netns, nft, tc tbf):");
   o.Action("--shaped", [&a] { a.shaped = true; }, "run it (the default)");
-  o.Action("--no-shaped", [&a] { a.shaped = false; }, "do not run it");
+  o.Action("--no-shaped", [&a] { a.shaped = false; },
+           "do not run it (the shaped part of the --out file of an earlier run, if\n"
+           "any, is kept as it is)");
   o.Action("--only-shaped", [&a] { a.only_shaped = a.shaped = true; },
            "only it (into the --out file of an earlier full run when there is one:\n"
            "its other parts are kept)");

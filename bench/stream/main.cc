@@ -93,6 +93,18 @@ bool StartOnlyShaped(const stream::Args& args, const std::vector<stream::Model>&
   return false;
 }
 
+// --no-shaped: the shaped part of the --out file of an earlier run, kept as
+// it is (it carries its own machine, date and commit), or null.
+json EarlierShaped(const stream::Args& args) {
+  std::ifstream earlier(args.out);
+  json e = earlier ? json::parse(earlier, nullptr, false) : json();
+  if (!e.is_object() || e.value("benchmark", std::string()) != "meshstream_bench_stream" || !e.contains("shaped")) {
+    return nullptr;
+  }
+  std::fprintf(stderr, "meshstream_bench_stream: --no-shaped: keeping the shaped part of %s\n", args.out.c_str());
+  return std::move(e["shaped"]);
+}
+
 // 3. The shaped link: a server of its own on the same store (the loopback
 // server has stopped), on the host side of a veth pair; with the machine's
 // facts of its own (a merged run's top-level machine is the earlier run's).
@@ -137,6 +149,10 @@ int main(int argc, char** argv) {
     if (merged) failures = out.value("failures", uint64_t{0});
   }
   uint64_t shaped_failures = 0;
+  if (!args.shaped) {
+    json shaped = EarlierShaped(args);
+    if (!shaped.is_null()) out["shaped"] = std::move(shaped);
+  }
   if (args.shaped) {
     json shaped = Shaped(args, store, folder, models, merged);
     shaped_failures = shaped.value("failures", uint64_t{0});
