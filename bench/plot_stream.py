@@ -194,12 +194,20 @@ def headline(data):
     return out
 
 
+def cpu_per_session(cpu):
+    # Server and clients in two processes (server_ms_per_session); older runs: one process.
+    if "server_ms_per_session" in cpu:
+        return "%.1f + %.1f" % (cpu["server_ms_per_session"], cpu["clients_ms_per_session"])
+    return "%.1f" % cpu["process_ms_per_session"]
+
+
 def session_table(data):
     out = []
     conc = data["settings"]["concurrency"]
-    out.append("| model | sessions | transport | n | failed | base p50 / p99 ms | full p50 / p99 ms "
-               "| base / Draco p50, p99 | full / Draco p50, p99 | Open to kComplete p50 / p99 ms | CPU ms per session |")
-    out.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    out.append("| model | sessions | transport | n | failed | base p50 / p99 ms | server's open to base p50 / p99 ms "
+               "| full p50 / p99 ms | base / Draco p50, p99 | full / Draco p50, p99 | Open to kComplete p50 / p99 ms "
+               "| CPU ms per session: server + clients |")
+    out.append("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for m in models(data):
         for c in conc:
             for kind, label, _, _ in KINDS:
@@ -207,16 +215,18 @@ def session_table(data):
                 if r is None:
                     continue
                 fb, ff = times(r, "base"), times(r, "full")
-                cpu = r["cpu"]["process_ms_per_session"]
+                cpu = cpu_per_session(r["cpu"])
                 if kind == "draco_export":
-                    out.append("| %s | %d | Draco export | %d | %d | - | %s / %s (last byte) | - | - | - | %.1f |" % (
+                    out.append("| %s | %d | Draco export | %d | %d | - | - | %s / %s (last byte) | - | - | - | %s |" % (
                         short(m), c, r["completed"], r["failures"], fmt_ms(ff["p50_ms"]) if ff else "-",
                         fmt_ms(ff["p99_ms"]) if ff else "-", cpu))
                     continue
                 oc = r.get("open_to_complete_ms", {})
-                out.append("| %s | %d | %s | %d | %d | %s / %s | **%s** / %s | %s, %s | %s, %s | %s / %s | %.1f |" % (
+                sb = r.get("server_time_to_base_ms", {})
+                out.append("| %s | %d | %s | %d | %d | %s / %s | %s / %s | **%s** / %s | %s, %s | %s, %s | %s / %s | %s |" % (
                     short(m), c, "UDP" if kind == "udp" else "TCP only", r["completed"], r["failures"],
                     fmt_ms(fb["p50_ms"]) if fb else "-", fmt_ms(fb["p99_ms"]) if fb else "-",
+                    fmt_ms(sb.get("p50_ms")), fmt_ms(sb.get("p99_ms")),
                     fmt_ms(ff["p50_ms"]) if ff else "-", fmt_ms(ff["p99_ms"]) if ff else "-",
                     fmt_ratio(ratio(r, "base_p50")), fmt_ratio(ratio(r, "base_p99")),
                     fmt_ratio(ratio(r, "full_p50")), fmt_ratio(ratio(r, "full_p99")), fmt_ms(oc.get("p50_ms")),
@@ -298,10 +308,11 @@ def markdown(data, prefix):
     out.extend(session_table(data))
     out.append("")
     out.append("Rounds per row (sessions x rounds = n): %s. `base` and `full`: the SDK's `time_to_base_ms` and "
-               "`time_to_full_ms`. `Open to kComplete`: measured by the benchmark around the same session, from "
-               "before `Session::Open` until `Poll` returned `kComplete` (what the application sees). `CPU ms per "
-               "session`: this process's CPU (server and clients together) over the rounds of the row, per "
-               "session." % ", ".join("%d x %d" % (c, n) for c, n in rounds))
+               "`time_to_full_ms`. `server's open to base`: the server's own time from the OpenRequest's arrival to "
+               "the SessionStart (every base mesh) handed to gRPC, from its session log lines. `Open to kComplete`: "
+               "measured by the benchmark around the same session, from before `Session::Open` until `Poll` "
+               "returned `kComplete` (what the application sees). `CPU ms per session`: the server's process and "
+               "the clients' process (a child of the benchmark) over the rounds of the row, per session." % ", ".join("%d x %d" % (c, n) for c, n in rounds))
     out.append("")
     out.append("![time to base and full mesh](%sstream-time.png)" % prefix)
     out.append("")

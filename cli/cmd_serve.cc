@@ -32,6 +32,7 @@ struct ServeArgs {
   double max_rate_mbps = 1000;
   double max_session_rate_mbps = 400;
   double idle_timeout_s = 30;
+  int64_t stream_cache_mb = 256;
   bool reflection = false;
   bool no_reflection = false;
 };
@@ -44,6 +45,7 @@ int RunServe(ServeArgs& args) {
   args.options.max_rate_bps = args.max_rate_mbps * 1e6;
   args.options.max_session_rate_bps = args.max_session_rate_mbps * 1e6;
   args.options.session_idle_timeout_ms = static_cast<int64_t>(args.idle_timeout_s * 1000);
+  args.options.stream_cache_bytes = static_cast<uint64_t>(args.stream_cache_mb) << 20;
   if (args.no_reflection) args.options.reflection = false;
   // The signals are taken by one thread (sigwait), so they are blocked in
   // every thread the server starts.
@@ -142,6 +144,11 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
                           "seconds a session may go without a message from its client")
               ->check(CLI::Range(0.1, 86400.0)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--stream-cache-mb", args->stream_cache_mb,
+                          "MiB of hot artifacts kept for streaming sessions with their plans and scenes "
+                          "(least recently used go first; 0: only what running sessions hold)")
+              ->check(CLI::Range(int64_t{0}, int64_t{1} << 20)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
   return {cmd, [args] { return RunServe(*args); }};

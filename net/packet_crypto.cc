@@ -2,6 +2,8 @@
 
 #include <sodium.h>
 
+#include <algorithm>
+
 namespace meshstream {
 
 namespace {
@@ -35,8 +37,8 @@ std::array<uint8_t, kPacketNonceBytes> PacketNonce(PacketType type, uint64_t pac
   return nonce;
 }
 
-StatusOr<std::vector<uint8_t>> SealPacket(PacketType type, uint64_t session_id, uint64_t packet_number,
-                                          const PacketKey& key, const uint8_t* payload, size_t payload_size) {
+StatusOr<size_t> SealPacketInto(PacketType type, uint64_t session_id, uint64_t packet_number, const PacketKey& key,
+                                const uint8_t* payload, size_t payload_size, uint8_t* out, size_t capacity) {
   static_assert(crypto_aead_chacha20poly1305_ietf_KEYBYTES == kPacketKeyBytes, "key size");
   static_assert(crypto_aead_chacha20poly1305_ietf_NPUBBYTES == kPacketNonceBytes, "nonce size");
   static_assert(crypto_aead_chacha20poly1305_ietf_ABYTES == kPacketTagBytes, "tag size");
@@ -48,22 +50,32 @@ StatusOr<std::vector<uint8_t>> SealPacket(PacketType type, uint64_t session_id, 
                            std::to_string(kMaxPacketPayloadBytes));
   }
   if (payload == nullptr && payload_size != 0) return InvalidArgument("SealPacket: null payload");
+  const size_t size = kPacketOverheadBytes + payload_size;
+  if (out == nullptr || capacity < size) {
+    return InvalidArgument("SealPacket: a buffer of " + std::to_string(capacity) + " bytes for " +
+                           std::to_string(size));
+  }
   if (!SodiumReady()) return Internal("libsodium failed to initialise");
-
-  ByteWriter w;
-  WriteHeader(PacketHeader{type, session_id, packet_number}, w);
-  std::vector<uint8_t>& out = w.bytes();
-  out.resize(kPacketHeaderBytes + payload_size + kPacketTagBytes);
+  EncodeHeader(PacketHeader{type, session_id, packet_number}, out);
   const auto nonce = PacketNonce(type, packet_number);
   unsigned long long sealed = 0;
   static const uint8_t kEmpty = 0;
-  if (crypto_aead_chacha20poly1305_ietf_encrypt(out.data() + kPacketHeaderBytes, &sealed,
-                                                payload_size ? payload : &kEmpty, payload_size, out.data(),
-                                                kPacketHeaderBytes, nullptr, nonce.data(), key.data()) != 0 ||
+  if (crypto_aead_chacha20poly1305_ietf_encrypt(out + kPacketHeaderBytes, &sealed, payload_size ? payload : &kEmpty,
+                                                payload_size, out, kPacketHeaderBytes, nullptr, nonce.data(),
+                                                key.data()) != 0 ||
       sealed != payload_size + kPacketTagBytes) {
     return Internal("SealPacket: libsodium refused to encrypt");
   }
-  return std::move(out);
+  return size;
+}
+
+StatusOr<std::vector<uint8_t>> SealPacket(PacketType type, uint64_t session_id, uint64_t packet_number,
+                                          const PacketKey& key, const uint8_t* payload, size_t payload_size) {
+  std::vector<uint8_t> out(kPacketOverheadBytes + std::min(payload_size, kMaxPacketPayloadBytes));
+  auto size = SealPacketInto(type, session_id, packet_number, key, payload, payload_size, out.data(), out.size());
+  if (!size.ok()) return size.status();
+  out.resize(size.value());
+  return out;
 }
 
 DropReason OpenPacket(const uint8_t* data, size_t size, Direction incoming, const PacketKey& key, OpenedPacket* out) {

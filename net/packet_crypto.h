@@ -61,6 +61,11 @@ std::array<uint8_t, kPacketNonceBytes> PacketNonce(PacketType type, uint64_t pac
 // kMaxPacketPayloadBytes (or is null with a size), Internal if libsodium fails.
 StatusOr<std::vector<uint8_t>> SealPacket(PacketType type, uint64_t session_id, uint64_t packet_number,
                                           const PacketKey& key, const uint8_t* payload, size_t payload_size);
+// The same datagram written into `out` (at least kPacketOverheadBytes +
+// payload_size bytes: InvalidArgument otherwise), a sender's reused buffer;
+// returns its size.
+StatusOr<size_t> SealPacketInto(PacketType type, uint64_t session_id, uint64_t packet_number, const PacketKey& key,
+                                const uint8_t* payload, size_t payload_size, uint8_t* out, size_t capacity);
 
 struct OpenedPacket {
   PacketHeader header;

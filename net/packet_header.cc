@@ -6,15 +6,19 @@ Direction DirectionOf(PacketType type) {
   return type == PacketType::kHello ? Direction::kClientToServer : Direction::kServerToClient;
 }
 
+void EncodeHeader(const PacketHeader& header, uint8_t* out) {
+  out[0] = kPacketMagic;
+  out[1] = kPacketVersion;
+  out[2] = static_cast<uint8_t>(header.type);
+  out[3] = 0;
+  for (int i = 0; i < 8; ++i) out[4 + i] = static_cast<uint8_t>(header.session_id >> (8 * i));
+  for (int i = 0; i < 8; ++i) out[12 + i] = static_cast<uint8_t>(header.packet_number >> (8 * i));
+}
+
 void WriteHeader(const PacketHeader& header, ByteWriter& out) {
-  out.U8(kPacketMagic);
-  out.U8(kPacketVersion);
-  out.U8(static_cast<uint8_t>(header.type));
-  out.U8(0);
-  out.U32(static_cast<uint32_t>(header.session_id));
-  out.U32(static_cast<uint32_t>(header.session_id >> 32));
-  out.U32(static_cast<uint32_t>(header.packet_number));
-  out.U32(static_cast<uint32_t>(header.packet_number >> 32));
+  uint8_t bytes[kPacketHeaderBytes];
+  EncodeHeader(header, bytes);
+  for (uint8_t b : bytes) out.U8(b);
 }
 
 namespace {

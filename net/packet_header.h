@@ -48,6 +48,8 @@ struct PacketHeader {
 
 // Appends the 20 header bytes.
 void WriteHeader(const PacketHeader& header, ByteWriter& out);
+// The same kPacketHeaderBytes bytes into `out` (a sender's own buffer).
+void EncodeHeader(const PacketHeader& header, uint8_t* out);
 
 // kNone and *header filled, or the first reason the datagram is malformed
 // (kTooShort, kTooLong, kBadMagic, kBadVersion, kBadType, kBadReserved);

@@ -38,6 +38,9 @@ void LoopbackOptions(Options& o, Args& a) {
   o.Double("--session-timeout-s", "S", &a.session_timeout_s, 0, kMax,
            "a session or export not complete by then is a failure (default 120)", true);
   o.Int("--workers", "N", &a.workers, 1, 64, "job workers of the server (default 2; also its concurrent decoding exports)");
+  o.Int("--client-nice", "N", &a.client_nice, 0, 19,
+        "niceness of the clients' processes on loopback (default 0: the server's;\n"
+        "19: the server first, as on a machine of its own)");
   o.String("--work-dir", "DIR", &a.work_dir, "where the store lives (default: $TMPDIR or /tmp)");
   o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/stream.json)");
   o.Flag("--verbose", &a.verbose, "the server's log lines on stderr");
@@ -47,7 +50,9 @@ void LoopbackOptions(Options& o, Args& a) {
 void ShapedOptions(Options& o, Args& a) {
   o.Section("The shaped link (needs root: ip netns, nft, tc tbf):");
   o.Action("--shaped", [&a] { a.shaped = true; }, "run it (the default)");
-  o.Action("--no-shaped", [&a] { a.shaped = false; }, "do not run it");
+  o.Action("--no-shaped", [&a] { a.shaped = false; },
+           "do not run it (the shaped part of the --out file of an earlier run, if\n"
+           "any, is kept as it is)");
   o.Action("--only-shaped", [&a] { a.only_shaped = a.shaped = true; },
            "only it (into the --out file of an earlier full run when there is one:\n"
            "its other parts are kept)");

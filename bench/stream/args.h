@@ -22,6 +22,7 @@ struct Args {
   double loopback_seconds = 2;
   double session_timeout_s = 120;
   int workers = 2;
+  int client_nice = 0;  // niceness of the clients' processes (round_client.h, the rate run's)
   std::string work_dir;
   bool quick = false;
   bool verbose = false;

@@ -10,6 +10,7 @@
 #include "bench/harness.h"
 #include "bench/service_stats.h"
 #include "bench/stream/rate.h"
+#include "bench/stream/round_client.h"
 #include "bench/stream/server_log.h"
 #include "bench/stream/sessions.h"
 #include "importers/gltf_import.h"
@@ -31,7 +32,8 @@ struct Row {
   int rounds = 0;
   std::vector<Outcome> outcomes;
   std::vector<SessionLogLine> server;  // the server's session lines of these rounds
-  double wall_s = 0, process_cpu_s = 0;
+  double wall_s = 0, process_cpu_s = 0;  // the server's process
+  double client_cpu_s = 0;               // the clients' process (round_client.h)
   uint64_t machine_busy = 0, machine_total = 0;
   bool server_lines_complete = true;
   std::map<std::string, uint64_t> kernel_udp;  // the rounds' deltas, summed
@@ -148,8 +150,12 @@ json RowJson(const Row& row) {
             {"completed", row.outcomes.size() - failures},
             {"failures", failures},
             {"wall_s", row.wall_s},
-            {"cpu", {{"process_s", row.process_cpu_s},
-                     {"process_ms_per_session", n > 0 ? row.process_cpu_s * 1e3 / n : 0.0},
+            {"cpu", {{"process_s", row.process_cpu_s + row.client_cpu_s},
+                     {"process_ms_per_session", n > 0 ? (row.process_cpu_s + row.client_cpu_s) * 1e3 / n : 0.0},
+                     {"server_s", row.process_cpu_s},
+                     {"server_ms_per_session", n > 0 ? row.process_cpu_s * 1e3 / n : 0.0},
+                     {"clients_s", row.client_cpu_s},
+                     {"clients_ms_per_session", n > 0 ? row.client_cpu_s * 1e3 / n : 0.0},
                      {"calling_threads_ms_per_session", n > 0 ? thread_cpu * 1e3 / n : 0.0},
                      {"machine_busy", row.machine_total ? static_cast<double>(row.machine_busy) / row.machine_total
                                                         : 0.0}}}};
@@ -161,6 +167,13 @@ json RowJson(const Row& row) {
   }
   AddSessionFigures(row, j);
   j["server"] = ServerLinesJson(row);
+  // The server's own time from the Open to the base meshes handed to gRPC
+  // (its session log lines), beside the clients' time_to_base_ms.
+  std::vector<double> server_base;
+  for (const SessionLogLine& s : row.server) {
+    if (s.open_to_base_ms >= 0) server_base.push_back(s.open_to_base_ms);
+  }
+  j["server_time_to_base_ms"] = MsSummary(server_base);
   return j;
 }
 
@@ -193,6 +206,7 @@ json Settings(const Args& args, json model_info, const ServerOptions& server_opt
           {"largest_rounds_at_100", args.largest_rounds_at_100},
           {"session_timeout_s", args.session_timeout_s},
           {"workers", args.workers},
+          {"client_nice", args.client_nice},
           {"quick", args.quick},
           {"server", {{"max_rate_bps", server_options.max_rate_bps},
                       {"max_session_rate_bps", server_options.max_session_rate_bps},
@@ -217,7 +231,7 @@ struct Warmup {
 // export (timed on its own: what the first client of a version waits); and
 // what a client of the Draco GLB does after its last byte: decode it
 // (importers/, Draco), on one thread, nothing else running.
-Warmup WarmUp(const Args& args, const std::string& address, const std::vector<Model>& models) {
+Warmup WarmUp(const Args& args, const std::string& address, const std::vector<Model>& models, RoundClient& clients) {
   Warmup w;
   for (const Model& m : models) {
     AssetApi api(address);
@@ -238,7 +252,7 @@ Warmup WarmUp(const Args& args, const std::string& address, const std::vector<Mo
                              {"bytes", first.bytes},
                              {"client_decode", RunsSummary(decode)}};
     for (Kind k : {Kind::kUdp, Kind::kTcp}) {
-      Round r = RunRound(k, 1, address, m, "", args.session_timeout_s);
+      Round r = clients.Run(k, 1, m, "", args.session_timeout_s);
       if (!r.outcomes[0].ok) {
         w.failures.push_back(m.name + " " + KindName(k) + ": " + r.outcomes[0].error);
         std::fprintf(stderr, "meshstream_bench_stream: warm-up %s %s FAILED: %s\n", m.name.c_str(), KindName(k),
@@ -270,6 +284,7 @@ void AddRound(Row& row, Round r, ServerLog& log, size_t logged) {
   for (auto it = udp.begin(); it != udp.end(); ++it) row.kernel_udp[it.key()] += it.value().get<uint64_t>();
   row.wall_s += r.wall_s;
   row.process_cpu_s += r.cpu_after.process_s - r.cpu_before.process_s;
+  row.client_cpu_s += r.client_cpu_s;
   row.machine_busy += r.cpu_after.machine_busy - r.cpu_before.machine_busy;
   row.machine_total += r.cpu_after.machine_total - r.cpu_before.machine_total;
 }
@@ -277,7 +292,7 @@ void AddRound(Row& row, Round r, ServerLog& log, size_t logged) {
 // The three rows of one model at `n` concurrent sessions, the kinds taking
 // turns round by round; appended to *rows (Draco's first, each session row
 // with its ratios to it). Returns their failures.
-uint64_t MeasureRows(const Args& args, const std::string& address, const Model& m, int n, const std::string& sha,
+uint64_t MeasureRows(const Args& args, RoundClient& clients, const Model& m, int n, const std::string& sha,
                      ServerLog& log, json* rows) {
   int rounds = std::max(args.min_rounds, (args.samples + n - 1) / n);
   if (n >= 100 && IsLargest(m)) rounds = args.largest_rounds_at_100;
@@ -294,7 +309,7 @@ uint64_t MeasureRows(const Args& args, const std::string& address, const Model& 
       std::fprintf(stderr, "meshstream_bench_stream: %s, %3d concurrent, round %d/%d: %s\n", m.name.c_str(), n,
                    round + 1, rounds, KindName(k));
       const size_t logged = log.session_count();
-      AddRound(by_kind[k], RunRound(k, n, address, m, sha, args.session_timeout_s), log, logged);
+      AddRound(by_kind[k], clients.Run(k, n, m, sha, args.session_timeout_s), log, logged);
     }
   }
   json draco = RowJson(by_kind[Kind::kDraco]);
@@ -326,14 +341,16 @@ uint64_t RunLoopbackParts(const Args& args, std::vector<Model>& models, const st
   const std::string address = server->address();
   (*out)["settings"] = Settings(args, IngestModels(address, models), server_options, *server);
 
-  const Warmup warmup = WarmUp(args, address, models);
+  // The clients in a process of their own: the server's CPU is its own.
+  RoundClient clients(address, args.client_nice);
+  const Warmup warmup = WarmUp(args, address, models, clients);
   uint64_t failures = warmup.failures.size();
   log.WaitSessions(2 * models.size(), std::chrono::seconds(5));
 
   // 1. Time to base and to full, per model and concurrency.
   json rows = json::array();
   for (const Model& m : models) {
-    for (int n : args.concurrency) failures += MeasureRows(args, address, m, n, warmup.draco_sha.at(m.name), log, &rows);
+    for (int n : args.concurrency) failures += MeasureRows(args, clients, m, n, warmup.draco_sha.at(m.name), log, &rows);
   }
   // The main server's log: its UDP endpoint's totals come when it stops.
   const std::string main_udp_line = StopAndTakeUdpTotals(server, log);

@@ -7,8 +7,10 @@
 //     temporary folder; the models are ingested once, before anything is
 //     timed: the bunny, the horse and the largest single-file model of the
 //     shared folder (by file size) (models.h);
-//   - the clients: threads of this process, each with its own sdk::Client
-//     (or asset API client for the reference) (sessions.h).
+//   - the clients: threads of a child process (this program again with
+//     --round-client, round_client.h; the rate run's with --rate-client),
+//     each with its own sdk::Client (or asset API client for the
+//     reference) (sessions.h), so that this process's CPU is the server's.
 // What it measures:
 //   1. per model and number of concurrent sessions (1, 10, 100): SDK
 //      sessions over UDP and over the gRPC stream (tcp_only), each polled
@@ -55,6 +57,7 @@
 #include "bench/stream/loopback.h"
 #include "bench/stream/models.h"
 #include "bench/stream/rate.h"
+#include "bench/stream/round_client.h"
 #include "bench/stream/shaped.h"
 #include "bench/stream/shaped_client.h"
 
@@ -90,6 +93,18 @@ bool StartOnlyShaped(const stream::Args& args, const std::vector<stream::Model>&
   return false;
 }
 
+// --no-shaped: the shaped part of the --out file of an earlier run, kept as
+// it is (it carries its own machine, date and commit), or null.
+json EarlierShaped(const stream::Args& args) {
+  std::ifstream earlier(args.out);
+  json e = earlier ? json::parse(earlier, nullptr, false) : json();
+  if (!e.is_object() || e.value("benchmark", std::string()) != "meshstream_bench_stream" || !e.contains("shaped")) {
+    return nullptr;
+  }
+  std::fprintf(stderr, "meshstream_bench_stream: --no-shaped: keeping the shaped part of %s\n", args.out.c_str());
+  return std::move(e["shaped"]);
+}
+
 // 3. The shaped link: a server of its own on the same store (the loopback
 // server has stopped), on the host side of a veth pair; with the machine's
 // facts of its own (a merged run's top-level machine is the earlier run's).
@@ -114,6 +129,7 @@ int main(int argc, char** argv) {
   ms::bench::SetProgramName("meshstream_bench_stream");
   if (argc > 1 && std::string(argv[1]) == "--rate-client") return stream::RateClientMain(argc, argv);
   if (argc > 1 && std::string(argv[1]) == "--shaped-client") return stream::ShapedClientMain(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "--round-client") return stream::RoundClientMain(argc, argv);
   const stream::Args args = stream::ParseArgs(argc, argv);
   const auto run_start = Clock::now();
   json out;
@@ -133,6 +149,10 @@ int main(int argc, char** argv) {
     if (merged) failures = out.value("failures", uint64_t{0});
   }
   uint64_t shaped_failures = 0;
+  if (!args.shaped) {
+    json shaped = EarlierShaped(args);
+    if (!shaped.is_null()) out["shaped"] = std::move(shaped);
+  }
   if (args.shaped) {
     json shaped = Shaped(args, store, folder, models, merged);
     shaped_failures = shaped.value("failures", uint64_t{0});

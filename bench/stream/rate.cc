@@ -1,14 +1,9 @@
 #include "bench/stream/rate.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <numeric>
 #include <thread>
@@ -16,6 +11,7 @@
 #include "bench/bench_util.h"
 #include "bench/harness.h"
 #include "bench/service_load.h"
+#include "bench/stream/child.h"
 #include "bench/stream/server_log.h"
 #include "bench/stream/sessions.h"
 #include "net/udp_socket.h"
@@ -25,7 +21,6 @@
 namespace meshstream::bench::stream {
 
 namespace ms = meshstream;
-namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 int RateClientMain(int argc, char** argv) {
@@ -99,64 +94,14 @@ int RateClientMain(int argc, char** argv) {
 
 namespace {
 
-// The rate clients' child process, its stdout read line by line.
-struct RateChild {
-  pid_t pid = 0;
-  FILE* out = nullptr;
-
-  std::string NextLine() {
-    std::string line;
-    int c;
-    while ((c = std::fgetc(out)) != EOF && c != '\n') line.push_back(static_cast<char>(c));
-    if (c == EOF && line.empty()) Die("the rate client ended early");
-    return line;
-  }
-  // Closes its stdout and waits for it; Die unless it exited with 0.
-  void Wait() {
-    std::fclose(out);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) Die("the rate client failed");
-  }
-};
-
-// This program again with --rate-client, its stdout a pipe to this one.
-RateChild StartRateClient(const std::string& address, const Model& m, int sessions, double seconds,
-                          double timeout_s) {
-  int out_pipe[2];
-  if (pipe(out_pipe) != 0) Die("pipe failed");
-  const std::string self = fs::read_symlink("/proc/self/exe").string();
-  std::vector<std::string> args = {self,
-                                   "--rate-client",
-                                   address,
-                                   m.name,
-                                   std::to_string(m.version),
-                                   std::to_string(sessions),
-                                   std::to_string(seconds),
-                                   std::to_string(timeout_s)};
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, out_pipe[0]);
-  posix_spawn_file_actions_addclose(&actions, out_pipe[1]);
-  RateChild child;
-  if (posix_spawn(&child.pid, self.c_str(), &actions, nullptr, argv.data(), environ) != 0) Die(self + ": cannot start");
-  posix_spawn_file_actions_destroy(&actions);
-  close(out_pipe[1]);
-  child.out = fdopen(out_pipe[0], "r");
-  if (child.out == nullptr) Die("fdopen failed");
-  return child;
-}
-
 // N UDP sessions at a time, session after session, on `m` for `seconds`,
 // their clients in a child process; the server in this one.
 json DatagramRate(const std::string& address, const Model& m, int sessions, double seconds, double timeout_s,
-                  ServerLog& log) {
+                  int nice, ServerLog& log) {
   const size_t logged_before = log.session_count();
-  RateChild child = StartRateClient(address, m, sessions, seconds, timeout_s);
+  ChildProcess child({"--rate-client", address, m.name, std::to_string(m.version), std::to_string(sessions),
+                      std::to_string(seconds), std::to_string(timeout_s)},
+                     nice);
   auto next_line = [&child] { return child.NextLine(); };
   if (next_line() != "start") Die("the rate client did not start");
   const auto udp_before = KernelUdp();
@@ -175,7 +120,9 @@ json DatagramRate(const std::string& address, const Model& m, int sessions, doub
   // warm-up sessions ended before the clients said "start").
   const bool all_logged = log.WaitSessions(logged_start + opened, std::chrono::seconds(10));
   uint64_t sent = 0, udp_sessions = 0, decreases = 0;
+  std::vector<double> server_base;
   for (const SessionLogLine& s : log.SessionsFrom(logged_start)) {
+    if (s.open_to_base_ms >= 0) server_base.push_back(s.open_to_base_ms);
     if (s.transport != "udp") continue;
     sent += s.datagrams_sent;
     decreases += s.decreases;
@@ -185,6 +132,7 @@ json DatagramRate(const std::string& address, const Model& m, int sessions, doub
   const double client_cpu = client["process_cpu_s"].get<double>();
   json j = {{"model", m.name},
             {"concurrent_sessions", sessions},
+            {"client_nice", nice},
             {"seconds_asked", seconds},
             {"wall_s", wall},
             {"client", client},
@@ -193,6 +141,7 @@ json DatagramRate(const std::string& address, const Model& m, int sessions, doub
             {"all_logged", all_logged},
             {"server_rate_decreases", decreases},
             {"data_datagrams_sent", sent},
+            {"server_time_to_base_ms", MsSummary(server_base)},
             {"kernel_udp", KernelUdpDelta(udp_before, udp_after)},
             {"datagrams_per_s_wall", sent / wall},
             {"server_cpu_s", server_cpu},
@@ -325,7 +274,7 @@ json RunDatagramRate(const Args& args, const std::vector<Model>& models, const s
                args.rate_sessions, rate_model->name.c_str(), args.rate_seconds, args.rate_bps);
   std::unique_ptr<ms::Server> rate_server = Check(ms::Server::Start(rate_options), "rate server");
   json rate = DatagramRate(rate_server->address(), *rate_model, args.rate_sessions, args.rate_seconds,
-                           args.session_timeout_s, rate_log);
+                           args.session_timeout_s, args.client_nice, rate_log);
   *failures += rate["client"]["sessions_failed"].get<uint64_t>();
   const std::string udp_totals = StopAndTakeUdpTotals(rate_server, rate_log);
   if (!udp_totals.empty()) rate["server_udp_totals_line"] = udp_totals;

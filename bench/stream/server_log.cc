@@ -30,6 +30,10 @@ bool ParseSessionLine(const std::string& line, SessionLogLine* s) {
   s->datagrams_sent = sent;
   s->reports = reports;
   s->missing = missing;
+  const size_t base = line.find(", open to base ", close);
+  if (base != std::string::npos && std::sscanf(line.c_str() + base, ", open to base %lf ms", &s->open_to_base_ms) != 1) {
+    s->open_to_base_ms = -1;
+  }
   return true;
 }
 

@@ -23,11 +23,13 @@
 namespace meshstream::bench::stream {
 
 // "session ASSET@V ended (REASON): TRANSPORT, N datagrams sent, R reports,
-// M missing, rate X Mbit/s, D decreases, srtt S ms"
+// M missing, rate X Mbit/s, D decreases, srtt S ms, ..., open to base T ms"
+// (the last field only when the session's SessionStart was handed to gRPC).
 struct SessionLogLine {
   std::string asset, reason, transport;
   uint64_t datagrams_sent = 0, reports = 0, missing = 0;
   double rate_mbps = 0, srtt_ms = 0;
+  double open_to_base_ms = -1;  // the server's own time from the Open to the base meshes handed to gRPC; < 0: none
   unsigned decreases = 0;
 };
 

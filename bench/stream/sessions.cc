@@ -157,7 +157,7 @@ Outcome RunExport(AssetApi& api, const Model& m, const std::string& expect_sha25
 // `n` threads, each running one session (or export) of `kind` on `m`, all
 // released together.
 Round RunRound(Kind kind, int n, const std::string& address, const Model& m, const std::string& draco_sha256,
-               double timeout_s) {
+               double timeout_s, const std::function<void()>& on_release) {
   Round r;
   r.outcomes.resize(static_cast<size_t>(n));
   StartGate gate;
@@ -181,6 +181,7 @@ Round RunRound(Kind kind, int n, const std::string& address, const Model& m, con
     });
   }
   gate.OpenWhen(n);
+  if (on_release) on_release();
   r.udp_before = KernelUdp();
   r.cpu_before = ms::bench::SampleCpu();
   const auto t0 = Clock::now();

@@ -10,6 +10,7 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -88,12 +89,14 @@ struct Round {
   double wall_s = 0;
   CpuSample cpu_before, cpu_after;
   std::map<std::string, uint64_t> udp_before, udp_after;
+  double client_cpu_s = 0;  // a round run in the clients' process (round_client.h): that process's CPU
 };
 
 // `n` threads, each running one session (or export) of `kind` on `m`, all
-// released together.
+// released together; `on_release` (when set) is called as they are, before
+// the clock and the CPU samples start.
 Round RunRound(Kind kind, int n, const std::string& address, const Model& m, const std::string& draco_sha256,
-               double timeout_s);
+               double timeout_s, const std::function<void()>& on_release = nullptr);
 
 // p50, p90, p99 (nearest rank), mean, min, max of `v` (ms).
 nlohmann::json MsSummary(std::vector<double> v);

@@ -1,6 +1,7 @@
 #include "services/api/stream_service.h"
 
 #include <atomic>
+#include <cstdio>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -32,6 +33,15 @@ Status CheckOpen(const v1::OpenRequest& open) {
   return Status::Ok();
 }
 
+// The session log line's last field: the server's own time from the Open's
+// arrival to the SessionStart (the base meshes) handed to gRPC, when it was.
+std::string OpenToBase(uint64_t open_us, uint64_t base_us) {
+  if (base_us == 0 || base_us < open_us) return "";
+  char text[64];
+  std::snprintf(text, sizeof text, ", open to base %.3f ms", static_cast<double>(base_us - open_us) / 1000.0);
+  return text;
+}
+
 SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
   SendLoopOptions options;  // the default max_queued
   options.draining = draining;
@@ -57,6 +67,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   void OnReadDone(bool ok) override {
     if (!opened_) {
       opened_ = true;
+      open_received_us_ = SteadyNowUs();
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
@@ -83,6 +94,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 
   void OnWriteDone(bool ok) override {
     const v1::ServerMessage* next = nullptr;
+    bool more = false;
     bool finish = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -93,13 +105,18 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       }
       if (!queue_.empty()) {
         next = &queue_.front();
+        more = queue_.size() > 1;
       } else {
         writing_ = false;
         finish = finish_wanted_ && !finished_;
         finished_ = finished_ || finish;
       }
     }
-    if (next != nullptr) StartWrite(next);
+    // A message with others queued behind it is written with gRPC's buffer
+    // hint: its write completes at once and the transport sends it with the
+    // next ones, in one TCP write when the last of them (never hinted) goes,
+    // instead of one system call and one wake-up per message.
+    if (next != nullptr) StartWrite(next, more ? grpc::WriteOptions().set_buffer_hint() : grpc::WriteOptions());
     if (finish) Reactor::Finish(finish_status_);
     if (ok) {
       registration_.OnWritten();
@@ -136,6 +153,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
     }
     Queue(std::move(start_));
+    base_handed_us_ = SteadyNowUs();
   }
 
   void TransportChanged(SessionTransport transport, const std::string& reason) override {
@@ -143,7 +161,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   }
 
   void Control(const SenderAction& control) override {
-    Queue(ControlMessage(*artifact_, control));
+    Queue(ControlMessage(hot_->bytes, control));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {
@@ -165,7 +183,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " ended (" +
-                             reason + "): " + DescribeSession(stats));
+                             reason + "): " + DescribeSession(stats) + OpenToBase(open_received_us_, base_handed_us_));
     }
     bool now = false, cut = false;
     {
@@ -232,11 +250,12 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     options.repair = open.repair();
     // Every header, base mesh and the scene copied here, on the opener pool,
     // not on the send thread under the session's lock.
-    start_ = SessionStartMessage(plan_, *artifact_, options.transport);
+    start_ = SessionStartMessage(*plan_, hot_->bytes, options.transport);
     start_.mutable_session()->set_asset(version_.asset);
     start_.mutable_session()->set_version(version_.version);
-    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(scene_->data()), scene_->size());
-    auto sender = std::make_unique<SessionSender>(plan_, *artifact_, open.max_level(), std::move(options), SteadyNowUs());
+    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(hot_->scene.data()), hot_->scene.size());
+    auto sender =
+        std::make_unique<SessionSender>(*plan_, hot_->bytes, open.max_level(), std::move(options), SteadyNowUs());
     if (service_->options_.log) {
       service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
                              (udp ? "udp" : "grpc") + ")");
@@ -253,15 +272,20 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 
   Status Prepare(const v1::OpenRequest& open) {
     MS_RETURN_IF_ERROR(CheckOpen(open));
-    MS_ASSIGN_OR_RETURN(version_, ResolveReadyVersion(*service_->store_, tenant_, open.asset(), open.version()));
+    MS_ASSIGN_OR_RETURN(version_, service_->ResolveVersion(tenant_, open.asset(), open.version()));
+    // The artifact, its plan and its scene: kept in memory between sessions
+    // (artifact_cache.h); the store's read, which checks the digest, only
+    // when the cache has none.
     const std::string& sha = version_.artifact.artifact_sha256;
-    MS_ASSIGN_OR_RETURN(artifact_, service_->artifacts_.Get(sha, [&] {
+    MS_ASSIGN_OR_RETURN(hot_, service_->artifacts_.Get(sha, version_.artifact.layout_json, [&] {
       return service_->store_->GetBlob(sha, service_->options_.max_artifact_bytes);
     }));
-    MS_ASSIGN_OR_RETURN(plan_, PlanSession(*artifact_, version_.artifact.layout_json, open.max_level()));
-    std::vector<std::pair<uint32_t, uint32_t>> refined;
-    for (const PlannedPrimitive& p : plan_.primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
-    MS_ASSIGN_OR_RETURN(scene_, service_->scenes_.Get(sha, *artifact_, refined));
+    if (open.max_level() < 0) {
+      plan_ = &hot_->plan;
+    } else {
+      cut_plan_ = CutPlan(hot_->plan, open.max_level());
+      plan_ = &cut_plan_;
+    }
     return Status::Ok();
   }
 
@@ -302,14 +326,16 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   grpc::CallbackServerContext* context_;
   v1::ClientMessage in_;
   bool opened_ = false;  // the first read's callback, then the reads' (one at a time)
+  uint64_t open_received_us_ = 0;  // when the OpenRequest arrived (SteadyNowUs)
+  uint64_t base_handed_us_ = 0;    // when Start handed the SessionStart to gRPC (the send loop's thread)
 
   // Set by the opener before the session joins the loop, read-only after.
   std::string tenant_;
   CallLimit::Slot slot_;
   VersionRecord version_;
-  ArtifactCache::Bytes artifact_;
-  SessionPlan plan_;
-  std::shared_ptr<const std::vector<uint8_t>> scene_;
+  ArtifactCache::Entry hot_;  // the artifact, its plan and scene, shared with the cache
+  SessionPlan cut_plan_;      // with max_level: the session's own cut of hot_->plan
+  const SessionPlan* plan_ = nullptr;  // &hot_->plan or &cut_plan_
   v1::ServerMessage start_;  // the SessionStart but for Start's fields; moved out by Start
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
@@ -327,9 +353,30 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
                                      const std::atomic<bool>* draining)
     : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
+      artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
 
 StreamServiceImpl::~StreamServiceImpl() = default;
+
+StatusOr<VersionRecord> StreamServiceImpl::ResolveVersion(const std::string& tenant, const std::string& asset,
+                                                          int64_t version) {
+  auto key = std::make_tuple(tenant, asset, version);
+  if (version > 0) {
+    std::lock_guard<std::mutex> lock(ready_mutex_);
+    auto it = ready_.find(key);
+    if (it != ready_.end()) return it->second;
+  }
+  auto record = ResolveReadyVersion(*store_, tenant, asset, version);
+  if (!record.ok() || version <= 0) return record;
+  std::lock_guard<std::mutex> lock(ready_mutex_);
+  if (ready_.emplace(key, record.value()).second) {
+    ready_order_.push_back(std::move(key));
+    if (ready_order_.size() > kMaxReadyVersions) {
+      ready_.erase(ready_order_.front());
+      ready_order_.pop_front();
+    }
+  }
+  return record;
+}
 
 grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>* StreamServiceImpl::Open(
     grpc::CallbackServerContext* context) {

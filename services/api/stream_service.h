@@ -9,9 +9,11 @@
 // Per call, on a small fixed pool of opener threads (work_queue.h), since a
 // gRPC callback must not block: authenticate, take a session slot
 // (RESOURCE_EXHAUSTED beyond `max_sessions`), read the OpenRequest, check
-// it, resolve the version the token sees, load the artifact, plan, build the
-// scene; then the session joins the send loop and the server logs
-// "session ASSET@VERSION opened (TRANSPORT)". A session whose client sends
+// it, resolve the version the token sees, take the artifact, its plan and
+// its scene from the cache of hot artifacts (artifact_cache.h: loaded from
+// the store, its digest checked, planned and its scene built once, kept
+// between sessions); then the session joins the send loop and the server
+// logs "session ASSET@VERSION opened (TRANSPORT)". A session whose client sends
 // nothing for `idle_timeout` ends DEADLINE_EXCEEDED ("timeout"); a draining
 // server ends its sessions UNAVAILABLE. One log line per session end.
 //
@@ -23,6 +25,10 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <tuple>
 #include <functional>
 #include <string>
 
@@ -34,7 +40,6 @@
 #include "services/store/store.h"
 #include "services/streaming/artifact_cache.h"
 #include "services/streaming/send_loop.h"
-#include "services/streaming/session_scene.h"
 #include "services/streaming/udp_endpoint.h"
 #include "services/streaming/work_queue.h"
 
@@ -43,6 +48,7 @@ namespace meshstream {
 struct StreamServiceOptions {
   int max_sessions = 4096;                        // concurrent sessions; then RESOURCE_EXHAUSTED
   uint64_t max_artifact_bytes = uint64_t{4} << 30;
+  uint64_t stream_cache_bytes = uint64_t{256} << 20;  // hot artifacts, plans and scenes kept (--stream-cache-mb)
   UdpEndpoint* udp = nullptr;                     // null: every session over gRPC
   std::string udp_advertise_host;                 // what SessionStart names; empty: "the host you connected to"
   uint16_t udp_advertise_port = 0;
@@ -68,13 +74,24 @@ class StreamServiceImpl final : public v1::StreamService::CallbackService {
  private:
   class Call;
 
+  // The READY version a session names: ResolveReadyVersion, except that a
+  // version named by its number (> 0) is looked up in the store once and
+  // kept (kMaxReadyVersions, the oldest out first): a READY version never
+  // changes (versions are never deleted nor re-processed), and the store's
+  // lookup was most of a session's opening. Version 0 (the latest) is
+  // always asked of the store.
+  StatusOr<VersionRecord> ResolveVersion(const std::string& tenant, const std::string& asset, int64_t version);
+  static constexpr size_t kMaxReadyVersions = 1024;
+
   Store* store_;
   const Authenticator* auth_;
   StreamServiceOptions options_;
   const std::atomic<bool>* draining_;
   CallLimit sessions_;
-  SessionSceneCache scenes_;
   ArtifactCache artifacts_;
+  std::mutex ready_mutex_;  // below
+  std::map<std::tuple<std::string, std::string, int64_t>, VersionRecord> ready_;
+  std::deque<std::tuple<std::string, std::string, int64_t>> ready_order_;  // oldest first
   SendLoop loop_;       // before openers_: the pool stops first
   WorkQueue openers_;
 };

@@ -118,6 +118,7 @@ StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
   setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
   setup.service.reliable_cut = !o.no_reliable_cut;
   setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);
+  setup.service.stream_cache_bytes = o.stream_cache_bytes;
   setup.service.rate.max_bps = o.max_session_rate_bps;
   setup.service.rate.initial_bps = std::min(setup.service.rate.initial_bps, o.max_session_rate_bps);
   if (o.max_rate_bps > 0) {

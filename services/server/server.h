@@ -59,6 +59,9 @@ struct ServerOptions {
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
   int64_t session_idle_timeout_ms = 30000;
+  // Hot artifacts kept in memory for streaming sessions, with their plans and
+  // scenes, by bytes, least recently used out first (--stream-cache-mb).
+  uint64_t stream_cache_bytes = uint64_t{256} << 20;
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.
   std::function<void(const std::string&)> log;

@@ -13,6 +13,11 @@ namespace {
 constexpr uint64_t kPeriodUs = 100000;
 // Actions one session may take in a row before the others get their turn.
 constexpr int kActionsPerTurn = 64;
+// Sealed datagrams the kernel did not take (its buffer full) are tried again
+// this often, for at most this many periods, then counted as send errors: the
+// thread never sleeps on a full buffer while other sessions are due.
+constexpr uint64_t kRetryUs = 200;
+constexpr int kMaxRetries = 20;
 
 // How a draining server stops a session (the loop's sweep, Registration::Drain).
 void CancelForDraining(SessionSender& sender) {
@@ -138,16 +143,36 @@ void SendLoop::Run() {
         if (entry->blocked.load() && now >= entry->idle_deadline_us.load()) ready.push_back(entry);
       }
     }
-    if (ready.empty()) {
-      const uint64_t due = timers_.empty() ? now + kPeriodUs : std::min(timers_.top().due_us, now + kPeriodUs);
+    // Datagrams the kernel refused wait for their retry like a timer.
+    const bool retry_due = outbox_.pending() > 0 && now >= retry_at_us_;
+    if (ready.empty() && !retry_due) {
+      uint64_t due = timers_.empty() ? now + kPeriodUs : std::min(timers_.top().due_us, now + kPeriodUs);
+      if (outbox_.pending() > 0) due = std::min(due, retry_at_us_);
       wake_.wait_for(lock, std::chrono::microseconds(due - now));
       continue;
     }
     lock.unlock();
     for (const std::shared_ptr<Entry>& entry : ready) Step(entry);
     ready.clear();
+    FlushOutbox();
     lock.lock();
   }
+}
+
+void SendLoop::FlushOutbox() {
+  if (outbox_.pending() == 0) return;
+  const uint64_t now = SteadyNowUs();
+  if (outbox_.Flush() == 0) {
+    stuck_since_us_ = 0;
+    return;
+  }
+  if (stuck_since_us_ == 0) stuck_since_us_ = now;
+  if (now - stuck_since_us_ >= kRetryUs * kMaxRetries) {
+    outbox_.Drop();  // what the kernel still refuses is lost (the receiver predicts it)
+    stuck_since_us_ = 0;
+    return;
+  }
+  retry_at_us_ = now + kRetryUs;
 }
 
 void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
@@ -199,7 +224,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
       case SenderAction::kDatagrams:
         if (a.on_stream) {
           for (const auto& [data, size] : a.datagrams) stream.Datagram(data, size);
-        } else if (!entry->udp || !entry->udp->SendData(a.datagrams, a.first_packet_number).ok()) {
+        } else if (!entry->udp || !entry->udp->SealData(a.datagrams, a.first_packet_number, &outbox_).ok()) {
           sender.Cancel(Cancelled("the client went away"), "client went away");
         }
         break;

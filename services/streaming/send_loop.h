@@ -3,7 +3,11 @@
 // next due time, from a timer heap, so that a session costs no thread of its
 // own. It hands each session's actions to that session's SessionStream (the
 // gRPC call, services/api/stream_service.cc, which queues them as
-// ServerMessages) and its UDP DATA to the UDP endpoint (udp_endpoint.h). The
+// ServerMessages) and its UDP DATA to the UDP endpoint (udp_endpoint.h):
+// sealed into the thread's DatagramOutbox as each session is stepped and sent
+// in one sendmmsg for every session of the pass, never waiting on a full
+// kernel buffer (what it refuses is tried again every 200 us for 4 ms, then
+// counted lost). The
 // call's callbacks feed the client's messages in through the session's
 // Registration, which also removes the session when it is destroyed (RAII).
 //
@@ -104,6 +108,9 @@ class SendLoop {
   void Schedule(const std::shared_ptr<Entry>& entry, uint64_t due_us);
   void Begin(std::shared_ptr<Entry> entry);
   void Remove(Entry* entry);
+  // Sends what the stepped sessions sealed (one sendmmsg for all of them);
+  // what the kernel did not take is tried again after kRetryUs, then dropped.
+  void FlushOutbox();
 
   SendLoopOptions options_;
   mutable std::mutex mutex_;  // below
@@ -118,6 +125,10 @@ class SendLoop {
   uint64_t seq_ = 0;
   std::unordered_map<Entry*, std::shared_ptr<Entry>> entries_;
   bool stop_ = false;
+  // The thread's own: UDP DATA sealed by the sessions of one pass, sent together.
+  DatagramOutbox outbox_;
+  uint64_t stuck_since_us_ = 0;  // the first flush that left datagrams (0: none left)
+  uint64_t retry_at_us_ = 0;
   std::thread thread_;
 };
 

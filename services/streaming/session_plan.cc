@@ -77,8 +77,7 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     p.mesh_primitive = entry.primitive;
     p.header = located->header;
     p.base = located->base;
-    const uint32_t available = static_cast<uint32_t>(located->control.size());
-    p.refinements = max_level < 0 ? available : std::min(available, static_cast<uint32_t>(max_level));
+    p.refinements = static_cast<uint32_t>(located->control.size());
     auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
     if (!attributes.ok()) return attributes.status();
     p.draco_attributes = std::move(attributes).value();
@@ -105,6 +104,26 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
       for (const ByteRange& d : r.datagrams) plan.unreliable_bytes += d.length;
       plan.refinements.push_back(std::move(r));
     }
+  }
+  if (max_level < 0) return plan;
+  return CutPlan(plan, max_level);
+}
+
+SessionPlan CutPlan(const SessionPlan& full, int32_t max_level) {
+  if (max_level < 0) return full;
+  const uint32_t cut = static_cast<uint32_t>(max_level);
+  SessionPlan plan;
+  plan.primitives = full.primitives;
+  for (PlannedPrimitive& p : plan.primitives) {
+    p.refinements = std::min(p.refinements, cut);
+    plan.reliable_bytes += p.header.length + p.base.length;
+    plan.levels = std::max(plan.levels, p.refinements);
+  }
+  for (const PlannedRefinement& r : full.refinements) {
+    if (r.refinement >= cut) continue;
+    plan.reliable_bytes += r.control.length;
+    for (const ByteRange& d : r.datagrams) plan.unreliable_bytes += d.length;
+    plan.refinements.push_back(r);
   }
   return plan;
 }

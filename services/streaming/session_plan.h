@@ -64,6 +64,12 @@ struct SessionPlan {
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
                                   int32_t max_level);
 
+// The plan of a session with `max_level` from `full`, the plan of every
+// refinement (PlanSession with -1): the same as PlanSession with `max_level`,
+// without reading the artifact or the layout again (artifact_cache.h keeps
+// `full`). `max_level` < 0: `full` as it is.
+SessionPlan CutPlan(const SessionPlan& full, int32_t max_level);
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_

@@ -39,26 +39,4 @@ StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& arti
   return ExportGlb(scene.value(), ExportOptions{});
 }
 
-StatusOr<std::shared_ptr<const std::vector<uint8_t>>> SessionSceneCache::Get(const std::string& artifact_sha256,
-                                                                             const std::vector<uint8_t>& artifact,
-                                                                             const std::vector<std::pair<uint32_t, uint32_t>>& refined) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto it = entries_.begin(); it != entries_.end(); ++it) {
-      if (it->first == artifact_sha256) {
-        entries_.splice(entries_.begin(), entries_, it);
-        return entries_.front().second;
-      }
-    }
-  }
-  // Made outside the lock: two sessions may make the same scene once each.
-  auto made = MakeSessionScene(artifact, refined);
-  if (!made.ok()) return made.status();
-  auto shared = std::make_shared<const std::vector<uint8_t>>(std::move(made).value());
-  std::lock_guard<std::mutex> lock(mutex_);
-  entries_.emplace_front(artifact_sha256, shared);
-  while (entries_.size() > max_entries_) entries_.pop_back();
-  return shared;
-}
-
 }  // namespace meshstream

@@ -9,18 +9,15 @@
 // that an export of the session is the asset's scene.
 //
 // Made by decoding the stored progressive .glb at lod 0 (no refinement is
-// touched) and exporting it; SessionSceneCache keeps the last few by the
-// artifact's digest, since every session of a version needs the same bytes.
+// touched) and exporting it; the cache of hot artifacts (artifact_cache.h)
+// keeps it with its artifact, since every session of a version needs the
+// same bytes.
 //
-// Thread safety: MakeSessionScene is pure; the cache is thread-safe.
+// Thread safety: pure.
 #ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_SCENE_H_
 #define MESHSTREAM_SERVICES_STREAMING_SESSION_SCENE_H_
 
 #include <cstdint>
-#include <list>
-#include <memory>
-#include <mutex>
-#include <string>
 #include <utility>
 #include <vector>
 
@@ -31,19 +28,6 @@ namespace meshstream {
 // `refined`: the (glTF mesh, primitive index) of every refined primitive.
 StatusOr<std::vector<uint8_t>> MakeSessionScene(const std::vector<uint8_t>& artifact,
                                                 const std::vector<std::pair<uint32_t, uint32_t>>& refined);
-
-class SessionSceneCache {
- public:
-  explicit SessionSceneCache(size_t max_entries = 16) : max_entries_(max_entries) {}
-  StatusOr<std::shared_ptr<const std::vector<uint8_t>>> Get(const std::string& artifact_sha256,
-                                                            const std::vector<uint8_t>& artifact,
-                                                            const std::vector<std::pair<uint32_t, uint32_t>>& refined);
-
- private:
-  size_t max_entries_;
-  std::mutex mutex_;
-  std::list<std::pair<std::string, std::shared_ptr<const std::vector<uint8_t>>>> entries_;  // most recent first
-};
 
 }  // namespace meshstream
 

@@ -1,5 +1,6 @@
 #include "services/streaming/udp_endpoint.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 
@@ -213,7 +214,7 @@ uint64_t UdpEndpoint::Session::ReservePacketNumbers(uint64_t count) {
 
 uint64_t UdpEndpoint::Session::last_hello_us() const { return state_->last_hello_us.load(); }
 
-Status UdpEndpoint::Session::SendData(PayloadSpan payloads, uint64_t first_packet_number) {
+Status UdpEndpoint::Session::SealData(PayloadSpan payloads, uint64_t first_packet_number, DatagramOutbox* out) {
   SocketAddress to;
   {
     std::lock_guard<std::mutex> lock(state_->mutex);
@@ -224,33 +225,70 @@ Status UdpEndpoint::Session::SendData(PayloadSpan payloads, uint64_t first_packe
     }
     if (to.empty() || !allowed) return FailedPrecondition("udp: no proven client address");
   }
-  std::vector<std::vector<uint8_t>> sealed;
-  sealed.reserve(payloads.size());
-  size_t bytes = 0;
+  if (out->endpoint_ != endpoint_ && out->pending() > 0) out->Flush();
+  if (out->endpoint_ != endpoint_) out->Drop();  // what another endpoint's socket did not take
+  out->endpoint_ = endpoint_;
   for (size_t i = 0; i < payloads.size(); ++i) {
-    auto packet = SealPacket(PacketType::kData, state_->id, first_packet_number + i, state_->keys.server_to_client,
-                             payloads[i].first, payloads[i].second);
-    if (!packet.ok()) return packet.status();
-    bytes += packet->size();
-    sealed.push_back(std::move(packet).value());
+    if (out->pending() >= DatagramOutbox::kMaxPending) out->Flush();
+    if (out->end_ == out->slots_.size()) {
+      if (out->first_ > 0) {
+        // Move what is left to the front (it is at most kMaxPending slots).
+        std::rotate(out->slots_.begin(), out->slots_.begin() + static_cast<long>(out->first_),
+                    out->slots_.begin() + static_cast<long>(out->end_));
+        out->end_ -= out->first_;
+        out->first_ = 0;
+      }
+      if (out->end_ == out->slots_.size()) out->slots_.emplace_back();
+    }
+    DatagramOutbox::Slot& slot = out->slots_[out->end_];
+    auto size = SealPacketInto(PacketType::kData, state_->id, first_packet_number + i, state_->keys.server_to_client,
+                               payloads[i].first, payloads[i].second, slot.bytes.data(), slot.bytes.size());
+    if (!size.ok()) return size.status();
+    slot.size = size.value();
+    slot.to = to;
+    ++out->end_;
   }
-  std::vector<OutgoingDatagram> batch;
-  batch.reserve(sealed.size());
-  for (const std::vector<uint8_t>& p : sealed) batch.push_back({&to, p.data(), p.size()});
-  size_t done = 0;
-  // The kernel's buffer may be full for a moment: retry briefly; what it
-  // still refuses counts as lost (the receiver predicts it).
-  for (int attempt = 0; attempt < 20 && done < batch.size(); ++attempt) {
-    auto n = endpoint_->socket_.SendBatch(batch.data() + done, batch.size() - done);
-    if (!n.ok()) return n.status();
-    done += n.value();
-    if (done < batch.size()) std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }
-  std::lock_guard<std::mutex> lock(endpoint_->stats_mutex_);
-  endpoint_->stats_.data_sent += done;
-  endpoint_->stats_.data_bytes_sent += bytes;
-  endpoint_->stats_.send_errors += batch.size() - done;
   return Status::Ok();
+}
+
+Status UdpEndpoint::Session::SendData(PayloadSpan payloads, uint64_t first_packet_number) {
+  DatagramOutbox out;
+  MS_RETURN_IF_ERROR(SealData(payloads, first_packet_number, &out));
+  out.Flush();
+  out.Drop();
+  return Status::Ok();
+}
+
+size_t DatagramOutbox::Flush() {
+  if (pending() == 0 || endpoint_ == nullptr) return pending();
+  batch_.clear();
+  uint64_t bytes = 0;
+  for (size_t i = first_; i < end_; ++i) batch_.push_back({&slots_[i].to, slots_[i].bytes.data(), slots_[i].size});
+  auto sent = endpoint_->socket_.SendBatch(batch_.data(), batch_.size());
+  // An error the kernel gives for the batch itself (not a full buffer): the
+  // datagrams are lost, as a full buffer's would be after the retries.
+  const size_t done = sent.ok() ? sent.value() : batch_.size();
+  for (size_t i = 0; i < done; ++i) bytes += batch_[i].size;
+  first_ += done;
+  if (first_ == end_) first_ = end_ = 0;
+  std::lock_guard<std::mutex> lock(endpoint_->stats_mutex_);
+  ++endpoint_->stats_.send_calls;
+  if (sent.ok()) {
+    endpoint_->stats_.data_sent += done;
+    endpoint_->stats_.data_bytes_sent += bytes;
+  } else {
+    endpoint_->stats_.send_errors += done;
+  }
+  if (pending() > 0) ++endpoint_->stats_.send_retries;
+  return pending();
+}
+
+void DatagramOutbox::Drop() {
+  if (pending() > 0 && endpoint_ != nullptr) {
+    std::lock_guard<std::mutex> lock(endpoint_->stats_mutex_);
+    endpoint_->stats_.send_errors += pending();
+  }
+  first_ = end_ = 0;
 }
 
 }  // namespace meshstream

@@ -19,6 +19,7 @@
 #ifndef MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
 #define MESHSTREAM_SERVICES_STREAMING_UDP_ENDPOINT_H_
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -47,6 +48,46 @@ struct UdpEndpointStats {
   uint64_t data_sent = 0;         // DATA datagrams
   uint64_t data_bytes_sent = 0;
   uint64_t send_errors = 0;       // datagrams the kernel refused (buffer full)
+  uint64_t send_calls = 0;        // sendmmsg calls for DATA (batches across sessions: DatagramOutbox)
+  uint64_t send_retries = 0;      // flushes that left datagrams for later (the kernel's buffer was full)
+};
+
+class UdpEndpoint;
+
+// Sealed DATA datagrams of the sessions of one endpoint, waiting to leave in
+// one sendmmsg: the send loop seals what each session it steps has due
+// (Session::SealData) and flushes once for all of them. Its buffers are
+// reused, so that sealing allocates nothing per datagram once it has grown;
+// at most kMaxPending wait (sealing more flushes first). Flush never waits:
+// what the kernel does not take now stays for the next Flush (the caller
+// retries and gives up with Drop, which counts the rest as send errors: the
+// receiver predicts them).
+// Thread safety: one thread at a time (the send loop's).
+class DatagramOutbox {
+ public:
+  static constexpr size_t kMaxPending = 256;
+
+  DatagramOutbox() = default;
+  DatagramOutbox(const DatagramOutbox&) = delete;
+  DatagramOutbox& operator=(const DatagramOutbox&) = delete;
+
+  size_t pending() const { return end_ - first_; }
+  // Sends what the kernel takes now, in order; returns how many are left.
+  size_t Flush();
+  // Forgets what is left, counted as send errors.
+  void Drop();
+
+ private:
+  friend class UdpEndpoint;
+  struct Slot {
+    SocketAddress to;
+    size_t size = 0;
+    std::array<uint8_t, kMaxDatagramBytes> bytes;
+  };
+  UdpEndpoint* endpoint_ = nullptr;  // of every pending datagram
+  std::vector<Slot> slots_;          // [first_, end_) pending; kept for reuse
+  size_t first_ = 0, end_ = 0;
+  std::vector<OutgoingDatagram> batch_;
 };
 
 class UdpEndpoint {
@@ -82,6 +123,7 @@ class UdpEndpoint {
   mutable std::mutex stats_mutex_;
   UdpEndpointStats stats_;
   friend class Session;
+  friend class DatagramOutbox;
 };
 
 class UdpEndpoint::Session {
@@ -94,9 +136,12 @@ class UdpEndpoint::Session {
   // `count` consecutive packet numbers of this session's server->client
   // counter, for one refinement's DATA (the first is returned).
   uint64_t ReservePacketNumbers(uint64_t count);
-  // Seals each payload as DATA with packet numbers first, first + 1, ... and
-  // sends them to the proven address in one batch. FailedPrecondition
-  // before an address is proven.
+  // Seals each payload as DATA with packet numbers first, first + 1, ...
+  // into `out` (to the proven address), to leave with the next Flush.
+  // FailedPrecondition before an address is proven.
+  Status SealData(PayloadSpan payloads, uint64_t first_packet_number, DatagramOutbox* out);
+  // SealData into an outbox of its own and one Flush, at once, without
+  // waiting: what the kernel does not take counts as a send error.
   Status SendData(PayloadSpan payloads, uint64_t first_packet_number);
   // Microseconds (steady clock) when an authenticated HELLO last arrived.
   uint64_t last_hello_us() const;

@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <memory>
+#include <utility>
 #include <chrono>
 #include <thread>
 #include <vector>
@@ -114,6 +116,50 @@ TEST(UdpEndpoint, TheRoundTripProvesTheAddressThenDataFlows) {
   EXPECT_EQ((*endpoint)->stats().data_sent, 2u);
   session->reset();
   EXPECT_EQ((*endpoint)->session_count(), 0u) << "a session leaves the table with its handle";
+}
+
+// A proven session of `endpoint` and its client.
+std::pair<std::shared_ptr<UdpEndpoint::Session>, Peer> Proven(UdpEndpoint& endpoint) {
+  auto session = endpoint.RegisterSession();
+  EXPECT_TRUE(session.ok());
+  Peer client = Peer::Make();
+  client.Send(endpoint, client.Hello(**session, Challenge{}));
+  auto replies = client.Drain(200);
+  EXPECT_EQ(replies.size(), 1u);
+  if (replies.size() == 1) client.Send(endpoint, client.Hello(**session, ChallengeOf(replies[0], **session)));
+  EXPECT_TRUE(WaitProven(**session, 2000));
+  return {std::move(session).value(), std::move(client)};
+}
+
+TEST(UdpEndpoint, DatagramsOfSeveralSessionsLeaveInOneSendmmsg) {
+  auto endpoint = UdpEndpoint::Start(*SocketAddress::Parse("127.0.0.1:0"));
+  ASSERT_TRUE(endpoint.ok()) << endpoint.status().ToString();
+  auto [a, client_a] = Proven(**endpoint);
+  auto [b, client_b] = Proven(**endpoint);
+  const uint64_t calls = (*endpoint)->stats().send_calls;
+  const std::vector<uint8_t> payload(1000, 0x33);
+  const std::vector<DatagramPayload> three(3, {payload.data(), payload.size()});
+  DatagramOutbox outbox;
+  ASSERT_TRUE(a->SealData(three, a->ReservePacketNumbers(3), &outbox).ok());
+  ASSERT_TRUE(b->SealData(three, b->ReservePacketNumbers(3), &outbox).ok());
+  EXPECT_EQ(outbox.pending(), 6u);
+  EXPECT_EQ(outbox.Flush(), 0u);
+  EXPECT_EQ((*endpoint)->stats().send_calls, calls + 1) << "one system call for both sessions";
+  EXPECT_EQ((*endpoint)->stats().data_sent, 6u);
+  for (auto* c : {&client_a, &client_b}) {
+    const auto got = c->Drain(200);
+    ASSERT_EQ(got.size(), 3u);
+    const UdpEndpoint::Session& s = c == &client_a ? *a : *b;
+    for (const auto& d : got) {
+      OpenedPacket p;
+      EXPECT_EQ(OpenPacket(d.data(), d.size(), Direction::kServerToClient, s.keys().server_to_client, &p),
+                DropReason::kNone) << "each sealed under its own session's key";
+    }
+  }
+  // The outbox's buffers are reused: the next batch seals into them again.
+  ASSERT_TRUE(a->SealData(three, a->ReservePacketNumbers(3), &outbox).ok());
+  EXPECT_EQ(outbox.Flush(), 0u);
+  EXPECT_EQ(client_a.Drain(200).size(), 3u);
 }
 
 TEST(UdpEndpoint, HostileDatagramsAreDroppedCountedAndNeverAnswered) {
