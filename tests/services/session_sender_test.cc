@@ -257,7 +257,7 @@ TEST(SessionSender, RefinementsStartOnTheStreamAndMoveToUdpOnceAnAddressIsProven
       EXPECT_EQ(a.first_packet_number == 0, !proven);
       (proven ? udp : early) += 1;
     }
-    if (a.kind == SenderAction::kDatagrams) EXPECT_EQ(a.on_stream, !proven);
+    if (a.kind == SenderAction::kDatagrams) { EXPECT_EQ(a.on_stream, !proven); }
   }
   EXPECT_EQ(early + udp, kShortRefinements);
   EXPECT_GT(udp, 0u);
@@ -292,7 +292,7 @@ TEST(SessionSender, WithoutAHelloTheSessionFallsBackToGrpcAfterTheTimeout) {
       EXPECT_TRUE(a.reliable);
       controls_before += i < change;
     }
-    if (a.kind == SenderAction::kDatagrams) EXPECT_TRUE(a.on_stream);
+    if (a.kind == SenderAction::kDatagrams) { EXPECT_TRUE(a.on_stream); }
   }
   EXPECT_GE(controls_before, 10u) << "data moved during the wait";
   EXPECT_EQ(s.stats().early_refinements, controls_before);
