@@ -23,8 +23,10 @@ namespace {
 
 const char kDetails[] =
     "IN is a progressive .glb made by `meshstream encode` (a plain .glb is its own base);\n"
-    "OUT is .glb .gltf .obj or .ply. --lod K applies K refinements (0 = the base mesh; by\n"
-    "default all; clamped to each primitive's own count). The refinements cross a simulated\n"
+    "OUT is .glb .gltf .obj or .ply. --lod K decodes level K (0 = the base mesh; by default\n"
+    "all): one primitive's K refinements; in a scene of several, the refinements of each that\n"
+    "the scene's level K has (those that leave the larger errors first; K of each, clamped,\n"
+    "in a file made before the errors were recorded). The refinements cross a simulated\n"
     "network, seeded so that a run repeats exactly: the control blocks reliably, the\n"
     "datagrams with loss, reordering and duplication. What is lost is predicted (paper,\n"
     "section 4.4) or, with --recovery lwop, abandoned with every split that depends on it.\n"
@@ -146,7 +148,7 @@ Verb AddDecode(CLI::App& root) {
                           "Decodes a level of detail of a progressive .glb, across a simulated lossy network.", kDetails);
   cmd->add_option("IN", args->in, "the progressive .glb")->required();
   cmd->add_option("-o,--output", args->out, "the decoded mesh: .glb .gltf .obj or .ply")->required();
-  cmd->add_option("--lod", args->lod, "refinements to apply (default: all)")
+  cmd->add_option("--lod", args->lod, "the level to decode (default: all)")
       ->check(CLI::Range(0, static_cast<int>(kMaxRefinements)));
   cmd->add_option("--loss", args->loss, "probability that a datagram is lost")->check(NumberIn(0, 1))->capture_default_str();
   cmd->add_option("--burst", args->burst, "mean length of a loss burst (0: independent losses)")

@@ -1,9 +1,12 @@
 #include "importers/progressive_glb.h"
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "codec/loss/lossy_decode.h"
 #include "codec/bitstream/reader.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/draco_base_coder.h"
 #include "importers/gltf_export.h"
 #include "importers/gltf_import.h"
@@ -18,7 +21,8 @@ using json = nlohmann::json;
 
 // The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
 // section 1): "bufferView" (an unsigned integer), "version" 1 or 2, an
-// optional "delivery" (checked against the stream by ParseDeliveryRecord), and
+// optional "delivery" (checked against the stream by ParseDeliveryRecord), an
+// optional "residual_error" (ParseResidualErrors), and
 // nothing else but glTF's "extras" and "extensions".
 Status CheckProgressiveExtension(const json& ext) {
   const std::string name = kProgressiveExtension;
@@ -34,7 +38,8 @@ Status CheckProgressiveExtension(const json& ext) {
   }
   for (const auto& item : ext.items()) {
     const std::string& key = item.key();
-    if (key != "bufferView" && key != "version" && key != "delivery" && key != "extras" && key != "extensions") {
+    if (key != "bufferView" && key != "version" && key != "delivery" && key != "residual_error" && key != "extras" &&
+        key != "extensions") {
       return InvalidInput(name + "." + key + " is not defined by version " + version.dump());
     }
   }
@@ -95,6 +100,32 @@ StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, s
   return r;
 }
 
+StatusOr<std::vector<double>> ParseResidualErrors(const std::string& residual_json, size_t refinements) {
+  const std::string name = std::string(kProgressiveExtension) + ".residual_error";
+  const json e = json::parse(residual_json, nullptr, false);
+  if (e.is_discarded() || !e.is_array()) return InvalidInput(name + " is not an array");
+  if (e.size() != refinements + 1) {
+    return InvalidInput(name + " has " + std::to_string(e.size()) + " entries, the stream's " +
+                        std::to_string(refinements) + " refinements need " + std::to_string(refinements + 1));
+  }
+  std::vector<double> out;
+  out.reserve(e.size());
+  for (size_t k = 0; k < e.size(); ++k) {
+    const std::string at = name + "[" + std::to_string(k) + "] = " + e[k].dump();
+    if (!e[k].is_number()) return InvalidInput(at + " is not a number");
+    const double v = e[k].get<double>();
+    if (!std::isfinite(v) || v < 0) return InvalidInput(at + " is not a finite non-negative number");
+    if (k > 0 && v > out.back()) return InvalidInput(at + " is larger than the entry before it");
+    out.push_back(v);
+  }
+  if (out.back() != 0) return InvalidInput(name + " does not end with 0 (the finest level)");
+  return out;
+}
+
+std::string ResidualErrorsJson(const std::vector<double>& errors) {
+  return json(std::vector<float>(errors.begin(), errors.end())).dump();
+}
+
 std::string DeliveryRecordJson(const DeliveryRecord& record) {
   json d;
   d["share"] = record.share;
@@ -125,10 +156,23 @@ DeliveryRecord MakeDeliveryRecord(const ProgressiveMesh& mesh, const Progressive
   return d;
 }
 
-void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels) {
-  if (levels.empty()) return;
-  if (total.size() < levels.size()) total.resize(levels.size(), total.empty() ? 0 : total.back());
-  for (size_t i = 0; i < total.size(); ++i) total[i] += levels[std::min(i, levels.size() - 1)];
+SceneLevels SceneLevelsOf(const std::vector<std::vector<uint32_t>>& level_vertices,
+                          const std::vector<std::vector<double>>& residual_errors) {
+  std::vector<uint32_t> refinements;
+  for (const std::vector<uint32_t>& v : level_vertices) refinements.push_back(v.empty() ? 0 : static_cast<uint32_t>(v.size() - 1));
+  return ScheduleSceneLevels(refinements, residual_errors);
+}
+
+std::vector<uint32_t> SceneLevelVertices(const SceneLevels& levels,
+                                         const std::vector<std::vector<uint32_t>>& level_vertices) {
+  std::vector<uint32_t> total(level_vertices.empty() ? 0 : levels.levels + 1, 0);
+  for (size_t p = 0; p < level_vertices.size(); ++p) {
+    if (level_vertices[p].empty()) continue;
+    for (uint32_t level = 0; level < total.size(); ++level) {
+      total[level] += level_vertices[p][std::min<size_t>(levels.At(p, level), level_vertices[p].size() - 1)];
+    }
+  }
+  return total;
 }
 
 PrimitiveStreamReport ProgressiveGlbReport::Total() const {
@@ -143,8 +187,14 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
     t.removed_faces += p.removed_faces;
     t.tools |= p.tools;
     t.reliable_cut_bytes += p.reliable_cut_bytes;
-    AddLevelVertices(t.level_vertices, p.level_vertices);
   }
+  std::vector<std::vector<uint32_t>> vertices;
+  std::vector<std::vector<double>> errors;
+  for (const PrimitiveStreamReport& p : primitives) {
+    vertices.push_back(p.level_vertices);
+    errors.push_back(p.residual_error);
+  }
+  t.level_vertices = SceneLevelVertices(SceneLevelsOf(vertices, errors), vertices);
   return t;
 }
 
@@ -158,6 +208,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
   export_options.precoded.resize(scene.meshes.size());
   ProgressiveGlbReport local;
   uint32_t stream_id = 0;
+  const std::vector<double> scales = MeshScales(scene);
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const Mesh& mesh = scene.meshes[m];
     precoded[m].resize(mesh.primitives.size());
@@ -197,7 +248,13 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       // prefix for the encode-time share of this stream's bytes.
       const DeliveryRecord delivery =
           MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(), options.reliable_share);
-      pre.extension_fields = "{\"delivery\":" + DeliveryRecordJson(delivery) + "}";
+      // The error each level leaves, in scene units: what orders the
+      // refinements of a scene's primitives (codec/progressive/scene_levels.h).
+      std::vector<double> residual = encoded->residual_error;
+      const double unit = encoded->mesh.base.position_grid.step() * scales[m];
+      for (double& e : residual) e = static_cast<float>(e * unit);
+      pre.extension_fields = "{\"delivery\":" + DeliveryRecordJson(delivery) +
+                             ",\"residual_error\":" + ResidualErrorsJson(residual) + "}";
       export_options.precoded[m][k] = &pre;
 
       PrimitiveStreamReport r;
@@ -215,6 +272,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
       for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
       r.reliable_cut = delivery.reliable;
+      r.residual_error = std::move(residual);
       local.primitives.push_back(std::move(r));
     }
   }
@@ -245,8 +303,17 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
                                       [](const std::string& w) { return w.find(kProgressiveExtension) != std::string::npos; }),
                        scene.warnings.end());
 
-  ProgressiveDecodeReport local;
-  uint32_t stream_id = 0;
+  // First every stream's framing and header: the scene's levels need every
+  // primitive's refinement count and errors before any is decoded.
+  struct Found {
+    size_t m = 0, k = 0;
+    const json* prim = nullptr;
+    std::string where;
+    ProgressiveStream stream;
+    StreamHeader header;
+    std::vector<double> residual;  // empty: the file has none
+  };
+  std::vector<Found> found;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     // Carried primitives sit at their file position; refined ones fill the
     // rest, so the file's j-th primitive is Order()[j].
@@ -282,70 +349,105 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
                             ", the stream blob's version " + std::to_string(stream.version) +
                             " and its header's " + std::to_string(header->version) + " differ");
       }
-      Primitive& target = scene.meshes[m].primitives[k];
-      auto base = QuantizeOnto(target, header->grids);
-      if (!base.ok()) return base.status().WithContext(where);
       if (stream.control.size() != header->split_counts.size()) {
         return InvalidInput(where + ": the stream has " + std::to_string(stream.control.size()) +
                             " refinements, its header says " + std::to_string(header->split_counts.size()));
       }
-      const size_t levels = header->split_counts.size();
-      const size_t apply = options.lod < 0 ? levels : std::min(levels, static_cast<size_t>(options.lod));
-      // What travels reliably: the recorded cut, none, or the cut for another share.
-      std::vector<uint32_t> reliable;
-      if (ext.contains("delivery") && options.reliable_share != 0) {
-        auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
-        if (!delivery.ok()) return delivery.status().WithContext(where);
-        if (options.reliable_share < 0) {
-          reliable = delivery->reliable;
-        } else {
-          // The base's Draco bytes (the importer has checked its bufferView).
-          const json& draco = prim["extensions"]["KHR_draco_mesh_compression"];
-          const uint64_t base_bytes = views.at(draco.at("bufferView").get<uint64_t>()).value("byteLength", uint64_t{0});
-          reliable = CutForShare(delivery->ranking, RefinementDatagramBytes(stream), StreamTotalBytes(base_bytes, stream),
-                                 options.reliable_share);
-        }
+      Found f;
+      f.m = m;
+      f.k = k;
+      f.prim = &prim;
+      f.where = where;
+      if (ext.contains("residual_error")) {
+        auto residual = ParseResidualErrors(ext["residual_error"].dump(), header->split_counts.size());
+        if (!residual.ok()) return residual.status().WithContext(where);
+        f.residual = std::move(residual).value();
       }
-      // Loss-free or not, every stream crosses the simulated network and the
-      // reconstructor: one code path.
-      LossyDecodeOptions lossy;
-      lossy.loss = options.loss;
-      lossy.loss.seed = options.loss.seed + stream_id;
-      lossy.reconstructor.recovery = options.recovery;
-      lossy.reconstructor.lod = static_cast<int>(apply);
-      lossy.reliable = std::move(reliable);
-      LossyDecodeReport lr;
-      auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
-      if (!reader.ok()) return reader.status().WithContext(where);
-      if (reader->applied() != apply) {
-        return Internal(where + ": decoded " + std::to_string(reader->applied()) + " of " + std::to_string(apply) +
-                        " refinements");
-      }
-      local.datagrams += lr.transmission.datagrams_sent;
-      local.lost_datagrams += lr.transmission.datagrams_lost;
-      local.late_datagrams += lr.reconstructor.late;
-      local.reliable_datagrams += lr.transmission.reliable_datagrams;
-      local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
-      local.recovery.Add(lr.recovery);
-      local.predicted_vertices += reader->unreliable_vertices();
-      const RefinementState& state = reader->state();
-      if (state.any_absent) {
-        target = DequantizeMesh(reader->Mesh(), target.material);
-      } else {
-        // Every vertex exists: the state's arrays are the mesh (what Mesh()
-        // would copy), dequantized where they are.
-        const std::vector<Face>& faces = state.connectivity.faces();
-        static_assert(sizeof(Face) == 3 * sizeof(uint32_t), "a Face is three packed indices");
-        target = DequantizeArrays(header->grids.position_grid, header->grids.layout, state.positions,
-                                  state.attributes, faces.empty() ? nullptr : faces.front().data(),
-                                  3 * faces.size(), target.material);
-      }
-      local.levels = std::max<uint64_t>(local.levels, levels);
-      local.tools |= header->tools;
-      local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
-      AddLevelVertices(local.level_vertices, header->level_vertices());
+      f.stream = std::move(stream);
+      f.header = std::move(header).value();
+      found.push_back(std::move(f));
     }
   }
+  std::vector<uint32_t> refinements;
+  std::vector<std::vector<double>> residuals;
+  for (const Found& f : found) {
+    refinements.push_back(static_cast<uint32_t>(f.header.split_counts.size()));
+    residuals.push_back(f.residual);
+  }
+  const SceneLevels scene_levels = ScheduleSceneLevels(refinements, residuals);
+
+  ProgressiveDecodeReport local;
+  uint32_t stream_id = 0;
+  std::vector<std::vector<uint32_t>> level_vertices;
+  for (size_t i = 0; i < found.size(); ++i) {
+    Found& f = found[i];
+    const size_t m = f.m, k = f.k;
+    const json& prim = *f.prim;
+    const json& ext = prim["extensions"][kProgressiveExtension];
+    const json& views = doc.at("bufferViews");
+    const std::string& where = f.where;
+    ProgressiveStream& stream = f.stream;
+    const StreamHeader* header = &f.header;
+    Primitive& target = scene.meshes[m].primitives[k];
+    auto base = QuantizeOnto(target, header->grids);
+    if (!base.ok()) return base.status().WithContext(where);
+    const size_t levels = header->split_counts.size();
+    const size_t apply = options.lod < 0 ? levels : scene_levels.At(i, static_cast<uint32_t>(options.lod));
+    // What travels reliably: the recorded cut, none, or the cut for another share.
+    std::vector<uint32_t> reliable;
+    if (ext.contains("delivery") && options.reliable_share != 0) {
+      auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
+      if (!delivery.ok()) return delivery.status().WithContext(where);
+      if (options.reliable_share < 0) {
+        reliable = delivery->reliable;
+      } else {
+        // The base's Draco bytes (the importer has checked its bufferView).
+        const json& draco = prim["extensions"]["KHR_draco_mesh_compression"];
+        const uint64_t base_bytes = views.at(draco.at("bufferView").get<uint64_t>()).value("byteLength", uint64_t{0});
+        reliable = CutForShare(delivery->ranking, RefinementDatagramBytes(stream), StreamTotalBytes(base_bytes, stream),
+                               options.reliable_share);
+      }
+    }
+    // Loss-free or not, every stream crosses the simulated network and the
+    // reconstructor: one code path.
+    LossyDecodeOptions lossy;
+    lossy.loss = options.loss;
+    lossy.loss.seed = options.loss.seed + stream_id;
+    lossy.reconstructor.recovery = options.recovery;
+    lossy.reconstructor.lod = static_cast<int>(apply);
+    lossy.reliable = std::move(reliable);
+    LossyDecodeReport lr;
+    auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
+    if (!reader.ok()) return reader.status().WithContext(where);
+    if (reader->applied() != apply) {
+      return Internal(where + ": decoded " + std::to_string(reader->applied()) + " of " + std::to_string(apply) +
+                      " refinements");
+    }
+    local.datagrams += lr.transmission.datagrams_sent;
+    local.lost_datagrams += lr.transmission.datagrams_lost;
+    local.late_datagrams += lr.reconstructor.late;
+    local.reliable_datagrams += lr.transmission.reliable_datagrams;
+    local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
+    local.recovery.Add(lr.recovery);
+    local.predicted_vertices += reader->unreliable_vertices();
+    const RefinementState& state = reader->state();
+    if (state.any_absent) {
+      target = DequantizeMesh(reader->Mesh(), target.material);
+    } else {
+      // Every vertex exists: the state's arrays are the mesh (what Mesh()
+      // would copy), dequantized where they are.
+      const std::vector<Face>& faces = state.connectivity.faces();
+      static_assert(sizeof(Face) == 3 * sizeof(uint32_t), "a Face is three packed indices");
+      target = DequantizeArrays(header->grids.position_grid, header->grids.layout, state.positions,
+                                state.attributes, faces.empty() ? nullptr : faces.front().data(),
+                                3 * faces.size(), target.material);
+    }
+    local.levels = std::max<uint64_t>(local.levels, levels);
+    local.tools |= header->tools;
+    local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
+    level_vertices.push_back(header->level_vertices());
+  }
+  local.level_vertices = SceneLevelVertices(scene_levels, level_vertices);
   if (report) *report = std::move(local);
   return scene;
 }

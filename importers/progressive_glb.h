@@ -21,6 +21,7 @@
 #include "codec/loss/reliable_cut.h"
 #include "codec/loss/simulator.h"
 #include "codec/progressive/encoder.h"
+#include "codec/progressive/scene_levels.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
 #include "importers/import.h"
@@ -52,25 +53,38 @@ struct PrimitiveStreamReport {
   uint64_t removed_faces = 0;
   uint8_t tools = 0;  // the coding tools its stream was written with (StreamTool bits; Total: their union)
   uint64_t reliable_cut_bytes = 0;       // datagram bytes of the reliable cut (part of unreliable_bytes)
+  // Per level (level_vertices' count) the estimated error left, in scene
+  // units (codec/progressive/residual_error.h times the primitive's grid step
+  // and scale in the scene): the extension's "residual_error".
+  std::vector<double> residual_error;
   std::vector<uint32_t> reliable_cut;    // its refinements, ascending (Total: none)
 };
 
 struct ProgressiveGlbReport {
   std::vector<PrimitiveStreamReport> primitives;
   uint64_t file_bytes = 0;
-  // Sums over primitives; level_vertices[K] counts every primitive at its
-  // level min(K, its own level count).
+  // Sums over primitives; level_vertices[K] counts every primitive at the
+  // scene's level K (codec/progressive/scene_levels.h: by the primitives'
+  // residual errors when every one has them, else min(K, its own level count)).
   PrimitiveStreamReport Total() const;
 };
 
-// Adds one primitive's vertex counts per level into a running total (see Total).
-void AddLevelVertices(std::vector<uint32_t>& total, const std::vector<uint32_t>& levels);
+// The scene's levels of primitives with these level vertex counts (one
+// entry more than refinements each) and residual errors (empty: unknown).
+SceneLevels SceneLevelsOf(const std::vector<std::vector<uint32_t>>& level_vertices,
+                          const std::vector<std::vector<double>>& residual_errors);
+// The vertices of the scene at each of its levels, the base first.
+std::vector<uint32_t> SceneLevelVertices(const SceneLevels& levels,
+                                         const std::vector<std::vector<uint32_t>>& level_vertices);
 
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report);
 
 struct ProgressiveDecodeOptions {
-  int lod = -1;  // refinements to apply per primitive; -1: all
+  // The scene's level to decode to (codec/progressive/scene_levels.h: with
+  // one primitive, its refinements; with several, by their "residual_error",
+  // or K refinements of each in a file without it); -1: all.
+  int lod = -1;
   // The network every primitive's stream crosses (codec/loss/simulator.h):
   // the seed of primitive k is seed + k. A zero model takes the same path.
   LossModel loss;
@@ -87,6 +101,13 @@ struct ProgressiveDecodeOptions {
 StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, size_t refinements);
 // One JSON object, the inverse.
 std::string DeliveryRecordJson(const DeliveryRecord& record);
+// Checks `residual_json` (untrusted text: the "residual_error" array) against
+// a stream of `refinements` refinements: refinements + 1 finite,
+// non-negative, non-increasing numbers ending with 0; InvalidInput naming the
+// entry that is not.
+StatusOr<std::vector<double>> ParseResidualErrors(const std::string& residual_json, size_t refinements);
+// The inverse: one JSON array, each value at float precision.
+std::string ResidualErrorsJson(const std::vector<double>& errors);
 // The stream's bytes a share is taken of: base, reliable and unreliable.
 uint64_t StreamTotalBytes(uint64_t base_bytes, const ProgressiveStream& stream);
 // Per refinement, the bytes of its datagrams.

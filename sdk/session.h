@@ -88,7 +88,7 @@ namespace meshstream::sdk {
 struct SessionOptions {
   std::string asset;
   int64_t version = 0;    // 0: the latest READY version
-  int32_t max_level = -1; // refinements per primitive; -1: all
+  int32_t max_level = -1; // the scene's level to stop at (docs/streaming-protocol.md, "Levels of a scene"); -1: all
   bool tcp_only = false;  // ask for the datagrams over gRPC
   uint64_t byte_budget = 0;       // 0: none
   int64_t time_budget_ms = 0;     // 0: none

@@ -116,12 +116,20 @@ void SessionCore::Push(EventType type, int32_t level) {
 
 // The level every primitive has reached (a primitive with fewer refinements
 // counts as done once it has all of its own).
+uint32_t SessionCore::AppliedAt(const PrimitiveState& p, int32_t level) {
+  if (level <= 0) return 0;
+  const auto& at = p.start.level_refinements();
+  if (at.empty()) return std::min(static_cast<uint32_t>(level), p.start.refinements());
+  return at[std::min<int>(level, at.size()) - 1];
+}
+
 int32_t SessionCore::LevelEverywhere() const {
-  int32_t level = levels_;
-  for (const PrimitiveState& p : primitives_) {
-    const int32_t own = static_cast<int32_t>(p.start.refinements());
-    const int32_t applied = static_cast<int32_t>(p.reconstructor->applied());
-    if (applied < own) level = std::min(level, applied);
+  int32_t level = 0;
+  while (level < levels_) {
+    for (const PrimitiveState& p : primitives_) {
+      if (p.reconstructor->applied() < AppliedAt(p, level + 1)) return level;
+    }
+    ++level;
   }
   return level;
 }
@@ -202,8 +210,22 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (options_.repair) state.kept_base = base.value();
     Status s = state.reconstructor->SetBase(std::move(base).value());
     if (!s.ok()) return s.WithContext(where);
+    // The scene's levels (docs/streaming-protocol.md, "Levels of a scene"):
+    // non-decreasing counts, the last one all of this session's refinements.
+    const auto& at = p.level_refinements();
+    for (int i = 0; i < at.size(); ++i) {
+      if (at[i] > p.refinements() || (i > 0 && at[i] < at[i - 1])) {
+        return InvalidInput(where + ": level_refinements[" + std::to_string(i) + "] = " + std::to_string(at[i]) +
+                            " is not between the level before and the " + std::to_string(p.refinements()) +
+                            " refinements");
+      }
+    }
+    if (!at.empty() && at[at.size() - 1] != p.refinements()) {
+      return InvalidInput(where + ": the last level applies " + std::to_string(at[at.size() - 1]) + " of " +
+                          std::to_string(p.refinements()) + " refinements");
+    }
     state.tracks.resize(p.refinements());
-    levels_ = std::max(levels_, static_cast<int32_t>(p.refinements()));
+    levels_ = std::max(levels_, static_cast<int32_t>(at.empty() ? p.refinements() : at.size()));
     stats_.reliable_bytes += p.header().size() + p.base_mesh().size();
     by_stream_[p.primitive()] = primitives_.size();
     primitives_.push_back(std::move(state));
@@ -267,13 +289,13 @@ void SessionCore::NoteEnd(PrimitiveState& p, size_t refinement) { p.ended = std:
 // arrives on either channel (NoteEnd), so that the straggler timeout counts
 // from the end of the sending (a paced refinement may take longer to send
 // than the timeout), not from its start; and until every primitive has
-// reached its level, so that no primitive runs more than one refinement
-// ahead of the level shown and the views at an event are at the event's
-// level (a refinement of the reliable cut, on the stream, may overtake
+// reached its level, so that no primitive runs ahead of the next level
+// (its refinements there: AppliedAt) and the views at an event are at the
+// event's level (a refinement of the reliable cut, on the stream, may overtake
 // another primitive's UDP datagrams). `flushing`: everything that arrived.
 Status SessionCore::GiveControls(PrimitiveState& p, uint64_t now, bool flushing) {
   while (p.given < p.tracks.size() && p.tracks[p.given].has_control &&
-         (flushing || (p.given < p.ended && static_cast<int32_t>(p.given) <= LevelEverywhere()))) {
+         (flushing || (p.given < p.ended && p.given < AppliedAt(p, LevelEverywhere() + 1)))) {
     RefinementTrack& t = p.tracks[p.given];
     Status s = p.reconstructor->OnControl(Bytes(t.control), t.control.size(), now);
     if (!s.ok()) return s.WithContext(Where(p.start.primitive()));

@@ -219,6 +219,9 @@ class SessionCore {
 
   uint64_t StragglerClock(uint64_t t) const { return std::min(t, horizon_us_); }
   double MsSinceOpen(uint64_t now_us) const;
+  // Refinements of `p` applied at the scene's level `level` (PrimitiveStart.level_refinements).
+  static uint32_t AppliedAt(const PrimitiveState& p, int32_t level);
+  // The highest level every primitive has reached.
   int32_t LevelEverywhere() const;
   bool AllDone() const;
   void Finish(const std::string& reason);

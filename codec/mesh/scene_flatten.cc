@@ -1,5 +1,6 @@
 #include "codec/mesh/scene_flatten.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 #include <vector>
@@ -71,8 +72,7 @@ Mat4d NodeLocalMatrix(const Node& node) {
   return m;
 }
 
-Primitive FlattenScene(const Scene& scene) {
-  Primitive out;
+void ForEachMeshInstance(const Scene& scene, const std::function<void(int32_t mesh, const Mat4d& world, bool identity)>& visit) {
   std::vector<int32_t> roots;
   if (scene.default_scene >= 0 && static_cast<size_t>(scene.default_scene) < scene.scenes.size()) {
     roots = scene.scenes[scene.default_scene].nodes;
@@ -80,9 +80,8 @@ Primitive FlattenScene(const Scene& scene) {
     roots = scene.scenes[0].nodes;
   }
   if (roots.empty()) {
-    for (const Mesh& mesh : scene.meshes)
-      for (const Primitive& p : mesh.primitives) Append(out, p, kIdentity, true);
-    return out;
+    for (size_t m = 0; m < scene.meshes.size(); ++m) visit(static_cast<int32_t>(m), kIdentity, true);
+    return;
   }
   // Depth-first with an explicit stack; a visit budget guards against cycles.
   std::vector<std::pair<int32_t, Mat4d>> stack;
@@ -96,12 +95,31 @@ Primitive FlattenScene(const Scene& scene) {
     const Mat4d local = NodeLocalMatrix(node);
     const bool identity = parent == kIdentity && local == kIdentity;
     const Mat4d world = identity ? kIdentity : Multiply(parent, local);
-    if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < scene.meshes.size()) {
-      for (const Primitive& p : scene.meshes[node.mesh].primitives) Append(out, p, world, identity);
-    }
+    if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < scene.meshes.size()) visit(node.mesh, world, identity);
     for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) stack.emplace_back(*it, world);
   }
+}
+
+Primitive FlattenScene(const Scene& scene) {
+  Primitive out;
+  ForEachMeshInstance(scene, [&](int32_t mesh, const Mat4d& world, bool identity) {
+    for (const Primitive& p : scene.meshes[mesh].primitives) Append(out, p, world, identity);
+  });
   return out;
+}
+
+std::vector<double> MeshScales(const Scene& scene) {
+  std::vector<double> scales(scene.meshes.size(), 0.0);
+  ForEachMeshInstance(scene, [&](int32_t mesh, const Mat4d& m, bool) {
+    // The largest column norm: exactly the largest stretch for a rotation
+    // with scale (glTF's translation-rotation-scale), an estimate for shear.
+    double largest = 0;
+    for (int c = 0; c < 3; ++c) {
+      largest = std::max(largest, std::sqrt(m[4 * c] * m[4 * c] + m[4 * c + 1] * m[4 * c + 1] + m[4 * c + 2] * m[4 * c + 2]));
+    }
+    if (std::isfinite(largest)) scales[mesh] = std::max(scales[mesh], largest);
+  });
+  return scales;
 }
 
 }  // namespace meshstream

@@ -4,6 +4,7 @@
 #include <numeric>
 
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/residual_error.h"
 #include "codec/progressive/seam_twins.h"
 
 namespace meshstream {
@@ -255,6 +256,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
       return Internal("replay did not give back vertex " + std::to_string(v) + "'s values");
     }
   }
+  out.residual_error = ResidualErrors(out.mesh, state.positions, state.connectivity.Indices());
   return out;
 }
 

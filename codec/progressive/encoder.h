@@ -50,6 +50,8 @@ struct ProgressiveEncoded {
   uint64_t input_faces = 0;      // after clean-up
   uint64_t removed_faces = 0;
   uint64_t locked_vertices = 0;
+  // Per level, the error it leaves (progressive/residual_error.h), grid units.
+  std::vector<double> residual_error;
 };
 
 StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const ProgressiveEncodeOptions& options,

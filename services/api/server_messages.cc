@@ -30,6 +30,7 @@ v1::ServerMessage SessionStartMessage(const SessionPlan& plan, const std::vector
     out.set_header(Slice(artifact, p.header));
     out.set_base_mesh(Slice(artifact, p.base));
     out.set_refinements(p.refinements);
+    for (uint32_t n : p.level_refinements) out.add_level_refinements(n);
     for (const auto& [name, id] : p.draco_attributes) (*out.mutable_draco_attributes())[name] = id;
   }
   return message;

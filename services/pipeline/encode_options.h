@@ -84,7 +84,10 @@ std::string EncoderId();
 // 2: seam edges collapse on both sides (the seams tool of format version 2).
 // 3: the .glb records the reliable cut (MESHSTREAM_progressive.delivery), which
 //    sessions send on the stream.
-constexpr int kPipelineRevision = 3;
+// 4: the .glb records each level's residual error
+//    (MESHSTREAM_progressive.residual_error), by which a scene's levels and
+//    its sessions' order are made (codec/progressive/scene_levels.h).
+constexpr int kPipelineRevision = 4;
 
 // The artifact cache key: SHA-256 (hex) over an unambiguous serialization
 // (every field length-prefixed) of the tenant (a cache hit must not tell one

@@ -99,6 +99,11 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
     if (!delivery.ok()) return delivery.status().WithContext(where);
     p.delivery = std::move(delivery).value();
   }
+  if (progressive.contains("residual_error")) {
+    auto residual = ParseResidualErrors(progressive["residual_error"].dump(), s.control.size());
+    if (!residual.ok()) return residual.status().WithContext(where);
+    p.residual_error = std::move(residual).value();
+  }
   auto first = FirstDatagramStream(s);
   if (!first.ok()) return first.status().WithContext(where);
   *datagram_stream = first.value();
@@ -189,6 +194,11 @@ StatusOr<PrimitiveLayout> PrimitiveFromJson(const json& e, const std::string& wh
     auto delivery = ParseDeliveryRecord(e["delivery"].dump(), p.refinements);
     if (!delivery.ok()) return InvalidInput("stream layout: " + where + ": " + delivery.status().message());
     p.delivery = std::move(delivery).value();
+  }
+  if (e.contains("residual_error")) {  // optional: layouts stored before scene levels have none
+    auto residual = ParseResidualErrors(e["residual_error"].dump(), p.refinements);
+    if (!residual.ok()) return InvalidInput("stream layout: " + where + ": " + residual.status().message());
+    p.residual_error = std::move(residual).value();
   }
   return p;
 }
@@ -350,6 +360,7 @@ std::string StreamLayoutJson(const StreamLayout& layout) {
     if (p.delivery.share > 0 || !p.delivery.ranking.empty()) {
       entry["delivery"] = json::parse(DeliveryRecordJson(p.delivery));
     }
+    if (!p.residual_error.empty()) entry["residual_error"] = json::parse(ResidualErrorsJson(p.residual_error));
     prims.push_back(std::move(entry));
   }
   const json j = {{"version", kStreamLayoutVersion}, {"file_bytes", layout.file_bytes}, {"primitives", std::move(prims)}};

@@ -53,6 +53,11 @@ struct PrimitiveLayout {
   // MESHSTREAM_progressive "delivery"; empty when the file has none
   // (artifacts made before it): every datagram goes as UDP.
   DeliveryRecord delivery;
+  // The error left at each level (refinements + 1 entries, scene units), from
+  // MESHSTREAM_progressive "residual_error"; empty when the file has none: the
+  // scene's levels are then one refinement per primitive
+  // (codec/progressive/scene_levels.h).
+  std::vector<double> residual_error;
 };
 
 struct StreamLayout {

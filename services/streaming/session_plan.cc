@@ -6,6 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/progressive/scene_levels.h"
+
 namespace meshstream {
 
 namespace {
@@ -88,22 +90,28 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     }
     p.stream_bytes = p.base.length + entry.reliable_bytes + entry.unreliable_bytes;
     plan.reliable_bytes += p.header.length + p.base.length;
-    plan.levels = std::max(plan.levels, p.refinements);
     plan.primitives.push_back(p);
     blocks.push_back(std::move(located).value());
   }
-  for (uint32_t level = 0; level < plan.levels; ++level) {
-    for (uint32_t i = 0; i < plan.primitives.size(); ++i) {
-      if (level >= plan.primitives[i].refinements) continue;
-      PlannedRefinement r;
-      r.primitive = i;
-      r.refinement = level;
-      r.control = blocks[i].control[level];
-      r.datagrams = blocks[i].datagrams[level];
-      plan.reliable_bytes += r.control.length;
-      for (const ByteRange& d : r.datagrams) plan.unreliable_bytes += d.length;
-      plan.refinements.push_back(std::move(r));
-    }
+  std::vector<uint32_t> counts;
+  std::vector<std::vector<double>> errors;
+  for (size_t i = 0; i < plan.primitives.size(); ++i) {
+    counts.push_back(plan.primitives[i].refinements);
+    errors.push_back(layout->primitives[i].residual_error);
+  }
+  const SceneLevels levels = ScheduleSceneLevels(counts, errors);
+  plan.levels = levels.levels;
+  for (size_t i = 0; i < plan.primitives.size(); ++i) plan.primitives[i].level_refinements = levels.applied[i];
+  for (const ScheduledRefinement& s : levels.order) {
+    PlannedRefinement r;
+    r.primitive = s.primitive;
+    r.refinement = s.refinement;
+    r.level = s.level;
+    r.control = blocks[s.primitive].control[s.refinement];
+    r.datagrams = blocks[s.primitive].datagrams[s.refinement];
+    plan.reliable_bytes += r.control.length;
+    for (const ByteRange& d : r.datagrams) plan.unreliable_bytes += d.length;
+    plan.refinements.push_back(std::move(r));
   }
   if (max_level < 0) return plan;
   return CutPlan(plan, max_level);
@@ -111,16 +119,17 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
 
 SessionPlan CutPlan(const SessionPlan& full, int32_t max_level) {
   if (max_level < 0) return full;
-  const uint32_t cut = static_cast<uint32_t>(max_level);
+  const uint32_t cut = std::min(static_cast<uint32_t>(max_level), full.levels);
   SessionPlan plan;
   plan.primitives = full.primitives;
+  plan.levels = cut;
   for (PlannedPrimitive& p : plan.primitives) {
-    p.refinements = std::min(p.refinements, cut);
+    p.level_refinements.resize(std::min<size_t>(cut, p.level_refinements.size()));
+    p.refinements = p.level_refinements.empty() ? 0 : p.level_refinements.back();
     plan.reliable_bytes += p.header.length + p.base.length;
-    plan.levels = std::max(plan.levels, p.refinements);
   }
   for (const PlannedRefinement& r : full.refinements) {
-    if (r.refinement >= cut) continue;
+    if (r.level > cut) continue;
     plan.reliable_bytes += r.control.length;
     for (const ByteRange& d : r.datagrams) plan.unreliable_bytes += d.length;
     plan.refinements.push_back(r);

@@ -1,15 +1,17 @@
 // What a streaming session sends, in which order, as byte ranges of the
 // stored artifact (docs/streaming-protocol.md): per primitive its stream
-// header and base mesh first (the session start), then the refinements
-// level by level across the primitives (refinement 0 of every primitive,
-// then refinement 1, ...), each as its control block followed by its data
-// datagrams. Built from the version's stored layout without decoding
-// anything (services/pipeline/stream_layout.h).
+// header and base mesh first (the session start), then the refinements by
+// the scene's levels (codec/progressive/scene_levels.h: within a level, the
+// refinement that leaves the larger error first, whichever primitive it
+// belongs to; without the layout's residual errors, refinement 0 of every
+// primitive, then refinement 1, ...), each as its control block followed by
+// its data datagrams. Built from the version's stored layout without
+// decoding anything (services/pipeline/stream_layout.h).
 //
 // Contract: the artifact bytes and the layout JSON come from the store
 // (verified blob, JSON written by the pipeline) but are still checked: a
 // layout that does not fit the bytes is DataLoss. `max_level` < 0 means
-// every refinement; otherwise at most that many per primitive.
+// every refinement; otherwise the scene's levels up to that one.
 // Thread safety: pure.
 #ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
 #define MESHSTREAM_SERVICES_STREAMING_SESSION_PLAN_H_
@@ -31,6 +33,9 @@ struct PlannedPrimitive {
   ByteRange header;
   ByteRange base;
   uint32_t refinements = 0;  // in this session
+  // Per level of this session (1..levels), its refinements applied at that
+  // level (PrimitiveStart.level_refinements).
+  std::vector<uint32_t> level_refinements;
   std::map<std::string, int32_t> draco_attributes;  // semantic -> Draco attribute id of the base mesh
   // The reliable cut (codec/loss/reliable_cut.h) of the stored layout (a
   // share of 0: the artifact has none), and per refinement (all of the
@@ -49,6 +54,7 @@ std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss);
 struct PlannedRefinement {
   uint32_t primitive = 0;  // index into SessionPlan::primitives
   uint32_t refinement = 0;
+  uint32_t level = 0;  // the scene's level it first belongs to (1-based)
   ByteRange control;
   std::vector<ByteRange> datagrams;
 };
@@ -58,7 +64,7 @@ struct SessionPlan {
   std::vector<PlannedRefinement> refinements;  // in sending order
   uint64_t reliable_bytes = 0;    // headers, base meshes and control blocks
   uint64_t unreliable_bytes = 0;  // datagrams
-  uint32_t levels = 0;            // the most refinements of any primitive in this session
+  uint32_t levels = 0;            // the scene's levels in this session
 };
 
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,

@@ -76,6 +76,24 @@ TEST(SceneFlatten, AppliesNodeTransformsDownTheHierarchy) {
   EXPECT_FLOAT_EQ(flat.positions[2][1], 2.0f);
 }
 
+TEST(SceneFlatten, MeshScalesAreTheLargestOfTheirInstances) {
+  Scene scene = SceneFromPrimitive(TwoTriangles(), "quad");
+  scene.meshes.push_back(scene.meshes[0]);  // mesh 1: no node shows it
+  scene.nodes[0].scale = {3, 1, 1};
+  scene.nodes[0].children = {1};
+  Node child;
+  child.mesh = 0;
+  child.scale = {0.5, 0.5, 0.5};  // 1.5 in the world, under its parent's 3
+  scene.nodes.push_back(child);
+  ASSERT_TRUE(ValidateScene(scene).ok());
+  const std::vector<double> scales = MeshScales(scene);
+  ASSERT_EQ(scales.size(), 2u);
+  EXPECT_DOUBLE_EQ(scales[0], 3.0);
+  EXPECT_EQ(scales[1], 0.0);
+  scene.scenes.clear();  // no scene: every mesh once, unscaled
+  EXPECT_EQ(MeshScales(scene), (std::vector<double>{1.0, 1.0}));
+}
+
 TEST(SceneFlatten, IdentityKeepsPositionsBitExact) {
   Primitive p = TwoTriangles();
   p.positions[1] = {0.1f, 0.7f, 0.3f};

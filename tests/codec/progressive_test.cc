@@ -11,6 +11,7 @@
 #include "codec/progressive/midpoint.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/residual_error.h"
 #include "tests/common/sphere.h"
 
 namespace meshstream {
@@ -74,6 +75,55 @@ TEST(ProgressiveCodec, LosslessOnASphereAtEveryQp) {
     EXPECT_EQ(full.vertex_count(), q->vertex_count());
     EXPECT_EQ(Triangles(full), Triangles(q.value())) << "qp " << qp;
   }
+}
+
+// An n x n grid of squares in the plane z = 0, two triangles each.
+Primitive FlatGrid(int n) {
+  Primitive p;
+  for (int y = 0; y <= n; ++y) {
+    for (int x = 0; x <= n; ++x) p.positions.push_back({float(x), float(y), 0.0f});
+  }
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
+      p.indices.insert(p.indices.end(), {a, b, d, a, d, c});
+    }
+  }
+  return p;
+}
+
+TEST(ProgressiveCodec, ResidualErrorsCountWhatLeavesTheSurfaceNotWhatSlidesAlongIt) {
+  ProgressiveEncodeOptions options;
+  // A plane: every split vector lies in it, whatever its length.
+  auto flat = QuantizePrimitive(FlatGrid(24), options.quantization);
+  ASSERT_TRUE(flat.ok());
+  auto plane = EncodeProgressiveQuantized(flat.value(), options, ReversingCoder);
+  ASSERT_TRUE(plane.ok()) << plane.status().ToString();
+  ASSERT_GT(plane->mesh.refinements.size(), 2u);
+  ASSERT_EQ(plane->residual_error.size(), plane->mesh.refinements.size() + 1);
+  for (double e : plane->residual_error) EXPECT_EQ(e, 0.0);
+
+  // A sphere: errors off the surface, never growing, none left at the end,
+  // and below half the longest split vector left.
+  auto round = QuantizePrimitive(Sphere(24, 32), options.quantization);
+  ASSERT_TRUE(round.ok());
+  auto sphere = EncodeProgressiveQuantized(round.value(), options, ReversingCoder);
+  ASSERT_TRUE(sphere.ok()) << sphere.status().ToString();
+  const std::vector<double>& e = sphere->residual_error;
+  ASSERT_EQ(e.size(), sphere->mesh.refinements.size() + 1);
+  EXPECT_GT(e.front(), 1.0) << "grid units";
+  EXPECT_EQ(e.back(), 0.0);
+  double longest = 0;
+  for (size_t i = sphere->mesh.refinements.size(); i-- > 0;) {
+    EXPECT_GE(e[i], e[i + 1]);
+    for (const Vec3i& d : sphere->mesh.refinements[i].position_delta) {
+      longest = std::max(longest, std::sqrt(double(d[0]) * d[0] + double(d[1]) * d[1] + double(d[2]) * d[2]));
+    }
+    EXPECT_LE(e[i], longest / 2 + 1e-9);
+  }
+  // Without the finest mesh's normals, the whole vector counts.
+  const std::vector<double> whole = ResidualErrors(sphere->mesh, {}, {});
+  EXPECT_DOUBLE_EQ(whole.front(), longest / 2);
 }
 
 TEST(ProgressiveCodec, SplitVerticesOfARefinementArePairwiseNonAdjacent) {

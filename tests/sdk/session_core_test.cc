@@ -446,6 +446,74 @@ TEST(SessionCore, MaxLevelEndsAtThatLevel) {
   EXPECT_TRUE(SameMesh(r.host->core.reader(0).Mesh(), Sphere().levels[2]));
 }
 
+// The scene's levels (PrimitiveStart.level_refinements): a primitive runs
+// as far ahead as its count at the next level lets it, and a level is shown
+// once every primitive has its count there.
+TEST(SessionCore, AScenesLevelsAreTheServersCountsPerPrimitive) {
+  NetworkOptions n = Lossless(57);
+  Schedule s = Serve({&Sphere(), &SecondSphere()}, n);
+  v1::SessionStart& start = *s.arrivals[0].message.mutable_session();
+  ASSERT_EQ(start.primitives_size(), 2);
+  const uint32_t r0 = start.primitives(0).refinements(), r1 = start.primitives(1).refinements();
+  ASSERT_GT(r0, 1u);
+  ASSERT_GT(r1, 1u);
+  // The one with more refinements paces the levels; the other has all of
+  // its refinements at level 1 (a part whose errors are larger everywhere).
+  const int big = r1 >= r0 ? 1 : 0, small = 1 - big;
+  const uint32_t levels = std::max(r0, r1), all_small = std::min(r0, r1);
+  for (uint32_t level = 1; level <= levels; ++level) {
+    start.mutable_primitives(big)->add_level_refinements(level);
+    start.mutable_primitives(small)->add_level_refinements(all_small);
+  }
+  // The small primitive's data first (as the server's scene order sends a
+  // part with larger errors), everything else 2 s later.
+  auto primitive_of = [](const Arrival& a) -> int64_t {
+    if (!a.is_message) {
+      auto d = ParsedDatagram::Parse(a.payload.data(), a.payload.size());
+      return d.ok() ? int64_t{d->header().stream} : -1;
+    }
+    if (a.message.has_control()) return a.message.control().primitive();
+    if (a.message.has_refinement_end()) return a.message.refinement_end().primitive();
+    if (a.message.has_datagram()) {
+      const std::string& bytes = a.message.datagram().payload();
+      auto d = ParsedDatagram::Parse(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+      return d.ok() ? int64_t{d->header().stream} : -1;
+    }
+    return -1;
+  };
+  for (size_t i = 1; i < s.arrivals.size(); ++i) {
+    if (primitive_of(s.arrivals[i]) != start.primitives(small).primitive()) s.arrivals[i].at_us += 2000000;
+  }
+  std::stable_sort(s.arrivals.begin(), s.arrivals.end(),
+                   [](const Arrival& a, const Arrival& b) { return a.at_us < b.at_us; });
+  SimHost h(Options(), n.start_us - 1000);
+  h.pending = s.arrivals;
+  h.stream_end_after_last = true;
+  bool small_ran_ahead = false, started = false;
+  int32_t shown = 0;
+  while (h.now_us <= n.start_us + 60000000) {
+    while (auto e = h.PollOnce()) {
+      started = started || e->type == EventType::kBaseReady;
+      if (e->type != EventType::kLevelReady) continue;
+      // At an event, every primitive has at least its count of that level.
+      shown = e->level;
+      EXPECT_GE(h.core.reader(big).applied(), static_cast<size_t>(e->level)) << e->level;
+      EXPECT_EQ(h.core.reader(small).applied(), all_small) << e->level;
+    }
+    if (started && h.core.reader(small).applied() == all_small && h.core.reader(big).applied() < 2) {
+      small_ran_ahead = true;
+    }
+    if (h.core.over() && !h.core.has_event()) break;
+    h.now_us += 1000;
+  }
+  ExpectEventsInOrder(h.events, EventType::kComplete);
+  EXPECT_TRUE(small_ran_ahead) << "the small primitive is not held to one refinement per level";
+  EXPECT_EQ(shown, static_cast<int32_t>(levels));
+  EXPECT_EQ(h.core.level_shown(), static_cast<int32_t>(levels));
+  EXPECT_TRUE(SameMesh(h.core.reader(0).Mesh(), Sphere().levels.back()));
+  EXPECT_TRUE(SameMesh(h.core.reader(1).Mesh(), SecondSphere().levels.back()));
+}
+
 TEST(SessionCore, ATransportChangeStopsUdpAndTheSessionGoesOnOverTheStream) {
   NetworkOptions n = Lossless(54);
   n.udp = false;
@@ -500,6 +568,16 @@ TEST(SessionCore, BadServerMessagesEndTheSessionOrAreDroppedAndCounted) {
   };
   const std::vector<Hostile> cases = {
       {"a second SessionStart", [&](Schedule& s) { add(s, at(s, 0), 2); }, true, StatusCode::kInvalidInput},
+      {"level counts that fall",
+       [&](Schedule& s) {
+         v1::PrimitiveStart& p = *at(s, 0).mutable_session()->mutable_primitives(0);
+         p.add_level_refinements(2);
+         p.add_level_refinements(1);
+       },
+       true, StatusCode::kInvalidInput},
+      {"level counts whose last is not every refinement",
+       [&](Schedule& s) { at(s, 0).mutable_session()->mutable_primitives(0)->add_level_refinements(1); }, true,
+       StatusCode::kInvalidInput},
       {"a control block for an unknown primitive",
        [&](Schedule& s) { first_of(s, v1::ServerMessage::kControl).mutable_control()->set_primitive(99); }, true,
        StatusCode::kInvalidInput},

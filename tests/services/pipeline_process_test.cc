@@ -167,6 +167,8 @@ TEST(PipelineProcess, LayoutSpansAreTheStreamsBlocks) {
       EXPECT_EQ(e.reliable_bytes, r.reliable_bytes);
       EXPECT_EQ(e.unreliable_bytes, r.unreliable_bytes);
       EXPECT_EQ(e.level_vertices, r.level_vertices);
+      EXPECT_EQ(e.residual_error, r.residual_error) << "the scene's errors reach the layout";
+      EXPECT_EQ(e.residual_error.size(), e.refinements + 1);
       EXPECT_EQ(e.quantization.qp, settings.qp);
       EXPECT_EQ(e.packing, Packing::kSplit);
       base += e.base.length;
@@ -250,6 +252,26 @@ TEST(PipelineProcess, StreamLayoutJsonIsCheckedWhenRead) {
   j = good;
   j["primitives"][0]["quantization"]["qp"] = 31;
   EXPECT_NE(refused(j).find("quantization.qp"), std::string::npos);
+  // The residual errors: optional (layouts stored before them have none), but
+  // checked where present.
+  ASSERT_TRUE(good["primitives"][0].contains("residual_error"));
+  j = good;
+  j["primitives"][0].erase("residual_error");
+  auto old = ParseStreamLayout(j.dump());
+  ASSERT_TRUE(old.ok()) << old.status().ToString();
+  EXPECT_TRUE(old->primitives[0].residual_error.empty());
+  j = good;
+  j["primitives"][0]["residual_error"].push_back(0);
+  EXPECT_NE(refused(j).find("residual_error has"), std::string::npos);
+  j = good;
+  j["primitives"][0]["residual_error"][1] = 1e9;
+  EXPECT_NE(refused(j).find("residual_error[1]"), std::string::npos) << "larger than the entry before";
+  j = good;
+  j["primitives"][0]["residual_error"][0] = -1;
+  EXPECT_NE(refused(j).find("residual_error[0]"), std::string::npos);
+  j = good;
+  j["primitives"][0]["residual_error"][0] = "x";
+  EXPECT_NE(refused(j).find("not a number"), std::string::npos);
 }
 
 TEST(PipelineProcess, ExportsInEveryFormatDecode) {

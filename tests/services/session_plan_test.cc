@@ -2,6 +2,7 @@
 // block is the stream's own (ProgressiveStream::Parse of the stored blob),
 // the refinements go level by level across the primitives, max_level cuts
 // them, and a layout of another artifact is refused.
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -30,8 +31,8 @@ std::vector<uint8_t> Bytes(const std::vector<uint8_t>& file, const ByteRange& r)
                               file.begin() + static_cast<long>(r.offset + r.length));
 }
 
-TEST(SessionPlan, EveryBlockIsTheStreamsOwnInLevelOrder) {
-  // The engine has many primitives: the level-major order is visible.
+TEST(SessionPlan, EveryBlockIsTheStreamsOwnInTheScenesOrder) {
+  // The engine has many primitives: the scene's order is visible.
   const ProcessResult p = Process("gltf/2CylinderEngine.glb");
   ASSERT_FALSE(p.glb.empty());
   auto plan = PlanSession(p.glb, p.summary.layout_json, -1);
@@ -60,13 +61,45 @@ TEST(SessionPlan, EveryBlockIsTheStreamsOwnInLevelOrder) {
   }
   EXPECT_EQ(plan->unreliable_bytes, unreliable);
   EXPECT_EQ(plan->unreliable_bytes, p.summary.unreliable_bytes);
-  // Level by level: never a refinement before a lower one of any primitive.
-  for (size_t k = 1; k < plan->refinements.size(); ++k) {
-    EXPECT_LE(plan->refinements[k - 1].refinement, plan->refinements[k].refinement);
+  // The scene's order (codec/progressive/scene_levels.h): by the error the
+  // primitive still has before the refinement, larger first; each
+  // primitive's own in order; levels are prefixes of it.
+  std::vector<uint32_t> next(plan->primitives.size(), 0);
+  double before = std::numeric_limits<double>::infinity();
+  uint32_t level = 1;
+  bool interleaved = false;  // some refinement comes before a lower one of another primitive
+  for (const PlannedRefinement& r : plan->refinements) {
+    const std::vector<double>& errors = layout->primitives[r.primitive].residual_error;
+    ASSERT_EQ(errors.size(), plan->primitives[r.primitive].refinements + 1) << "the pipeline records the errors";
+    EXPECT_EQ(r.refinement, next[r.primitive]++) << "primitive " << r.primitive;
+    EXPECT_LE(errors[r.refinement], before);
+    before = errors[r.refinement];
+    EXPECT_GE(r.level, level);
+    level = r.level;
+    const std::vector<uint32_t>& at = plan->primitives[r.primitive].level_refinements;
+    ASSERT_EQ(at.size(), plan->levels);
+    EXPECT_TRUE(r.level == 1 ? r.refinement < at[0] : at[r.level - 2] <= r.refinement && r.refinement < at[r.level - 1]);
+    for (uint32_t n : next) interleaved = interleaved || n + 1 < r.refinement;
+  }
+  EXPECT_TRUE(interleaved) << "the engine's errors differ enough that the order is not level by level";
+  for (size_t i = 0; i < plan->primitives.size(); ++i) {
+    EXPECT_EQ(next[i], plan->primitives[i].refinements);
+    EXPECT_EQ(plan->primitives[i].level_refinements.back(), plan->primitives[i].refinements);
   }
   std::set<std::pair<uint32_t, uint32_t>> seen;
   for (const PlannedRefinement& r : plan->refinements) EXPECT_TRUE(seen.insert({r.primitive, r.refinement}).second);
   EXPECT_EQ(static_cast<int64_t>(plan->levels), p.summary.levels);
+
+  // A session cut at a level gets that level's refinements of each primitive.
+  const SessionPlan cut = CutPlan(plan.value(), 5);
+  EXPECT_EQ(cut.levels, 5u);
+  size_t expected = 0;
+  for (size_t i = 0; i < cut.primitives.size(); ++i) {
+    EXPECT_EQ(cut.primitives[i].refinements, plan->primitives[i].level_refinements[4]);
+    EXPECT_EQ(cut.primitives[i].level_refinements.size(), 5u);
+    expected += cut.primitives[i].refinements;
+  }
+  EXPECT_EQ(cut.refinements.size(), expected);
   EXPECT_GT(control, 0u);
 }
 

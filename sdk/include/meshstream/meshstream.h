@@ -101,7 +101,7 @@ typedef struct {
   size_t struct_size;      /* sizeof(ms_session_config) */
   const char* asset;       /* required */
   int64_t version;         /* 0: the latest READY version */
-  int32_t max_level;       /* refinements per primitive; -1: all (0 means the base mesh only) */
+  int32_t max_level;       /* the scene's level to stop at (its refinements with one primitive); -1: all (0: the base only) */
   int32_t tcp_only;        /* non-zero: the datagrams travel over the gRPC stream */
   /* Beyond the first version (read only when struct_size covers them; 0 / NULL: none): */
   uint64_t byte_budget;    /* stop after this many bytes on both channels, COMPLETE at the level reached */
