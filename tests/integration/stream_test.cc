@@ -182,12 +182,26 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     for (const v1::PrimitiveStart& p : got.start.primitives()) base_bytes += p.base_mesh().size();
     EXPECT_FALSE(got.start.scene_glb().empty());
     EXPECT_LT(got.start.scene_glb().size(), base_bytes / 2 + 8192) << base_bytes << " bytes of base meshes";
-    for (size_t k = 1; k < got.order.size(); ++k) EXPECT_LE(got.order[k - 1].second, got.order[k].second);
-    // max_level cuts every primitive.
+    // The scene's order (docs/streaming-protocol.md, "Levels of a scene"):
+    // each primitive's refinements in their own order, and its count at
+    // every level of the session announced.
+    std::map<uint32_t, uint32_t> next;
+    for (const auto& [primitive, refinement] : got.order) EXPECT_EQ(refinement, next[primitive]++);
+    std::map<uint32_t, uint32_t> at_two;
+    for (const v1::PrimitiveStart& p : got.start.primitives()) {
+      ASSERT_FALSE(p.level_refinements().empty());
+      EXPECT_EQ(p.level_refinements(p.level_refinements_size() - 1), p.refinements());
+      at_two[p.primitive()] = p.level_refinements(std::min(1, p.level_refinements_size() - 1));
+    }
+    // max_level cuts every primitive at the scene's level.
     const Received two = OpenSession(client->channel(), "m", r.version(), 2);
     ASSERT_TRUE(two.status.ok());
     EXPECT_EQ(two.end_reason, "max_level");
-    for (const auto& [key, control] : two.control) EXPECT_LT(key.second, 2u);
+    for (const v1::PrimitiveStart& p : two.start.primitives()) {
+      EXPECT_EQ(p.refinements(), at_two[p.primitive()]);
+      EXPECT_LE(p.level_refinements_size(), 2);
+    }
+    for (const auto& [key, control] : two.control) EXPECT_LT(key.second, at_two[key.first]);
   }
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
