@@ -1,6 +1,7 @@
 #include "services/api/stream_service.h"
 
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <deque>
 #include <memory>
@@ -8,6 +9,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <grpcpp/alarm.h>
 
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
@@ -60,6 +63,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
 
   Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
+    cancel_->context = context;
     service_->openers_.Post([this] { Admit(); });
   }
 
@@ -135,6 +139,10 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   // (FinishNow, StartRead, or Begin, before which nothing can Finish).
   void OnDone() override {
     registration_ = SendLoop::Registration();  // after any step of the send loop under way
+    {
+      std::lock_guard<std::mutex> lock(cancel_->mutex);
+      cancel_->context = nullptr;  // the grace alarm may still fire: it finds nothing to cancel
+    }
     delete this;
   }
 
@@ -194,10 +202,24 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
         now = !finished_;
         finished_ = true;
       } else if (!status.ok()) {
-        // A stalled client: what is queued is dropped, the write in flight
-        // fails with the cancellation and OnWriteDone finishes.
-        cut = true;
+        // What is queued is dropped; the write in flight ends the call when
+        // it completes (OnWriteDone finishes with the status). A stalled
+        // client (the idle cut-off) never completes it: cancelled now. Any
+        // other error (a client that asks for what its session has not,
+        // say) keeps its status for a client that reads, and is cancelled
+        // after a grace period if the write is still stuck then, so that a
+        // client that stopped reading cannot hold its slot.
         while (queue_.size() > 1) queue_.pop_back();
+        if (status.code() == StatusCode::kDeadlineExceeded) {
+          cut = true;
+        } else {
+          std::shared_ptr<CancelHandle> handle = cancel_;
+          grace_.Set(std::chrono::system_clock::now() + kFinishGrace, [handle](bool fired) {
+            if (!fired) return;
+            std::lock_guard<std::mutex> lock(handle->mutex);
+            if (handle->context != nullptr) handle->context->TryCancel();
+          });
+        }
       }
     }
     if (now) Reactor::Finish(finish_status_);
@@ -322,8 +344,18 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     StartWrite(first);
   }
 
+  // What the grace alarm of Finish cancels, shared with its callback, which
+  // may run after the call is gone (context null then).
+  struct CancelHandle {
+    std::mutex mutex;
+    grpc::CallbackServerContext* context = nullptr;
+  };
+  static constexpr std::chrono::seconds kFinishGrace{2};
+
   StreamServiceImpl* service_;
   grpc::CallbackServerContext* context_;
+  std::shared_ptr<CancelHandle> cancel_ = std::make_shared<CancelHandle>();
+  grpc::Alarm grace_;
   v1::ClientMessage in_;
   bool opened_ = false;  // the first read's callback, then the reads' (one at a time)
   uint64_t open_received_us_ = 0;  // when the OpenRequest arrived (SteadyNowUs)

@@ -7,10 +7,12 @@
 // for UDP and never sends a HELLO gets the fallback after the HELLO timeout;
 // errors have their codes; a repair sends what is asked once, and refuses
 // what does not fit the session.
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
@@ -325,6 +327,55 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   const Received unasked = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, false,
                                        ask({{3, {0}}}, 1));
   EXPECT_EQ(unasked.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "a session opened without repair";
+  EXPECT_EQ((*server)->Terminate(), 0);
+}
+
+// An error that ends a session whose writes wait for the client (it has not
+// read yet) keeps its status for the client that then reads, instead of a
+// cancellation.
+TEST(StreamSession, AnErrorWhileTheClientIsNotReadingKeepsItsStatus) {
+  test_util::TempDir dir;
+  auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
+  ASSERT_TRUE(server.ok()) << server.status().ToString();
+  const auto client = test_util::NewAssetClient((*server)->address());
+  v1::Job job;
+  ASSERT_TRUE(test_util::IngestModel(*client, "horse", test_util::ModelPath("horse.ply"), "horse.ply", &job).ok());
+  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  // A small receive window, never grown: the server's writes wait while the
+  // client does not read.
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, 16384);
+  auto channel = grpc::CreateCustomChannel((*server)->address(), grpc::InsecureChannelCredentials(), args);
+  auto stub = v1::StreamService::NewStub(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  auto stream = stub->Open(&context);
+  v1::ClientMessage open;
+  open.mutable_open()->set_asset("horse");
+  open.mutable_open()->set_max_level(-1);
+  open.mutable_open()->set_transport(v1::TRANSPORT_GRPC);
+  ASSERT_TRUE(stream->Write(open));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  v1::ClientMessage repair;  // a session opened without repair may not ask for one
+  v1::RepairItem& item = *repair.mutable_repair()->add_items();
+  item.set_primitive(0);
+  item.set_refinement(0);
+  item.add_datagrams(0);
+  stream->Write(repair);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  v1::ServerMessage m;
+  size_t read = 0;
+  bool ended = false;
+  while (stream->Read(&m)) {
+    ++read;
+    ended = ended || m.has_end();
+  }
+  const grpc::Status status = stream->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("repair"), std::string::npos) << status.error_message();
+  EXPECT_GT(read, 0u);
+  EXPECT_FALSE(ended) << "the session ended at the error, not after its last refinement";
   EXPECT_EQ((*server)->Terminate(), 0);
 }
 
