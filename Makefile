@@ -86,6 +86,13 @@ bench-stream: build
 # against a `meshstream serve` process, the clients in a network namespace losing 5 % (root);
 # the server's memory over time. Not part of `make bench` (half an hour). SOAK_ARGS e.g. "--quick".
 SOAK_ARGS ?=
+# The encoder at scale (docs/benchmarks.md, "The encoder at scale"): the bunny subdivided to
+# 2.2 M vertices, meshstream encode against Draco, time and peak memory (about 3 minutes).
+.PHONY: bench-scaling
+bench-scaling: build
+	@mkdir -p docs/bench
+	$(BUILD)/bin/meshstream_bench_scaling --out docs/bench/scaling.json $(SCALING_ARGS)
+
 .PHONY: bench-soak
 bench-soak: build
 	@mkdir -p docs/bench
