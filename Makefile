@@ -55,6 +55,7 @@ bench: build
 	@mkdir -p docs/bench
 	$(BUILD)/bin/meshstream_rule_comparison --out docs/bench/rules.json
 	$(BUILD)/bin/meshstream_bench --out docs/bench/results.json $(BENCH_ARGS)
+	$(BUILD)/bin/meshstream_bench_scaling --out docs/bench/scaling.json $(SCALING_ARGS)
 	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
 	$(BUILD)/bin/meshstream_loss_bench --out docs/bench/loss.json $(LOSS_BENCH_ARGS)
 	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
