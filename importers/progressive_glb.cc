@@ -444,10 +444,14 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     }
     local.levels = std::max<uint64_t>(local.levels, levels);
     local.tools |= header->tools;
-    local.levels_applied = std::max<uint64_t>(local.levels_applied, apply);
+
     level_vertices.push_back(header->level_vertices());
   }
   local.level_vertices = SceneLevelVertices(scene_levels, level_vertices);
+  // The scene's level decoded (with several primitives, a level may apply
+  // more refinements of one of them than its number).
+  local.levels_applied = options.lod < 0 ? scene_levels.levels
+                                         : std::min<uint64_t>(scene_levels.levels, static_cast<uint64_t>(options.lod));
   if (report) *report = std::move(local);
   return scene;
 }

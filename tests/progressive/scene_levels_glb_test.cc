@@ -62,6 +62,7 @@ TEST(SceneLevelsGlb, ALevelAppliesEachPrimitivesCountOfIt) {
       total += counts[p];
     }
     EXPECT_EQ(decoded.level_vertices[k], total);
+    EXPECT_EQ(decoded.levels_applied, k) << "the scene's level, not a primitive's refinement count";
   }
   EXPECT_TRUE(differs);
 
