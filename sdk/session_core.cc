@@ -114,8 +114,6 @@ void SessionCore::Push(EventType type, int32_t level) {
   events_.push_back(e);
 }
 
-// The level every primitive has reached (a primitive with fewer refinements
-// counts as done once it has all of its own).
 uint32_t SessionCore::AppliedAt(const PrimitiveState& p, int32_t level) {
   if (level <= 0) return 0;
   const auto& at = p.start.level_refinements();
@@ -123,6 +121,8 @@ uint32_t SessionCore::AppliedAt(const PrimitiveState& p, int32_t level) {
   return at[std::min<int>(level, at.size()) - 1];
 }
 
+// The level every primitive has reached: the highest L whose count
+// (AppliedAt) every primitive has applied.
 int32_t SessionCore::LevelEverywhere() const {
   int32_t level = 0;
   while (level < levels_) {
