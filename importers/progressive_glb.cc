@@ -368,17 +368,16 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       found.push_back(std::move(f));
     }
   }
-  std::vector<uint32_t> refinements;
+  std::vector<std::vector<uint32_t>> level_vertices;
   std::vector<std::vector<double>> residuals;
   for (const Found& f : found) {
-    refinements.push_back(static_cast<uint32_t>(f.header.split_counts.size()));
+    level_vertices.push_back(f.header.level_vertices());  // lossless counts
     residuals.push_back(f.residual);
   }
-  const SceneLevels scene_levels = ScheduleSceneLevels(refinements, residuals);
+  const SceneLevels scene_levels = SceneLevelsOf(level_vertices, residuals);
 
   ProgressiveDecodeReport local;
   uint32_t stream_id = 0;
-  std::vector<std::vector<uint32_t>> level_vertices;
   for (size_t i = 0; i < found.size(); ++i) {
     Found& f = found[i];
     const size_t m = f.m, k = f.k;
@@ -387,11 +386,11 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     const json& views = doc.at("bufferViews");
     const std::string& where = f.where;
     ProgressiveStream& stream = f.stream;
-    const StreamHeader* header = &f.header;
+    const StreamHeader& header = f.header;
     Primitive& target = scene.meshes[m].primitives[k];
-    auto base = QuantizeOnto(target, header->grids);
+    auto base = QuantizeOnto(target, header.grids);
     if (!base.ok()) return base.status().WithContext(where);
-    const size_t levels = header->split_counts.size();
+    const size_t levels = header.split_counts.size();
     const size_t apply = options.lod < 0 ? levels : scene_levels.At(i, static_cast<uint32_t>(options.lod));
     // What travels reliably: the recorded cut, none, or the cut for another share.
     std::vector<uint32_t> reliable;
@@ -438,15 +437,13 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       // would copy), dequantized where they are.
       const std::vector<Face>& faces = state.connectivity.faces();
       static_assert(sizeof(Face) == 3 * sizeof(uint32_t), "a Face is three packed indices");
-      target = DequantizeArrays(header->grids.position_grid, header->grids.layout, state.positions,
+      target = DequantizeArrays(header.grids.position_grid, header.grids.layout, state.positions,
                                 state.attributes, faces.empty() ? nullptr : faces.front().data(),
                                 3 * faces.size(), target.material);
     }
-    local.levels = std::max<uint64_t>(local.levels, levels);
-    local.tools |= header->tools;
-
-    level_vertices.push_back(header->level_vertices());
+    local.tools |= header.tools;
   }
+  local.levels = scene_levels.levels;
   local.level_vertices = SceneLevelVertices(scene_levels, level_vertices);
   // The scene's level decoded (with several primitives, a level may apply
   // more refinements of one of them than its number).

@@ -256,7 +256,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
       return Internal("replay did not give back vertex " + std::to_string(v) + "'s values");
     }
   }
-  out.residual_error = ResidualErrors(out.mesh, state.positions, state.connectivity.Indices());
+  out.residual_error = ResidualErrors(out.mesh, state);
   return out;
 }
 

@@ -4,7 +4,8 @@
 // refinements.size(): the finest) the largest distance off the surface that a
 // split not yet applied will correct: for a split of w that makes the new
 // vertex n, half the component of its split vector along the finest mesh's
-// normal at w and n (the area-weighted normals of their triangles, added).
+// normal at w and n (their area-weighted normals, normal_prediction.h's
+// VertexNormal, added).
 // A split along the surface (an edge of a flat region, along a straight
 // crease) changes the shape little however long its vector; one across a
 // curve or a crease changes it by about that component. Where the normal is
@@ -13,22 +14,21 @@
 // estimate, not a bound: the same estimate for every primitive, which is
 // what an order across primitives needs.
 //
-// Contract: pure, O(splits + triangles); `final_positions` and
-// `final_indices` are the finest mesh in canonical ids (the encoder's replay
-// state); ids out of range count as having no normal. The result has
+// Contract: pure, O(splits x valence); `finest` is the finest mesh in
+// canonical ids (the encoder's replay state); ids out of its range count as
+// having no normal. The result has
 // refinements.size() + 1 entries, never increases, and ends with 0.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_RESIDUAL_ERROR_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_RESIDUAL_ERROR_H_
 
-#include <cstdint>
 #include <vector>
 
 #include "codec/progressive/refinement.h"
+#include "codec/progressive/refinement_state.h"
 
 namespace meshstream {
 
-std::vector<double> ResidualErrors(const ProgressiveMesh& mesh, const std::vector<Vec3i>& final_positions,
-                                   const std::vector<uint32_t>& final_indices);
+std::vector<double> ResidualErrors(const ProgressiveMesh& mesh, const RefinementState& finest);
 
 }  // namespace meshstream
 

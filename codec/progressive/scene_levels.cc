@@ -21,6 +21,17 @@ bool ErrorsFit(const std::vector<uint32_t>& refinements, const std::vector<std::
   return true;
 }
 
+// Each primitive's count at every level, from the order (each level a prefix).
+void CountLevels(SceneLevels& s, size_t primitives) {
+  s.applied.assign(primitives, std::vector<uint32_t>(s.levels, 0));
+  std::vector<uint32_t> count(primitives, 0);
+  size_t next = 0;
+  for (uint32_t level = 1; level <= s.levels; ++level) {
+    for (; next < s.order.size() && s.order[next].level == level; ++next) ++count[s.order[next].primitive];
+    for (size_t p = 0; p < primitives; ++p) s.applied[p][level - 1] = count[p];
+  }
+}
+
 }  // namespace
 
 SceneLevels ScheduleSceneLevels(const std::vector<uint32_t>& refinements,
@@ -31,14 +42,13 @@ SceneLevels ScheduleSceneLevels(const std::vector<uint32_t>& refinements,
     s.levels = std::max(s.levels, r);
     total += r;
   }
-  s.applied.assign(refinements.size(), std::vector<uint32_t>(s.levels, 0));
   if (!ErrorsFit(refinements, errors)) {
     for (uint32_t level = 1; level <= s.levels; ++level) {
       for (size_t p = 0; p < refinements.size(); ++p) {
-        s.applied[p][level - 1] = std::min(level, refinements[p]);
         if (level <= refinements[p]) s.order.push_back({static_cast<uint32_t>(p), level - 1, level});
       }
     }
+    CountLevels(s, refinements.size());
     return s;
   }
   struct Item {
@@ -61,17 +71,13 @@ SceneLevels ScheduleSceneLevels(const std::vector<uint32_t>& refinements,
     if (a.primitive != b.primitive) return a.primitive < b.primitive;
     return a.refinement < b.refinement;
   });
-  std::vector<uint32_t> count(refinements.size(), 0);
-  size_t next = 0;
-  for (uint32_t level = 1; level <= s.levels; ++level) {
-    const size_t end = static_cast<size_t>((uint64_t{level} * total + s.levels - 1) / s.levels);
-    for (; next < end && next < items.size(); ++next) {
-      const Item& it = items[next];
-      ++count[it.primitive];
-      s.order.push_back({it.primitive, it.refinement, level});
-    }
-    for (size_t p = 0; p < refinements.size(); ++p) s.applied[p][level - 1] = count[p];
+  // Level L ends after ceil(L x T / N) refinements of the order.
+  uint32_t level = 1;
+  for (size_t i = 0; i < items.size(); ++i) {
+    while (i >= (uint64_t{level} * total + s.levels - 1) / s.levels) ++level;
+    s.order.push_back({items[i].primitive, items[i].refinement, level});
   }
+  CountLevels(s, refinements.size());
   return s;
 }
 

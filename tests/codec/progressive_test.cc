@@ -122,7 +122,7 @@ TEST(ProgressiveCodec, ResidualErrorsCountWhatLeavesTheSurfaceNotWhatSlidesAlong
     EXPECT_LE(e[i], longest / 2 + 1e-9);
   }
   // Without the finest mesh's normals, the whole vector counts.
-  const std::vector<double> whole = ResidualErrors(sphere->mesh, {}, {});
+  const std::vector<double> whole = ResidualErrors(sphere->mesh, RefinementState{});
   EXPECT_DOUBLE_EQ(whole.front(), longest / 2);
 }
 
