@@ -44,17 +44,19 @@ struct Args {
   int qp = 11;
   std::string work_dir = "/tmp";
   std::string out = "docs/bench/scaling.json";
+  std::string keep_inputs;  // copy each subdivided mesh here (for profiling)
 };
 
 void Usage() {
   std::printf(
       "usage: meshstream_bench_scaling [--model FILE] [--subdivisions N] [--runs N] [--qp Q]\n"
-      "                                [--work-dir DIR] [--out FILE]\n\n"
+      "                                [--work-dir DIR] [--out FILE] [--keep-inputs DIR]\n\n"
       "The encoder at scale: FILE (a shared model, default stanford-bunny.obj) subdivided 0..N\n"
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
       "CPU time and peak resident memory, medians of --runs (default 1). About 3 minutes for\n"
-      "the default. Writes one JSON object (default docs/bench/scaling.json).\n");
+      "the default. Writes one JSON object (default docs/bench/scaling.json). --keep-inputs DIR\n"
+      "keeps the subdivided meshes there (levelN.ply) to profile the encoder on them.\n");
 }
 
 Args Parse(int argc, char** argv) {
@@ -81,6 +83,8 @@ Args Parse(int argc, char** argv) {
       a.work_dir = value();
     } else if (flag == "--out") {
       a.out = value();
+    } else if (flag == "--keep-inputs") {
+      a.keep_inputs = value();
     } else {
       ms::bench::Die("unknown flag " + flag + " (--help lists them)");
     }
@@ -135,6 +139,13 @@ int main(int argc, char** argv) {
     const uint64_t vertices = mesh.vertex_count();
     std::fprintf(stderr, "meshstream_bench_scaling: %llu vertices, %zu triangles\n",
                  static_cast<unsigned long long>(vertices), mesh.face_count());
+    if (!args.keep_inputs.empty()) {
+      std::error_code ec;
+      std::filesystem::create_directories(args.keep_inputs, ec);
+      std::filesystem::copy_file(in, args.keep_inputs + "/level" + std::to_string(level) + ".ply",
+                                 std::filesystem::copy_options::overwrite_existing, ec);
+      if (ec) ms::bench::Die("keeping " + in + " in " + args.keep_inputs + ": " + ec.message());
+    }
     const std::string plain = dir + "/plain.glb", draco = dir + "/draco.glb", ours = dir + "/ours.glb";
     const std::string qp = std::to_string(args.qp);
     json row = {{"subdivisions", level}, {"vertices", vertices}, {"faces", mesh.face_count()}};

@@ -18,6 +18,119 @@ struct Candidate {
   uint32_t u, v;
 };
 
+// The live triangles of every vertex, as spans of one pool (a vector per
+// vertex cost about 72 bytes a vertex in headers, allocator chunks and
+// growth; this, 12 bytes plus 4 per entry). A collapse moves v's triangles
+// to u: u's span grows in place when it has room, else moves to the pool's
+// end, and the space left behind is reclaimed by Compact. Order within a
+// span is kept as a vector's would be (erase keeps order, append at the end).
+class VertexFaces {
+ public:
+  struct Range {
+    const uint32_t* b;
+    const uint32_t* e;
+    const uint32_t* begin() const { return b; }
+    const uint32_t* end() const { return e; }
+    size_t size() const { return static_cast<size_t>(e - b); }
+    bool empty() const { return b == e; }
+  };
+
+  // faces: the live triangles; n: the vertex count; room: spare entries to
+  // reserve for the first batch's growth.
+  void Build(size_t n, const std::vector<Face>& faces, size_t room) {
+    spans_.assign(n, Span{});
+    for (const Face& f : faces)
+      for (uint32_t v : f) ++spans_[v].cap;
+    uint32_t at = 0;
+    for (Span& sp : spans_) {
+      sp.begin = at;
+      at += sp.cap;
+    }
+    pool_.reserve(size_t(at) + room);
+    pool_.resize(at);
+    for (uint32_t id = 0; id < faces.size(); ++id)
+      for (uint32_t v : faces[id]) {
+        Span& sp = spans_[v];
+        pool_[sp.begin + sp.size++] = id;
+      }
+    live_ = at;
+  }
+
+  Range operator[](uint32_t v) const {
+    const Span& sp = spans_[v];
+    const uint32_t* b = pool_.data() + sp.begin;
+    return {b, b + sp.size};
+  }
+
+  // Removes every occurrence of face f from v's list.
+  void Remove(uint32_t v, uint32_t f) {
+    Span& sp = spans_[v];
+    uint32_t* b = pool_.data() + sp.begin;
+    uint32_t* e = std::remove(b, b + sp.size, f);
+    live_ -= static_cast<uint64_t>(b + sp.size - e);
+    sp.size = static_cast<uint32_t>(e - b);
+  }
+
+  // Appends v's list to u's and empties v's.
+  void MoveInto(uint32_t u, uint32_t v) {
+    Span& su = spans_[u];
+    Span& sv = spans_[v];
+    const uint32_t need = su.size + sv.size;
+    if (need > su.cap) {
+      const size_t at = pool_.size();
+      pool_.resize(at + need);  // MakeRoom reserved it for a batch's collapses
+      std::copy(pool_.begin() + su.begin, pool_.begin() + su.begin + su.size, pool_.begin() + at);
+      garbage_ += su.cap;
+      su.begin = static_cast<uint32_t>(at);
+      su.cap = need;
+    }
+    std::copy(pool_.begin() + sv.begin, pool_.begin() + sv.begin + sv.size, pool_.begin() + su.begin + su.size);
+    su.size = need;
+    garbage_ += sv.cap;
+    sv = Span{};
+  }
+
+  // Makes sure `extra` more entries fit without reallocating the pool:
+  // compacts first (in place), grows only when that is not enough.
+  void MakeRoom(size_t extra) {
+    if (pool_.size() + extra <= pool_.capacity()) return;
+    if (garbage_ > 0) Compact();
+    if (pool_.size() + extra > pool_.capacity()) pool_.reserve(pool_.size() + extra + pool_.size() / 8);
+  }
+
+  // Entries of the pool the lists may address (begin offsets are 32-bit).
+  static constexpr uint64_t kMaxEntries = uint64_t{1} << 31;
+
+ private:
+  struct Span {
+    uint32_t begin = 0, size = 0, cap = 0;
+  };
+
+  void Compact() {
+    std::vector<uint32_t> order;
+    order.reserve(spans_.size());
+    for (uint32_t v = 0; v < spans_.size(); ++v)
+      if (spans_[v].size > 0) order.push_back(v);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return spans_[a].begin < spans_[b].begin; });
+    uint32_t at = 0;
+    for (uint32_t v : order) {
+      Span& sp = spans_[v];
+      std::copy(pool_.begin() + sp.begin, pool_.begin() + sp.begin + sp.size, pool_.begin() + at);
+      sp.begin = at;
+      sp.cap = sp.size;
+      at += sp.size;
+    }
+    for (Span& sp : spans_)
+      if (sp.size == 0) sp = Span{};
+    pool_.resize(at);
+    garbage_ = 0;
+  }
+
+  std::vector<Span> spans_;
+  std::vector<uint32_t> pool_;
+  uint64_t live_ = 0, garbage_ = 0;
+};
+
 class Simplifier {
  public:
   Simplifier(const QuantizedMesh& mesh, const SimplifyOptions& options)
@@ -25,17 +138,19 @@ class Simplifier {
     positions_ = mesh.positions;
     attributes_ = mesh.attributes;
     const size_t n = mesh.vertex_count();
-    vertex_faces_.assign(n, {});
-    for (size_t i = 0; i < mesh.indices.size(); i += 3) {
+    faces_.reserve(mesh.indices.size() / 3);
+    for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
       const Face f = {mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]};
       if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) {
         ++removed_faces_;
         continue;
       }
-      const uint32_t id = static_cast<uint32_t>(faces_.size());
       faces_.push_back(f);
-      for (uint32_t v : f) vertex_faces_[v].push_back(id);
     }
+    faces_.shrink_to_fit();
+    // Room for the first batch's collapses (a sixth of the vertices, each
+    // moving both ends' dozen triangles to the pool's end).
+    vertex_faces_.Build(n, faces_, n * 2 + 1024);
     face_alive_.assign(faces_.size(), 1);
     quadrics_.assign(n, Quadric{});
     for (const Face& f : faces_) AddFaceQuadric(f);
@@ -46,7 +161,7 @@ class Simplifier {
     Hierarchy h;
     h.removed_faces = removed_faces_;
     h.locked_vertices = static_cast<uint64_t>(std::count(locked_.begin(), locked_.end(), 1));
-    for (const Face& f : faces_) h.input_indices.insert(h.input_indices.end(), f.begin(), f.end());
+    h.input_faces = faces_.size();
     size_t alive = 0;
     std::vector<uint8_t> referenced(positions_.size(), 0);
     for (const Face& f : faces_)
@@ -57,6 +172,10 @@ class Simplifier {
       const size_t min_collapses = std::min<size_t>(
           options_.min_batch_collapses, static_cast<size_t>(std::ceil(double(alive) * options_.min_batch_share)));
       CollapseBatch batch = NextBatch(min_collapses);
+      if (candidates_differ_) {
+        return Internal("batch " + std::to_string(h.batches.size() + 1) +
+                        ": the candidates kept up to date differ from a fresh evaluation");
+      }
       if (batch.collapses.empty()) break;
       alive -= batch.collapses.size();
       h.batches.push_back(std::move(batch));
@@ -103,7 +222,7 @@ class Simplifier {
 
   // A vertex is free when its triangles form one closed fan.
   bool IsClosedFan(uint32_t w) {
-    const std::vector<uint32_t>& fs = vertex_faces_[w];
+    const VertexFaces::Range fs = vertex_faces_[w];
     if (fs.size() < 3) return false;
     pairs_.clear();
     for (uint32_t f : fs) {
@@ -241,6 +360,11 @@ class Simplifier {
     out.erase(std::unique(out.begin(), out.end()), out.end());
   }
 
+  Vec3i DeltaOf(uint32_t u, uint32_t v) const {
+    return {positions_[u][0] - positions_[v][0], positions_[u][1] - positions_[v][1],
+            positions_[u][2] - positions_[v][2]};
+  }
+
   static std::array<double, 3> Normal(const Vec3i& p0, const Vec3i& p1, const Vec3i& p2) {
     const double ux = double(p1[0]) - p0[0], uy = double(p1[1]) - p0[1], uz = double(p1[2]) - p0[2];
     const double vx = double(p2[0]) - p0[0], vy = double(p2[1]) - p0[1], vz = double(p2[2]) - p0[2];
@@ -312,7 +436,7 @@ class Simplifier {
     Neighbours(a, na_);
     if (na_.size() < 3) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
-    c = Collapse{u, v, a, kNoWing, positions_[u], positions_[v]};
+    c = Collapse{u, v, a, kNoWing, DeltaOf(u, v)};
     c.uva = uva;
     return true;
   }
@@ -356,7 +480,7 @@ class Simplifier {
     Neighbours(b, na_);
     if (na_.size() < 4) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
-    c = Collapse{u, v, a, b, positions_[u], positions_[v]};
+    c = Collapse{u, v, a, b, DeltaOf(u, v)};
     return true;
   }
 
@@ -369,48 +493,135 @@ class Simplifier {
     }
     for (uint32_t f : gone) {
       face_alive_[f] = 0;
-      for (uint32_t x : faces_[f]) {
-        auto& list = vertex_faces_[x];
-        list.erase(std::remove(list.begin(), list.end(), f), list.end());
-      }
+      for (uint32_t x : faces_[f]) vertex_faces_.Remove(x, f);
     }
     for (uint32_t f : vertex_faces_[v]) {
       for (uint32_t& x : faces_[f])
         if (x == v) x = u;
-      vertex_faces_[u].push_back(f);
     }
-    vertex_faces_[v].clear();
-    for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(c.pos_u[k], c.pos_v[k]);
+    vertex_faces_.MakeRoom(vertex_faces_[u].size() + vertex_faces_[v].size());  // no-op after NextBatch's
+    vertex_faces_.MoveInto(u, v);
+    for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(positions_[u][k], positions_[v][k]);
     for (int k = 0; k < channels_; ++k) {
       int32_t& au = attributes_[size_t(u) * channels_ + k];
       au = Midpoint(au, attributes_[size_t(v) * channels_ + k]);
     }
     for (int k = 0; k < 10; ++k) quadrics_[u][k] += quadrics_[v][k];
+    dirty_.push_back(u);
+    dirty_.push_back(v);
   }
 
-  // The next batch, or none when the strict rule finds fewer than
-  // `min_collapses` (then nothing is applied).
-  CollapseBatch NextBatch(size_t min_collapses) {
-    std::vector<Candidate> candidates;
+  static bool CandidateBefore(const Candidate& a, const Candidate& b) {
+    if (a.cost != b.cost) return a.cost < b.cost;
+    return a.u != b.u ? a.u < b.u : a.v < b.v;
+  }
+
+  // Appends the candidate of edge (x, y) of a live face when it is one: x < y
+  // in the face's order (an interior edge is seen once, from the face where
+  // it runs upwards) and neither end locked.
+  void AddCandidate(uint32_t x, uint32_t y, std::vector<Candidate>& out) const {
+    if (x > y || locked_[x] || locked_[y]) return;
+    const double mx = 0.5 * (double(positions_[x][0]) + positions_[y][0]);
+    const double my = 0.5 * (double(positions_[x][1]) + positions_[y][1]);
+    const double mz = 0.5 * (double(positions_[x][2]) + positions_[y][2]);
+    out.push_back({Evaluate(quadrics_[x], quadrics_[y], mx, my, mz), x, y});
+  }
+
+  // Every candidate edge, by cost: built once, then kept up to date by
+  // UpdateCandidates (a batch changes only the costs of edges at the
+  // vertices it collapsed), so that a batch costs O(E + k log k) for k
+  // collapses instead of evaluating and sorting every edge again.
+  void BuildCandidates() {
+    size_t count = 0;
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
       const Face& face = faces_[f];
       for (int k = 0; k < 3; ++k) {
         const uint32_t x = face[k], y = face[(k + 1) % 3];
-        if (x > y || locked_[x] || locked_[y]) continue;
-        const double mx = 0.5 * (double(positions_[x][0]) + positions_[y][0]);
-        const double my = 0.5 * (double(positions_[x][1]) + positions_[y][1]);
-        const double mz = 0.5 * (double(positions_[x][2]) + positions_[y][2]);
-        candidates.push_back({Evaluate(quadrics_[x], quadrics_[y], mx, my, mz), x, y});
+        count += (x < y && !locked_[x] && !locked_[y]) ? 1 : 0;
       }
     }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-      if (a.cost != b.cost) return a.cost < b.cost;
-      return a.u != b.u ? a.u < b.u : a.v < b.v;
-    });
+    candidates_.clear();
+    candidates_.reserve(count);
+    for (size_t f = 0; f < faces_.size(); ++f) {
+      if (!face_alive_[f]) continue;
+      const Face& face = faces_[f];
+      for (int k = 0; k < 3; ++k) AddCandidate(face[k], face[(k + 1) % 3], candidates_);
+    }
+    std::sort(candidates_.begin(), candidates_.end(), CandidateBefore);
+  }
+
+  // After Apply of a batch: drops the candidates at any vertex a collapse
+  // touched (dirty_) and adds the surviving vertices' edges with their new
+  // costs, merged in order; the list equals what BuildCandidates would make.
+  void UpdateCandidates() {
+    if (dirty_.empty()) return;
+    for (uint32_t x : dirty_) touched_[x] = 1;
+    candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
+                                     [&](const Candidate& c) { return touched_[c.u] || touched_[c.v]; }),
+                      candidates_.end());
+    // The surviving vertices' edges, a chunk of vertices at a time so that
+    // the sorted fresh candidates stay a small share of the list (each chunk
+    // costs one merge pass over it). The list hardly ever outgrows its
+    // capacity: a fresh edge (u, x) replaces the (u, x) or (v, x) it dropped
+    // (only a boundary edge that now runs upwards in its one triangle is new).
+    const size_t chunk_edges = std::max<size_t>(1 << 16, candidates_.size() / 8);
+    fresh_.reserve(chunk_edges + 64);
+    size_t next = 0;
+    while (next < dirty_.size()) {
+      fresh_.clear();
+      for (; next < dirty_.size() && fresh_.size() < chunk_edges; ++next) {
+        const uint32_t x = dirty_[next];
+        if (vertex_faces_[x].empty()) continue;  // collapsed away
+        for (uint32_t f : vertex_faces_[x]) {
+          const Face& face = faces_[f];
+          for (int k = 0; k < 3; ++k) {
+            const uint32_t p = face[k], q = face[(k + 1) % 3];
+            // Each edge once: from its smaller surviving end when both moved.
+            if (p == x ? true : (q == x && !(touched_[p] && !vertex_faces_[p].empty()))) AddCandidate(p, q, fresh_);
+          }
+        }
+      }
+      std::sort(fresh_.begin(), fresh_.end(), CandidateBefore);
+      // Merge from the back into the grown list: only fresh_ is extra memory.
+      size_t i = candidates_.size(), j = fresh_.size();
+      candidates_.resize(i + j);
+      size_t out = i + j;
+      while (j > 0) {
+        if (i > 0 && CandidateBefore(fresh_[j - 1], candidates_[i - 1])) {
+          candidates_[--out] = candidates_[--i];
+        } else {
+          candidates_[--out] = fresh_[--j];
+        }
+      }
+    }
+    for (uint32_t x : dirty_) touched_[x] = 0;
+    dirty_.clear();
+  }
+
+  // The next batch, or none when the strict rule finds fewer than
+  // `min_collapses` (then nothing is applied).
+  CollapseBatch NextBatch(size_t min_collapses) {
+    if (!candidates_built_) {
+      BuildCandidates();
+      touched_.assign(positions_.size(), 0);
+      candidates_built_ = true;
+    } else {
+      UpdateCandidates();
+      if (options_.check_candidates) {
+        std::vector<Candidate> kept;
+        kept.swap(candidates_);
+        BuildCandidates();
+        const bool same = std::equal(kept.begin(), kept.end(), candidates_.begin(), candidates_.end(),
+                                     [](const Candidate& a, const Candidate& b) {
+                                       return a.u == b.u && a.v == b.v && a.cost == b.cost;
+                                     });
+        if (!same) candidates_differ_ = true;
+      }
+    }
     closed_.assign(positions_.size(), 0);
     CollapseBatch batch;
-    for (const Candidate& cand : candidates) {
+    for (const Candidate& cand : candidates_) {
       Collapse c;
       if (options_.rule == BatchRule::kStrict && seam_[cand.u] && seam_[cand.v]) {
         Collapse t;
@@ -434,6 +645,8 @@ class Simplifier {
       } else {
         // Neighbouring collapses change each other's surroundings: apply at
         // once, so that the next candidate is checked on the current mesh.
+        // (The scan goes on over the list of the batch's start, as it always
+        // did; the list is brought up to date before the next batch.)
         Apply(c);
       }
       batch.collapses.push_back(c);
@@ -448,7 +661,11 @@ class Simplifier {
         batch.attr_v.push_back(attributes_[size_t(c.v) * channels_ + k]);
       }
     }
+    size_t room = 0;
+    for (const Collapse& c : batch.collapses) room += vertex_faces_[c.u].size() + vertex_faces_[c.v].size();
+    vertex_faces_.MakeRoom(room);
     for (const Collapse& c : batch.collapses) Apply(c);
+    batch.collapses.shrink_to_fit();
     return batch;
   }
 
@@ -458,7 +675,7 @@ class Simplifier {
   std::vector<int32_t> attributes_;
   std::vector<Face> faces_;
   std::vector<uint8_t> face_alive_;
-  std::vector<std::vector<uint32_t>> vertex_faces_;
+  VertexFaces vertex_faces_;
   std::vector<Quadric> quadrics_;
   std::vector<uint8_t> locked_;
   std::vector<uint8_t> closed_;
@@ -468,6 +685,11 @@ class Simplifier {
   uint64_t removed_faces_ = 0;
   std::vector<std::array<uint32_t, 2>> pairs_;
   std::vector<uint32_t> nu_, nv_, na_, common_;
+  std::vector<Candidate> candidates_, fresh_;  // by cost (CandidateBefore)
+  bool candidates_built_ = false;
+  bool candidates_differ_ = false;  // check_candidates found a difference
+  std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
+  std::vector<uint8_t> touched_;   // dirty_ as flags, during UpdateCandidates
 };
 
 }  // namespace
@@ -475,6 +697,10 @@ class Simplifier {
 StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options) {
   if (mesh.face_count() == 0) return InvalidInput("nothing to simplify: the mesh has no triangle");
   if (options.base_ratio <= 0 || options.base_ratio > 1) return InvalidArgument("base ratio must be in (0, 1]");
+  if (mesh.indices.size() > VertexFaces::kMaxEntries / 2) {
+    return InvalidInput("too many triangles to simplify: " + std::to_string(mesh.face_count()) + " (at most " +
+                        std::to_string(VertexFaces::kMaxEntries / 6) + ")");
+  }
   Simplifier simplifier(mesh, options);
   return simplifier.Run();
 }

@@ -33,7 +33,10 @@
 // before simplification (the documented clean-up: they have no area and no
 // glTF or Draco encoding keeps them).
 //
-// Contract: pure; O(F log F) per batch. The observer may cancel.
+// Contract: pure; O(F log F) once, then O(F + k log k) per batch of k
+// collapses (the candidate edges stay sorted by cost between batches and
+// only the edges at collapsed vertices are evaluated again). The observer may
+// cancel.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_BATCH_SIMPLIFIER_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_BATCH_SIMPLIFIER_H_
 
@@ -68,6 +71,10 @@ struct SimplifyOptions {
   uint32_t min_batch_collapses = 16;
   int max_valence = 14;         // of a collapsed vertex
   bool collapse_seams = false;  // collapse seam edges on both sides together (format version 2's seams tool)
+  // Tests: before every batch, compare the candidate list kept up to date
+  // since the last batch with one evaluated and sorted from scratch, and fail
+  // (kInternal) when they differ. O(F log F) per batch.
+  bool check_candidates = false;
   // Called after every batch with (batch index, vertices left); return false
   // to cancel (the result is then an error).
   std::function<bool(int, size_t)> observer;
@@ -75,14 +82,15 @@ struct SimplifyOptions {
 
 // One collapse, in the ids of the input mesh. u survives (at the midpoint), v
 // disappears; a and b are the third vertices of the triangles (u, v, a) and
-// (v, u, b). pos_* and attributes are the values before the collapse.
+// (v, u, b). delta = u's position - v's before the collapse (both on the
+// grid, so it fits 32 bits); u's collapsed position is their midpoint.
 // A seam collapse has b = kNoWing, `twin` the index of the other side's
 // collapse in the batch, and `uva` whether its triangle was (u, v, a) in
 // cyclic order (else (v, u, a)).
 constexpr uint32_t kNoWing = UINT32_MAX;
 struct Collapse {
   uint32_t u = 0, v = 0, a = 0, b = 0;
-  Vec3i pos_u{}, pos_v{};
+  Vec3i delta{};
   uint32_t twin = UINT32_MAX;
   bool uva = false;
 };
@@ -99,7 +107,7 @@ struct Hierarchy {
   std::vector<Vec3i> positions;        // per input vertex: its position in the base mesh
   std::vector<int32_t> attributes;     // per input vertex: its channels in the base mesh
   std::vector<uint32_t> base_indices;  // triangles of the base mesh, input ids
-  std::vector<uint32_t> input_indices; // triangles of the input after clean-up
+  uint64_t input_faces = 0;            // triangles of the input after clean-up
   uint64_t removed_faces = 0;          // triangles that repeated an index
   uint64_t locked_vertices = 0;
   std::vector<uint32_t> twin;          // per input vertex: its seam twin (UINT32_MAX if none)

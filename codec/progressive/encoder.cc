@@ -11,6 +11,26 @@ namespace meshstream {
 
 namespace {
 
+Face Normalized(const Face& f) { return RotateTo(f, std::min({f[0], f[1], f[2]})); }
+
+// Whether `actual` holds the same triangles as `expected` (as multisets, each
+// up to rotation), with `expected` sorted in place: no copy of `actual`, one
+// byte per triangle besides.
+bool SameTriangleSet(std::vector<Face>& expected, const std::vector<Face>& actual) {
+  if (expected.size() != actual.size()) return false;
+  for (Face& f : expected) f = Normalized(f);
+  std::sort(expected.begin(), expected.end());
+  std::vector<uint8_t> matched(expected.size(), 0);
+  for (const Face& f : actual) {
+    const Face n = Normalized(f);
+    auto it = std::lower_bound(expected.begin(), expected.end(), n);
+    while (it != expected.end() && *it == n && matched[it - expected.begin()]) ++it;
+    if (it == expected.end() || *it != n) return false;
+    matched[it - expected.begin()] = 1;
+  }
+  return true;
+}
+
 std::vector<Face> NormalizedFaces(const std::vector<uint32_t>& indices) {
   std::vector<Face> faces;
   faces.reserve(indices.size() / 3);
@@ -109,7 +129,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   const int ch = input.layout.channels();
   ProgressiveEncoded out;
   out.input_vertices = input.vertex_count();
-  out.input_faces = h.input_indices.size() / 3;
+  out.input_faces = h.input_faces;
   out.removed_faces = h.removed_faces;
   out.locked_vertices = h.locked_vertices;
 
@@ -181,6 +201,11 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   RefinementState state;
   MS_RETURN_IF_ERROR(state.Reset(cbase));
   MS_RETURN_IF_ERROR(state.SetTwins(out.mesh.base_twins).WithContext("replay"));
+  size_t final_vertices = cbase.vertex_count();
+  for (const CollapseBatch& b : h.batches) final_vertices += b.collapses.size();
+  state.Reserve(static_cast<uint32_t>(final_vertices));  // once: no growth by doubling
+  h.positions = {};  // the base has them; the rest of the replay reads the batches
+  h.attributes = {};
   std::vector<uint32_t> ring;
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
@@ -225,11 +250,9 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
         wings = WingsOf(ring, a_at, b_at);
       }
       const uint32_t keep = swap ? c.v : c.u;
-      const Vec3i& pk = swap ? c.pos_v : c.pos_u;
-      const Vec3i& pn = swap ? c.pos_u : c.pos_v;
       r.split_vertices.push_back(w);
       r.wings.push_back(wings);
-      r.position_delta.push_back({pk[0] - pn[0], pk[1] - pn[1], pk[2] - pn[2]});
+      r.position_delta.push_back(swap ? Vec3i{-c.delta[0], -c.delta[1], -c.delta[2]} : c.delta);
       const std::vector<int32_t>& ak = swap ? batch->attr_v : batch->attr_u;
       const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;
       for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
@@ -237,14 +260,22 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
       created[r.split_vertices.size() - 1] = swap ? c.u : c.v;
     }
     MS_RETURN_IF_ERROR(state.ApplyRefinement(r).WithContext("replay"));
+    *batch = CollapseBatch{};  // replayed: its memory is not needed any more
     for (size_t j = 0; j < k; ++j) canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
     out.mesh.refinements.push_back(std::move(r));
   }
 
   // Verify: the replay gives back the quantized input.
-  std::vector<uint32_t> expected(h.input_indices.size());
-  for (size_t i = 0; i < expected.size(); ++i) expected[i] = canonical[h.input_indices[i]];
-  if (!SameTriangles(expected, state.connectivity.Indices())) {
+  // (The input's triangles less those that repeat an index, as the
+  // simplifier removed them.)
+  std::vector<Face> expected;
+  expected.reserve(h.input_faces);
+  for (size_t i = 0; i + 2 < input.indices.size(); i += 3) {
+    const uint32_t x = input.indices[i], y = input.indices[i + 1], z = input.indices[i + 2];
+    if (x == y || y == z || x == z) continue;
+    expected.push_back({canonical[x], canonical[y], canonical[z]});
+  }
+  if (!SameTriangleSet(expected, state.connectivity.faces())) {
     return Internal("replay did not give back the input's triangles");
   }
   for (uint32_t v = 0; v < input.vertex_count(); ++v) {
