@@ -13,9 +13,14 @@ namespace {
 
 using Quadric = std::array<double, 10>;  // symmetric 4x4: a2 ab ac ad b2 bc bd c2 cd d2
 
+// A candidate edge (u, v), u < v. The top bit of `v_flags` marks a candidate
+// found illegal by an earlier batch whose surroundings have not changed since
+// (Simplifier::MarkChanged), so the scan skips it without checking again.
+constexpr uint32_t kKnownIllegal = 1u << 31;
 struct Candidate {
   double cost;
-  uint32_t u, v;
+  uint32_t u, v_flags;
+  uint32_t v() const { return v_flags & ~kKnownIllegal; }
 };
 
 // The live triangles of every vertex, as spans of one pool (a vector per
@@ -513,7 +518,7 @@ class Simplifier {
 
   static bool CandidateBefore(const Candidate& a, const Candidate& b) {
     if (a.cost != b.cost) return a.cost < b.cost;
-    return a.u != b.u ? a.u < b.u : a.v < b.v;
+    return a.u != b.u ? a.u < b.u : a.v() < b.v();
   }
 
   // Appends the candidate of edge (x, y) of a live face when it is one: x < y
@@ -557,9 +562,15 @@ class Simplifier {
   void UpdateCandidates() {
     if (dirty_.empty()) return;
     for (uint32_t x : dirty_) touched_[x] = 1;
-    candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
-                                     [&](const Candidate& c) { return touched_[c.u] || touched_[c.v]; }),
-                      candidates_.end());
+    // Drop the edges at collapsed vertices; forget "illegal" near any change.
+    size_t kept = 0;
+    for (size_t i = 0; i < candidates_.size(); ++i) {
+      Candidate c = candidates_[i];
+      if (touched_[c.u] || touched_[c.v()]) continue;
+      if (changed_[c.u] || changed_[c.v()]) c.v_flags &= ~kKnownIllegal;
+      candidates_[kept++] = c;
+    }
+    candidates_.resize(kept);
     // The surviving vertices' edges, a chunk of vertices at a time so that
     // the sorted fresh candidates stay a small share of the list (each chunk
     // costs one merge pass over it). The list hardly ever outgrows its
@@ -597,6 +608,28 @@ class Simplifier {
     }
     for (uint32_t x : dirty_) touched_[x] = 0;
     dirty_.clear();
+    for (uint32_t x : changed_list_) changed_[x] = 0;
+    changed_list_.clear();
+  }
+
+  // After a collapse into u. Whether an edge (x, y) is legal reads the
+  // triangle lists of x and y, the positions of their neighbours and the
+  // number of neighbours of its wings. A collapse into u changes u's
+  // position and triangles and the triangles of u's new ring (a vertex
+  // renamed, a triangle gone), raises no valence but u's, and lowers its
+  // two wings' (which never makes an edge legal). So an edge found illegal
+  // can become legal only when an end is u or in u's ring: those are marked,
+  // and their edges are checked again.
+  void MarkChanged(uint32_t u) {
+    auto mark = [&](uint32_t x) {
+      if (!changed_[x]) {
+        changed_[x] = 1;
+        changed_list_.push_back(x);
+      }
+    };
+    for (uint32_t f : vertex_faces_[u])
+      for (uint32_t x : faces_[f]) mark(x);
+    mark(u);
   }
 
   // The next batch, or none when the strict rule finds fewer than
@@ -605,6 +638,7 @@ class Simplifier {
     if (!candidates_built_) {
       BuildCandidates();
       touched_.assign(positions_.size(), 0);
+      changed_.assign(positions_.size(), 0);
       candidates_built_ = true;
     } else {
       UpdateCandidates();
@@ -614,18 +648,20 @@ class Simplifier {
         BuildCandidates();
         const bool same = std::equal(kept.begin(), kept.end(), candidates_.begin(), candidates_.end(),
                                      [](const Candidate& a, const Candidate& b) {
-                                       return a.u == b.u && a.v == b.v && a.cost == b.cost;
+                                       return a.u == b.u && a.v() == b.v() && a.cost == b.cost;
                                      });
         if (!same) candidates_differ_ = true;
+        candidates_.swap(kept);  // go on with the kept list and its marks
       }
     }
     closed_.assign(positions_.size(), 0);
     CollapseBatch batch;
-    for (const Candidate& cand : candidates_) {
+    for (Candidate& cand : candidates_) {
       Collapse c;
-      if (options_.rule == BatchRule::kStrict && seam_[cand.u] && seam_[cand.v]) {
+      const uint32_t cv = cand.v();
+      if (options_.rule == BatchRule::kStrict && seam_[cand.u] && seam_[cv]) {
         Collapse t;
-        if (closed_[cand.u] || closed_[cand.v] || !LegalSeam(cand.u, cand.v, c, t)) continue;
+        if (closed_[cand.u] || closed_[cv] || !LegalSeam(cand.u, cv, c, t)) continue;
         const uint32_t at = static_cast<uint32_t>(batch.collapses.size());
         c.twin = at + 1;
         t.twin = at;
@@ -635,7 +671,17 @@ class Simplifier {
         batch.collapses.push_back(t);
         continue;
       }
-      if (!Legal(cand.u, cand.v, c)) continue;
+      if (closed_[cand.u] || closed_[cv]) continue;
+      if (cand.v_flags & kKnownIllegal) {
+        // (Tests: the mark must never hide a legal collapse.)
+        if (options_.check_candidates && Legal(cand.u, cv, c)) candidates_differ_ = true;
+        continue;
+      }
+      if (!Legal(cand.u, cv, c)) {
+        // Illegal until a collapse next to u or v (MarkChanged).
+        if (options_.rule == BatchRule::kStrict) cand.v_flags |= kKnownIllegal;
+        continue;
+      }
       closed_[c.u] = closed_[c.v] = 1;
       if (options_.rule == BatchRule::kStrict) {
         // Close every neighbour too: the produced vertices stay pairwise
@@ -665,6 +711,7 @@ class Simplifier {
     for (const Collapse& c : batch.collapses) room += vertex_faces_[c.u].size() + vertex_faces_[c.v].size();
     vertex_faces_.MakeRoom(room);
     for (const Collapse& c : batch.collapses) Apply(c);
+    for (const Collapse& c : batch.collapses) MarkChanged(c.u);
     batch.collapses.shrink_to_fit();
     return batch;
   }
@@ -690,6 +737,8 @@ class Simplifier {
   bool candidates_differ_ = false;  // check_candidates found a difference
   std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
   std::vector<uint8_t> touched_;   // dirty_ as flags, during UpdateCandidates
+  std::vector<uint8_t> changed_;   // next to the last batch's collapses (MarkChanged)
+  std::vector<uint32_t> changed_list_;
 };
 
 }  // namespace
@@ -697,6 +746,7 @@ class Simplifier {
 StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options) {
   if (mesh.face_count() == 0) return InvalidInput("nothing to simplify: the mesh has no triangle");
   if (options.base_ratio <= 0 || options.base_ratio > 1) return InvalidArgument("base ratio must be in (0, 1]");
+  if (mesh.vertex_count() >= kKnownIllegal) return InvalidInput("too many vertices to simplify: at most 2^31 - 1");
   if (mesh.indices.size() > VertexFaces::kMaxEntries / 2) {
     return InvalidInput("too many triangles to simplify: " + std::to_string(mesh.face_count()) + " (at most " +
                         std::to_string(VertexFaces::kMaxEntries / 6) + ")");
