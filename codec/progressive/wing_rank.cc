@@ -81,6 +81,18 @@ bool WingRanking::Reset(const Vec3i& w, const Vec3i* ring, size_t d, const Local
   return true;
 }
 
+size_t WingRanking::KeysInOrder(int64_t* out, size_t max) const {
+  std::array<uint64_t, kMaxRankedPairs> sorted;
+  std::copy_n(order_.begin(), count_, sorted.begin());
+  const size_t n = std::min(max, count_);
+  std::partial_sort(sorted.begin(), sorted.begin() + n, sorted.begin() + count_);
+  for (size_t i = 0; i < n; ++i) {
+    const uint64_t field = sorted[i] >> kPairBits;
+    out[i] = field == (uint64_t{1} << 48) - 1 ? INT64_MIN : static_cast<int64_t>(kKeyBound << 1) - static_cast<int64_t>(field);
+  }
+  return n;
+}
+
 bool WingRanking::RankOf(size_t a_at, size_t b_at, uint32_t* rank) const {
   const size_t d = degree_;
   if (d == 0 || a_at >= d || b_at >= d) return false;

@@ -46,6 +46,10 @@ class WingRanking {
   bool RankOf(size_t a_at, size_t b_at, uint32_t* rank) const;
   // The wings of a rank; false when it is not below D floor(D/2).
   bool PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const;
+  // For estimates only (bench/codec_levers_v3.cc): the keys of the
+  // candidates in rank order (larger first; INT64_MIN for t = 0), at most
+  // `max` of them, into out[0..]; returns how many.
+  size_t KeysInOrder(int64_t* out, size_t max) const;
 
  private:
   // A candidate as one integer whose ascending order is the ranking's order
