@@ -36,7 +36,7 @@ for kind, label in (('geometry', 'geometry datagrams (positions + channels)'), (
     else:
         row('today, real payload bytes (incl. coder flush)', lambda j: rs(j)['payload_structure'])
     g = lambda j: j['item1_' + kind]
-    row('**today exact** (writer's models with reuse, ideal coder; tables incl. flags%s)' % (', alpha' if kind == 'geometry' else ''), lambda j: g(j)['today_exact']['total'])
+    row('**today exact** (the writer\'s models with reuse, ideal coder; tables incl. flags%s)' % (', alpha' if kind == 'geometry' else ''), lambda j: g(j)['today_exact']['total'])
     row('today exact: of which tables', lambda j: g(j)['today_exact']['tables'])
     row('order-0 per refinement, no table (bound)', lambda j: g(j)['order0_per_refinement']['total'])
     row('(a) static, fresh table every refinement, incl. table bytes', lambda j: g(j)['static_fresh_tables']['total'])
