@@ -622,8 +622,13 @@ struct AdaptiveParams {
 
 // Adaptive models per datagram (split j in datagram j mod S, S as today's
 // stream), per (slot, context), initialised per `p`.
-Cost AdaptiveScheme(const Replay& R, int kind, const CtxFn& ctx, const AdaptiveParams& p) {
+// `per_key` (optional): per refinement and (slot, context), the bits of
+// that model's symbols and its per-refinement table (for a per-slot choice
+// between initialisations; the choice fits in today's flag byte).
+using PerKey = std::vector<std::map<Key, double>>;
+Cost AdaptiveScheme(const Replay& R, int kind, const CtxFn& ctx, const AdaptiveParams& p, PerKey* per_key = nullptr) {
   Cost c;
+  if (per_key) per_key->assign(R.levels.size(), {});
   std::vector<Unit> units;
   // Histograms: per refinement and for the whole stream.
   std::map<Key, std::vector<uint64_t>> stream_h;
@@ -656,13 +661,17 @@ Cost AdaptiveScheme(const Replay& R, int kind, const CtxFn& ctx, const AdaptiveP
       for (auto& [key, hist] : level_h[i]) {
         level_p[key] = Parametric(key.first < kStructSlots, BestTheta(key.first < kStructSlots, hist, nullptr));
         c.table_bits += 8.0;
+        if (per_key) (*per_key)[i][key] += 8.0;
       }
     }
     if (p.init == Init::kRefinementTable || p.init == Init::kPreviousTable) {
       for (auto& [key, hist] : level_h[i]) {
         const ms::StaticModel m = ms::StaticModel::FromCounts(hist);
         level_p[key] = ModelProbabilities(m, hist.size());
-        if (p.init == Init::kRefinementTable) c.table_bits += 8.0 * (1 + ModelBytes(m));
+        if (p.init == Init::kRefinementTable) {
+          c.table_bits += 8.0 * (1 + ModelBytes(m));
+          if (per_key) (*per_key)[i][key] += 8.0 * (1 + ModelBytes(m));
+        }
       }
       if (p.init == Init::kPreviousTable && i == 0) {
         // The first refinement sends its table; later ones start from the previous one's.
@@ -696,7 +705,9 @@ Cost AdaptiveScheme(const Replay& R, int kind, const CtxFn& ctx, const AdaptiveP
             else m.Uniform(AlphabetOf(u.slot));
             it = models.emplace(key, std::move(m)).first;
           }
-          c.bits += it->second.Code(SymOf(u)) + RawOf(u);
+          const double b = it->second.Code(SymOf(u)) + RawOf(u);
+          c.bits += b;
+          if (per_key) (*per_key)[i][key] += b;
         }
       }
     }
@@ -829,6 +840,50 @@ void ReportCoding(const Replay& R, nlohmann::json& j) {
       p.whole_refinement = true;
       ad["ref_uniform_whole_refinement_not_decodable_alone"] = CostJson(R, AdaptiveScheme(R, kind, none, p));
     }
+    {
+      // Per refinement and slot, the better of a 1-byte parametric start and
+      // a full table start (the flag byte says which).
+      AdaptiveParams p;
+      p.inc = 32;
+      p.limit = 1 << 16;
+      p.prior = 4096;
+      PerKey a, b;
+      p.init = Init::kParametric;
+      AdaptiveScheme(R, kind, none, p, &a);
+      p.init = Init::kRefinementTable;
+      AdaptiveScheme(R, kind, none, p, &b);
+      double fixed = 0;
+      std::vector<Unit> units;
+      PerKey st(R.levels.size());  // static fresh table: symbols + raw + flag + table
+      for (size_t i = 0; i < R.levels.size(); ++i) {
+        const LevelRec& L = R.levels[i];
+        std::map<Key, std::vector<uint64_t>> h;
+        for (const SplitRec& s : L.s) {
+          UnitsOf(L, s, kind, R.channels, none, units, &fixed);
+          for (const Unit& u : units) {
+            auto& v = h[{u.slot, u.ctx}];
+            if (v.empty()) v.assign(AlphabetOf(u.slot), 0);
+            ++v[SymOf(u)];
+            st[i][{u.slot, u.ctx}] += RawOf(u);
+          }
+        }
+        for (auto& [key, hist] : h) {
+          const ms::StaticModel m = ms::StaticModel::FromCounts(hist);
+          st[i][key] += StaticCost(m, hist) + 8.0 * (1 + ModelBytes(m));
+        }
+      }
+      double total = fixed, total3 = fixed;
+      for (size_t i = 0; i < a.size(); ++i)
+        for (auto& [key, bits] : a[i]) {
+          const double tb = b[i].count(key) ? b[i][key] : 1e300;
+          total += std::min(bits, tb);
+          total3 += std::min({bits, tb, st[i][key]});
+        }
+      ad["g_best_of_parametric_or_table_per_slot_inc32_lim16_prior4096"] = {
+          {"symbols", PerSplit(R, total)}, {"tables", 0.0}, {"total", PerSplit(R, total)}};
+      ad["h_best_of_static_table_or_adaptive_parametric_or_table_per_slot"] = {
+          {"symbols", PerSplit(R, total3)}, {"tables", 0.0}, {"total", PerSplit(R, total3)}};
+    }
     g["adaptive_per_datagram"] = ad;
   }
 }
@@ -950,9 +1005,10 @@ struct PredResult {
 // A linear predictor over `feats`, fitted per refinement by IRLS (about L1),
 // weights quantized to 1/64 (12 bits each), tangential (t1, t2 pooled) and
 // normal parts separately when `split_tn`.
-PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool split_tn) {
+PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool split_tn, Replay* with_residuals = nullptr) {
   PredResult res;
-  for (const LevelRec& L : R.levels) {
+  for (size_t li = 0; li < R.levels.size(); ++li) {
+    const LevelRec& L = R.levels[li];
     std::vector<const SplitRec*> ss;
     for (const SplitRec& s : L.s)
       if (!s.seam) ss.push_back(&s);
@@ -982,11 +1038,14 @@ PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool spl
       res.param_bits += 12.0 * b.size();
       size_t r = 0;
       for (const SplitRec* s : ss) {
-        (void)s;
         for (int c : comps) {
           double p = 0;
           for (size_t a = 0; a < b.size(); ++a) p += b[a] * X[r][a];
-          out[c].push_back(std::llround(y[r] - std::round(p)));
+          const int64_t v = std::llround(y[r] - std::round(p));
+          out[c].push_back(v);
+          if (with_residuals)
+            with_residuals->levels[li].s[size_t(s - L.s.data())].coded[c] =
+                static_cast<int32_t>(std::clamp<int64_t>(v, INT32_MIN / 2, INT32_MAX / 2));
           ++r;
         }
       }
@@ -1056,6 +1115,35 @@ void ReportPredictors(const Replay& R, nlohmann::json& j) {
                  {"total", PerSplit(R, r.bits + r.param_bits)}};
   }
   j["item3_predictors"] = g;
+  // Items 1 + 3 together: the geometry datagrams coded by today's writer and
+  // by the parametric adaptive scheme, with the v2 Laplacian residual of the
+  // estimate path and with the LS (Laplacian + 2-ring, t/n) residual.
+  Replay lap = R, ls = R;
+  for (size_t li = 0; li < R.levels.size(); ++li)
+    for (size_t k = 0; k < R.levels[li].s.size(); ++k) {
+      SplitRec& s = lap.levels[li].s[k];
+      if (s.seam) continue;
+      for (int c = 0; c < 3; ++c)
+        s.coded[c] = static_cast<int32_t>(std::llround(s.fd[c] - std::round(R.levels[li].alpha / 32.0 * s.f[kLap][c])));
+    }
+  const PredResult pr = FitPredictor(R, {kLap, kRing2}, true, &ls);
+  nlohmann::json comb;
+  for (int which = 0; which < 2; ++which) {
+    const Replay& X = which == 0 ? lap : ls;
+    const double extra = which == 0 ? 0.0 : pr.param_bits - 8.0 * R.levels.size();  // weights replace alpha
+    Cost cs, cg;
+    TodayExact(X, &cs, &cg);
+    AdaptiveParams p;
+    p.inc = 32;
+    p.limit = 1 << 16;
+    p.prior = 4096;
+    p.init = Init::kParametric;
+    const Cost f = AdaptiveScheme(X, 1, nullptr, p);
+    const std::string n = which == 0 ? "laplacian_estimate_path" : "ls_lap_ring2_t_n";
+    comb[n]["today_writer"] = PerSplit(R, cg.total() + extra);
+    comb[n]["adaptive_parametric"] = PerSplit(R, f.total() + extra);
+  }
+  j["item13_combined_geometry"] = comb;
 }
 
 // ---------------------------------------------------------------------------

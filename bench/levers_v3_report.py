@@ -51,6 +51,8 @@ for kind, label in (('geometry', 'geometry datagrams (positions + channels)'), (
     row('(e) adaptive from the previous refinement\'s table (inc 32, 2^16, prior 4096)', lambda j: ad(j, kind, 'e_previous_refinement_table_inc32_lim16_prior4096'))
     row('(f) adaptive from a 1-byte parametric model per slot and refinement (inc 32, 2^16, prior 4096)', lambda j: ad(j, kind, 'f_parametric_1byte_inc32_lim16_prior4096'))
     row('(f) best of sweep', lambda j: best(j, kind, 'f_parametric'))
+    row('(g) per slot and refinement the better start of (f) and (c)', lambda j: ad(j, kind, 'g_best_of_parametric_or_table_per_slot_inc32_lim16_prior4096'))
+    row('(h) per slot and refinement the best of static table (a), (f) and (c)', lambda j: ad(j, kind, 'h_best_of_static_table_or_adaptive_parametric_or_table_per_slot'))
     row('reference: one adaptive model set per refinement (not decodable alone)', lambda j: g(j)['adaptive_per_datagram']['ref_uniform_whole_refinement_not_decodable_alone']['total'])
 print()
 print('\n**both kinds + every model table and alpha**\n')
@@ -59,6 +61,8 @@ row('today, real: payloads + control-block models, flags, alpha', lambda j: j['r
 row('**today exact** (simulated writer, ideal coder)', lambda j: j['item1_geometry']['today_exact']['total'] + j['item1_structure']['today_exact']['total'])
 row('(a) simulated static fresh tables (no flush, no reuse)', lambda j: j['item1_geometry']['static_fresh_tables']['total'] + j['item1_structure']['static_fresh_tables']['total'])
 row('(f) parametric + adaptive (geometry), (d) stream table (structure)', lambda j: ad(j, 'geometry', 'f_parametric_1byte_inc32_lim16_prior4096') + ad(j, 'structure', 'd_stream_table_inc32_lim16_prior4096'))
+row('(h) geometry + (d) structure', lambda j: ad(j, 'geometry', 'h_best_of_static_table_or_adaptive_parametric_or_table_per_slot') + ad(j, 'structure', 'd_stream_table_inc32_lim16_prior4096'))
+row('saved by (h)+(d) against today exact', lambda j: j['item1_geometry']['today_exact']['total'] + j['item1_structure']['today_exact']['total'] - ad(j, 'geometry', 'h_best_of_static_table_or_adaptive_parametric_or_table_per_slot') - ad(j, 'structure', 'd_stream_table_inc32_lim16_prior4096'))
 row('saved by (f)+(d) against today exact', lambda j: j['item1_geometry']['today_exact']['total'] + j['item1_structure']['today_exact']['total'] - ad(j, 'geometry', 'f_parametric_1byte_inc32_lim16_prior4096') - ad(j, 'structure', 'd_stream_table_inc32_lim16_prior4096'))
 row('datagrams (structure + geometry)', lambda j: '%d + %d' % (j['real_stream']['datagrams_structure'], j['real_stream']['datagrams_geometry']), '%s')
 
@@ -106,6 +110,14 @@ for k, label in [('ls_lap_one_weight', 'LS: Laplacian, one weight'), ('ls_lap_t_
                  ('ls_lap_sides_strict_ring2_t_n', 'LS: lap, sides, strict sides, 2-ring; t/n'), ('ls_all6_t_n', 'LS: all six, t/n'),
                  ('ls_all6_one_set', 'LS: all six, one weight set')]:
     row(label + ' (incl. 12-bit weights per refinement)', lambda j, k=k: p3(j)[k]['total'])
+print('\n**Items 1 + 3 together: geometry datagrams (positions + channels, tables, alpha or weights), estimate path**\n')
+print(hdr)
+cb = lambda j, a, b: j['item13_combined_geometry'][a][b]
+row('v2 Laplacian, today\'s writer', lambda j: cb(j, 'laplacian_estimate_path', 'today_writer'))
+row('v2 Laplacian, (f) parametric + adaptive per datagram', lambda j: cb(j, 'laplacian_estimate_path', 'adaptive_parametric'))
+row('LS Laplacian + 2-ring (t/n), today\'s writer', lambda j: cb(j, 'ls_lap_ring2_t_n', 'today_writer'))
+row('LS Laplacian + 2-ring (t/n), (f) parametric + adaptive per datagram', lambda j: cb(j, 'ls_lap_ring2_t_n', 'adaptive_parametric'))
+row('saved by both', lambda j: cb(j, 'laplacian_estimate_path', 'today_writer') - cb(j, 'ls_lap_ring2_t_n', 'adaptive_parametric'))
 print('\n### Item 6: per-refinement overhead today (bits per split)\n')
 print(hdr)
 rs = lambda j: j['real_stream']
