@@ -9,14 +9,13 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "bench/options.h"
+#include "bench/estimate_main.h"
 #include "codec/entropy/symbol_model.h"
 #include "codec/progressive/refinement_state.h"
 #include "importers/import.h"
@@ -786,25 +785,9 @@ nlohmann::json MeasureModel(const std::string& name, int qp) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  ms::bench::SetProgramName("meshstream_codec_levers");
-  std::vector<std::string> models = ms::bench::kSharedModels;
-  int qp = 11;
-  std::string out_path;
-  ms::bench::Options o("meshstream_codec_levers",
-                       "Estimates what each candidate lever of codec version 2 would cost, per split, on the\n"
-                       "replayed hierarchy of each model; prints one JSON object per model (and writes them\n"
-                       "as an array with --out).\n");
-  o.Custom("--model", "FILE", [&models](const std::string& v) { models = {v}; },
-           "only this model (file name under the shared models, e.g. spot.obj)");
-  o.Int("--qp", "N", &qp, 4, 20, "position bits (default 11)");
-  o.String("--out", "FILE", &out_path, "also write the JSON array here");
-  o.Parse(argc, argv);
-  nlohmann::json all = nlohmann::json::array();
-  for (const std::string& name : models) {
-    nlohmann::json j = MeasureModel(name, qp);
-    std::printf("%s\n", j.dump(1).c_str());
-    all.push_back(j);
-  }
-  if (!out_path.empty()) std::ofstream(out_path) << all.dump(1) << "\n";
-  return 0;
+  return ms::bench::EstimateMain(argc, argv, "meshstream_codec_levers",
+                                 "Estimates what each candidate lever of codec version 2 would cost, per split, on the\n"
+                                 "replayed hierarchy of each model; prints one JSON object per model (and writes them\n"
+                                 "as an array with --out).\n",
+                                 ms::bench::kSharedModels, "spot.obj", MeasureModel);
 }

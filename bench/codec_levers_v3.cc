@@ -18,7 +18,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <string>
@@ -26,7 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "bench/options.h"
+#include "bench/estimate_main.h"
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/writer.h"
 #include "codec/core/byte_io.h"
@@ -1401,24 +1400,8 @@ nlohmann::json MeasureModel(const std::string& name, int qp) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  ms::bench::SetProgramName("meshstream_codec_levers_v3");
-  std::vector<std::string> models = {"stanford-bunny.obj"};
-  int qp = 11;
-  std::string out_path;
-  ms::bench::Options o("meshstream_codec_levers_v3",
-                       "Estimates the candidate levers of codec version 3 (issue 24), bits per split, against\n"
-                       "today's version 2 coding on the same replayed hierarchy; prints one JSON object per model.\n");
-  o.Custom("--model", "FILE", [&models](const std::string& v) { models = {v}; },
-           "only this model (file name under the shared models, e.g. horse.ply)");
-  o.Int("--qp", "N", &qp, 4, 20, "position bits (default 11)");
-  o.String("--out", "FILE", &out_path, "also write the JSON array here");
-  o.Parse(argc, argv);
-  nlohmann::json all = nlohmann::json::array();
-  for (const std::string& name : models) {
-    nlohmann::json j = MeasureModel(name, qp);
-    std::printf("%s\n", j.dump(1).c_str());
-    all.push_back(j);
-  }
-  if (!out_path.empty()) std::ofstream(out_path) << all.dump(1) << "\n";
-  return 0;
+  return ms::bench::EstimateMain(argc, argv, "meshstream_codec_levers_v3",
+                                 "Estimates the candidate levers of codec version 3 (issue 24), bits per split, against\n"
+                                 "today's version 2 coding on the same replayed hierarchy; prints one JSON object per model.\n",
+                                 {"stanford-bunny.obj"}, "horse.ply", MeasureModel);
 }

@@ -58,7 +58,6 @@ class VertexFaces {
         Span& sp = spans_[v];
         pool_[sp.begin + sp.size++] = id;
       }
-    live_ = at;
   }
 
   Range operator[](uint32_t v) const {
@@ -72,7 +71,6 @@ class VertexFaces {
     Span& sp = spans_[v];
     uint32_t* b = pool_.data() + sp.begin;
     uint32_t* e = std::remove(b, b + sp.size, f);
-    live_ -= static_cast<uint64_t>(b + sp.size - e);
     sp.size = static_cast<uint32_t>(e - b);
   }
 
@@ -83,7 +81,7 @@ class VertexFaces {
     const uint32_t need = su.size + sv.size;
     if (need > su.cap) {
       const size_t at = pool_.size();
-      pool_.resize(at + need);  // MakeRoom reserved it for a batch's collapses
+      pool_.resize(at + need);  // within what MakeRoom reserved; else the pool grows as a vector does
       std::copy(pool_.begin() + su.begin, pool_.begin() + su.begin + su.size, pool_.begin() + at);
       garbage_ += su.cap;
       su.begin = static_cast<uint32_t>(at);
@@ -133,7 +131,7 @@ class VertexFaces {
 
   std::vector<Span> spans_;
   std::vector<uint32_t> pool_;
-  uint64_t live_ = 0, garbage_ = 0;
+  uint64_t garbage_ = 0;  // entries no span owns any more (Compact reclaims them)
 };
 
 class Simplifier {
@@ -146,7 +144,7 @@ class Simplifier {
     faces_.reserve(mesh.indices.size() / 3);
     for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
       const Face f = {mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]};
-      if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) {
+      if (RepeatsAnIndex(f)) {
         ++removed_faces_;
         continue;
       }
@@ -504,7 +502,6 @@ class Simplifier {
       for (uint32_t& x : faces_[f])
         if (x == v) x = u;
     }
-    vertex_faces_.MakeRoom(vertex_faces_[u].size() + vertex_faces_[v].size());  // no-op after NextBatch's
     vertex_faces_.MoveInto(u, v);
     for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(positions_[u][k], positions_[v][k]);
     for (int k = 0; k < channels_; ++k) {
@@ -589,7 +586,8 @@ class Simplifier {
           for (int k = 0; k < 3; ++k) {
             const uint32_t p = face[k], q = face[(k + 1) % 3];
             // Each edge once: from its smaller surviving end when both moved.
-            if (p == x ? true : (q == x && !(touched_[p] && !vertex_faces_[p].empty()))) AddCandidate(p, q, fresh_);
+            const bool p_moved_too = touched_[p] && !vertex_faces_[p].empty();
+            if (p == x || (q == x && !p_moved_too)) AddCandidate(p, q, fresh_);
           }
         }
       }

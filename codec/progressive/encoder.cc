@@ -31,15 +31,10 @@ bool SameTriangleSet(std::vector<Face>& expected, const std::vector<Face>& actua
   return true;
 }
 
-std::vector<Face> NormalizedFaces(const std::vector<uint32_t>& indices) {
+std::vector<Face> FacesOf(const std::vector<uint32_t>& indices) {
   std::vector<Face> faces;
   faces.reserve(indices.size() / 3);
-  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
-    Face f = {indices[i], indices[i + 1], indices[i + 2]};
-    const uint32_t lo = std::min({f[0], f[1], f[2]});
-    faces.push_back(RotateTo(f, lo));
-  }
-  std::sort(faces.begin(), faces.end());
+  for (size_t i = 0; i + 2 < indices.size(); i += 3) faces.push_back({indices[i], indices[i + 1], indices[i + 2]});
   return faces;
 }
 
@@ -110,7 +105,9 @@ StatusOr<std::vector<uint32_t>> MatchBase(const QuantizedMesh& base, const Quant
 }  // namespace
 
 bool SameTriangles(const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
-  return a.size() == b.size() && NormalizedFaces(a) == NormalizedFaces(b);
+  if (a.size() != b.size()) return false;
+  std::vector<Face> expected = FacesOf(a);
+  return SameTriangleSet(expected, FacesOf(b));
 }
 
 StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const ProgressiveEncodeOptions& options,
@@ -271,9 +268,9 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   std::vector<Face> expected;
   expected.reserve(h.input_faces);
   for (size_t i = 0; i + 2 < input.indices.size(); i += 3) {
-    const uint32_t x = input.indices[i], y = input.indices[i + 1], z = input.indices[i + 2];
-    if (x == y || y == z || x == z) continue;
-    expected.push_back({canonical[x], canonical[y], canonical[z]});
+    const Face f = {input.indices[i], input.indices[i + 1], input.indices[i + 2]};
+    if (RepeatsAnIndex(f)) continue;
+    expected.push_back({canonical[f[0]], canonical[f[1]], canonical[f[2]]});
   }
   if (!SameTriangleSet(expected, state.connectivity.faces())) {
     return Internal("replay did not give back the input's triangles");

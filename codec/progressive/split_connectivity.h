@@ -128,6 +128,10 @@ class SplitConnectivity {
   static constexpr uint32_t kEmpty = UINT32_MAX;
 };
 
+// A triangle that names a vertex twice: it has no area, and the encoder
+// removes it before simplifying (docs/codec.md, "Locks and clean-up").
+inline bool RepeatsAnIndex(const Face& f) { return f[0] == f[1] || f[1] == f[2] || f[0] == f[2]; }
+
 // Rotates a face so that vertex v comes first; v must be in the face.
 inline Face RotateTo(const Face& f, uint32_t v) {
   if (f[0] == v) return f;
