@@ -19,6 +19,7 @@
 #include "importers/import.h"
 #include "meshstream/v1/asset_service.grpc.pb.h"
 #include "sdk/asset_client.h"
+#include "testing/test_util.h"
 
 namespace meshstream::test_util {
 
@@ -125,6 +126,17 @@ inline Status IngestModel(const sdk::AssetClient& client, const std::string& ass
   v1::IngestResponse response;
   MS_RETURN_IF_ERROR(Ingest(client, asset, LoadFile(path, name), &response));
   return Watch(client, response.job_id(), job);
+}
+
+// The shared model `file` (ModelPath: "spot.obj", "gltf/x.glb") ingested as
+// `asset` on the server at `address` and its job watched to the end: an
+// error unless the job succeeded.
+inline Status IngestSharedModel(const std::string& address, const std::string& asset, const std::string& file) {
+  const auto client = NewAssetClient(address);
+  v1::Job job;
+  MS_RETURN_IF_ERROR(IngestModel(*client, asset, ModelPath(file), file.substr(file.rfind('/') + 1), &job));
+  if (job.state() != v1::JOB_STATE_SUCCEEDED) return Internal("ingesting " + file + ": " + job.message());
+  return Status::Ok();
 }
 
 inline Status GetVersion(const sdk::AssetClient& client, const std::string& asset, int64_t version, v1::Version* out) {

@@ -185,9 +185,8 @@ TEST(SdkSession, MaxLevelAndErrors) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  const auto client = test_util::NewAssetClient((*server)->address());
-  v1::Job job;
-  ASSERT_TRUE(test_util::IngestModel(*client, "spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
+  const Status ingested = test_util::IngestSharedModel((*server)->address(), "spot", "spot.obj");
+  ASSERT_TRUE(ingested.ok()) << ingested.ToString();
   auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(sdk_client.ok());
   auto three = sdk::Session::Open(**sdk_client, test_util::SessionFor("spot", 0, 3, true));

@@ -33,11 +33,8 @@ using test_util::ServeProcess;
 using Clock = std::chrono::steady_clock;
 
 void Ingest(const ServeProcess& server, const std::string& asset, const std::string& model) {
-  auto client = test_util::NewAssetClient(server.address());
-  v1::Job job;
-  const Status s = test_util::IngestModel(*client, asset, test_util::ModelPath(model), model.substr(model.rfind('/') + 1), &job);
+  const Status s = test_util::IngestSharedModel(server.address(), asset, model);
   ASSERT_TRUE(s.ok()) << s.ToString();
-  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 }
 
 struct Outcome {
@@ -76,7 +73,7 @@ TEST(StreamFaults, AHundredConcurrentSessionsCompleteWithBoundedServerMemory) {
   auto server = ServeProcess::Start(
       {"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "40", "--hello-timeout", "4000"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  Ingest(**server, "bunny", "stanford-bunny.obj");
+  ASSERT_NO_FATAL_FAILURE(Ingest(**server, "bunny", "stanford-bunny.obj"));
   auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   const Outcome one = RunSession(**client, test_util::SessionFor("bunny", 0, -1, false));
@@ -134,7 +131,7 @@ TEST(StreamFaults, TheServerRateCapHoldsForAllSessionsTogether) {
   auto server = ServeProcess::Start(
       {"--store", dir.File("store"), "--workers", "1", "--max-rate", "0.5", "--hello-timeout", "4000"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  Ingest(**server, "horse", "horse.ply");
+  ASSERT_NO_FATAL_FAILURE(Ingest(**server, "horse", "horse.ply"));
   auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   Outcome a, b;
@@ -163,7 +160,7 @@ TEST(StreamFaults, AServerKilledMidSessionGivesTheClientAnErrorNotAHang) {
   // 0.5 Mbit/s: the horse takes seconds, so the kill lands mid-session.
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-session-rate", "0.5"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  Ingest(**server, "horse", "horse.ply");
+  ASSERT_NO_FATAL_FAILURE(Ingest(**server, "horse", "horse.ply"));
   auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
   auto session = sdk::Session::Open(**client, test_util::SessionFor("horse", 0, -1, false));
@@ -196,7 +193,7 @@ TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1", "--max-sessions", "1",
                                      "--session-idle-timeout", "1", "--max-session-rate", "0.3"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  Ingest(**server, "horse", "horse.ply");
+  ASSERT_NO_FATAL_FAILURE(Ingest(**server, "horse", "horse.ply"));
   // A real client process: meshstream fetch, slow enough to be mid-session.
   const pid_t child = fork();
   ASSERT_GE(child, 0);

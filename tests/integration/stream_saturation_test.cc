@@ -183,11 +183,8 @@ std::unique_ptr<ServeProcess> StartServer(test_util::TempDir& dir, int sessions,
                                      "--hello-timeout", std::to_string(kHelloTimeoutMs)});
   EXPECT_TRUE(server.ok()) << server.status().ToString();
   if (!server.ok()) return nullptr;
-  auto client = test_util::NewAssetClient((*server)->address());
-  v1::Job job;
-  const Status ingested = test_util::IngestModel(*client, "asset", test_util::ModelPath(model), model, &job);
+  const Status ingested = test_util::IngestSharedModel((*server)->address(), "asset", model);
   EXPECT_TRUE(ingested.ok()) << ingested.ToString();
-  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
   return std::move(server).value();
 }
 

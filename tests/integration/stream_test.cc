@@ -279,10 +279,9 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
+  const Status ingested = test_util::IngestSharedModel((*server)->address(), "spot", "spot.obj");
+  ASSERT_TRUE(ingested.ok()) << ingested.ToString();
   const auto client = test_util::NewAssetClient((*server)->address());
-  v1::Job job;
-  ASSERT_TRUE(test_util::IngestModel(*client, "spot", test_util::ModelPath("spot.obj"), "spot.obj", &job).ok());
-  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
 
   auto ask = [](std::vector<std::pair<uint32_t, std::vector<uint32_t>>> items, int times) {
     return [items, times](grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>* stream) {
@@ -337,10 +336,8 @@ TEST(StreamSession, AnErrorWhileTheClientIsNotReadingKeepsItsStatus) {
   test_util::TempDir dir;
   auto server = ServeProcess::Start({"--store", dir.File("store"), "--workers", "1"});
   ASSERT_TRUE(server.ok()) << server.status().ToString();
-  const auto client = test_util::NewAssetClient((*server)->address());
-  v1::Job job;
-  ASSERT_TRUE(test_util::IngestModel(*client, "horse", test_util::ModelPath("horse.ply"), "horse.ply", &job).ok());
-  ASSERT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.message();
+  const Status ingested = test_util::IngestSharedModel((*server)->address(), "horse", "horse.ply");
+  ASSERT_TRUE(ingested.ok()) << ingested.ToString();
   // A small receive window, never grown: the server's writes wait while the
   // client does not read.
   grpc::ChannelArguments args;
