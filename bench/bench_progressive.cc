@@ -315,11 +315,12 @@ void DecodeTimings(std::vector<Decoder>& decoders, int n) {
 }
 
 MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationParams& q, ms::Packing packing,
-                              int repeat, const std::string& label) {
+                              int repeat, const std::string& label, uint8_t version = ms::kStreamVersion) {
   MeshstreamRun run;
   ms::ProgressiveGlbOptions options;
   options.encode.quantization = q;
   options.stream.packing = packing;
+  options.stream.version = version;
   std::vector<double> enc;
   for (int i = 0; i < repeat; ++i) {
     const auto s = Clock::now();
@@ -379,14 +380,15 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
   return run;
 }
 
-// What each lever of codec version 2 saves (docs/codec.md): the split
+// What each lever of codec versions 2 and 3 saves (docs/codec.md): the split
 // packing encoded with the tools added one at a time, from version 1 to the
 // default; bits per split saved = 8 x bytes saved / splits. Every encode is
 // decoded once and must give the default's vertex count.
 json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const std::string& label) {
   struct Step {
     const char* name;
-    uint8_t version, tools;
+    uint8_t version;
+    ms::ToolSet tools;
   };
   const Step steps[] = {
       {"version 1 (raw split vectors, cut edges by id)", 1, 0},
@@ -398,7 +400,8 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
       {"+ normals predicted from the decoded geometry", 2,
        ms::kAllTools & ~ms::kToolTexcoordPrediction & ~ms::kToolSeams},
       {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools & ~ms::kToolSeams},
-      {"+ seam edges collapsed on both sides together", 2, ms::kAllTools},
+      {"+ seam edges collapsed on both sides together", 2, ms::kVersion2Tools},
+      {"+ split bits in contexts of the reliable graph (version 3)", 3, ms::kAllTools},
   };
   json out = json::array();
   double previous = 0;
@@ -589,8 +592,11 @@ json SettingsJson(const Args& args) {
 // Every decoder of one model and qp, interleaved run by run; their times
 // into the meshstream runs' JSON and into *draco7, *draco10 (copies of the
 // Draco runs' JSON).
-void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundled, const DracoRun& d7run,
-                  const DracoRun& d10run, const std::string& label, json* draco7, json* draco10) {
+// `split_v2` is the split packing written as version 2 (issue 24: version 3
+// must decode no slower).
+void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundled, const MeshstreamRun& split_v2,
+                  const DracoRun& d7run, const DracoRun& d10run, const std::string& label, json* draco7,
+                  json* draco10) {
   ms::ProgressiveDecodeOptions all_levels, base_only;
   base_only.lod = 0;  // the base alone: what a viewer waits for before the first mesh
   auto progressive = [&label](const MeshstreamRun& m, const ms::ProgressiveDecodeOptions& o) {
@@ -602,6 +608,7 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
   std::vector<Decoder> decoders = {
       {"split", progressive(split, all_levels), {}},
       {"bundled", progressive(bundled, all_levels), {}},
+      {"split_v2", progressive(split_v2, all_levels), {}},
       {"split_base", progressive(split, base_only), {}},
       {"draco7", [&]() { DracoDecode(d7run, label); }, {}},
       {"draco10", [&]() { DracoDecode(d10run, label); }, {}},
@@ -619,6 +626,9 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
     m->j["decode"] = Timing(t);
     m->j["decode_ms"] = Median(t);
   }
+  split.j["decode_version2_ms"] = Median(times("split_v2"));
+  split.j["decode_vs_version2"] = Median(times("split")) / Median(times("split_v2"));
+  split.j["version2_total_bytes"] = split_v2.j["total_bytes"];
   split.j["decode_base"] = Timing(times("split_base"));
   split.j["decode_base_ms"] = Median(times("split_base"));
   bundled.j["decode_base_ms"] = nullptr;
@@ -755,11 +765,12 @@ std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int 
   std::fprintf(stderr, " qp %d\n", q.qp);
   MeshstreamRun split = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, in.label + " split");
   MeshstreamRun bundled = BenchMeshstream(scene, q, ms::Packing::kBundled, args.repeat, in.label + " bundled");
+  const MeshstreamRun split_v2 = BenchMeshstream(scene, q, ms::Packing::kSplit, 1, in.label + " split v2", 2);
   const uint64_t vertices = split.j["vertices"].get<uint64_t>();
   DracoRun d7run = BenchDraco(scene, q, 7, args.repeat, vertices, in.label);
   DracoRun d10run = BenchDraco(scene, q, 10, args.repeat, vertices, in.label);
   json draco7, draco10;
-  TimeDecoders(args.decode_repeat, split, bundled, d7run, d10run, in.label, &draco7, &draco10);
+  TimeDecoders(args.decode_repeat, split, bundled, split_v2, d7run, d10run, in.label, &draco7, &draco10);
 
   auto run = std::make_unique<json>();
   json& r = *run;
@@ -776,7 +787,8 @@ std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int 
   return run;
 }
 
-// The targets of issue 11 (codec version 2), stated from the numbers.
+// The targets of issue 11 (codec version 2) and issue 24 (version 3),
+// stated from the numbers.
 json Targets(const json& models) {
   json targets = json::array();
   const std::map<std::string, double> paper_reliable = {{"stanford-bunny", 4.3}, {"horse", 2.87}};
@@ -804,6 +816,24 @@ json Targets(const json& models) {
                            {"value", dr}, {"value_bundled", dr_b}, {"limit", 1.0},
                            {"meshstream_ms", s["decode_ms"]}, {"draco_ms", r["draco"]["cl7"]["decode_ms"]},
                            {"met", dr <= 1.0 && dr_b <= 1.0}});
+      }
+      {
+        const double limit = qp <= 11 ? 1.30 : 1.20;
+        const double ratio = r["ratios"]["split"]["total_vs_draco_cl7"];
+        const double ratio_b = r["ratios"]["bundled"]["total_vs_draco_cl7"];
+        targets.push_back({{"target", "issue 24: total size <= " + std::string(qp <= 11 ? "1.30" : "1.20") +
+                                          " x Draco cl7"},
+                           {"model", name}, {"qp", qp}, {"value", ratio}, {"value_bundled", ratio_b},
+                           {"limit", limit}, {"met", ratio <= limit && ratio_b <= limit}});
+        const double dv = s["decode_vs_version2"];
+        targets.push_back({{"target", "issue 24: decode <= 1.0 x version 2's (split)"}, {"model", name}, {"qp", qp},
+                           {"value", dv}, {"value_bundled", dv}, {"limit", 1.0}, {"met", dv <= 1.0}});
+      }
+      if (paper_reliable.count(name) && qp == 11) {
+        const double rbpv = s["reliable_bpv"];
+        targets.push_back({{"target", "issue 24: reliable bpv <= 3.0"}, {"model", name}, {"qp", qp},
+                           {"value", rbpv}, {"value_bundled", b["reliable_bpv"]}, {"limit", 3.0},
+                           {"met", rbpv <= 3.0 && b["reliable_bpv"].get<double>() <= 3.0}});
       }
       if (name == "stanford-bunny") {
         const double e = s["encode_ms"];

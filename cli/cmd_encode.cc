@@ -41,9 +41,10 @@ struct EncodeArgs {
 };
 
 // --tools: "all", "none" or names of kToolNames; an unknown name is an error
-// that lists the known ones.
-StatusOr<uint8_t> ParseTools(const std::string& list_of_names) {
-  uint8_t tools = 0;
+// that lists the known ones, and so is a name the format `version` does not
+// define ("all" is every tool of the version).
+StatusOr<ToolSet> ParseTools(const std::string& list_of_names, uint8_t version) {
+  ToolSet tools = 0;
   std::vector<std::string> names;
   for (size_t at = 0;;) {
     const size_t comma = list_of_names.find(',', at);
@@ -53,13 +54,17 @@ StatusOr<uint8_t> ParseTools(const std::string& list_of_names) {
   }
   for (const std::string& n : names) {
     if (n == "all") {
-      tools |= kAllTools;
+      tools |= DefinedTools(version);
       continue;
     }
     if (n == "none") continue;
     bool known = false;
     for (const ToolName& t : kToolNames) {
       if (n == t.name) {
+        if ((DefinedTools(version) & t.tool) == 0) {
+          return InvalidArgument("--tools: " + n + " is not a tool of format version " + std::to_string(version) +
+                                 (version >= 2 ? " (it needs --format-version 3)" : " (version 1 has no tools)"));
+        }
         tools |= t.tool;
         known = true;
       }
@@ -82,7 +87,7 @@ int RunEncode(EncodeArgs& args) {
   options.encode.simplify.max_levels = static_cast<uint32_t>(args.levels);
   options.stream.version = static_cast<uint8_t>(args.format_version);
   options.stream.packing = packing == "split" ? Packing::kSplit : Packing::kBundled;
-  auto tools = ParseTools(args.tools);
+  auto tools = ParseTools(args.tools, options.stream.version);
   if (!tools.ok()) return ReportError("encode", tools.status());
   options.stream.tools = tools.value();
   const bool json_out = args.json;
@@ -187,12 +192,14 @@ Verb AddEncode(CLI::App& root) {
               ->check(CLI::Range(kMinPacketBytes, kMaxPacketBytes)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--format-version", args->format_version,
-                          "progressive format version: 2, or 1 for decoders that predate version 2 (larger)")
+                          "progressive format version: 3, or 2 or 1 for decoders that predate version 3 "
+                          "(larger streams; an older version drops the tools it does not define)")
               ->check(CLI::Range(static_cast<int>(kOldestStreamVersion), static_cast<int>(kStreamVersion))))
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,
-                          "version 2 coding tools, comma-separated: all, none, geometry, frame, rank, normals, "
-                          "texcoords, seams (docs/codec.md; fewer tools, larger stream)")
+                          "coding tools, comma-separated: all, none, geometry, frame, rank, normals, texcoords, "
+                          "seams (version 2 and later), splitbits (version 3) (docs/codec.md; fewer tools, larger "
+                          "stream)")
               ->capture_default_str());
   FromEnv(cmd->add_option("--reliable-share", o.reliable_share,
                           "share of each stream's bytes whose refinements a session sends reliably, the most "

@@ -20,7 +20,7 @@ namespace {
 using json = nlohmann::json;
 
 // The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
-// section 1): "bufferView" (an unsigned integer), "version" 1 or 2, an
+// section 1): "bufferView" (an unsigned integer), "version" 1, 2 or 3, an
 // optional "delivery" (checked against the stream by ParseDeliveryRecord), an
 // optional "residual_error" (ParseResidualErrors), and
 // nothing else but glTF's "extras" and "extensions".
@@ -32,9 +32,8 @@ Status CheckProgressiveExtension(const json& ext) {
   }
   if (!ext.contains("version")) return InvalidInput(name + ".version is missing");
   const json& version = ext["version"];
-  if (!version.is_number_unsigned() || version.get<uint64_t>() < kOldestStreamVersion ||
-      version.get<uint64_t>() > kStreamVersion) {
-    return Unsupported(name + ".version " + version.dump() + " is not 1 or 2");
+  if (!version.is_number_unsigned() || !IsStreamVersion(version.get<uint64_t>())) {
+    return Unsupported(name + ".version " + version.dump() + " is not " + kStreamVersionsText);
   }
   for (const auto& item : ext.items()) {
     const std::string& key = item.key();

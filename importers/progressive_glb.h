@@ -51,7 +51,7 @@ struct PrimitiveStreamReport {
   uint64_t unreliable_bytes = 0;  // datagrams with their headers
   uint64_t datagrams = 0;
   uint64_t removed_faces = 0;
-  uint8_t tools = 0;  // the coding tools its stream was written with (StreamTool bits; Total: their union)
+  ToolSet tools = 0;  // the coding tools its stream was written with (StreamTool bits; Total: their union)
   uint64_t reliable_cut_bytes = 0;       // datagram bytes of the reliable cut (part of unreliable_bytes)
   // Per level (level_vertices' count) the estimated error left, in scene
   // units (codec/progressive/residual_error.h times the primitive's grid step
@@ -129,7 +129,7 @@ struct ProgressiveDecodeReport {
   RecoveryStats recovery;        // summed over primitives
   uint64_t predicted_vertices = 0;  // vertices whose reliability bit is 0
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
-  uint8_t tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
+  ToolSet tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
 };
 
 // Decodes a progressive .glb held in memory into a scene at the requested

@@ -71,7 +71,8 @@ Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::ve
 void StreamHeader::Serialize(ByteWriter& w) const {
   w.U8(version);
   w.U8(static_cast<uint8_t>(packing));
-  if (version >= 2) w.U8(tools);
+  if (version == 2) w.U8(static_cast<uint8_t>(tools));
+  if (version >= 3) w.U16(tools);
   w.U8(static_cast<uint8_t>(quantization.qp));
   w.U8(static_cast<uint8_t>(quantization.qn));
   w.U8(static_cast<uint8_t>(quantization.qt));
@@ -90,7 +91,7 @@ void StreamHeader::Serialize(ByteWriter& w) const {
   for (uint32_t c : split_counts) w.Varint(c);
   w.Block(EncodeFixups(base_position_fix));
   w.Block(EncodeFixups(base_attribute_fix));
-  if (version >= 2 && (tools & kToolSeams)) {
+  if (version >= 2 && has(kToolSeams)) {
     w.Varint(seam_twins.size());
     for (const auto& t : seam_twins) {
       w.Varint(t[0]);
@@ -104,17 +105,22 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   StreamHeader h;
   auto refuse = [](const std::string& what) { return InvalidInput("stream header: " + what); };
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream header: version"));
-  if (version < kOldestStreamVersion || version > kStreamVersion) {
-    return Unsupported("stream header: version " + std::to_string(version) + " is not 1 or 2");
+  if (!IsStreamVersion(version)) {
+    return Unsupported("stream header: version " + std::to_string(version) + " is not " + kStreamVersionsText);
   }
   h.version = version;
   MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("stream header: packing"));
   if (packing > 1) return refuse("packing " + std::to_string(packing) + " is reserved");
   h.packing = static_cast<Packing>(packing);
   h.tools = 0;
-  if (version >= 2) {
+  if (version == 2) {
     MS_ASSIGN_OR_RETURN(h.tools, r.U8("stream header: tools"));
-    if ((h.tools & ~kDefinedTools) != 0) return refuse("tools " + std::to_string(h.tools) + " has reserved bits set");
+  } else if (version >= 3) {
+    MS_ASSIGN_OR_RETURN(h.tools, r.U16("stream header: tools"));
+  }
+  if ((h.tools & ~DefinedTools(version)) != 0) {
+    return refuse("tools " + std::to_string(h.tools) + " has bits set that version " + std::to_string(version) +
+                  " reserves");
   }
   static const char* const kBitsNames[4] = {"qp", "qn", "qt", "qc"};
   uint8_t bits[4];
@@ -240,14 +246,18 @@ StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t
     if (got != b) return InvalidInput("stream blob: magic is not MSPS (not a meshstream progressive stream)");
   }
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream blob: version"));
-  if (version < kOldestStreamVersion || version > kStreamVersion) {
-    return Unsupported("stream blob: version " + std::to_string(version) + " is not 1 or 2");
+  if (!IsStreamVersion(version)) {
+    return Unsupported("stream blob: version " + std::to_string(version) + " is not " + kStreamVersionsText);
   }
   ProgressiveStream s;
   s.version = version;
   size_t length = 0;
   MS_ASSIGN_OR_RETURN(const uint8_t* header, r.Block("stream blob: header", &length));
   s.header.assign(header, header + length);
+  if (length > 0 && header[0] != version) {
+    return InvalidInput("stream blob: version " + std::to_string(version) + " differs from its header's " +
+                        std::to_string(header[0]));
+  }
   MS_ASSIGN_OR_RETURN(uint64_t levels, r.Varint("stream blob: refinement count", kMaxRefinements));
   for (uint64_t i = 0; i < levels; ++i) {
     MS_ASSIGN_OR_RETURN(const uint8_t* control, r.Block("stream blob: control block", &length));
@@ -282,8 +292,8 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   MS_ASSIGN_OR_RETURN(uint8_t magic, r.U8("datagram: magic"));
   if (magic != kDatagramMagic) return InvalidInput("datagram: magic " + std::to_string(magic) + " is not 0x4D");
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("datagram: version"));
-  if (version < kOldestStreamVersion || version > kStreamVersion) {
-    return Unsupported("datagram: version " + std::to_string(version) + " is not 1 or 2");
+  if (!IsStreamVersion(version)) {
+    return Unsupported("datagram: version " + std::to_string(version) + " is not " + kStreamVersionsText);
   }
   h.version = version;
   MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram: kind"));

@@ -28,15 +28,23 @@
 
 namespace meshstream {
 
-// Version 2 is what the encoder writes; version 1 streams (and their
-// datagrams) are still decoded: a version 1 stream is a version 2 stream
-// without coding tools (docs/progressive-format.md, section 10).
-constexpr uint8_t kStreamVersion = 2;
+// Version 3 is what the encoder writes; version 1 and 2 streams (and their
+// datagrams) are still decoded: a version 2 stream is a version 3 stream
+// whose tools fit one byte, a version 1 stream one without coding tools
+// (docs/progressive-format.md, section 10).
+constexpr uint8_t kStreamVersion = 3;
 constexpr uint8_t kOldestStreamVersion = 1;
 constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
 constexpr uint8_t kDatagramVersion = kStreamVersion;  // a datagram carries its stream's version
 
-// The coding tools of a version 2 stream: codec/progressive/coding_tools.h.
+// Whether a blob, header or datagram of `version` is decoded; how errors
+// name the versions that are.
+constexpr bool IsStreamVersion(uint64_t version) {
+  return version >= kOldestStreamVersion && version <= kStreamVersion;
+}
+constexpr const char* kStreamVersionsText = "1, 2 or 3";
+
+// The coding tools of a stream: codec/progressive/coding_tools.h.
 constexpr uint32_t kMinPacketBytes = 64;
 constexpr uint32_t kMaxPacketBytes = 65507;  // the largest UDP payload
 constexpr uint32_t kWingAlphabet = 16;       // wings are indices below the maximum valence
@@ -59,7 +67,7 @@ enum class DatagramKind : uint8_t {
 // The reliable header of a stream.
 struct StreamHeader {
   uint8_t version = kStreamVersion;
-  uint8_t tools = kAllTools;  // StreamTool bits; 0 in version 1
+  ToolSet tools = kAllTools;  // StreamTool bits: DefinedTools(version) at most
   bool has(StreamTool t) const { return (tools & t) != 0; }
   Packing packing = Packing::kSplit;
   QuantizationParams quantization;
@@ -107,7 +115,7 @@ struct ProgressiveStream {
 
 // The fixed part of a datagram, before its range-coded payload.
 struct DatagramHeader {
-  uint8_t version = kStreamVersion;  // 1 or 2: must be its stream's (DatagramFits)
+  uint8_t version = kStreamVersion;  // 1, 2 or 3: must be its stream's (DatagramFits)
   DatagramKind kind = DatagramKind::kBundled;
   uint32_t stream = 0;      // primitive within the asset
   uint32_t refinement = 0;

@@ -8,7 +8,7 @@ namespace meshstream {
 
 namespace {
 
-std::string ModelSlotName(size_t k, uint8_t tools) {
+std::string ModelSlotName(size_t k, ToolSet tools) {
   static const char* const kNames[5] = {"wing index", "ring offset", "position x", "position y", "position z"};
   static const char* const kRanked[2] = {"cut rank, low digit", "cut rank, high digit"};
   static const char* const kFramed[3] = {"position, first tangential", "position, second tangential",
@@ -64,6 +64,9 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   MS_RETURN_IF_ERROR(state_.SetTwins(header_.seam_twins).WithContext("stream header"));
   history_ = SplitHistory();
   history_.vertices = static_cast<uint32_t>(base.vertex_count());
+  if (h.has(kToolSplitContexts)) {
+    MS_RETURN_IF_ERROR(split_contexts_.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices));
+  }
   models_.clear();
   has_base_ = true;
   next_ = 0;
@@ -81,10 +84,23 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   const uint32_t n = state_.connectivity.vertex_count();
   Refinement ref;
   ref.vertices_before = n;
-  if (history_.vertices != n) return Internal(where + ": split history is out of step");
-  auto decoded = DecodeSplitBits(bits, length, history_, header_.has(kToolSeams) ? &state_.twin : nullptr);
-  if (!decoded.ok()) return decoded.status().WithContext(where);
-  std::vector<uint8_t> split = std::move(decoded).value();
+  const std::vector<uint32_t>* twins = header_.has(kToolSeams) ? &state_.twin : nullptr;
+  const bool contexts = header_.has(kToolSplitContexts);
+  if ((contexts ? split_contexts_.vertices() : history_.vertices) != n) {
+    return Internal(where + ": split history is out of step");
+  }
+  // Nothing of the reader changes until the whole block is valid.
+  SplitBitContexts::Decoded decoded;
+  if (contexts) {
+    auto got = split_contexts_.Decode(bits, length, twins);
+    if (!got.ok()) return got.status().WithContext(where);
+    decoded = std::move(got).value();
+  } else {
+    auto got = DecodeSplitBits(bits, length, history_, twins);
+    if (!got.ok()) return got.status().WithContext(where);
+    decoded.bits = std::move(got).value();
+  }
+  const std::vector<uint8_t>& split = decoded.bits;
   ref.split_vertices.reserve(std::min<size_t>(header_.split_counts[next_], n));  // checked against the bits below
   for (uint32_t v = 0; v < n; ++v)
     if (split[v]) ref.split_vertices.push_back(v);
@@ -151,7 +167,11 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   has_geometry_.assign(k, 0);
   coded_ = ref;
   current_ = std::move(ref);  // its split vertices now, its data once the refinement is finished
-  history_ = history_.Next(split);
+  if (contexts) {
+    split_contexts_.Advance(decoded);
+  } else {
+    history_ = history_.Next(split);
+  }
   in_refinement_ = true;
   return Status::Ok();
 }

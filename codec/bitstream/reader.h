@@ -28,6 +28,7 @@
 #include "codec/progressive/refinement_state.h"
 #include "codec/recovery/recover_split.h"
 #include "codec/bitstream/format.h"
+#include "codec/progressive/split_bit_contexts.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/entropy/symbol_model.h"
 
@@ -86,7 +87,8 @@ class StreamReader {
   bool has_base_ = false;
   size_t next_ = 0;          // refinements applied
   bool in_refinement_ = false;
-  SplitHistory history_;
+  SplitHistory history_;            // versions 1 and 2
+  SplitBitContexts split_contexts_;  // version 3 (kToolSplitContexts)
   Refinement coded_;    // what the datagrams carry
   Refinement current_;  // what was applied
   SplitCoding coding_;

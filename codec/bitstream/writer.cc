@@ -8,6 +8,7 @@
 #include "codec/progressive/refinement_state.h"
 #include "codec/progressive/seam_twins.h"
 #include "codec/progressive/wing_rank.h"
+#include "codec/progressive/split_bit_contexts.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/progressive/texcoord_prediction.h"
 #include "codec/entropy/symbol_model.h"
@@ -198,7 +199,7 @@ double ResidualBits(const std::vector<Vec3i>& residuals) {
 // (which is then refined by r). Chooses the refinement's alpha. False when
 // a split's wings cannot be ranked (a ring beyond kMaxRankedValence): the
 // caller then writes the stream without that tool.
-bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& layout, RefinementState& state,
+bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& layout, RefinementState& state,
                     SplitCoding* coding, Refinement* out) {
   Refinement& coded = *out;
   coded = r;
@@ -306,10 +307,10 @@ bool CodeRefinement(const Refinement& r, uint8_t tools, const AttributeLayout& l
 
 }  // namespace
 
-uint8_t ApplicableTools(uint8_t requested, const QuantizationParams& quantization, const AttributeLayout& layout) {
-  uint8_t tools = requested;
-  if (quantization.qp > 24) tools &= static_cast<uint8_t>(~kToolLocalFrame);
-  if (layout.texcoord_sets == 0 && !layout.has_colors) tools &= static_cast<uint8_t>(~kToolTexcoordPrediction);
+ToolSet ApplicableTools(ToolSet requested, const QuantizationParams& quantization, const AttributeLayout& layout) {
+  ToolSet tools = requested;
+  if (quantization.qp > 24) tools &= static_cast<ToolSet>(~kToolLocalFrame);
+  if (layout.texcoord_sets == 0 && !layout.has_colors) tools &= static_cast<ToolSet>(~kToolTexcoordPrediction);
   return tools;
 }
 
@@ -325,11 +326,12 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
 
   StreamHeader h;
   h.version = o.version;
-  h.tools = o.version >= 2 ? o.tools : 0;
-  if (o.version < kOldestStreamVersion || o.version > kStreamVersion) {
-    return InvalidArgument("stream version " + std::to_string(o.version) + " is not 1 or 2");
+  if (!IsStreamVersion(o.version)) {
+    return InvalidArgument("stream version " + std::to_string(o.version) + " is not " + kStreamVersionsText);
   }
-  if ((h.tools & ~kDefinedTools) != 0) return InvalidArgument("unknown coding tools " + std::to_string(h.tools));
+  if ((o.tools & ~kAllTools) != 0) return InvalidArgument("unknown coding tools " + std::to_string(o.tools));
+  // An older version carries the tools it defines (none in version 1).
+  h.tools = o.tools & DefinedTools(o.version);
   // The local frame's rotation is exact for residuals below 2^28, which
   // grids of at most 24 bits guarantee (local_frame.h); the texture
   // coordinate prediction only where there are such channels.
@@ -337,10 +339,10 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   // Seams: the hierarchy decides (SimplifyOptions::collapse_seams); the
   // header lists the base's twins when there are any.
   if (pm.base_twins.empty()) {
-    h.tools &= static_cast<uint8_t>(~kToolSeams);
+    h.tools &= static_cast<ToolSet>(~kToolSeams);
   } else if (!h.has(kToolSeams)) {
-    return InvalidArgument("the mesh was simplified with seam collapses: only a version 2 stream with the seams "
-                           "tool can carry them");
+    return InvalidArgument("the mesh was simplified with seam collapses: only a stream of version 2 or later with "
+                           "the seams tool can carry them");
   }
   h.seam_twins = pm.base_twins;
   h.packing = o.packing;
@@ -359,8 +361,13 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   h.Serialize(hw);
   s.header = std::move(hw.bytes());
 
+  // Split bits: version 3's contexts (split_bit_contexts.h), or version 2's (split_bits.h).
   SplitHistory history;
   history.vertices = static_cast<uint32_t>(pm.base.vertex_count());
+  SplitBitContexts split_contexts;
+  if (h.has(kToolSplitContexts)) {
+    MS_RETURN_IF_ERROR(split_contexts.Reset(static_cast<uint32_t>(pm.base.vertex_count()), pm.base.indices));
+  }
   RefinementModels previous;
   // The coarser mesh as the decoder will have it, for the tools that predict from it.
   RefinementState state;
@@ -381,7 +388,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
-      without.tools = static_cast<uint8_t>(h.tools & ~kToolWingRank);
+      without.tools = static_cast<ToolSet>(h.tools & ~kToolWingRank);
       return WriteStream(e, quantization, without);
     }
     const Refinement& plain = h.tools != 0 ? coded : pm.refinements[i];
@@ -391,8 +398,13 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     for (uint32_t v : plain.split_vertices) bits[v] = 1;
     ByteWriter cw;
     // A seam twin's bit is its twin's (not coded).
-    cw.Block(EncodeSplitBits(bits, history, h.has(kToolSeams) ? &twin_before : nullptr));
-    history = history.Next(bits);
+    const std::vector<uint32_t>* twins = h.has(kToolSeams) ? &twin_before : nullptr;
+    if (h.has(kToolSplitContexts)) {
+      cw.Block(split_contexts.Encode(bits, twins));
+    } else {
+      cw.Block(EncodeSplitBits(bits, history, twins));
+      history = history.Next(bits);
+    }
     const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
     if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));
     s.control.push_back(std::move(cw.bytes()));

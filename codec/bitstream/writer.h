@@ -26,16 +26,16 @@ struct StreamWriteOptions {
   Packing packing = Packing::kSplit;
   uint32_t packet_bytes = 1200;  // payload bytes of a datagram, header included
   uint32_t stream_id = 0;        // the primitive's index in the asset
-  uint8_t version = kStreamVersion;  // 1 writes the previous format (tools are then ignored)
-  uint8_t tools = kAllTools;         // StreamTool bits (coding_tools.h)
+  uint8_t version = kStreamVersion;  // 1 or 2 write the older formats (with the tools they define: none in 1)
+  ToolSet tools = kAllTools;         // StreamTool bits (coding_tools.h)
 };
 
-// The tools a version 2 stream of this quantization and layout is written
+// The tools a stream of this quantization and layout is written
 // with when `requested` are asked for: without the local frame above qp 24
 // (its rotation is exact below 2^28), without texture coordinate prediction
 // when there are neither texture coordinates nor colours. (WriteStream may
 // still drop the wing rank, for a ring beyond kMaxRankedValence.)
-uint8_t ApplicableTools(uint8_t requested, const QuantizationParams& quantization, const AttributeLayout& layout);
+ToolSet ApplicableTools(ToolSet requested, const QuantizationParams& quantization, const AttributeLayout& layout);
 
 StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& encoded, const QuantizationParams& quantization,
                                         const StreamWriteOptions& options);

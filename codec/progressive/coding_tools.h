@@ -1,8 +1,10 @@
-// The coding tools of a version 2 stream: the bits of the stream header's
-// `tools` byte (docs/progressive-format.md, section 3). The encoder uses all
-// of them (kToolTexcoordPrediction only in streams with texture coordinates
-// or colours); each can be turned off (StreamWriteOptions::tools) to measure
-// what it saves (docs/codec.md). A version 1 stream has no tools.
+// The coding tools of a stream: the bits of the stream header's `tools`
+// field (docs/progressive-format.md, section 3). The encoder uses all of them
+// that its version defines (kToolTexcoordPrediction only in streams with
+// texture coordinates or colours); each can be turned off
+// (StreamWriteOptions::tools) to measure what it saves (docs/codec.md). A
+// version 1 stream has no tools; version 2 defines bits 0-5 (one byte in its
+// header), version 3 bits 0-6 (two bytes).
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 
@@ -12,17 +14,28 @@
 
 namespace meshstream {
 
-enum StreamTool : uint8_t {
+// A set of StreamTool bits.
+using ToolSet = uint16_t;
+
+enum StreamTool : ToolSet {
   kToolGeometryPrediction = 1,  // split vectors predicted from the ring, residual coded
   kToolLocalFrame = 2,          // residual components ordered (tangential, tangential, normal)
   kToolWingRank = 4,            // cut edges coded as a rank in an order the ring's geometry predicts
   kToolAttributePrediction = 8, // normals predicted from the decoded geometry
   kToolTexcoordPrediction = 16, // texture coordinates and colours predicted by the ring's map (texcoord_prediction.h)
   kToolSeams = 32,              // seam edges collapsed on both sides together (seam_twins.h); header lists base twins
+  kToolSplitContexts = 64,      // version 3: split bits in contexts of the reliable graph (split_bit_contexts.h)
 };
-constexpr uint8_t kAllTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction |
-                              kToolTexcoordPrediction | kToolSeams;
-constexpr uint8_t kDefinedTools = kAllTools;
+constexpr ToolSet kVersion2Tools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank |
+                                   kToolAttributePrediction | kToolTexcoordPrediction | kToolSeams;
+constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts;
+constexpr ToolSet kAllTools = kVersion3Tools;
+
+// The tools a stream of `version` may carry (0 for version 1, and for an
+// unknown version).
+constexpr ToolSet DefinedTools(uint8_t version) {
+  return version == 2 ? kVersion2Tools : version == 3 ? kVersion3Tools : ToolSet{0};
+}
 
 // The tools' names, as the CLI's --tools and the --json reports spell them,
 // in bit order.
@@ -33,10 +46,11 @@ struct ToolName {
 constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
     {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
+    {kToolSplitContexts, "splitbits"},
 };
 
 // The names of the tools set in `tools`, in bit order.
-inline std::vector<std::string> ToolNamesOf(uint8_t tools) {
+inline std::vector<std::string> ToolNamesOf(ToolSet tools) {
   std::vector<std::string> out;
   for (const ToolName& t : kToolNames)
     if (tools & t.tool) out.push_back(t.name);

@@ -47,7 +47,7 @@ Vec3i ScalePrediction(const SplitPrediction& p, uint32_t alpha);
 // How the splits of one refinement are coded: the stream's tools
 // (bitstream/format.h, StreamTool) and the refinement's alpha.
 struct SplitCoding {
-  uint8_t tools = 0;   // 0: version 1 (the split vector is sent as it is)
+  ToolSet tools = 0;   // 0: version 1 (the split vector is sent as it is)
   uint32_t alpha = 0;  // with kToolGeometryPrediction
   int normal_bits = 0; // qn when the normals are predicted (kToolAttributePrediction and normals), else 0
   // The channels the ring's map predicts (kToolTexcoordPrediction: the

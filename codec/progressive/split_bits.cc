@@ -1,6 +1,7 @@
 #include "codec/progressive/split_bits.h"
 
 #include "codec/entropy/range_coder.h"
+#include "codec/progressive/seam_twins.h"
 
 namespace meshstream {
 
@@ -23,14 +24,6 @@ int Context(uint32_t v, const std::vector<uint8_t>& bits, const SplitHistory& h)
   return age * 2 + related;
 }
 
-// The twin with a smaller id whose bit v copies, or kNoCopy.
-constexpr uint32_t kNoCopy = UINT32_MAX;
-uint32_t CopiedFrom(uint32_t v, const std::vector<uint32_t>* twin) {
-  if (twin == nullptr || v >= twin->size()) return kNoCopy;
-  const uint32_t t = (*twin)[v];
-  return t < v ? t : kNoCopy;
-}
-
 }  // namespace
 
 SplitHistory SplitHistory::Next(const std::vector<uint8_t>& bits) const {
@@ -50,7 +43,7 @@ std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const Spl
   RangeEncoder enc;
   BitModel models[kContexts];
   for (uint32_t v = 0; v < bits.size(); ++v) {
-    if (CopiedFrom(v, twin) != kNoCopy) continue;
+    if (TwinWithSmallerId(v, twin) != kNoTwin) continue;
     enc.EncodeBit(models[Context(v, bits, h)], bits[v]);
   }
   return enc.Finish();
@@ -62,8 +55,8 @@ StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size,
   BitModel models[kContexts];
   std::vector<uint8_t> bits(h.vertices, 0);
   for (uint32_t v = 0; v < h.vertices; ++v) {
-    const uint32_t from = CopiedFrom(v, twin);
-    bits[v] = from != kNoCopy ? bits[from] : static_cast<uint8_t>(dec.DecodeBit(models[Context(v, bits, h)]));
+    const uint32_t from = TwinWithSmallerId(v, twin);
+    bits[v] = from != kNoTwin ? bits[from] : static_cast<uint8_t>(dec.DecodeBit(models[Context(v, bits, h)]));
   }
   if (dec.overran()) return InvalidInput("split bits are truncated");
   if (!dec.ended_exactly()) {

@@ -1,4 +1,5 @@
-// Coding of a refinement's split bits (one per vertex of the coarser mesh,
+// Coding of a refinement's split bits in versions 1 and 2 (version 3:
+// split_bit_contexts.h) (one per vertex of the coarser mesh,
 // in canonical order) on the reliable channel: an adaptive binary range coder
 // whose contexts use only reliable data (docs/design.md, "Reliable data"):
 //   - the vertex's age: created by the previous refinement, by the one
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "codec/progressive/seam_twins.h"
 
 namespace meshstream {
 
@@ -37,6 +39,14 @@ struct SplitHistory {
 // whose seam twin has a smaller id takes its twin's bit, which is not coded
 // (the two copies of a seam vertex split together). The encoder's bits
 // must agree.
+// The twin of v whose bit v takes: its twin when that has a smaller id, else
+// kNoTwin (seam_twins.h). Versions 2 and 3 share the rule.
+inline uint32_t TwinWithSmallerId(uint32_t v, const std::vector<uint32_t>* twin) {
+  if (twin == nullptr || v >= twin->size()) return kNoTwin;
+  const uint32_t t = (*twin)[v];
+  return t < v ? t : kNoTwin;
+}
+
 std::vector<uint8_t> EncodeSplitBits(const std::vector<uint8_t>& bits, const SplitHistory& history,
                                      const std::vector<uint32_t>* twin = nullptr);
 StatusOr<std::vector<uint8_t>> DecodeSplitBits(const uint8_t* data, size_t size, const SplitHistory& history,

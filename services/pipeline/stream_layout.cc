@@ -243,8 +243,8 @@ StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const Prim
     if (got != b) return InvalidInput("stream blob: magic is not MSPS (not a meshstream progressive stream)");
   }
   MS_ASSIGN_OR_RETURN(uint8_t version, r.U8("stream blob: version"));
-  if (version < kOldestStreamVersion || version > kStreamVersion) {
-    return Unsupported("stream blob: version " + std::to_string(version) + " is not 1 or 2");
+  if (!IsStreamVersion(version)) {
+    return Unsupported("stream blob: version " + std::to_string(version) + " is not " + kStreamVersionsText);
   }
   StreamBlocks out;
   out.base = entry.base;

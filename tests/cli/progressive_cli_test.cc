@@ -182,24 +182,35 @@ TEST(ProgressiveCli, EveryLevelOfDetailHasItsVertexCount) {
   }
 }
 
-// --format-version 1 writes the previous format (for decoders that predate
-// version 2): larger, and decoded to the same mesh as version 2.
-TEST(ProgressiveCli, FormatVersionOneIsWrittenOnRequestAndDecodesToTheSameMesh) {
+// --format-version 2 and 1 write the previous formats (for decoders that
+// predate version 3): larger, and decoded to the same mesh as version 3.
+TEST(ProgressiveCli, FormatVersionsOneAndTwoAreWrittenOnRequestAndDecodeToTheSameMesh) {
   TempDir dir;
   const std::string src = Quote(ModelPath("fandisk.obj"));
-  const json v2 = RunJson("encode --json " + src + " -o " + Quote(dir.File("v2.glb")));
+  const json v3 = RunJson("encode --json " + src + " -o " + Quote(dir.File("v3.glb")));
+  const json v2 = RunJson("encode --json --format-version 2 " + src + " -o " + Quote(dir.File("v2.glb")));
   const json v1 = RunJson("encode --json --format-version 1 " + src + " -o " + Quote(dir.File("v1.glb")));
+  EXPECT_EQ(U(v3, "format_version"), 3u);
   EXPECT_EQ(U(v2, "format_version"), 2u);
   EXPECT_EQ(U(v1, "format_version"), 1u);
+  // Version 2 drops the tools version 3 added (--tools all is every tool of the version).
+  EXPECT_EQ(v2["tools"], json::array({"geometry", "frame", "rank", "normals"})) << v2.dump();
   EXPECT_GT(U(v1, "total_bytes"), U(v2, "total_bytes") * 5 / 4);
-  EXPECT_EQ(LevelVertices(v1), LevelVertices(v2));
-  ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(dir.File("v1.glb")) + " -o " + Quote(dir.File("v1.obj"))).exit_code, 0);
-  ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(dir.File("v2.glb")) + " -o " + Quote(dir.File("v2.obj"))).exit_code, 0);
-  const json c = RunJson("compare --json --qp 11 " + Quote(dir.File("v1.obj")) + " " + Quote(dir.File("v2.obj")));
-  EXPECT_EQ(c["same_on_grid"], true) << c.dump();
+  EXPECT_GT(U(v2, "total_bytes"), U(v3, "total_bytes"));
+  EXPECT_EQ(LevelVertices(v1), LevelVertices(v3));
+  EXPECT_EQ(LevelVertices(v2), LevelVertices(v3));
+  for (const char* v : {"v1", "v2", "v3"}) {
+    ASSERT_EQ(RunCommand(Cli() + " decode " + Quote(dir.File(std::string(v) + ".glb")) + " -o " +
+                         Quote(dir.File(std::string(v) + ".obj"))).exit_code, 0) << v;
+  }
+  for (const char* v : {"v1", "v2"}) {
+    const json c = RunJson("compare --json --qp 11 " + Quote(dir.File(std::string(v) + ".obj")) + " " +
+                           Quote(dir.File("v3.obj")));
+    EXPECT_EQ(c["same_on_grid"], true) << v << ": " << c.dump();
+  }
 }
 
-// --tools chooses version 2's coding tools (for measuring what each saves);
+// --tools chooses the coding tools (for measuring what each saves);
 // --json reports the ones the stream was written with. Fewer tools: larger,
 // and the same mesh.
 // The reliable cut from the CLI (docs/loss-tolerance.md, "The reliable cut"):
@@ -232,10 +243,10 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json none = RunJson("encode --json --tools none " + src + " -o " + Quote(dir.File("none.glb")));
   const json two = RunJson("encode --json --tools geometry,rank " + src + " -o " + Quote(dir.File("two.glb")));
   // fandisk has normals but no texture coordinates: no texcoords tool.
-  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals"})) << all.dump();
+  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals", "splitbits"})) << all.dump();
   EXPECT_EQ(none["tools"], json::array()) << none.dump();
   EXPECT_EQ(two["tools"], json::array({"geometry", "rank"})) << two.dump();
-  EXPECT_EQ(U(none, "format_version"), 2u);
+  EXPECT_EQ(U(none, "format_version"), 3u);
   EXPECT_GT(U(none, "total_bytes"), U(two, "total_bytes"));
   EXPECT_GT(U(two, "total_bytes"), U(all, "total_bytes"));
   for (const char* name : {"all", "none", "two"}) {
@@ -251,7 +262,8 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json seams = RunJson("encode --json " + spot + " -o " + Quote(dir.File("seams.glb")));
   const json kept = RunJson("encode --json --tools geometry,frame,rank,texcoords " + spot + " -o " +
                             Quote(dir.File("kept.glb")));
-  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams"})) << seams.dump();
+  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams", "splitbits"}))
+      << seams.dump();
   EXPECT_EQ(kept["tools"], json::array({"geometry", "frame", "rank", "texcoords"})) << kept.dump();
   EXPECT_LT(U(seams, "base_vertices") * 2, U(kept, "base_vertices"));
   EXPECT_LT(U(seams, "total_bytes"), U(kept, "total_bytes"));
@@ -339,7 +351,9 @@ TEST(ProgressiveCli, UsageErrorsExitTwoAndBadInputExitsOne) {
       {"encode --packing foo " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --qp 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --packet-bytes 10 " + src + " -o " + Quote(dir.File("x.glb")), 2},
-      {"encode --format-version 3 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --format-version 4 " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --format-version 2 --tools geometry,splitbits " + src + " -o " + Quote(dir.File("x.glb")), 2},
+      {"encode --format-version 1 --tools geometry " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --format-version 0 " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --tools geometry,bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},
       {"encode --bogus " + src + " -o " + Quote(dir.File("x.glb")), 2},

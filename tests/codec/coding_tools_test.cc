@@ -106,7 +106,7 @@ TEST(GeometryPrediction, CodingIsExactlyReversibleUnderEveryTool) {
     const Vec3i w = {pos(rng), pos(rng), pos(rng)};
     const size_t a = i % d, b = (a + 1 + i % (d - 1)) % d;
     const LocalFrame frame = RingLocalFrame(w, ring.data(), d);
-    for (uint8_t tools = 0; tools < 4; ++tools) {
+    for (ToolSet tools = 0; tools < 4; ++tools) {
       const SplitCoding coding{tools, static_cast<uint32_t>(i % 64), 0};
       const Vec3i v = {delta(rng), delta(rng), delta(rng)};
       const Vec3i coded = CodeSplitVector(coding, v, ring.data(), d, a, b, frame);
@@ -402,7 +402,7 @@ TEST(TexcoordPrediction, StreamRoundTripWithTexcoordsAndColoursUnderEveryTool) {
   ASSERT_TRUE(enc.ok()) << enc.status().ToString();
   ASSERT_EQ(enc->mesh.base.layout.channels(), 8);
   size_t bytes_with = 0, bytes_without = 0;
-  for (uint8_t tools : {kAllTools, uint8_t(kAllTools & ~kToolTexcoordPrediction), uint8_t(kToolTexcoordPrediction)}) {
+  for (ToolSet tools : {kAllTools, ToolSet(kAllTools & ~kToolTexcoordPrediction), ToolSet(kToolTexcoordPrediction)}) {
     for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
       StreamWriteOptions wo;
       wo.packing = packing;

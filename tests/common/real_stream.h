@@ -34,7 +34,7 @@ struct RealStream {
 // `tools`: the version 2 tools to write with (as `meshstream encode --tools`).
 // `model`: a shared model (fandisk by default); `packing`, `packet_bytes`:
 // as `meshstream encode`. Seams collapse when `tools` has the seams tool.
-inline RealStream BuildRealStream(uint8_t tools = kAllTools, const std::string& model = "fandisk.obj",
+inline RealStream BuildRealStream(ToolSet tools = kAllTools, const std::string& model = "fandisk.obj",
                                   Packing packing = Packing::kSplit, uint32_t packet_bytes = 200) {
   auto fail = [](const std::string& what) {
     std::fprintf(stderr, "real stream: %s\n", what.c_str());

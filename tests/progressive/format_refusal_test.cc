@@ -57,9 +57,10 @@ std::string HeaderError(const Bytes& header) {
   return s.ok() ? "accepted" : s.message();
 }
 
-// Header offsets of the vector (positions only, one-byte varints).
-constexpr size_t kPacking = 1, kTools = 2, kQp = 3, kRange = 19, kHasNormals = 23, kSets = 24, kHasColors = 25,
-                 kBaseMethod = 28, kSplitCount = 30, kPositionFix = 31;
+// Header offsets of the vector (version 3: two tool bytes; positions only,
+// one-byte varints).
+constexpr size_t kPacking = 1, kTools = 2, kQp = 4, kOrigin = 8, kRange = 20, kHasNormals = 24, kSets = 25,
+                 kHasColors = 26, kBaseMethod = 29, kSplitCount = 31, kPositionFix = 32;
 
 Bytes Patched(Bytes b, size_t at, uint8_t value) {
   b.at(at) = value;
@@ -77,15 +78,24 @@ TEST(FormatRefusal, TheVectorIsTheBlobStoredInTestData) {
 
 TEST(FormatRefusal, StreamHeaderFields) {
   const Bytes& h = TheVector().stream.header;
-  EXPECT_EQ(HeaderError(Patched(h, 0, 3)), "stream header: version 3 is not 1 or 2");
-  EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1 or 2");
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x80)), "stream header: tools 128 has reserved bits set");
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x4F)), "stream header: tools 79 has reserved bits set");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 4)), "stream header: version 4 is not 1, 2 or 3");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1, 2 or 3");
+  // Tools: two bytes, little-endian; bits 7-15 reserved.
+  EXPECT_EQ(h[kTools], 0x4F);
+  EXPECT_EQ(h[kTools + 1], 0x00);
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCF)), "stream header: tools 207 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x01)), "stream header: tools 335 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x80)), "stream header: tools 32847 has bits set that version 3 reserves");
   // Bit 5 (seams) announces the seam twins after the fix-ups, which this header does not have.
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x2F)), "stream header: seam twin count: truncated at byte " +
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x6F)), "stream header: seam twin count: truncated at byte " +
                                                        std::to_string(h.size()));
   // Bit 4 without texture coordinates or colours is accepted (it predicts nothing).
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x1F)), "accepted");
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x5F)), "accepted");
+  // Bit 6 is version 3's: a version 2 header (one tool byte) refuses it.
+  Bytes v2 = Patched(h, 0, 2);
+  v2.erase(v2.begin() + kTools + 1);
+  EXPECT_EQ(HeaderError(v2), "stream header: tools 79 has bits set that version 2 reserves");
+  EXPECT_EQ(HeaderError(Patched(v2, kTools, 0x0F)), "accepted");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 255)), "stream header: packing 255 is reserved");
   const char* names[4] = {"qp", "qn", "qt", "qc"};
@@ -102,7 +112,7 @@ TEST(FormatRefusal, StreamHeaderFields) {
   EXPECT_EQ(HeaderError(zero), "stream header: position grid: range is not positive");
   EXPECT_EQ(HeaderError(Patched(Patched(h, kRange + 3, 0x7F), kRange + 2, 0xC0)),
             "stream header: position grid: range is not positive");
-  EXPECT_EQ(HeaderError(Patched(h, 7 + 3, 0x7F)).rfind("stream header: position grid", 0), 0u);  // origin x = NaN/inf
+  EXPECT_EQ(HeaderError(Patched(h, kOrigin + 3, 0x7F)).rfind("stream header: position grid", 0), 0u);  // origin x = NaN/inf
   for (int m = 2; m < 256; ++m) {
     EXPECT_EQ(HeaderError(Patched(h, kBaseMethod, static_cast<uint8_t>(m))),
               "stream header: base_method " + std::to_string(m) + " is reserved");
@@ -154,7 +164,8 @@ TEST(FormatRefusal, StreamBlob) {
   };
   EXPECT_EQ(error(blob), "accepted");
   EXPECT_EQ(error(Patched(blob, 0, 'X')), "stream blob: magic is not MSPS (not a meshstream progressive stream)");
-  EXPECT_EQ(error(Patched(blob, 4, 3)), "stream blob: version 3 is not 1 or 2");
+  EXPECT_EQ(error(Patched(blob, 4, 4)), "stream blob: version 4 is not 1, 2 or 3");
+  EXPECT_EQ(error(Patched(blob, 4, 2)), "stream blob: version 2 differs from its header's 3");
   Bytes stray = blob;
   stray.push_back(0);
   EXPECT_EQ(error(stray), "stream blob: 1 stray bytes after the last refinement");
@@ -258,7 +269,7 @@ TEST(FormatRefusal, ControlBlock) {
   Bytes stray = control;
   stray.push_back(0);
   EXPECT_EQ(ControlError(stray), "refinement 0: control block: 1 stray bytes after the models");
-  // Version 2 with geometry prediction: the alpha byte ends the block.
+  // Geometry prediction (version 2 and later): the alpha byte ends the block.
   ASSERT_EQ(parts.tail.size(), 1u);
   EXPECT_EQ(ControlError(Bytes(control.begin(), control.end() - 1)).rfind("refinement 0: control block: alpha", 0), 0u)
       << ControlError(Bytes(control.begin(), control.end() - 1));
@@ -272,11 +283,12 @@ std::string DatagramError(const Bytes& d) {
 
 TEST(FormatRefusal, DatagramHeader) {
   const Bytes& d = TheVector().stream.datagrams[0][0];
-  // 4D 02 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
-  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 2, 0, 0, 0, 1, 0, 3}));
+  // 4D 03 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
+  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 3, 0, 0, 0, 1, 0, 3}));
   EXPECT_EQ(DatagramError(d), "accepted");
   EXPECT_EQ(DatagramError(Patched(d, 0, 0x4E)), "datagram: magic 78 is not 0x4D");
-  EXPECT_EQ(DatagramError(Patched(d, 1, 3)), "datagram: version 3 is not 1 or 2");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 4)), "datagram: version 4 is not 1, 2 or 3");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 0)), "datagram: version 0 is not 1, 2 or 3");
   for (int k = 4; k < 256; ++k) {
     EXPECT_EQ(DatagramError(Patched(d, 2, static_cast<uint8_t>(k))), "datagram: kind " + std::to_string(k) + " is reserved");
   }
@@ -309,7 +321,8 @@ TEST(FormatRefusal, DatagramPayloadMustEndWithItsLastSplit) {
   EXPECT_FALSE(offer(stray));
   EXPECT_FALSE(offer(Bytes(d.begin(), d.end() - 1)));
   EXPECT_FALSE(offer(Patched(d, 2, 1)));  // a structure datagram in a bundled stream
-  EXPECT_FALSE(offer(Patched(d, 1, 1)));  // a version 1 datagram in a version 2 stream
+  EXPECT_FALSE(offer(Patched(d, 1, 1)));  // a version 1 datagram in a version 3 stream
+  EXPECT_FALSE(offer(Patched(d, 1, 2)));  // a version 2 datagram in a version 3 stream
 }
 
 std::string GlbError(const nlohmann::json& doc) {
@@ -329,13 +342,15 @@ TEST(FormatRefusal, ExtensionJson) {
   };
   const std::string where = "meshes[0].primitives[0]: MESHSTREAM_progressive.";
   EXPECT_EQ(with([](nlohmann::json& e) { e["extras"] = {{"note", 1}}; }), "accepted");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 3; }), where + "version 3 is not 1 or 2");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1 or 2");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "2"; }), where + "version \"2\" is not 1 or 2");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1 or 2");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 4; }), where + "version 4 is not 1, 2 or 3");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1, 2 or 3");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "3"; }), where + "version \"3\" is not 1, 2 or 3");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1, 2 or 3");
+  // The extension's version must be the stream's.
+  EXPECT_NE(with([](nlohmann::json& e) { e["version"] = 2; }).find("differ"), std::string::npos);
   EXPECT_EQ(with([](nlohmann::json& e) { e.erase("version"); }), where + "version is missing");
   EXPECT_EQ(with([](nlohmann::json& e) { e["bufferView"] = -1; }), where + "bufferView is missing or not an unsigned integer");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 2");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 3");
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // Golden files of the released progressive formats (docs/progressive-format.md,
-// versions 1 and 2). They were written once by `meshstream encode` and must
+// versions 1, 2 and 3). They were written once by `meshstream encode` and must
 // decode forever, to the same levels and losslessly against their sources:
 //   fandisk-qp11-v1.glb:          encode fandisk.obj (qp 11, split packing, 1200 bytes), version 1
 //   spot-qp11-bundled-v1.glb:     encode spot.obj --packing bundled --packet-bytes 600, version 1
@@ -9,6 +9,10 @@
 //                                 coordinate prediction (tools 31)
 //   spot-qp11-bundled-v2-tools63.glb: the same with seams collapsed on both
 //                                 sides (tools 63): a smaller base
+//   fandisk-qp11-v3.glb, horse-qp11-v3.glb: as above, version 3 (tools 79,
+//                                 split bits in context)
+//   spot-qp11-bundled-v3.glb:     spot.obj --packing bundled --packet-bytes 600,
+//                                 version 3 (tools 127)
 // Never regenerate them for a format change: bump the version (or add a tool
 // bit) and add new files.
 #include <set>
@@ -42,6 +46,10 @@ const std::vector<uint32_t> kSpotLevels = {642,  645,  648,  656,  664,  675,  6
 const std::vector<uint32_t> kSpotSeamLevels = {235,  251,  270,  289,  319,  353,  393,  443,  497,  572, 664,
                                                771,  904,  1052, 1225, 1432, 1688, 1983, 2349, 2761, 3225};
 
+const std::vector<uint32_t> kHorseLevels = {938,   1114,  1321,  1565,  1863,  2217,  2633,  3123,
+                                            3720,  4420,  5252,  6249,  7432,  8822,  10473, 12438,
+                                            14773, 17529, 20790, 24676, 29299, 34773, 41326, 48485};
+
 const std::vector<Golden>& Goldens() {
   static const std::vector<Golden> goldens = {
       {"fandisk-qp11-v1.glb", "fandisk.obj",
@@ -62,10 +70,10 @@ const std::vector<Golden>& Goldens() {
       {"spot-qp11-bundled-v2-tools63.glb", "spot.obj",
        kSpotSeamLevels,
        {"POSITION", "TEXCOORD_0"}},
-      {"horse-qp11-v2.glb", "horse.ply",
-       {938, 1114, 1321, 1565, 1863, 2217, 2633, 3123, 3720, 4420, 5252, 6249, 7432, 8822, 10473, 12438, 14773,
-        17529, 20790, 24676, 29299, 34773, 41326, 48485},
-       {"POSITION", "NORMAL"}},
+      {"horse-qp11-v2.glb", "horse.ply", kHorseLevels, {"POSITION", "NORMAL"}},
+      {"fandisk-qp11-v3.glb", "fandisk.obj", kFandiskLevels, {"POSITION"}},
+      {"spot-qp11-bundled-v3.glb", "spot.obj", kSpotSeamLevels, {"POSITION", "TEXCOORD_0"}},
+      {"horse-qp11-v3.glb", "horse.ply", kHorseLevels, {"POSITION", "NORMAL"}},
   };
   return goldens;
 }
@@ -81,6 +89,9 @@ TEST(Golden, DecodesToEveryLevelAndLosslessly) {
       auto scene = DecodeProgressiveGlb(bytes.value(), options, &report);
       ASSERT_TRUE(scene.ok()) << g.file << " lod " << lod << ": " << scene.status().ToString();
       EXPECT_EQ(report.level_vertices, g.level_vertices) << g.file;
+      // Version 3's files code their split bits in context (the tool that defines it).
+      EXPECT_EQ((report.tools & kToolSplitContexts) != 0, std::string(g.file).find("-v3") != std::string::npos)
+          << g.file;
       EXPECT_EQ(scene->total_vertices(), g.level_vertices[lod]) << g.file << " lod " << lod;
       EXPECT_EQ(scene->meshes[0].primitives[0].AttributeNames(), g.attributes) << g.file;
       if (lod + 1 == g.level_vertices.size()) {

@@ -149,8 +149,8 @@ TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
 // splits computed from predicted ring positions, the single-tool streams
 // fail here.
 TEST(LossyDecode, VerticesMarkedReliableAreExactForEveryToolUnderLoss) {
-  for (uint8_t tools : {uint8_t{kAllTools}, uint8_t{kToolGeometryPrediction}, uint8_t{kToolLocalFrame},
-                        uint8_t{kToolWingRank}}) {
+  for (ToolSet tools : {ToolSet{kAllTools}, ToolSet{kToolGeometryPrediction}, ToolSet{kToolLocalFrame},
+                        ToolSet{kToolWingRank}}) {
     const RealStream s = tools == kAllTools ? Fandisk() : test_util::BuildRealStream(tools);
     const QuantizedMesh& lossless = s.levels.back();
     for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {

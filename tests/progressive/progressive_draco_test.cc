@@ -52,24 +52,30 @@ TEST(ProgressiveDraco, EverySharedModelIsLosslessAtQp11And14) {
 // Encode, write the stream, parse it back, decode through StreamReader with
 // Draco decoding the base: the quantized input comes back, on every shared
 // model at qp 11 and 14, in both packings, with every coding tool of version
-// 2, with each tool left out, some alone, and as version 1.
+// 3, with each tool left out, some alone, and as versions 2 and 1.
 TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
   struct Variant {
-    uint8_t version, tools;
+    uint8_t version;
+    ToolSet tools;
   };
-  const Variant variants[] = {{2, kAllTools},
-                              {2, kAllTools & ~kToolGeometryPrediction},
-                              {2, kAllTools & ~kToolLocalFrame},
-                              {2, kAllTools & ~kToolWingRank},
-                              {2, kAllTools & ~kToolAttributePrediction},
-                              {2, kAllTools & ~kToolTexcoordPrediction},
-                              {2, kAllTools & ~kToolSeams},
+  const Variant variants[] = {{3, kAllTools},
+                              {3, kAllTools & ~kToolGeometryPrediction},
+                              {3, kAllTools & ~kToolLocalFrame},
+                              {3, kAllTools & ~kToolWingRank},
+                              {3, kAllTools & ~kToolAttributePrediction},
+                              {3, kAllTools & ~kToolTexcoordPrediction},
+                              {3, kAllTools & ~kToolSeams},
+                              {3, kAllTools & ~kToolSplitContexts},
                               // Each tool alone too: a tool must not rely on
                               // work another one does (the ring's frame).
-                              {2, kToolGeometryPrediction},
-                              {2, kToolTexcoordPrediction},
-                              {2, kToolAttributePrediction},
-                              {2, kToolSeams},
+                              {3, kToolGeometryPrediction},
+                              {3, kToolTexcoordPrediction},
+                              {3, kToolAttributePrediction},
+                              {3, kToolSeams},
+                              {3, kToolSplitContexts},
+                              {3, 0},
+                              // Version 2 carries the tools it defines (asked for all of them).
+                              {2, kAllTools},
                               {2, 0},
                               {1, 0}};
   for (const char* name : {"stanford-bunny.obj", "horse.ply", "fandisk.obj", "rocker-arm.obj", "spot.obj"}) {
@@ -91,7 +97,7 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
       }
       for (Packing packing : {Packing::kSplit, Packing::kBundled}) {
         for (const Variant& variant : variants) {
-          const int seams = variant.version == 2 && (variant.tools & kToolSeams) != 0 ? 1 : 0;
+          const int seams = variant.version >= 2 && (variant.tools & kToolSeams) != 0 ? 1 : 0;
           const StatusOr<ProgressiveEncoded>& enc = encodings[seams];
           // The default (all tools) in both packings; the other variants in the split packing.
           if (packing == Packing::kBundled && variant.tools != kAllTools) continue;
@@ -101,7 +107,7 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
           StreamWriteOptions wo;
           wo.packing = packing;
           wo.version = variant.version;
-          wo.tools = static_cast<uint8_t>(variant.tools);
+          wo.tools = variant.tools;
           auto stream = WriteStream(enc.value(), options.quantization, wo);
           ASSERT_TRUE(stream.ok()) << what << ": " << stream.status().ToString();
           for (const auto& level : stream->datagrams)
@@ -115,14 +121,14 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
           ASSERT_TRUE(reader.ok()) << what << ": " << reader.status().ToString();
           // The texture coordinate tool only where there are texture coordinates or colours.
           // Seams only where the mesh has them (spot's UV seams).
-          uint8_t tools =
-              variant.version == 1 ? 0 : ApplicableTools(variant.tools, options.quantization, enc->mesh.base.layout);
-          if (enc->mesh.base_twins.empty()) tools &= static_cast<uint8_t>(~kToolSeams);
+          ToolSet tools = ApplicableTools(variant.tools & DefinedTools(variant.version), options.quantization,
+                                          enc->mesh.base.layout);
+          if (enc->mesh.base_twins.empty()) tools &= static_cast<ToolSet>(~kToolSeams);
           if (std::string(name) == "spot.obj" && seams == 1) {
             EXPECT_NE(tools & kToolSeams, 0) << what;
           }
           EXPECT_EQ(reader->header().tools, tools) << what;
-          if (std::string(name) == "spot.obj" && variant.version == 2) {
+          if (std::string(name) == "spot.obj" && variant.version >= 2) {
             EXPECT_EQ((tools & kToolTexcoordPrediction) != 0, (variant.tools & kToolTexcoordPrediction) != 0) << what;
           }
           auto base = DecodeDracoBase(enc->base_bytes.data(), enc->base_bytes.size(), ids[seams], reader->header().grids);

@@ -19,7 +19,7 @@ using test_util::BuildRealStream;
 using test_util::kRealStreamId;
 using test_util::RealStream;
 
-constexpr uint8_t kWithoutSeams = kAllTools & ~kToolSeams;
+constexpr ToolSet kWithoutSeams = kAllTools & ~kToolSeams;
 
 const RealStream& Spot(Packing packing) {
   static const RealStream split = BuildRealStream(kAllTools, "spot.obj", Packing::kSplit, 400);

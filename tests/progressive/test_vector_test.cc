@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "codec/bitstream/format.h"
+#include "codec/progressive/split_bit_contexts.h"
 #include "tests/common/test_vector.h"
 
 namespace meshstream {
@@ -25,7 +26,7 @@ std::vector<uint8_t> BlobOf(const std::vector<uint8_t>& glb) {
 TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
   const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
-  ASSERT_EQ(blob.size(), 112u);
+  ASSERT_EQ(blob.size(), 113u);
   auto scene = ImportFile(VectorPath("octahedron.obj"));
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
   auto glb = EncodeProgressiveGlb(scene.value(), test_util::VectorOptions(), nullptr);
@@ -34,11 +35,25 @@ TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
   EXPECT_EQ(BlobOf(glb.value()), blob);
 }
 
+// Version 2 is still written on request (--format-version 2), byte for byte
+// as when it was the current version.
+TEST(TestVector, VersionTwoIsStillWrittenByteForByte) {
+  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled-v2.glb"));
+  auto scene = ImportFile(VectorPath("octahedron.obj"));
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  ProgressiveGlbOptions options = test_util::VectorOptions();
+  options.stream.version = 2;
+  auto glb = EncodeProgressiveGlb(scene.value(), options, nullptr);
+  ASSERT_TRUE(glb.ok()) << glb.status().ToString();
+  EXPECT_EQ(glb.value(), stored);
+  EXPECT_EQ(BlobOf(glb.value()), test_util::ReadBytes(VectorPath("octahedron-qp8-bundled-v2.msps")));
+}
+
 TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
   auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
   ASSERT_TRUE(stream.ok()) << stream.status().ToString();
-  EXPECT_EQ(stream->header.size(), 43u);
+  EXPECT_EQ(stream->header.size(), 44u);
   ASSERT_EQ(stream->control.size(), 1u);
   EXPECT_EQ(stream->control[0].size(), 45u);
   ASSERT_EQ(stream->datagrams[0].size(), 1u);
@@ -46,7 +61,7 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
   ASSERT_TRUE(header.ok()) << header.status().ToString();
   EXPECT_EQ(header->packing, Packing::kBundled);
-  EXPECT_EQ(header->version, 2);
+  EXPECT_EQ(header->version, 3);
   // No texture coordinates or colours, no seams.
   EXPECT_EQ(header->tools, kAllTools & ~kToolTexcoordPrediction & ~kToolSeams);
   EXPECT_EQ(header->quantization.qp, 8);
@@ -60,10 +75,29 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   EXPECT_EQ(header->base_position_fix, std::vector<int32_t>(45, 0));
 }
 
-// The vector of version 2 and the one of version 1 (which a version 2
+// The split bits' contexts the spec lists (section 9, "The split bits'
+// contexts"), from the base as the decoder has it.
+TEST(TestVector, SplitBitContextsAreTheDocumentedOnes) {
+  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
+  ProgressiveDecodeOptions options;
+  options.lod = 0;
+  auto scene = DecodeProgressiveGlb(stored, options, nullptr);
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  const Primitive& base = scene->meshes[0].primitives[0];
+  SplitBitContexts contexts;
+  ASSERT_TRUE(contexts.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices).ok());
+  std::vector<uint8_t> bits(15, 0);
+  bits[1] = bits[8] = bits[11] = 1;
+  std::vector<int> got;
+  for (uint32_t v = 0; v < 15; ++v) got.push_back(contexts.Context(v, bits));
+  EXPECT_EQ(got, (std::vector<int>{3, 3, 40, 40, 40, 40, 40, 3, 3, 40, 3, 3, 40, 40, 40}));
+  EXPECT_EQ(contexts.Encode(bits), (std::vector<uint8_t>{0x42, 0xC2, 0x2A, 0xF1, 0xD1}));
+}
+
+// The vector of version 3 and those of versions 2 and 1 (which a version 3
 // decoder still reads) give the same mesh.
 TEST(TestVector, DecodesToTheDocumentedMesh) {
-  for (const char* file : {"octahedron-qp8-bundled.glb", "octahedron-qp8-bundled-v1.glb"}) {
+  for (const char* file : {"octahedron-qp8-bundled.glb", "octahedron-qp8-bundled-v2.glb", "octahedron-qp8-bundled-v1.glb"}) {
   SCOPED_TRACE(file);
   const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath(file));
   for (int lod : {0, 1}) {

@@ -3,10 +3,13 @@
 # from octahedron.obj with the meshstream CLI (build it first: make build):
 #   tests/data/vector/regenerate.sh [path/to/meshstream]
 # Writes octahedron-qp8-bundled.glb and its stream blob (the bufferView of
-# MESHSTREAM_progressive) as octahedron-qp8-bundled.msps. The test
-# (tests/progressive/test_vector_test.cc) does not run this: it checks that the
-# encoder still writes exactly these bytes. Regenerate only for a new format
-# version, and update the spec's hex walk-through with it.
+# MESHSTREAM_progressive) as octahedron-qp8-bundled.msps, in the current
+# format version (3). The test (tests/progressive/test_vector_test.cc) does not
+# run this: it checks that the encoder still writes exactly these bytes.
+# Regenerate only for a new format version, keep the old vector under its
+# version's name (-v2, -v1: the same command with --format-version 2 or 1,
+# written when that version was current), and update the spec's hex
+# walk-through with it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 cli="${1:-$here/../../../build/bin/meshstream}"
