@@ -401,7 +401,8 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
        ms::kAllTools & ~ms::kToolTexcoordPrediction & ~ms::kToolSeams},
       {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools & ~ms::kToolSeams},
       {"+ seam edges collapsed on both sides together", 2, ms::kVersion2Tools},
-      {"+ split bits in contexts of the reliable graph (version 3)", 3, ms::kAllTools},
+      {"+ split bits in contexts of the reliable graph (version 3)", 3, ms::kVersion2Tools | ms::kToolSplitContexts},
+      {"+ model modes: per slot a static table or a model adapted within each datagram", 3, ms::kAllTools},
   };
   json out = json::array();
   double previous = 0;

@@ -1379,7 +1379,8 @@ nlohmann::json MeasureModel(const std::string& name, int qp) {
   options.quantization.qp = qp;
   ms::DracoAttributeIds ids;
   const ms::ProgressiveEncoded e = ms::bench::EncodeWithDracoBase(*ms::bench::Primitives(scene)[0], options, &ids, name);
-  ms::StreamWriteOptions wo;  // today's defaults: version 2, all tools, split packing, 1200 bytes
+  ms::StreamWriteOptions wo;  // version 2 (the levers are priced against it), all its tools, split packing, 1200 bytes
+  wo.version = 2;
   const ms::ProgressiveStream stream = ms::bench::Check(ms::WriteStream(e, options.quantization, wo), name + ": WriteStream");
   const Replay R = Build(e, stream);
   nlohmann::json j;

@@ -198,7 +198,7 @@ Verb AddEncode(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,
                           "coding tools, comma-separated: all, none, geometry, frame, rank, normals, texcoords, "
-                          "seams (version 2 and later), splitbits (version 3) (docs/codec.md; fewer tools, larger "
+                          "seams (version 2 and later), splitbits, models (version 3) (docs/codec.md; fewer tools, larger "
                           "stream)")
               ->capture_default_str());
   FromEnv(cmd->add_option("--reliable-share", o.reliable_share,

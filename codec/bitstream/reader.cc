@@ -114,31 +114,57 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
     const Status pairs = SeamPartners(ref.split_vertices, state_.twin, &partner_);
     if (!pairs.ok()) return pairs.WithContext(where + ": split bits");
   }
-  // Models: per slot, a flag (0: the previous refinement's, 1: a new one follows).
+  // Models: per slot, a flag (0: the previous refinement's, 1: a new one
+  // follows), or with the model modes tool a mode (slot_model.h).
   const size_t slots = 5 + static_cast<size_t>(header_.grids.layout.channels());
-  // Only the fresh models are kept aside; a reused one stays where it is
+  const bool modes = header_.has(kToolModelModes);
+  // Only the new models are kept aside; a reused one stays where it is
   // (nothing is copied), and models_ changes only once the block is valid.
-  std::vector<StaticModel> models;
+  std::vector<SlotModel> models;
   std::vector<uint8_t> fresh_slots(slots, 0);
   for (size_t k = 0; k < slots; ++k) {
     // Named only when something is wrong (no string work per slot otherwise).
     auto slot = [&] {
       return where + ": model slot " + std::to_string(k) + " (" + ModelSlotName(k, header_.tools) + ")";
     };
-    auto flag = r.U8("model flag");
+    auto flag = r.U8(modes ? "model mode" : "model flag");
     if (!flag.ok()) return flag.status().WithContext(slot());
-    const uint8_t fresh = flag.value();
-    if (fresh > 1) return InvalidInput(slot() + ": model flag " + std::to_string(fresh) + " is not 0 or 1");
-    if (fresh) {
-      // Wings and ring offsets are below the maximum valence; signed values
-      // have kSignedSymbols symbols. A larger alphabet names nothing.
-      auto m = StaticModel::Parse(r, k < 2 ? kWingAlphabet : kSignedSymbols);
-      if (!m.ok()) return m.status().WithContext(slot());
-      models.push_back(std::move(m).value());
-      fresh_slots[k] = 1;
-    } else {
-      if (models_.size() != slots) return InvalidInput(slot() + ": model flag 0 reuses a model that was never sent");
+    const uint8_t mode = flag.value();
+    if (mode >= (modes ? kModelModes : 2)) {
+      return InvalidInput(slot() + (modes ? ": model mode " + std::to_string(mode) + " is not 0, 1, 2 or 3"
+                                          : ": model flag " + std::to_string(mode) + " is not 0 or 1"));
     }
+    if (mode == static_cast<uint8_t>(ModelMode::kReuse)) {
+      if (models_.size() != slots) {
+        return InvalidInput(slot() + (modes ? ": model mode 0" : ": model flag 0") +
+                            " reuses a model that was never sent");
+      }
+      continue;
+    }
+    // Wings and ring offsets are below the maximum valence; signed values
+    // have kSignedSymbols symbols. A larger alphabet names nothing.
+    const uint32_t alphabet = k < 2 ? kWingAlphabet : kSignedSymbols;
+    SlotModel m;
+    if (mode == static_cast<uint8_t>(ModelMode::kParametric)) {
+      auto x = r.U8("model parameter");
+      if (!x.ok()) return x.status().WithContext(slot());
+      if (x.value() >= kParametricParameters) {
+        return InvalidInput(slot() + ": model parameter " + std::to_string(x.value()) + " is out of range (0.." +
+                            std::to_string(kParametricParameters - 1) + ")");
+      }
+      m.adaptive = true;
+      m.prior = ParametricPrior(k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned, alphabet, x.value());
+    } else {
+      auto table = StaticModel::Parse(r, alphabet);
+      if (!table.ok()) return table.status().WithContext(slot());
+      m.table = std::move(table).value();
+      if (mode == static_cast<uint8_t>(ModelMode::kAdaptiveTable)) {
+        m.adaptive = true;
+        m.prior = TablePrior(m.table, alphabet);
+      }
+    }
+    models.push_back(std::move(m));
+    fresh_slots[k] = 1;
   }
   coding_ = SplitCoding{header_.tools, 0, 0};
   if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
@@ -211,6 +237,10 @@ bool StreamReader::OfferDatagram(const ParsedDatagram& d) {
   std::vector<int32_t>& twin_attrs = datagram_twin_attributes_;
   twin_wings.assign(seams ? h.count : 0, 0);
   twin_attrs.assign(seams && geometry ? size_t(h.count) * ch : 0, 0);
+  // Every datagram starts its adaptive models afresh (slot_model.h).
+  std::vector<SlotCoder>& coders = datagram_coders_;
+  coders.resize(models_.size());
+  for (size_t k = 0; k < coders.size(); ++k) coders[k].Reset(models_[k]);
   for (uint32_t i = 0; i < h.count; ++i) {
     const size_t j = h.offset + size_t(i) * h.stride;
     const bool seam = seams && partner_[j] != kNoTwin;
@@ -220,15 +250,15 @@ bool StreamReader::OfferDatagram(const ParsedDatagram& d) {
         wings[i][0] = static_cast<uint16_t>(dec.DecodeRaw(kSeamWingBits));
         twin_wings[i] = static_cast<uint16_t>(dec.DecodeRaw(kSeamWingBits));
       } else {
-        wings[i][0] = static_cast<uint16_t>(models_[0].Decode(dec));
-        wings[i][1] = static_cast<uint16_t>(models_[1].Decode(dec));
+        wings[i][0] = static_cast<uint16_t>(coders[0].Decode(dec));
+        wings[i][1] = static_cast<uint16_t>(coders[1].Decode(dec));
       }
     }
     if (geometry) {
-      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, models_[2 + c]);
-      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
+      for (int c = 0; c < 3; ++c) deltas[i][c] = DecodeSigned(dec, coders[2 + c]);
+      for (int c = 0; c < ch; ++c) attrs[size_t(i) * ch + c] = DecodeSigned(dec, coders[5 + c]);
       if (seam)
-        for (int c = 0; c < ch; ++c) twin_attrs[size_t(i) * ch + c] = DecodeSigned(dec, models_[5 + c]);
+        for (int c = 0; c < ch; ++c) twin_attrs[size_t(i) * ch + c] = DecodeSigned(dec, coders[5 + c]);
     }
   }
   // The payload must end with its last unit: a stray byte or a cut makes the

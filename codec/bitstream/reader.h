@@ -28,6 +28,7 @@
 #include "codec/progressive/refinement_state.h"
 #include "codec/recovery/recover_split.h"
 #include "codec/bitstream/format.h"
+#include "codec/bitstream/slot_model.h"
 #include "codec/progressive/split_bit_contexts.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/entropy/symbol_model.h"
@@ -93,13 +94,14 @@ class StreamReader {
   Refinement current_;  // what was applied
   SplitCoding coding_;
   std::vector<uint8_t> has_structure_, has_geometry_;
-  std::vector<StaticModel> models_;  // slots: wing, offset, position x y z, channels
+  std::vector<SlotModel> models_;  // slots: wing, offset, position x y z, channels
   // OfferDatagram's scratch: a datagram is decoded here before it is committed.
   std::vector<std::array<uint16_t, 2>> datagram_wings_;
   std::vector<Vec3i> datagram_deltas_;
   std::vector<int32_t> datagram_attributes_;
   std::vector<uint16_t> datagram_twin_wings_;
   std::vector<int32_t> datagram_twin_attributes_;
+  std::vector<SlotCoder> datagram_coders_;
   // Per split of the current refinement: its seam twin's split, or kNoTwin
   // (empty in a stream without the seams tool).
   std::vector<uint32_t> partner_;

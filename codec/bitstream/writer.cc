@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "codec/bitstream/slot_model.h"
 #include "codec/entropy/range_coder.h"
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/normal_prediction.h"
@@ -19,14 +20,11 @@ namespace {
 
 // The models of one refinement, by slot: wing, offset, position x, y, z,
 // then one per attribute channel. Each slot either carries a new model or
-// reuses the previous refinement's (when that costs fewer bits), see
+// reuses the previous refinement's (when that costs fewer bits); with the
+// model modes tool a new model may be adaptive (slot_model.h), see
 // docs/progressive-format.md, "Control block".
 struct RefinementModels {
-  std::vector<StaticModel> slots;
-  const StaticModel& wing() const { return slots[0]; }
-  const StaticModel& offset() const { return slots[1]; }
-  const StaticModel& position(int axis) const { return slots[2 + axis]; }
-  const StaticModel& attribute(int channel) const { return slots[5 + channel]; }
+  std::vector<SlotModel> slots;
 };
 
 // A refinement as the datagrams carry it: its splits and, per split, the
@@ -40,23 +38,33 @@ struct CodedRefinement {
   bool secondary(size_t j) const { return !interior(j) && partner[j] < j; }
 };
 
-std::vector<std::vector<uint64_t>> Histograms(const CodedRefinement& cr, int channels) {
+// The symbols split j puts in `slot`, in coding order (appended to `out`).
+void SlotSymbols(const CodedRefinement& cr, size_t j, size_t slot, int channels, std::vector<uint32_t>& out) {
   const Refinement& r = cr.r;
+  if (cr.secondary(j)) return;
+  if (slot < 2) {
+    if (cr.interior(j)) out.push_back(r.wings[j][slot]);  // a seam's wings are raw bits
+  } else if (slot < 5) {
+    out.push_back(SignedSymbol(r.position_delta[j][slot - 2]));
+  } else {
+    const size_t c = slot - 5;
+    out.push_back(SignedSymbol(r.attribute_delta[j * channels + c]));
+    if (!cr.interior(j)) out.push_back(SignedSymbol(r.attribute_delta[cr.partner[j] * channels + c]));
+  }
+}
+
+uint32_t SlotAlphabet(size_t slot) { return slot < 2 ? kWingAlphabet : kSignedSymbols; }
+
+std::vector<std::vector<uint64_t>> Histograms(const CodedRefinement& cr, int channels) {
   std::vector<std::vector<uint64_t>> h(5 + channels);
-  h[0].assign(kWingAlphabet, 0);
-  h[1].assign(kWingAlphabet, 0);
-  for (size_t k = 2; k < h.size(); ++k) h[k].assign(kSignedSymbols, 0);
-  for (size_t j = 0; j < r.split_count(); ++j) {
-    if (cr.secondary(j)) continue;
-    if (cr.interior(j)) {
-      ++h[0][r.wings[j][0]];
-      ++h[1][r.wings[j][1]];
+  std::vector<uint32_t> symbols;
+  for (size_t k = 0; k < h.size(); ++k) {
+    h[k].assign(SlotAlphabet(k), 0);
+    for (size_t j = 0; j < cr.r.split_count(); ++j) {
+      symbols.clear();
+      SlotSymbols(cr, j, k, channels, symbols);
+      for (uint32_t s : symbols) ++h[k][s];
     }
-    for (int k = 0; k < 3; ++k) ++h[2 + k][SignedSymbol(r.position_delta[j][k])];
-    for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[j * channels + k])];
-    if (cr.interior(j)) continue;
-    const size_t t = cr.partner[j];
-    for (int k = 0; k < channels; ++k) ++h[5 + k][SignedSymbol(r.attribute_delta[t * channels + k])];
   }
   return h;
 }
@@ -71,28 +79,102 @@ double CostWith(const StaticModel& m, const std::vector<uint64_t>& counts) {
   return bits;
 }
 
-// Chooses and writes the models of a refinement; `previous` is updated.
-RefinementModels WriteModels(const CodedRefinement& r, int channels, RefinementModels* previous, ByteWriter& w) {
+// The bits of `slot`'s symbols when every datagram (split j in datagram
+// j mod stride) starts an adaptive model from `prior`.
+double AdaptiveCost(const ModelPrior& prior, const CodedRefinement& cr, int channels, size_t slot, size_t stride) {
+  AdaptiveModel m;
+  std::vector<uint32_t> symbols;
+  double bits = 0;
+  const size_t k = cr.r.split_count();
+  for (size_t d = 0; d < stride && d < k; ++d) {
+    m.Reset(prior);
+    for (size_t j = d; j < k; j += stride) {
+      symbols.clear();
+      SlotSymbols(cr, j, slot, channels, symbols);
+      for (uint32_t s : symbols) {
+        bits += m.Cost(s);
+        m.Update(s);
+      }
+    }
+  }
+  return bits;
+}
+
+// Chooses and writes the models of a refinement; `previous` is the previous
+// refinement's (none for the first). With `modes` (the model modes tool) a
+// slot may be adaptive, priced with the datagrams dealt at `strides`
+// (structure slots, geometry slots).
+RefinementModels WriteModels(const CodedRefinement& r, int channels, const RefinementModels* previous, bool modes,
+                             const size_t strides[2], ByteWriter& w) {
   const auto histograms = Histograms(r, channels);
   RefinementModels chosen;
   for (size_t k = 0; k < histograms.size(); ++k) {
-    StaticModel fresh = StaticModel::FromCounts(histograms[k]);
+    const std::vector<uint64_t>& h = histograms[k];
+    StaticModel fresh = StaticModel::FromCounts(h);
     ByteWriter serialized;
     fresh.Serialize(serialized);
-    const double fresh_bits = CostWith(fresh, histograms[k]) + 8.0 * serialized.size();
-    const bool reuse = previous && CostWith(previous->slots[k], histograms[k]) < fresh_bits;
-    w.U8(reuse ? 0 : 1);
-    if (reuse) {
-      chosen.slots.push_back(previous->slots[k]);
-    } else {
-      w.Bytes(serialized.bytes());
-      chosen.slots.push_back(std::move(fresh));
+    const double table_bits = 8.0 * serialized.size();
+    const double fresh_bits = CostWith(fresh, h) + table_bits;
+    const SlotModel* before = previous ? &previous->slots[k] : nullptr;
+    const size_t stride = strides[k < 2 ? 0 : 1];
+    if (!modes) {
+      const bool reuse = before && CostWith(before->table, h) < fresh_bits;
+      w.U8(reuse ? 0 : 1);
+      if (reuse) {
+        chosen.slots.push_back(*before);
+      } else {
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{false, std::move(fresh), {}});
+      }
+      continue;
+    }
+    // Every mode priced in bits, its mode byte and what follows it included.
+    const SymbolKind kind = k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned;
+    const uint32_t alphabet = SlotAlphabet(k);
+    double best = 8.0 + fresh_bits;
+    ModelMode mode = ModelMode::kTable;
+    if (before) {
+      const double reuse = 8.0 + (before->adaptive ? AdaptiveCost(before->prior, r, channels, k, stride)
+                                                   : CostWith(before->table, h));
+      if (reuse < best) {
+        best = reuse;
+        mode = ModelMode::kReuse;
+      }
+    }
+    const uint32_t parameter = BestParameter(kind, h);
+    ModelPrior parametric = ParametricPrior(kind, alphabet, parameter);
+    const double parametric_bits = 16.0 + AdaptiveCost(parametric, r, channels, k, stride);
+    if (parametric_bits < best) {
+      best = parametric_bits;
+      mode = ModelMode::kParametric;
+    }
+    ModelPrior from_table = TablePrior(fresh, alphabet);
+    if (8.0 + table_bits + AdaptiveCost(from_table, r, channels, k, stride) < best) mode = ModelMode::kAdaptiveTable;
+    w.U8(static_cast<uint8_t>(mode));
+    switch (mode) {
+      case ModelMode::kReuse:
+        chosen.slots.push_back(*before);
+        // An adaptive slot's table is only the writer's estimate: this refinement's.
+        if (before->adaptive) chosen.slots.back().table = std::move(fresh);
+        break;
+      case ModelMode::kTable:
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{false, std::move(fresh), {}});
+        break;
+      case ModelMode::kParametric:
+        w.U8(static_cast<uint8_t>(parameter));
+        chosen.slots.push_back(SlotModel{true, std::move(fresh), std::move(parametric)});
+        break;
+      case ModelMode::kAdaptiveTable:
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{true, std::move(fresh), std::move(from_table)});
+        break;
     }
   }
   return chosen;
 }
 
-void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const CodedRefinement& cr, size_t j) {
+void EncodeStructure(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j) {
   const Refinement& r = cr.r;
   if (cr.secondary(j)) return;
   if (!cr.interior(j)) {
@@ -100,36 +182,53 @@ void EncodeStructure(RangeEncoder& enc, const RefinementModels& m, const CodedRe
     enc.EncodeRaw(r.wings[cr.partner[j]][0], kSeamWingBits);
     return;
   }
-  m.wing().Encode(enc, r.wings[j][0]);
-  m.offset().Encode(enc, r.wings[j][1]);
+  m[0].Encode(enc, r.wings[j][0]);
+  m[1].Encode(enc, r.wings[j][1]);
 }
 
-void EncodeGeometry(RangeEncoder& enc, const RefinementModels& m, const CodedRefinement& cr, size_t j, int channels) {
+void EncodeGeometry(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j, int channels) {
   const Refinement& r = cr.r;
   if (cr.secondary(j)) return;
-  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m.position(k), r.position_delta[j][k]);
-  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[j * channels + k]);
+  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m[2 + k], r.position_delta[j][k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[j * channels + k]);
   if (cr.interior(j)) return;
   const size_t t = cr.partner[j];
-  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m.attribute(k), r.attribute_delta[t * channels + k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[t * channels + k]);
 }
 
+// A split's bits in a datagram of `kind`, estimated with each slot's table
+// (an adaptive slot's: its symbols' counts in this refinement).
 double UnitCost(const RefinementModels& m, const CodedRefinement& cr, size_t j, int channels, DatagramKind kind) {
   const Refinement& r = cr.r;
   if (cr.secondary(j)) return 0;
+  auto slot = [&m](size_t k) -> const StaticModel& { return m.slots[k].table; };
   double bits = 0;
   const bool seam = !cr.interior(j);
   if (kind != DatagramKind::kGeometry) {
-    bits += seam ? 2 * kSeamWingBits : m.wing().Cost(r.wings[j][0]) + m.offset().Cost(r.wings[j][1]);
+    bits += seam ? 2 * kSeamWingBits : slot(0).Cost(r.wings[j][0]) + slot(1).Cost(r.wings[j][1]);
   }
   if (kind != DatagramKind::kStructure) {
-    for (int k = 0; k < 3; ++k) bits += SignedCost(m.position(k), r.position_delta[j][k]);
-    for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[j * channels + k]);
+    for (int k = 0; k < 3; ++k) bits += SignedCost(slot(2 + k), r.position_delta[j][k]);
+    for (int k = 0; k < channels; ++k) bits += SignedCost(slot(5 + k), r.attribute_delta[j * channels + k]);
     if (seam) {
       const size_t t = cr.partner[j];
-      for (int k = 0; k < channels; ++k) bits += SignedCost(m.attribute(k), r.attribute_delta[t * channels + k]);
+      for (int k = 0; k < channels; ++k) bits += SignedCost(slot(5 + k), r.attribute_delta[t * channels + k]);
     }
   }
+  return bits;
+}
+
+// The first number of datagrams Packetize tries for a refinement of k
+// splits whose units of one kind take about `bits`.
+size_t FirstStride(double bits, size_t k, const StreamWriteOptions& o) {
+  const double capacity = std::max(8.0, double(o.packet_bytes) - 24.0);  // header and coder flush
+  const size_t stride = std::max<size_t>(1, static_cast<size_t>(std::ceil(bits / 8.0 / (capacity * 0.92))));
+  return std::min(stride, std::max<size_t>(k, 1));
+}
+
+double KindBits(const RefinementModels& m, const CodedRefinement& r, int channels, DatagramKind kind) {
+  double bits = 0;
+  for (size_t j = 0; j < r.r.split_count(); ++j) bits += UnitCost(m, r, j, channels, kind);
   return bits;
 }
 
@@ -139,11 +238,8 @@ std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Cod
   const size_t k = r.r.split_count();
   std::vector<std::vector<uint8_t>> out;
   if (k == 0) return out;
-  double bits = 0;
-  for (size_t j = 0; j < k; ++j) bits += UnitCost(m, r, j, channels, kind);
-  const double capacity = std::max(8.0, double(o.packet_bytes) - 24.0);  // header and coder flush
-  size_t stride = std::max<size_t>(1, static_cast<size_t>(std::ceil(bits / 8.0 / (capacity * 0.92))));
-  stride = std::min(stride, k);
+  size_t stride = FirstStride(KindBits(m, r, channels, kind), k, o);
+  std::vector<SlotCoder> coders(m.slots.size());
   for (;;) {
     out.clear();
     bool fits = true;
@@ -159,9 +255,10 @@ std::vector<std::vector<uint8_t>> Packetize(const RefinementModels& m, const Cod
       ByteWriter w;
       h.Serialize(w);
       RangeEncoder enc;
+      for (size_t s = 0; s < coders.size(); ++s) coders[s].Reset(m.slots[s]);  // every datagram starts afresh
       for (size_t j = d; j < k; j += stride) {
-        if (kind != DatagramKind::kGeometry) EncodeStructure(enc, m, r, j);
-        if (kind != DatagramKind::kStructure) EncodeGeometry(enc, m, r, j, channels);
+        if (kind != DatagramKind::kGeometry) EncodeStructure(enc, coders, r, j);
+        if (kind != DatagramKind::kStructure) EncodeGeometry(enc, coders, r, j, channels);
       }
       w.Bytes(enc.Finish());
       if (w.size() > o.packet_bytes) fits = false;
@@ -405,7 +502,22 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
       cw.Block(EncodeSplitBits(bits, history, twins));
       history = history.Next(bits);
     }
-    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, cw);
+    // With the model modes tool, the datagram counts the static estimate gives price the adaptive modes.
+    size_t strides[2] = {1, 1};
+    const bool modes = h.has(kToolModelModes);
+    if (modes) {
+      RefinementModels estimate;
+      for (const auto& histogram : Histograms(r, channels))
+        estimate.slots.push_back(SlotModel{false, StaticModel::FromCounts(histogram), {}});
+      const size_t k = plain.split_count();
+      if (o.packing == Packing::kBundled) {
+        strides[0] = strides[1] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kBundled), k, o);
+      } else {
+        strides[0] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kStructure), k, o);
+        strides[1] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kGeometry), k, o);
+      }
+    }
+    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, modes, strides, cw);
     if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));
     s.control.push_back(std::move(cw.bytes()));
     previous = models;

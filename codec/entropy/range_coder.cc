@@ -45,6 +45,16 @@ void RangeEncoder::Encode(uint32_t cum, uint32_t freq, int total_bits) {
   }
 }
 
+void RangeEncoder::EncodeFrequency(uint32_t cum, uint32_t freq, uint32_t total) {
+  const uint32_t r = range_ / total;
+  low_ += static_cast<uint64_t>(r) * cum;
+  range_ = r * freq;
+  while (range_ < kTop) {
+    range_ <<= 8;
+    ShiftLow();
+  }
+}
+
 void RangeEncoder::EncodeRaw(uint32_t value, int bits) {
   Encode(value & ((1u << bits) - 1u), 1, bits);
 }
@@ -107,6 +117,12 @@ uint32_t RangeDecoder::Peek(int total_bits) {
   const uint32_t v = code_ / pending_range_;
   const uint32_t max = (1u << total_bits) - 1u;
   return v > max ? max : v;
+}
+
+uint32_t RangeDecoder::PeekFrequency(uint32_t total) {
+  pending_range_ = range_ / total;
+  const uint32_t v = code_ / pending_range_;
+  return v >= total ? total - 1 : v;
 }
 
 void RangeDecoder::Consume(uint32_t cum, uint32_t freq) {

@@ -34,6 +34,9 @@ class RangeEncoder {
   void EncodeBit(BitModel& model, int bit);
   // A symbol of a static model: [cum, cum + freq) out of 2^total_bits.
   void Encode(uint32_t cum, uint32_t freq, int total_bits);
+  // A symbol of a model whose frequencies sum to `total` (at most 2^16):
+  // [cum, cum + freq) out of total (adaptive_model.h).
+  void EncodeFrequency(uint32_t cum, uint32_t freq, uint32_t total);
   // `bits` raw bits (at most 16), equiprobable.
   void EncodeRaw(uint32_t value, int bits);
   // A value in [0, n) with n <= 2^16, equiprobable.
@@ -58,6 +61,9 @@ class RangeDecoder {
   // then call Consume with that symbol's cum and freq.
   uint32_t Peek(int total_bits);
   void Consume(uint32_t cum, uint32_t freq);
+  // The same for a model whose frequencies sum to `total` (at most 2^16):
+  // a value in [0, total), then Consume.
+  uint32_t PeekFrequency(uint32_t total);
   uint32_t DecodeRaw(int bits);
   // A value in [0, n); values >= n from hostile bytes are clamped to n - 1.
   uint32_t DecodeUniform(uint32_t n);

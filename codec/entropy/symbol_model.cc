@@ -100,10 +100,7 @@ double StaticModel::Cost(uint32_t symbol) const {
   return kModelBits - std::log2(double(freq_[symbol]));
 }
 
-void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v) {
-  const uint32_t symbol = SignedSymbol(v);
-  model.Encode(enc, symbol);
-  if (symbol < kDirectSymbols) return;
+void EncodeSignedRest(RangeEncoder& enc, uint32_t symbol, int32_t v) {
   const uint32_t z = ZigZag(v);
   int bits = static_cast<int>((symbol - kDirectSymbols) / 2 + 5) - 2;  // L - 2
   uint32_t rest = z & ((bits >= 32) ? 0xFFFFFFFFu : ((1u << bits) - 1u));
@@ -115,11 +112,9 @@ void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v) {
   enc.EncodeRaw(rest, bits);
 }
 
-int32_t DecodeSigned(RangeDecoder& dec, const StaticModel& model) {
-  const uint32_t symbol = model.Decode(dec);
-  if (symbol < kDirectSymbols) return UnZigZag(symbol);
-  // Unreachable from a stream: the reader parses signed-value models with at
-  // most kSignedSymbols symbols (docs/progressive-format.md, section 5).
+int32_t DecodeSignedRest(RangeDecoder& dec, uint32_t symbol) {
+  // Unreachable from a stream: the reader's signed-value models have at most
+  // kSignedSymbols symbols (docs/progressive-format.md, section 5).
   if (symbol >= kSignedSymbols) return 0;
   const uint32_t length = (symbol - kDirectSymbols) / 2 + 5;
   const uint32_t second = (symbol - kDirectSymbols) & 1;

@@ -47,6 +47,8 @@ class StaticModel {
   double Cost(uint32_t symbol) const;
   uint32_t alphabet() const { return static_cast<uint32_t>(freq_.size()); }
   bool Has(uint32_t symbol) const { return symbol < freq_.size() && freq_[symbol] > 0; }
+  // The symbol's frequency out of 2^kModelBits (0 when absent).
+  uint32_t Frequency(uint32_t symbol) const { return symbol < freq_.size() ? freq_[symbol] : 0; }
 
  private:
   void Build();
@@ -73,8 +75,26 @@ inline uint32_t SignedSymbol(int32_t v) {
   return kDirectSymbols + 2 * (length - 5) + ((z >> (length - 2)) & 1);
 }
 
-void EncodeSigned(RangeEncoder& enc, const StaticModel& model, int32_t v);
-int32_t DecodeSigned(RangeDecoder& dec, const StaticModel& model);
+// The raw bits after a signed value's symbol (symbol >= kDirectSymbols).
+void EncodeSignedRest(RangeEncoder& enc, uint32_t symbol, int32_t v);
+int32_t DecodeSignedRest(RangeDecoder& dec, uint32_t symbol);
+inline uint32_t SignedRestBits(uint32_t symbol) {
+  return symbol < kDirectSymbols ? 0 : (symbol - kDirectSymbols) / 2 + 3;
+}
+
+// A signed value with any model that has Encode(enc, symbol) and
+// Decode(dec) (StaticModel, AdaptiveModel).
+template <class Model>
+void EncodeSigned(RangeEncoder& enc, Model& model, int32_t v) {
+  const uint32_t symbol = SignedSymbol(v);
+  model.Encode(enc, symbol);
+  if (symbol >= kDirectSymbols) EncodeSignedRest(enc, symbol, v);
+}
+template <class Model>
+int32_t DecodeSigned(RangeDecoder& dec, Model& model) {
+  const uint32_t symbol = model.Decode(dec);
+  return symbol < kDirectSymbols ? UnZigZag(symbol) : DecodeSignedRest(dec, symbol);
+}
 double SignedCost(const StaticModel& model, int32_t v);
 
 }  // namespace meshstream

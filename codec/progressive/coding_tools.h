@@ -4,7 +4,7 @@
 // texture coordinates or colours); each can be turned off
 // (StreamWriteOptions::tools) to measure what it saves (docs/codec.md). A
 // version 1 stream has no tools; version 2 defines bits 0-5 (one byte in its
-// header), version 3 bits 0-6 (two bytes).
+// header), version 3 bits 0-7 (two bytes).
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 
@@ -25,10 +25,11 @@ enum StreamTool : ToolSet {
   kToolTexcoordPrediction = 16, // texture coordinates and colours predicted by the ring's map (texcoord_prediction.h)
   kToolSeams = 32,              // seam edges collapsed on both sides together (seam_twins.h); header lists base twins
   kToolSplitContexts = 64,      // version 3: split bits in contexts of the reliable graph (split_bit_contexts.h)
+  kToolModelModes = 128,        // version 3: per slot a static table or a model adapted within each datagram (slot_model.h)
 };
 constexpr ToolSet kVersion2Tools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank |
                                    kToolAttributePrediction | kToolTexcoordPrediction | kToolSeams;
-constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts;
+constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts | kToolModelModes;
 constexpr ToolSet kAllTools = kVersion3Tools;
 
 // The tools a stream of `version` may carry (0 for version 1, and for an
@@ -46,7 +47,7 @@ struct ToolName {
 constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
     {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
-    {kToolSplitContexts, "splitbits"},
+    {kToolSplitContexts, "splitbits"},     {kToolModelModes, "models"},
 };
 
 // The names of the tools set in `tools`, in bit order.

@@ -243,7 +243,7 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json none = RunJson("encode --json --tools none " + src + " -o " + Quote(dir.File("none.glb")));
   const json two = RunJson("encode --json --tools geometry,rank " + src + " -o " + Quote(dir.File("two.glb")));
   // fandisk has normals but no texture coordinates: no texcoords tool.
-  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals", "splitbits"})) << all.dump();
+  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals", "splitbits", "models"})) << all.dump();
   EXPECT_EQ(none["tools"], json::array()) << none.dump();
   EXPECT_EQ(two["tools"], json::array({"geometry", "rank"})) << two.dump();
   EXPECT_EQ(U(none, "format_version"), 3u);
@@ -262,7 +262,7 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json seams = RunJson("encode --json " + spot + " -o " + Quote(dir.File("seams.glb")));
   const json kept = RunJson("encode --json --tools geometry,frame,rank,texcoords " + spot + " -o " +
                             Quote(dir.File("kept.glb")));
-  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams", "splitbits"}))
+  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams", "splitbits", "models"}))
       << seams.dump();
   EXPECT_EQ(kept["tools"], json::array({"geometry", "frame", "rank", "texcoords"})) << kept.dump();
   EXPECT_LT(U(seams, "base_vertices") * 2, U(kept, "base_vertices"));

@@ -80,21 +80,21 @@ TEST(FormatRefusal, StreamHeaderFields) {
   const Bytes& h = TheVector().stream.header;
   EXPECT_EQ(HeaderError(Patched(h, 0, 4)), "stream header: version 4 is not 1, 2 or 3");
   EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1, 2 or 3");
-  // Tools: two bytes, little-endian; bits 7-15 reserved.
-  EXPECT_EQ(h[kTools], 0x4F);
+  // Tools: two bytes, little-endian; bits 8-15 reserved.
+  EXPECT_EQ(h[kTools], 0xCF);
   EXPECT_EQ(h[kTools + 1], 0x00);
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCF)), "stream header: tools 207 has bits set that version 3 reserves");
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x01)), "stream header: tools 335 has bits set that version 3 reserves");
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x80)), "stream header: tools 32847 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x01)), "stream header: tools 463 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x80)), "stream header: tools 32975 has bits set that version 3 reserves");
   // Bit 5 (seams) announces the seam twins after the fix-ups, which this header does not have.
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x6F)), "stream header: seam twin count: truncated at byte " +
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xEF)), "stream header: seam twin count: truncated at byte " +
                                                        std::to_string(h.size()));
   // Bit 4 without texture coordinates or colours is accepted (it predicts nothing).
-  EXPECT_EQ(HeaderError(Patched(h, kTools, 0x5F)), "accepted");
-  // Bit 6 is version 3's: a version 2 header (one tool byte) refuses it.
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xDF)), "accepted");
+  // Bits 6 and 7 are version 3's: a version 2 header (one tool byte) refuses them.
   Bytes v2 = Patched(h, 0, 2);
   v2.erase(v2.begin() + kTools + 1);
-  EXPECT_EQ(HeaderError(v2), "stream header: tools 79 has bits set that version 2 reserves");
+  EXPECT_EQ(HeaderError(v2), "stream header: tools 207 has bits set that version 2 reserves");
+  EXPECT_EQ(HeaderError(Patched(v2, kTools, 0x8F)), "stream header: tools 143 has bits set that version 2 reserves");
   EXPECT_EQ(HeaderError(Patched(v2, kTools, 0x0F)), "accepted");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 255)), "stream header: packing 255 is reserved");
@@ -172,8 +172,9 @@ TEST(FormatRefusal, StreamBlob) {
 }
 
 // The control block of refinement 0 cut into its parts: the split-bit block
-// (with its length), per model slot its flag and model bytes, and what
-// follows the slots (the alpha byte of version 2's geometry prediction).
+// (with its length), per model slot its mode and what follows it (a table or
+// a parameter), and what follows the slots (the alpha byte of the geometry
+// prediction).
 struct ControlParts {
   Bytes split_bits;
   std::vector<Bytes> slots;
@@ -194,8 +195,9 @@ ControlParts Cut(const Bytes& control) {
   parts.split_bits.assign(control.begin(), control.begin() + r.position());
   for (int k = 0; k < 5; ++k) {
     const size_t start = r.position();
-    r.U8("flag").value();
-    StaticModel::Parse(r).value();
+    const uint8_t mode = r.U8("mode").value();
+    if (mode == static_cast<uint8_t>(ModelMode::kParametric)) r.U8("parameter").value();
+    else StaticModel::Parse(r).value();
     parts.slots.emplace_back(control.begin() + start, control.begin() + r.position());
   }
   parts.tail.assign(control.begin() + r.position(), control.end());
@@ -228,13 +230,36 @@ TEST(FormatRefusal, ControlBlock) {
   p.split_bits.pop_back();
   EXPECT_NE(ControlError(p.Join()).find("refinement 0: split bits"), std::string::npos) << ControlError(p.Join());
 
-  // Model flags: 2 is reserved; 0 (reuse) in refinement 0 names no model.
-  p = parts;
-  p.slots[3][0] = 2;
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 3 (position, second tangential): model flag 2 is not 0 or 1");
+  // Model modes (version 3's model modes tool): every slot of the vector is
+  // adaptive from a parameter (mode 2); 4 and above are reserved; 0 (reuse)
+  // in refinement 0 names no model; a parameter names one of 160 members.
+  for (const Bytes& slot : parts.slots) {
+    ASSERT_EQ(slot.size(), 2u);
+    EXPECT_EQ(slot[0], 2);
+  }
+  for (uint8_t mode : {4, 5, 255}) {
+    p = parts;
+    p.slots[3][0] = mode;
+    EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 3 (position, second tangential): model mode " +
+                                          std::to_string(mode) + " is not 0, 1, 2 or 3");
+  }
   p = parts;
   p.slots[1] = {0};
-  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (cut rank, high digit): model flag 0 reuses a model that was never sent");
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 1 (cut rank, high digit): model mode 0 reuses a model that was never sent");
+  p = parts;
+  p.slots[2][1] = 159;
+  EXPECT_EQ(ControlError(p.Join()), "accepted");
+  p.slots[2][1] = 160;
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 2 (position, first tangential): model parameter 160 is out of range (0..159)");
+  const Bytes no_parameter(control.begin(), control.end() - 2);  // slot 4's parameter and the alpha cut off
+  EXPECT_EQ(ControlError(no_parameter).rfind("refinement 0: model slot 4 (position, normal): model parameter: truncated", 0), 0u)
+      << ControlError(no_parameter);
+  // Mode 3: adaptive from a table, parsed as a table.
+  p = parts;
+  p.slots[4] = {3, 3, 0x1F, 0x01};
+  EXPECT_EQ(ControlError(p.Join()), "accepted");
+  p.slots[4] = {3, 73, 0x01};
+  EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 4 (position, normal): model alphabet size 73 is out of range (1..72)");
 
   // Alphabets: 0 is reserved, wings have at most 16 symbols, signed values 72.
   auto model = [](uint8_t n, uint8_t fill) {

@@ -66,6 +66,7 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
                               {3, kAllTools & ~kToolTexcoordPrediction},
                               {3, kAllTools & ~kToolSeams},
                               {3, kAllTools & ~kToolSplitContexts},
+                              {3, kAllTools & ~kToolModelModes},
                               // Each tool alone too: a tool must not rely on
                               // work another one does (the ring's frame).
                               {3, kToolGeometryPrediction},
@@ -73,6 +74,7 @@ TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
                               {3, kToolAttributePrediction},
                               {3, kToolSeams},
                               {3, kToolSplitContexts},
+                              {3, kToolModelModes},
                               {3, 0},
                               // Version 2 carries the tools it defines (asked for all of them).
                               {2, kAllTools},
