@@ -192,9 +192,11 @@ def edit_header(blob, edit):
 
 
 def header_counts_at(header):
-    """Offset of the base vertex count in a stream header."""
-    sets, colours = header[23], header[24]
-    return 25 + 12 * sets + (20 if colours else 0)
+    """Offset of the base vertex count in a stream header (the tools field:
+    none in version 1, one byte in version 2, two in version 3)."""
+    tools = {1: 0, 2: 1, 3: 2}[header[0]]
+    sets, colours = header[22 + tools], header[23 + tools]
+    return 24 + tools + 12 * sets + (20 if colours else 0)
 
 
 def with_base_vertices(header, count):
