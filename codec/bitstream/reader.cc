@@ -194,7 +194,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   coded_ = ref;
   current_ = std::move(ref);  // its split vertices now, its data once the refinement is finished
   if (contexts) {
-    split_contexts_.Advance(decoded);
+    split_contexts_.Advance(std::move(decoded));
   } else {
     history_ = history_.Next(split);
   }

@@ -7,12 +7,6 @@
 
 namespace meshstream {
 
-namespace {
-
-constexpr int kInferred = SplitBitContexts::kContexts - 1;
-
-}  // namespace
-
 Status SplitBitContexts::Reset(uint32_t base_vertices, const std::vector<uint32_t>& base_indices) {
   if (base_indices.size() % 3 != 0) return InvalidArgument("split bit contexts: the base's index count is not a multiple of 3");
   for (size_t k = 0; k < base_indices.size(); ++k) {
@@ -52,51 +46,35 @@ Status SplitBitContexts::Reset(uint32_t base_vertices, const std::vector<uint32_
   base_adjacent_.shrink_to_fit();
   event_.assign(base_vertices, kBase);
   link_.assign(base_vertices, kNoLink);
-  previous_bits_.clear();
+  linked_.assign(base_vertices, 0);
+  previous_bits_.assign(base_vertices, 0);  // refinement 0: "its bit in refinement -1" is 0
   previous_start_ = UINT32_MAX;
   refinement_ = 0;
   models_.fill(BitModel{});
   return Status::Ok();
 }
 
-int SplitBitContexts::Context(uint32_t v, const std::vector<uint8_t>& bits) const {
-  int degree = 0;
-  bool neighbour_splits = false;
-  if (event_[v] == kBase) {
-    for (uint32_t k = base_offsets_[v]; k < base_offsets_[v + 1]; ++k) {
-      const uint32_t u = base_adjacent_[k];
-      if (event_[u] != kBase) continue;  // split since: the edge is no longer known
-      ++degree;
-      neighbour_splits |= u < v && bits[u];
-    }
-  } else if (LinkHolds(v)) {
-    degree = 1;
-    neighbour_splits = link_[v] < v && bits[link_[v]];
-  }
-  if (neighbour_splits) return kInferred;
-  const int since = std::min(refinement_ - 1 - event_[v], 4);
-  // Made by refinement i - 1: its parent (its link, a smaller id) has its bit already.
-  const int related = v >= previous_start_ ? bits[link_[v]] : previous_bits_.empty() ? 0 : previous_bits_[v];
-  return (since * 2 + related) * 4 + std::min(degree, 3);
-}
+int SplitBitContexts::Context(uint32_t v, const std::vector<uint8_t>& bits) const { return ContextOf(v, bits.data()); }
 
-void SplitBitContexts::Record(const std::vector<uint8_t>& bits) {
+void SplitBitContexts::Record(std::vector<uint8_t> bits) {
   const uint32_t before = vertices();
-  uint32_t made = before;
-  for (uint32_t v = 0; v < before; ++v)
-    if (bits[v]) ++made;
+  const size_t made = before + static_cast<size_t>(std::count(bits.begin(), bits.end(), uint8_t{1}));
   event_.resize(made);
   link_.resize(made);
+  linked_.resize(made);
   const int16_t now = static_cast<int16_t>(refinement_);
-  for (uint32_t v = 0, n = before; v < before; ++v) {
-    if (!bits[v]) continue;
-    event_[v] = now;
-    link_[v] = n;
+  for (uint32_t w = 0, n = before; w < before; ++w) {
+    if (!bits[w]) continue;
+    if (linked_[w]) linked_[link_[w]] = 0;  // its old partner's edge is no longer known
+    event_[w] = now;
+    link_[w] = n;
+    linked_[w] = 1;
     event_[n] = now;
-    link_[n] = v;
+    link_[n] = w;
+    linked_[n] = 1;
     ++n;
   }
-  previous_bits_ = bits;
+  previous_bits_ = std::move(bits);
   previous_start_ = before;
   ++refinement_;
 }
@@ -105,7 +83,7 @@ std::vector<uint8_t> SplitBitContexts::Encode(const std::vector<uint8_t>& bits, 
   RangeEncoder enc;
   for (uint32_t v = 0; v < bits.size(); ++v) {
     if (TwinWithSmallerId(v, twin) != kNoTwin) continue;
-    enc.EncodeBit(models_[Context(v, bits)], bits[v]);
+    enc.EncodeBit(models_[ContextOf(v, bits.data())], bits[v]);
   }
   Record(bits);
   return enc.Finish();
@@ -121,7 +99,7 @@ StatusOr<SplitBitContexts::Decoded> SplitBitContexts::Decode(const uint8_t* data
   bits.assign(n, 0);
   for (uint32_t v = 0; v < n; ++v) {
     const uint32_t from = TwinWithSmallerId(v, twin);
-    bits[v] = from != kNoTwin ? bits[from] : static_cast<uint8_t>(dec.DecodeBit(out.models[Context(v, bits)]));
+    bits[v] = from != kNoTwin ? bits[from] : static_cast<uint8_t>(dec.DecodeBit(out.models[ContextOf(v, bits.data())]));
   }
   if (dec.overran()) return InvalidInput("split bits are truncated");
   if (!dec.ended_exactly()) {
@@ -131,9 +109,9 @@ StatusOr<SplitBitContexts::Decoded> SplitBitContexts::Decode(const uint8_t* data
   return out;
 }
 
-void SplitBitContexts::Advance(const Decoded& decoded) {
+void SplitBitContexts::Advance(Decoded decoded) {
   models_ = decoded.models;
-  Record(decoded.bits);
+  Record(std::move(decoded.bits));
 }
 
 }  // namespace meshstream

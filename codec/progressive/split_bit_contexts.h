@@ -33,7 +33,7 @@
 // refinement of it passes once, in order, after Reset (Encode, or Decode
 // then Advance). Decode changes nothing, so a refused block leaves the
 // coder as it was; it is safe on hostile bytes (fails on overrun and on a
-// block whose bytes do not end with its last bit). Memory: 6 bytes per
+// block whose bytes do not end with its last bit). Memory: 7 bytes per
 // vertex plus the base's adjacency. Thread safety: one coder per stream.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_BIT_CONTEXTS_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_SPLIT_BIT_CONTEXTS_H_
@@ -70,7 +70,7 @@ class SplitBitContexts {
   // The bits of the next refinement; the coder is unchanged until Advance.
   StatusOr<Decoded> Decode(const uint8_t* data, size_t size, const std::vector<uint32_t>* twin = nullptr) const;
   // Moves on to the next refinement with what Decode returned.
-  void Advance(const Decoded& decoded);
+  void Advance(Decoded decoded);
 
   uint32_t vertices() const { return static_cast<uint32_t>(event_.size()); }
   // The context of v in the refinement being coded, given the bits of the
@@ -81,8 +81,30 @@ class SplitBitContexts {
   static constexpr uint32_t kNoLink = UINT32_MAX;
   static constexpr int16_t kBase = -1;
   // Records a refinement's bits: the graph and the ages move on.
-  void Record(const std::vector<uint8_t>& bits);
-  bool LinkHolds(uint32_t v) const { return link_[v] != kNoLink && link_[link_[v]] == v; }
+  void Record(std::vector<uint8_t> bits);
+  // Context() on the bits decided so far (the hot loop's form).
+  int ContextOf(uint32_t v, const uint8_t* bits) const {
+    const int16_t event = event_[v];
+    int degree = 0;
+    bool neighbour_splits = false;
+    if (event == kBase) {
+      for (uint32_t k = base_offsets_[v], end = base_offsets_[v + 1]; k < end; ++k) {
+        const uint32_t u = base_adjacent_[k];
+        if (event_[u] != kBase) continue;  // split since: the edge is no longer known
+        ++degree;
+        neighbour_splits |= u < v && bits[u];
+      }
+    } else if (linked_[v]) {
+      degree = 1;
+      const uint32_t u = link_[v];
+      neighbour_splits = u < v && bits[u];
+    }
+    if (neighbour_splits) return kContexts - 1;
+    const int since = refinement_ - 1 - event;
+    // Made by refinement i - 1: its parent (its link, a smaller id) has its bit already.
+    const int related = v >= previous_start_ ? bits[link_[v]] : previous_bits_[v];
+    return ((since < 4 ? since : 4) * 2 + related) * 4 + (degree < 3 ? degree : 3);
+  }
 
   int refinement_ = 0;  // the refinement being coded
   // The base's adjacency (CSR): neighbours of base vertex v are
@@ -90,6 +112,7 @@ class SplitBitContexts {
   std::vector<uint32_t> base_offsets_, base_adjacent_;
   std::vector<int16_t> event_;   // refinement that last split or made the vertex; kBase
   std::vector<uint32_t> link_;   // the other end of that event's edge; kNoLink for a base vertex
+  std::vector<uint8_t> linked_;  // 1 while the link holds (neither end has split since): link_[link_[v]] == v
   std::vector<uint8_t> previous_bits_;  // refinement i - 1's bits
   uint32_t previous_start_ = UINT32_MAX;  // first vertex made by refinement i - 1
   Models models_{};
