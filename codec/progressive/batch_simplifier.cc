@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <numeric>
+#include <type_traits>
 
 #include "codec/progressive/seam_twins.h"
 
@@ -21,6 +24,75 @@ struct Candidate {
   double cost;
   uint32_t u, v_flags;
   uint32_t v() const { return v_flags & ~kKnownIllegal; }
+};
+
+// The candidate list: an array of trivially copyable records that gives
+// memory back without copying. The list only shrinks after it is built (a
+// batch replaces the edges it dropped by fewer), while the batches grow;
+// std::vector's shrink_to_fit would hold the old and the new block at once,
+// which at the first shrink is above the simplifier's peak. realloc to a
+// smaller size keeps the block (it frees the tail, or remaps the pages).
+template <typename T>
+class ShrinkableArray {
+  static_assert(std::is_trivially_copyable_v<T>);
+
+ public:
+  ShrinkableArray() = default;
+  ShrinkableArray(const ShrinkableArray&) = delete;
+  ShrinkableArray& operator=(const ShrinkableArray&) = delete;
+  ~ShrinkableArray() { std::free(data_); }
+
+  T* begin() { return data_; }
+  T* end() { return data_ + size_; }
+  const T* begin() const { return data_; }
+  const T* end() const { return data_ + size_; }
+  T& operator[](size_t i) { return data_[i]; }
+  size_t size() const { return size_; }
+  size_t capacity() const { return capacity_; }
+
+  void clear() { size_ = 0; }
+  void push_back(const T& x) {
+    if (size_ == capacity_) SetCapacity(std::max<size_t>(16, 2 * capacity_));
+    data_[size_++] = x;
+  }
+  // New elements (n > size()) are uninitialized. Grows by a sixteenth
+  // beyond n (the list outgrows its capacity rarely, and by little).
+  void resize(size_t n) {
+    if (n > capacity_) SetCapacity(n + n / 16);
+    size_ = n;
+  }
+  void reserve(size_t n) {
+    if (n > capacity_) SetCapacity(n);
+  }
+  void shrink_to_fit() {
+    if (size_ < capacity_) SetCapacity(size_);
+  }
+  void swap(ShrinkableArray& other) {
+    std::swap(data_, other.data_);
+    std::swap(size_, other.size_);
+    std::swap(capacity_, other.capacity_);
+  }
+  // Frees the memory.
+  void Release() {
+    std::free(data_);
+    data_ = nullptr;
+    size_ = capacity_ = 0;
+  }
+
+ private:
+  void SetCapacity(size_t n) {
+    if (n == 0) {
+      Release();
+      return;
+    }
+    void* p = std::realloc(data_, n * sizeof(T));
+    if (p == nullptr) throw std::bad_alloc();
+    data_ = static_cast<T*>(p);
+    capacity_ = n;
+  }
+
+  T* data_ = nullptr;
+  size_t size_ = 0, capacity_ = 0;
 };
 
 // The live triangles of every vertex, as spans of one pool (a vector per
@@ -134,6 +206,8 @@ class VertexFaces {
   uint64_t garbage_ = 0;  // entries no span owns any more (Compact reclaims them)
 };
 
+using CandidateList = ShrinkableArray<Candidate>;
+
 class Simplifier {
  public:
   Simplifier(const QuantizedMesh& mesh, const SimplifyOptions& options)
@@ -186,19 +260,43 @@ class Simplifier {
         return Status(StatusCode::kInternal, "simplification cancelled");
       }
     }
-    h.in_base = referenced;
+    // The hierarchy is assembled after the working state is gone: this is
+    // the simplifier's last step, and the batches are then at their largest.
+    ReleaseWorkingState();
+    h.in_base = std::move(referenced);
     for (const CollapseBatch& b : h.batches)
       for (const Collapse& c : b.collapses) h.in_base[c.v] = 0;
+    size_t base_faces = 0;
+    for (uint8_t alive : face_alive_) base_faces += alive;
+    h.base_indices.reserve(base_faces * 3);
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (face_alive_[f]) h.base_indices.insert(h.base_indices.end(), faces_[f].begin(), faces_[f].end());
     }
-    h.positions = positions_;
-    h.attributes = attributes_;
-    h.twin = twin_;
+    faces_ = {};
+    face_alive_ = {};
+    h.positions = std::move(positions_);
+    h.attributes = std::move(attributes_);
+    h.twin = std::move(twin_);
     return h;
   }
 
  private:
+  // Frees what only the batches need (Run ends with the hierarchy; the
+  // simplifier is not used afterwards).
+  void ReleaseWorkingState() {
+    vertex_faces_ = VertexFaces();
+    quadrics_ = {};
+    candidates_.Release();
+    fresh_.Release();
+    locked_ = {};
+    closed_ = {};
+    seam_ = {};
+    touched_ = {};
+    changed_ = {};
+    dirty_ = {};
+    changed_list_ = {};
+  }
+
   void AddFaceQuadric(const Face& f) {
     const Vec3i& p0 = positions_[f[0]];
     const Vec3i& p1 = positions_[f[1]];
@@ -521,7 +619,7 @@ class Simplifier {
   // Appends the candidate of edge (x, y) of a live face when it is one: x < y
   // in the face's order (an interior edge is seen once, from the face where
   // it runs upwards) and neither end locked.
-  void AddCandidate(uint32_t x, uint32_t y, std::vector<Candidate>& out) const {
+  void AddCandidate(uint32_t x, uint32_t y, CandidateList& out) const {
     if (x > y || locked_[x] || locked_[y]) return;
     const double mx = 0.5 * (double(positions_[x][0]) + positions_[y][0]);
     const double my = 0.5 * (double(positions_[x][1]) + positions_[y][1]);
@@ -604,6 +702,9 @@ class Simplifier {
         }
       }
     }
+    // The list shrinks by a few edges per collapse while the batches grow:
+    // give back what it no longer needs (in place: ShrinkableArray).
+    candidates_.shrink_to_fit();
     for (uint32_t x : dirty_) touched_[x] = 0;
     dirty_.clear();
     for (uint32_t x : changed_list_) changed_[x] = 0;
@@ -641,7 +742,7 @@ class Simplifier {
     } else {
       UpdateCandidates();
       if (options_.check_candidates) {
-        std::vector<Candidate> kept;
+        CandidateList kept;
         kept.swap(candidates_);
         BuildCandidates();
         const bool same = std::equal(kept.begin(), kept.end(), candidates_.begin(), candidates_.end(),
@@ -730,7 +831,7 @@ class Simplifier {
   uint64_t removed_faces_ = 0;
   std::vector<std::array<uint32_t, 2>> pairs_;
   std::vector<uint32_t> nu_, nv_, na_, common_;
-  std::vector<Candidate> candidates_, fresh_;  // by cost (CandidateBefore)
+  CandidateList candidates_, fresh_;  // by cost (CandidateBefore)
   bool candidates_built_ = false;
   bool candidates_differ_ = false;  // check_candidates found a difference
   std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
