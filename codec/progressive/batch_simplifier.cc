@@ -95,6 +95,42 @@ class ShrinkableArray {
   size_t size_ = 0, capacity_ = 0;
 };
 
+// The triangles, in the index array the mesh came with (taken, not copied:
+// three indices a triangle, the triangles that repeat an index removed in
+// place). A collapse renames a corner (Rename); a triangle that dies keeps
+// its indices.
+class Triangles {
+ public:
+  Triangles() = default;
+  // Takes `indices` (three per triangle; a trailing partial triangle is
+  // dropped) and removes the triangles that repeat an index, keeping the
+  // order of the others; returns how many it removed.
+  uint64_t Take(std::vector<uint32_t> indices) {
+    indices_ = std::move(indices);
+    const size_t count = indices_.size() / 3;
+    size_t kept = 0;
+    for (size_t f = 0; f < count; ++f) {
+      const Face face = {indices_[3 * f], indices_[3 * f + 1], indices_[3 * f + 2]};
+      if (RepeatsAnIndex(face)) continue;
+      std::copy(face.begin(), face.end(), indices_.begin() + 3 * kept);
+      ++kept;
+    }
+    indices_.resize(3 * kept);
+    return count - kept;
+  }
+  size_t size() const { return indices_.size() / 3; }
+  Face operator[](size_t f) const { return {indices_[3 * f], indices_[3 * f + 1], indices_[3 * f + 2]}; }
+  // Renames `from` to `to` in triangle f.
+  void Rename(size_t f, uint32_t from, uint32_t to) {
+    for (size_t i = 3 * f; i < 3 * f + 3; ++i)
+      if (indices_[i] == from) indices_[i] = to;
+  }
+  void Release() { indices_ = {}; }
+
+ private:
+  std::vector<uint32_t> indices_;
+};
+
 // The live triangles of every vertex, as spans of one pool (a vector per
 // vertex cost about 72 bytes a vertex in headers, allocator chunks and
 // growth; this, 12 bytes plus 4 per entry). A collapse moves v's triangles
@@ -114,10 +150,10 @@ class VertexFaces {
 
   // faces: the live triangles; n: the vertex count; room: spare entries to
   // reserve for the first batch's growth.
-  void Build(size_t n, const std::vector<Face>& faces, size_t room) {
+  void Build(size_t n, const Triangles& faces, size_t room) {
     spans_.assign(n, Span{});
-    for (const Face& f : faces)
-      for (uint32_t v : f) ++spans_[v].cap;
+    for (size_t id = 0; id < faces.size(); ++id)
+      for (uint32_t v : faces[id]) ++spans_[v].cap;
     uint32_t at = 0;
     for (Span& sp : spans_) {
       sp.begin = at;
@@ -210,27 +246,19 @@ using CandidateList = ShrinkableArray<Candidate>;
 
 class Simplifier {
  public:
-  Simplifier(const QuantizedMesh& mesh, const SimplifyOptions& options)
+  // Takes the mesh's arrays (the caller's copy, or the mesh it gave up).
+  Simplifier(QuantizedMesh&& mesh, const SimplifyOptions& options)
       : options_(options), channels_(mesh.layout.channels()) {
-    positions_ = mesh.positions;
-    attributes_ = mesh.attributes;
     const size_t n = mesh.vertex_count();
-    faces_.reserve(mesh.indices.size() / 3);
-    for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
-      const Face f = {mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]};
-      if (RepeatsAnIndex(f)) {
-        ++removed_faces_;
-        continue;
-      }
-      faces_.push_back(f);
-    }
-    faces_.shrink_to_fit();
+    positions_ = std::move(mesh.positions);
+    attributes_ = std::move(mesh.attributes);
+    removed_faces_ = faces_.Take(std::move(mesh.indices));
     // Room for the first batch's collapses (a sixth of the vertices, each
     // moving both ends' dozen triangles to the pool's end).
     vertex_faces_.Build(n, faces_, n * 2 + 1024);
     face_alive_.assign(faces_.size(), 1);
     quadrics_.assign(n, Quadric{});
-    for (const Face& f : faces_) AddFaceQuadric(f);
+    for (size_t f = 0; f < faces_.size(); ++f) AddFaceQuadric(faces_[f]);
     InitLocks();
   }
 
@@ -241,8 +269,8 @@ class Simplifier {
     h.input_faces = faces_.size();
     size_t alive = 0;
     std::vector<uint8_t> referenced(positions_.size(), 0);
-    for (const Face& f : faces_)
-      for (uint32_t v : f) referenced[v] = 1;
+    for (size_t f = 0; f < faces_.size(); ++f)
+      for (uint32_t v : faces_[f]) referenced[v] = 1;
     for (uint8_t r : referenced) alive += r;
     const size_t target = std::max<size_t>(4, static_cast<size_t>(std::ceil(alive * options_.base_ratio)));
     while (alive > target && h.batches.size() < options_.max_levels) {
@@ -270,9 +298,11 @@ class Simplifier {
     for (uint8_t alive : face_alive_) base_faces += alive;
     h.base_indices.reserve(base_faces * 3);
     for (size_t f = 0; f < faces_.size(); ++f) {
-      if (face_alive_[f]) h.base_indices.insert(h.base_indices.end(), faces_[f].begin(), faces_[f].end());
+      if (!face_alive_[f]) continue;
+      const Face face = faces_[f];
+      h.base_indices.insert(h.base_indices.end(), face.begin(), face.end());
     }
-    faces_ = {};
+    faces_.Release();
     face_alive_ = {};
     h.positions = std::move(positions_);
     h.attributes = std::move(attributes_);
@@ -476,7 +506,7 @@ class Simplifier {
   // contain `other` from flipping or collapsing to zero area.
   bool KeepsOrientation(uint32_t moved, uint32_t other, const Vec3i& target) const {
     for (uint32_t f : vertex_faces_[moved]) {
-      const Face& face = faces_[f];
+      const Face face = faces_[f];
       if (face[0] == other || face[1] == other || face[2] == other) continue;
       Vec3i p[3];
       for (int k = 0; k < 3; ++k) p[k] = positions_[face[k]];
@@ -512,7 +542,7 @@ class Simplifier {
   bool IsBoundaryEdge(uint32_t u, uint32_t v) const {
     int count = 0;
     for (uint32_t f : vertex_faces_[u]) {
-      const Face& face = faces_[f];
+      const Face face = faces_[f];
       count += (face[0] == v || face[1] == v || face[2] == v) ? 1 : 0;
     }
     return count == 1;
@@ -587,19 +617,17 @@ class Simplifier {
 
   void Apply(const Collapse& c) {
     const uint32_t u = c.u, v = c.v;
-    std::vector<uint32_t> gone;
+    std::vector<uint32_t>& gone = gone_;
+    gone.clear();
     for (uint32_t f : vertex_faces_[u]) {
-      const Face& face = faces_[f];
+      const Face face = faces_[f];
       if (face[0] == v || face[1] == v || face[2] == v) gone.push_back(f);
     }
     for (uint32_t f : gone) {
       face_alive_[f] = 0;
       for (uint32_t x : faces_[f]) vertex_faces_.Remove(x, f);
     }
-    for (uint32_t f : vertex_faces_[v]) {
-      for (uint32_t& x : faces_[f])
-        if (x == v) x = u;
-    }
+    for (uint32_t f : vertex_faces_[v]) faces_.Rename(f, v, u);
     vertex_faces_.MoveInto(u, v);
     for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(positions_[u][k], positions_[v][k]);
     for (int k = 0; k < channels_; ++k) {
@@ -635,7 +663,7 @@ class Simplifier {
     size_t count = 0;
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
-      const Face& face = faces_[f];
+      const Face face = faces_[f];
       for (int k = 0; k < 3; ++k) {
         const uint32_t x = face[k], y = face[(k + 1) % 3];
         count += (x < y && !locked_[x] && !locked_[y]) ? 1 : 0;
@@ -645,7 +673,7 @@ class Simplifier {
     candidates_.reserve(count);
     for (size_t f = 0; f < faces_.size(); ++f) {
       if (!face_alive_[f]) continue;
-      const Face& face = faces_[f];
+      const Face face = faces_[f];
       for (int k = 0; k < 3; ++k) AddCandidate(face[k], face[(k + 1) % 3], candidates_);
     }
     std::sort(candidates_.begin(), candidates_.end(), CandidateBefore);
@@ -680,7 +708,7 @@ class Simplifier {
         const uint32_t x = dirty_[next];
         if (vertex_faces_[x].empty()) continue;  // collapsed away
         for (uint32_t f : vertex_faces_[x]) {
-          const Face& face = faces_[f];
+          const Face face = faces_[f];
           for (int k = 0; k < 3; ++k) {
             const uint32_t p = face[k], q = face[(k + 1) % 3];
             // Each edge once: from its smaller surviving end when both moved.
@@ -819,7 +847,8 @@ class Simplifier {
   const int channels_;
   std::vector<Vec3i> positions_;
   std::vector<int32_t> attributes_;
-  std::vector<Face> faces_;
+  Triangles faces_;
+  std::vector<uint32_t> gone_;  // Apply's
   std::vector<uint8_t> face_alive_;
   VertexFaces vertex_faces_;
   std::vector<Quadric> quadrics_;
@@ -842,7 +871,7 @@ class Simplifier {
 
 }  // namespace
 
-StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options) {
+StatusOr<Hierarchy> SimplifyInBatches(QuantizedMesh mesh, const SimplifyOptions& options) {
   if (mesh.face_count() == 0) return InvalidInput("nothing to simplify: the mesh has no triangle");
   if (options.base_ratio <= 0 || options.base_ratio > 1) return InvalidArgument("base ratio must be in (0, 1]");
   if (mesh.vertex_count() >= kKnownIllegal) return InvalidInput("too many vertices to simplify: at most 2^31 - 1");
@@ -850,7 +879,7 @@ StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyO
     return InvalidInput("too many triangles to simplify: " + std::to_string(mesh.face_count()) + " (at most " +
                         std::to_string(VertexFaces::kMaxEntries / 6) + ")");
   }
-  Simplifier simplifier(mesh, options);
+  Simplifier simplifier(std::move(mesh), options);
   return simplifier.Run();
 }
 

@@ -113,7 +113,9 @@ struct Hierarchy {
   std::vector<uint32_t> twin;          // per input vertex: its seam twin (UINT32_MAX if none)
 };
 
-StatusOr<Hierarchy> SimplifyInBatches(const QuantizedMesh& mesh, const SimplifyOptions& options);
+// Works in the mesh's own arrays: pass std::move(mesh) to give them up (the
+// encoder does, so that the input is not held twice at the peak), or a copy.
+StatusOr<Hierarchy> SimplifyInBatches(QuantizedMesh mesh, const SimplifyOptions& options);
 
 }  // namespace meshstream
 

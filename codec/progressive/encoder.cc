@@ -31,6 +31,53 @@ bool SameTriangleSet(std::vector<Face>& expected, const std::vector<Face>& actua
   return true;
 }
 
+// A fingerprint of a multiset of records (runs of 32-bit values): the count
+// and two sums, over the records, of a 64-bit hash of each (two chains with
+// different seeds and steps). Equal multisets have equal fingerprints;
+// different ones the same with a probability of about 2^-128. The encoder's
+// verification uses it to compare the replay with an input it no longer holds
+// (a check against the encoder's own mistakes, not against an adversary).
+class MultisetFingerprint {
+ public:
+  void Add(const uint32_t* values, size_t n) {
+    uint64_t a = 0x9e3779b97f4a7c15ull, b = 0x6a09e667f3bcc909ull;
+    for (size_t i = 0; i < n; ++i) {
+      a = Mix(a ^ values[i]);
+      b = Mix(b + (uint64_t{values[i]} << 32 | i));
+    }
+    sum_[0] += a;
+    sum_[1] += b;
+    ++count_;
+  }
+  // A triangle, by its corners up to rotation.
+  void AddTriangle(const Face& f) {
+    const Face n = Normalized(f);
+    Add(n.data(), n.size());
+  }
+  uint64_t count() const { return count_; }
+  bool operator==(const MultisetFingerprint& o) const {
+    return count_ == o.count_ && sum_[0] == o.sum_[0] && sum_[1] == o.sum_[1];
+  }
+  bool operator!=(const MultisetFingerprint& o) const { return !(*this == o); }
+
+ private:
+  static uint64_t Mix(uint64_t x) {  // splitmix64's finalizer
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+  }
+  uint64_t sum_[2] = {0, 0};
+  uint64_t count_ = 0;
+};
+
+// One vertex as a record: its id, position and channels.
+void AddVertex(MultisetFingerprint& fp, uint32_t id, const Vec3i& p, const int32_t* channels, int ch,
+               std::vector<uint32_t>& scratch) {
+  scratch.assign({id, static_cast<uint32_t>(p[0]), static_cast<uint32_t>(p[1]), static_cast<uint32_t>(p[2])});
+  for (int k = 0; k < ch; ++k) scratch.push_back(static_cast<uint32_t>(channels[k]));
+  fp.Add(scratch.data(), scratch.size());
+}
+
 std::vector<Face> FacesOf(const std::vector<uint32_t>& indices) {
   std::vector<Face> faces;
   faces.reserve(indices.size() / 3);
@@ -113,30 +160,50 @@ bool SameTriangles(const std::vector<uint32_t>& a, const std::vector<uint32_t>& 
 StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const ProgressiveEncodeOptions& options,
                                                const BaseMeshEncoder& base_encoder) {
   MS_ASSIGN_OR_RETURN(QuantizedMesh q, QuantizePrimitive(input, options.quantization));
-  return EncodeProgressiveQuantized(q, options, base_encoder);
+  return EncodeProgressiveQuantized(std::move(q), options, base_encoder);
 }
 
-StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& input,
-                                                        const ProgressiveEncodeOptions& options,
+StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, const ProgressiveEncodeOptions& options,
                                                         const BaseMeshEncoder& base_encoder) {
   if (options.simplify.rule != BatchRule::kStrict) {
     return InvalidArgument("the progressive codec needs the strict batch rule (docs/codec.md)");
   }
-  MS_ASSIGN_OR_RETURN(Hierarchy h, SimplifyInBatches(input, options.simplify));
-  const int ch = input.layout.channels();
+  const AttributeLayout layout = input.layout;
+  const QuantizationGrid position_grid = input.position_grid;
+  const int ch = layout.channels();
+  const size_t input_vertices = input.vertex_count();
+  // What the verification compares the replay with: the input's triangles
+  // less those that repeat an index (the simplifier removes them) and the
+  // values of the vertices they use, as fingerprints (the simplifier takes
+  // the input's arrays).
+  MultisetFingerprint input_triangles, input_values;
+  {
+    std::vector<uint8_t> used(input_vertices, 0);
+    for (size_t i = 0; i + 2 < input.indices.size(); i += 3) {
+      const Face f = {input.indices[i], input.indices[i + 1], input.indices[i + 2]};
+      if (RepeatsAnIndex(f)) continue;
+      input_triangles.AddTriangle(f);
+      for (uint32_t v : f) used[v] = 1;
+    }
+    std::vector<uint32_t> scratch;
+    for (uint32_t v = 0; v < input_vertices; ++v) {
+      if (used[v]) AddVertex(input_values, v, input.positions[v], input.attribute(v), ch, scratch);
+    }
+  }
+  MS_ASSIGN_OR_RETURN(Hierarchy h, SimplifyInBatches(std::move(input), options.simplify));
   ProgressiveEncoded out;
-  out.input_vertices = input.vertex_count();
+  out.input_vertices = input_vertices;
   out.input_faces = h.input_faces;
   out.removed_faces = h.removed_faces;
   out.locked_vertices = h.locked_vertices;
 
   // The base mesh in compact ids.
   QuantizedMesh base;
-  base.position_grid = input.position_grid;
-  base.layout = input.layout;
-  std::vector<uint32_t> compact(input.vertex_count(), UINT32_MAX);
+  base.position_grid = position_grid;
+  base.layout = layout;
+  std::vector<uint32_t> compact(input_vertices, UINT32_MAX);
   std::vector<uint32_t> base_ids;
-  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+  for (uint32_t v = 0; v < input_vertices; ++v) {
     if (!h.in_base[v]) continue;
     compact[v] = static_cast<uint32_t>(base_ids.size());
     base_ids.push_back(v);
@@ -171,7 +238,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   out.base_bytes = std::move(encoded.bytes);
 
   // The base in canonical order, with the fix-ups that make it exact.
-  std::vector<uint32_t> canonical(input.vertex_count(), UINT32_MAX);
+  std::vector<uint32_t> canonical(input_vertices, UINT32_MAX);
   QuantizedMesh& cbase = out.mesh.base;
   cbase = encoded.decoded;
   for (uint32_t d = 0; d < decoded_to_base.size(); ++d) {
@@ -187,7 +254,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
   }
 
   // Seam twins of the base (both copies of a seam vertex survive or go together).
-  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+  for (uint32_t v = 0; v < input_vertices; ++v) {
     const uint32_t t = v < h.twin.size() ? h.twin[v] : kNoTwin;
     if (t == kNoTwin || !h.in_base[v] || canonical[v] >= canonical[t]) continue;
     out.mesh.base_twins.push_back({canonical[v], canonical[t]});
@@ -262,28 +329,38 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(const QuantizedMesh& inp
     out.mesh.refinements.push_back(std::move(r));
   }
 
-  // Verify: the replay gives back the quantized input.
-  // (The input's triangles less those that repeat an index, as the
-  // simplifier removed them.)
-  std::vector<Face> expected;
-  expected.reserve(h.input_faces);
-  for (size_t i = 0; i + 2 < input.indices.size(); i += 3) {
-    const Face f = {input.indices[i], input.indices[i + 1], input.indices[i + 2]};
-    if (RepeatsAnIndex(f)) continue;
-    expected.push_back({canonical[f[0]], canonical[f[1]], canonical[f[2]]});
+  // Verify: the replay gives back the quantized input. Every vertex the
+  // input's triangles use has a distinct id in the replay and every id one
+  // such vertex; in input ids, the replay's triangles and values have the
+  // input's fingerprints.
+  const uint32_t final_count = state.connectivity.vertex_count();
+  if (final_count != input_values.count()) {
+    return Internal("replay gave " + std::to_string(final_count) + " vertices for " +
+                    std::to_string(input_values.count()));
   }
-  if (!SameTriangleSet(expected, state.connectivity.faces())) {
-    return Internal("replay did not give back the input's triangles");
-  }
-  for (uint32_t v = 0; v < input.vertex_count(); ++v) {
+  std::vector<uint32_t> input_of(final_count, UINT32_MAX);
+  for (uint32_t v = 0; v < input_vertices; ++v) {
     const uint32_t c = canonical[v];
     if (c == UINT32_MAX) continue;  // only in removed triangles
-    if (state.positions[c] != input.positions[v] ||
-        !std::equal(input.attributes.begin() + size_t(v) * ch, input.attributes.begin() + size_t(v + 1) * ch,
-                    state.attributes.begin() + size_t(c) * ch)) {
-      return Internal("replay did not give back vertex " + std::to_string(v) + "'s values");
-    }
+    if (c >= final_count || input_of[c] != UINT32_MAX) return Internal("replay gave two vertices one id");
+    input_of[c] = v;
   }
+  canonical = {};
+  MultisetFingerprint replay_triangles, replay_values;
+  for (const Face& f : state.connectivity.faces()) {
+    Face mapped;
+    for (int k = 0; k < 3; ++k) {
+      mapped[k] = input_of[f[k]];
+      if (mapped[k] == UINT32_MAX) return Internal("replay has a vertex that is not the input's");
+    }
+    replay_triangles.AddTriangle(mapped);
+  }
+  if (replay_triangles != input_triangles) return Internal("replay did not give back the input's triangles");
+  std::vector<uint32_t> scratch;
+  for (uint32_t c = 0; c < final_count; ++c) {
+    AddVertex(replay_values, input_of[c], state.positions[c], state.attributes.data() + size_t(c) * ch, ch, scratch);
+  }
+  if (replay_values != input_values) return Internal("replay did not give back the input's vertex values");
   out.residual_error = ResidualErrors(out.mesh, state);
   return out;
 }

@@ -173,6 +173,42 @@ TEST(ProgressiveCodec, EverySplitAppliesAloneOnTheCoarserMesh) {
   }
 }
 
+// The encoder works in the input's arrays when it is given them (the
+// verification then compares fingerprints taken first): the same result as
+// from a copy, the caller's copy untouched, and a triangle that repeats an
+// index, in the middle of the input, removed and still verified around.
+TEST(ProgressiveCodec, EncodingAGivenUpInputEqualsEncodingACopy) {
+  ProgressiveEncodeOptions options;
+  auto q = QuantizePrimitive(Sphere(20, 24), options.quantization);
+  ASSERT_TRUE(q.ok());
+  QuantizedMesh input = std::move(q).value();
+  input.indices.insert(input.indices.begin() + 3 * 50, {7, 8, 7});
+  const QuantizedMesh kept = input;
+  auto from_copy = EncodeProgressiveQuantized(input, options, ReversingCoder);
+  ASSERT_TRUE(from_copy.ok()) << from_copy.status().ToString();
+  EXPECT_EQ(input.indices, kept.indices);
+  EXPECT_EQ(input.positions, kept.positions);
+  auto given_up = EncodeProgressiveQuantized(std::move(input), options, ReversingCoder);
+  ASSERT_TRUE(given_up.ok()) << given_up.status().ToString();
+  EXPECT_EQ(given_up->removed_faces, 1u);
+  EXPECT_EQ(given_up->input_faces, kept.face_count() - 1);
+  EXPECT_EQ(given_up->mesh.base.positions, from_copy->mesh.base.positions);
+  EXPECT_EQ(given_up->mesh.base.indices, from_copy->mesh.base.indices);
+  ASSERT_EQ(given_up->mesh.refinements.size(), from_copy->mesh.refinements.size());
+  for (size_t i = 0; i < given_up->mesh.refinements.size(); ++i) {
+    const Refinement& a = given_up->mesh.refinements[i];
+    const Refinement& b = from_copy->mesh.refinements[i];
+    EXPECT_EQ(a.split_vertices, b.split_vertices);
+    EXPECT_EQ(a.wings, b.wings);
+    EXPECT_EQ(a.position_delta, b.position_delta);
+    EXPECT_EQ(a.attribute_delta, b.attribute_delta);
+  }
+  // Decoded in full: the input's triangles less the one removed.
+  QuantizedMesh expected = kept;
+  expected.indices.erase(expected.indices.begin() + 3 * 50, expected.indices.begin() + 3 * 51);
+  EXPECT_EQ(Triangles(DecodeAll(given_up.value())), Triangles(expected));
+}
+
 TEST(ProgressiveCodec, AttributesComeBackOnTheirGrid) {
   ProgressiveEncodeOptions options;
   Primitive p = Sphere(16, 20);
