@@ -326,9 +326,11 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
       }
       const size_t k = ref.index;
       const Primitive& p = mesh.primitives[k];
-      if (p.face_count() == 0) continue;
       const PrecodedPrimitive* pre = nullptr;
       if (m < options_.precoded.size() && k < options_.precoded[m].size()) pre = options_.precoded[m][k];
+      // A precoded primitive is written from its codings (its arrays may be
+      // released: EncodeProgressiveGlbReleasing).
+      if (pre == nullptr && p.face_count() == 0) continue;
       auto prim = pre ? StatusOr<json>(PrecodedJson(*pre)) : options_.draco ? DracoPrimitive(p) : PlainPrimitive(p);
       if (!prim.ok()) {
         return prim.status().WithContext("meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]");

@@ -48,7 +48,8 @@ struct ExportOptions {
   DracoEncodeOptions draco_options;
   // [mesh][primitive]; a null entry (or a short table) means: encode as usual.
   // Precoded primitives make the asset require KHR_draco_mesh_compression;
-  // their own extension is listed in extensionsUsed only.
+  // their own extension is listed in extensionsUsed only. Of a precoded
+  // primitive only the material is read (its arrays may be empty).
   std::vector<std::vector<const PrecodedPrimitive*>> precoded;
 };
 

@@ -199,7 +199,20 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
 
 namespace {
 
-StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene, const ProgressiveGlbOptions& options,
+// Drops a refined primitive's vertex and index arrays (what the exporter
+// reads of a precoded primitive, its material, stays).
+void ReleaseArrays(Primitive& p) {
+  p.positions = {};
+  p.normals = {};
+  for (std::vector<Vec2f>& t : p.texcoords) t = {};
+  p.colors = {};
+  p.indices = {};
+}
+
+// `releasing`: the scene itself, whose refined primitives' arrays are
+// dropped once quantized (EncodeProgressiveGlbReleasing), or null.
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene, Scene* releasing,
+                                                    const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report) {
   MS_RETURN_IF_ERROR(ValidateScene(scene));
   std::vector<std::vector<PrecodedPrimitive>> precoded(scene.meshes.size());
@@ -228,11 +241,16 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       }
       PrecodedPrimitive& pre = precoded[m][k];
       const int level = options.draco_compression_level;
+      auto quantized = QuantizePrimitive(prim, encode.quantization);
+      if (!quantized.ok()) return quantized.status().WithContext(where);
+      if (releasing != nullptr) ReleaseArrays(releasing->meshes[m].primitives[k]);
       // The base coder's last call is the one the encoder kept: its Draco ids
-      // and decoded floats describe the base in the glTF.
-      auto encoded = EncodeProgressive(prim, encode, [&pre, level](const QuantizedMesh& base, int method) {
-        return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
-      });
+      // and decoded floats describe the base in the glTF. (The encoder works
+      // in the quantized mesh's arrays: EncodeProgressive without its copy.)
+      auto encoded = EncodeProgressiveQuantized(std::move(quantized).value(), encode,
+                                                [&pre, level](const QuantizedMesh& base, int method) {
+                                                  return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
+                                                });
       if (!encoded.ok()) return encoded.status().WithContext(where);
       StreamWriteOptions stream_options = options.stream;
       stream_options.stream_id = stream_id++;
@@ -285,7 +303,14 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
 
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report) {
-  return CatchExceptions(std::string("progressive encode"), [&] { return EncodeProgressiveGlbUnguarded(scene, options, report); });
+  return CatchExceptions(std::string("progressive encode"),
+                         [&] { return EncodeProgressiveGlbUnguarded(scene, nullptr, options, report); });
+}
+
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbReleasing(Scene* scene, const ProgressiveGlbOptions& options,
+                                                             ProgressiveGlbReport* report) {
+  return CatchExceptions(std::string("progressive encode"),
+                         [&] { return EncodeProgressiveGlbUnguarded(*scene, scene, options, report); });
 }
 
 namespace {

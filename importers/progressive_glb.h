@@ -79,6 +79,15 @@ std::vector<uint32_t> SceneLevelVertices(const SceneLevels& levels,
 
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report);
+// The same bytes, with less memory: each refined primitive's vertex and index
+// arrays are released as soon as it is quantized (the imported floats, 36
+// bytes a vertex for positions and triangles, are not held through the
+// simplification). Afterwards (and after a failure) the refined primitives of
+// *scene have no vertices and no triangles; everything else of it (structure,
+// materials, carried data, warnings) is unchanged. For a caller that does not
+// need the imported meshes after encoding them (the CLI, the service).
+StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbReleasing(Scene* scene, const ProgressiveGlbOptions& options,
+                                                             ProgressiveGlbReport* report);
 
 struct ProgressiveDecodeOptions {
   // The scene's level to decode to (codec/progressive/scene_levels.h: with

@@ -121,7 +121,9 @@ StatusOr<ProcessResult> ProcessUnguarded(const std::string& main_path, const Enc
   };
   report(kImported, "encoding");
   ProcessResult result;
-  StatusOr<std::vector<uint8_t>> glb = EncodeProgressiveGlb(scene.value(), glb_options, &result.report);
+  // The imported arrays are released as each primitive is quantized (the
+  // encoder's peak then does not hold them); the warnings stay for below.
+  StatusOr<std::vector<uint8_t>> glb = EncodeProgressiveGlbReleasing(&scene.value(), glb_options, &result.report);
   if (cancel_seen) return kCancelled;
   if (!glb.ok()) return scrub.Scrub(glb.status());  // Scrub names the file once
   result.glb = std::move(glb).value();
