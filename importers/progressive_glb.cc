@@ -200,13 +200,14 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
 namespace {
 
 // Drops a refined primitive's vertex and index arrays (what the exporter
-// reads of a precoded primitive, its material, stays).
+// reads of a precoded primitive, its material, stays). Move-assigned from
+// empty vectors: `= {}` would keep the capacity.
 void ReleaseArrays(Primitive& p) {
-  p.positions = {};
-  p.normals = {};
-  for (std::vector<Vec2f>& t : p.texcoords) t = {};
-  p.colors = {};
-  p.indices = {};
+  p.positions = decltype(p.positions)();
+  p.normals = decltype(p.normals)();
+  for (std::vector<Vec2f>& t : p.texcoords) t = std::vector<Vec2f>();
+  p.colors = decltype(p.colors)();
+  p.indices = decltype(p.indices)();
 }
 
 // `releasing`: the scene itself, whose refined primitives' arrays are

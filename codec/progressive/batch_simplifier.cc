@@ -125,7 +125,7 @@ class Triangles {
     for (size_t i = 3 * f; i < 3 * f + 3; ++i)
       if (indices_[i] == from) indices_[i] = to;
   }
-  void Release() { indices_ = {}; }
+  void Release() { indices_ = std::vector<uint32_t>(); }
 
  private:
   std::vector<uint32_t> indices_;
@@ -303,7 +303,7 @@ class Simplifier {
       h.base_indices.insert(h.base_indices.end(), face.begin(), face.end());
     }
     faces_.Release();
-    face_alive_ = {};
+    face_alive_ = decltype(face_alive_)();
     h.positions = std::move(positions_);
     h.attributes = std::move(attributes_);
     h.twin = std::move(twin_);
@@ -312,19 +312,20 @@ class Simplifier {
 
  private:
   // Frees what only the batches need (Run ends with the hierarchy; the
-  // simplifier is not used afterwards).
+  // simplifier is not used afterwards). (`x = {}` would not free: it assigns
+  // an empty initializer list and keeps the capacity.)
   void ReleaseWorkingState() {
     vertex_faces_ = VertexFaces();
-    quadrics_ = {};
+    quadrics_ = decltype(quadrics_)();
     candidates_.Release();
     fresh_.Release();
-    locked_ = {};
-    closed_ = {};
-    seam_ = {};
-    touched_ = {};
-    changed_ = {};
-    dirty_ = {};
-    changed_list_ = {};
+    locked_ = decltype(locked_)();
+    closed_ = decltype(closed_)();
+    seam_ = decltype(seam_)();
+    touched_ = decltype(touched_)();
+    changed_ = decltype(changed_)();
+    dirty_ = decltype(dirty_)();
+    changed_list_ = decltype(changed_list_)();
   }
 
   void AddFaceQuadric(const Face& f) {

@@ -268,8 +268,10 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
   size_t final_vertices = cbase.vertex_count();
   for (const CollapseBatch& b : h.batches) final_vertices += b.collapses.size();
   state.Reserve(static_cast<uint32_t>(final_vertices));  // once: no growth by doubling
-  h.positions = {};  // the base has them; the rest of the replay reads the batches
-  h.attributes = {};
+  // The base has them; the rest of the replay reads the batches. (Freed by
+  // moving empty vectors in: `= {}` keeps the capacity.)
+  h.positions = decltype(h.positions)();
+  h.attributes = decltype(h.attributes)();
   std::vector<uint32_t> ring;
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
@@ -345,7 +347,7 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
     if (c >= final_count || input_of[c] != UINT32_MAX) return Internal("replay gave two vertices one id");
     input_of[c] = v;
   }
-  canonical = {};
+  canonical = decltype(canonical)();
   MultisetFingerprint replay_triangles, replay_values;
   for (const Face& f : state.connectivity.faces()) {
     Face mapped;
