@@ -26,6 +26,16 @@ struct Candidate {
   uint32_t v() const { return v_flags & ~kKnownIllegal; }
 };
 
+// The candidates' order: by cost, then by edge (a strict total order: the
+// sort's result does not depend on the algorithm). A function object, not a
+// function pointer, so that std::sort inlines it.
+struct CandidateOrder {
+  bool operator()(const Candidate& a, const Candidate& b) const {
+    if (a.cost != b.cost) return a.cost < b.cost;
+    return a.u != b.u ? a.u < b.u : a.v() < b.v();
+  }
+};
+
 // The candidate list: an array of trivially copyable records that gives
 // memory back without copying. The list only shrinks after it is built (a
 // batch replaces the edges it dropped by fewer), while the batches grow;
@@ -463,18 +473,19 @@ class Simplifier {
     for (uint32_t v = 0; v < n; ++v) {
       if (!vertex_faces_[v].empty() && !IsClosedFan(v)) fan_locked[v] = 1;
     }
-    // Duplicated triangles (the same three vertices twice).
-    std::vector<std::array<uint32_t, 4>> keys;
-    keys.reserve(faces_.size());
+    // Duplicated triangles (the same three vertices twice, in any order):
+    // found among the triangles of each triangle's smallest vertex, without
+    // a sorted copy of every triangle (32 bytes a vertex).
+    auto sorted = [](Face f) {
+      std::sort(f.begin(), f.end());
+      return f;
+    };
     for (uint32_t f = 0; f < faces_.size(); ++f) {
-      std::array<uint32_t, 3> s = faces_[f];
-      std::sort(s.begin(), s.end());
-      keys.push_back({s[0], s[1], s[2], f});
-    }
-    std::sort(keys.begin(), keys.end());
-    for (size_t i = 1; i < keys.size(); ++i) {
-      if (keys[i][0] == keys[i - 1][0] && keys[i][1] == keys[i - 1][1] && keys[i][2] == keys[i - 1][2]) {
-        for (int k = 0; k < 3; ++k) locked_[keys[i][k]] = 1;
+      const Face s = sorted(faces_[f]);
+      for (uint32_t g : vertex_faces_[s[0]]) {
+        if (g == f || sorted(faces_[g]) != s) continue;
+        for (uint32_t x : s) locked_[x] = 1;
+        break;
       }
     }
     // Seam twins are found among the boundary vertices not locked otherwise.
@@ -490,6 +501,22 @@ class Simplifier {
         if (x != w) out.push_back(x);
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
+  }
+
+  // Whether w has at least `count` (at most 4) distinct neighbours:
+  // Neighbours(w).size() >= count, without the sorted list the wings' test
+  // does not need.
+  bool HasNeighbours(uint32_t w, size_t count) const {
+    uint32_t seen[4];
+    size_t found = 0;
+    for (uint32_t f : vertex_faces_[w]) {
+      for (uint32_t x : faces_[f]) {
+        if (x == w || std::find(seen, seen + found, x) != seen + found) continue;
+        seen[found++] = x;
+        if (found >= count) return true;
+      }
+    }
+    return found >= count;
   }
 
   Vec3i DeltaOf(uint32_t u, uint32_t v) const {
@@ -565,8 +592,7 @@ class Simplifier {
     if (IsBoundaryEdge(u, a) && IsBoundaryEdge(v, a)) return false;
     const size_t valence = nu_.size() + nv_.size() - 3;
     if (valence < 2 || valence > static_cast<size_t>(options_.max_valence) || valence >= kMaxSeamValence) return false;
-    Neighbours(a, na_);
-    if (na_.size() < 3) return false;
+    if (!HasNeighbours(a, 3)) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
     c = Collapse{u, v, a, kNoWing, DeltaOf(u, v)};
     c.uva = uva;
@@ -607,10 +633,7 @@ class Simplifier {
     if (!SharedNeighbours(u, v, 2)) return false;
     const size_t valence = nu_.size() + nv_.size() - 4;
     if (valence < 3 || valence > static_cast<size_t>(options_.max_valence)) return false;
-    Neighbours(a, na_);
-    if (na_.size() < 4) return false;
-    Neighbours(b, na_);
-    if (na_.size() < 4) return false;
+    if (!HasNeighbours(a, 4) || !HasNeighbours(b, 4)) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
     c = Collapse{u, v, a, b, DeltaOf(u, v)};
     return true;
@@ -640,10 +663,7 @@ class Simplifier {
     dirty_.push_back(v);
   }
 
-  static bool CandidateBefore(const Candidate& a, const Candidate& b) {
-    if (a.cost != b.cost) return a.cost < b.cost;
-    return a.u != b.u ? a.u < b.u : a.v() < b.v();
-  }
+  static bool CandidateBefore(const Candidate& a, const Candidate& b) { return CandidateOrder()(a, b); }
 
   // Appends the candidate of edge (x, y) of a live face when it is one: x < y
   // in the face's order (an interior edge is seen once, from the face where
@@ -677,7 +697,7 @@ class Simplifier {
       const Face face = faces_[f];
       for (int k = 0; k < 3; ++k) AddCandidate(face[k], face[(k + 1) % 3], candidates_);
     }
-    std::sort(candidates_.begin(), candidates_.end(), CandidateBefore);
+    std::sort(candidates_.begin(), candidates_.end(), CandidateOrder());
   }
 
   // After Apply of a batch: drops the candidates at any vertex a collapse
@@ -718,7 +738,7 @@ class Simplifier {
           }
         }
       }
-      std::sort(fresh_.begin(), fresh_.end(), CandidateBefore);
+      std::sort(fresh_.begin(), fresh_.end(), CandidateOrder());
       // Merge from the back into the grown list: only fresh_ is extra memory.
       size_t i = candidates_.size(), j = fresh_.size();
       candidates_.resize(i + j);
@@ -860,7 +880,7 @@ class Simplifier {
   std::vector<uint32_t> seam_neighbours_;
   uint64_t removed_faces_ = 0;
   std::vector<std::array<uint32_t, 2>> pairs_;
-  std::vector<uint32_t> nu_, nv_, na_, common_;
+  std::vector<uint32_t> nu_, nv_, common_;
   CandidateList candidates_, fresh_;  // by cost (CandidateBefore)
   bool candidates_built_ = false;
   bool candidates_differ_ = false;  // check_candidates found a difference

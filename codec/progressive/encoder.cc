@@ -31,28 +31,52 @@ bool SameTriangleSet(std::vector<Face>& expected, const std::vector<Face>& actua
   return true;
 }
 
-// A fingerprint of a multiset of records (runs of 32-bit values): the count
-// and two sums, over the records, of a 64-bit hash of each (two chains with
-// different seeds and steps). Equal multisets have equal fingerprints;
-// different ones the same with a probability of about 2^-128. The encoder's
-// verification uses it to compare the replay with an input it no longer holds
-// (a check against the encoder's own mistakes, not against an adversary).
+// A 64-bit hash of one record (a run of 32-bit values), two chains with
+// different seeds and steps.
+class RecordHash {
+ public:
+  void Put(uint32_t value) {
+    a_ = Mix(a_ ^ value);
+    b_ = Mix(b_ + (uint64_t{value} << 32 | count_++));
+  }
+  uint64_t a() const { return a_; }
+  uint64_t b() const { return b_; }
+
+ private:
+  static uint64_t Mix(uint64_t x) {  // splitmix64's finalizer
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+  }
+  uint64_t a_ = 0x9e3779b97f4a7c15ull, b_ = 0x6a09e667f3bcc909ull;
+  uint32_t count_ = 0;
+};
+
+// A fingerprint of a multiset of records: the count and the two sums of the
+// records' hashes. Equal multisets have equal fingerprints; different ones
+// the same with a probability of about 2^-128. The encoder's verification
+// uses it to compare the replay with an input it no longer holds (a check
+// against the encoder's own mistakes, not against an adversary).
 class MultisetFingerprint {
  public:
-  void Add(const uint32_t* values, size_t n) {
-    uint64_t a = 0x9e3779b97f4a7c15ull, b = 0x6a09e667f3bcc909ull;
-    for (size_t i = 0; i < n; ++i) {
-      a = Mix(a ^ values[i]);
-      b = Mix(b + (uint64_t{values[i]} << 32 | i));
-    }
-    sum_[0] += a;
-    sum_[1] += b;
+  void Add(const RecordHash& record) {
+    sum_[0] += record.a();
+    sum_[1] += record.b();
     ++count_;
   }
   // A triangle, by its corners up to rotation.
   void AddTriangle(const Face& f) {
-    const Face n = Normalized(f);
-    Add(n.data(), n.size());
+    RecordHash r;
+    for (uint32_t x : Normalized(f)) r.Put(x);
+    Add(r);
+  }
+  // A vertex: its id, position and channels.
+  void AddVertex(uint32_t id, const Vec3i& p, const int32_t* channels, int ch) {
+    RecordHash r;
+    r.Put(id);
+    for (int k = 0; k < 3; ++k) r.Put(static_cast<uint32_t>(p[k]));
+    for (int k = 0; k < ch; ++k) r.Put(static_cast<uint32_t>(channels[k]));
+    Add(r);
   }
   uint64_t count() const { return count_; }
   bool operator==(const MultisetFingerprint& o) const {
@@ -61,22 +85,9 @@ class MultisetFingerprint {
   bool operator!=(const MultisetFingerprint& o) const { return !(*this == o); }
 
  private:
-  static uint64_t Mix(uint64_t x) {  // splitmix64's finalizer
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    return x ^ (x >> 31);
-  }
   uint64_t sum_[2] = {0, 0};
   uint64_t count_ = 0;
 };
-
-// One vertex as a record: its id, position and channels.
-void AddVertex(MultisetFingerprint& fp, uint32_t id, const Vec3i& p, const int32_t* channels, int ch,
-               std::vector<uint32_t>& scratch) {
-  scratch.assign({id, static_cast<uint32_t>(p[0]), static_cast<uint32_t>(p[1]), static_cast<uint32_t>(p[2])});
-  for (int k = 0; k < ch; ++k) scratch.push_back(static_cast<uint32_t>(channels[k]));
-  fp.Add(scratch.data(), scratch.size());
-}
 
 std::vector<Face> FacesOf(const std::vector<uint32_t>& indices) {
   std::vector<Face> faces;
@@ -185,9 +196,8 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
       input_triangles.AddTriangle(f);
       for (uint32_t v : f) used[v] = 1;
     }
-    std::vector<uint32_t> scratch;
     for (uint32_t v = 0; v < input_vertices; ++v) {
-      if (used[v]) AddVertex(input_values, v, input.positions[v], input.attribute(v), ch, scratch);
+      if (used[v]) input_values.AddVertex(v, input.positions[v], input.attribute(v), ch);
     }
   }
   MS_ASSIGN_OR_RETURN(Hierarchy h, SimplifyInBatches(std::move(input), options.simplify));
@@ -358,9 +368,8 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
     replay_triangles.AddTriangle(mapped);
   }
   if (replay_triangles != input_triangles) return Internal("replay did not give back the input's triangles");
-  std::vector<uint32_t> scratch;
   for (uint32_t c = 0; c < final_count; ++c) {
-    AddVertex(replay_values, input_of[c], state.positions[c], state.attributes.data() + size_t(c) * ch, ch, scratch);
+    replay_values.AddVertex(input_of[c], state.positions[c], state.attributes.data() + size_t(c) * ch, ch);
   }
   if (replay_values != input_values) return Internal("replay did not give back the input's vertex values");
   out.residual_error = ResidualErrors(out.mesh, state);

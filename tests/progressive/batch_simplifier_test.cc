@@ -64,5 +64,31 @@ TEST(BatchSimplifier, TheHierarchyRecordsSplitVectorsAndTheCleanedTriangleCount)
   }
 }
 
+// A triangle given twice (here reversed) locks its three vertices: none is
+// collapsed, and the other vertices collapse as before.
+TEST(BatchSimplifier, ADuplicatedTriangleLocksItsVertices) {
+  auto mesh = Model("fandisk.obj");
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  QuantizedMesh m = std::move(mesh).value();
+  auto plain = SimplifyInBatches(m, SimplifyOptions{});
+  ASSERT_TRUE(plain.ok()) << plain.status().ToString();
+  const uint32_t a = m.indices[300], b = m.indices[301], c = m.indices[302];
+  m.indices.insert(m.indices.end(), {c, b, a});
+  auto h = SimplifyInBatches(m, SimplifyOptions{});
+  ASSERT_TRUE(h.ok()) << h.status().ToString();
+  EXPECT_GT(h->locked_vertices, plain->locked_vertices);
+  size_t collapses = 0;
+  for (const CollapseBatch& batch : h->batches) {
+    for (const Collapse& col : batch.collapses) {
+      ++collapses;
+      for (uint32_t x : {a, b, c}) {
+        ASSERT_NE(col.u, x);
+        ASSERT_NE(col.v, x);
+      }
+    }
+  }
+  EXPECT_GT(collapses, 0u);
+}
+
 }  // namespace
 }  // namespace meshstream
