@@ -316,7 +316,8 @@ class Simplifier {
     face_alive_ = decltype(face_alive_)();
     h.positions = std::move(positions_);
     h.attributes = std::move(attributes_);
-    h.twin = std::move(twin_);
+    h.twin.assign(h.in_base.size(), kNoTwin);
+    for (const std::array<uint32_t, 2>& t : twins_) h.twin[t[0]] = t[1];
     return h;
   }
 
@@ -426,7 +427,7 @@ class Simplifier {
   // also an open fan, shares. They are unlocked; their quadrics are summed.
   void InitSeams() {
     const size_t n = positions_.size();
-    twin_.assign(n, kNoTwin);
+    twins_.clear();
     seam_.assign(n, 0);
     std::vector<uint32_t> open;
     for (uint32_t v = 0; v < n; ++v)
@@ -451,8 +452,8 @@ class Simplifier {
         for (size_t t = i; t < e; ++t)
           if (!vertex_faces_[by_position[t]].empty() && k < 2) pair[k++] = by_position[t];
         if (is_open[pair[0]] && is_open[pair[1]]) {
-          twin_[pair[0]] = pair[1];
-          twin_[pair[1]] = pair[0];
+          twins_.push_back({pair[0], pair[1]});
+          twins_.push_back({pair[1], pair[0]});
           seam_[pair[0]] = seam_[pair[1]] = 1;
           locked_[pair[0]] = locked_[pair[1]] = 0;
           Quadric q;
@@ -462,12 +463,19 @@ class Simplifier {
       }
       i = e;
     }
+    std::sort(twins_.begin(), twins_.end());
+  }
+
+  // The seam twin of a seam vertex (seam_[v]), else kNoTwin.
+  uint32_t TwinOf(uint32_t v) const {
+    auto it = std::lower_bound(twins_.begin(), twins_.end(), std::array<uint32_t, 2>{v, 0});
+    return it != twins_.end() && (*it)[0] == v ? (*it)[1] : kNoTwin;
   }
 
   void InitLocks() {
     const size_t n = positions_.size();
     locked_.assign(n, 0);
-    twin_.assign(n, kNoTwin);
+    twins_.clear();
     seam_.assign(n, 0);
     std::vector<uint8_t> fan_locked(n, 0);
     for (uint32_t v = 0; v < n; ++v) {
@@ -603,7 +611,7 @@ class Simplifier {
   // other side's collapse, and seam_neighbours_ both sides' neighbours.
   bool LegalSeam(uint32_t u, uint32_t v, Collapse& c, Collapse& twin_side) {
     if (!seam_[u] || !seam_[v]) return false;
-    const uint32_t u2 = twin_[u], v2 = twin_[v];
+    const uint32_t u2 = TwinOf(u), v2 = TwinOf(v);
     if (closed_[u2] || closed_[v2] || u2 == v || v2 == u || u2 == v2) return false;
     if (!LegalSeamSide(u2, v2, twin_side)) return false;
     seam_neighbours_ = nu_;
@@ -875,7 +883,9 @@ class Simplifier {
   std::vector<Quadric> quadrics_;
   std::vector<uint8_t> locked_;
   std::vector<uint8_t> closed_;
-  std::vector<uint32_t> twin_;  // seam twin per vertex, kNoTwin if none
+  // (vertex, its seam twin) for every vertex that has one, by vertex (a
+  // few boundary vertices: not a table of every vertex).
+  std::vector<std::array<uint32_t, 2>> twins_;
   std::vector<uint8_t> seam_;   // has a twin (unlocked boundary vertex)
   std::vector<uint32_t> seam_neighbours_;
   uint64_t removed_faces_ = 0;
