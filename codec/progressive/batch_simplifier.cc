@@ -336,7 +336,6 @@ class Simplifier {
     touched_ = decltype(touched_)();
     changed_ = decltype(changed_)();
     dirty_ = decltype(dirty_)();
-    changed_list_ = decltype(changed_list_)();
   }
 
   void AddFaceQuadric(const Face& f) {
@@ -764,8 +763,7 @@ class Simplifier {
     candidates_.shrink_to_fit();
     for (uint32_t x : dirty_) touched_[x] = 0;
     dirty_.clear();
-    for (uint32_t x : changed_list_) changed_[x] = 0;
-    changed_list_.clear();
+    std::fill(changed_.begin(), changed_.end(), 0);  // (a byte a vertex: cheaper than a list of the marks)
   }
 
   // After a collapse into u. Whether an edge (x, y) is legal reads the
@@ -777,15 +775,9 @@ class Simplifier {
   // can become legal only when an end is u or in u's ring: those are marked,
   // and their edges are checked again.
   void MarkChanged(uint32_t u) {
-    auto mark = [&](uint32_t x) {
-      if (!changed_[x]) {
-        changed_[x] = 1;
-        changed_list_.push_back(x);
-      }
-    };
     for (uint32_t f : vertex_faces_[u])
-      for (uint32_t x : faces_[f]) mark(x);
-    mark(u);
+      for (uint32_t x : faces_[f]) changed_[x] = 1;
+    changed_[u] = 1;
   }
 
   // The next batch, or none when the strict rule finds fewer than
@@ -897,7 +889,6 @@ class Simplifier {
   std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
   std::vector<uint8_t> touched_;   // dirty_ as flags, during UpdateCandidates
   std::vector<uint8_t> changed_;   // next to the last batch's collapses (MarkChanged)
-  std::vector<uint32_t> changed_list_;
 };
 
 }  // namespace
