@@ -254,6 +254,36 @@ class VertexFaces {
 
 using CandidateList = ShrinkableArray<Candidate>;
 
+// Per-vertex marks, all in one byte a vertex (a byte table for each cost
+// five bytes a vertex).
+enum VertexFlag : uint8_t {
+  kLocked = 1,       // never collapsed (see the header)
+  kClosed = 2,       // closed for the rest of the batch (the strict rule)
+  kSeam = 4,         // has a seam twin (an unlocked boundary vertex)
+  kTouched = 8,      // a collapse touched it (dirty_, during UpdateCandidates)
+  kChanged = 16,     // next to the last batch's collapses (MarkChanged)
+  kReferenced = 32,  // in a triangle of the input (after clean-up)
+};
+class VertexFlags {
+ public:
+  void Init(size_t n) { bits_.assign(n, 0); }
+  bool Has(uint32_t v, uint8_t flag) const { return (bits_[v] & flag) != 0; }
+  void Set(uint32_t v, uint8_t flag) { bits_[v] |= flag; }
+  void Unset(uint32_t v, uint8_t flag) { bits_[v] &= static_cast<uint8_t>(~flag); }
+  void UnsetAll(uint8_t flag) {
+    for (uint8_t& b : bits_) b &= static_cast<uint8_t>(~flag);
+  }
+  size_t Count(uint8_t flag) const {
+    size_t n = 0;
+    for (uint8_t b : bits_) n += (b & flag) != 0;
+    return n;
+  }
+  void Release() { bits_ = std::vector<uint8_t>(); }
+
+ private:
+  std::vector<uint8_t> bits_;
+};
+
 class Simplifier {
  public:
   // Takes the mesh's arrays (the caller's copy, or the mesh it gave up).
@@ -275,13 +305,12 @@ class Simplifier {
   StatusOr<Hierarchy> Run() {
     Hierarchy h;
     h.removed_faces = removed_faces_;
-    h.locked_vertices = static_cast<uint64_t>(std::count(locked_.begin(), locked_.end(), 1));
+    h.locked_vertices = flags_.Count(kLocked);
     h.input_faces = faces_.size();
     size_t alive = 0;
-    std::vector<uint8_t> referenced(positions_.size(), 0);
     for (size_t f = 0; f < faces_.size(); ++f)
-      for (uint32_t v : faces_[f]) referenced[v] = 1;
-    for (uint8_t r : referenced) alive += r;
+      for (uint32_t v : faces_[f]) flags_.Set(v, kReferenced);
+    alive = flags_.Count(kReferenced);
     const size_t target = std::max<size_t>(4, static_cast<size_t>(std::ceil(alive * options_.base_ratio)));
     while (alive > target && h.batches.size() < options_.max_levels) {
       const size_t min_collapses = std::min<size_t>(
@@ -300,8 +329,9 @@ class Simplifier {
     }
     // The hierarchy is assembled after the working state is gone: this is
     // the simplifier's last step, and the batches are then at their largest.
+    h.in_base.resize(positions_.size());
+    for (uint32_t v = 0; v < positions_.size(); ++v) h.in_base[v] = flags_.Has(v, kReferenced) ? 1 : 0;
     ReleaseWorkingState();
-    h.in_base = std::move(referenced);
     for (const CollapseBatch& b : h.batches)
       for (const Collapse& c : b.collapses) h.in_base[c.v] = 0;
     size_t base_faces = 0;
@@ -330,11 +360,7 @@ class Simplifier {
     quadrics_ = decltype(quadrics_)();
     candidates_.Release();
     fresh_.Release();
-    locked_ = decltype(locked_)();
-    closed_ = decltype(closed_)();
-    seam_ = decltype(seam_)();
-    touched_ = decltype(touched_)();
-    changed_ = decltype(changed_)();
+    flags_.Release();
     dirty_ = decltype(dirty_)();
   }
 
@@ -427,10 +453,10 @@ class Simplifier {
   void InitSeams() {
     const size_t n = positions_.size();
     twins_.clear();
-    seam_.assign(n, 0);
+    flags_.UnsetAll(kSeam);
     std::vector<uint32_t> open;
     for (uint32_t v = 0; v < n; ++v)
-      if (!vertex_faces_[v].empty() && !locked_[v] && IsOpenFan(v)) open.push_back(v);
+      if (!vertex_faces_[v].empty() && !flags_.Has(v, kLocked) && IsOpenFan(v)) open.push_back(v);
     std::vector<uint32_t> by_position(n);
     std::iota(by_position.begin(), by_position.end(), 0);
     std::sort(by_position.begin(), by_position.end(), [&](uint32_t a, uint32_t b) {
@@ -453,8 +479,10 @@ class Simplifier {
         if (is_open[pair[0]] && is_open[pair[1]]) {
           twins_.push_back({pair[0], pair[1]});
           twins_.push_back({pair[1], pair[0]});
-          seam_[pair[0]] = seam_[pair[1]] = 1;
-          locked_[pair[0]] = locked_[pair[1]] = 0;
+          for (uint32_t x : pair) {
+            flags_.Set(x, kSeam);
+            flags_.Unset(x, kLocked);
+          }
           Quadric q;
           for (int c = 0; c < 10; ++c) q[c] = quadrics_[pair[0]][c] + quadrics_[pair[1]][c];
           quadrics_[pair[0]] = quadrics_[pair[1]] = q;
@@ -465,7 +493,7 @@ class Simplifier {
     std::sort(twins_.begin(), twins_.end());
   }
 
-  // The seam twin of a seam vertex (seam_[v]), else kNoTwin.
+  // The seam twin of a seam vertex (kSeam), else kNoTwin.
   uint32_t TwinOf(uint32_t v) const {
     auto it = std::lower_bound(twins_.begin(), twins_.end(), std::array<uint32_t, 2>{v, 0});
     return it != twins_.end() && (*it)[0] == v ? (*it)[1] : kNoTwin;
@@ -473,9 +501,8 @@ class Simplifier {
 
   void InitLocks() {
     const size_t n = positions_.size();
-    locked_.assign(n, 0);
+    flags_.Init(n);
     twins_.clear();
-    seam_.assign(n, 0);
     std::vector<uint8_t> fan_locked(n, 0);
     for (uint32_t v = 0; v < n; ++v) {
       if (!vertex_faces_[v].empty() && !IsClosedFan(v)) fan_locked[v] = 1;
@@ -491,14 +518,14 @@ class Simplifier {
       const Face s = sorted(faces_[f]);
       for (uint32_t g : vertex_faces_[s[0]]) {
         if (g == f || sorted(faces_[g]) != s) continue;
-        for (uint32_t x : s) locked_[x] = 1;
+        for (uint32_t x : s) flags_.Set(x, kLocked);
         break;
       }
     }
     // Seam twins are found among the boundary vertices not locked otherwise.
     if (options_.collapse_seams) InitSeams();
     for (uint32_t v = 0; v < n; ++v)
-      if (fan_locked[v] && !seam_[v]) locked_[v] = 1;
+      if (fan_locked[v] && !flags_.Has(v, kSeam)) flags_.Set(v, kLocked);
   }
 
   void Neighbours(uint32_t w, std::vector<uint32_t>& out) const {
@@ -609,9 +636,9 @@ class Simplifier {
   // A seam edge and its twin edge, collapsed together; `twin_side` gets the
   // other side's collapse, and seam_neighbours_ both sides' neighbours.
   bool LegalSeam(uint32_t u, uint32_t v, Collapse& c, Collapse& twin_side) {
-    if (!seam_[u] || !seam_[v]) return false;
+    if (!flags_.Has(u, kSeam) || !flags_.Has(v, kSeam)) return false;
     const uint32_t u2 = TwinOf(u), v2 = TwinOf(v);
-    if (closed_[u2] || closed_[v2] || u2 == v || v2 == u || u2 == v2) return false;
+    if (flags_.Has(u2, kClosed) || flags_.Has(v2, kClosed) || u2 == v || v2 == u || u2 == v2) return false;
     if (!LegalSeamSide(u2, v2, twin_side)) return false;
     seam_neighbours_ = nu_;
     seam_neighbours_.insert(seam_neighbours_.end(), nv_.begin(), nv_.end());
@@ -627,8 +654,8 @@ class Simplifier {
   }
 
   bool Legal(uint32_t u, uint32_t v, Collapse& c) {
-    if (locked_[u] || locked_[v] || closed_[u] || closed_[v]) return false;
-    if (seam_[u] || seam_[v]) return false;  // LegalSeam's
+    constexpr uint8_t kNot = kLocked | kClosed | kSeam;  // a seam is LegalSeam's
+    if (flags_.Has(u, kNot) || flags_.Has(v, kNot)) return false;
     uint32_t a = UINT32_MAX, b = UINT32_MAX;
     int shared = 0;
     for (uint32_t f : vertex_faces_[u]) {
@@ -676,7 +703,7 @@ class Simplifier {
   // in the face's order (an interior edge is seen once, from the face where
   // it runs upwards) and neither end locked.
   void AddCandidate(uint32_t x, uint32_t y, CandidateList& out) const {
-    if (x > y || locked_[x] || locked_[y]) return;
+    if (x > y || flags_.Has(x, kLocked) || flags_.Has(y, kLocked)) return;
     const double mx = 0.5 * (double(positions_[x][0]) + positions_[y][0]);
     const double my = 0.5 * (double(positions_[x][1]) + positions_[y][1]);
     const double mz = 0.5 * (double(positions_[x][2]) + positions_[y][2]);
@@ -694,7 +721,7 @@ class Simplifier {
       const Face face = faces_[f];
       for (int k = 0; k < 3; ++k) {
         const uint32_t x = face[k], y = face[(k + 1) % 3];
-        count += (x < y && !locked_[x] && !locked_[y]) ? 1 : 0;
+        count += (x < y && !flags_.Has(x, kLocked) && !flags_.Has(y, kLocked)) ? 1 : 0;
       }
     }
     candidates_.clear();
@@ -712,13 +739,13 @@ class Simplifier {
   // costs, merged in order; the list equals what BuildCandidates would make.
   void UpdateCandidates() {
     if (dirty_.empty()) return;
-    for (uint32_t x : dirty_) touched_[x] = 1;
+    for (uint32_t x : dirty_) flags_.Set(x, kTouched);
     // Drop the edges at collapsed vertices; forget "illegal" near any change.
     size_t kept = 0;
     for (size_t i = 0; i < candidates_.size(); ++i) {
       Candidate c = candidates_[i];
-      if (touched_[c.u] || touched_[c.v()]) continue;
-      if (changed_[c.u] || changed_[c.v()]) c.v_flags &= ~kKnownIllegal;
+      if (flags_.Has(c.u, kTouched) || flags_.Has(c.v(), kTouched)) continue;
+      if (flags_.Has(c.u, kChanged) || flags_.Has(c.v(), kChanged)) c.v_flags &= ~kKnownIllegal;
       candidates_[kept++] = c;
     }
     candidates_.resize(kept);
@@ -740,7 +767,7 @@ class Simplifier {
           for (int k = 0; k < 3; ++k) {
             const uint32_t p = face[k], q = face[(k + 1) % 3];
             // Each edge once: from its smaller surviving end when both moved.
-            const bool p_moved_too = touched_[p] && !vertex_faces_[p].empty();
+            const bool p_moved_too = flags_.Has(p, kTouched) && !vertex_faces_[p].empty();
             if (p == x || (q == x && !p_moved_too)) AddCandidate(p, q, fresh_);
           }
         }
@@ -761,9 +788,9 @@ class Simplifier {
     // The list shrinks by a few edges per collapse while the batches grow:
     // give back what it no longer needs (in place: ShrinkableArray).
     candidates_.shrink_to_fit();
-    for (uint32_t x : dirty_) touched_[x] = 0;
+    for (uint32_t x : dirty_) flags_.Unset(x, kTouched);
     dirty_.clear();
-    std::fill(changed_.begin(), changed_.end(), 0);  // (a byte a vertex: cheaper than a list of the marks)
+    flags_.UnsetAll(kChanged);  // (a pass over a byte a vertex: cheaper than a list of the marks)
   }
 
   // After a collapse into u. Whether an edge (x, y) is legal reads the
@@ -776,8 +803,8 @@ class Simplifier {
   // and their edges are checked again.
   void MarkChanged(uint32_t u) {
     for (uint32_t f : vertex_faces_[u])
-      for (uint32_t x : faces_[f]) changed_[x] = 1;
-    changed_[u] = 1;
+      for (uint32_t x : faces_[f]) flags_.Set(x, kChanged);
+    flags_.Set(u, kChanged);
   }
 
   // The next batch, or none when the strict rule finds fewer than
@@ -785,8 +812,6 @@ class Simplifier {
   CollapseBatch NextBatch(size_t min_collapses) {
     if (!candidates_built_) {
       BuildCandidates();
-      touched_.assign(positions_.size(), 0);
-      changed_.assign(positions_.size(), 0);
       candidates_built_ = true;
     } else {
       UpdateCandidates();
@@ -802,24 +827,24 @@ class Simplifier {
         candidates_.swap(kept);  // go on with the kept list and its marks
       }
     }
-    closed_.assign(positions_.size(), 0);
+    flags_.UnsetAll(kClosed);
     CollapseBatch batch;
     for (Candidate& cand : candidates_) {
       Collapse c;
       const uint32_t cv = cand.v();
-      if (options_.rule == BatchRule::kStrict && seam_[cand.u] && seam_[cv]) {
+      if (options_.rule == BatchRule::kStrict && flags_.Has(cand.u, kSeam) && flags_.Has(cv, kSeam)) {
         Collapse t;
-        if (closed_[cand.u] || closed_[cv] || !LegalSeam(cand.u, cv, c, t)) continue;
+        if (flags_.Has(cand.u, kClosed) || flags_.Has(cv, kClosed) || !LegalSeam(cand.u, cv, c, t)) continue;
         const uint32_t at = static_cast<uint32_t>(batch.collapses.size());
         c.twin = at + 1;
         t.twin = at;
-        for (uint32_t x : {c.u, c.v, t.u, t.v}) closed_[x] = 1;
-        for (uint32_t x : seam_neighbours_) closed_[x] = 1;
+        for (uint32_t x : {c.u, c.v, t.u, t.v}) flags_.Set(x, kClosed);
+        for (uint32_t x : seam_neighbours_) flags_.Set(x, kClosed);
         batch.collapses.push_back(c);
         batch.collapses.push_back(t);
         continue;
       }
-      if (closed_[cand.u] || closed_[cv]) continue;
+      if (flags_.Has(cand.u, kClosed) || flags_.Has(cv, kClosed)) continue;
       if (cand.v_flags & kKnownIllegal) {
         // (Tests: the mark must never hide a legal collapse.)
         if (options_.check_candidates && Legal(cand.u, cv, c)) candidates_differ_ = true;
@@ -830,12 +855,13 @@ class Simplifier {
         if (options_.rule == BatchRule::kStrict) cand.v_flags |= kKnownIllegal;
         continue;
       }
-      closed_[c.u] = closed_[c.v] = 1;
+      flags_.Set(c.u, kClosed);
+      flags_.Set(c.v, kClosed);
       if (options_.rule == BatchRule::kStrict) {
         // Close every neighbour too: the produced vertices stay pairwise
         // non-adjacent in the coarser mesh.
-        for (uint32_t x : nu_) closed_[x] = 1;
-        for (uint32_t x : nv_) closed_[x] = 1;
+        for (uint32_t x : nu_) flags_.Set(x, kClosed);
+        for (uint32_t x : nv_) flags_.Set(x, kClosed);
       } else {
         // Neighbouring collapses change each other's surroundings: apply at
         // once, so that the next candidate is checked on the current mesh.
@@ -873,12 +899,10 @@ class Simplifier {
   std::vector<uint8_t> face_alive_;
   VertexFaces vertex_faces_;
   std::vector<Quadric> quadrics_;
-  std::vector<uint8_t> locked_;
-  std::vector<uint8_t> closed_;
+  VertexFlags flags_;
   // (vertex, its seam twin) for every vertex that has one, by vertex (a
   // few boundary vertices: not a table of every vertex).
   std::vector<std::array<uint32_t, 2>> twins_;
-  std::vector<uint8_t> seam_;   // has a twin (unlocked boundary vertex)
   std::vector<uint32_t> seam_neighbours_;
   uint64_t removed_faces_ = 0;
   std::vector<std::array<uint32_t, 2>> pairs_;
@@ -887,8 +911,6 @@ class Simplifier {
   bool candidates_built_ = false;
   bool candidates_differ_ = false;  // check_candidates found a difference
   std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
-  std::vector<uint8_t> touched_;   // dirty_ as flags, during UpdateCandidates
-  std::vector<uint8_t> changed_;   // next to the last batch's collapses (MarkChanged)
 };
 
 }  // namespace
