@@ -510,14 +510,15 @@ class Simplifier {
     // Duplicated triangles (the same three vertices twice, in any order):
     // found among the triangles of each triangle's smallest vertex, without
     // a sorted copy of every triangle (32 bytes a vertex).
-    auto sorted = [](Face f) {
-      std::sort(f.begin(), f.end());
-      return f;
-    };
+    // (Another triangle of the smallest vertex that holds the other two is
+    // the same three vertices: no triangle repeats an index.)
     for (uint32_t f = 0; f < faces_.size(); ++f) {
-      const Face s = sorted(faces_[f]);
+      Face s = faces_[f];
+      std::sort(s.begin(), s.end());
       for (uint32_t g : vertex_faces_[s[0]]) {
-        if (g == f || sorted(faces_[g]) != s) continue;
+        const Face t = faces_[g];
+        auto holds = [&t](uint32_t x) { return t[0] == x || t[1] == x || t[2] == x; };
+        if (g == f || !holds(s[1]) || !holds(s[2])) continue;
         for (uint32_t x : s) flags_.Set(x, kLocked);
         break;
       }
