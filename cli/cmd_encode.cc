@@ -104,7 +104,9 @@ int RunEncode(EncodeArgs& args) {
 
   const auto start = std::chrono::steady_clock::now();
   ProgressiveGlbReport report;
-  auto glb = EncodeProgressiveGlb(scene.value(), options, &report);
+  // The refined primitives' float arrays are dropped as each is quantized
+  // (the encoder's peak memory; the warnings below are kept).
+  auto glb = EncodeProgressiveGlbReleasing(&scene.value(), options, &report);
   const double encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (options.progress) std::fputs("\r\033[K", stderr);
   if (!glb.ok()) return ReportError("encode", glb.status().WithContext(in));
