@@ -153,7 +153,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
                             std::to_string(kParametricParameters - 1) + ")");
       }
       m.adaptive = true;
-      m.prior = ParametricPrior(k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned, alphabet, x.value());
+      m.prior = CachedParametricPrior(k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned, x.value());
     } else {
       auto table = StaticModel::Parse(r, alphabet);
       if (!table.ok()) return table.status().WithContext(slot());

@@ -142,7 +142,7 @@ RefinementModels WriteModels(const CodedRefinement& r, int channels, const Refin
       }
     }
     const uint32_t parameter = BestParameter(kind, h);
-    ModelPrior parametric = ParametricPrior(kind, alphabet, parameter);
+    ModelPrior parametric = CachedParametricPrior(kind, parameter);
     const double parametric_bits = 16.0 + AdaptiveCost(parametric, r, channels, k, stride);
     if (parametric_bits < best) {
       best = parametric_bits;

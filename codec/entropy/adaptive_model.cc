@@ -40,8 +40,23 @@ void AdaptiveModel::Halve() {
   }
 }
 
+namespace {
+
+// log2 of 0 .. kLimit + kIncrement (the counts and totals an AdaptiveModel holds), once.
+const std::vector<float>& Log2Table() {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(AdaptiveModel::kLimit + AdaptiveModel::kIncrement + 1, 0.0f);
+    for (size_t i = 1; i < t.size(); ++i) t[i] = static_cast<float>(std::log2(double(i)));
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
 double AdaptiveModel::Cost(uint32_t symbol) const {
-  return std::log2(double(total_)) - std::log2(double(counts_[symbol]));
+  const std::vector<float>& log2 = Log2Table();
+  return double(log2[total_]) - double(log2[counts_[symbol]]);
 }
 
 ModelPrior ParametricPrior(SymbolKind kind, uint32_t alphabet, uint32_t x) {
@@ -83,17 +98,36 @@ ModelPrior TablePrior(const StaticModel& model, uint32_t alphabet) {
   return prior;
 }
 
+const ModelPrior& CachedParametricPrior(SymbolKind kind, uint32_t x) {
+  // The slots' two alphabets: indices 16 symbols, signed values kSignedSymbols.
+  static const std::vector<ModelPrior> tables[2] = {
+      [] {
+        std::vector<ModelPrior> t;
+        for (uint32_t x = 0; x < kParametricParameters; ++x) t.push_back(ParametricPrior(SymbolKind::kIndex, 16, x));
+        return t;
+      }(),
+      [] {
+        std::vector<ModelPrior> t;
+        for (uint32_t x = 0; x < kParametricParameters; ++x)
+          t.push_back(ParametricPrior(SymbolKind::kSigned, kSignedSymbols, x));
+        return t;
+      }()};
+  return tables[kind == SymbolKind::kIndex ? 0 : 1][x];
+}
+
 uint32_t BestParameter(SymbolKind kind, const std::vector<uint64_t>& counts) {
   double best = 1e300;
   uint32_t best_x = 0;
   const uint32_t n = static_cast<uint32_t>(counts.size());
+  const uint32_t cached = kind == SymbolKind::kIndex ? 16 : kSignedSymbols;
+  const std::vector<float>& log2 = Log2Table();
   for (uint32_t x = 0; x < kParametricParameters; ++x) {
-    const ModelPrior p = ParametricPrior(kind, n, x);
-    double total = 0;
+    const ModelPrior& p = n == cached ? CachedParametricPrior(kind, x) : ParametricPrior(kind, n, x);
+    uint32_t total = 0;
     for (uint16_t c : p) total += c;
     double bits = 0;
     for (uint32_t s = 0; s < n; ++s)
-      if (counts[s]) bits += double(counts[s]) * (std::log2(total) - std::log2(double(p[s])));
+      if (counts[s]) bits += double(counts[s]) * (double(log2[total]) - double(log2[p[s]]));
     if (bits < best) {
       best = bits;
       best_x = x;

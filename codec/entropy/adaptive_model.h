@@ -78,6 +78,9 @@ enum class SymbolKind : uint8_t { kIndex, kSigned };
 // section 5.1, gives the integer arithmetic).
 constexpr uint32_t kParametricParameters = 160;
 ModelPrior ParametricPrior(SymbolKind kind, uint32_t alphabet, uint32_t x);
+// ParametricPrior for a slot's whole alphabet (16 indices or kSignedSymbols
+// signed values), computed once per process.
+const ModelPrior& CachedParametricPrior(SymbolKind kind, uint32_t x);
 // A static table as a prior: max(1, its frequency) for each of the
 // `alphabet` symbols (symbols beyond the table's alphabet: 1).
 ModelPrior TablePrior(const StaticModel& model, uint32_t alphabet);

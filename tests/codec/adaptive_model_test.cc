@@ -81,8 +81,9 @@ TEST(AdaptiveModel, PriorsAreValidAndFlattenWithTheParameter) {
       EXPECT_GE(Sum(p), 4096u - n) << x;
       EXPECT_LE(p[0], previous_zero) << "x " << x << ": a larger parameter is flatter";
       previous_zero = p[0];
-      if (kind == SymbolKind::kIndex)
+      if (kind == SymbolKind::kIndex) {
         for (uint32_t s = 1; s < n; ++s) EXPECT_LE(p[s], p[s - 1]) << x;
+      }
     }
   }
   // A wide histogram picks a flatter member than a narrow one.
