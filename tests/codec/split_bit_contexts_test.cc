@@ -54,6 +54,14 @@ std::vector<Bits> EncodeAll(const History& h, const std::vector<uint32_t>* twin 
   return out;
 }
 
+// Decodes `block` as the coder's next refinement, requires `want`, moves on.
+void DecodeNext(SplitBitContexts& decoder, const Bits& block, const Bits& want) {
+  auto got = decoder.Decode(block.data(), block.size());
+  ASSERT_TRUE(got.ok()) << got.status().ToString();
+  ASSERT_EQ(got->bits, want);
+  decoder.Advance(std::move(got).value());
+}
+
 // The contexts of the spec on two triangles (0 1 2) and (0 2 3).
 TEST(SplitBitContexts, ContextsFollowTheReliableGraph) {
   SplitBitContexts c;
@@ -99,10 +107,8 @@ TEST(SplitBitContexts, RealHistoryRoundTripsInFewerBytesThanVersion2) {
   SplitHistory v2;
   v2.vertices = h.base_vertices;
   for (size_t i = 0; i < h.levels.size(); ++i) {
-    auto got = decoder.Decode(coded[i].data(), coded[i].size());
-    ASSERT_TRUE(got.ok()) << "level " << i << ": " << got.status().ToString();
-    ASSERT_EQ(got->bits, h.levels[i]) << "level " << i;
-    decoder.Advance(got.value());
+    SCOPED_TRACE("level " + std::to_string(i));
+    ASSERT_NO_FATAL_FAILURE(DecodeNext(decoder, coded[i], h.levels[i]));
     bytes += coded[i].size();
     v2_bytes += EncodeSplitBits(h.levels[i], v2).size();
     v2 = v2.Next(h.levels[i]);
@@ -131,10 +137,8 @@ TEST(SplitBitContexts, ARefusedBlockLeavesTheCoderAsItWas) {
     auto refused = decoder.Decode(stray.data(), stray.size());
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.status().message().find("do not end with its"), std::string::npos) << refused.status().message();
-    auto got = decoder.Decode(coded[i].data(), coded[i].size());
-    ASSERT_TRUE(got.ok()) << "level " << i;
-    ASSERT_EQ(got->bits, h.levels[i]) << "level " << i;
-    decoder.Advance(got.value());
+    SCOPED_TRACE("level " + std::to_string(i));
+    ASSERT_NO_FATAL_FAILURE(DecodeNext(decoder, coded[i], h.levels[i]));
   }
 }
 
@@ -145,11 +149,7 @@ TEST(SplitBitContexts, TruncatedInputFailsCleanly) {
   SplitBitContexts decoder;
   ASSERT_TRUE(decoder.Reset(h.base_vertices, h.base_indices).ok());
   // The last (largest) refinement, after the others.
-  for (size_t i = 0; i + 1 < coded.size(); ++i) {
-    auto got = decoder.Decode(coded[i].data(), coded[i].size());
-    ASSERT_TRUE(got.ok());
-    decoder.Advance(got.value());
-  }
+  for (size_t i = 0; i + 1 < coded.size(); ++i) ASSERT_NO_FATAL_FAILURE(DecodeNext(decoder, coded[i], h.levels[i]));
   const Bits& c = coded.back();
   ASSERT_GT(c.size(), 8u);
   // As for version 2 (split_bits_test.cc): every cut before the decoder's
