@@ -141,9 +141,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
       }
       continue;
     }
-    // Wings and ring offsets are below the maximum valence; signed values
-    // have kSignedSymbols symbols. A larger alphabet names nothing.
-    const uint32_t alphabet = k < 2 ? kWingAlphabet : kSignedSymbols;
+    const uint32_t alphabet = SlotAlphabet(k);
     SlotModel m;
     if (mode == static_cast<uint8_t>(ModelMode::kParametric)) {
       auto x = r.U8("model parameter");
@@ -153,7 +151,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
                             std::to_string(kParametricParameters - 1) + ")");
       }
       m.adaptive = true;
-      m.prior = CachedParametricPrior(k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned, x.value());
+      m.prior = CachedParametricPrior(SlotKind(k), x.value());
     } else {
       auto table = StaticModel::Parse(r, alphabet);
       if (!table.ok()) return table.status().WithContext(slot());

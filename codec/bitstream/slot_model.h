@@ -10,6 +10,7 @@
 
 #include <cstdint>
 
+#include "codec/bitstream/format.h"
 #include "codec/entropy/adaptive_model.h"
 #include "codec/entropy/symbol_model.h"
 
@@ -23,6 +24,13 @@ enum class ModelMode : uint8_t {
   kAdaptiveTable = 3,   // adaptive from a table (TablePrior): the table follows
 };
 constexpr uint8_t kModelModes = 4;
+
+// What slot k codes: slots 0 and 1 the cut rank's digits (indices below
+// the maximum valence), slots 2.. signed values (docs/progressive-format.md,
+// section 5). A larger alphabet names nothing.
+inline SymbolKind SlotKind(size_t slot) { return slot < 2 ? SymbolKind::kIndex : SymbolKind::kSigned; }
+inline uint32_t SlotAlphabet(size_t slot) { return SlotAlphabetOf(SlotKind(slot)); }
+static_assert(SlotAlphabetOf(SymbolKind::kIndex) == kWingAlphabet);
 
 struct SlotModel {
   bool adaptive = false;

@@ -53,8 +53,6 @@ void SlotSymbols(const CodedRefinement& cr, size_t j, size_t slot, int channels,
   }
 }
 
-uint32_t SlotAlphabet(size_t slot) { return slot < 2 ? kWingAlphabet : kSignedSymbols; }
-
 std::vector<std::vector<uint64_t>> Histograms(const CodedRefinement& cr, int channels) {
   std::vector<std::vector<uint64_t>> h(5 + channels);
   std::vector<uint32_t> symbols;
@@ -100,102 +98,6 @@ double AdaptiveCost(const ModelPrior& prior, const CodedRefinement& cr, int chan
   return bits;
 }
 
-// Chooses and writes the models of a refinement; `previous` is the previous
-// refinement's (none for the first). With `modes` (the model modes tool) a
-// slot may be adaptive, priced with the datagrams dealt at `strides`
-// (structure slots, geometry slots).
-RefinementModels WriteModels(const CodedRefinement& r, int channels, const RefinementModels* previous, bool modes,
-                             const size_t strides[2], ByteWriter& w) {
-  const auto histograms = Histograms(r, channels);
-  RefinementModels chosen;
-  for (size_t k = 0; k < histograms.size(); ++k) {
-    const std::vector<uint64_t>& h = histograms[k];
-    StaticModel fresh = StaticModel::FromCounts(h);
-    ByteWriter serialized;
-    fresh.Serialize(serialized);
-    const double table_bits = 8.0 * serialized.size();
-    const double fresh_bits = CostWith(fresh, h) + table_bits;
-    const SlotModel* before = previous ? &previous->slots[k] : nullptr;
-    const size_t stride = strides[k < 2 ? 0 : 1];
-    if (!modes) {
-      const bool reuse = before && CostWith(before->table, h) < fresh_bits;
-      w.U8(reuse ? 0 : 1);
-      if (reuse) {
-        chosen.slots.push_back(*before);
-      } else {
-        w.Bytes(serialized.bytes());
-        chosen.slots.push_back(SlotModel{false, std::move(fresh), {}});
-      }
-      continue;
-    }
-    // Every mode priced in bits, its mode byte and what follows it included.
-    const SymbolKind kind = k < 2 ? SymbolKind::kIndex : SymbolKind::kSigned;
-    const uint32_t alphabet = SlotAlphabet(k);
-    double best = 8.0 + fresh_bits;
-    ModelMode mode = ModelMode::kTable;
-    if (before) {
-      const double reuse = 8.0 + (before->adaptive ? AdaptiveCost(before->prior, r, channels, k, stride)
-                                                   : CostWith(before->table, h));
-      if (reuse < best) {
-        best = reuse;
-        mode = ModelMode::kReuse;
-      }
-    }
-    const uint32_t parameter = BestParameter(kind, h);
-    ModelPrior parametric = CachedParametricPrior(kind, parameter);
-    const double parametric_bits = 16.0 + AdaptiveCost(parametric, r, channels, k, stride);
-    if (parametric_bits < best) {
-      best = parametric_bits;
-      mode = ModelMode::kParametric;
-    }
-    ModelPrior from_table = TablePrior(fresh, alphabet);
-    if (8.0 + table_bits + AdaptiveCost(from_table, r, channels, k, stride) < best) mode = ModelMode::kAdaptiveTable;
-    w.U8(static_cast<uint8_t>(mode));
-    switch (mode) {
-      case ModelMode::kReuse:
-        chosen.slots.push_back(*before);
-        // An adaptive slot's table is only the writer's estimate: this refinement's.
-        if (before->adaptive) chosen.slots.back().table = std::move(fresh);
-        break;
-      case ModelMode::kTable:
-        w.Bytes(serialized.bytes());
-        chosen.slots.push_back(SlotModel{false, std::move(fresh), {}});
-        break;
-      case ModelMode::kParametric:
-        w.U8(static_cast<uint8_t>(parameter));
-        chosen.slots.push_back(SlotModel{true, std::move(fresh), std::move(parametric)});
-        break;
-      case ModelMode::kAdaptiveTable:
-        w.Bytes(serialized.bytes());
-        chosen.slots.push_back(SlotModel{true, std::move(fresh), std::move(from_table)});
-        break;
-    }
-  }
-  return chosen;
-}
-
-void EncodeStructure(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j) {
-  const Refinement& r = cr.r;
-  if (cr.secondary(j)) return;
-  if (!cr.interior(j)) {
-    enc.EncodeRaw(r.wings[j][0], kSeamWingBits);
-    enc.EncodeRaw(r.wings[cr.partner[j]][0], kSeamWingBits);
-    return;
-  }
-  m[0].Encode(enc, r.wings[j][0]);
-  m[1].Encode(enc, r.wings[j][1]);
-}
-
-void EncodeGeometry(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j, int channels) {
-  const Refinement& r = cr.r;
-  if (cr.secondary(j)) return;
-  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m[2 + k], r.position_delta[j][k]);
-  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[j * channels + k]);
-  if (cr.interior(j)) return;
-  const size_t t = cr.partner[j];
-  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[t * channels + k]);
-}
-
 // A split's bits in a datagram of `kind`, estimated with each slot's table
 // (an adaptive slot's: its symbols' counts in this refinement).
 double UnitCost(const RefinementModels& m, const CodedRefinement& cr, size_t j, int channels, DatagramKind kind) {
@@ -230,6 +132,114 @@ double KindBits(const RefinementModels& m, const CodedRefinement& r, int channel
   double bits = 0;
   for (size_t j = 0; j < r.r.split_count(); ++j) bits += UnitCost(m, r, j, channels, kind);
   return bits;
+}
+
+// Chooses and writes the models of a refinement; `previous` is the previous
+// refinement's (none for the first). With the model modes tool a slot may be
+// adaptive, priced with the datagrams dealt as the static tables' estimate
+// deals them (FirstStride; Packetize then deals them for real).
+RefinementModels WriteModels(const CodedRefinement& r, int channels, const RefinementModels* previous,
+                             const StreamWriteOptions& o, bool modes, ByteWriter& w) {
+  const auto histograms = Histograms(r, channels);
+  // Every slot's fresh table: what it would send, and the estimate of its symbols' bits.
+  RefinementModels fresh;
+  for (const auto& h : histograms) fresh.slots.push_back(SlotModel{false, StaticModel::FromCounts(h), {}});
+  size_t strides[2] = {1, 1};  // structure slots, geometry slots
+  if (modes) {
+    const size_t k = r.r.split_count();
+    if (o.packing == Packing::kBundled) {
+      strides[0] = strides[1] = FirstStride(KindBits(fresh, r, channels, DatagramKind::kBundled), k, o);
+    } else {
+      strides[0] = FirstStride(KindBits(fresh, r, channels, DatagramKind::kStructure), k, o);
+      strides[1] = FirstStride(KindBits(fresh, r, channels, DatagramKind::kGeometry), k, o);
+    }
+  }
+  RefinementModels chosen;
+  for (size_t k = 0; k < histograms.size(); ++k) {
+    const std::vector<uint64_t>& h = histograms[k];
+    StaticModel& table = fresh.slots[k].table;
+    ByteWriter serialized;
+    table.Serialize(serialized);
+    const double table_bits = 8.0 * serialized.size();
+    const double fresh_bits = CostWith(table, h) + table_bits;
+    const SlotModel* before = previous ? &previous->slots[k] : nullptr;
+    const size_t stride = strides[k < 2 ? 0 : 1];
+    if (!modes) {
+      const bool reuse = before && CostWith(before->table, h) < fresh_bits;
+      w.U8(reuse ? 0 : 1);
+      if (reuse) {
+        chosen.slots.push_back(*before);
+      } else {
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{false, std::move(table), {}});
+      }
+      continue;
+    }
+    // Every mode priced in bits, its mode byte and what follows it included.
+    const SymbolKind kind = SlotKind(k);
+    double best = 8.0 + fresh_bits;
+    ModelMode mode = ModelMode::kTable;
+    if (before) {
+      const double reuse = 8.0 + (before->adaptive ? AdaptiveCost(before->prior, r, channels, k, stride)
+                                                   : CostWith(before->table, h));
+      if (reuse < best) {
+        best = reuse;
+        mode = ModelMode::kReuse;
+      }
+    }
+    const uint32_t parameter = BestParameter(kind, h);
+    const ModelPrior& parametric = CachedParametricPrior(kind, parameter);
+    const double parametric_bits = 16.0 + AdaptiveCost(parametric, r, channels, k, stride);
+    if (parametric_bits < best) {
+      best = parametric_bits;
+      mode = ModelMode::kParametric;
+    }
+    ModelPrior from_table = TablePrior(table, SlotAlphabet(k));
+    if (8.0 + table_bits + AdaptiveCost(from_table, r, channels, k, stride) < best) mode = ModelMode::kAdaptiveTable;
+    w.U8(static_cast<uint8_t>(mode));
+    switch (mode) {
+      case ModelMode::kReuse:
+        chosen.slots.push_back(*before);
+        // An adaptive slot's table is only the writer's estimate: this refinement's.
+        if (before->adaptive) chosen.slots.back().table = std::move(table);
+        break;
+      case ModelMode::kTable:
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{false, std::move(table), {}});
+        break;
+      case ModelMode::kParametric:
+        w.U8(static_cast<uint8_t>(parameter));
+        chosen.slots.push_back(SlotModel{true, std::move(table), parametric});
+        break;
+      case ModelMode::kAdaptiveTable:
+        w.Bytes(serialized.bytes());
+        chosen.slots.push_back(SlotModel{true, std::move(table), std::move(from_table)});
+        break;
+    }
+  }
+  return chosen;
+}
+
+void EncodeStructure(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j) {
+  const Refinement& r = cr.r;
+  if (cr.secondary(j)) return;
+  if (!cr.interior(j)) {
+    enc.EncodeRaw(r.wings[j][0], kSeamWingBits);
+    enc.EncodeRaw(r.wings[cr.partner[j]][0], kSeamWingBits);
+    return;
+  }
+  m[0].Encode(enc, r.wings[j][0]);
+  m[1].Encode(enc, r.wings[j][1]);
+}
+
+void EncodeGeometry(RangeEncoder& enc, std::vector<SlotCoder>& m, const CodedRefinement& cr, size_t j, int channels) {
+  const Refinement& r = cr.r;
+  if (cr.secondary(j)) return;
+  for (int k = 0; k < 3; ++k) EncodeSigned(enc, m[2 + k], r.position_delta[j][k]);
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[j * channels + k]);
+  if (cr.interior(j)) return;
+  const size_t t = cr.partner[j];
+  for (int k = 0; k < channels; ++k) EncodeSigned(enc, m[5 + k], r.attribute_delta[t * channels + k]);
 }
 
 // Deals the splits of a refinement to as few datagrams as fit.
@@ -502,22 +512,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
       cw.Block(EncodeSplitBits(bits, history, twins));
       history = history.Next(bits);
     }
-    // With the model modes tool, the datagram counts the static estimate gives price the adaptive modes.
-    size_t strides[2] = {1, 1};
-    const bool modes = h.has(kToolModelModes);
-    if (modes) {
-      RefinementModels estimate;
-      for (const auto& histogram : Histograms(r, channels))
-        estimate.slots.push_back(SlotModel{false, StaticModel::FromCounts(histogram), {}});
-      const size_t k = plain.split_count();
-      if (o.packing == Packing::kBundled) {
-        strides[0] = strides[1] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kBundled), k, o);
-      } else {
-        strides[0] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kStructure), k, o);
-        strides[1] = FirstStride(KindBits(estimate, r, channels, DatagramKind::kGeometry), k, o);
-      }
-    }
-    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, modes, strides, cw);
+    const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, o, h.has(kToolModelModes), cw);
     if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));
     s.control.push_back(std::move(cw.bytes()));
     previous = models;

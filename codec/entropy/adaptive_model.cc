@@ -99,34 +99,25 @@ ModelPrior TablePrior(const StaticModel& model, uint32_t alphabet) {
 }
 
 const ModelPrior& CachedParametricPrior(SymbolKind kind, uint32_t x) {
-  // The slots' two alphabets: indices 16 symbols, signed values kSignedSymbols.
-  static const std::vector<ModelPrior> tables[2] = {
-      [] {
-        std::vector<ModelPrior> t;
-        for (uint32_t x = 0; x < kParametricParameters; ++x) t.push_back(ParametricPrior(SymbolKind::kIndex, 16, x));
-        return t;
-      }(),
-      [] {
-        std::vector<ModelPrior> t;
-        for (uint32_t x = 0; x < kParametricParameters; ++x)
-          t.push_back(ParametricPrior(SymbolKind::kSigned, kSignedSymbols, x));
-        return t;
-      }()};
+  auto all = [](SymbolKind k) {
+    std::vector<ModelPrior> t;
+    for (uint32_t p = 0; p < kParametricParameters; ++p) t.push_back(ParametricPrior(k, SlotAlphabetOf(k), p));
+    return t;
+  };
+  static const std::vector<ModelPrior> tables[2] = {all(SymbolKind::kIndex), all(SymbolKind::kSigned)};
   return tables[kind == SymbolKind::kIndex ? 0 : 1][x];
 }
 
 uint32_t BestParameter(SymbolKind kind, const std::vector<uint64_t>& counts) {
   double best = 1e300;
   uint32_t best_x = 0;
-  const uint32_t n = static_cast<uint32_t>(counts.size());
-  const uint32_t cached = kind == SymbolKind::kIndex ? 16 : kSignedSymbols;
   const std::vector<float>& log2 = Log2Table();
   for (uint32_t x = 0; x < kParametricParameters; ++x) {
-    const ModelPrior& p = n == cached ? CachedParametricPrior(kind, x) : ParametricPrior(kind, n, x);
+    const ModelPrior& p = CachedParametricPrior(kind, x);
     uint32_t total = 0;
     for (uint16_t c : p) total += c;
     double bits = 0;
-    for (uint32_t s = 0; s < n; ++s)
+    for (size_t s = 0; s < counts.size() && s < p.size(); ++s)
       if (counts[s]) bits += double(counts[s]) * (double(log2[total]) - double(log2[p[s]]));
     if (bits < best) {
       best = bits;

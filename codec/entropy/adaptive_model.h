@@ -71,6 +71,9 @@ class AdaptiveModel {
 // theta^s) or signed values (SignedSymbol's alphabet; the weight of a symbol
 // is the mass of theta^|v| over the values it stands for).
 enum class SymbolKind : uint8_t { kIndex, kSigned };
+// The alphabet of a kind in the stream's slots: 16 indices (below the
+// maximum valence), kSignedSymbols signed values.
+constexpr uint32_t SlotAlphabetOf(SymbolKind kind) { return kind == SymbolKind::kIndex ? 16 : kSignedSymbols; }
 
 // The parametric family: parameter x in [0, kParametricParameters) stands
 // for theta = 1 - 8 / ((8 + x mod 8) 2^(x / 8)) (from a spike at 0 to
@@ -78,14 +81,13 @@ enum class SymbolKind : uint8_t { kIndex, kSigned };
 // section 5.1, gives the integer arithmetic).
 constexpr uint32_t kParametricParameters = 160;
 ModelPrior ParametricPrior(SymbolKind kind, uint32_t alphabet, uint32_t x);
-// ParametricPrior for a slot's whole alphabet (16 indices or kSignedSymbols
-// signed values), computed once per process.
+// ParametricPrior over SlotAlphabetOf(kind), computed once per process.
 const ModelPrior& CachedParametricPrior(SymbolKind kind, uint32_t x);
 // A static table as a prior: max(1, its frequency) for each of the
 // `alphabet` symbols (symbols beyond the table's alphabet: 1).
 ModelPrior TablePrior(const StaticModel& model, uint32_t alphabet);
-// The parameter whose prior codes a histogram of `counts.size()` symbols in
-// the fewest bits (statically; the encoder's choice).
+// The parameter whose prior (over SlotAlphabetOf(kind)) codes a histogram
+// of that alphabet in the fewest bits (statically; the encoder's choice).
 uint32_t BestParameter(SymbolKind kind, const std::vector<uint64_t>& counts);
 
 }  // namespace meshstream
