@@ -54,6 +54,28 @@ std::vector<Bits> EncodeAll(const History& h, const std::vector<uint32_t>* twin 
   return out;
 }
 
+// The real history and its blocks, made once for the tests that decode them.
+struct RealCase {
+  History h;
+  std::vector<Bits> coded;
+};
+const RealCase& Real() {
+  static const RealCase c = [] {
+    RealCase r;
+    r.h = RealHistory();
+    r.coded = EncodeAll(r.h);
+    return r;
+  }();
+  return c;
+}
+
+// A decoder at the start of the history's stream.
+SplitBitContexts DecoderFor(const History& h) {
+  SplitBitContexts decoder;
+  EXPECT_TRUE(decoder.Reset(h.base_vertices, h.base_indices).ok());
+  return decoder;
+}
+
 // Decodes `block` as the coder's next refinement, requires `want`, moves on.
 void DecodeNext(SplitBitContexts& decoder, const Bits& block, const Bits& want) {
   auto got = decoder.Decode(block.data(), block.size());
@@ -98,11 +120,10 @@ TEST(SplitBitContexts, ContextsFollowTheReliableGraph) {
 }
 
 TEST(SplitBitContexts, RealHistoryRoundTripsInFewerBytesThanVersion2) {
-  const History h = RealHistory();
+  const History& h = Real().h;
+  const std::vector<Bits>& coded = Real().coded;
   ASSERT_GE(h.levels.size(), 3u);
-  const std::vector<Bits> coded = EncodeAll(h);
-  SplitBitContexts decoder;
-  ASSERT_TRUE(decoder.Reset(h.base_vertices, h.base_indices).ok());
+  SplitBitContexts decoder = DecoderFor(h);
   size_t bytes = 0, v2_bytes = 0;
   SplitHistory v2;
   v2.vertices = h.base_vertices;
@@ -118,11 +139,10 @@ TEST(SplitBitContexts, RealHistoryRoundTripsInFewerBytesThanVersion2) {
 }
 
 TEST(SplitBitContexts, ARefusedBlockLeavesTheCoderAsItWas) {
-  const History h = RealHistory();
+  const History& h = Real().h;
+  const std::vector<Bits>& coded = Real().coded;
   ASSERT_GE(h.levels.size(), 3u);
-  const std::vector<Bits> coded = EncodeAll(h);
-  SplitBitContexts decoder;
-  ASSERT_TRUE(decoder.Reset(h.base_vertices, h.base_indices).ok());
+  SplitBitContexts decoder = DecoderFor(h);
   std::mt19937 rng(7);
   for (size_t i = 0; i < h.levels.size(); ++i) {
     // Garbage first (refused or decoded to other bits, never applied), then the real block.
@@ -143,11 +163,10 @@ TEST(SplitBitContexts, ARefusedBlockLeavesTheCoderAsItWas) {
 }
 
 TEST(SplitBitContexts, TruncatedInputFailsCleanly) {
-  const History h = RealHistory();
+  const History& h = Real().h;
+  const std::vector<Bits>& coded = Real().coded;
   ASSERT_GE(h.levels.size(), 2u);
-  const std::vector<Bits> coded = EncodeAll(h);
-  SplitBitContexts decoder;
-  ASSERT_TRUE(decoder.Reset(h.base_vertices, h.base_indices).ok());
+  SplitBitContexts decoder = DecoderFor(h);
   // The last (largest) refinement, after the others.
   for (size_t i = 0; i + 1 < coded.size(); ++i) ASSERT_NO_FATAL_FAILURE(DecodeNext(decoder, coded[i], h.levels[i]));
   const Bits& c = coded.back();
