@@ -389,6 +389,7 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
     const char* name;
     uint8_t version;
     ms::ToolSet tools;
+    double ring_term_bits = ms::StreamWriteOptions().ring_term_bits;
   };
   const Step steps[] = {
       {"version 1 (raw split vectors, cut edges by id)", 1, 0},
@@ -402,7 +403,12 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
       {"+ texture coordinates and colours by the ring's map", 2, ms::kAllTools & ~ms::kToolSeams},
       {"+ seam edges collapsed on both sides together", 2, ms::kVersion2Tools},
       {"+ split bits in contexts of the reliable graph (version 3)", 3, ms::kVersion2Tools | ms::kToolSplitContexts},
-      {"+ model modes: per slot a static table or a model adapted within each datagram", 3, ms::kAllTools},
+      {"+ model modes: per slot a static table or a model adapted within each datagram", 3,
+       ms::kVersion2Tools | ms::kToolSplitContexts | ms::kToolModelModes},
+      {"+ ring predictor: Laplacian and sides in the frame, tangential and normal weights per refinement", 3,
+       ms::kAllTools},
+      {"+ its 2-ring term wherever it saves (--ring-term-bits 0; about 15 % more decode instructions)", 3,
+       ms::kAllTools, 0.0},
   };
   json out = json::array();
   double previous = 0;
@@ -411,6 +417,7 @@ json LeverTable(const ms::Scene& scene, const ms::QuantizationParams& q, const s
     options.encode.quantization = q;
     options.stream.version = step.version;
     options.stream.tools = step.tools;
+    options.stream.ring_term_bits = step.ring_term_bits;
     ms::ProgressiveGlbReport report;
     const std::vector<uint8_t> glb = Check(ms::EncodeProgressiveGlb(scene, options, &report), label + ": " + step.name);
     const ms::Scene decoded = Check(ms::DecodeProgressiveGlb(glb, {}, nullptr), label + ": decode " + step.name);

@@ -200,9 +200,14 @@ Verb AddEncode(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,
                           "coding tools, comma-separated: all, none, geometry, frame, rank, normals, texcoords, "
-                          "seams (version 2 and later), splitbits, models (version 3) (docs/codec.md; fewer tools, larger "
-                          "stream)")
+                          "seams (version 2 and later), splitbits, models, predictor (version 3) (docs/codec.md; fewer "
+                          "tools, larger stream)")
               ->capture_default_str());
+  FromEnv(cmd->add_option("--ring-term-bits", o.stream.ring_term_bits,
+                          "bits per split the predictor's 2-ring term must save before a refinement uses it (it "
+                          "costs the decoder about 15 % more time; 0: wherever it saves; docs/codec.md)")
+              ->check(NumberIn(0, 64)))
+      ->capture_default_str();
   FromEnv(cmd->add_option("--reliable-share", o.reliable_share,
                           "share of each stream's bytes whose refinements a session sends reliably, the most "
                           "important per byte first (docs/loss-tolerance.md; 0: none)")

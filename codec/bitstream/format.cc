@@ -122,6 +122,10 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
     return refuse("tools " + std::to_string(h.tools) + " has bits set that version " + std::to_string(version) +
                   " reserves");
   }
+  if ((h.tools & kToolRingPredictor) != 0 &&
+      (h.tools & (kToolGeometryPrediction | kToolLocalFrame)) != (kToolGeometryPrediction | kToolLocalFrame)) {
+    return refuse("tools " + std::to_string(h.tools) + ": the predictor tool needs the geometry and frame tools");
+  }
   static const char* const kBitsNames[4] = {"qp", "qn", "qt", "qc"};
   uint8_t bits[4];
   for (int k = 0; k < 4; ++k) {

@@ -68,6 +68,7 @@ Status StreamReader::SetBase(QuantizedMesh base) {
     MS_RETURN_IF_ERROR(split_contexts_.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices));
   }
   models_.clear();
+  predictor_ = kInitialPredictor;
   has_base_ = true;
   next_ = 0;
   return Status::Ok();
@@ -164,20 +165,42 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
     models.push_back(std::move(m));
     fresh_slots[k] = 1;
   }
-  coding_ = SplitCoding{header_.tools, 0, 0};
+  // The ring predictor's record, or version 2's alpha.
+  PredictorWeights predictor = predictor_;
+  uint32_t alpha = 0;
+  if (header_.has(kToolRingPredictor)) {
+    auto mode = r.U8("predictor record");
+    if (!mode.ok()) return mode.status().WithContext(where + ": control block");
+    if (mode.value() > 1) {
+      return InvalidInput(where + ": control block: predictor record " + std::to_string(mode.value()) + " is not 0 or 1");
+    }
+    if (mode.value() == 1) {
+      static const char* const kWeightNames[kPredictorFeatures] = {"Laplacian", "sides", "ring"};
+      for (int g = 0; g < 2; ++g) {
+        for (int f = 0; f < kPredictorFeatures; ++f) {
+          const std::string what = std::string(g == 0 ? "tangential " : "normal ") + kWeightNames[f] + " weight";
+          auto z = r.Varint("predictor weight", uint64_t{2} * kMaxPredictorWeight);
+          if (!z.ok()) return z.status().WithContext(where + ": control block: " + what);
+          (g == 0 ? predictor.tangential : predictor.normal)[f] = UnZigZag(static_cast<uint32_t>(z.value()));
+        }
+      }
+    }
+  } else if (header_.has(kToolGeometryPrediction)) {
+    auto a = r.U8("alpha");
+    if (!a.ok()) return a.status().WithContext(where + ": control block");
+    alpha = a.value();
+  }
+  coding_ = SplitCoding{header_.tools, alpha, kInitialPredictor, 0};
+  coding_.predictor = predictor;
   if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
   if (header_.has(kToolTexcoordPrediction)) {
     coding_.mapped_first = header_.grids.layout.texcoord_offset(0);
     coding_.mapped_count = header_.grids.layout.channels() - coding_.mapped_first;
   }
-  if (header_.has(kToolGeometryPrediction)) {
-    auto alpha = r.U8("alpha");
-    if (!alpha.ok()) return alpha.status().WithContext(where + ": control block");
-    coding_.alpha = alpha.value();
-  }
   if (r.remaining() != 0) {
     return InvalidInput(where + ": control block: " + std::to_string(r.remaining()) + " stray bytes after the models");
   }
+  predictor_ = predictor;
   if (models_.size() != slots) models_.resize(slots);  // the first block: every slot is fresh (checked above)
   for (size_t k = 0, next = 0; k < slots; ++k) {
     if (fresh_slots[k]) models_[k] = std::move(models[next++]);
@@ -308,11 +331,17 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   current_.attribute_delta = coded_.attribute_delta;
   state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
-  for (size_t j = 0; j < current_.split_count(); ++j) {
-    MS_RETURN_IF_ERROR(RecoverSplit(coded_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
-                                    &recovery_scratch_, &stats, coding_, &current_)
-                           .WithContext(where));
+  // The ring predictor reads only the vertices no split of this refinement
+  // changes (ring_predictor.h).
+  const bool stable = header_.has(kToolRingPredictor);
+  if (stable) state_.BeginSplits(coded_);
+  Status status = Status::Ok();
+  for (size_t j = 0; j < current_.split_count() && status.ok(); ++j) {
+    status = RecoverSplit(coded_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
+                          &recovery_scratch_, &stats, coding_, &current_);
   }
+  if (stable) state_.EndSplits(coded_);
+  if (!status.ok()) return status.WithContext(where);
   recovery_stats_.Add(stats);
   in_refinement_ = false;
   ++next_;

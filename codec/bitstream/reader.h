@@ -93,6 +93,7 @@ class StreamReader {
   Refinement coded_;    // what the datagrams carry
   Refinement current_;  // what was applied
   SplitCoding coding_;
+  PredictorWeights predictor_ = kInitialPredictor;  // the last refinement's (kToolRingPredictor)
   std::vector<uint8_t> has_structure_, has_geometry_;
   std::vector<SlotModel> models_;  // slots: wing, offset, position x y z, channels
   // OfferDatagram's scratch: a datagram is decoded here before it is committed.

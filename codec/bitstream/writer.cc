@@ -7,6 +7,7 @@
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/normal_prediction.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/ring_predictor_fit.h"
 #include "codec/progressive/seam_twins.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bit_contexts.h"
@@ -300,17 +301,38 @@ double ResidualBits(const std::vector<Vec3i>& residuals) {
   return bits;
 }
 
+// At most this many splits of a refinement enter the predictor's fit (evenly
+// spaced): the fit's cost and memory stay bounded on any mesh.
+constexpr size_t kMaxPredictorSamples = 1 << 16;
+
+// The ring predictor's record in a control block (docs/progressive-format.md
+// section 4.7): 0 to keep the previous refinement's weights, or 1 and the
+// six weights as zigzag varints.
+void WritePredictorRecord(const PredictorWeights& w, const PredictorWeights& previous, ByteWriter& out) {
+  if (w == previous) {
+    out.U8(0);
+    return;
+  }
+  out.U8(1);
+  for (const auto* group : {&w.tangential, &w.normal})
+    for (int32_t x : *group) out.Varint(ZigZag(x));
+}
+
 // Refinement r with its split vectors (and, with the wing-rank tool, its
 // wings) replaced by their coded form under the stream's tools
 // (geometry_prediction.h, wing_rank.h), given the coarser mesh `state`
-// (which is then refined by r). Chooses the refinement's alpha. False when
-// a split's wings cannot be ranked (a ring beyond kMaxRankedValence): the
-// caller then writes the stream without that tool.
-bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& layout, RefinementState& state,
-                    SplitCoding* coding, Refinement* out) {
+// (which is then refined by r). Chooses the refinement's alpha, or with the
+// ring predictor its weights (coding->predictor holds the previous
+// refinement's on entry). False when a split's wings cannot be ranked (a
+// ring beyond kMaxRankedValence): the caller then writes the stream without
+// that tool.
+bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& layout, double ring_term_bits,
+                    RefinementState& state, SplitCoding* coding, Refinement* out) {
   Refinement& coded = *out;
   coded = r;
   WingRanking ranking;
+  const PredictorWeights previous = coding->predictor;
+  const bool predictor = (tools & kToolRingPredictor) != 0;
   coding->tools = tools;
   coding->alpha = 0;
   if (tools & kToolTexcoordPrediction) {
@@ -326,7 +348,12 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
   std::vector<Vec3i> rings;  // every split's ring positions, back to back
   std::vector<Vec3i> coarse(k);
   std::vector<LocalFrame> frames(k);
+  // With the ring predictor: every split's features, from the coarser mesh's
+  // stable vertices (ring_predictor.h).
+  std::vector<PredictorFeatures> features(predictor ? k : 0);
+  std::vector<Umbrella> umbrellas;
   state.ReserveSplits(k);
+  if (predictor) state.BeginSplits(r);
   for (size_t j = 0; j < k; ++j) {
     const uint32_t w = r.split_vertices[j];
     std::vector<uint32_t>& ring = state.scratch_ring;
@@ -347,10 +374,15 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
     for (uint32_t x : ring) rings.push_back(state.positions[x]);
     coarse[j] = state.positions[w];
     frames[j] = RingLocalFrame(coarse[j], rings.data() + s.ring_at, s.degree);
+    if (predictor) {
+      RingUmbrellas(state, ring.data(), s.degree, &umbrellas);
+      features[j] = SplitFeatures(rings.data() + s.ring_at, umbrellas.data(), s.degree, s.a_at, s.b_at);
+    }
     if (tools & kToolWingRank) {
       uint32_t rank = 0;
       if (!ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree, frames[j]) ||
           !ranking.RankOf(s.a_at, s.b_at, &rank)) {
+        if (predictor) state.EndSplits(r);
         return false;
       }
       coded.wings[j] = RankSymbols(rank);
@@ -377,16 +409,49 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
       }
     }
   }
+  if (predictor) state.EndSplits(r);
   auto code_all = [&](const SplitCoding& c, std::vector<Vec3i>* out) {
     out->clear();
     for (size_t j = 0; j < k; ++j) {
       const Split& s = splits[j];
       if (s.seam) continue;
-      out->push_back(CodeSplitVector(c, r.position_delta[j], rings.data() + s.ring_at, s.degree, s.a_at, s.b_at, frames[j]));
+      out->push_back(predictor ? ResidualInFrame(c.predictor, features[j], frames[j], r.position_delta[j])
+                               : CodeSplitVector(c, r.position_delta[j], rings.data() + s.ring_at, s.degree, s.a_at,
+                                                 s.b_at, frames[j]));
     }
   };
   std::vector<Vec3i> residuals;
-  if (tools & kToolGeometryPrediction) {
+  if (predictor) {
+    // The weights by the cost of the residuals and of sending them: the
+    // previous refinement's, or fitted on (a sample of) this one's splits
+    // over the Laplacian alone, with the sides, and with the 2-ring term.
+    std::vector<PredictorSample> samples;
+    size_t plain = 0;
+    for (const Split& s : splits) plain += s.seam ? 0 : 1;
+    const size_t stride = (plain + kMaxPredictorSamples - 1) / kMaxPredictorSamples;
+    for (size_t j = 0, n = 0; j < k; ++j) {
+      if (splits[j].seam) continue;
+      if (n++ % stride == 0) samples.push_back(SampleOf(features[j], frames[j], r.position_delta[j]));
+    }
+    const PredictorWeights candidates[] = {previous, FitPredictorWeights(samples, 1), FitPredictorWeights(samples, 2),
+                                           FitPredictorWeights(samples, 3)};
+    double best = 1e300;
+    for (const PredictorWeights& w : candidates) {
+      SplitCoding c = *coding;
+      c.predictor = w;
+      code_all(c, &residuals);
+      ByteWriter record;
+      WritePredictorRecord(w, previous, record);
+      // The 2-ring term costs the decoder a walk over the ring's faces: it
+      // must pay for it in bits (StreamWriteOptions::ring_term_bits).
+      const double bits = ResidualBits(residuals) + 8.0 * double(record.size()) +
+                          (w.reads_ring() ? ring_term_bits * double(plain) : 0.0);
+      if (bits < best) {
+        best = bits;
+        coding->predictor = w;
+      }
+    }
+  } else if (tools & kToolGeometryPrediction) {
     // alpha by the cost of the residuals: a coarse scan, then its neighbours.
     double best = 1e300;
     uint32_t best_alpha = 0;
@@ -417,6 +482,10 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
 ToolSet ApplicableTools(ToolSet requested, const QuantizationParams& quantization, const AttributeLayout& layout) {
   ToolSet tools = requested;
   if (quantization.qp > 24) tools &= static_cast<ToolSet>(~kToolLocalFrame);
+  // The ring predictor works in the local frame, on top of the prediction tool's place in the format.
+  if ((tools & kToolLocalFrame) == 0 || (tools & kToolGeometryPrediction) == 0) {
+    tools &= static_cast<ToolSet>(~kToolRingPredictor);
+  }
   if (layout.texcoord_sets == 0 && !layout.has_colors) tools &= static_cast<ToolSet>(~kToolTexcoordPrediction);
   return tools;
 }
@@ -483,8 +552,10 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     MS_RETURN_IF_ERROR(state.SetTwins(pm.base_twins));
   }
   std::vector<uint32_t> partner;
+  PredictorWeights predictor = kInitialPredictor;  // the previous refinement's weights
   for (size_t i = 0; i < pm.refinements.size(); ++i) {
     SplitCoding coding;
+    coding.predictor = predictor;
     Refinement coded;
     partner.clear();
     std::vector<uint32_t> twin_before;  // the coarser mesh's twins (CodeRefinement refines the state)
@@ -492,7 +563,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
       MS_RETURN_IF_ERROR(SeamPartners(pm.refinements[i].split_vertices, state.twin, &partner));
       twin_before = state.twin;
     }
-    if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, state, &coding, &coded)) {
+    if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, o.ring_term_bits, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
       without.tools = static_cast<ToolSet>(h.tools & ~kToolWingRank);
@@ -513,7 +584,12 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
       history = history.Next(bits);
     }
     const RefinementModels models = WriteModels(r, channels, i == 0 ? nullptr : &previous, o, h.has(kToolModelModes), cw);
-    if (h.tools & kToolGeometryPrediction) cw.U8(static_cast<uint8_t>(coding.alpha));
+    if (h.has(kToolRingPredictor)) {
+      WritePredictorRecord(coding.predictor, predictor, cw);
+      predictor = coding.predictor;
+    } else if (h.tools & kToolGeometryPrediction) {
+      cw.U8(static_cast<uint8_t>(coding.alpha));
+    }
     s.control.push_back(std::move(cw.bytes()));
     previous = models;
 

@@ -28,6 +28,12 @@ struct StreamWriteOptions {
   uint32_t stream_id = 0;        // the primitive's index in the asset
   uint8_t version = kStreamVersion;  // 1 or 2 write the older formats (with the tools they define: none in 1)
   ToolSet tools = kAllTools;         // StreamTool bits (coding_tools.h)
+  // With the ring predictor: a refinement uses its 2-ring term only where it
+  // saves at least this many bits per split (estimated), because it costs
+  // the decoder a walk over the faces of the ring (docs/codec.md, "The ring
+  // predictor": about 0.3 % of the bunny's bytes for about 15 % more decode
+  // instructions). 0: wherever it saves anything.
+  double ring_term_bits = 0.5;
 };
 
 // The tools a stream of this quantization and layout is written

@@ -4,7 +4,7 @@
 // texture coordinates or colours); each can be turned off
 // (StreamWriteOptions::tools) to measure what it saves (docs/codec.md). A
 // version 1 stream has no tools; version 2 defines bits 0-5 (one byte in its
-// header), version 3 bits 0-7 (two bytes).
+// header), version 3 bits 0-8 (two bytes).
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
 
@@ -26,10 +26,11 @@ enum StreamTool : ToolSet {
   kToolSeams = 32,              // seam edges collapsed on both sides together (seam_twins.h); header lists base twins
   kToolSplitContexts = 64,      // version 3: split bits in contexts of the reliable graph (split_bit_contexts.h)
   kToolModelModes = 128,        // version 3: per slot a static table or a model adapted within each datagram (slot_model.h)
+  kToolRingPredictor = 256,     // version 3: split vectors predicted in the frame from the ring and 2-ring (ring_predictor.h)
 };
 constexpr ToolSet kVersion2Tools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank |
                                    kToolAttributePrediction | kToolTexcoordPrediction | kToolSeams;
-constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts | kToolModelModes;
+constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts | kToolModelModes | kToolRingPredictor;
 constexpr ToolSet kAllTools = kVersion3Tools;
 
 // The tools a stream of `version` may carry (0 for version 1, and for an
@@ -47,7 +48,7 @@ struct ToolName {
 constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
     {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
-    {kToolSplitContexts, "splitbits"},     {kToolModelModes, "models"},
+    {kToolSplitContexts, "splitbits"},     {kToolModelModes, "models"},         {kToolRingPredictor, "predictor"},
 };
 
 // The names of the tools set in `tools`, in bit order.

@@ -60,7 +60,11 @@ LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree) {
 }
 
 Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i* ring, size_t degree, size_t a_at,
-                        size_t b_at, const LocalFrame& frame) {
+                        size_t b_at, const LocalFrame& frame, const Umbrella* umbrellas) {
+  if (coding.tools & kToolRingPredictor) {
+    // Predicted in the frame: the coded residual is Forward(u - v) minus it.
+    return VectorFromResidual(coding.predictor, SplitFeatures(ring, umbrellas, degree, a_at, b_at), frame, coded);
+  }
   const Vec3i residual = (coding.tools & kToolLocalFrame) ? frame.Inverse(coded) : coded;
   const Vec3i p = Prediction(coding, ring, degree, a_at, b_at);
   Vec3i out;
@@ -69,7 +73,10 @@ Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec
 }
 
 Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i* ring, size_t degree, size_t a_at,
-                      size_t b_at, const LocalFrame& frame) {
+                      size_t b_at, const LocalFrame& frame, const Umbrella* umbrellas) {
+  if (coding.tools & kToolRingPredictor) {
+    return ResidualInFrame(coding.predictor, SplitFeatures(ring, umbrellas, degree, a_at, b_at), frame, delta);
+  }
   const Vec3i p = Prediction(coding, ring, degree, a_at, b_at);
   Vec3i residual;
   for (int c = 0; c < 3; ++c) residual[c] = Clamp32(int64_t{delta[c]} - p[c]);

@@ -26,6 +26,7 @@
 #include "codec/core/vec.h"
 #include "codec/progressive/coding_tools.h"
 #include "codec/progressive/local_frame.h"
+#include "codec/progressive/ring_predictor.h"
 
 namespace meshstream {
 
@@ -48,7 +49,8 @@ Vec3i ScalePrediction(const SplitPrediction& p, uint32_t alpha);
 // (bitstream/format.h, StreamTool) and the refinement's alpha.
 struct SplitCoding {
   ToolSet tools = 0;   // 0: version 1 (the split vector is sent as it is)
-  uint32_t alpha = 0;  // with kToolGeometryPrediction
+  uint32_t alpha = 0;  // with kToolGeometryPrediction (and not kToolRingPredictor)
+  PredictorWeights predictor = kInitialPredictor;  // with kToolRingPredictor
   int normal_bits = 0; // qn when the normals are predicted (kToolAttributePrediction and normals), else 0
   // The channels the ring's map predicts (kToolTexcoordPrediction: the
   // texture coordinates and colours, texcoord_prediction.h): [mapped_first,
@@ -59,15 +61,21 @@ struct SplitCoding {
 // The local frame of w's ring: LocalFrame::FromNormal(FanNormal(...)).
 LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree);
 
+// Does split vector coding under `coding` read the 2-ring (RingUmbrellas)?
+inline bool ReadsUmbrellas(const SplitCoding& coding) {
+  return (coding.tools & kToolRingPredictor) != 0 && coding.predictor.reads_ring();
+}
+
 // The split vector u - v from its coded components, given its ring, the
 // wings' ring positions and the ring's local frame (RingLocalFrame, used
-// with the local-frame tool); and the inverse, for the encoder. Exact
-// inverses of each other for any inputs whose vector fits int32 (the
-// decoder clamps a hostile sum to int32).
+// with the local-frame tool), and with the ring predictor the ring's
+// umbrellas (RingUmbrellas; may be null when ReadsUmbrellas is false); and
+// the inverse, for the encoder. Exact inverses of each other for any inputs
+// whose vector is below 2^28 (the decoder clamps a hostile sum to int32).
 Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i* ring, size_t degree, size_t a_at,
-                        size_t b_at, const LocalFrame& frame);
+                        size_t b_at, const LocalFrame& frame, const Umbrella* umbrellas = nullptr);
 Vec3i CodeSplitVector(const SplitCoding& coding, const Vec3i& delta, const Vec3i* ring, size_t degree, size_t a_at,
-                      size_t b_at, const LocalFrame& frame);
+                      size_t b_at, const LocalFrame& frame, const Umbrella* umbrellas = nullptr);
 
 }  // namespace meshstream
 

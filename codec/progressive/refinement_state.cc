@@ -181,4 +181,17 @@ void RefinementState::SnapshotInto(const QuantizedMesh& base_layout, QuantizedMe
   for (uint32_t& i : out.indices) i = remap[i];
 }
 
+void RefinementState::BeginSplits(const Refinement& r) {
+  stable_below = std::min<uint32_t>(r.vertices_before, connectivity.vertex_count());
+  if (splitting.size() < stable_below) splitting.resize(stable_below, 0);
+  for (uint32_t v : r.split_vertices)
+    if (v < stable_below) splitting[v] = 1;
+}
+
+void RefinementState::EndSplits(const Refinement& r) {
+  for (uint32_t v : r.split_vertices)
+    if (v < splitting.size()) splitting[v] = 0;
+  stable_below = 0;
+}
+
 }  // namespace meshstream

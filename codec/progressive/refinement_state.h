@@ -47,6 +47,14 @@ struct RefinementState {
   int channels = 0;
   // Per vertex: its seam twin or kNoTwin (seam_twins.h); reliable data.
   std::vector<uint32_t> twin;
+  // Between BeginSplits(r) and EndSplits(r): the vertices that are stable
+  // while r is applied, whatever the order of its splits (older than r and
+  // not split by it; ring_predictor.h). None outside.
+  uint32_t stable_below = 0;
+  std::vector<uint8_t> splitting;  // per vertex below stable_below: 1 when r splits it
+  bool Stable(uint32_t v) const { return v < stable_below && splitting[v] == 0; }
+  void BeginSplits(const Refinement& r);
+  void EndSplits(const Refinement& r);
 
   // Resets to `base` with no seam twins; SetTwins then gives the base's.
   Status Reset(const QuantizedMesh& base);

@@ -43,8 +43,8 @@ bool CodedWings(const Refinement& r, size_t j, const SplitCoding& coding, const 
          scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
 }
 
-constexpr uint8_t kRingTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
-constexpr uint8_t kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
+constexpr ToolSet kRingTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
+constexpr ToolSet kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
 
 // With the tools that read w's ring: its positions, and with those that
 // need it their local frame, once per split.
@@ -84,13 +84,21 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // but the split vector and the predicted channels still come from the
   // ring's positions: applied as coded, the split is then marked
   // (ApplyCoded).
-  if (view.fan && (coding.tools & kRingTools) != 0 && (state.any_inexact || state.any_absent)) {
+  const bool any_flags = state.any_inexact || state.any_absent;
+  if (view.fan && (coding.tools & kRingTools) != 0 && any_flags) {
     for (uint32_t x : state.scratch_ring) view.ring_flags |= state.flags[x];
   }
   const bool changed =
       (flags & kRingInexact) != 0 || ((coding.tools & kToolWingRank) != 0 && (view.ring_flags & kPositionInexact) != 0);
   const bool trust_ranks = recovery == Recovery::kLwop || !changed || !has_geometry;
   view.distrusted = view.fits && !trust_ranks;
+  // The ring predictor's 2-ring term reads the ring's neighbours too: their
+  // flags count like the ring's for the split vector (not for the ranks,
+  // which read the ring alone).
+  if (view.fan && ReadsUmbrellas(coding)) {
+    RingUmbrellas(state, state.scratch_ring.data(), state.scratch_ring.size(), &scratch->umbrellas,
+                  any_flags ? &view.ring_flags : nullptr);
+  }
   if (view.distrusted) {
     view.fits = false;
     ++stats->structure_distrusted;
@@ -99,13 +107,18 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   return view;
 }
 
+// The umbrellas Classify found for w's ring when the coding reads them.
+const Umbrella* UmbrellasOf(const SplitCoding& coding, const RecoveryScratch& scratch) {
+  return ReadsUmbrellas(coding) ? scratch.umbrellas.data() : nullptr;
+}
+
 // The split vector of split j from its coded form, on w's ring as
 // RingGeometry found it, with the given wings.
 Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, size_t a_at, size_t b_at,
                   const RecoveryScratch& scratch) {
   if (coding.tools == 0) return r.position_delta[j];
   return DecodeSplitVector(coding, r.position_delta[j], scratch.ring_positions.data(), scratch.ring_positions.size(),
-                           a_at, b_at, scratch.local_frame);
+                           a_at, b_at, scratch.local_frame, UmbrellasOf(coding, scratch));
 }
 
 // A channel of the split of w into (w, n) was applied with its coded
@@ -448,7 +461,8 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   Vec3i delta{};
   Vec2d new_uv{};
   if (geometry) {
-    delta = DecodeSplitVector(coding, r.position_delta[j], rp.data(), d, split.a_at, split.b_at, scratch->local_frame);
+    delta = DecodeSplitVector(coding, r.position_delta[j], rp.data(), d, split.a_at, split.b_at, scratch->local_frame,
+                              UmbrellasOf(coding, *scratch));
     ArrivedGeometry(r, j, delta, state, w, &split, scratch);
   }
   if (!split.structure) {

@@ -58,6 +58,7 @@ struct RecoveryStats {
 struct RecoveryScratch {
   std::vector<Vec3i> ring_positions;  // with coding tools: w's ring, filled once per split
   LocalFrame local_frame;             // and its local frame
+  std::vector<Umbrella> umbrellas;    // and with the ring predictor reading the 2-ring, its umbrellas
   WingRanking ranking;
   std::vector<int32_t> values, u_channels, v_channels;
   RingFrame frame;

@@ -243,9 +243,14 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json none = RunJson("encode --json --tools none " + src + " -o " + Quote(dir.File("none.glb")));
   const json two = RunJson("encode --json --tools geometry,rank " + src + " -o " + Quote(dir.File("two.glb")));
   // fandisk has normals but no texture coordinates: no texcoords tool.
-  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals", "splitbits", "models"})) << all.dump();
+  EXPECT_EQ(all["tools"], json::array({"geometry", "frame", "rank", "normals", "splitbits", "models", "predictor"}))
+      << all.dump();
   EXPECT_EQ(none["tools"], json::array()) << none.dump();
   EXPECT_EQ(two["tools"], json::array({"geometry", "rank"})) << two.dump();
+  // The ring predictor works in the local frame: without it, it is not used.
+  const json lone = RunJson("encode --json --tools geometry,predictor " + src + " -o " + Quote(dir.File("lone.glb")));
+  EXPECT_EQ(lone["tools"], json::array({"geometry"})) << lone.dump();
+  EXPECT_EQ(RunCommand(Cli() + " encode --ring-term-bits -1 " + src + " -o " + Quote(dir.File("x.glb"))).exit_code, 2);
   EXPECT_EQ(U(none, "format_version"), 3u);
   EXPECT_GT(U(none, "total_bytes"), U(two, "total_bytes"));
   EXPECT_GT(U(two, "total_bytes"), U(all, "total_bytes"));
@@ -262,7 +267,8 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json seams = RunJson("encode --json " + spot + " -o " + Quote(dir.File("seams.glb")));
   const json kept = RunJson("encode --json --tools geometry,frame,rank,texcoords " + spot + " -o " +
                             Quote(dir.File("kept.glb")));
-  EXPECT_EQ(seams["tools"], json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams", "splitbits", "models"}))
+  EXPECT_EQ(seams["tools"],
+            json::array({"geometry", "frame", "rank", "normals", "texcoords", "seams", "splitbits", "models", "predictor"}))
       << seams.dump();
   EXPECT_EQ(kept["tools"], json::array({"geometry", "frame", "rank", "texcoords"})) << kept.dump();
   EXPECT_LT(U(seams, "base_vertices") * 2, U(kept, "base_vertices"));

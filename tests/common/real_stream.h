@@ -35,7 +35,8 @@ struct RealStream {
 // `model`: a shared model (fandisk by default); `packing`, `packet_bytes`:
 // as `meshstream encode`. Seams collapse when `tools` has the seams tool.
 inline RealStream BuildRealStream(ToolSet tools = kAllTools, const std::string& model = "fandisk.obj",
-                                  Packing packing = Packing::kSplit, uint32_t packet_bytes = 200) {
+                                  Packing packing = Packing::kSplit, uint32_t packet_bytes = 200,
+                                  double ring_term_bits = StreamWriteOptions().ring_term_bits) {
   auto fail = [](const std::string& what) {
     std::fprintf(stderr, "real stream: %s\n", what.c_str());
     std::abort();
@@ -54,6 +55,7 @@ inline RealStream BuildRealStream(ToolSet tools = kAllTools, const std::string& 
   wo.packing = packing;
   wo.stream_id = kRealStreamId;
   wo.tools = tools;
+  wo.ring_term_bits = ring_term_bits;
   auto stream = WriteStream(enc.value(), options.quantization, wo);
   if (!stream.ok()) fail(stream.status().ToString());
   RealStream r;

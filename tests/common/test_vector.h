@@ -51,6 +51,16 @@ inline nlohmann::json GlbJson(const std::vector<uint8_t>& glb) {
   return nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + length);
 }
 
+// The stream blob of the first primitive (its MESHSTREAM_progressive bufferView).
+inline std::vector<uint8_t> BlobOf(const std::vector<uint8_t>& glb) {
+  const nlohmann::json doc = GlbJson(glb);
+  const size_t view = doc["meshes"][0]["primitives"][0]["extensions"][kProgressiveExtension]["bufferView"];
+  const size_t bin = 20 + GlbU32(glb, 12) + 8;
+  const size_t offset = bin + doc["bufferViews"][view].value("byteOffset", size_t{0});
+  const size_t length = doc["bufferViews"][view]["byteLength"];
+  return std::vector<uint8_t>(glb.begin() + offset, glb.begin() + offset + length);
+}
+
 // The .glb with its JSON chunk replaced (padded with spaces), binary chunk kept.
 inline std::vector<uint8_t> WithGlbJson(const std::vector<uint8_t>& glb, const nlohmann::json& doc) {
   const uint32_t old_length = GlbU32(glb, 12);

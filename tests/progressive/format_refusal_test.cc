@@ -80,11 +80,17 @@ TEST(FormatRefusal, StreamHeaderFields) {
   const Bytes& h = TheVector().stream.header;
   EXPECT_EQ(HeaderError(Patched(h, 0, 4)), "stream header: version 4 is not 1, 2 or 3");
   EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1, 2 or 3");
-  // Tools: two bytes, little-endian; bits 8-15 reserved.
+  // Tools: two bytes, little-endian; bits 9-15 reserved.
   EXPECT_EQ(h[kTools], 0xCF);
-  EXPECT_EQ(h[kTools + 1], 0x00);
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x01)), "stream header: tools 463 has bits set that version 3 reserves");
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x80)), "stream header: tools 32975 has bits set that version 3 reserves");
+  EXPECT_EQ(h[kTools + 1], 0x01);
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x03)), "stream header: tools 975 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x81)), "stream header: tools 33231 has bits set that version 3 reserves");
+  // Bit 8 (the ring predictor) needs bits 0 and 1; without bit 8 the header is version 3 as stop 34 wrote it.
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCE)),
+            "stream header: tools 462: the predictor tool needs the geometry and frame tools");
+  EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCD)),
+            "stream header: tools 461: the predictor tool needs the geometry and frame tools");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x00)), "accepted");
   // Bit 5 (seams) announces the seam twins after the fix-ups, which this header does not have.
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0xEF)), "stream header: seam twin count: truncated at byte " +
                                                        std::to_string(h.size()));
@@ -251,7 +257,7 @@ TEST(FormatRefusal, ControlBlock) {
   EXPECT_EQ(ControlError(p.Join()), "accepted");
   p.slots[2][1] = 160;
   EXPECT_EQ(ControlError(p.Join()), "refinement 0: model slot 2 (position, first tangential): model parameter 160 is out of range (0..159)");
-  const Bytes no_parameter(control.begin(), control.end() - 2);  // slot 4's parameter and the alpha cut off
+  const Bytes no_parameter(control.begin(), control.end() - 2);  // slot 4's parameter and the predictor record cut off
   EXPECT_EQ(ControlError(no_parameter).rfind("refinement 0: model slot 4 (position, normal): model parameter: truncated", 0), 0u)
       << ControlError(no_parameter);
   // Mode 3: adaptive from a table, parsed as a table.
@@ -294,10 +300,26 @@ TEST(FormatRefusal, ControlBlock) {
   Bytes stray = control;
   stray.push_back(0);
   EXPECT_EQ(ControlError(stray), "refinement 0: control block: 1 stray bytes after the models");
-  // Geometry prediction (version 2 and later): the alpha byte ends the block.
-  ASSERT_EQ(parts.tail.size(), 1u);
-  EXPECT_EQ(ControlError(Bytes(control.begin(), control.end() - 1)).rfind("refinement 0: control block: alpha", 0), 0u)
+  // The ring predictor (version 3, tool bit 8): its record ends the block,
+  // 0 (keep) or 1 and six zigzag varints of at most 2^16.
+  ASSERT_EQ(parts.tail, Bytes{0});
+  EXPECT_EQ(ControlError(Bytes(control.begin(), control.end() - 1)).rfind("refinement 0: control block: predictor record", 0), 0u)
       << ControlError(Bytes(control.begin(), control.end() - 1));
+  auto with_tail = [&](const Bytes& tail) {
+    ControlParts q = parts;
+    q.tail = tail;
+    return ControlError(q.Join());
+  };
+  for (uint8_t record : {2, 3, 255}) {
+    EXPECT_EQ(with_tail({record}), "refinement 0: control block: predictor record " + std::to_string(record) + " is not 0 or 1");
+  }
+  EXPECT_EQ(with_tail({1, 0x80, 0x04, 0, 0, 0x80, 0x04, 0, 0}), "accepted");  // (256, 0, 0) twice, as zigzag 512
+  EXPECT_EQ(with_tail({1, 0x80, 0x80, 0x04, 0, 0, 0, 0, 0}), "accepted");    // the largest: zigzag 2^16, a weight of 2^15
+  EXPECT_EQ(with_tail({1, 0x81, 0x80, 0x04, 0, 0, 0, 0, 0}),
+            "refinement 0: control block: tangential Laplacian weight: predictor weight = 65537 exceeds 65536");
+  EXPECT_EQ(with_tail({1, 0, 0, 0, 0, 0}).rfind("refinement 0: control block: normal ring weight: predictor weight: truncated", 0), 0u)
+      << with_tail({1, 0, 0, 0, 0, 0});
+  EXPECT_EQ(with_tail({1, 0, 0, 0, 0, 0, 0, 0}), "refinement 0: control block: 1 stray bytes after the models");
 }
 
 std::string DatagramError(const Bytes& d) {

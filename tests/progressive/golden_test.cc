@@ -12,19 +12,28 @@
 //   fandisk-qp11-v3.glb, horse-qp11-v3.glb: as above, version 3 (tools 79,
 //                                 split bits in context)
 //   spot-qp11-bundled-v3.glb:     spot.obj --packing bundled --packet-bytes 600,
-//                                 version 3 (tools 127)
+//                                 version 3 (tools 255: and model modes)
+//   spot-qp11-bundled-v3-tools511.glb: the same with the ring predictor
+//                                 (tools 511)
+//   fandisk-qp11-v3-ring.glb:     encode fandisk.obj --ring-term-bits 0: the ring
+//                                 predictor with its 2-ring term in refinement 20
 // Never regenerate them for a format change: bump the version (or add a tool
 // bit) and add new files.
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "codec/bitstream/format.h"
+#include "codec/bitstream/slot_model.h"
+#include "codec/core/byte_io.h"
+#include "codec/entropy/symbol_model.h"
 #include "codec/metrics/grid_equality.h"
 #include "codec/mesh/quantization.h"
 #include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
 #include "testing/test_util.h"
+#include "tests/common/test_vector.h"
 
 namespace meshstream {
 namespace {
@@ -74,6 +83,8 @@ const std::vector<Golden>& Goldens() {
       {"fandisk-qp11-v3.glb", "fandisk.obj", kFandiskLevels, {"POSITION"}},
       {"spot-qp11-bundled-v3.glb", "spot.obj", kSpotSeamLevels, {"POSITION", "TEXCOORD_0"}},
       {"horse-qp11-v3.glb", "horse.ply", kHorseLevels, {"POSITION", "NORMAL"}},
+      {"spot-qp11-bundled-v3-tools511.glb", "spot.obj", kSpotSeamLevels, {"POSITION", "TEXCOORD_0"}},
+      {"fandisk-qp11-v3-ring.glb", "fandisk.obj", kFandiskLevels, {"POSITION"}},
   };
   return goldens;
 }
@@ -122,6 +133,43 @@ TEST(Golden, DecodesToEveryLevelAndLosslessly) {
       }
     }
   }
+}
+
+// The ring predictor's records of a stream without channels (section 5:
+// split bits, five slots, the record): per refinement, the weights it sends
+// (empty when it keeps the previous ones).
+std::vector<std::vector<int32_t>> PredictorRecords(const std::vector<uint8_t>& glb) {
+  std::vector<std::vector<int32_t>> out;
+  const std::vector<uint8_t> blob = test_util::BlobOf(glb);
+  auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
+  if (!stream.ok()) return out;
+  for (const std::vector<uint8_t>& control : stream->control) {
+    ByteReader r(control.data(), control.size());
+    size_t length = 0;
+    r.Block("split bits", &length).value();
+    for (int k = 0; k < 5; ++k) {
+      const uint8_t mode = r.U8("mode").value();
+      if (mode == static_cast<uint8_t>(ModelMode::kParametric)) r.U8("parameter").value();
+      else if (mode != static_cast<uint8_t>(ModelMode::kReuse)) StaticModel::Parse(r).value();
+    }
+    std::vector<int32_t> weights;
+    if (r.U8("record").value() == 1) {
+      for (int k = 0; k < 6; ++k) weights.push_back(UnZigZag(static_cast<uint32_t>(r.Varint("weight", 1 << 16).value())));
+    }
+    out.push_back(weights);
+  }
+  return out;
+}
+
+// The ring file pins the 2-ring term's arithmetic: some refinement's weights read it.
+TEST(Golden, TheRingFileReadsTheTwoRing) {
+  auto bytes = ReadFileBytes(test_util::SourcePath("tests/data/golden/fandisk-qp11-v3-ring.glb"), kDefaultMaxInputBytes);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().ToString();
+  const auto records = PredictorRecords(bytes.value());
+  ASSERT_EQ(records.size(), kFandiskLevels.size() - 1);
+  bool ring = false;
+  for (const auto& w : records) ring |= w.size() == 6 && (w[2] != 0 || w[5] != 0);
+  EXPECT_TRUE(ring);
 }
 
 }  // namespace

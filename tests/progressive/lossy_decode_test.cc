@@ -149,13 +149,17 @@ TEST(LossyDecode, PredictionKeepsEveryLevelsVertexCountUnderLoss) {
 // splits computed from predicted ring positions, the single-tool streams
 // fail here.
 TEST(LossyDecode, VerticesMarkedReliableAreExactForEveryToolUnderLoss) {
-  for (ToolSet tools : {ToolSet{kAllTools}, ToolSet{kToolGeometryPrediction}, ToolSet{kToolLocalFrame},
-                        ToolSet{kToolWingRank}}) {
-    const RealStream s = tools == kAllTools ? Fandisk() : test_util::BuildRealStream(tools);
+  // -1: every tool, with the ring predictor's 2-ring term wherever it saves
+  // anything (it reads the ring's neighbours, whose flags then count).
+  for (int tools_or_ring : {int{kAllTools}, -1, int{kToolGeometryPrediction}, int{kToolLocalFrame}, int{kToolWingRank}}) {
+    const ToolSet tools = tools_or_ring < 0 ? kAllTools : static_cast<ToolSet>(tools_or_ring);
+    const RealStream s = tools_or_ring == int{kAllTools} ? Fandisk()
+                         : tools_or_ring < 0 ? test_util::BuildRealStream(kAllTools, "fandisk.obj", Packing::kSplit, 200, 0.0)
+                                             : test_util::BuildRealStream(tools);
     const QuantizedMesh& lossless = s.levels.back();
     for (Recovery recovery : {Recovery::kPredict, Recovery::kLwop}) {
       for (uint64_t seed : {1, 2}) {
-        const std::string what = "tools " + std::to_string(tools) + (recovery == Recovery::kLwop ? " lwop" : " predict") +
+        const std::string what = "tools " + std::to_string(tools) + (tools_or_ring < 0 ? " 2-ring" : "") + (recovery == Recovery::kLwop ? " lwop" : " predict") +
                                  " seed " + std::to_string(seed);
         LossyDecodeOptions options;
         options.loss.loss = 0.06;

@@ -12,21 +12,13 @@
 namespace meshstream {
 namespace {
 
+using test_util::BlobOf;
 using test_util::VectorPath;
-
-std::vector<uint8_t> BlobOf(const std::vector<uint8_t>& glb) {
-  const nlohmann::json doc = test_util::GlbJson(glb);
-  const size_t view = doc["meshes"][0]["primitives"][0]["extensions"][kProgressiveExtension]["bufferView"];
-  const size_t bin = 20 + test_util::GlbU32(glb, 12) + 8;
-  const size_t offset = bin + doc["bufferViews"][view].value("byteOffset", size_t{0});
-  const size_t length = doc["bufferViews"][view]["byteLength"];
-  return std::vector<uint8_t>(glb.begin() + offset, glb.begin() + offset + length);
-}
 
 TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
   const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
-  ASSERT_EQ(blob.size(), 89u);
+  ASSERT_EQ(blob.size(), 90u);
   auto scene = ImportFile(VectorPath("octahedron.obj"));
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
   auto glb = EncodeProgressiveGlb(scene.value(), test_util::VectorOptions(), nullptr);
@@ -57,7 +49,7 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   ASSERT_EQ(stream->control.size(), 1u);
   EXPECT_EQ(stream->control[0].size(), 17u);
   ASSERT_EQ(stream->datagrams[0].size(), 1u);
-  EXPECT_EQ(stream->datagrams[0][0].size(), 18u);
+  EXPECT_EQ(stream->datagrams[0][0].size(), 19u);
   auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
   ASSERT_TRUE(header.ok()) << header.status().ToString();
   EXPECT_EQ(header->packing, Packing::kBundled);
