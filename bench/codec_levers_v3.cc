@@ -202,7 +202,10 @@ int BestTheta(bool structure, const std::vector<uint64_t>& h, double* bits) {
 // ---------------------------------------------------------------------------
 // The replayed hierarchy
 
-enum Feature { kLap, kWing, kSides, kStrict, kRing2, kUmbrella, kFeatures };
+// kRing2S: kRing2 with each ring vertex's Laplacian over its stable
+// neighbours only (not splitting in this refinement), so that no split of a
+// refinement reads what another writes.
+enum Feature { kLap, kWing, kSides, kStrict, kRing2, kUmbrella, kRing2S, kRing2U, kFeatures };
 
 struct SplitRec {
   bool seam = false, secondary = false;
@@ -328,6 +331,8 @@ Replay Build(const ms::ProgressiveEncoded& e, const ms::ProgressiveStream& strea
     std::vector<std::vector<uint32_t>> rings(k);
     std::vector<std::array<size_t, 2>> wings_at(k);
     std::vector<ms::LocalFrame> frames(k);
+    std::vector<uint8_t> splitting(st.positions.size(), 0);
+    for (uint32_t v : r.split_vertices) splitting[v] = 1;
     ms::WingRanking ranking;
     for (size_t j = 0; j < k; ++j) {
       SplitRec& s = L.s[j];
@@ -367,18 +372,31 @@ Replay Build(const ms::ProgressiveEncoded& e, const ms::ProgressiveStream& strea
       Vec3d sp{0, 0, 0}, sq{0, 0, 0}, spx{0, 0, 0}, sqx{0, 0, 0}, l2p{0, 0, 0}, l2q{0, 0, 0}, cen{0, 0, 0};
       size_t kp = 0, kq = 0, kpx = 0, kqx = 0;
       const size_t plen = (a_at + D - b_at) % D;  // steps b -> a
-      std::vector<Vec3d> lapx(D);
+      std::vector<Vec3d> lapx(D), lapsx(D);
+      Vec3d l2ps{0, 0, 0}, l2qs{0, 0, 0}, l2pu{0, 0, 0}, l2qu{0, 0, 0};
+      std::vector<Vec3d> lapux(D);
       for (size_t x = 0; x < D; ++x) {
         st.connectivity.SortedNeighbours(ring[x], sorted);
-        Vec3d acc{0, 0, 0};
-        for (uint32_t y : sorted) acc = ms::Add(acc, ToD(st.positions[y]));
+        Vec3d acc{0, 0, 0}, accs{0, 0, 0};
+        size_t ns = 0;
+        for (uint32_t y : sorted) {
+          acc = ms::Add(acc, ToD(st.positions[y]));
+          if (!splitting[y]) {
+            accs = ms::Add(accs, ToD(st.positions[y]));
+            ++ns;
+          }
+        }
         lapx[x] = sorted.empty() ? Vec3d{0, 0, 0} : ms::Sub(ToD(rp[x]), ms::Scale(acc, 1.0 / double(sorted.size())));
+        lapsx[x] = ns == 0 ? Vec3d{0, 0, 0} : ms::Sub(ToD(rp[x]), ms::Scale(accs, 1.0 / double(ns)));
+        lapux[x] = ms::Scale(ms::Sub(ms::Scale(ToD(rp[x]), double(ns)), accs), 1.0 / 6.0);
         cen = ms::Add(cen, ToD(rp[x]));
       }
       for (size_t t = 0; t <= plen; ++t) {
         const size_t x = (b_at + t) % D;
         sp = ms::Add(sp, ToD(rp[x]));
         l2p = ms::Add(l2p, lapx[x]);
+        l2ps = ms::Add(l2ps, lapsx[x]);
+        l2pu = ms::Add(l2pu, lapux[x]);
         ++kp;
         if (t != 0 && t != plen) {
           spx = ms::Add(spx, ToD(rp[x]));
@@ -389,6 +407,8 @@ Replay Build(const ms::ProgressiveEncoded& e, const ms::ProgressiveStream& strea
         const size_t x = (a_at + t) % D;
         sq = ms::Add(sq, ToD(rp[x]));
         l2q = ms::Add(l2q, lapx[x]);
+        l2qs = ms::Add(l2qs, lapsx[x]);
+        l2qu = ms::Add(l2qu, lapux[x]);
         ++kq;
         if (t != 0 && t != D - plen) {
           sqx = ms::Add(sqx, ToD(rp[x]));
@@ -405,6 +425,8 @@ Replay Build(const ms::ProgressiveEncoded& e, const ms::ProgressiveStream& strea
       fw[kStrict] = ms::Sub(cqx, cpx);
       fw[kRing2] = ms::Sub(ms::Scale(l2q, 1.0 / kq), ms::Scale(l2p, 1.0 / kp));
       fw[kUmbrella] = ms::Sub(md, ms::Scale(cen, 1.0 / double(D)));
+      fw[kRing2S] = ms::Sub(ms::Scale(l2qs, 1.0 / kq), ms::Scale(l2ps, 1.0 / kp));
+      fw[kRing2U] = ms::Sub(ms::Scale(l2qu, 1.0 / kq), ms::Scale(l2pu, 1.0 / kp));
       for (int f = 0; f < kFeatures; ++f) s.f[f] = InFrame(fr, fw[f]);
       s.fd = ToD(fr.Forward(r.position_delta[j]));
       double el = 0;
@@ -1004,8 +1026,42 @@ struct PredResult {
 // A linear predictor over `feats`, fitted per refinement by IRLS (about L1),
 // weights quantized to 1/64 (12 bits each), tangential (t1, t2 pooled) and
 // normal parts separately when `split_tn`.
-PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool split_tn, Replay* with_residuals = nullptr) {
+PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool split_tn, Replay* with_residuals = nullptr,
+                        bool per_stream = false) {
   PredResult res;
+  // The weights: per refinement, or (per_stream) one set fitted over all.
+  auto fit = [&](const std::vector<const SplitRec*>& ss, const std::vector<int>& comps) {
+    std::vector<std::vector<double>> X;
+    std::vector<double> y;
+    for (const SplitRec* s : ss)
+      for (int c : comps) {
+        std::vector<double> row;
+        for (int f : feats) row.push_back(s->f[f][c]);
+        X.push_back(row);
+        y.push_back(s->fd[c]);
+      }
+    std::vector<double> wt(y.size(), 1.0), b;
+    for (int it = 0; it < 4; ++it) {
+      b = SolveLS(X, y, wt);
+      for (size_t r = 0; r < y.size(); ++r) {
+        double p = 0;
+        for (size_t a = 0; a < b.size(); ++a) p += b[a] * X[r][a];
+        wt[r] = 1.0 / (std::fabs(y[r] - p) + 1.0);
+      }
+    }
+    for (double& x : b) x = std::round(64 * x) / 64;
+    res.param_bits += 12.0 * b.size();
+    return b;
+  };
+  std::vector<double> stream_b[2];
+  if (per_stream) {
+    std::vector<const SplitRec*> all;
+    for (const LevelRec& L : R.levels)
+      for (const SplitRec& s : L.s)
+        if (!s.seam) all.push_back(&s);
+    for (int group = 0; group < (split_tn ? 2 : 1); ++group)
+      stream_b[group] = fit(all, !split_tn ? std::vector<int>{0, 1, 2} : group == 0 ? std::vector<int>{0, 1} : std::vector<int>{2});
+  }
   for (size_t li = 0; li < R.levels.size(); ++li) {
     const LevelRec& L = R.levels[li];
     std::vector<const SplitRec*> ss;
@@ -1015,37 +1071,16 @@ PredResult FitPredictor(const Replay& R, const std::vector<int>& feats, bool spl
     std::vector<int64_t> out[3];
     for (int group = 0; group < (split_tn ? 2 : 1); ++group) {
       std::vector<int> comps = !split_tn ? std::vector<int>{0, 1, 2} : group == 0 ? std::vector<int>{0, 1} : std::vector<int>{2};
-      std::vector<std::vector<double>> X;
-      std::vector<double> y;
-      for (const SplitRec* s : ss)
-        for (int c : comps) {
-          std::vector<double> row;
-          for (int f : feats) row.push_back(s->f[f][c]);
-          X.push_back(row);
-          y.push_back(s->fd[c]);
-        }
-      std::vector<double> wt(y.size(), 1.0), b;
-      for (int it = 0; it < 4; ++it) {
-        b = SolveLS(X, y, wt);
-        for (size_t r = 0; r < y.size(); ++r) {
-          double p = 0;
-          for (size_t a = 0; a < b.size(); ++a) p += b[a] * X[r][a];
-          wt[r] = 1.0 / (std::fabs(y[r] - p) + 1.0);
-        }
-      }
-      for (double& x : b) x = std::round(64 * x) / 64;
-      res.param_bits += 12.0 * b.size();
-      size_t r = 0;
+      const std::vector<double> b = per_stream ? stream_b[group] : fit(ss, comps);
       for (const SplitRec* s : ss) {
         for (int c : comps) {
           double p = 0;
-          for (size_t a = 0; a < b.size(); ++a) p += b[a] * X[r][a];
-          const int64_t v = std::llround(y[r] - std::round(p));
+          for (size_t a = 0; a < b.size(); ++a) p += b[a] * s->f[feats[a]][c];
+          const int64_t v = std::llround(s->fd[c] - std::round(p));
           out[c].push_back(v);
           if (with_residuals)
             with_residuals->levels[li].s[size_t(s - L.s.data())].coded[c] =
                 static_cast<int32_t>(std::clamp<int64_t>(v, INT32_MIN / 2, INT32_MAX / 2));
-          ++r;
         }
       }
     }
@@ -1096,6 +1131,7 @@ void ReportPredictors(const Replay& R, nlohmann::json& j) {
     std::string name;
     std::vector<int> feats;
     bool split;
+    bool per_stream = false;
   };
   std::vector<Set> sets = {
       {"ls_lap_one_weight", {kLap}, false},
@@ -1107,9 +1143,25 @@ void ReportPredictors(const Replay& R, nlohmann::json& j) {
       {"ls_lap_sides_strict_ring2_t_n", {kLap, kSides, kStrict, kRing2}, true},
       {"ls_all6_t_n", {kLap, kWing, kSides, kStrict, kRing2, kUmbrella}, true},
       {"ls_all6_one_set", {kLap, kWing, kSides, kStrict, kRing2, kUmbrella}, false},
+      {"ls_lap_sides_strict_t_n", {kLap, kSides, kStrict}, true},
+      {"stream_lap_t_n", {kLap}, true, true},
+      {"stream_lap_sides_t_n", {kLap, kSides}, true, true},
+      {"stream_lap_sides_strict_t_n", {kLap, kSides, kStrict}, true, true},
+      {"stream_lap_ring2_t_n", {kLap, kRing2}, true, true},
+      {"stream_lap_sides_strict_ring2_t_n", {kLap, kSides, kStrict, kRing2}, true, true},
+      {"ls_lap_ring2s_t_n", {kLap, kRing2S}, true},
+      {"stream_lap_ring2s_t_n", {kLap, kRing2S}, true, true},
+      {"stream_lap_sides_ring2s_t_n", {kLap, kSides, kRing2S}, true, true},
+      {"stream_lap_sides_strict_ring2s_t_n", {kLap, kSides, kStrict, kRing2S}, true, true},
+      {"ls_lap_sides_strict_ring2s_t_n", {kLap, kSides, kStrict, kRing2S}, true},
+      {"ls_lap_sides_ring2s_t_n", {kLap, kSides, kRing2S}, true},
+      {"ls_lap_sides_ring2u_t_n", {kLap, kSides, kRing2U}, true},
+      {"ls_lap_ring2u_t_n", {kLap, kRing2U}, true},
+      {"stream_lap_sides_ring2u_t_n", {kLap, kSides, kRing2U}, true, true},
+      {"stream_lap_ring2u_t_n", {kLap, kRing2U}, true, true},
   };
   for (const Set& s : sets) {
-    const PredResult r = FitPredictor(R, s.feats, s.split);
+    const PredResult r = FitPredictor(R, s.feats, s.split, nullptr, s.per_stream);
     g[s.name] = {{"bits", PerSplit(R, r.bits)}, {"param_bits", PerSplit(R, r.param_bits)},
                  {"total", PerSplit(R, r.bits + r.param_bits)}};
   }
