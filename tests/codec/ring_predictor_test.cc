@@ -14,23 +14,13 @@
 #include "codec/progressive/ring_predictor.h"
 #include "codec/progressive/ring_predictor_fit.h"
 #include "codec/recovery/recover_split.h"
+#include "tests/common/hierarchy.h"
 #include "tests/common/sphere.h"
 
 namespace meshstream {
 namespace {
 
-ProgressiveEncoded Hierarchy() {
-  ProgressiveEncodeOptions options;
-  auto enc = EncodeProgressive(test_util::RippledSphere(40, 60), options,
-                               [](const QuantizedMesh& base, int) -> StatusOr<EncodedBase> {
-                                 EncodedBase e;
-                                 e.decoded = base;
-                                 e.bytes = {0};
-                                 return e;
-                               });
-  EXPECT_TRUE(enc.ok()) << enc.status().ToString();
-  return std::move(enc).value();
-}
+ProgressiveEncoded Hierarchy() { return test_util::EncodeWithoutDraco(test_util::RippledSphere(40, 60)); }
 
 // Every split's umbrellas, from the state as it is (none of r's splits
 // applied yet), keyed by split.

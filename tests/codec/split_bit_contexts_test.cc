@@ -10,6 +10,7 @@
 
 #include "codec/progressive/encoder.h"
 #include "codec/progressive/split_bits.h"
+#include "tests/common/hierarchy.h"
 #include "tests/common/sphere.h"
 
 namespace meshstream {
@@ -25,20 +26,11 @@ struct History {
 
 // The base and the split bits of every refinement of a real encode.
 History RealHistory() {
-  ProgressiveEncodeOptions options;
-  auto enc = EncodeProgressive(test_util::RippledSphere(40, 60), options,
-                               [](const QuantizedMesh& base, int) -> StatusOr<EncodedBase> {
-                                 EncodedBase e;
-                                 e.decoded = base;
-                                 e.bytes = {0};
-                                 return e;
-                               });
-  EXPECT_TRUE(enc.ok()) << enc.status().ToString();
+  const ProgressiveEncoded enc = test_util::EncodeWithoutDraco(test_util::RippledSphere(40, 60));
   History h;
-  if (!enc.ok()) return h;
-  h.base_vertices = static_cast<uint32_t>(enc->mesh.base.vertex_count());
-  h.base_indices = enc->mesh.base.indices;
-  for (const Refinement& r : enc->mesh.refinements) {
+  h.base_vertices = static_cast<uint32_t>(enc.mesh.base.vertex_count());
+  h.base_indices = enc.mesh.base.indices;
+  for (const Refinement& r : enc.mesh.refinements) {
     Bits bits(r.vertices_before, 0);
     for (uint32_t v : r.split_vertices) bits[v] = 1;
     h.levels.push_back(std::move(bits));
