@@ -280,7 +280,8 @@ def markdown(data, plots, prefix):
     out.append("The split packing encoded with the tools of format versions 2 and 3 added one at a time "
                "(docs/codec.md; `StreamWriteOptions::tools`), each decoded once; bits per split saved = "
                "8 x bytes saved against the row above / splits. The version 3 rows are issue 24's lever "
-               "table: each lever of version 3 adds a row as it lands.")
+               "table (the last row is the ring predictor's 2-ring term, which the default encoder "
+               "charges 0.5 bit per split for the decoder's time; docs/codec.md).")
     out.append("")
     out.append("| model | qp | lever | total bytes | total bpv | bits per split saved |")
     out.append("|---|---:|---|---:|---:|---:|")
