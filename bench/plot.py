@@ -291,7 +291,7 @@ def markdown(data, plots, prefix):
                 m["name"], r["qp"], lv["lever"], fmt_int(lv["total_bytes"]), lv["total_bpv"],
                 lv["bits_per_split_saved"]))
     out.append("")
-    out.append("### Targets of issues 11 and 24")
+    out.append("### Targets of issues 11, 24 and 25")
     out.append("")
     out.append("| target | model | qp | measured (split) | measured (bundled) | limit | verdict |")
     out.append("|---|---|---:|---:|---:|---:|---|")
