@@ -11,7 +11,9 @@
 // per input vertex, the encoder's ratios to Draco, and the growth of the
 // encoder's time and memory per 4 x vertices (n log n grows 4.4-4.6 x at these
 // sizes). Targets of issue 24: at most 250 bytes per input vertex at the
-// peak, at most 3 x Draco's encode time at 2 M vertices.
+// peak, at most 3 x Draco's encode time at 2 M vertices. And the decoders
+// (issue 25): `meshstream decode` against `meshstream convert` of the Draco
+// file, time and peak memory (targets: 1.0 x and 1.3 x Draco's).
 // Writes one JSON object (--out, default docs/bench/scaling.json) and prints
 // the table as markdown.
 #include <unistd.h>
@@ -92,12 +94,19 @@ Args Parse(int argc, char** argv) {
   return a;
 }
 
-// The medians of `runs` runs of `argv`; Die when one fails.
-json Measure(const std::vector<std::string>& argv, int runs, uint64_t vertices) {
+// The medians of `runs` runs of `argv`; Die when one fails. With
+// `decode_ms`, each run's stdout is a JSON object whose "decode_ms" is kept.
+json Measure(const std::vector<std::string>& argv, int runs, uint64_t vertices,
+             std::vector<double>* decode_ms = nullptr) {
   std::vector<double> wall, cpu, rss;
   for (int r = 0; r < runs; ++r) {
     const ms::bench::MeasuredRun m = ms::bench::RunMeasured(argv);
     if (m.exit_code != 0) ms::bench::Die(argv[1] + " failed (exit " + std::to_string(m.exit_code) + ") on " + argv.back());
+    if (decode_ms) {
+      const json j = json::parse(m.out, nullptr, false);
+      if (j.is_discarded() || !j.contains("decode_ms")) ms::bench::Die(argv[1] + ": no decode_ms in its --json output");
+      decode_ms->push_back(j["decode_ms"].get<double>());
+    }
     wall.push_back(m.wall_s);
     cpu.push_back(m.cpu_s);
     rss.push_back(static_cast<double>(m.peak_rss_bytes));
@@ -118,6 +127,7 @@ uint64_t FileBytes(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ms::bench::StartSpawner();  // before anything is allocated (measured_run.h)
   ms::bench::SetProgramName("meshstream_bench_scaling");
   const Args args = Parse(argc, argv);
   const std::string cli = MESHSTREAM_CLI;
@@ -154,10 +164,24 @@ int main(int argc, char** argv) {
     row["draco"]["output_bytes"] = FileBytes(draco);
     row["meshstream"] = Measure({cli, "encode", "--qp", qp, in, "-o", ours}, args.runs, vertices);
     row["meshstream"]["output_bytes"] = FileBytes(ours);
+    // Issue 25: the decoders, whole processes that read the .glb, decode
+    // and write a plain .glb: `meshstream decode` (all levels; it also checks the
+    // mesh's health, as it does for a user) against `meshstream convert` of
+    // the Draco file (Draco's decoder through the glTF importer). The decode
+    // alone, in the process, is what `decode --json` reports as decode_ms.
+    const std::string decoded = dir + "/decoded.glb";
+    std::vector<double> decode_ms;
+    row["meshstream_decode"] = Measure({cli, "decode", "--json", ours, "-o", decoded}, args.runs, vertices, &decode_ms);
+    row["meshstream_decode"]["decode_ms"] = ms::bench::Median(decode_ms);
+    row["draco_decode"] = Measure({cli, "convert", "--quiet", draco, decoded}, args.runs, vertices);
     row["ratios"] = {
         {"time_vs_draco", row["meshstream"]["wall_s"].get<double>() / row["draco"]["wall_s"].get<double>()},
         {"memory_vs_draco",
-         row["meshstream"]["peak_rss_bytes"].get<double>() / row["draco"]["peak_rss_bytes"].get<double>()}};
+         row["meshstream"]["peak_rss_bytes"].get<double>() / row["draco"]["peak_rss_bytes"].get<double>()},
+        {"decode_time_vs_draco",
+         row["meshstream_decode"]["wall_s"].get<double>() / row["draco_decode"]["wall_s"].get<double>()},
+        {"decode_memory_vs_draco", row["meshstream_decode"]["peak_rss_bytes"].get<double>() /
+                                       row["draco_decode"]["peak_rss_bytes"].get<double>()}};
     if (!rows.empty()) {
       const json& before = rows.back();
       row["growth_per_4x"] = {
@@ -195,6 +219,17 @@ int main(int argc, char** argv) {
                 m["peak_rss_bytes"].get<double>() / 1e6, m["peak_bytes_per_vertex"].get<double>(),
                 d["wall_s"].get<double>(), d["peak_rss_bytes"].get<double>() / 1e6,
                 r["ratios"]["time_vs_draco"].get<double>(), growth.c_str());
+  }
+  std::printf("\n| vertices | meshstream decode s (decode alone) | peak MB | Draco decode s | Draco peak MB | time vs Draco | memory vs Draco |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
+  for (const json& r : rows) {
+    const json& m = r["meshstream_decode"];
+    const json& d = r["draco_decode"];
+    std::printf("| %llu | %.2f (%.2f) | %.0f | %.2f | %.0f | %.2f | %.2f |\n",
+                static_cast<unsigned long long>(r["vertices"].get<uint64_t>()), m["wall_s"].get<double>(),
+                m["decode_ms"].get<double>() / 1000.0, m["peak_rss_bytes"].get<double>() / 1e6, d["wall_s"].get<double>(),
+                d["peak_rss_bytes"].get<double>() / 1e6, r["ratios"]["decode_time_vs_draco"].get<double>(),
+                r["ratios"]["decode_memory_vs_draco"].get<double>());
   }
   std::fprintf(stderr, "meshstream_bench_scaling: wrote %s\n", args.out.c_str());
   return 0;
