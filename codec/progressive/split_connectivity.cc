@@ -114,9 +114,9 @@ bool WalkSmallRing(const uint32_t* xs, const uint32_t* ys, size_t n, const uint3
 
 }  // namespace
 
-bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const {
+bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring, RingWalk& walk) const {
   ring.clear();
-  ring_faces_.clear();
+  walk.faces.clear();
   const Slot slot = slots_[w];
   const size_t n = slot.count;
   if (n < 3) return false;
@@ -124,8 +124,8 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
   // (x, y) for every triangle (w, x, y): the x's, then the y's. The
   // triangles are gathered first, with no branch on what they hold, so that
   // their loads (they often miss the cache) overlap.
-  scratch_.resize(2 * n);
-  uint32_t* xs = scratch_.data();
+  walk.xy.resize(2 * n);
+  uint32_t* xs = walk.xy.data();
   uint32_t* ys = xs + n;
   bool bad = false;
   static constexpr uint8_t kNext[4] = {1, 2, 0, 1};
@@ -145,33 +145,33 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
   // Follow x -> y. Each step must find exactly one triangle leaving the
   // current vertex, and the walk must close after visiting every triangle
   // (which it can only do when every x is distinct). No x is w, so w pads.
-  if (n <= 8) return WalkSmallRing<8>(xs, ys, n, fs, w, ring, ring_faces_);
-  if (n <= 16) return WalkSmallRing<16>(xs, ys, n, fs, w, ring, ring_faces_);
+  if (n <= 8) return WalkSmallRing<8>(xs, ys, n, fs, w, ring, walk.faces);
+  if (n <= 16) return WalkSmallRing<16>(xs, ys, n, fs, w, ring, walk.faces);
   // Large rings: x -> triangle through an open-addressed table, O(valence).
   size_t bits = 1;
   while ((size_t{1} << bits) < 2 * n) ++bits;
   const size_t mask = (size_t{1} << bits) - 1;
-  table_.assign(2 * (mask + 1), kEmpty);  // (x, triangle) pairs
+  walk.table.assign(2 * (mask + 1), kEmpty);  // (x, triangle) pairs
   auto home = [bits](uint32_t x) { return static_cast<size_t>((x * 2654435769u) >> (32 - bits)); };
   for (size_t i = 0; i < n; ++i) {
     const uint32_t x = xs[i];
     size_t h = home(x);
-    while (table_[2 * h + 1] != kEmpty) {
-      if (table_[2 * h] == x) return false;  // two triangles leave x: not a fan
+    while (walk.table[2 * h + 1] != kEmpty) {
+      if (walk.table[2 * h] == x) return false;  // two triangles leave x: not a fan
       h = (h + 1) & mask;
     }
-    table_[2 * h] = x;
-    table_[2 * h + 1] = static_cast<uint32_t>(i);
+    walk.table[2 * h] = x;
+    walk.table[2 * h + 1] = static_cast<uint32_t>(i);
   }
   const uint32_t start = xs[0];
   uint32_t cur = start;
   for (size_t step = 0; step < n; ++step) {
     size_t h = home(cur);
-    while (table_[2 * h + 1] != kEmpty && table_[2 * h] != cur) h = (h + 1) & mask;
-    if (table_[2 * h + 1] == kEmpty) return false;  // open fan (boundary)
-    const uint32_t found = table_[2 * h + 1];
+    while (walk.table[2 * h + 1] != kEmpty && walk.table[2 * h] != cur) h = (h + 1) & mask;
+    if (walk.table[2 * h + 1] == kEmpty) return false;  // open fan (boundary)
+    const uint32_t found = walk.table[2 * h + 1];
     ring.push_back(cur);
-    ring_faces_.push_back(fs[found]);
+    walk.faces.push_back(fs[found]);
     cur = ys[found];
     if (cur == start) return step + 1 == n;
   }
@@ -180,23 +180,23 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring) cons
 
 bool SplitConnectivity::OpenRing(uint32_t w, std::vector<uint32_t>& ring) const {
   ring.clear();
-  ring_faces_.clear();
+  walk_.faces.clear();
   const Slot slot = slots_[w];
   const size_t n = slot.count;
   if (n == 0) return false;
   const uint32_t* fs = pool_.data() + slot.offset;
   // (x, triangle) sorted by x, and the y's: the start is the one x that is
   // no triangle's y.
-  table_.resize(2 * n);
-  scratch_.resize(n);
+  walk_.table.resize(2 * n);
+  walk_.xy.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const Face r = RotateTo(faces_[fs[i]], w);
     if (r[1] == w || r[2] == w || r[1] == r[2]) return false;
-    table_[2 * i] = r[1];
-    table_[2 * i + 1] = static_cast<uint32_t>(i);
-    scratch_[i] = r[2];
+    walk_.table[2 * i] = r[1];
+    walk_.table[2 * i + 1] = static_cast<uint32_t>(i);
+    walk_.xy[i] = r[2];
   }
-  auto* pairs = reinterpret_cast<std::array<uint32_t, 2>*>(table_.data());
+  auto* pairs = reinterpret_cast<std::array<uint32_t, 2>*>(walk_.table.data());
   std::sort(pairs, pairs + n);
   for (size_t i = 1; i < n; ++i)
     if (pairs[i][0] == pairs[i - 1][0]) return false;  // two triangles leave one vertex: not a fan
@@ -205,7 +205,7 @@ bool SplitConnectivity::OpenRing(uint32_t w, std::vector<uint32_t>& ring) const 
     return it != pairs + n && (*it)[0] == x ? it : nullptr;
   };
   std::vector<uint32_t>& ys = sorted_ys_;
-  ys.assign(scratch_.begin(), scratch_.end());
+  ys.assign(walk_.xy.begin(), walk_.xy.end());
   std::sort(ys.begin(), ys.end());
   uint32_t start = kEmpty;
   for (size_t i = 0; i < n; ++i) {
@@ -220,8 +220,8 @@ bool SplitConnectivity::OpenRing(uint32_t w, std::vector<uint32_t>& ring) const 
     const auto* at = find(cur);
     if (at == nullptr) return false;
     ring.push_back(cur);
-    ring_faces_.push_back(fs[(*at)[1]]);
-    cur = scratch_[(*at)[1]];
+    walk_.faces.push_back(fs[(*at)[1]]);
+    cur = walk_.xy[(*at)[1]];
   }
   if (find(cur) != nullptr) return false;  // the walk must end where no triangle leaves
   ring.push_back(cur);
@@ -250,7 +250,8 @@ void SplitConnectivity::Reserve(uint32_t vertices, size_t faces) {
   pool_.reserve(pool_end_ + extra * (kMinCapacity + kMinCapacity / 2));
 }
 
-uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
+uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring,
+                                    const std::vector<uint32_t>& ring_faces, size_t a_at, size_t b_at) {
   const uint32_t a = ring[a_at], b = ring[b_at];
   const size_t d = ring.size();
   // Triangles (w, ring[k], ring[k+1]) for k from b up to (not including) a
@@ -264,7 +265,7 @@ uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& rin
   if (slots_[w].capacity < keep) Grow(w, keep);
   uint32_t* to_n = pool_.data() + slots_[n].offset;
   uint32_t* to_w = pool_.data() + slots_[w].offset;
-  const uint32_t* rf = ring_faces_.data();
+  const uint32_t* rf = ring_faces.data();
   size_t k = b_at;
   for (size_t step = 0; step < path; ++step) {
     const uint32_t f = rf[k];
@@ -302,7 +303,7 @@ uint32_t SplitConnectivity::SplitOpenAt(uint32_t w, const std::vector<uint32_t>&
   uint32_t* to_n = pool_.data() + slots_[n].offset;
   uint32_t* to_w = pool_.data() + slots_[w].offset;
   for (size_t k = 0; k < triangles; ++k) {
-    const uint32_t f = ring_faces_[k];
+    const uint32_t f = walk_.faces[k];
     if ((k >= a_at) == tail) {
       for (uint32_t& y : faces_[f]) y = y == w ? n : y;
       *to_n++ = f;

@@ -50,11 +50,23 @@ class SplitConnectivity {
   };
   FaceList faces_of(uint32_t v) const { return {pool_.data() + slots_[v].offset, slots_[v].count}; }
 
+  // What a ring walk needs besides the ring: the walk's scratch and the
+  // ring's triangles, which SplitAt reads. The walks only read the
+  // connectivity, so with one RingWalk each, rings can be walked
+  // concurrently (a refinement's splits in parallel, docs/decode-profile.md).
+  struct RingWalk {
+    std::vector<uint32_t> xy;     // x then y per triangle of the ring
+    std::vector<uint32_t> faces;  // triangle (w, ring[k], ring[k + 1])
+    std::vector<uint32_t> table;  // large rings' (x, triangle) table; OpenRing's pairs
+  };
+
   // The neighbours of w in cyclic order (x -> y over w's triangles), starting
   // at the first vertex of w's first triangle. Returns false (ring
   // unspecified) when the triangles of w do not form one closed fan. The
   // triangle (w, ring[k], ring[k + 1]) is remembered for SplitAt.
-  bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const;
+  bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring) const { return CyclicRing(w, ring, walk_); }
+  // The same with the caller's walk (its triangles then in walk.faces).
+  bool CyclicRing(uint32_t w, std::vector<uint32_t>& ring, RingWalk& walk) const;
   // The neighbours of a boundary vertex w in order (x -> y over w's
   // triangles) from the one that no triangle of w enters (ring[0]) to the one
   // that none leaves (ring.back()): one more vertex than triangles. Returns
@@ -68,7 +80,13 @@ class SplitConnectivity {
   // Splits w right after CyclicRing(w, ring) returned true, with the wings
   // given by their positions in the ring; the new vertex gets id
   // vertex_count(), which is returned.
-  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at);
+  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
+    return SplitAt(w, ring, walk_.faces, a_at, b_at);
+  }
+  // The same with the ring's triangles as a CyclicRing with its own walk
+  // found them (walk.faces), while nothing changed w's triangles since.
+  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, const std::vector<uint32_t>& ring_faces, size_t a_at,
+                   size_t b_at);
   // Splits a boundary vertex w right after OpenRing(w, ring) returned true,
   // with the wing a = ring[a_at] (docs/progressive-format.md, "Seam split"):
   // the triangles after a (toward ring.back()) move to the new vertex n when
@@ -120,9 +138,7 @@ class SplitConnectivity {
   std::vector<uint32_t> pool_;
   uint32_t pool_end_ = 0;  // entries of pool_ in use; the rest is spare room
   std::vector<Slot> slots_;
-  mutable std::vector<uint32_t> scratch_;     // x then y per triangle of the last ring
-  mutable std::vector<uint32_t> ring_faces_;  // triangle (w, ring[k], ring[k+1]) of the last ring
-  mutable std::vector<uint32_t> table_;       // CyclicRing's (x, triangle) table for large rings; OpenRing's pairs
+  mutable RingWalk walk_;  // the last ring's walk (CyclicRing and OpenRing without a walk of their own)
   mutable std::vector<uint32_t> sorted_ys_;   // OpenRing's y's, sorted
   static constexpr uint32_t kMinCapacity = 8;  // entries per vertex, at least
   static constexpr uint32_t kEmpty = UINT32_MAX;

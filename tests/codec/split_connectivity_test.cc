@@ -10,6 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include "codec/progressive/refinement.h"
+#include "tests/common/hierarchy.h"
+#include "tests/common/sphere.h"
+
 namespace meshstream {
 namespace {
 
@@ -212,6 +216,39 @@ TEST(SplitConnectivity, SortedNeighboursOnNonManifoldVertices) {
   EXPECT_EQ(nb, (Ids{1, 2, 3, 5, 6, 7}));
   c.SortedNeighbours(4, nb);
   EXPECT_TRUE(nb.empty());
+}
+
+// A refinement in two phases, as a parallel decoder would apply it
+// (docs/decode-profile.md): every split's ring walked first, each with its
+// own RingWalk, before any split is applied; then the splits applied in
+// order from the recorded rings and triangles. The rings and the resulting
+// connectivity are the serial walk-then-split ones, on every refinement of
+// a real hierarchy (the split vertices are pairwise non-adjacent).
+TEST(SplitConnectivity, RingsWalkedBeforeTheirRefinementSplitAsTheSerialOnes) {
+  const ProgressiveEncoded enc = test_util::EncodeWithoutDraco(test_util::RippledSphere(40, 60));
+  ASSERT_GT(enc.mesh.refinements.size(), 3u);
+  SplitConnectivity serial, phased;
+  ASSERT_TRUE(serial.Reset(static_cast<uint32_t>(enc.mesh.base.vertex_count()), enc.mesh.base.indices).ok());
+  ASSERT_TRUE(phased.Reset(static_cast<uint32_t>(enc.mesh.base.vertex_count()), enc.mesh.base.indices).ok());
+  std::vector<uint32_t> ring;
+  size_t splits = 0;
+  for (const Refinement& r : enc.mesh.refinements) {
+    const size_t k = r.split_count();
+    std::vector<std::vector<uint32_t>> rings(k);
+    std::vector<SplitConnectivity::RingWalk> walks(k);
+    for (size_t j = 0; j < k; ++j) ASSERT_TRUE(phased.CyclicRing(r.split_vertices[j], rings[j], walks[j]));
+    for (size_t j = 0; j < k; ++j) {
+      const uint32_t w = r.split_vertices[j];
+      ASSERT_TRUE(serial.CyclicRing(w, ring));
+      ASSERT_EQ(rings[j], ring) << "split " << j;
+      size_t a_at = 0, b_at = 0;
+      ASSERT_TRUE(WingPositions(ring, r.wings[j], &a_at, &b_at));
+      ASSERT_EQ(phased.SplitAt(w, rings[j], walks[j].faces, a_at, b_at), serial.SplitAt(w, ring, a_at, b_at));
+      ++splits;
+    }
+    ASSERT_EQ(phased.Indices(), serial.Indices());
+  }
+  EXPECT_GT(splits, 1000u);
 }
 
 }  // namespace
