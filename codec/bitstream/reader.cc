@@ -190,8 +190,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
     if (!a.ok()) return a.status().WithContext(where + ": control block");
     alpha = a.value();
   }
-  coding_ = SplitCoding{header_.tools, alpha, kInitialPredictor, 0};
-  coding_.predictor = predictor;
+  coding_ = SplitCoding{header_.tools, alpha, predictor, 0};
   if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
   if (header_.has(kToolTexcoordPrediction)) {
     coding_.mapped_first = header_.grids.layout.texcoord_offset(0);
@@ -331,9 +330,9 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   current_.attribute_delta = coded_.attribute_delta;
   state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
-  // The ring predictor reads only the vertices no split of this refinement
-  // changes (ring_predictor.h).
-  const bool stable = header_.has(kToolRingPredictor);
+  // The ring predictor's 2-ring term reads only the vertices no split of
+  // this refinement changes (ring_predictor.h): marked only when it is read.
+  const bool stable = ReadsUmbrellas(coding_);
   if (stable) state_.BeginSplits(coded_);
   Status status = Status::Ok();
   for (size_t j = 0; j < current_.split_count() && status.ok(); ++j) {

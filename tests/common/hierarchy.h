@@ -1,6 +1,7 @@
-// A progressive hierarchy of a test mesh without Draco: the base is kept as
-// it is (a placeholder byte stands for its bytes), for the tests of one
-// coding tool that need the encoder's real refinements but no container.
+// The encoder's real hierarchy of a test mesh, without Draco: the base
+// coder hands the quantized base back as its own decode and one byte as its
+// coded size. For the tests of one coding tool, which read the refinements
+// and the base mesh and never the base's bytes.
 #ifndef MESHSTREAM_TESTS_COMMON_HIERARCHY_H_
 #define MESHSTREAM_TESTS_COMMON_HIERARCHY_H_
 
