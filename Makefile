@@ -6,6 +6,7 @@
 SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
+TSAN_BUILD ?= build-tsan
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 # ccache, where installed, makes rebuilds in fresh clones (CI) and worktrees cheap.
@@ -17,7 +18,7 @@ ifneq ($(CCACHE),)
   export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all deps build test test-asan demo bench fuzz clean
+.PHONY: all deps build test test-asan test-tsan demo bench fuzz clean
 
 all: build
 
@@ -30,7 +31,7 @@ $(BUILD)/build.ninja:
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
 
-test: build test-asan
+test: build test-asan test-tsan
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # The importers take hostile input: run their tests once under ASan+UBSan.
@@ -40,6 +41,16 @@ test-asan: deps
 	cmake --build $(ASAN_BUILD) -j $(JOBS) --target importer_checks
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) -L importers
+
+# The parallel decode (threads sharing the decoder's state) once under
+# ThreadSanitizer: the thread pool, the plans, and the one-thread/N-thread
+# comparison on a synthetic mesh (only codec/ and parallel/ are built).
+test-tsan: deps
+	@[ -f $(TSAN_BUILD)/build.ninja ] || cmake -S . -B $(TSAN_BUILD) -G Ninja \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMESHSTREAM_TSAN=ON -DMESHSTREAM_ONLY_IMPORTERS=ON $(CMAKE_FLAGS)
+	cmake --build $(TSAN_BUILD) -j $(JOBS) --target parallel_race_tests
+	cd $(TSAN_BUILD) && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+	  ctest --output-on-failure -j $(JOBS) -L parallel_race
 
 demo: build
 	@scripts/demo
@@ -112,4 +123,4 @@ fuzz: deps
 	@echo "      or: build-fuzz-services/bin/fuzz_service_ingest tests/fuzz/corpus/service_ingest -max_total_time=60"
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz build-fuzz-services
+	rm -rf $(BUILD) $(ASAN_BUILD) $(TSAN_BUILD) build-fuzz build-fuzz-services

@@ -8,6 +8,8 @@
 //       final Scene in memory);
 //   (b) the same with lod 0 (the base alone);
 //   (c) draco::Decoder::DecodeMeshFromBuffer of the whole mesh (cl 7).
+// With --threads N (N > 1), also (d) all levels with a pool of N threads
+// (parallel/thread_pool.h), whose decode must hash the same as (a).
 // Prints the medians and the ratios a/c and b/c; --json FILE writes them.
 // Every round also checks that the decode is the same bit for bit as the
 // first (a hash of the decoded Scene's vertex and index arrays, printed so
@@ -34,6 +36,7 @@
 #include "importers/draco_codec.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
+#include "parallel/thread_pool.h"
 
 namespace {
 
@@ -62,6 +65,7 @@ struct Args {
   std::string loop_model;
   double loop_seconds = 0;
   int loop_lod = -1;
+  int threads = 1;
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -78,6 +82,8 @@ Args ParseArgs(int argc, char** argv) {
     a.loop_seconds = ParseDouble(v[1], "--loop");
     if (a.loop_seconds <= 0) Die("--loop: SECONDS must be positive");
   }, "only decode MODEL (all levels) in a loop for SEC seconds (for perf)");
+  o.Int("--threads", "N", &a.threads, 1, ms::ThreadPool::kMaxWorkers,
+        "also time all levels on N threads (default 1: not timed); with --loop: decode on N threads");
   o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
   o.Parse(argc, argv);
   return a;
@@ -144,9 +150,10 @@ Model Prepare(const std::string& models_dir, const std::string& file, int qp) {
   return m;
 }
 
-uint64_t DecodeMeshstream(const Model& m, int lod) {
+uint64_t DecodeMeshstream(const Model& m, int lod, ms::TaskRunner* runner = nullptr) {
   ms::ProgressiveDecodeOptions o;
   o.lod = lod;
+  o.runner = runner;
   auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
   if (!s.ok()) Die(m.name + ": DecodeProgressiveGlb: " + s.status().ToString());
   return SceneHash(s.value());
@@ -178,9 +185,11 @@ int Loop(const Args& args) {
   const auto start = Clock::now();
   const double cpu_start = CpuMs();
   size_t runs = 0;
+  ms::ThreadPool pool(args.threads);
   do {  // at least one decode, however short SECONDS (valgrind)
     ms::ProgressiveDecodeOptions o;
     o.lod = args.loop_lod;
+    if (args.threads > 1) o.runner = &pool;
     auto s = ms::DecodeProgressiveGlb(m.glb, o, nullptr);
     if (!s.ok()) Die(m.name + ": DecodeProgressiveGlb: " + s.status().ToString());
     ++runs;
@@ -210,6 +219,8 @@ int main(int argc, char** argv) {
   out["settings"] = {{"qp", args.qp}, {"rounds", args.rounds}, {"draco_compression_level", 7}};
   out["models"] = json::array();
 
+  out["settings"]["threads"] = args.threads;
+  ms::ThreadPool pool(args.threads);
   std::printf("%-15s %8s %8s | %9s %9s %9s | %6s %6s | %s\n", "model", "vertices", "faces", "all ms", "base ms",
               "draco ms", "all/d", "base/d", "decode hash");
   for (const std::string& file : ms::bench::ChooseSharedModels(args.only)) {
@@ -222,7 +233,11 @@ int main(int argc, char** argv) {
     std::vector<Timed> timed = {{[&m] { return DecodeMeshstream(m, -1); }, {}, 0},
                                 {[&m] { return DecodeMeshstream(m, 0); }, {}, 0},
                                 {[&m] { return uint64_t{DecodeDraco(m)}; }, {}, 0}};
+    if (args.threads > 1) timed.push_back({[&m, &pool] { return DecodeMeshstream(m, -1, &pool); }, {}, 0});
     for (Timed& t : timed) t.first = t.run();  // the warm-up round
+    if (args.threads > 1 && timed[3].first != timed[0].first) {
+      Die(m.name + ": the decode on " + std::to_string(args.threads) + " threads differs from the one-thread decode");
+    }
     for (int i = 0; i < args.rounds; ++i) {
       for (Timed& t : timed) {
         const auto s = Clock::now();
@@ -235,6 +250,17 @@ int main(int argc, char** argv) {
     std::printf("%-15s %8llu %8llu | %9.3f %9.3f %9.3f | %6.2f %6.2f | %016llx\n", m.name.c_str(),
                 static_cast<unsigned long long>(m.vertices), static_cast<unsigned long long>(m.faces), all, base,
                 draco, all / draco, base / draco, static_cast<unsigned long long>(timed[0].first));
+    json parallel;
+    if (args.threads > 1) {
+      const double threaded = Median(timed[3].times);
+      std::printf("%-15s %d threads: all levels %.3f ms, %.2f x one thread, %.2f x draco (same hash)\n", "",
+                  args.threads, threaded, threaded / all, threaded / draco);
+      parallel = {{"threads", args.threads},
+                  {"decode_all_ms", threaded},
+                  {"over_one_thread", threaded / all},
+                  {"over_draco", threaded / draco},
+                  {"all_ms", timed[3].times}};
+    }
     std::fflush(stdout);
     out["models"].push_back({{"name", m.name},
                              {"vertices", m.vertices},
@@ -249,7 +275,8 @@ int main(int argc, char** argv) {
                              {"decode_base_hash", timed[1].first},
                              {"all_ms", timed[0].times},
                              {"base_ms", timed[1].times},
-                             {"draco_ms", timed[2].times}});
+                             {"draco_ms", timed[2].times},
+                             {"parallel", parallel}});
   }
   if (!args.json_out.empty()) {
     std::ofstream f(args.json_out);

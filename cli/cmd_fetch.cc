@@ -9,6 +9,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
+#include "parallel/thread_pool.h"
 #include "importers/import.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
@@ -37,6 +38,7 @@ struct FetchArgs {
   std::string udp_via;
   bool repair = false;
   double expected_loss = -1;
+  int threads = 1;
   RemoteOptions remote;
 };
 
@@ -59,6 +61,7 @@ int RunFetch(const FetchArgs& args) {
   options.udp_via = args.udp_via;
   options.repair = args.repair;
   options.expected_loss = args.expected_loss;
+  options.decode_threads = args.threads == 0 ? -1 : args.threads;  // the SDK's -1: one per core
   auto session = sdk::Session::Open(**client, options);
   if (!session.ok()) return ReportError("fetch", session.status());
   ProgressLine progress(!args.json);
@@ -119,6 +122,8 @@ int RunFetch(const FetchArgs& args) {
                       {"last_arrival_ms", st.last_arrival_ms},
                       {"decode_after_last_byte_ms", st.decode_after_last_byte_ms},
                       {"session_thread_cpu_ms", st.session_thread_cpu_ms},
+                      {"threads", args.threads == 0 ? ThreadPool::HardwareWorkers() : args.threads},
+                      {"parallel_splits", st.parallel_splits},
                       {"repair", args.repair},
                       {"repaired_datagrams", st.repaired_datagrams},
                       {"repair_bytes", st.repair_bytes},
@@ -155,6 +160,10 @@ Verb AddFetch(CLI::App& root) {
                   "the loss rate this link is known to have, 0..1: the server sends more of the stream reliably "
                   "the higher it is (default: unknown)")
       ->check(NumberIn(0, 1));
+  cmd->add_option("--threads", args->threads,
+                  "threads for refinements that arrived whole, as `decode --threads` (0: one per core; the mesh "
+                  "does not change)")
+      ->check(CLI::Range(0, 64))->capture_default_str();
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);
   return {cmd, [args] { return RunFetch(*args); }};

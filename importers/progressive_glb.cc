@@ -439,6 +439,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     lossy.loss.seed = options.loss.seed + stream_id;
     lossy.reconstructor.recovery = options.recovery;
     lossy.reconstructor.lod = static_cast<int>(apply);
+    lossy.reconstructor.runner = options.runner;
     lossy.reliable = std::move(reliable);
     LossyDecodeReport lr;
     auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);

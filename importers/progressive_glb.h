@@ -102,6 +102,10 @@ struct ProgressiveDecodeOptions {
   // ("delivery"; none in a file without it), 0 none (the paper's scheme),
   // > 0 the cut for that share of each stream's bytes from the file's ranking.
   double reliable_share = -1;
+  // Workers for the decode of complete refinements (parallel/thread_pool.h
+  // has a pool of threads; the output is the same bit for bit); null: the
+  // caller's thread alone.
+  TaskRunner* runner = nullptr;
 };
 
 // Checks `delivery_json` (untrusted text: the "delivery" object) against a

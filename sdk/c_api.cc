@@ -228,6 +228,7 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
     }
     if (MS_FIELD_FITS(config, ms_session_config, udp_via) && config->udp_via != nullptr) options.udp_via = config->udp_via;
     if (MS_FIELD_FITS(config, ms_session_config, repair)) options.repair = config->repair != 0;
+    if (MS_FIELD_FITS(config, ms_session_config, decode_threads)) options.decode_threads = config->decode_threads;
     auto session = meshstream::sdk::Session::Open(*client->client, options);
     if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();
@@ -349,6 +350,7 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
     if (MS_FIELD_FITS(out, ms_stats, decode_after_last_byte_ms)) {
       out->decode_after_last_byte_ms = stats.decode_after_last_byte_ms;
     }
+    if (MS_FIELD_FITS(out, ms_stats, parallel_splits)) out->parallel_splits = stats.parallel_splits;
     return Ok();
   });
 }

@@ -116,6 +116,12 @@ struct SessionOptions {
   // it is, until this session's reports show the real rate. < 0: unknown
   // (the server assumes the rate the artifact's cut was made for, 12 %).
   double expected_loss = -1;
+  // Threads that decode a refinement whose datagrams all arrived (the
+  // output is the same bit for bit; docs/decode-profile.md): 0 or 1 the
+  // session's own thread (the default: a host that runs its own threads
+  // keeps the cores), N > 1 a pool of N started with the session, -1 one
+  // per core; at most 64.
+  int32_t decode_threads = 1;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
@@ -160,6 +166,7 @@ struct SessionStats {
   double last_arrival_ms = 0;       // from open to the last arrival before the full mesh (either channel)
   double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
   double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
+  uint64_t parallel_splits = 0;     // splits decoded on the decode_threads (0 with one thread)
 };
 
 class Session {

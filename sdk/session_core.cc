@@ -189,6 +189,11 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   // stream, within the byte budget, rather than drop them for the window.
   ro.window = kMaxRefinements;
   ro.max_buffered_bytes = size_t{64} << 20;
+  const int threads = options_.decode_threads < 0 ? ThreadPool::HardwareWorkers() : options_.decode_threads;
+  if (threads > 1) {
+    decode_pool_ = std::make_unique<ThreadPool>(threads);
+    ro.runner = decode_pool_.get();
+  }
   reconstructor_options_ = ro;
   for (const v1::PrimitiveStart& p : start.primitives()) {
     const std::string where = Where(p.primitive());
@@ -716,8 +721,9 @@ Status SessionCore::DecodeAgain(uint64_t now) {
 }
 
 void SessionCore::UpdateStats() {
-  uint64_t accepted = 0, rejected = 0, duplicates = 0, late = 0;
+  uint64_t accepted = 0, rejected = 0, duplicates = 0, late = 0, planned = 0;
   for (const PrimitiveState& p : primitives_) {
+    planned += p.reconstructor->reader().recovery_stats().planned;
     const ReconstructorStats& r = p.reconstructor->stats();
     accepted += r.accepted;
     rejected += r.rejected + r.overflow;
@@ -725,6 +731,7 @@ void SessionCore::UpdateStats() {
     late += r.late;
   }
   stats_.datagrams_late = late;
+  stats_.parallel_splits = planned;
   stats_.datagrams_received = accepted;
   if (udp_running_) {
     // A repeated packet number is a copy the network made (or a replay: the

@@ -330,12 +330,20 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   current_.attribute_delta = coded_.attribute_delta;
   state_.ReserveSplits(current_.split_count());
   RecoveryStats stats;
+  const size_t count = current_.split_count();
+  // A refinement that is all there, decoded while nothing is flagged, can
+  // be planned in parallel.
+  const bool parallel = runner_ != nullptr && runner_->workers() > 1 && !state_.any_inexact && !state_.any_absent &&
+                        std::find(has_structure_.begin(), has_structure_.end(), 0) == has_structure_.end() &&
+                        std::find(has_geometry_.begin(), has_geometry_.end(), 0) == has_geometry_.end();
   // The ring predictor's 2-ring term reads only the vertices no split of
-  // this refinement changes (ring_predictor.h): marked only when it is read.
-  const bool stable = ReadsUmbrellas(coding_);
+  // this refinement changes (ring_predictor.h), and the plans check their
+  // rings against them: marked only when read.
+  const bool stable = ReadsUmbrellas(coding_) || parallel;
   if (stable) state_.BeginSplits(coded_);
   Status status = Status::Ok();
-  for (size_t j = 0; j < current_.split_count() && status.ok(); ++j) {
+  size_t j = parallel ? ApplyPlanned(recovery, &stats, &status) : 0;
+  for (; j < count && status.ok(); ++j) {
     status = RecoverSplit(coded_, j, has_structure_[j] != 0, has_geometry_[j] != 0, recovery, &state_,
                           &recovery_scratch_, &stats, coding_, &current_);
   }
@@ -345,6 +353,37 @@ Status StreamReader::FinishRefinement(Recovery recovery) {
   in_refinement_ = false;
   ++next_;
   return Status::Ok();
+}
+
+size_t StreamReader::ApplyPlanned(Recovery recovery, RecoveryStats* stats, Status* status) {
+  const size_t count = current_.split_count();
+  for (size_t first = 0; first < count;) {
+    const size_t end = std::min(count, first + RefinementPlan::kWindowSplits);
+    plan_.Plan(coded_, coding_, state_, first, end - first, *runner_);
+    for (size_t j = first; j < end; ++j) {
+      switch (plan_.kind(j)) {
+        case RefinementPlan::Kind::kPlanned:
+          if (plan_.Holds(j, state_)) {
+            plan_.Apply(coded_, j, coding_, &state_, &current_);
+            ++stats->exact;
+            ++stats->planned;
+            break;
+          }
+          [[fallthrough]];
+        case RefinementPlan::Kind::kSerial:
+          // A seam split, or a plan that no longer holds, in its turn by
+          // the serial path; should it leave a flag, the plans after it no
+          // longer hold.
+          *status = RecoverSplit(coded_, j, true, true, recovery, &state_, &recovery_scratch_, stats, coding_, &current_);
+          if (!status->ok() || state_.any_inexact || state_.any_absent) return j + 1;
+          break;
+        case RefinementPlan::Kind::kStop:
+          return j;
+      }
+    }
+    first = end;
+  }
+  return count;
 }
 
 }  // namespace meshstream

@@ -24,6 +24,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "codec/core/task_runner.h"
+#include "codec/progressive/parallel_refinement.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
 #include "codec/recovery/recover_split.h"
@@ -57,6 +59,12 @@ class StreamReader {
   // The same with the header already read (ParsedDatagram::Parse): the
   // header is not parsed again; everything else is checked as above.
   bool OfferDatagram(const ParsedDatagram& d);
+  // With a runner of more than one worker, a refinement whose datagrams all
+  // arrived, decoded while no vertex is flagged, has its splits planned on
+  // the runner's workers (parallel_refinement.h); the output is the same
+  // bit for bit. The runner must outlive the reader's use of it; null (the
+  // default) decodes on the caller's thread alone.
+  void SetTaskRunner(TaskRunner* runner) { runner_ = runner; }
   // Applies the current refinement; what was lost is recovered by `recovery`.
   // Within one stream every refinement must use the same recovery.
   Status FinishRefinement(Recovery recovery = Recovery::kPredict);
@@ -95,6 +103,8 @@ class StreamReader {
   SplitCoding coding_;
   PredictorWeights predictor_ = kInitialPredictor;  // the last refinement's (kToolRingPredictor)
   std::vector<uint8_t> has_structure_, has_geometry_;
+  TaskRunner* runner_ = nullptr;
+  RefinementPlan plan_;  // FinishRefinement's, with a runner
   std::vector<SlotModel> models_;  // slots: wing, offset, position x y z, channels
   // OfferDatagram's scratch: a datagram is decoded here before it is committed.
   std::vector<std::array<uint16_t, 2>> datagram_wings_;
@@ -108,6 +118,11 @@ class StreamReader {
   std::vector<uint32_t> partner_;
   DatagramStats stats_;
   RecoveryStats recovery_stats_;
+
+  // The splits of a complete refinement from the plans made on the runner,
+  // window by window; returns the first split it left to the serial path
+  // (split_count() when none).
+  size_t ApplyPlanned(Recovery recovery, RecoveryStats* stats, Status* status);
 };
 
 }  // namespace meshstream

@@ -28,6 +28,7 @@ StatusOr<StreamReconstructor> StreamReconstructor::Create(const uint8_t* header,
   if (options.lod < -1) return InvalidArgument("reconstructor: lod " + std::to_string(options.lod) + " is below -1");
   StreamReconstructor r;
   MS_ASSIGN_OR_RETURN(r.reader_, StreamReader::Create(header, size, stream_id));
+  r.reader_.SetTaskRunner(options.runner);
   r.options_ = options;
   r.stream_id_ = stream_id;
   return r;

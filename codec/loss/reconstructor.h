@@ -13,7 +13,8 @@
 // goes through the reader's recovery (prediction or LwoP). Datagrams of a
 // refinement already decoded are counted as late and dropped.
 //
-// Contract: no sockets, threads or clocks: the caller passes every arrival
+// Contract: no sockets, threads or clocks (a caller's TaskRunner may run the
+// reader's work on its threads): the caller passes every arrival
 // and the current time (microseconds, non-decreasing). Safe on hostile
 // datagrams (parsed header checked before anything is stored; malformed ones
 // dropped and counted). Memory is bounded: datagrams are buffered only for
@@ -66,6 +67,10 @@ struct ReconstructorOptions {
   size_t max_buffered_bytes = size_t{16} << 20;
   Recovery recovery = Recovery::kPredict;
   int lod = -1;  // refinements to decode; -1: all
+  // Workers for the reader's parallel decode of complete refinements
+  // (StreamReader::SetTaskRunner; the caller's, outliving the
+  // reconstructor); null: the caller's thread alone.
+  TaskRunner* runner = nullptr;
 };
 
 struct ReconstructorStats {

@@ -45,4 +45,13 @@ std::array<int32_t, 2> PredictNormalDelta(const RefinementState& state, uint32_t
   return {a[0] - b[0], a[1] - b[1]};
 }
 
+void AddPredictedNormals(int bits, size_t j, uint32_t w, uint32_t n, RefinementState& state, Refinement* decoded) {
+  if (bits == 0) return;
+  const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, bits);
+  for (int c = 0; c < 2; ++c) {
+    const int32_t e = state.AddPredictedDelta(w, n, static_cast<size_t>(c), p[c]);
+    if (decoded) decoded->attribute_delta[j * static_cast<size_t>(state.channels) + c] = e;
+  }
+}
+
 }  // namespace meshstream

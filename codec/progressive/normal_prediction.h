@@ -30,6 +30,12 @@ std::array<int32_t, 2> OctahedralCode(const WideVec3& n, int bits);
 // right after the split of w into (w, n).
 std::array<int32_t, 2> PredictNormalDelta(const RefinementState& state, uint32_t w, uint32_t n, int bits);
 
+// With normal prediction (bits > 0; nothing otherwise): split j of w into
+// (w, n), just applied with its coded residuals as the normal channels'
+// difference, gets the predicted difference added (channels 0 and 1); the
+// differences applied are written to split j of `decoded` (when not null).
+void AddPredictedNormals(int bits, size_t j, uint32_t w, uint32_t n, RefinementState& state, Refinement* decoded);
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_PROGRESSIVE_NORMAL_PREDICTION_H_

@@ -126,6 +126,17 @@ void RefinementState::SetPair(const Refinement& r, size_t j, uint32_t w, uint32_
   }
 }
 
+int32_t RefinementState::AddPredictedDelta(uint32_t w, uint32_t n, size_t channel, int32_t p) {
+  const size_t ch = static_cast<size_t>(channels);
+  int32_t& aw = attributes[w * ch + channel];
+  int32_t& an = attributes[n * ch + channel];
+  const int32_t m = Midpoint(aw, an);
+  const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p, INT32_MIN, INT32_MAX));
+  aw = FromMidpoint(m, e);
+  an = static_cast<int32_t>(int64_t{aw} - e);
+  return e;
+}
+
 Status RefinementState::ApplyRefinement(const Refinement& r) {
   if (r.vertices_before != connectivity.vertex_count()) {
     return InvalidInput("refinement expects " + std::to_string(r.vertices_before) + " vertices, the mesh has " +

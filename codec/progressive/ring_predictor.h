@@ -11,7 +11,10 @@
 //          refinement and not split by it (the 2-ring term).
 // Only stable vertices enter, so no split of a refinement reads what another
 // writes: the prediction is the same whatever order the splits are applied
-// in (the property docs/design.md's batches rest on).
+// in (the property docs/design.md's batches rest on), except where a ring
+// vertex's triangle count crosses kMaxUmbrellaFaces during the refinement
+// (a split adds a triangle to each of its wings; the count is taken when the
+// split is applied): the parallel decode checks that (RefinementPlan::Holds).
 //
 // The weights are chosen by the encoder per refinement (ring_predictor_fit.h)
 // and sent on the reliable channel, in units of 2^-8; a refinement may reuse

@@ -250,10 +250,9 @@ void SplitConnectivity::Reserve(uint32_t vertices, size_t faces) {
   pool_.reserve(pool_end_ + extra * (kMinCapacity + kMinCapacity / 2));
 }
 
-uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& ring,
-                                    const std::vector<uint32_t>& ring_faces, size_t a_at, size_t b_at) {
+uint32_t SplitConnectivity::SplitAt(uint32_t w, const uint32_t* ring, const uint32_t* ring_faces, size_t d,
+                                    size_t a_at, size_t b_at) {
   const uint32_t a = ring[a_at], b = ring[b_at];
-  const size_t d = ring.size();
   // Triangles (w, ring[k], ring[k+1]) for k from b up to (not including) a
   // move to n; the others stay with w. Both lists are written in place, in
   // the order the ring walk gives (b .. a for n, a .. b for w, then the two
@@ -265,7 +264,7 @@ uint32_t SplitConnectivity::SplitAt(uint32_t w, const std::vector<uint32_t>& rin
   if (slots_[w].capacity < keep) Grow(w, keep);
   uint32_t* to_n = pool_.data() + slots_[n].offset;
   uint32_t* to_w = pool_.data() + slots_[w].offset;
-  const uint32_t* rf = ring_faces.data();
+  const uint32_t* rf = ring_faces;
   size_t k = b_at;
   for (size_t step = 0; step < path; ++step) {
     const uint32_t f = rf[k];

@@ -81,17 +81,23 @@ int32_t RingChannelMap::Predict(const int32_t* values, size_t stride, const uint
 void PredictChannelDeltas(const RefinementState& state, const uint32_t* ring, const Vec3i* ring_positions,
                           size_t degree, const LocalFrame& frame, uint32_t w, uint32_t n, int first, int count,
                           int32_t* out) {
-  const Vec3i& u = state.positions[w];
-  const Vec3i& v = state.positions[n];
+  const size_t ch = static_cast<size_t>(state.channels);
+  int32_t coarse[kMaxMappedChannels];
+  for (int c = 0; c < count; ++c) {
+    const size_t at = static_cast<size_t>(first + c);
+    coarse[c] = Midpoint(state.attributes[w * ch + at], state.attributes[n * ch + at]);
+  }
+  PredictChannelDeltas(state.attributes.data(), ch, ring, ring_positions, degree, frame, state.positions[w],
+                       state.positions[n], coarse, first, count, out);
+}
+
+void PredictChannelDeltas(const int32_t* attributes, size_t stride, const uint32_t* ring, const Vec3i* ring_positions,
+                          size_t degree, const LocalFrame& frame, const Vec3i& u, const Vec3i& v, const int32_t* coarse,
+                          int first, int count, int32_t* out) {
   const Vec3i m = {Midpoint(u[0], v[0]), Midpoint(u[1], v[1]), Midpoint(u[2], v[2])};
   RingChannelMap map;
   map.Reset(m, Difference(u, v), ring_positions, degree, frame);
-  const size_t ch = static_cast<size_t>(state.channels);
-  for (int c = 0; c < count; ++c) {
-    const size_t at = static_cast<size_t>(first + c);
-    const int32_t coarse = Midpoint(state.attributes[w * ch + at], state.attributes[n * ch + at]);
-    out[c] = map.Predict(state.attributes.data() + at, ch, ring, coarse);
-  }
+  for (int c = 0; c < count; ++c) out[c] = map.Predict(attributes + first + c, stride, ring, coarse[c]);
 }
 
 }  // namespace meshstream

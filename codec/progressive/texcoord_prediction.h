@@ -63,6 +63,14 @@ class RingChannelMap {
 void PredictChannelDeltas(const RefinementState& state, const uint32_t* ring, const Vec3i* ring_positions,
                           size_t degree, const LocalFrame& frame, uint32_t w, uint32_t n, int first, int count,
                           int32_t* out);
+// The same before the split is applied (a refinement's splits planned in
+// parallel, parallel_refinement.h): `attributes` the state's channels
+// (`stride` per vertex), u and v the positions w and n will have, coarse[c]
+// the coarse value of channel first + c (the midpoint of the values w and n
+// will have).
+void PredictChannelDeltas(const int32_t* attributes, size_t stride, const uint32_t* ring, const Vec3i* ring_positions,
+                          size_t degree, const LocalFrame& frame, const Vec3i& u, const Vec3i& v, const int32_t* coarse,
+                          int first, int count, int32_t* out);
 
 }  // namespace meshstream
 

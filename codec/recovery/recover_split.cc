@@ -122,28 +122,16 @@ Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, size
 }
 
 // A channel of the split of w into (w, n) was applied with its coded
-// residual as the difference; the predicted difference p is added now: the
-// two values are made again from their coarse midpoint with the sum.
+// residual as the difference; the predicted difference p is added now.
 void AddPredictedDelta(size_t j, uint32_t w, uint32_t n, size_t channel, int32_t p, RefinementState& state,
                        Refinement* decoded) {
-  const size_t ch = static_cast<size_t>(state.channels);
-  int32_t& aw = state.attributes[w * ch + channel];
-  int32_t& an = state.attributes[n * ch + channel];
-  const int32_t m = Midpoint(aw, an);
-  const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p, INT32_MIN, INT32_MAX));
-  aw = FromMidpoint(m, e);
-  an = static_cast<int32_t>(int64_t{aw} - e);
-  if (decoded) decoded->attribute_delta[j * ch + channel] = e;
+  const int32_t e = state.AddPredictedDelta(w, n, channel, p);
+  if (decoded) decoded->attribute_delta[j * static_cast<size_t>(state.channels) + channel] = e;
 }
 
-// With normal prediction, the normal channels of w and n were applied with
-// their coded residual as the difference; now that the split's geometry is
-// in place, the predicted difference is added (normal_prediction.h).
 void AddPredictedNormals(const SplitCoding& coding, size_t j, uint32_t w, uint32_t n, RefinementState& state,
                          Refinement* decoded) {
-  if (coding.normal_bits == 0) return;
-  const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, coding.normal_bits);
-  for (int c = 0; c < 2; ++c) AddPredictedDelta(j, w, n, static_cast<size_t>(c), p[c], state, decoded);
+  AddPredictedNormals(coding.normal_bits, j, w, n, state, decoded);
 }
 
 // With texture coordinate prediction, the same for the texture coordinate
@@ -535,6 +523,7 @@ void RecoveryStats::Add(const RecoveryStats& o) {
   structure_fallbacks += o.structure_fallbacks;
   structure_distrusted += o.structure_distrusted;
   abandoned += o.abandoned;
+  planned += o.planned;
 }
 
 Status RecoverSplit(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,

@@ -50,6 +50,7 @@ struct RecoveryStats {
   uint64_t structure_fallbacks = 0; // arrived structure that did not fit the ring the decoder has
   uint64_t structure_distrusted = 0; // arrived structure on a changed ring, replaced by case 3
   uint64_t abandoned = 0;           // kLwop: splits not applied
+  uint64_t planned = 0;             // of `exact`: planned on a runner's workers (StreamReader::SetTaskRunner)
   uint64_t predicted() const { return predicted_both + predicted_structure + predicted_geometry; }
   void Add(const RecoveryStats& o);
 };

@@ -458,6 +458,31 @@ TEST(ProgressiveCli, LossyDecodeIsSeededAndRecovers) {
   }
 }
 
+// decode --threads: the same mesh, byte for byte, with and without loss; the
+// splits decoded on the threads counted; 0 is one per core; refused beyond 64.
+TEST(ProgressiveCli, DecodeThreadsGiveTheSameMesh) {
+  TempDir dir;
+  const std::string glb = dir.File("bunny.glb");
+  RunJson("encode --json " + Quote(ModelPath("stanford-bunny.obj")) + " -o " + Quote(glb));
+  for (const std::string loss : {"", " --loss 0.12 --seed 3"}) {
+    SCOPED_TRACE(loss);
+    const json one = RunJson("decode --json " + Quote(glb) + " -o " + Quote(dir.File("one.ply")) + loss);
+    const json two = RunJson("decode --json --threads 2 " + Quote(glb) + " -o " + Quote(dir.File("two.ply")) + loss);
+    const json all = RunJson("decode --json --threads 0 " + Quote(glb) + " -o " + Quote(dir.File("all.ply")) + loss);
+    EXPECT_EQ(test_util::ReadText(dir.File("one.ply")), test_util::ReadText(dir.File("two.ply")));
+    EXPECT_EQ(test_util::ReadText(dir.File("one.ply")), test_util::ReadText(dir.File("all.ply")));
+    EXPECT_EQ(U(one, "threads"), 1u);
+    EXPECT_EQ(U(two, "threads"), 2u);
+    EXPECT_GE(U(all, "threads"), 1u);
+    EXPECT_EQ(U(one, "parallel_splits"), 0u);
+    EXPECT_GT(U(two, "parallel_splits"), 0u);
+    EXPECT_EQ(U(one, "predicted_vertices"), U(two, "predicted_vertices"));
+  }
+  const auto r = RunCommand(Cli() + " decode --threads 65 " + Quote(glb) + " -o " + Quote(dir.File("x.ply")));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("threads"), std::string::npos) << r.err;
+}
+
 TEST(ProgressiveCli, EncodeAndDecodeHaveHelp) {
   for (const char* verb : {"encode", "decode"}) {
     const auto r = RunCommand(Cli() + " " + verb + " --help");

@@ -188,6 +188,15 @@ void ExpectSameMeshes(ms_session* session, const Scene& decoded, const std::stri
   }
 }
 
+// The session's meshes are the stored progressive file decoded to `level`.
+void ExpectTheFileAtLevel(ms_session* session, const std::vector<uint8_t>& progressive, int32_t level) {
+  ProgressiveDecodeOptions options;
+  options.lod = level;
+  auto decoded = DecodeProgressiveGlb(progressive, options, nullptr);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  ExpectSameMeshes(session, *decoded, "level " + std::to_string(level));
+}
+
 size_t SceneVertices(const Scene& scene) {
   size_t n = 0;
   for (const Mesh& m : scene.meshes) {
@@ -359,11 +368,7 @@ TEST_F(CApi, EveryLevelIsTheStoredFileDecodedToThatLevel) {
   ASSERT_NE(session, nullptr);
   int checked = 0;
   const auto events = PollToEnd(session.get(), [&](const ms_event& e) {
-    ProgressiveDecodeOptions options;
-    options.lod = e.level;
-    auto decoded = DecodeProgressiveGlb(spot.progressive, options, nullptr);
-    ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
-    ExpectSameMeshes(session.get(), *decoded, "level " + std::to_string(e.level));
+    ExpectTheFileAtLevel(session.get(), spot.progressive, e.level);
     // Asking again before the next poll gives the same arrays.
     ms_mesh_view a, b;
     ASSERT_EQ(ms_session_mesh(session.get(), 0, &a), MS_OK);
@@ -425,6 +430,31 @@ TEST_F(CApi, ByteBudgetAndTheCountersAfterTheFirstVersion) {
   ms_session* none = nullptr;
   EXPECT_EQ(ms_session_open(client.get(), &bad, &none), MS_ERR_INVALID_ARGUMENT);
   EXPECT_NE(std::string(ms_last_error()).find("time_budget_ms"), std::string::npos) << ms_last_error();
+  // So is a thread count outside -1..64.
+  ms_session_config threads = SessionConfig("spot", -1);
+  threads.decode_threads = -2;
+  EXPECT_EQ(ms_session_open(client.get(), &threads, &none), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(ms_last_error()).find("decode_threads"), std::string::npos) << ms_last_error();
+}
+
+// config->decode_threads: the session decodes whole refinements on a pool of
+// threads, and every level is the stored file's decode, bit for bit.
+TEST_F(CApi, DecodeThreadsGiveTheSameMeshes) {
+  const Stored& spot = Asset("spot");
+  ClientPtr client = NewClient();
+  ms_session_config config = SessionConfig("spot");
+  config.tcp_only = 1;  // nothing lost: every refinement arrives whole
+  config.decode_threads = 2;
+  SessionPtr session = Open(client.get(), config);
+  ASSERT_NE(session, nullptr);
+  const auto events = PollToEnd(session.get(),
+                                [&](const ms_event& e) { ExpectTheFileAtLevel(session.get(), spot.progressive, e.level); });
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  EXPECT_GT(Stats(session.get()).parallel_splits, 0u);
+  SessionPtr one = Open(client.get(), SessionConfig("spot"));
+  ASSERT_NE(one, nullptr);
+  ASSERT_EQ(PollToEnd(one.get()).back().event.type, MS_EVENT_COMPLETE);
+  EXPECT_EQ(Stats(one.get()).parallel_splits, 0u);
 }
 
 // config->repair and the counters beside it: on loopback nothing is lost, so

@@ -105,9 +105,15 @@ TEST_F(CliRemote, FetchStreamsTheFullMeshOnTheGrid) {
   EXPECT_TRUE(c.value("same_on_grid", false)) << c.dump();
   for (const json& report : test_util::ValidateGltf({file})) EXPECT_EQ(report.value("errors", -1), 0) << report.dump();
   // --tcp-only: the same mesh over the gRPC stream.
-  const json tcp = test_util::RunCliJson("fetch --json --tcp-only spot-fetch -o " + Quote(out.File("tcp.glb")) + Remote());
+  // With --threads 2 the whole refinements decode on two threads: the same mesh.
+  EXPECT_EQ(f["threads"], 1);
+  EXPECT_EQ(f["parallel_splits"], 0);
+  const json tcp =
+      test_util::RunCliJson("fetch --json --tcp-only --threads 2 spot-fetch -o " + Quote(out.File("tcp.glb")) + Remote());
   EXPECT_EQ(tcp["transport"], "grpc");
   EXPECT_EQ(tcp["vertices"], 3225);
+  EXPECT_EQ(tcp["threads"], 2);
+  EXPECT_GT(tcp["parallel_splits"].get<int>(), 0);
   const json same = test_util::RunCliJson("compare --json --qp 11 " + Quote(file) + " " + Quote(out.File("tcp.glb")));
   EXPECT_EQ(same.value("hausdorff_vertex", 1.0), 0.0) << same.dump();
   // --lod stops early.

@@ -79,53 +79,65 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
 
     auto sdk_client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
     ASSERT_TRUE(sdk_client.ok());
-    auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("m", 0, -1, true));
-    ASSERT_TRUE(session.ok()) << session.status().ToString();
-    const std::vector<sdk::Event> events = PollToEnd(**session);
-    ASSERT_FALSE(events.empty());
-    ASSERT_EQ(events.front().type, sdk::EventType::kBaseReady);
-    ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
-    const int32_t levels = (*session)->levels();
-    ASSERT_GT(levels, 0);
-    std::vector<int32_t> level_events;
-    for (const sdk::Event& e : events) {
-      if (e.type == sdk::EventType::kLevelReady) level_events.push_back(e.level);
-    }
-    // Increasing levels up to the last (levels completed in one poll come as one event).
-    ASSERT_FALSE(level_events.empty());
-    ASSERT_LE(static_cast<int32_t>(level_events.size()), levels);
-    for (size_t k = 1; k < level_events.size(); ++k) EXPECT_GT(level_events[k], level_events[k - 1]);
-    EXPECT_EQ(level_events.back(), levels);
-    EXPECT_EQ((*session)->stats().transport, "grpc");
-    EXPECT_GT((*session)->stats().datagrams_received, 0u);
-    EXPECT_EQ((*session)->stats().datagrams_rejected, 0u);
-
-    // The final meshes are what decoding the stored file gives.
-    ProgressiveDecodeReport report;
-    auto decoded = DecodeProgressiveGlb(exported.bytes, ProgressiveDecodeOptions{}, &report);
-    ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
-    size_t vertices = 0;
-    for (size_t i = 0; i < (*session)->primitive_count(); ++i) {
-      auto mesh = (*session)->Mesh(i);
-      ASSERT_TRUE(mesh.ok());
-      const auto [m, p] = (*session)->GltfPosition(i);
-      ASSERT_LT(m, decoded->meshes.size());
-      const std::vector<Mesh::Ref> order = decoded->meshes[m].Order();
-      ASSERT_LT(p, order.size());
-      const Primitive& expected = decoded->meshes[m].primitives[order[p].index];
-      ASSERT_EQ(mesh->positions.size(), expected.positions.size()) << "primitive " << i;
-      EXPECT_EQ(mesh->indices, expected.indices) << "primitive " << i;
-      bool same = true;
-      for (size_t v = 0; v < expected.positions.size() && same; ++v) {
-        same = mesh->positions[v] == expected.positions[v];
+    // On the session's own thread, then with two decode threads: the same
+    // final mesh (the file's decode), the splits planned on the threads.
+    for (const int threads : {1, 2}) {
+      SCOPED_TRACE("decode_threads " + std::to_string(threads));
+      sdk::SessionOptions options = test_util::SessionFor("m", 0, -1, true);
+      options.decode_threads = threads;
+      auto session = sdk::Session::Open(**sdk_client, options);
+      ASSERT_TRUE(session.ok()) << session.status().ToString();
+      const std::vector<sdk::Event> events = PollToEnd(**session);
+      ASSERT_FALSE(events.empty());
+      ASSERT_EQ(events.front().type, sdk::EventType::kBaseReady);
+      ASSERT_EQ(events.back().type, sdk::EventType::kComplete) << events.back().status.ToString();
+      const int32_t levels = (*session)->levels();
+      ASSERT_GT(levels, 0);
+      std::vector<int32_t> level_events;
+      for (const sdk::Event& e : events) {
+        if (e.type == sdk::EventType::kLevelReady) level_events.push_back(e.level);
       }
-      EXPECT_TRUE(same) << "primitive " << i << ": positions differ from the file's decode";
-      auto predicted = (*session)->Predicted(i);
-      ASSERT_TRUE(predicted.ok());
-      for (uint8_t f : *predicted) EXPECT_EQ(f, 0) << "nothing is predicted without loss";
-      vertices += mesh->positions.size();
+      // Increasing levels up to the last (levels completed in one poll come as one event).
+      ASSERT_FALSE(level_events.empty());
+      ASSERT_LE(static_cast<int32_t>(level_events.size()), levels);
+      for (size_t k = 1; k < level_events.size(); ++k) EXPECT_GT(level_events[k], level_events[k - 1]);
+      EXPECT_EQ(level_events.back(), levels);
+      EXPECT_EQ((*session)->stats().transport, "grpc");
+      EXPECT_GT((*session)->stats().datagrams_received, 0u);
+      EXPECT_EQ((*session)->stats().datagrams_rejected, 0u);
+
+      // The final meshes are what decoding the stored file gives.
+      ProgressiveDecodeReport report;
+      auto decoded = DecodeProgressiveGlb(exported.bytes, ProgressiveDecodeOptions{}, &report);
+      ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+      size_t vertices = 0;
+      for (size_t i = 0; i < (*session)->primitive_count(); ++i) {
+        auto mesh = (*session)->Mesh(i);
+        ASSERT_TRUE(mesh.ok());
+        const auto [m, p] = (*session)->GltfPosition(i);
+        ASSERT_LT(m, decoded->meshes.size());
+        const std::vector<Mesh::Ref> order = decoded->meshes[m].Order();
+        ASSERT_LT(p, order.size());
+        const Primitive& expected = decoded->meshes[m].primitives[order[p].index];
+        ASSERT_EQ(mesh->positions.size(), expected.positions.size()) << "primitive " << i;
+        EXPECT_EQ(mesh->indices, expected.indices) << "primitive " << i;
+        bool same = true;
+        for (size_t v = 0; v < expected.positions.size() && same; ++v) {
+          same = mesh->positions[v] == expected.positions[v];
+        }
+        EXPECT_TRUE(same) << "primitive " << i << ": positions differ from the file's decode";
+        auto predicted = (*session)->Predicted(i);
+        ASSERT_TRUE(predicted.ok());
+        for (uint8_t f : *predicted) EXPECT_EQ(f, 0) << "nothing is predicted without loss";
+        vertices += mesh->positions.size();
+      }
+      EXPECT_EQ(static_cast<int64_t>(vertices), report.level_vertices.empty() ? 0 : report.level_vertices.back());
+      if (threads == 1) {
+        EXPECT_EQ((*session)->stats().parallel_splits, 0u);
+      } else {
+        EXPECT_GT((*session)->stats().parallel_splits, 0u);
+      }
     }
-    EXPECT_EQ(static_cast<int64_t>(vertices), report.level_vertices.empty() ? 0 : report.level_vertices.back());
   }
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }

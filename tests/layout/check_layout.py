@@ -6,8 +6,9 @@
   folders depend on each other in one direction (CODEC_DEPENDS below, the
   order docs/architecture.md writes down; what a folder may use includes what
   its dependencies may use);
-- importers/ uses codec/ and third-party libraries, never services/, sdk/,
-  cli/, bench/, tests/ or testing/;
+- importers/ uses codec/ and third-party libraries, never parallel/,
+  services/, sdk/, cli/, bench/, tests/ or testing/;
+- parallel/ (threads for the codec's TaskRunner) uses codec/ only;
 - net/ uses codec/ and third-party libraries, never services/, sdk/, cli/,
   bench/, tests/ or testing/;
 - services/ and sdk/ never include cli/, bench/, tests/ or testing/; sdk/
@@ -47,8 +48,10 @@ SERVICES_DEPENDS = {
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
-    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
-    "importers": ["services", "sdk", "cli", "bench", "tests", "testing"],
+    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel"],
+    "importers": ["services", "sdk", "cli", "bench", "tests", "testing", "parallel"],
+    # Threads for the codec's TaskRunner: codec/core and the standard library only.
+    "parallel": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
     "net": ["services", "sdk", "cli", "bench", "tests", "testing"],
     "services": ["sdk", "cli", "bench", "tests", "testing"],
     "sdk": ["services", "cli", "bench", "tests", "testing"],

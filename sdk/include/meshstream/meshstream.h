@@ -109,6 +109,8 @@ typedef struct {
   const char* udp_via;     /* "HOST:PORT": send the UDP half there (a relay, a tunnel) instead of the advertised endpoint */
   int32_t repair;          /* non-zero: once the stream has ended, ask once for the lost datagrams and decode again:
                               the last LEVEL_READY shows the predicted mesh, COMPLETE the exact one (docs/c-api.md) */
+  int32_t decode_threads;  /* threads that decode a refinement whose datagrams all arrived (same output bit for bit):
+                              0 or 1 the session's own thread, N > 1 a pool of N, -1 one per core; at most 64 */
 } ms_session_config;
 #define MS_SESSION_CONFIG_V0_SIZE (offsetof(ms_session_config, tcp_only) + sizeof(int32_t))
 
@@ -164,6 +166,7 @@ typedef struct {
   uint64_t datagrams_late;      /* UDP datagrams that came after their refinement was decoded without them */
   uint32_t losses_declared;     /* UDP refinements decoded once later packet numbers showed their loss */
   double decode_after_last_byte_ms; /* at COMPLETE: from the last arrival to the full mesh (the decoding left) */
+  uint64_t parallel_splits;     /* splits decoded on the config's decode_threads (0 with one thread) */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
