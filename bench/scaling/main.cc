@@ -174,6 +174,11 @@ int main(int argc, char** argv) {
     row["meshstream_decode"] = Measure({cli, "decode", "--json", ours, "-o", decoded}, args.runs, vertices, &decode_ms);
     row["meshstream_decode"]["decode_ms"] = ms::bench::Median(decode_ms);
     row["draco_decode"] = Measure({cli, "convert", "--quiet", draco, decoded}, args.runs, vertices);
+    // The same decode on 2 threads (decode --threads 2: whole refinements planned in parallel).
+    std::vector<double> decode2_ms;
+    row["meshstream_decode_2threads"] =
+        Measure({cli, "decode", "--json", "--threads", "2", ours, "-o", decoded}, args.runs, vertices, &decode2_ms);
+    row["meshstream_decode_2threads"]["decode_ms"] = ms::bench::Median(decode2_ms);
     row["ratios"] = {
         {"time_vs_draco", row["meshstream"]["wall_s"].get<double>() / row["draco"]["wall_s"].get<double>()},
         {"memory_vs_draco",
@@ -181,7 +186,9 @@ int main(int argc, char** argv) {
         {"decode_time_vs_draco",
          row["meshstream_decode"]["wall_s"].get<double>() / row["draco_decode"]["wall_s"].get<double>()},
         {"decode_memory_vs_draco", row["meshstream_decode"]["peak_rss_bytes"].get<double>() /
-                                       row["draco_decode"]["peak_rss_bytes"].get<double>()}};
+                                       row["draco_decode"]["peak_rss_bytes"].get<double>()},
+        {"decode_2threads_time_vs_draco", row["meshstream_decode_2threads"]["wall_s"].get<double>() /
+                                              row["draco_decode"]["wall_s"].get<double>()}};
     if (!rows.empty()) {
       const json& before = rows.back();
       row["growth_per_4x"] = {
@@ -220,16 +227,18 @@ int main(int argc, char** argv) {
                 d["wall_s"].get<double>(), d["peak_rss_bytes"].get<double>() / 1e6,
                 r["ratios"]["time_vs_draco"].get<double>(), growth.c_str());
   }
-  std::printf("\n| vertices | meshstream decode s (decode alone) | peak MB | Draco decode s | Draco peak MB | time vs Draco | memory vs Draco |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
+  std::printf("\n| vertices | meshstream decode s (decode alone) | peak MB | Draco decode s | Draco peak MB | time vs Draco | memory vs Draco | 2 threads s (decode alone) | 2 threads vs Draco |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const json& r : rows) {
     const json& m = r["meshstream_decode"];
     const json& d = r["draco_decode"];
-    std::printf("| %llu | %.2f (%.2f) | %.0f | %.2f | %.0f | %.2f | %.2f |\n",
+    const json& m2 = r["meshstream_decode_2threads"];
+    std::printf("| %llu | %.2f (%.2f) | %.0f | %.2f | %.0f | %.2f | %.2f | %.2f (%.2f) | %.2f |\n",
                 static_cast<unsigned long long>(r["vertices"].get<uint64_t>()), m["wall_s"].get<double>(),
                 m["decode_ms"].get<double>() / 1000.0, m["peak_rss_bytes"].get<double>() / 1e6, d["wall_s"].get<double>(),
                 d["peak_rss_bytes"].get<double>() / 1e6, r["ratios"]["decode_time_vs_draco"].get<double>(),
-                r["ratios"]["decode_memory_vs_draco"].get<double>());
+                r["ratios"]["decode_memory_vs_draco"].get<double>(), m2["wall_s"].get<double>(),
+                m2["decode_ms"].get<double>() / 1000.0, r["ratios"]["decode_2threads_time_vs_draco"].get<double>());
   }
   std::fprintf(stderr, "meshstream_bench_scaling: wrote %s\n", args.out.c_str());
   return 0;

@@ -112,6 +112,9 @@ void RefinementPlan::Plan(const Refinement& coded, const SplitCoding& coding, co
     Worker& scratch = workers_[static_cast<size_t>(worker)];
     const size_t end = std::min(count, (t + 1) * kTaskSplits);
     for (size_t k = t * kTaskSplits; k < end; ++k) {
+      // The next splits' slots, lists, triangles and values, a few splits
+      // ahead (the serial path's hints: a worker's cache starts cold).
+      state.PrefetchSplits(coded, first + k);
       PlanSplit(coded, coding, state, first + k, scratch, task, plans_[k], mapped_.data() + k * mc);
     }
   });

@@ -89,10 +89,13 @@ class RefinementPlan {
     uint64_t small = 0;                 // then: bit k set when ring[k] had at most kMaxUmbrellaFaces triangles
     Kind kind = Kind::kStop;
   };
-  struct Task {
+  // Each on cache lines of its own: the workers write their task's vectors
+  // and their scratch at every split, and two of them sharing a line would
+  // pass it back and forth between the cores.
+  struct alignas(64) Task {
     std::vector<uint32_t> rings, faces;
   };
-  struct Worker {
+  struct alignas(64) Worker {
     SplitConnectivity::RingWalk walk;
     std::vector<uint32_t> ring;
     std::vector<Vec3i> ring_positions;
