@@ -7,12 +7,16 @@
 // succeed too (a prefix of a stream that decodes whole decodes), with
 // levels_applied and the level's vertex count as the report says: the
 // primitives carrying our extension have level_vertices[K] vertices between
-// them. Anything else stops the fuzzer (__builtin_trap).
+// them. The decode on two threads (a ThreadPool as the decode's TaskRunner,
+// codec/progressive/parallel_refinement.h) must end the same way: the same
+// error, or the same scene bit for bit. Anything else stops the fuzzer
+// (__builtin_trap).
 //
 // Built as a real libFuzzer binary with MESHSTREAM_FUZZ=ON (make fuzz), and
 // always as fuzz_progressive_glb_replay, which replays
 // corpus/progressive_glb/ under ctest. Seeds: make_progressive_corpus.py.
 #include <algorithm>
+#include <cstring>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -22,6 +26,7 @@
 #include "codec/mesh/mesh.h"
 #include "codec/core/status.h"
 #include "importers/progressive_glb.h"
+#include "parallel/thread_pool.h"
 
 namespace {
 
@@ -48,6 +53,29 @@ uint64_t CheckScene(const Scene& scene) {
   return vertices;
 }
 
+template <class T>
+bool SameBits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+bool SameScene(const Scene& a, const Scene& b) {
+  if (a.meshes.size() != b.meshes.size()) return false;
+  for (size_t m = 0; m < a.meshes.size(); ++m) {
+    if (a.meshes[m].primitives.size() != b.meshes[m].primitives.size()) return false;
+    for (size_t k = 0; k < a.meshes[m].primitives.size(); ++k) {
+      const meshstream::Primitive& p = a.meshes[m].primitives[k];
+      const meshstream::Primitive& q = b.meshes[m].primitives[k];
+      if (!SameBits(p.positions, q.positions) || !SameBits(p.normals, q.normals) || !SameBits(p.colors, q.colors) ||
+          !SameBits(p.indices, q.indices) || p.texcoords.size() != q.texcoords.size()) {
+        return false;
+      }
+      for (size_t t = 0; t < p.texcoords.size(); ++t)
+        if (!SameBits(p.texcoords[t], q.texcoords[t])) return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -55,6 +83,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::vector<uint8_t> bytes(data, data + size);
   ProgressiveDecodeReport full_report;
   auto full = meshstream::DecodeProgressiveGlb(bytes, ProgressiveDecodeOptions{}, &full_report);
+  {
+    static meshstream::ThreadPool pool(2);
+    ProgressiveDecodeOptions threaded;
+    threaded.runner = &pool;
+    auto parallel = meshstream::DecodeProgressiveGlb(bytes, threaded, nullptr);
+    if (parallel.ok() != full.ok()) Bug("the decode on two threads ends otherwise than on one");
+    if (!full.ok() && parallel.status().ToString() != full.status().ToString()) {
+      Bug("the decode on two threads fails otherwise: " + parallel.status().ToString() + " against " +
+          full.status().ToString());
+    }
+    if (full.ok() && !SameScene(parallel.value(), full.value())) Bug("the decode on two threads differs");
+  }
   if (!full.ok()) {
     if (full.status().message().empty()) Bug("an error without a message");
     return 0;
