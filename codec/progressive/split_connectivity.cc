@@ -124,7 +124,8 @@ bool SplitConnectivity::CyclicRing(uint32_t w, std::vector<uint32_t>& ring, Ring
   // (x, y) for every triangle (w, x, y): the x's, then the y's. The
   // triangles are gathered first, with no branch on what they hold, so that
   // their loads (they often miss the cache) overlap.
-  walk.xy.resize(2 * n);
+  // Grown, never shrunk: a resize per walk would zero what is written next.
+  if (walk.xy.size() < 2 * n) walk.xy.resize(2 * n);
   uint32_t* xs = walk.xy.data();
   uint32_t* ys = xs + n;
   bool bad = false;
