@@ -57,27 +57,20 @@ MeasuredRun SpawnAndMeasure(const std::vector<std::string>& argv) {
 // code, wall, CPU, peak and the stdout as a length and its bytes.
 int to_spawner = -1, from_spawner = -1;
 
-bool WriteAll(int fd, const void* data, size_t n) {
-  const char* p = static_cast<const char*>(data);
+// Every byte of [p, p + n) through `io` (read or write), however many calls it takes.
+template <class Byte, class Io>
+bool Transfer(int fd, Byte* p, size_t n, Io io) {
   while (n > 0) {
-    const ssize_t w = write(fd, p, n);
-    if (w <= 0) return false;
-    p += w;
-    n -= static_cast<size_t>(w);
+    const ssize_t done = io(fd, p, n);
+    if (done <= 0) return false;
+    p += done;
+    n -= static_cast<size_t>(done);
   }
   return true;
 }
 
-bool ReadAll(int fd, void* data, size_t n) {
-  char* p = static_cast<char*>(data);
-  while (n > 0) {
-    const ssize_t got = read(fd, p, n);
-    if (got <= 0) return false;
-    p += got;
-    n -= static_cast<size_t>(got);
-  }
-  return true;
-}
+bool WriteAll(int fd, const void* data, size_t n) { return Transfer(fd, static_cast<const char*>(data), n, write); }
+bool ReadAll(int fd, void* data, size_t n) { return Transfer(fd, static_cast<char*>(data), n, read); }
 
 bool WriteString(int fd, const std::string& s) {
   const uint64_t n = s.size();

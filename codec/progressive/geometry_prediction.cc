@@ -4,6 +4,7 @@
 
 #include "codec/progressive/coding_tools.h"
 #include "codec/progressive/local_frame.h"
+#include "codec/progressive/refinement_state.h"
 
 namespace meshstream {
 
@@ -54,6 +55,13 @@ Vec3i Prediction(const SplitCoding& coding, const Vec3i* ring, size_t degree, si
 }
 
 }  // namespace
+
+void RingGeometry(const RefinementState& state, uint32_t w, const uint32_t* ring, size_t degree, ToolSet tools,
+                  std::vector<Vec3i>* positions, LocalFrame* frame) {
+  positions->resize(degree);
+  for (size_t k = 0; k < degree; ++k) (*positions)[k] = state.positions[ring[k]];
+  if (tools & kFrameTools) *frame = RingLocalFrame(state.positions[w], positions->data(), degree);
+}
 
 LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree) {
   return LocalFrame::FromNormal(FanNormal(w, ring, degree));

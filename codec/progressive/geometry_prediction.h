@@ -22,6 +22,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "codec/core/vec.h"
 #include "codec/progressive/coding_tools.h"
@@ -60,6 +61,14 @@ struct SplitCoding {
 
 // The local frame of w's ring: LocalFrame::FromNormal(FanNormal(...)).
 LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree);
+
+// The tools whose decode reads the ring's local frame.
+constexpr ToolSet kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
+// The positions of w's ring (ring[k] -> (*positions)[k]) and, under a tool of
+// kFrameTools, their local frame into *frame: once per split, for the wings,
+// the split vector and the channels.
+void RingGeometry(const RefinementState& state, uint32_t w, const uint32_t* ring, size_t degree, ToolSet tools,
+                  std::vector<Vec3i>* positions, LocalFrame* frame);
 
 // Does split vector coding under `coding` read the 2-ring (RingUmbrellas)?
 inline bool ReadsUmbrellas(const SplitCoding& coding) {

@@ -5,6 +5,7 @@
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_MIDPOINT_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_MIDPOINT_H_
 
+#include <array>
 #include <cstdint>
 
 namespace meshstream {
@@ -19,6 +20,12 @@ inline int32_t FromMidpoint(int32_t m, int32_t d) {
   // a + b = 2m + (d mod 2), a - b = d.
   const int64_t twice_a = 2 * static_cast<int64_t>(m) + (d & 1) + d;
   return static_cast<int32_t>(twice_a / 2);
+}
+// Both values back from the coarse value m and d = u - v: {u, v} (v wraps
+// to int32 as the decoder's state stores it).
+inline std::array<int32_t, 2> FromMidpointPair(int32_t m, int32_t d) {
+  const int32_t u = FromMidpoint(m, d);
+  return {u, static_cast<int32_t>(static_cast<int64_t>(u) - d)};
 }
 
 }  // namespace meshstream

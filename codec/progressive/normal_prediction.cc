@@ -48,10 +48,7 @@ std::array<int32_t, 2> PredictNormalDelta(const RefinementState& state, uint32_t
 void AddPredictedNormals(int bits, size_t j, uint32_t w, uint32_t n, RefinementState& state, Refinement* decoded) {
   if (bits == 0) return;
   const std::array<int32_t, 2> p = PredictNormalDelta(state, w, n, bits);
-  for (int c = 0; c < 2; ++c) {
-    const int32_t e = state.AddPredictedDelta(w, n, static_cast<size_t>(c), p[c]);
-    if (decoded) decoded->attribute_delta[j * static_cast<size_t>(state.channels) + c] = e;
-  }
+  state.AddPredictedDeltas(j, w, n, 0, p.data(), 2, decoded);
 }
 
 }  // namespace meshstream

@@ -8,14 +8,6 @@
 
 namespace meshstream {
 
-namespace {
-
-// The tools whose decode reads the ring's local frame (as the serial path,
-// recovery/recover_split.cc, computes it).
-constexpr ToolSet kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
-
-}  // namespace
-
 void RefinementPlan::PlanSplit(const Refinement& coded, const SplitCoding& coding, const RefinementState& state,
                                size_t j, Worker& worker, Task& task, Split& out, int32_t* mapped) const {
   out.kind = Kind::kStop;
@@ -34,20 +26,14 @@ void RefinementPlan::PlanSplit(const Refinement& coded, const SplitCoding& codin
   for (uint32_t x : ring)
     if (!state.Stable(x)) return;
   std::vector<Vec3i>& rp = worker.ring_positions;
-  rp.resize(d);
-  for (size_t k = 0; k < d; ++k) rp[k] = state.positions[ring[k]];
-  if (coding.tools & kFrameTools) worker.frame = RingLocalFrame(state.positions[w], rp.data(), d);
+  RingGeometry(state, w, ring.data(), d, coding.tools, &rp, &worker.frame);
   size_t a_at = 0, b_at = 0;
-  if (coding.tools & kToolWingRank) {
-    if (!worker.ranking.Reset(state.positions[w], rp.data(), d, worker.frame) ||
-        !worker.ranking.PairAt(RankFromSymbols(coded.wings[j]), &a_at, &b_at)) {
-      return;
-    }
-    out.wings = WingsOf(ring, a_at, b_at);
-  } else {
-    if (!WingPositions(ring, coded.wings[j], &a_at, &b_at)) return;
-    out.wings = coded.wings[j];
+  const bool ranked = (coding.tools & kToolWingRank) != 0;
+  if (!CodedWingPositions(coded.wings[j], ranked, ring, state.positions[w], rp.data(), worker.frame, &worker.ranking,
+                          &a_at, &b_at)) {
+    return;
   }
+  out.wings = ranked ? WingsOf(ring, a_at, b_at) : coded.wings[j];
   const Umbrella* umbrellas = nullptr;
   out.umbrellas = false;
   if (ReadsUmbrellas(coding)) {
@@ -71,16 +57,17 @@ void RefinementPlan::PlanSplit(const Refinement& coded, const SplitCoding& codin
     const Vec3i& s = state.positions[w];
     Vec3i u{}, v{};
     for (int k = 0; k < 3; ++k) {
-      u[k] = FromMidpoint(s[k], out.delta[k]);
-      v[k] = static_cast<int32_t>(int64_t{u[k]} - out.delta[k]);
+      const std::array<int32_t, 2> uv = FromMidpointPair(s[k], out.delta[k]);
+      u[k] = uv[0];
+      v[k] = uv[1];
     }
     const size_t ch = static_cast<size_t>(state.channels);
     int32_t coarse[kMaxMappedChannels];
     for (int c = 0; c < coding.mapped_count; ++c) {
       const size_t at = static_cast<size_t>(coding.mapped_first + c);
-      const int32_t ad = coded.attribute_delta[j * ch + at];
-      const int32_t au = FromMidpoint(state.attributes[w * ch + at], ad);
-      coarse[c] = Midpoint(au, static_cast<int32_t>(int64_t{au} - ad));
+      const std::array<int32_t, 2> uv =
+          FromMidpointPair(state.attributes[w * ch + at], coded.attribute_delta[j * ch + at]);
+      coarse[c] = Midpoint(uv[0], uv[1]);
     }
     PredictChannelDeltas(state.attributes.data(), ch, ring.data(), rp.data(), d, worker.frame, u, v, coarse,
                          coding.mapped_first, coding.mapped_count, mapped);
@@ -150,13 +137,8 @@ void RefinementPlan::Apply(const Refinement& coded, size_t j, const SplitCoding&
   state->SetPair(*apply, j, w, n);
   state->twin.push_back(kNoTwin);
   AddPredictedNormals(coding.normal_bits, j, w, n, *state, decoded);
-  const size_t ch = static_cast<size_t>(state->channels);
-  const int32_t* mapped = mapped_.data() + k * static_cast<size_t>(std::max(coding.mapped_count, 0));
-  for (int c = 0; c < coding.mapped_count; ++c) {
-    const size_t at = static_cast<size_t>(coding.mapped_first + c);
-    const int32_t e = state->AddPredictedDelta(w, n, at, mapped[c]);
-    if (decoded) decoded->attribute_delta[j * ch + at] = e;
-  }
+  const size_t mc = static_cast<size_t>(std::max(coding.mapped_count, 0));
+  state->AddPredictedDeltas(j, w, n, static_cast<size_t>(coding.mapped_first), mapped_.data() + k * mc, mc, decoded);
 }
 
 }  // namespace meshstream

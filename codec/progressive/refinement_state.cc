@@ -106,8 +106,9 @@ void RefinementState::SetPair(const Refinement& r, size_t j, uint32_t w, uint32_
   const Vec3i& delta = r.position_delta[j];
   Vec3i u{}, v{};
   for (int k = 0; k < 3; ++k) {
-    u[k] = FromMidpoint(positions[w][k], delta[k]);
-    v[k] = static_cast<int32_t>(static_cast<int64_t>(u[k]) - delta[k]);
+    const std::array<int32_t, 2> uv = FromMidpointPair(positions[w][k], delta[k]);
+    u[k] = uv[0];
+    v[k] = uv[1];
   }
   positions[w] = u;
   positions.push_back(v);
@@ -119,22 +120,25 @@ void RefinementState::SetPair(const Refinement& r, size_t j, uint32_t w, uint32_
     int32_t* an = attributes.data() + size_t(n) * channels;
     const int32_t* ad = r.attribute_delta.data() + j * channels;
     for (int k = 0; k < channels; ++k) {
-      const int32_t au = FromMidpoint(aw[k], ad[k]);
-      aw[k] = au;
-      an[k] = static_cast<int32_t>(static_cast<int64_t>(au) - ad[k]);
+      const std::array<int32_t, 2> uv = FromMidpointPair(aw[k], ad[k]);
+      aw[k] = uv[0];
+      an[k] = uv[1];
     }
   }
 }
 
-int32_t RefinementState::AddPredictedDelta(uint32_t w, uint32_t n, size_t channel, int32_t p) {
+void RefinementState::AddPredictedDeltas(size_t j, uint32_t w, uint32_t n, size_t first, const int32_t* p,
+                                          size_t count, Refinement* decoded) {
   const size_t ch = static_cast<size_t>(channels);
-  int32_t& aw = attributes[w * ch + channel];
-  int32_t& an = attributes[n * ch + channel];
-  const int32_t m = Midpoint(aw, an);
-  const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p, INT32_MIN, INT32_MAX));
-  aw = FromMidpoint(m, e);
-  an = static_cast<int32_t>(int64_t{aw} - e);
-  return e;
+  for (size_t c = 0; c < count; ++c) {
+    int32_t& aw = attributes[w * ch + first + c];
+    int32_t& an = attributes[n * ch + first + c];
+    const int32_t m = Midpoint(aw, an);
+    const int32_t e = static_cast<int32_t>(std::clamp<int64_t>(int64_t{aw} - an + p[c], INT32_MIN, INT32_MAX));
+    aw = FromMidpoint(m, e);
+    an = static_cast<int32_t>(int64_t{aw} - e);
+    if (decoded) decoded->attribute_delta[j * ch + first + c] = e;
+  }
 }
 
 Status RefinementState::ApplyRefinement(const Refinement& r) {

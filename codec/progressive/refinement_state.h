@@ -83,11 +83,13 @@ struct RefinementState {
   // The values of w and its new vertex n from split j's deltas; pushes n's
   // position, values, flags and reliability.
   void SetPair(const Refinement& r, size_t j, uint32_t w, uint32_t n);
-  // Channel `channel` of the split of w into (w, n), applied with its coded
-  // residual as the difference, gets the predicted difference p added: the
-  // two values are made again from their coarse midpoint with the sum,
-  // which is returned (the difference now applied).
-  int32_t AddPredictedDelta(uint32_t w, uint32_t n, size_t channel, int32_t p);
+  // Channels [first, first + count) of split j of w into (w, n), applied
+  // with their coded residuals as the differences, get the predicted
+  // differences p[0..count) added: each pair of values is made again from
+  // its coarse midpoint with the sum, which is written to split j of
+  // `decoded` (when not null) as the difference now applied.
+  void AddPredictedDeltas(size_t j, uint32_t w, uint32_t n, size_t first, const int32_t* p, size_t count,
+                          Refinement* decoded);
   // Sets flag bits of v and keeps reliable[v] in step with them.
   void Mark(uint32_t v, uint8_t bits) {
     flags[v] |= bits;

@@ -81,15 +81,11 @@ class SplitConnectivity {
   // given by their positions in the ring; the new vertex gets id
   // vertex_count(), which is returned.
   uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, size_t a_at, size_t b_at) {
-    return SplitAt(w, ring, walk_.faces, a_at, b_at);
+    return SplitAt(w, ring.data(), walk_.faces.data(), ring.size(), a_at, b_at);
   }
-  // The same with the ring's triangles as a CyclicRing with its own walk
-  // found them (walk.faces), while nothing changed w's triangles since.
-  uint32_t SplitAt(uint32_t w, const std::vector<uint32_t>& ring, const std::vector<uint32_t>& ring_faces, size_t a_at,
-                   size_t b_at) {
-    return SplitAt(w, ring.data(), ring_faces.data(), ring.size(), a_at, b_at);
-  }
-  // The same with the ring and its triangles as arrays of `degree` entries.
+  // The same with the ring (`degree` entries) and its triangles as a
+  // CyclicRing with its own walk found them (walk.faces), while nothing
+  // changed w's triangles since.
   uint32_t SplitAt(uint32_t w, const uint32_t* ring, const uint32_t* ring_faces, size_t degree, size_t a_at,
                    size_t b_at);
   // Splits a boundary vertex w right after OpenRing(w, ring) returned true,

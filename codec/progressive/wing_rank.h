@@ -27,9 +27,11 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "codec/core/vec.h"
 #include "codec/progressive/local_frame.h"
+#include "codec/progressive/refinement.h"
 
 namespace meshstream {
 
@@ -69,6 +71,14 @@ inline std::array<uint16_t, 2> RankSymbols(uint32_t rank) {
   return {static_cast<uint16_t>(rank % 16), static_cast<uint16_t>(rank / 16)};
 }
 inline uint32_t RankFromSymbols(const std::array<uint16_t, 2>& s) { return uint32_t{s[0]} + 16u * s[1]; }
+
+// The ring positions of a split's coded wings on w's ring (w at `w`, the
+// ring's positions and local frame given): by rank in the ring's geometric
+// order when `ranked` (the wing-rank tool; `ranking` is the scratch), else by
+// id (WingPositions). False when they do not fit the ring.
+bool CodedWingPositions(const std::array<uint16_t, 2>& wings, bool ranked, const std::vector<uint32_t>& ring,
+                        const Vec3i& w, const Vec3i* ring_positions, const LocalFrame& frame, WingRanking* ranking,
+                        size_t* a_at, size_t* b_at);
 
 }  // namespace meshstream
 

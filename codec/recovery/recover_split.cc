@@ -32,29 +32,7 @@ struct SplitView {
   uint8_t ring_flags = 0;
 };
 
-// The ring positions of the coded wings of split j on w's ring as the state
-// has it (state.scratch_ring): by rank in the ring's geometric order with
-// the wing-rank tool (wing_rank.h), else by id; false when they do not fit.
-bool CodedWings(const Refinement& r, size_t j, const SplitCoding& coding, const RefinementState& state, uint32_t w,
-                RecoveryScratch* scratch, size_t* a_at, size_t* b_at) {
-  const std::vector<uint32_t>& ring = state.scratch_ring;
-  if ((coding.tools & kToolWingRank) == 0) return WingPositions(ring, r.wings[j], a_at, b_at);
-  return scratch->ranking.Reset(state.positions[w], scratch->ring_positions.data(), ring.size(), scratch->local_frame) &&
-         scratch->ranking.PairAt(RankFromSymbols(r.wings[j]), a_at, b_at);
-}
-
 constexpr ToolSet kRingTools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
-constexpr ToolSet kFrameTools = kToolLocalFrame | kToolWingRank | kToolTexcoordPrediction;
-
-// With the tools that read w's ring: its positions, and with those that
-// need it their local frame, once per split.
-void RingGeometry(const RefinementState& state, uint32_t w, const SplitCoding& coding, RecoveryScratch* scratch) {
-  const std::vector<uint32_t>& ring = state.scratch_ring;
-  std::vector<Vec3i>& rp = scratch->ring_positions;
-  rp.resize(ring.size());
-  for (size_t k = 0; k < ring.size(); ++k) rp[k] = state.positions[ring[k]];
-  if (coding.tools & kFrameTools) scratch->local_frame = RingLocalFrame(state.positions[w], rp.data(), rp.size());
-}
 
 SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_geometry, Recovery recovery,
                    const SplitCoding& coding, RefinementState& state, RecoveryScratch* scratch, RecoveryStats* stats) {
@@ -62,10 +40,16 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   view.w = r.split_vertices[j];
   const uint8_t flags = state.flags[view.w];
   view.fan = (flags & kAbsent) == 0 && state.connectivity.CyclicRing(view.w, state.scratch_ring);
-  if (view.fan && (coding.tools & kRingTools) != 0) RingGeometry(state, view.w, coding, scratch);
+  if (view.fan && (coding.tools & kRingTools) != 0) {
+    RingGeometry(state, view.w, state.scratch_ring.data(), state.scratch_ring.size(), coding.tools,
+                 &scratch->ring_positions, &scratch->local_frame);
+  }
   // Error control: coded structure is checked against the ring the decoder
   // really has; what does not fit is treated as lost.
-  view.fits = view.fan && has_structure && CodedWings(r, j, coding, state, view.w, scratch, &view.a_at, &view.b_at);
+  view.fits = view.fan && has_structure &&
+              CodedWingPositions(r.wings[j], (coding.tools & kToolWingRank) != 0, state.scratch_ring,
+                                 state.positions[view.w], scratch->ring_positions.data(), scratch->local_frame,
+                                 &scratch->ranking, &view.a_at, &view.b_at);
   // A ring a prediction changed may still fit the coded ranks and yet not be
   // the ring they count: when the geometry arrived, it decides the wings
   // (case 3) instead. Measured on the bunny at 12 % loss: the median
@@ -121,19 +105,6 @@ Vec3i SplitVector(const Refinement& r, size_t j, const SplitCoding& coding, size
                            a_at, b_at, scratch.local_frame, UmbrellasOf(coding, scratch));
 }
 
-// A channel of the split of w into (w, n) was applied with its coded
-// residual as the difference; the predicted difference p is added now.
-void AddPredictedDelta(size_t j, uint32_t w, uint32_t n, size_t channel, int32_t p, RefinementState& state,
-                       Refinement* decoded) {
-  const int32_t e = state.AddPredictedDelta(w, n, channel, p);
-  if (decoded) decoded->attribute_delta[j * static_cast<size_t>(state.channels) + channel] = e;
-}
-
-void AddPredictedNormals(const SplitCoding& coding, size_t j, uint32_t w, uint32_t n, RefinementState& state,
-                         Refinement* decoded) {
-  AddPredictedNormals(coding.normal_bits, j, w, n, state, decoded);
-}
-
 // With texture coordinate prediction, the same for the texture coordinate
 // and colour channels: the difference the ring's map predicts from the
 // split vector (texcoord_prediction.h), on w's ring as RingGeometry found it.
@@ -143,9 +114,8 @@ void AddPredictedChannels(const SplitCoding& coding, size_t j, uint32_t w, uint3
   int32_t p[kMaxMappedChannels];
   PredictChannelDeltas(state, state.scratch_ring.data(), scratch.ring_positions.data(), scratch.ring_positions.size(),
                        scratch.local_frame, w, n, coding.mapped_first, coding.mapped_count, p);
-  for (int c = 0; c < coding.mapped_count; ++c) {
-    AddPredictedDelta(j, w, n, static_cast<size_t>(coding.mapped_first + c), p[c], state, decoded);
-  }
+  state.AddPredictedDeltas(j, w, n, static_cast<size_t>(coding.mapped_first), p,
+                           static_cast<size_t>(coding.mapped_count), decoded);
 }
 
 // Case 1: applied as coded. Both vertices inherit what w depends on.
@@ -160,7 +130,7 @@ void ApplyCoded(const Refinement& r, size_t j, const SplitView& view, const Spli
     apply = decoded;
   }
   const uint32_t n = state.ApplySplitAt(*apply, j, view.a_at, view.b_at);
-  AddPredictedNormals(coding, j, w, n, state, decoded);
+  AddPredictedNormals(coding.normal_bits, j, w, n, state, decoded);
   AddPredictedChannels(coding, j, w, n, state, *scratch, decoded);
   state.flags[n] = state.flags[w];
   state.reliable[n] = state.flags[n] == 0;
@@ -502,7 +472,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   state.attributes.resize(state.attributes.size() + size_t(channels));
   std::copy(scratch->u_channels.begin(), scratch->u_channels.end(), state.attributes.begin() + size_t(w) * channels);
   std::copy(scratch->v_channels.begin(), scratch->v_channels.end(), state.attributes.begin() + size_t(n) * channels);
-  if (geometry) AddPredictedNormals(coding, j, w, n, state, decoded);
+  if (geometry) AddPredictedNormals(coding.normal_bits, j, w, n, state, decoded);
   if (geometry) AddPredictedChannels(coding, j, w, n, state, *scratch, decoded);
   state.flags.push_back(0);
   state.reliable.push_back(1);

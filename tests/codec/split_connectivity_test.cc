@@ -243,7 +243,7 @@ TEST(SplitConnectivity, RingsWalkedBeforeTheirRefinementSplitAsTheSerialOnes) {
       ASSERT_EQ(rings[j], ring) << "split " << j;
       size_t a_at = 0, b_at = 0;
       ASSERT_TRUE(WingPositions(ring, r.wings[j], &a_at, &b_at));
-      ASSERT_EQ(phased.SplitAt(w, rings[j], walks[j].faces, a_at, b_at), serial.SplitAt(w, ring, a_at, b_at));
+      ASSERT_EQ(phased.SplitAt(w, rings[j].data(), walks[j].faces.data(), rings[j].size(), a_at, b_at), serial.SplitAt(w, ring, a_at, b_at));
       ++splits;
     }
     ASSERT_EQ(phased.Indices(), serial.Indices());
