@@ -17,7 +17,9 @@
 // t = 0 last. All in exact integer arithmetic.
 //
 // Contract: pure, deterministic on every platform, O(D^2) (scores in 64-bit
-// integers; a 128-bit division only for scores of 2^47 and more), no
+// integers; a 128-bit division only for scores of 2^47 and more; the
+// decoder's PairOfRank divides only for the few pairs that may be among the
+// first rank + 1), no
 // allocation (the candidates live in the object). Defined for
 // 3 <= D <= kMaxRankedValence (the encoder's splits have D <= 14).
 // Thread safety: none.
@@ -48,6 +50,12 @@ class WingRanking {
   bool RankOf(size_t a_at, size_t b_at, uint32_t* rank) const;
   // The wings of a rank; false when it is not below D floor(D/2).
   bool PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const;
+  // The wings of a rank straight from the ring (the decoder's path): what
+  // Reset then PairAt give, without a division for every pair when the rank
+  // is below 8 (nine splits in ten); false as Reset or PairAt would be.
+  // Leaves no candidates behind for RankOf or PairAt.
+  bool PairOfRank(const Vec3i& w, const Vec3i* ring, size_t degree, const LocalFrame& frame, uint32_t rank,
+                  size_t* a_at, size_t* b_at);
   // For estimates only (bench/codec_levers_v3.cc): the keys of the
   // candidates in rank order (larger first; INT64_MIN for t = 0), at most
   // `max` of them, into out[0..]; returns how many.
@@ -61,10 +69,32 @@ class WingRanking {
   // fits 57 bits.
   static constexpr int kPairBits = 9;
   static uint64_t Order(int64_t key, size_t x, size_t k);
+  using Tangent2 = std::array<int64_t, 2>;
+  // The ring's scaled tangents into q[0, 2 degree) (twice over) and M's
+  // entries m00, m01, m11; returns floor(degree / 2).
+  static size_t Prepare(const Vec3i& w, const Vec3i* ring, size_t degree, const LocalFrame& frame, Tangent2* q,
+                        int64_t m[3]);
+  template <int R>
+  static void SelectSmall(const Tangent2* q, size_t degree, size_t half, const int64_t m[3], size_t* a_at,
+                          size_t* b_at);
   size_t degree_ = 0;
   size_t count_ = 0;
   std::array<uint64_t, kMaxRankedPairs> order_{};  // by x, then k
 };
+
+// A pair's key, trunc(2^16 score / length) for length > 0, rounding toward
+// zero, exact.
+int64_t RankKey(int64_t score, int64_t length);
+// RankKey(score, length) <= key, without the division: with v = 2^16 score /
+// length (real), trunc(v) <= K exactly when v < K + 1 (K >= 0) or v <= K
+// (K < 0), a comparison of 2^16 score with a multiple of length in 128 bits.
+// For |score| < 2^58, 0 < length < 2^28 and |key| < 2^62 (WingRanking's
+// bounds are tighter).
+inline bool RankKeyAtMost(int64_t score, int64_t length, int64_t key) {
+  const __int128 lhs = static_cast<__int128>(score) * 65536;
+  if (key >= 0) return lhs < static_cast<__int128>(key + 1) * length;
+  return lhs <= static_cast<__int128>(key) * length;
+}
 
 // A rank as the two structure symbols (slots 0 and 1) and back.
 inline std::array<uint16_t, 2> RankSymbols(uint32_t rank) {

@@ -181,6 +181,63 @@ TEST(WingRank, SmallRanksAgreeWithTheFullOrderOnTiesAndZeroChords) {
   }
 }
 
+TEST(WingRank, KeyAtMostIsTheKeyComparedWithoutDivision) {
+  // Scores at and next to every boundary of trunc(2^16 score / length):
+  // K length / 2^16 and (K + 1) length / 2^16, for keys of both signs and 0.
+  std::mt19937_64 rng(23);
+  std::uniform_int_distribution<int64_t> key_of(-(int64_t{1} << 46) + 2, (int64_t{1} << 46) - 2);
+  std::uniform_int_distribution<int64_t> length_of(1, (int64_t{1} << 27) - 1);
+  int64_t below = 0, above = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const int64_t key = i % 7 == 0 ? (i % 3) - 1 : key_of(rng) >> (rng() % 40);
+    const int64_t length = i % 5 == 0 ? 1 + int64_t(rng() % 4) : std::max<int64_t>(1, length_of(rng) >> (rng() % 20));
+    for (int64_t edge : {key, key + 1}) {
+      const __int128 at = static_cast<__int128>(edge) * length;  // score * 2^16 at the boundary
+      const int64_t centre = static_cast<int64_t>(at >> 16);    // floor
+      for (int64_t score = centre - 2; score <= centre + 2; ++score) {
+        const bool at_most = RankKey(score, length) <= key;
+        ASSERT_EQ(RankKeyAtMost(score, length, key), at_most) << score << " / " << length << " key " << key;
+        (at_most ? below : above) += 1;
+      }
+    }
+  }
+  EXPECT_GT(below, 100000);
+  EXPECT_GT(above, 100000);
+}
+
+TEST(WingRank, PairOfRankIsResetThenPairAt) {
+  // The decoder's path skips the division for pairs that cannot be among the
+  // first rank + 1; it must name the same wings as the full order for every
+  // rank, on rings with many equal keys (tiny coordinates), zero chords, and
+  // extents near int32 (the 128-bit comparison's bounds).
+  std::mt19937 rng(17);
+  const int32_t spans[] = {2, 3, 40, 2000, 1 << 20, INT32_MAX / 2};
+  for (int i = 0; i < 6000; ++i) {
+    const int32_t span = spans[i % 6];
+    std::uniform_int_distribution<int32_t> pos(-span, span);
+    const size_t d = 3 + (i / 6) % (kMaxRankedValence - 2);
+    std::vector<Vec3i> ring(d);
+    for (Vec3i& x : ring) x = {pos(rng), pos(rng), pos(rng) / (1 + i % 4)};
+    const Vec3i w = {pos(rng) / 8, pos(rng) / 8, 0};
+    const LocalFrame frame = RingLocalFrame(w, ring.data(), d);
+    WingRanking full, direct;
+    ASSERT_TRUE(full.Reset(w, ring.data(), d, frame));
+    for (uint32_t rank = 0; rank <= d * (d / 2); ++rank) {
+      size_t fa = 0, fb = 0, da = 0, db = 0;
+      const bool f = full.PairAt(rank, &fa, &fb);
+      ASSERT_EQ(direct.PairOfRank(w, ring.data(), d, frame, rank, &da, &db), f) << i << " rank " << rank;
+      if (!f) continue;
+      ASSERT_EQ(da, fa) << i << " span " << span << " d " << d << " rank " << rank;
+      ASSERT_EQ(db, fb) << i << " span " << span << " d " << d << " rank " << rank;
+    }
+  }
+  WingRanking ranking;
+  size_t a = 0, b = 0;
+  std::vector<Vec3i> too_many(kMaxRankedValence + 1, Vec3i{1, 2, 3});
+  EXPECT_FALSE(ranking.PairOfRank({0, 0, 0}, too_many.data(), too_many.size(), LocalFrame{}, 0, &a, &b));
+  EXPECT_FALSE(ranking.PairOfRank({0, 0, 0}, too_many.data(), 2, LocalFrame{}, 0, &a, &b));
+}
+
 TEST(WingRank, TheChordAcrossTheStretchThroughWComesFirst) {
   // Stretched along x, so the cut should run across x, through w: of the
   // three diagonals, ring[1]-ring[4] and ring[2]-ring[5] (at +-49 degrees from

@@ -100,7 +100,7 @@ TEST(RingPredictor, ASplitThatReadAMovedTwoRingVertexIsMarked) {
       for (uint32_t v : clean.connectivity.faces()[f])
         if (y == UINT32_MAX && v != w && clean.Stable(v) && std::find(ring.begin(), ring.end(), v) == ring.end()) y = v;
   ASSERT_NE(y, UINT32_MAX);
-  clean.ApplySplit(r, 0);
+  ASSERT_TRUE(clean.ApplySplit(r, 0).ok());
   const uint32_t n = r.vertices_before;
   for (bool moved : {false, true}) {
     RefinementState s;
