@@ -37,6 +37,19 @@ bool FlipIsConvex(const Vec2d& p, const Vec2d& q, const Vec2d& r, const Vec2d& s
   return a * b < 0 && c * d < 0;
 }
 
+// std::lround for |x| < 2^31 (the values are clamped within the ring's int32
+// range first), inline instead of a call into libm: the truncation and the
+// remainder x - trunc(x) are exact, so rounding half away from zero gives
+// the same integer.
+int32_t RoundHalfAway(double x) {
+  if (!(std::fabs(x) < 2147483648.0)) return x > 0 ? INT32_MAX : INT32_MIN;  // NaN: INT32_MIN (never, for finite rings)
+  int64_t t = static_cast<int64_t>(x);
+  const double rest = x - static_cast<double>(t);
+  if (rest >= 0.5) ++t;
+  else if (rest <= -0.5) --t;
+  return static_cast<int32_t>(t);
+}
+
 }  // namespace
 
 PredictedWings PredictWings(const RingFrame& f) {
@@ -210,13 +223,21 @@ void PredictGeometry(const RingFrame& f, size_t a_at, size_t b_at, const Vec2d& 
   for (size_t c = 0; c < dims; ++c) {
     const double coarse = value(0, c);
     double lo = coarse, hi = coarse;
-    for (size_t k = 0; k < d; ++k) {
-      lo = std::min(lo, value(1 + k, c));
-      hi = std::max(hi, value(1 + k, c));
+    if (c < 3) {
+      for (size_t k = 0; k < d; ++k) {
+        lo = std::min(lo, f.ring[k][c]);
+        hi = std::max(hi, f.ring[k][c]);
+      }
+    } else {
+      const int32_t* x = channels.data() + size_t(count) + (c - 3);
+      for (size_t k = 0; k < d; ++k, x += count) {
+        lo = std::min(lo, double(*x));
+        hi = std::max(hi, double(*x));
+      }
     }
     const double h = c < 3 ? half[c] : (nv[c] - wv[c]) / 2 * spread;
-    const int32_t u = static_cast<int32_t>(std::lround(std::clamp(coarse - h, lo, hi)));
-    const int32_t v = static_cast<int32_t>(std::lround(std::clamp(coarse + h, lo, hi)));
+    const int32_t u = RoundHalfAway(std::clamp(coarse - h, lo, hi));
+    const int32_t v = RoundHalfAway(std::clamp(coarse + h, lo, hi));
     if (c < 3) {
       out.u[c] = u;
       out.v[c] = v;
