@@ -81,6 +81,10 @@ void RefinementState::PrefetchSplits(const Refinement& r, size_t j) const {
       if (channels > 0) MESHSTREAM_PREFETCH(&attributes[size_t(v) * channels]);
     }
   }
+  // The positions of the next split's ring (its triangles' corners), from
+  // the triangles hinted kPrefetchDistance - 1 splits ago: RingGeometry's
+  // reads, a third of the last-level misses at 557 k vertices.
+  if (j + 1 < k) connectivity.PrefetchCorners(sv[j + 1], positions.data(), positions.size());
   if (j + 2 * kPrefetchDistance < k) connectivity.PrefetchList(sv[j + 2 * kPrefetchDistance]);
   if (j + 3 * kPrefetchDistance < k) connectivity.PrefetchSlot(sv[j + 3 * kPrefetchDistance]);
 }
