@@ -7,6 +7,8 @@ SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
+# The decoder as WebAssembly (docs/web.md); the test of tests/web reads it from here.
+WASM_BUILD := build-wasm
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 # ccache, where installed, makes rebuilds in fresh clones (CI) and worktrees cheap.
@@ -18,7 +20,7 @@ ifneq ($(CCACHE),)
   export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all deps build test test-asan test-tsan demo bench fuzz clean
+.PHONY: all deps build wasm test test-asan test-tsan demo bench fuzz clean
 
 all: build
 
@@ -31,8 +33,16 @@ $(BUILD)/build.ninja:
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
 
-test: build test-asan test-tsan
+test: build wasm test-asan test-tsan
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+# codec/ and web/wasm's C ABI compiled by Debian's emscripten 3.1.6 into
+# $(WASM_BUILD)/meshstream_decoder.cjs. NODE_PATH: NodeSource's node does not
+# search Debian's JS modules, which emscripten's link step needs (docs/web.md).
+wasm: deps
+	@[ -f $(WASM_BUILD)/build.ninja ] || NODE_PATH=/usr/share/nodejs emcmake cmake -S web/wasm -B $(WASM_BUILD) \
+	  -G Ninja -DCMAKE_BUILD_TYPE=Release
+	NODE_PATH=/usr/share/nodejs cmake --build $(WASM_BUILD) -j $(JOBS)
 
 # The importers take hostile input: run their tests once under ASan+UBSan.
 test-asan: deps

@@ -15,6 +15,7 @@
   never includes services/;
 - cli/ never includes bench/, tests/ or testing/: no part of the product
   (codec/, importers/, net/, services/, sdk/, cli/) uses testing/;
+- web/ (the decoder's C ABI for WebAssembly) uses codec/ only;
 - testing/ (what tests/ and bench/ share) never includes cli/, bench/ or
   tests/; bench/ never includes tests/; the folders of services/ depend on
   each other in one direction too (SERVICES_DEPENDS, as docs/architecture.md
@@ -61,6 +62,8 @@ LAYER_FORBIDDEN = {
     "testing": ["cli", "bench", "tests"],
     # Benchmarks use the product and testing/, never the test suites.
     "bench": ["tests"],
+    # The browser side's C ABI (web/wasm, compiled to WebAssembly): codec/ only.
+    "web": ["importers", "parallel", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
 }
 # The pure library does no I/O, keeps no clock and starts no thread.
 CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",

@@ -1,0 +1,76 @@
+// The wasm decoder against the native one (docs/web.md, "Tests"): every
+// progressive .glb given is decoded by web/dist's module (the base by
+// draco3d) and by meshstream_wasm_reference (DecodeProgressiveGlb), without
+// loss, at 12 % random loss and at 12 % in bursts of 4, and every refined
+// primitive's vertex and index counts and PrimitiveHash must be equal.
+// usage: node wasm_vs_native.mjs --wasm MODULE.js --reference BIN FILE.glb...
+import { readFileSync } from 'node:fs';
+import { execFileSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import { resolve } from 'node:path';
+import { parseGlb, progressivePrimitives } from '../src/glb.js';
+import { decodeDracoBase } from '../src/draco_base.js';
+import { StreamDecoder } from '../src/decoder.js';
+
+const require = createRequire(import.meta.url);
+const args = process.argv.slice(2);
+const take = (flag) => {
+  const i = args.indexOf(flag);
+  if (i < 0 || i + 1 >= args.length) throw new Error('missing ' + flag);
+  const v = args[i + 1];
+  args.splice(i, 2);
+  return v;
+};
+const wasmPath = take('--wasm');
+const referencePath = take('--reference');
+const files = args;
+if (files.length === 0) throw new Error('no .glb given');
+
+const cases = [
+  { name: 'no loss', loss: 0, burst: 0, seed: 1 },
+  { name: '12 % random loss', loss: 0.12, burst: 0, seed: 1 },
+  { name: '12 % in bursts of 4', loss: 0.12, burst: 4, seed: 2 },
+];
+
+const D = await require('draco3d').createDecoderModule({});
+const M = await require(resolve(wasmPath))();
+let failures = 0, checked = 0;
+for (const file of files) {
+  const glb = parseGlb(new Uint8Array(readFileSync(file)));
+  const prims = progressivePrimitives(glb);
+  if (prims.length === 0) {
+    console.error(file + ': no progressive primitive');
+    ++failures;
+    continue;
+  }
+  const bases = prims.map((p) => decodeDracoBase(D, p.base, p.ids));
+  for (const c of cases) {
+    const native = execFileSync(referencePath, [file, '--loss', String(c.loss), '--burst', String(c.burst),
+                                                '--seed', String(c.seed)], { encoding: 'utf8' })
+                       .trim().split('\n').map((l) => l.split(' '));
+    if (native.length !== prims.length) {
+      console.error(`${file} (${c.name}): the native decoder has ${native.length} streams, the file ${prims.length}`);
+      ++failures;
+      continue;
+    }
+    prims.forEach((p, i) => {
+      const d = new StreamDecoder(M, p.blob, p.streamId);
+      try {
+        d.setBase(bases[i]);
+        d.decode({ loss: c.loss, burst: c.burst, seed: c.seed, reliable: p.reliable });
+        const a = d.arrays();
+        const got = [String(p.streamId), String(a.vertices), String(a.indices.length), d.hash()];
+        ++checked;
+        if (got.join(' ') !== native[i].join(' ')) {
+          console.error(`${file} ${p.where} (${c.name}): wasm ${got.join(' ')} native ${native[i].join(' ')}`);
+          ++failures;
+        }
+      } finally {
+        d.close();
+      }
+    });
+  }
+  console.log(`${file}: ${prims.length} streams x ${cases.length} cases`);
+}
+console.log(`${checked} decodes compared, ${failures} differ`);
+process.exit(failures === 0 && checked > 0 ? 0 : 1);
