@@ -55,9 +55,12 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
   ASSERT_GT(vertices, 0);
 
   ASSERT_TRUE((*ns)->SetLoss(12, true).ok());
-  // Two sessions, their UDP datagrams together (the stream's never lose).
+  // Sessions until enough datagrams went as UDP (at least two; their UDP
+  // datagrams together, the stream's never lose): the HELLO is a datagram
+  // too, and while a lost one is retried the refinements go on the stream
+  // (once 54 of the usual ~110 went as UDP in two sessions).
   double lost = 0, received = 0;
-  for (int i = 0; i < 2; ++i) {
+  for (int i = 0; i < 6 && (i < 2 || received + lost <= 60.0); ++i) {
     const nlohmann::json udp_loss = FetchInside(**ns, (*server)->address(), dir.File("udp12.glb"));
     EXPECT_EQ(udp_loss["transport"], "udp") << udp_loss.dump();
     EXPECT_EQ(udp_loss["vertices"], vertices) << "the lossless vertex count";
@@ -65,7 +68,8 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
     lost += udp_loss.value("datagrams_lost", 0.0);
     received += udp_loss.value("udp_datagrams_received", 0.0);
   }
-  ASSERT_GT(received, 60.0) << "most of the two sessions went as UDP";
+  // What went as UDP is what arrived plus what was lost.
+  ASSERT_GT(received + lost, 60.0) << "enough of the sessions went as UDP";
   // About 90 datagrams at 12 %: 3 sigma is about 10 %.
   EXPECT_GT(lost / (lost + received), 0.02);
   EXPECT_LT(lost / (lost + received), 0.25);
