@@ -33,6 +33,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/options.h"
+#include "codec/core/fnv.h"
 #include "importers/draco_codec.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
@@ -89,33 +90,17 @@ Args ParseArgs(int argc, char** argv) {
   return a;
 }
 
-// FNV-1a over raw bytes.
-void Mix(uint64_t& h, const void* data, size_t size) {
-  const auto* p = static_cast<const uint8_t*>(data);
-  for (size_t i = 0; i < size; ++i) {
-    h ^= p[i];
-    h *= 1099511628211ull;
-  }
-}
-
-template <class T>
-void MixVector(uint64_t& h, const std::vector<T>& v) {
-  const uint64_t n = v.size();
-  Mix(h, &n, sizeof n);
-  if (!v.empty()) Mix(h, v.data(), v.size() * sizeof(T));
-}
-
 // A hash of every refined primitive's arrays: equal hashes, equal decodes.
 uint64_t SceneHash(const ms::Scene& scene) {
-  uint64_t h = 1469598103934665603ull;
+  ms::Fnv1a h;
   for (const ms::Primitive* p : Primitives(scene)) {
-    MixVector(h, p->positions);
-    MixVector(h, p->normals);
-    for (const auto& t : p->texcoords) MixVector(h, t);
-    MixVector(h, p->colors);
-    MixVector(h, p->indices);
+    h.AddVector(p->positions);
+    h.AddVector(p->normals);
+    for (const auto& t : p->texcoords) h.AddVector(t);
+    h.AddVector(p->colors);
+    h.AddVector(p->indices);
   }
-  return h;
+  return h.value;
 }
 
 struct Model {

@@ -367,16 +367,12 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       auto parsed = ProgressiveStream::Parse(glb.bin + offset, length);
       if (!parsed.ok()) return parsed.status().WithContext(where);
       ProgressiveStream stream = std::move(parsed).value();
-      auto header = StreamHeader::Parse(stream.header.data(), stream.header.size());
+      auto header = stream.ParseHeader();
       if (!header.ok()) return header.status().WithContext(where);
       if (stream.version != ext["version"].get<uint64_t>() || header->version != stream.version) {
         return InvalidInput(where + ": " + kProgressiveExtension + ".version " + ext["version"].dump() +
                             ", the stream blob's version " + std::to_string(stream.version) +
                             " and its header's " + std::to_string(header->version) + " differ");
-      }
-      if (stream.control.size() != header->split_counts.size()) {
-        return InvalidInput(where + ": the stream has " + std::to_string(stream.control.size()) +
-                            " refinements, its header says " + std::to_string(header->split_counts.size()));
       }
       Found f;
       f.m = m;

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "bench/bench_util.h"
+#include "codec/core/fnv.h"
 #include "codec/mesh/scene_flatten.h"
 
 namespace meshstream::bench::stream {
@@ -59,17 +60,13 @@ std::vector<Snapshot> ReadSnapshots(const std::string& path) {
 }
 
 uint64_t MeshHash(const Primitive& p) {
-  uint64_t h = 1469598103934665603ull;
-  auto mix = [&](const void* data, size_t n) {
-    const auto* b = static_cast<const uint8_t*>(data);
-    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
-  };
+  Fnv1a h;
   const uint64_t nv = p.positions.size(), ni = p.indices.size();
-  mix(&nv, sizeof nv);
-  mix(&ni, sizeof ni);
-  mix(p.positions.data(), nv * sizeof(Vec3f));
-  mix(p.indices.data(), ni * sizeof(uint32_t));
-  return h;
+  h.Add(&nv, sizeof nv);
+  h.Add(&ni, sizeof ni);
+  h.Add(p.positions.data(), nv * sizeof(Vec3f));
+  h.Add(p.indices.data(), ni * sizeof(uint32_t));
+  return h.value;
 }
 
 Primitive Geometry(const Scene& scene) {

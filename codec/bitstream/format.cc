@@ -243,6 +243,15 @@ std::vector<uint8_t> ProgressiveStream::Serialize() const {
   return std::move(w.bytes());
 }
 
+StatusOr<StreamHeader> ProgressiveStream::ParseHeader() const {
+  MS_ASSIGN_OR_RETURN(StreamHeader h, StreamHeader::Parse(header.data(), header.size()));
+  if (h.split_counts.size() != control.size()) {
+    return InvalidInput("the stream has " + std::to_string(control.size()) + " refinements, its header says " +
+                        std::to_string(h.split_counts.size()));
+  }
+  return h;
+}
+
 StatusOr<ProgressiveStream> ProgressiveStream::Parse(const uint8_t* data, size_t size) {
   ByteReader r(data, size);
   for (uint8_t b : kBlobMagic) {

@@ -111,6 +111,9 @@ struct ProgressiveStream {
   // One blob: "MSPS", version, header, refinements with control and datagrams.
   std::vector<uint8_t> Serialize() const;
   static StatusOr<ProgressiveStream> Parse(const uint8_t* data, size_t size);
+  // The header parsed (StreamHeader::Parse), refused unless it counts as
+  // many refinements as the blob holds.
+  StatusOr<StreamHeader> ParseHeader() const;
 };
 
 // The fixed part of a datagram, before its range-coded payload.

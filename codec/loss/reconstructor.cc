@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "codec/core/fnv.h"
+
 namespace meshstream {
 namespace {
 
@@ -12,13 +14,10 @@ namespace {
 // charged to max_buffered_bytes so that tiny datagrams cannot exhaust memory.
 constexpr size_t kEntryOverhead = 64;
 
-uint64_t HashBytes(const uint8_t* data, size_t size) {  // FNV-1a
-  uint64_t h = 14695981039346656037ull;
-  for (size_t i = 0; i < size; ++i) {
-    h ^= data[i];
-    h *= 1099511628211ull;
-  }
-  return h;
+uint64_t HashBytes(const uint8_t* data, size_t size) {
+  Fnv1a h;
+  h.Add(data, size);
+  return h.value;
 }
 
 }  // namespace

@@ -2,7 +2,21 @@
 
 #include <cmath>
 
+#include "codec/core/fnv.h"
+
 namespace meshstream {
+
+uint64_t PrimitiveHash(const Primitive& p) {
+  Fnv1a h;
+  h.AddVector(p.positions);
+  h.AddVector(p.normals);
+  const uint64_t sets = p.texcoords.size();
+  h.Add(&sets, sizeof sets);
+  for (const auto& t : p.texcoords) h.AddVector(t);
+  h.AddVector(p.colors);
+  h.AddVector(p.indices);
+  return h.value;
+}
 
 std::vector<std::string> Primitive::AttributeNames() const {
   std::vector<std::string> names;

@@ -42,6 +42,12 @@ struct Primitive {
   std::vector<std::string> AttributeNames() const;
 };
 
+// FNV-1a (codec/core/fnv.h) over a primitive's arrays: positions, normals,
+// the number of texture coordinate sets and each set, colours, indices (each
+// array as its length and its bytes). Equal decodes, equal hashes: what the
+// tests and benchmarks compare (not the material).
+uint64_t PrimitiveHash(const Primitive& p);
+
 // The data of one glTF accessor, carried unchanged: its elements tightly
 // packed (count * ElementBytes(), little-endian, sparse substitution already
 // applied). Writers recompute min/max from the bytes.

@@ -1,6 +1,7 @@
 #include "codec/progressive/wing_rank.h"
 
 #include <algorithm>
+#include <type_traits>
 
 #include "codec/progressive/local_frame.h"
 
@@ -29,12 +30,29 @@ int64_t RankKey(int64_t score, int64_t length) {
   return score < 0 ? -key : key;
 }
 
+namespace {
+
+constexpr uint64_t kNoChordField = (uint64_t{1} << 48) - 1;  // t = 0: after every key
+
+}  // namespace
+
 // (WingRanking::kPairBits and the layout: wing_rank.h.)
 inline uint64_t WingRanking::Order(int64_t key, size_t x, size_t k) {
   const uint64_t rest = (static_cast<uint64_t>(x) << 4) | static_cast<uint64_t>(k);
   // INT64_MIN (t = 0) after every key; a key within +-2^46 maps to (2^46, 3 2^46).
-  const uint64_t field = key == INT64_MIN ? (uint64_t{1} << 48) - 1 : static_cast<uint64_t>((kKeyBound << 1) - key);
+  const uint64_t field = key == INT64_MIN ? kNoChordField : static_cast<uint64_t>((kKeyBound << 1) - key);
   return (field << kPairBits) | rest;
+}
+
+inline int64_t WingRanking::KeyOf(uint64_t order) {
+  const uint64_t field = order >> kPairBits;
+  return field == kNoChordField ? INT64_MIN : (kKeyBound << 1) - static_cast<int64_t>(field);
+}
+
+inline void WingRanking::PairOf(uint64_t order, size_t degree, size_t* a_at, size_t* b_at) {
+  const size_t x = (order >> 4) & 31, k = order & 15;
+  *a_at = x;
+  *b_at = (x + k) % degree;
 }
 
 size_t WingRanking::Prepare(const Vec3i& w, const Vec3i* ring, size_t d, const LocalFrame& frame, Tangent2* q,
@@ -99,17 +117,58 @@ bool WingRanking::Reset(const Vec3i& w, const Vec3i* ring, size_t d, const Local
   return true;
 }
 
+namespace {
+
+// The R + 1 smallest of distinct integers offered so far, kept sorted: a
+// value that is not below the last of them (nearly all, once a few have been
+// seen) costs one compare.
 template <int R>
-void WingRanking::SelectSmall(const Tangent2* q, size_t d, size_t half, const int64_t m[3], size_t* a_at,
-                              size_t* b_at) {
-  // The R + 1 smallest orders so far, sorted, as in SmallestAt; a candidate
-  // is first tested against the last of them by its key alone, without the
-  // division (RankKeyAtMost). The candidates come in the ties' order (x,
-  // then k), so one whose key is not above that last key comes after it:
-  // skipped. Only a candidate that may enter the list gets its exact key.
-  uint64_t best[R + 1];
-  for (int r = 0; r <= R; ++r) best[r] = UINT64_MAX;
-  bool filter = false;  // best[R] is a pair with t != 0
+class Smallest {
+ public:
+  Smallest() {
+    for (int r = 0; r <= R; ++r) best_[r] = UINT64_MAX;
+  }
+  void Offer(uint64_t t) {
+    if (t >= best_[R]) return;
+    int p = R;
+    for (; p > 0 && best_[p - 1] > t; --p) best_[p] = best_[p - 1];
+    best_[p] = t;
+  }
+  bool full() const { return best_[R] != UINT64_MAX; }
+  uint64_t last() const { return best_[R]; }
+
+ private:
+  uint64_t best_[R + 1];
+};
+
+// f(std::integral_constant<int, rank>()) for a rank below kSmallRanks: the
+// ranks found in one pass (nine splits in ten on the shared models).
+constexpr uint32_t kSmallRanks = 8;
+template <class F>
+uint64_t WithSmallRank(uint32_t rank, F&& f) {
+  switch (rank) {
+    case 0: return f(std::integral_constant<int, 0>());
+    case 1: return f(std::integral_constant<int, 1>());
+    case 2: return f(std::integral_constant<int, 2>());
+    case 3: return f(std::integral_constant<int, 3>());
+    case 4: return f(std::integral_constant<int, 4>());
+    case 5: return f(std::integral_constant<int, 5>());
+    case 6: return f(std::integral_constant<int, 6>());
+    default: return f(std::integral_constant<int, 7>());
+  }
+}
+
+}  // namespace
+
+template <int R>
+uint64_t WingRanking::SelectSmall(const Tangent2* q, size_t d, size_t half, const int64_t m[3]) {
+  // The R + 1 smallest orders so far (Smallest); a candidate is first tested
+  // against the last of them by its key alone, without the division
+  // (RankKeyAtMost). The candidates come in the ties' order (x, then k), so
+  // one whose key is not above that last key comes after it: skipped. Only a
+  // candidate that may enter the list gets its exact key.
+  Smallest<R> best;
+  bool filter = false;  // the last kept is a pair with t != 0
   int64_t last_key = 0;
   for (size_t x = 0; x < d; ++x) {
     for (size_t k = 1; k <= half; ++k) {
@@ -118,21 +177,14 @@ void WingRanking::SelectSmall(const Tangent2* q, size_t d, size_t half, const in
         if (p.length == 0) continue;  // t = 0 comes after every key
         if (RankKeyAtMost(p.score, p.length, last_key)) continue;
       }
-      const uint64_t t = Order(p.length > 0 ? RankKey(p.score, p.length) : INT64_MIN, x, k);
-      if (t >= best[R]) continue;
-      int at = R;
-      for (; at > 0 && best[at - 1] > t; --at) best[at] = best[at - 1];
-      best[at] = t;
-      if (best[R] != UINT64_MAX) {
-        const uint64_t field = best[R] >> kPairBits;
-        filter = field != (uint64_t{1} << 48) - 1;
-        last_key = (kKeyBound << 1) - static_cast<int64_t>(field);
+      best.Offer(Order(p.length > 0 ? RankKey(p.score, p.length) : INT64_MIN, x, k));
+      if (best.full()) {
+        last_key = KeyOf(best.last());
+        filter = last_key != INT64_MIN;
       }
     }
   }
-  const size_t x = (best[R] >> 4) & 31, k = best[R] & 15;
-  *a_at = x;
-  *b_at = (x + k) % d;
+  return best.last();
 }
 
 bool WingRanking::PairOfRank(const Vec3i& w, const Vec3i* ring, size_t d, const LocalFrame& frame, uint32_t rank,
@@ -142,20 +194,13 @@ bool WingRanking::PairOfRank(const Vec3i& w, const Vec3i* ring, size_t d, const 
   if (d < 3 || d > kMaxRankedValence) return false;
   const size_t half = d / 2;
   if (rank >= d * half) return false;
-  if (rank >= 8) return Reset(w, ring, d, frame) && PairAt(rank, a_at, b_at);
+  if (rank >= kSmallRanks) return Reset(w, ring, d, frame) && PairAt(rank, a_at, b_at);
   std::array<Tangent2, 2 * kMaxRankedValence> q;
   int64_t m[3];
   Prepare(w, ring, d, frame, q.data(), m);
-  switch (rank) {
-    case 0: SelectSmall<0>(q.data(), d, half, m, a_at, b_at); break;
-    case 1: SelectSmall<1>(q.data(), d, half, m, a_at, b_at); break;
-    case 2: SelectSmall<2>(q.data(), d, half, m, a_at, b_at); break;
-    case 3: SelectSmall<3>(q.data(), d, half, m, a_at, b_at); break;
-    case 4: SelectSmall<4>(q.data(), d, half, m, a_at, b_at); break;
-    case 5: SelectSmall<5>(q.data(), d, half, m, a_at, b_at); break;
-    case 6: SelectSmall<6>(q.data(), d, half, m, a_at, b_at); break;
-    default: SelectSmall<7>(q.data(), d, half, m, a_at, b_at); break;
-  }
+  const uint64_t found =
+      WithSmallRank(rank, [&](auto r) { return SelectSmall<decltype(r)::value>(q.data(), d, half, m); });
+  PairOf(found, d, a_at, b_at);
   return true;
 }
 
@@ -164,10 +209,7 @@ size_t WingRanking::KeysInOrder(int64_t* out, size_t max) const {
   std::copy_n(order_.begin(), count_, sorted.begin());
   const size_t n = std::min(max, count_);
   std::partial_sort(sorted.begin(), sorted.begin() + n, sorted.begin() + count_);
-  for (size_t i = 0; i < n; ++i) {
-    const uint64_t field = sorted[i] >> kPairBits;
-    out[i] = field == (uint64_t{1} << 48) - 1 ? INT64_MIN : static_cast<int64_t>(kKeyBound << 1) - static_cast<int64_t>(field);
-  }
+  for (size_t i = 0; i < n; ++i) out[i] = KeyOf(sorted[i]);
   return n;
 }
 
@@ -183,54 +225,26 @@ bool WingRanking::RankOf(size_t a_at, size_t b_at, uint32_t* rank) const {
   return true;
 }
 
-namespace {
-
-// The (R + 1)-th smallest of n distinct integers in one pass: the R + 1
-// smallest so far are kept sorted; a value that is not below the last of
-// them (nearly all, once a few have been seen) costs one compare.
-template <int R>
-uint64_t SmallestAt(const uint64_t* v, size_t n) {
-  uint64_t best[R + 1];
-  for (int r = 0; r <= R; ++r) best[r] = UINT64_MAX;
-  for (size_t i = 0; i < n; ++i) {
-    const uint64_t t = v[i];
-    if (t >= best[R]) continue;
-    int p = R;
-    for (; p > 0 && best[p - 1] > t; --p) best[p] = best[p - 1];
-    best[p] = t;
-  }
-  return best[R];
-}
-
-}  // namespace
-
 bool WingRanking::PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const {
   if (degree_ == 0 || rank >= count_) return false;
-  // The rank-th smallest of distinct integers: ranks below 8 (nine splits
-  // in ten on the shared models) in one pass; larger ones by a selection on
-  // a copy.
+  // The rank-th smallest of distinct integers: small ranks in one pass;
+  // larger ones by a selection on a copy.
   const uint64_t* v = order_.data();
   const size_t n = count_;
   uint64_t found = 0;
-  switch (rank) {
-    case 0: found = SmallestAt<0>(v, n); break;
-    case 1: found = SmallestAt<1>(v, n); break;
-    case 2: found = SmallestAt<2>(v, n); break;
-    case 3: found = SmallestAt<3>(v, n); break;
-    case 4: found = SmallestAt<4>(v, n); break;
-    case 5: found = SmallestAt<5>(v, n); break;
-    case 6: found = SmallestAt<6>(v, n); break;
-    case 7: found = SmallestAt<7>(v, n); break;
-    default: {
-      std::array<uint64_t, kMaxRankedPairs> copy;
-      std::copy_n(order_.begin(), n, copy.begin());
-      std::nth_element(copy.begin(), copy.begin() + rank, copy.begin() + n);
-      found = copy[rank];
-    }
+  if (rank < kSmallRanks) {
+    found = WithSmallRank(rank, [&](auto r) {
+      Smallest<decltype(r)::value> best;
+      for (size_t i = 0; i < n; ++i) best.Offer(v[i]);
+      return best.last();
+    });
+  } else {
+    std::array<uint64_t, kMaxRankedPairs> copy;
+    std::copy_n(order_.begin(), n, copy.begin());
+    std::nth_element(copy.begin(), copy.begin() + rank, copy.begin() + n);
+    found = copy[rank];
   }
-  const size_t x = (found >> 4) & 31, k = found & 15;
-  *a_at = x;
-  *b_at = (x + k) % degree_;
+  PairOf(found, degree_, a_at, b_at);
   return true;
 }
 

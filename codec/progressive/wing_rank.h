@@ -74,9 +74,13 @@ class WingRanking {
   // entries m00, m01, m11; returns floor(degree / 2).
   static size_t Prepare(const Vec3i& w, const Vec3i* ring, size_t degree, const LocalFrame& frame, Tangent2* q,
                         int64_t m[3]);
+  // The key an order holds (INT64_MIN for t = 0), and the ring positions of
+  // its pair on a ring of `degree`.
+  static int64_t KeyOf(uint64_t order);
+  static void PairOf(uint64_t order, size_t degree, size_t* a_at, size_t* b_at);
+  // The (R + 1)-th smallest order of the ring's pairs (PairOfRank).
   template <int R>
-  static void SelectSmall(const Tangent2* q, size_t degree, size_t half, const int64_t m[3], size_t* a_at,
-                          size_t* b_at);
+  static uint64_t SelectSmall(const Tangent2* q, size_t degree, size_t half, const int64_t m[3]);
   size_t degree_ = 0;
   size_t count_ = 0;
   std::array<uint64_t, kMaxRankedPairs> order_{};  // by x, then k

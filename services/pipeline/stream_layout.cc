@@ -80,12 +80,8 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
   auto parsed = ProgressiveStream::Parse(file + p.stream_blob.offset, static_cast<size_t>(p.stream_blob.length));
   if (!parsed.ok()) return parsed.status().WithContext(where);
   const ProgressiveStream& s = parsed.value();
-  auto header = StreamHeader::Parse(s.header.data(), s.header.size());
+  auto header = s.ParseHeader();
   if (!header.ok()) return header.status().WithContext(where);
-  if (header->split_counts.size() != s.control.size()) {
-    return InvalidInput(where + ": the stream has " + std::to_string(s.control.size()) + " refinements, its header says " +
-                        std::to_string(header->split_counts.size()));
-  }
   p.quantization = header->quantization;
   p.packing = header->packing;
   p.refinements = static_cast<uint32_t>(s.control.size());

@@ -177,6 +177,22 @@ TEST(FormatRefusal, StreamBlob) {
   EXPECT_EQ(error(stray), "stream blob: 1 stray bytes after the last refinement");
 }
 
+// A blob whose header counts other refinements than it holds is refused
+// where the header is read (every reader of blobs goes through ParseHeader).
+TEST(FormatRefusal, StreamBlobRefinementsMatchItsHeader) {
+  ProgressiveStream stream = TheVector().stream;
+  auto header = stream.ParseHeader();
+  ASSERT_TRUE(header.ok()) << header.status().ToString();
+  EXPECT_EQ(header->split_counts.size(), stream.control.size());
+  stream.control.pop_back();
+  stream.datagrams.pop_back();
+  auto short_one = stream.ParseHeader();
+  ASSERT_FALSE(short_one.ok());
+  EXPECT_EQ(short_one.status().message(), "the stream has " + std::to_string(stream.control.size()) +
+                                              " refinements, its header says " +
+                                              std::to_string(header->split_counts.size()));
+}
+
 // The control block of refinement 0 cut into its parts: the split-bit block
 // (with its length), per model slot its mode and what follows it (a table or
 // a parameter), and what follows the slots (the alpha byte of the geometry

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "codec/mesh/mesh.h"
 #include "importers/progressive_glb.h"
-#include "web/wasm/decoder_api.h"
 
 int main(int argc, char** argv) {
   using namespace meshstream;

@@ -37,20 +37,15 @@ export function decodeDracoBase(D, bytes, ids) {
       texcoords: ids.texcoords.map((id, k) => floats(id, 2, 'TEXCOORD_' + k)),
       colors: ids.color >= 0 ? floats(ids.color, 4, 'COLOR_0') : null,
     };
-    const faces = mesh.num_faces();
-    const indices = new Uint32Array(faces * 3);
-    const face = new D.DracoInt32Array();
+    // The triangles in one call into the module's heap, copied out.
+    const indexBytes = mesh.num_faces() * 3 * 4;
+    const p = D._malloc(Math.max(indexBytes, 4));
     try {
-      for (let f = 0; f < faces; ++f) {
-        decoder.GetFaceFromMesh(mesh, f, face);
-        indices[3 * f] = face.GetValue(0);
-        indices[3 * f + 1] = face.GetValue(1);
-        indices[3 * f + 2] = face.GetValue(2);
-      }
+      if (!decoder.GetTrianglesUInt32Array(mesh, indexBytes, p)) throw new Error('Draco: cannot read the triangles');
+      base.indices = new Uint32Array(D.HEAPU32.buffer, p, indexBytes / 4).slice();
     } finally {
-      D.destroy(face);
+      D._free(p);
     }
-    base.indices = indices;
     return base;
   } finally {
     D.destroy(mesh);

@@ -32,45 +32,54 @@ const cases = [
   { name: '12 % in bursts of 4', loss: 0.12, burst: 4, seed: 2 },
 ];
 
-const D = await require('draco3d').createDecoderModule({});
-const M = await require(resolve(wasmPath))();
-let failures = 0, checked = 0;
-for (const file of files) {
-  const glb = parseGlb(new Uint8Array(readFileSync(file)));
-  const prims = progressivePrimitives(glb);
-  if (prims.length === 0) {
-    console.error(file + ': no progressive primitive');
-    ++failures;
-    continue;
-  }
-  const bases = prims.map((p) => decodeDracoBase(D, p.base, p.ids));
-  for (const c of cases) {
-    const native = execFileSync(referencePath, [file, '--loss', String(c.loss), '--burst', String(c.burst),
-                                                '--seed', String(c.seed)], { encoding: 'utf8' })
-                       .trim().split('\n').map((l) => l.split(' '));
-    if (native.length !== prims.length) {
-      console.error(`${file} (${c.name}): the native decoder has ${native.length} streams, the file ${prims.length}`);
+// The module's glue rethrows unhandled rejections from inside itself (node
+// then prints the whole inlined module): every error is caught here.
+async function main() {
+  const D = await require('draco3d').createDecoderModule({});
+  const M = await require(resolve(wasmPath))();
+  let failures = 0, checked = 0;
+  for (const file of files) {
+    const glb = parseGlb(new Uint8Array(readFileSync(file)));
+    const prims = progressivePrimitives(glb);
+    if (prims.length === 0) {
+      console.error(file + ': no progressive primitive');
       ++failures;
       continue;
     }
-    prims.forEach((p, i) => {
-      const d = new StreamDecoder(M, p.blob, p.streamId);
-      try {
-        d.setBase(bases[i]);
-        d.decode({ loss: c.loss, burst: c.burst, seed: c.seed, reliable: p.reliable });
-        const a = d.arrays();
-        const got = [String(p.streamId), String(a.vertices), String(a.indices.length), d.hash()];
-        ++checked;
-        if (got.join(' ') !== native[i].join(' ')) {
-          console.error(`${file} ${p.where} (${c.name}): wasm ${got.join(' ')} native ${native[i].join(' ')}`);
-          ++failures;
-        }
-      } finally {
-        d.close();
+    const bases = prims.map((p) => decodeDracoBase(D, p.base, p.ids));
+    for (const c of cases) {
+      const native = execFileSync(referencePath, [file, '--loss', String(c.loss), '--burst', String(c.burst),
+                                                  '--seed', String(c.seed)], { encoding: 'utf8' })
+                         .trim().split('\n').map((l) => l.split(' '));
+      if (native.length !== prims.length) {
+        console.error(`${file} (${c.name}): the native decoder has ${native.length} streams, the file ${prims.length}`);
+        ++failures;
+        continue;
       }
-    });
+      prims.forEach((p, i) => {
+        const d = new StreamDecoder(M, p.blob, p.streamId);
+        try {
+          d.setBase(bases[i]);
+          d.decode({ loss: c.loss, burst: c.burst, seed: c.seed, reliable: p.reliable });
+          const a = d.arrays();
+          const got = [String(p.streamId), String(a.vertices), String(a.indices.length), d.hash()];
+          ++checked;
+          if (got.join(' ') !== native[i].join(' ')) {
+            console.error(`${file} ${p.where} (${c.name}): wasm ${got.join(' ')} native ${native[i].join(' ')}`);
+            ++failures;
+          }
+        } finally {
+          d.close();
+        }
+      });
+    }
+    console.log(`${file}: ${prims.length} streams x ${cases.length} cases`);
   }
-  console.log(`${file}: ${prims.length} streams x ${cases.length} cases`);
+  console.log(`${checked} decodes compared, ${failures} differ`);
+  return failures === 0 && checked > 0 ? 0 : 1;
 }
-console.log(`${checked} decodes compared, ${failures} differ`);
-process.exit(failures === 0 && checked > 0 ? 0 : 1);
+
+main().then((code) => process.exit(code), (e) => {
+  console.error('wasm_vs_native: ' + (e && e.stack ? e.stack : e));
+  process.exit(1);
+});

@@ -1,5 +1,6 @@
 #include "web/wasm/decoder_api.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -7,44 +8,8 @@
 
 #include "codec/bitstream/format.h"
 #include "codec/loss/lossy_decode.h"
+#include "codec/mesh/mesh.h"
 #include "codec/mesh/quantized_mesh.h"
-
-namespace meshstream {
-
-namespace {
-
-struct Fnv {
-  uint64_t h = 1469598103934665603ull;
-  void Add(const void* data, size_t size) {
-    const auto* b = static_cast<const uint8_t*>(data);
-    for (size_t i = 0; i < size; ++i) {
-      h ^= b[i];
-      h *= 1099511628211ull;
-    }
-  }
-  template <typename T>
-  void AddAll(const std::vector<T>& v) {
-    const uint64_t n = v.size();
-    Add(&n, sizeof n);
-    if (!v.empty()) Add(v.data(), v.size() * sizeof(T));
-  }
-};
-
-}  // namespace
-
-uint64_t PrimitiveHash(const Primitive& p) {
-  Fnv f;
-  f.AddAll(p.positions);
-  f.AddAll(p.normals);
-  const uint64_t sets = p.texcoords.size();
-  f.Add(&sets, sizeof sets);
-  for (const auto& t : p.texcoords) f.AddAll(t);
-  f.AddAll(p.colors);
-  f.AddAll(p.indices);
-  return f.h;
-}
-
-}  // namespace meshstream
 
 using namespace meshstream;
 
@@ -81,14 +46,9 @@ ms_wasm_stream* ms_wasm_open(const uint8_t* blob, uint32_t size, uint32_t stream
     Fail(s, stream.status());
     return s;
   }
-  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+  auto header = stream->ParseHeader();
   if (!header.ok()) {
     Fail(s, header.status());
-    return s;
-  }
-  if (stream->control.size() != header->split_counts.size()) {
-    Fail(s, InvalidInput("the stream has " + std::to_string(stream->control.size()) + " refinements, its header says " +
-                         std::to_string(header->split_counts.size())));
     return s;
   }
   s->stream = std::move(stream).value();

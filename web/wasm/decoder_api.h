@@ -15,13 +15,6 @@
 #include <stdint.h>
 
 #ifdef __cplusplus
-#include "codec/mesh/mesh.h"
-namespace meshstream {
-// FNV-1a 64 over a decoded primitive's arrays (positions, normals, each
-// texture coordinate set, colours, indices, in that order, as little-endian
-// bytes): what the wasm-against-native test compares.
-uint64_t PrimitiveHash(const Primitive& p);
-}  // namespace meshstream
 extern "C" {
 #endif
 
@@ -62,7 +55,8 @@ const float* ms_wasm_texcoords(const ms_wasm_stream* s, uint32_t set);  // 2 per
 const float* ms_wasm_colors(const ms_wasm_stream* s);             // 4 per vertex or null
 const uint32_t* ms_wasm_indices(const ms_wasm_stream* s);
 uint32_t ms_wasm_predicted_vertices(const ms_wasm_stream* s);
-// PrimitiveHash of the decoded mesh, as 16 hexadecimal digits.
+// PrimitiveHash (codec/mesh/mesh.h) of the decoded mesh, as 16 hexadecimal
+// digits.
 const char* ms_wasm_hash(const ms_wasm_stream* s);
 
 #ifdef __cplusplus
