@@ -3,6 +3,9 @@
 // draco3d) and by meshstream_wasm_reference (DecodeProgressiveGlb), without
 // loss, at 12 % random loss and at 12 % in bursts of 4, and every refined
 // primitive's vertex and index counts and PrimitiveHash must be equal.
+// Without loss, each blob is also fed to the live decoder (LiveDecoder, the
+// path of a file read by ranges and of a session) through BlobReader in
+// chunks of 997 bytes, and must give the same mesh, one level per refinement.
 // usage: node wasm_vs_native.mjs --wasm MODULE.js --reference BIN FILE.glb...
 import { readFileSync } from 'node:fs';
 import { execFileSync } from 'node:child_process';
@@ -10,7 +13,45 @@ import { createRequire } from 'node:module';
 import { resolve } from 'node:path';
 import { parseGlb, progressivePrimitives } from '../src/glb.js';
 import { decodeDracoBase } from '../src/draco_base.js';
-import { StreamDecoder } from '../src/decoder.js';
+import { LiveDecoder, StreamDecoder } from '../src/decoder.js';
+import { BlobReader } from '../src/blob_reader.js';
+
+// The blob fed in odd-sized chunks, as a ranged response arrives; the
+// counts of every level; the final arrays as for StreamDecoder.
+function decodeLive(M, p, base) {
+  const reader = new BlobReader();
+  let live = null;
+  const levels = [];
+  try {
+    for (let off = 0; off < p.blob.byteLength; off += 997) {
+      for (const e of reader.push(p.blob.subarray(off, off + 997))) {
+        if (e.kind === 'header') {
+          live = new LiveDecoder(M, e.bytes, p.streamId);
+          live.setBase(base);
+        } else if (e.kind === 'control') {
+          live.control(e.bytes);
+        } else if (e.kind === 'datagram') {
+          live.datagram(e.bytes);
+        } else {
+          live.end(e.refinement, e.datagrams);
+          const applied = live.poll();
+          if (applied !== e.refinement + 1) {
+            throw new Error(`refinement ${e.refinement} complete but ${applied} applied`);
+          }
+          levels.push(applied);
+        }
+      }
+    }
+    if (!reader.done) throw new Error('the blob ended early');
+    if (live.poll() !== live.refinements) throw new Error('not every refinement was applied');
+    live.snapshot();
+    const a = live.arrays();
+    return { got: [String(p.streamId), String(a.vertices), String(a.indices.length), live.hash()], levels,
+             finalVertices: live.finalVertices };
+  } finally {
+    if (live) live.close();
+  }
+}
 
 const require = createRequire(import.meta.url);
 const args = process.argv.slice(2);
@@ -67,6 +108,15 @@ async function main() {
           if (got.join(' ') !== native[i].join(' ')) {
             console.error(`${file} ${p.where} (${c.name}): wasm ${got.join(' ')} native ${native[i].join(' ')}`);
             ++failures;
+          }
+          if (c.loss === 0) {
+            const live = decodeLive(M, p, bases[i]);
+            ++checked;
+            if (live.got.join(' ') !== native[i].join(' ') || String(live.finalVertices) !== native[i][1]) {
+              console.error(`${file} ${p.where} (live): wasm ${live.got.join(' ')} (final ${live.finalVertices}) ` +
+                            `native ${native[i].join(' ')}`);
+              ++failures;
+            }
           }
         } finally {
           d.close();

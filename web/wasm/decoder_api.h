@@ -58,6 +58,53 @@ uint32_t ms_wasm_predicted_vertices(const ms_wasm_stream* s);
 // PrimitiveHash (codec/mesh/mesh.h) of the decoded mesh, as 16 hexadecimal
 // digits.
 const char* ms_wasm_hash(const ms_wasm_stream* s);
+// Per vertex of the decoded mesh: 1 when its position is exact, 0 when a
+// prediction placed it or one of its neighbours (the reader's reliability
+// bits); null before a decode.
+const uint8_t* ms_wasm_reliable(const ms_wasm_stream* s);
+
+// --- Live decoding: the refinements as they arrive ---------------------------
+// The same stream fed piece by piece, as a session's messages (SessionStart's
+// header and base, ControlBlocks, datagrams; docs/streaming-protocol.md) or a
+// file read by HTTP ranges (the blob's header, then each refinement's control
+// block, datagrams and an END made from the count the blob gives) deliver it,
+// through codec's StreamReconstructor. Both transports are reliable, so the
+// reconstructor's clock never runs out: a refinement is decoded when its
+// control block, its END and every datagram the END announces have arrived
+// (or at ms_wasm_live_flush, with what arrived: predictions fill the rest).
+// After each call that decodes, ms_wasm_live_snapshot puts the current mesh
+// where the accessors above read it.
+
+// `header`: the stream header (PrimitiveStart.header, or the blob's header
+// block); `lod`: refinements to decode, -1 all. Null only when out of memory;
+// a header that does not parse gives a stream whose ms_wasm_error() is set.
+ms_wasm_stream* ms_wasm_live_open(const uint8_t* header, uint32_t size, uint32_t stream_id, int32_t lod);
+// The header's counts: vertices of the base, and of the mesh once every
+// refinement is applied (the base's plus one per split).
+uint32_t ms_wasm_live_base_vertices(const ms_wasm_stream* s);
+uint32_t ms_wasm_live_final_vertices(const ms_wasm_stream* s);
+// Splits of refinement `refinement` (0 past the last).
+uint32_t ms_wasm_live_splits(const ms_wasm_stream* s, uint32_t refinement);
+// The base, as for ms_wasm_set_base. 0 on success.
+int ms_wasm_live_set_base(ms_wasm_stream* s, uint32_t vertices, const float* positions, const float* normals,
+                          uint32_t texcoord_sets, const float* texcoords, const float* colors, uint32_t index_count,
+                          const uint32_t* indices);
+// The next refinement's control block (in order). 0 on success.
+int ms_wasm_live_control(ms_wasm_stream* s, const uint8_t* control, uint32_t size);
+// A datagram, data or END (any order; duplicates and bad ones are dropped
+// and counted by the reconstructor).
+void ms_wasm_live_datagram(ms_wasm_stream* s, const uint8_t* data, uint32_t size);
+// The END of `refinement` announcing `datagrams` data datagrams, made here
+// (a file holds no END; a session's RefinementEnd names the count).
+void ms_wasm_live_end(ms_wasm_stream* s, uint32_t refinement, uint32_t datagrams);
+// Decodes every refinement that is ready; returns the refinements applied
+// so far, or -1 on an error (ms_wasm_error()).
+int32_t ms_wasm_live_poll(ms_wasm_stream* s);
+// The stream is over: decodes every refinement whose control block arrived.
+int32_t ms_wasm_live_flush(ms_wasm_stream* s);
+// The current mesh (base and refinements applied) dequantized for the
+// accessors above. 0 on success.
+int ms_wasm_live_snapshot(ms_wasm_stream* s);
 
 #ifdef __cplusplus
 }
