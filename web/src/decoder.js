@@ -139,6 +139,11 @@ export class LiveDecoder extends WasmStream {
     this.M._ms_wasm_live_end(this.s, refinement, datagrams);
   }
 
+  // Whatever of `refinement` has not arrived will not.
+  declare(refinement) {
+    this.M._ms_wasm_live_declare(this.s, refinement);
+  }
+
   // Decodes what is ready; the refinements applied so far.
   poll() {
     const n = this.M._ms_wasm_live_poll(this.s);

@@ -1,14 +1,18 @@
 // A progressive .glb read the way the browser side needs it: the JSON, the
 // binary chunk, and per refined primitive (in stream order: meshes in order,
 // each mesh's primitives in file order) its Draco base bytes and attribute
-// ids, its stream blob and its delivery record (docs/progressive-format.md).
+// ids, its stream blob (or only where it lies in the file, for a prefix) and
+// its delivery record (docs/progressive-format.md).
 // Throws an Error naming what is wrong; never reads outside the buffer.
 
 const GLB_MAGIC = 0x46546c67;
 const CHUNK_JSON = 0x4e4f534a;
 const CHUNK_BIN = 0x004e4942;
 
-export function parseGlb(bytes) {
+// `truncated`: the bytes are a prefix of the file (an HTTP range read up to
+// the first stream blob): the binary chunk may end early, and a bufferView
+// past its end is left out of progressivePrimitives' bytes.
+export function parseGlb(bytes, { truncated = false } = {}) {
   if (!(bytes instanceof Uint8Array)) throw new TypeError('parseGlb: expected a Uint8Array');
   if (bytes.byteLength < 20) throw new Error('not a .glb: ' + bytes.byteLength + ' bytes');
   const dv = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
@@ -17,28 +21,75 @@ export function parseGlb(bytes) {
   const length = Math.min(dv.getUint32(8, true), bytes.byteLength);
   let json = null;
   let bin = null;
+  let binOffset = -1;  // the file offset of the binary chunk's data
   for (let off = 12; off + 8 <= length; ) {
     const size = dv.getUint32(off, true);
     const type = dv.getUint32(off + 4, true);
-    if (size > length - off - 8) throw new Error('glb chunk at byte ' + off + ' runs past the end');
-    const chunk = bytes.subarray(off + 8, off + 8 + size);
-    if (type === CHUNK_JSON && json === null) json = JSON.parse(new TextDecoder().decode(chunk));
-    else if (type === CHUNK_BIN && bin === null) bin = chunk;
+    const isBin = type === CHUNK_BIN && bin === null;
+    if (size > length - off - 8 && !(truncated && isBin)) {
+      throw new Error('glb chunk at byte ' + off + ' runs past the end');
+    }
+    const chunk = bytes.subarray(off + 8, Math.min(off + 8 + size, length));
+    if (type === CHUNK_JSON && json === null) {
+      json = JSON.parse(new TextDecoder().decode(chunk));
+    } else if (isBin) {
+      bin = chunk;
+      binOffset = off + 8;
+    }
     off += 8 + size;
   }
   if (json === null) throw new Error('glb has no JSON chunk');
-  return { json, bin };
+  return { json, bin, binOffset };
 }
 
-export function bufferView(glb, index) {
+// The file's first bytes needed to know its layout: the 12-byte header and
+// the JSON chunk; null when `bytes` does not hold them yet, else how many
+// bytes the header and JSON take (the binary chunk's header follows).
+export function glbJsonEnd(bytes) {
+  if (bytes.byteLength < 20) return null;
+  const dv = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  if (dv.getUint32(0, true) !== GLB_MAGIC) throw new Error('not a .glb: bad magic');
+  if (dv.getUint32(16, true) !== CHUNK_JSON) throw new Error('glb: the first chunk is not JSON');
+  const end = 20 + dv.getUint32(12, true);
+  if (end > 1 << 28) throw new Error('glb: a JSON chunk of ' + (end - 20) + ' bytes');
+  return end;
+}
+
+// The file offset where the first stream blob starts (the scene at its base
+// level lies before it), or the file's length when it has none.
+export function firstBlobOffset(json, binOffset, fileLength) {
+  let first = fileLength;
+  for (const mesh of json.meshes || []) {
+    for (const prim of mesh.primitives || []) {
+      const ext = (prim.extensions || {}).MESHSTREAM_progressive;
+      if (!ext) continue;
+      const v = (json.bufferViews || [])[ext.bufferView];
+      if (v) first = Math.min(first, binOffset + (v.byteOffset || 0));
+    }
+  }
+  return first;
+}
+
+// A bufferView's bytes; null when `optional` and the bytes are not (yet)
+// there (a truncated file).
+export function bufferView(glb, index, optional = false) {
   const views = glb.json.bufferViews || [];
   const v = views[index];
   if (!v) throw new Error('bufferView ' + index + ' does not exist');
   const offset = v.byteOffset || 0;
   if (!glb.bin || offset + v.byteLength > glb.bin.byteLength) {
+    if (optional) return null;
     throw new Error('bufferView ' + index + ' lies outside the binary chunk');
   }
   return glb.bin.subarray(offset, offset + v.byteLength);
+}
+
+// A bufferView's place in the file: { start, end } (end exclusive).
+function fileRange(glb, index) {
+  const v = (glb.json.bufferViews || [])[index];
+  if (!v || !Number.isSafeInteger(v.byteLength)) throw new Error('bufferView ' + index + ' does not exist');
+  const start = glb.binOffset + (v.byteOffset || 0);
+  return { start, end: start + v.byteLength };
 }
 
 // Draco attribute ids in the order the native importer reads them.
@@ -65,8 +116,11 @@ export function progressivePrimitives(glb) {
       if (!progressive || !draco) return;
       out.push({
         where: 'meshes[' + m + '].primitives[' + j + ']',
+        mesh: m,
+        primitive: j,
         streamId: out.length,
-        blob: bufferView(glb, progressive.bufferView),
+        blob: bufferView(glb, progressive.bufferView, true),  // null in a truncated file
+        blobRange: fileRange(glb, progressive.bufferView),
         base: bufferView(glb, draco.bufferView),
         ids: dracoIds(draco),
         reliable: (progressive.delivery && progressive.delivery.reliable) || [],

@@ -252,6 +252,10 @@ void ms_wasm_live_end(ms_wasm_stream* s, uint32_t refinement, uint32_t datagrams
   s->live->OnDatagram(end.data(), end.size(), 0);
 }
 
+void ms_wasm_live_declare(ms_wasm_stream* s, uint32_t refinement) {
+  if (s != nullptr && s->live) s->live->Declare(refinement);
+}
+
 int32_t ms_wasm_live_poll(ms_wasm_stream* s) {
   if (s == nullptr) return -1;
   if (!s->has_base || !s->live) return Fail(s, FailedPrecondition("live_poll: no base was set")), -1;

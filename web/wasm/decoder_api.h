@@ -97,6 +97,10 @@ void ms_wasm_live_datagram(ms_wasm_stream* s, const uint8_t* data, uint32_t size
 // The END of `refinement` announcing `datagrams` data datagrams, made here
 // (a file holds no END; a session's RefinementEnd names the count).
 void ms_wasm_live_end(ms_wasm_stream* s, uint32_t refinement, uint32_t datagrams);
+// What of `refinement` has not arrived will not (a viewer's simulated loss,
+// or a session that knows it lost datagrams): it is decoded once its control
+// block is in, predictions filling the rest.
+void ms_wasm_live_declare(ms_wasm_stream* s, uint32_t refinement);
 // Decodes every refinement that is ready; returns the refinements applied
 // so far, or -1 on an error (ms_wasm_error()).
 int32_t ms_wasm_live_poll(ms_wasm_stream* s);

@@ -1,0 +1,173 @@
+// The viewer in a real browser (docs/web.md, "Tests"): Debian's Chromium,
+// headless, driven by puppeteer-core, loads the viewer page from a real
+// server and streams each asset by HTTP ranges and over a live WebSocket
+// session. For every load it checks:
+//   - the status reaches 'complete' without an error;
+//   - every refined stream went through every level in order (1, 2, ...,
+//     its refinement count), with vertex counts that never decrease, and
+//     ended at the native decoder's vertex count;
+//   - the final arrays' hash (PrimitiveHash in wasm) equals the native
+//     decode of the same file (meshstream_wasm_reference, the file fetched
+//     from the same server);
+//   - three.js drew something: the canvas holds pixels other than the
+//     background (a blank or all-background picture fails);
+// and saves a screenshot per load into --shots when given.
+// A browser that cannot start fails the test with the reason.
+//
+// usage: node browser_test.mjs --base http://HOST:PORT/ --reference BIN
+//          [--token T] [--shots DIR] [--modes ranges,live] ASSET...
+import { mkdtempSync, writeFileSync, rmSync, mkdirSync } from 'node:fs';
+import { execFileSync } from 'node:child_process';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { createRequire } from 'node:module';
+
+const require = createRequire(import.meta.url);
+const puppeteer = require(join(process.env.MESHSTREAM_WEB_DIR || new URL('../../web', import.meta.url).pathname,
+                               'node_modules/puppeteer-core'));
+
+const args = process.argv.slice(2);
+function take(flag, fallback) {
+  const i = args.indexOf(flag);
+  if (i < 0) {
+    if (fallback === undefined) throw new Error('missing ' + flag);
+    return fallback;
+  }
+  const v = args[i + 1];
+  args.splice(i, 2);
+  return v;
+}
+const base = take('--base');
+const reference = take('--reference');
+const token = take('--token', '');
+const shots = take('--shots', '');
+const modes = take('--modes', 'ranges,live').split(',');
+const assets = args;
+if (assets.length === 0) throw new Error('no asset given');
+const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+
+// The native decode of the file the server serves.
+async function nativeHashes(asset, work) {
+  const headers = token ? { Authorization: 'Bearer ' + token } : {};
+  const url = new URL(`v1/assets/${encodeURIComponent(asset)}/versions/latest/progressive`, base);
+  const response = await fetch(url, { headers });
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status} ${await response.text()}`);
+  const file = join(work, asset + '.glb');
+  writeFileSync(file, new Uint8Array(await response.arrayBuffer()));
+  const out = execFileSync(reference, [file, '--loss', '0', '--burst', '0', '--seed', '1'], { encoding: 'utf8' });
+  const streams = {};
+  for (const line of out.trim().split('\n')) {
+    const [id, vertices, indices, hash] = line.split(' ');
+    streams[id] = { vertices: Number(vertices), indices: Number(indices), hash };
+  }
+  return streams;
+}
+
+// Pixels of the WebGL canvas that are not the background, as a share.
+function drawnShare() {
+  const c = document.getElementById('view');
+  const copy = document.createElement('canvas');
+  copy.width = c.width;
+  copy.height = c.height;
+  const g = copy.getContext('2d');
+  g.drawImage(c, 0, 0);
+  const px = g.getImageData(0, 0, copy.width, copy.height).data;
+  let other = 0;
+  for (let i = 0; i < px.length; i += 4) {
+    if (Math.abs(px[i] - 0x20) + Math.abs(px[i + 1] - 0x24) + Math.abs(px[i + 2] - 0x28) > 24) ++other;
+  }
+  return other / (px.length / 4);
+}
+
+async function main() {
+  const work = mkdtempSync(join(tmpdir(), 'meshstream-browser-'));
+  let browser;
+  try {
+    browser = await puppeteer.launch({
+      executablePath: chromium,
+      headless: true,
+      args: ['--no-sandbox', '--disable-dev-shm-usage', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+             '--ignore-gpu-blocklist', '--window-size=800,600'],
+      defaultViewport: { width: 800, height: 600 },
+    });
+  } catch (e) {
+    console.error('browser_test: Chromium (' + chromium + ') did not start: ' + e.message +
+                  '\n(scripts/install-deps installs the chromium package)');
+    return 1;
+  }
+  let failures = 0;
+  try {
+    if (shots) mkdirSync(shots, { recursive: true });
+    for (const asset of assets) {
+      const native = await nativeHashes(asset, work);
+      for (const mode of modes) {
+        const page = await browser.newPage();
+        const logs = [];
+        page.on('console', (m) => logs.push(m.type() + ': ' + m.text()));
+        page.on('pageerror', (e) => logs.push('pageerror: ' + e.message));
+        const fail = (why) => {
+          console.error(`${asset} (${mode}): ${why}`);
+          if (logs.length) console.error('  page log:\n    ' + logs.slice(-20).join('\n    '));
+          ++failures;
+        };
+        try {
+          const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${mode}&tint=0&auto=1`, base);
+          await page.goto(url.href, { waitUntil: 'load' });
+          if (token) {
+            // The token goes through the form, as a user would type it.
+            await page.evaluate((t) => { document.getElementById('token').value = t; }, token);
+            await page.evaluate(() => document.getElementById('load').click());
+          }
+          await page.waitForFunction(
+            () => ['complete', 'error'].includes(window.meshstreamViewer.status), { timeout: 120000, polling: 50 });
+          // Two frames after the last level, so the canvas shows it.
+          await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+          const state = await page.evaluate(() => JSON.parse(JSON.stringify(window.meshstreamViewer)));
+          if (state.status !== 'complete') {
+            fail('status ' + state.status + (state.error ? ': ' + state.error : ''));
+            continue;
+          }
+          const ids = Object.keys(native);
+          const got = Object.keys(state.streams);
+          if (got.length !== ids.length) fail(`${got.length} streams refined, the file has ${ids.length}`);
+          for (const id of ids) {
+            const s = state.streams[id];
+            if (!s) {
+              fail('stream ' + id + ' never refined');
+              continue;
+            }
+            const levels = s.levels.map((l) => l.level);
+            const inOrder = levels.every((l, k) => k === 0 || l > levels[k - 1]);
+            const growing = s.levels.every((l, k) => k === 0 || l.vertices >= s.levels[k - 1].vertices);
+            if (!inOrder || !growing) fail(`stream ${id}: levels ${JSON.stringify(s.levels)}`);
+            const last = s.levels[s.levels.length - 1];
+            if (last.vertices !== native[id].vertices || last.faces * 3 !== native[id].indices) {
+              fail(`stream ${id}: ${last.vertices} vertices, ${last.faces} faces; native ${native[id].vertices}, ${native[id].indices / 3}`);
+            }
+            if (s.hash !== native[id].hash) fail(`stream ${id}: hash ${s.hash}, native ${native[id].hash}`);
+          }
+          const drawn = await page.evaluate(drawnShare);
+          if (!(drawn > 0.005)) fail(`the canvas is blank (${(drawn * 100).toFixed(2)} % drawn)`);
+          if (shots) await page.screenshot({ path: join(shots, `${asset}-${mode}.png`) });
+          const levelCount = Object.values(state.streams).reduce((a, s) => a + s.levels.length, 0);
+          console.log(`${asset} (${mode}): ${got.length} streams, ${levelCount} levels, base ${state.timings.base.toFixed(0)} ms, ` +
+                      `full ${state.timings.full.toFixed(0)} ms, ${state.bytes} bytes, ${(drawn * 100).toFixed(1)} % drawn`);
+        } catch (e) {
+          fail(e.message);
+        } finally {
+          await page.close();
+        }
+      }
+    }
+  } finally {
+    await browser.close();
+    rmSync(work, { recursive: true, force: true });
+  }
+  console.log(failures === 0 ? 'browser_test: every load passed' : `browser_test: ${failures} failures`);
+  return failures === 0 ? 0 : 1;
+}
+
+main().then((code) => process.exit(code), (e) => {
+  console.error('browser_test: ' + (e && e.stack ? e.stack : e));
+  process.exit(1);
+});

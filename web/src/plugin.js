@@ -1,0 +1,236 @@
+// three.js integration (docs/web.md): a GLTFLoader plugin that refines the
+// progressive primitives of a .glb in place.
+//
+//   import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+//   import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
+//   import { MeshstreamProgressive } from '@meshstream/web/src/plugin.js';
+//
+//   const progressive = new MeshstreamProgressive({ headers, lod, session });
+//   const loader = new GLTFLoader().setDRACOLoader(new DRACOLoader().setDecoderPath(...));
+//   loader.register((parser) => progressive.plugin(parser));
+//   const gltf = await progressive.load(loader, url);  // the base, from one or two ranged GETs
+//   scene.add(gltf.scene);
+//   progressive.addEventListener('level', (e) => ...);  // e.streamId, e.level, e.levels, e.vertices, e.faces
+//   progressive.addEventListener('complete', (e) => ...);
+//   progressive.dispose();  // stops the download or session; frees the worker's decoders
+//
+// The base is what GLTFLoader (with DRACOLoader) shows of the file's prefix;
+// the worker decodes the refinements as their bytes arrive (worker.js) and
+// posts each level. The first level replaces each progressive geometry's
+// attributes and index by ones sized for the finest level (its vertex count
+// from the stream header; its index count bounded by six per split); every
+// later level is copied into them, with `needsUpdate` and the draw range: no
+// new objects per level. A geometry several meshes share is updated once.
+// `loader.loadAsync(url)` of the whole file works too: the blobs are then
+// read from memory. Events: 'base', 'level', 'complete', 'error'.
+// `tintPredicted`: vertices the decoder predicted (a simulated `loss`, or a
+// lossy transport) are shown orange through vertex colours.
+
+import { BufferAttribute, EventDispatcher } from 'three';
+import { DecoderWorker, fetchPrefix, jobSpec } from './client.js';
+
+const UV_NAMES = ['uv', 'uv1', 'uv2', 'uv3'];
+
+export class MeshstreamProgressive extends EventDispatcher {
+  constructor(options = {}) {
+    super();
+    this.options = options;
+    this.worker = options.worker || null;
+    this.ownWorker = !options.worker;
+    this.jobs = [];
+    this.pending = null;  // the prefix load() fetched, for the next afterRoot
+    this.geometries = new Map();  // streamId -> { geometry, meshes, capacity }
+    this.stats = { levels: 0, bytes: 0 };  // bytes: the prefix's and the blobs' (or the session's)
+    this.prefixBytes = 0;
+    this.timings = { start: performance.now(), base: null, complete: null };
+    this.complete = new Promise((resolve, reject) => {
+      this.resolveComplete = resolve;
+      this.rejectComplete = reject;
+    });
+    this.complete.catch(() => {});  // reported through 'error' as well
+  }
+
+  // For GLTFLoader.register.
+  plugin(parser) {
+    return { name: 'MESHSTREAM_progressive', afterRoot: (result) => this.afterRoot(parser, result) };
+  }
+
+  // Reads the file's prefix by HTTP ranges and parses it with `loader` (on
+  // which plugin() is registered): the scene at its base level.
+  async load(loader, url) {
+    this.timings.start = performance.now();
+    const prefix = await fetchPrefix(url, { headers: this.options.headers });
+    this.pending = { url, prefix };
+    this.prefixBytes = prefix.bytes.byteLength;
+    const buffer = prefix.bytes.buffer.slice(prefix.bytes.byteOffset, prefix.bytes.byteOffset + prefix.bytes.byteLength);
+    const base = new URL('.', new URL(url, self.location.href)).href;
+    const gltf = await loader.parseAsync(buffer, base);
+    this.timings.base = performance.now();
+    this.dispatchEvent({ type: 'base', gltf });
+    return gltf;
+  }
+
+  async afterRoot(parser, result) {
+    const used = parser.json.extensionsUsed || [];
+    if (!used.includes('MESHSTREAM_progressive')) return;
+    const pending = this.pending;
+    this.pending = null;
+    const body = parser.extensions.KHR_binary_glTF ? parser.extensions.KHR_binary_glTF.body : null;
+    const glb = {
+      json: parser.json,
+      bin: body ? new Uint8Array(body) : null,
+      binOffset: pending ? pending.prefix.glb.binOffset : -1,
+    };
+    const { prims, spec } = jobSpec(glb, Object.assign({}, this.options, { url: pending ? pending.url : null }));
+    if (prims.length === 0) return;
+    if (spec.source.kind === 'ranges' && !pending) throw new Error('MeshstreamProgressive: the blobs are not in memory');
+    // Each progressive primitive's geometry, through GLTFLoader's associations.
+    const byPlace = new Map(prims.map((p) => [p.mesh + '/' + p.primitive, p.streamId]));
+    for (const root of result.scenes || [result.scene]) {
+      root.traverse((object) => {
+        if (!object.isMesh) return;
+        const a = parser.associations.get(object);
+        if (!a || a.meshes === undefined) return;
+        const streamId = byPlace.get(a.meshes + '/' + (a.primitives || 0));
+        if (streamId === undefined) return;
+        const entry = this.geometries.get(streamId) || { geometry: object.geometry, meshes: [], capacity: null };
+        entry.meshes.push(object);
+        this.geometries.set(streamId, entry);
+      });
+    }
+    if (!this.worker) this.worker = new DecoderWorker(this.options);
+    await this.worker.ready;
+    const remaining = new Set(prims.map((p) => p.streamId));
+    this.jobs.push(this.worker.open(spec, (msg) => this.onMessage(msg, remaining)));
+  }
+
+  onMessage(msg, remaining) {
+    if (msg.type === 'level') {
+      const entry = this.geometries.get(msg.streamId);
+      if (entry) this.applyLevel(entry, msg);
+      this.stats.levels += 1;
+      this.stats.bytes = this.prefixBytes + msg.bytes;
+      this.dispatchEvent({ type: 'level', streamId: msg.streamId, level: msg.level, levels: msg.levels,
+                           vertices: msg.mesh.vertices, faces: msg.mesh.indices.length / 3,
+                           predictedVertices: msg.mesh.predictedVertices, hash: msg.hash });
+    } else if (msg.type === 'complete') {
+      for (const entry of this.geometries.values()) this.updateBounds(entry);
+      this.timings.complete = performance.now();
+      Object.assign(this.stats, msg.stats, { bytes: this.prefixBytes + msg.stats.bytes });
+      this.dispatchEvent({ type: 'complete', stats: this.stats, timings: this.timings });
+      this.resolveComplete(this.stats);
+    } else if (msg.type === 'error') {
+      const error = new Error(msg.message);
+      this.dispatchEvent({ type: 'error', error });
+      this.rejectComplete(error);
+    }
+  }
+
+  // Attributes sized for the finest level, made once per geometry.
+  allocate(entry, msg) {
+    const g = entry.geometry;
+    const cap = msg.capacity;
+    const m = msg.mesh;
+    const make = (name, itemSize) => g.setAttribute(name, new BufferAttribute(new Float32Array(cap.vertices * itemSize), itemSize));
+    make('position', 3);
+    if (m.normals) make('normal', 3);
+    m.texcoords.forEach((t, k) => { if (k < UV_NAMES.length) make(UV_NAMES[k], 2); });
+    const colorSize = g.getAttribute('color') ? g.getAttribute('color').itemSize : 4;
+    if (m.colors || this.options.tintPredicted) make('color', m.colors ? colorSize : 3);
+    g.setIndex(new BufferAttribute(new Uint32Array(cap.indices), 1));
+    if (this.options.tintPredicted) for (const mesh of entry.meshes) {
+      for (const mat of [].concat(mesh.material)) {
+        mat.vertexColors = true;
+        mat.needsUpdate = true;
+      }
+    }
+    entry.capacity = cap;
+  }
+
+  applyLevel(entry, msg) {
+    const m = msg.mesh;
+    if (entry.capacity === null || m.vertices > entry.capacity.vertices || m.indices.length > entry.capacity.indices) {
+      // The capacity is the header's: a level beyond it is a decoder bug, met
+      // with a larger allocation rather than a broken picture.
+      if (entry.capacity !== null) {
+        msg.capacity = { vertices: Math.max(m.vertices, entry.capacity.vertices), indices: Math.max(m.indices.length, entry.capacity.indices) };
+      }
+      this.allocate(entry, msg);
+    }
+    const g = entry.geometry;
+    const put = (name, data, from, to) => {
+      const attr = g.getAttribute(name);
+      if (!attr || !data) return;
+      if (from === to) {
+        attr.array.set(data);
+      } else {
+        for (let v = 0; v < m.vertices; ++v) for (let c = 0; c < to; ++c) attr.array[v * to + c] = data[v * from + c];
+      }
+      attr.needsUpdate = true;
+    };
+    put('position', m.positions, 3, 3);
+    put('normal', m.normals, 3, 3);
+    m.texcoords.forEach((t, k) => { if (k < UV_NAMES.length) put(UV_NAMES[k], t, 2, 2); });
+    if (m.colors) put('color', m.colors, 4, g.getAttribute('color').itemSize);
+    if (this.options.tintPredicted) this.tint(g, m);
+    g.index.array.set(m.indices);
+    g.index.needsUpdate = true;
+    g.setDrawRange(0, m.indices.length);
+    if (msg.level === 1) this.updateBounds(entry, m.vertices);
+    entry.vertices = m.vertices;
+  }
+
+  // Predicted vertices orange, the others as they are (white without colours).
+  tint(g, m) {
+    const color = g.getAttribute('color');
+    const k = color.itemSize;
+    for (let v = 0; v < m.vertices; ++v) {
+      const exact = !m.reliable || m.reliable[v] !== 0;
+      if (!m.colors) {
+        color.array[v * k] = 1;
+        color.array[v * k + 1] = exact ? 1 : 0.45;
+        color.array[v * k + 2] = exact ? 1 : 0.1;
+      } else if (!exact) {
+        color.array[v * k + 1] *= 0.45;
+        color.array[v * k + 2] *= 0.1;
+      }
+    }
+    color.needsUpdate = true;
+  }
+
+  // The bounds of the vertices in use (the arrays are larger).
+  updateBounds(entry, vertices = entry.vertices) {
+    const g = entry.geometry;
+    const pos = g.getAttribute('position');
+    if (!pos || !vertices) return;
+    if (!g.boundingBox) g.computeBoundingBox();
+    const box = g.boundingBox.makeEmpty();
+    const p = pos.array;
+    for (let v = 0; v < vertices; ++v) {
+      box.expandByPoint({ x: p[3 * v], y: p[3 * v + 1], z: p[3 * v + 2] });
+    }
+    if (!g.boundingSphere) g.computeBoundingSphere();
+    box.getCenter(g.boundingSphere.center);
+    let r2 = 0;
+    const c = g.boundingSphere.center;
+    for (let v = 0; v < vertices; ++v) {
+      const dx = p[3 * v] - c.x, dy = p[3 * v + 1] - c.y, dz = p[3 * v + 2] - c.z;
+      r2 = Math.max(r2, dx * dx + dy * dy + dz * dz);
+    }
+    g.boundingSphere.radius = Math.sqrt(r2);
+  }
+
+  // Stops every download or session and frees the worker's decoders (and
+  // the worker, when this object made it). With `geometries`, disposes the
+  // refined geometries too (their GPU buffers).
+  dispose({ geometries = false } = {}) {
+    if (this.worker) {
+      for (const job of this.jobs) this.worker.close(job);
+      if (this.ownWorker) this.worker.terminate();
+    }
+    this.worker = null;
+    this.jobs = [];
+    if (geometries) for (const entry of this.geometries.values()) entry.geometry.dispose();
+    this.geometries.clear();
+  }
+}

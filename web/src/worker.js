@@ -1,0 +1,269 @@
+// The decoding side of the browser (docs/web.md): a module Web Worker that
+// holds the wasm decoder (codec/ compiled by emscripten) and draco3d, so
+// that no decoding runs on the page's thread. client.js starts it and talks
+// to it with messages:
+//
+//   page -> worker
+//     { type: 'open', job, streams, source, lod, loss, seed }
+//         streams: per refined primitive { streamId, base (Draco bytes), ids }
+//         source:  { kind: 'ranges', url, headers, blobs: [{ streamId, start, end }] }
+//                    (file offsets of each stream blob, end exclusive)
+//                  { kind: 'bytes', blobs: [{ streamId, bytes }] }  (the file already in memory)
+//                  { kind: 'session', ... }                         (session.js)
+//         loss:    a share of the datagrams to drop, to watch predictions (0: none)
+//     { type: 'close', job }
+//   worker -> page
+//     { type: 'ready' }                                  the modules are loaded
+//     { type: 'base', job, streamId, mesh }              the base as draco3d decoded it
+//     { type: 'level', job, streamId, level, levels, mesh, capacity, bytes }
+//     { type: 'complete', job, stats }
+//     { type: 'error', job, message }
+//   mesh: { vertices, positions, normals, texcoords[], colors, indices,
+//           reliable, predictedVertices } (transferred, not copied);
+//   capacity: { vertices, indices } of the finest level (for preallocation).
+//
+// The glue scripts of the two wasm modules are classic scripts, loaded into
+// this module worker by fetch and an indirect eval (a module worker has no
+// importScripts). Their URLs come from the page (client.js) or default to the
+// bundle's layout beside this file.
+
+import { decodeDracoBase } from './draco_base.js';
+import { LiveDecoder } from './decoder.js';
+import { BlobReader } from './blob_reader.js';
+import { openSessionSource } from './session.js';
+
+let modules = null;  // { M, D } once loaded
+const jobs = new Map();  // job -> Job
+
+async function loadClassicScript(url) {
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(url + ': HTTP ' + response.status);
+  const text = await response.text();
+  (0, eval)(text + '\n//# sourceURL=' + url);
+}
+
+async function loadModules(urls) {
+  const here = (path) => new URL(path, import.meta.url).href;
+  const decoderUrl = urls.decoder || here('../wasm/meshstream_decoder.cjs');
+  const dracoUrl = urls.draco || here('../vendor/draco3d/draco_decoder_nodejs.js');
+  const dracoWasmUrl = urls.dracoWasm || here('../vendor/draco3d/draco_decoder.wasm');
+  await loadClassicScript(decoderUrl);
+  await loadClassicScript(dracoUrl);
+  const wasmResponse = await fetch(dracoWasmUrl);
+  if (!wasmResponse.ok) throw new Error(dracoWasmUrl + ': HTTP ' + wasmResponse.status);
+  const wasmBinary = await wasmResponse.arrayBuffer();
+  const [M, D] = await Promise.all([
+    self.createMeshstreamDecoder(),
+    self.DracoDecoderModule({ wasmBinary }),
+  ]);
+  return { M, D };
+}
+
+function transferables(mesh) {
+  const out = [mesh.positions.buffer, mesh.indices.buffer];
+  if (mesh.normals) out.push(mesh.normals.buffer);
+  if (mesh.colors) out.push(mesh.colors.buffer);
+  if (mesh.reliable) out.push(mesh.reliable.buffer);
+  for (const t of mesh.texcoords) out.push(t.buffer);
+  return out;
+}
+
+// A small deterministic generator for the viewer's simulated loss.
+function lossGenerator(loss, seed) {
+  let x = (seed >>> 0) || 1;
+  return () => {
+    x ^= x << 13;
+    x >>>= 0;
+    x ^= x >>> 17;
+    x ^= x << 5;
+    x >>>= 0;
+    return x / 4294967296 < loss;
+  };
+}
+
+// One stream's decoding: the base, then the stream's pieces in order.
+class StreamJob {
+  constructor(job, spec, base, lod, drop) {
+    this.job = job;
+    this.streamId = spec.streamId;
+    this.baseBytes = spec.base;  // the Draco bytes (a session's must equal them)
+    this.base = base;
+    this.lod = lod;
+    this.drop = drop;
+    this.live = null;
+    this.applied = 0;
+    this.posted = false;
+    this.dropped = new Set();  // refinements with a dropped datagram
+    this.reader = new BlobReader();
+  }
+
+  // A piece of the stream (BlobReader's events, or a session's messages).
+  take(e) {
+    if (this.job.closed) return;
+    if (e.kind === 'header') {
+      this.live = new LiveDecoder(modules.M, e.bytes, this.streamId, this.lod);
+      this.live.setBase(this.base);
+      this.levels = this.lod < 0 ? this.live.refinements : Math.min(this.lod, this.live.refinements);
+      return;
+    }
+    if (this.live === null) throw new Error('stream ' + this.streamId + ': data before its header');
+    if (e.kind === 'control') {
+      if (e.refinement < this.levels) this.live.control(e.bytes);
+    } else if (e.kind === 'datagram') {
+      if (this.drop && this.drop()) {
+        this.dropped.add(e.refinement);
+        this.job.stats.dropped += 1;
+        return;
+      }
+      this.live.datagram(e.bytes);
+    } else if (e.kind === 'end') {
+      this.live.end(e.refinement, e.datagrams);
+      if (this.dropped.has(e.refinement)) this.live.declare(e.refinement);
+      this.advance(this.live.poll());
+    }
+  }
+
+  // Posts each level newly applied (a level per refinement; several that
+  // became ready together post the last).
+  advance(applied, always = false) {
+    if (applied <= this.applied && !always) return;
+    this.applied = applied;
+    this.posted = true;
+    this.live.snapshot();
+    const mesh = this.live.arrays();
+    this.job.stats.predictedVertices[this.streamId] = mesh.predictedVertices;
+    postMessage({
+      type: 'level', job: this.job.id, streamId: this.streamId, level: applied, levels: this.levels, mesh,
+      hash: this.live.hash(),
+      capacity: { vertices: this.live.finalVertices, indices: this.base.indices.length + 6 * this.live.splits },
+      bytes: this.job.stats.bytes,
+    }, transferables(mesh));
+  }
+
+  finish() {
+    if (this.live === null) throw new Error('stream ' + this.streamId + ': no header arrived');
+    // A stream without refinements posts its base as its only level.
+    this.advance(this.live.flush(), !this.posted);
+    if (this.applied < this.levels) {
+      throw new Error('stream ' + this.streamId + ': ' + this.applied + ' of ' + this.levels + ' refinements arrived');
+    }
+  }
+
+  close() {
+    if (this.live) this.live.close();
+    this.live = null;
+  }
+}
+
+class Job {
+  constructor(id) {
+    this.id = id;
+    this.closed = false;
+    this.abort = new AbortController();
+    this.streams = new Map();
+    this.stats = { bytes: 0, dropped: 0, predictedVertices: {} };
+  }
+
+  close() {
+    this.closed = true;
+    this.abort.abort();
+    for (const s of this.streams.values()) s.close();
+  }
+}
+
+// The blobs' bytes from one ranged GET (they lie together at the end of the
+// file, in stream order), dispatched to each stream's reader by offset.
+async function readRanges(job, source) {
+  const blobs = [...source.blobs].sort((a, b) => a.start - b.start);
+  const first = blobs[0].start, last = blobs[blobs.length - 1].end;
+  const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${first}-${last - 1}` });
+  const response = await fetch(source.url, { headers, signal: job.abort.signal });
+  if (response.status !== 206 && response.status !== 200) {
+    let detail = '';
+    try { detail = (await response.json()).error || ''; } catch (e) { /* not JSON */ }
+    throw new Error(`${source.url}: HTTP ${response.status}${detail ? ' (' + detail + ')' : ''}`);
+  }
+  // A server that ignores ranges sends the whole file from byte 0.
+  let at = response.status === 206 ? first : 0;
+  const body = response.body.getReader();
+  for (;;) {
+    const { done, value } = await body.read();
+    if (done) break;
+    job.stats.bytes += value.byteLength;
+    const chunkEnd = at + value.byteLength;
+    for (const b of blobs) {
+      const lo = Math.max(at, b.start), hi = Math.min(chunkEnd, b.end);
+      if (lo >= hi) continue;
+      const s = job.streams.get(b.streamId);
+      for (const e of s.reader.push(value.subarray(lo - at, hi - at))) s.take(e);
+    }
+    at = chunkEnd;
+    if (at >= last) break;
+  }
+  if (at < last) throw new Error(`${source.url}: the response ended at byte ${at} of ${last}`);
+}
+
+function readBytes(job, source) {
+  for (const b of source.blobs) {
+    const s = job.streams.get(b.streamId);
+    job.stats.bytes += b.bytes.byteLength;
+    for (const e of s.reader.push(b.bytes)) s.take(e);
+  }
+}
+
+async function open(msg) {
+  const job = new Job(msg.job);
+  jobs.set(job.id, job);
+  const started = performance.now();
+  try {
+    if (modules === null) throw new Error('the decoder modules are not loaded');
+    const lod = msg.lod === undefined ? -1 : msg.lod;
+    // The simulated loss applies to a file's datagrams (a session's transport decides its own).
+    const drop = msg.loss > 0 && msg.source.kind !== 'session' ? lossGenerator(msg.loss, msg.seed || 1) : null;
+    for (const spec of msg.streams) {
+      const base = decodeDracoBase(modules.D, spec.base, spec.ids);
+      job.streams.set(spec.streamId, new StreamJob(job, spec, base, lod, drop));
+      const copy = {
+        vertices: base.vertices, positions: base.positions.slice(), normals: base.normals && base.normals.slice(),
+        texcoords: base.texcoords.map((t) => t.slice()), colors: base.colors && base.colors.slice(),
+        indices: base.indices.slice(), reliable: null, predictedVertices: 0,
+      };
+      postMessage({ type: 'base', job: job.id, streamId: spec.streamId, mesh: copy }, transferables(copy));
+    }
+    if (msg.source.kind === 'ranges') {
+      await readRanges(job, msg.source);
+    } else if (msg.source.kind === 'bytes') {
+      readBytes(job, msg.source);
+    } else if (msg.source.kind === 'session') {
+      await openSessionSource(job, msg.source, (streamId, e) => job.streams.get(streamId).take(e));
+    } else {
+      throw new Error('unknown source ' + msg.source.kind);
+    }
+    if (job.closed) return;
+    for (const s of job.streams.values()) s.finish();
+    job.stats.workerMs = performance.now() - started;
+    postMessage({ type: 'complete', job: job.id, stats: job.stats });
+  } catch (e) {
+    if (!job.closed) postMessage({ type: 'error', job: job.id, message: String(e && e.message ? e.message : e) });
+  } finally {
+    job.close();
+    jobs.delete(job.id);
+  }
+}
+
+self.onmessage = (event) => {
+  const msg = event.data;
+  if (msg.type === 'init') {
+    loadModules(msg.urls || {}).then(
+      (m) => {
+        modules = m;
+        postMessage({ type: 'ready' });
+      },
+      (e) => postMessage({ type: 'error', job: null, message: 'loading the decoder: ' + (e.message || e) }));
+  } else if (msg.type === 'open') {
+    open(msg);
+  } else if (msg.type === 'close') {
+    const job = jobs.get(msg.job);
+    if (job) job.close();
+  }
+};
