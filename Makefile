@@ -39,10 +39,13 @@ test: build wasm test-asan test-tsan
 # codec/ and web/wasm's C ABI compiled by Debian's emscripten 3.1.6 into
 # $(WASM_BUILD)/meshstream_decoder.cjs. NODE_PATH: NodeSource's node does not
 # search Debian's JS modules, which emscripten's link step needs (docs/web.md).
+# Then the viewer's bundle in $(BUILD)/web, which `meshstream serve --http-listen`
+# serves at / (its default --http-root: beside the binary's folder).
 wasm: deps
 	@[ -f $(WASM_BUILD)/build.ninja ] || NODE_PATH=/usr/share/nodejs emcmake cmake -S web/wasm -B $(WASM_BUILD) \
 	  -G Ninja -DCMAKE_BUILD_TYPE=Release
 	NODE_PATH=/usr/share/nodejs cmake --build $(WASM_BUILD) -j $(JOBS)
+	web/bundle.sh $(WASM_BUILD)/meshstream_decoder.cjs $(BUILD)/web
 
 # The importers take hostile input: run their tests once under ASan+UBSan.
 test-asan: deps
@@ -62,7 +65,7 @@ test-tsan: deps
 	cd $(TSAN_BUILD) && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
 	  ctest --output-on-failure -j $(JOBS) -L parallel_race
 
-demo: build
+demo: build wasm
 	@scripts/demo
 
 # Benchmarks (never part of `make test`): meshstream against Draco in one binary, gltfpack

@@ -108,6 +108,11 @@ export class DecoderWorker {
     return job;
   }
 
+  // The page took the stream's last level (worker.js sends the next then).
+  ack(job, streamId) {
+    if (this.jobs.has(job)) this.worker.postMessage({ type: 'ack', job, streamId });
+  }
+
   close(job) {
     if (!this.jobs.has(job)) return;
     this.jobs.delete(job);
@@ -184,6 +189,7 @@ export class MeshstreamClient {
         prim.level = msg.level;
         prim.levels = msg.levels;
         client.emit('level', msg);
+        client.worker.ack(msg.job, msg.streamId);
       } else if (msg.type === 'complete') {
         client.timings.complete = performance.now();
         client.emit('complete', msg.stats);

@@ -11,6 +11,7 @@
 //                  { kind: 'bytes', blobs: [{ streamId, bytes }] }  (the file already in memory)
 //                  { kind: 'session', ... }                         (session.js)
 //         loss:    a share of the datagrams to drop, to watch predictions (0: none)
+//     { type: 'ack', job, streamId }   the page took the stream's last level: the next may go
 //     { type: 'close', job }
 //   worker -> page
 //     { type: 'ready' }                                  the modules are loaded
@@ -21,6 +22,11 @@
 //   mesh: { vertices, positions, normals, texcoords[], colors, indices,
 //           reliable, predictedVertices } (transferred, not copied);
 //   capacity: { vertices, indices } of the finest level (for preallocation).
+// At most one level per stream is on its way to the page: levels decoded
+// while the page has not acknowledged the last one are not posted, only the
+// newest when the acknowledgement comes (a page that draws slowly sees
+// fewer levels, never a backlog, and the finest one as soon as it can).
+// 'complete' follows the last level of every stream.
 //
 // The glue scripts of the two wasm modules are classic scripts, loaded into
 // this module worker by fetch and an indirect eval (a module worker has no
@@ -91,7 +97,9 @@ class StreamJob {
     this.lod = lod;
     this.drop = drop;
     this.live = null;
-    this.applied = 0;
+    this.applied = 0;     // refinements decoded
+    this.shown = -1;      // the level last posted
+    this.inFlight = false;
     this.posted = false;
     this.dropped = new Set();  // refinements with a dropped datagram
     this.reader = new BlobReader();
@@ -123,30 +131,53 @@ class StreamJob {
     }
   }
 
-  // Posts each level newly applied (a level per refinement; several that
-  // became ready together post the last).
+  // Records the refinements applied and posts the newest level unless one
+  // is on its way (a level per refinement; several that became ready
+  // together post the last).
   advance(applied, always = false) {
     if (applied <= this.applied && !always) return;
     this.applied = applied;
+    this.post(always);
+  }
+
+  // The newest level, unless the page has not taken the last one yet.
+  post(always = false) {
+    if (this.inFlight || this.live === null || (this.shown === this.applied && !always)) return;
+    this.shown = this.applied;
+    this.inFlight = true;
     this.posted = true;
     this.live.snapshot();
     const mesh = this.live.arrays();
     this.job.stats.predictedVertices[this.streamId] = mesh.predictedVertices;
     postMessage({
-      type: 'level', job: this.job.id, streamId: this.streamId, level: applied, levels: this.levels, mesh,
+      type: 'level', job: this.job.id, streamId: this.streamId, level: this.applied, levels: this.levels, mesh,
       hash: this.live.hash(),
       capacity: { vertices: this.live.finalVertices, indices: this.base.indices.length + 6 * this.live.splits },
       bytes: this.job.stats.bytes,
     }, transferables(mesh));
   }
 
+  // The page took the last level.
+  ack() {
+    this.inFlight = false;
+    this.post();
+    this.job.maybeComplete();
+  }
+
+  // Every piece is in: the last refinements decoded (and a stream without
+  // refinements posts its base as its only level).
   finish() {
     if (this.live === null) throw new Error('stream ' + this.streamId + ': no header arrived');
-    // A stream without refinements posts its base as its only level.
     this.advance(this.live.flush(), !this.posted);
     if (this.applied < this.levels) {
       throw new Error('stream ' + this.streamId + ': ' + this.applied + ' of ' + this.levels + ' refinements arrived');
     }
+    this.finished = true;
+  }
+
+  // Its last level posted and taken.
+  done() {
+    return this.finished && !this.inFlight && this.shown === this.applied;
   }
 
   close() {
@@ -168,6 +199,17 @@ class Job {
     this.closed = true;
     this.abort.abort();
     for (const s of this.streams.values()) s.close();
+  }
+
+  // 'complete' once every stream is finished and its last level taken.
+  maybeComplete() {
+    if (!this.finishing || this.closed || this.completed) return;
+    for (const s of this.streams.values()) if (!s.done()) return;
+    this.completed = true;
+    this.stats.workerMs = performance.now() - this.started;
+    postMessage({ type: 'complete', job: this.id, stats: this.stats });
+    this.close();
+    jobs.delete(this.id);
   }
 }
 
@@ -214,7 +256,7 @@ function readBytes(job, source) {
 async function open(msg) {
   const job = new Job(msg.job);
   jobs.set(job.id, job);
-  const started = performance.now();
+  job.started = performance.now();
   try {
     if (modules === null) throw new Error('the decoder modules are not loaded');
     const lod = msg.lod === undefined ? -1 : msg.lod;
@@ -241,11 +283,10 @@ async function open(msg) {
     }
     if (job.closed) return;
     for (const s of job.streams.values()) s.finish();
-    job.stats.workerMs = performance.now() - started;
-    postMessage({ type: 'complete', job: job.id, stats: job.stats });
+    job.finishing = true;
+    job.maybeComplete();  // or at the last acknowledgement
   } catch (e) {
     if (!job.closed) postMessage({ type: 'error', job: job.id, message: String(e && e.message ? e.message : e) });
-  } finally {
     job.close();
     jobs.delete(job.id);
   }
@@ -262,6 +303,18 @@ self.onmessage = (event) => {
       (e) => postMessage({ type: 'error', job: null, message: 'loading the decoder: ' + (e.message || e) }));
   } else if (msg.type === 'open') {
     open(msg);
+  } else if (msg.type === 'ack') {
+    const job = jobs.get(msg.job);
+    const stream = job && !job.closed ? job.streams.get(msg.streamId) : null;
+    if (stream) {
+      try {
+        stream.ack();
+      } catch (e) {
+        postMessage({ type: 'error', job: job.id, message: String(e && e.message ? e.message : e) });
+        job.close();
+        jobs.delete(job.id);
+      }
+    }
   } else if (msg.type === 'close') {
     const job = jobs.get(msg.job);
     if (job) job.close();

@@ -4,10 +4,14 @@
 // level, bytes, time to base and to full quality, with predicted vertices
 // tinted. Query parameters preset the form and `auto=1` loads at once (the
 // browser tests and `make demo` drive the page that way):
-//   ?asset=NAME&version=N|latest&mode=ranges|live&lod=K&loss=0.1&tint=0|1&auto=1
-// window.meshstreamViewer holds the state a test reads: status ('idle',
-// 'loading', 'base', 'complete', 'error'), per stream its levels and final
-// hash, the timings (ms from the click) and the bytes.
+//   ?asset=NAME&version=N|latest&mode=ranges|live|draco&lod=K&loss=0.1&tint=0|1&auto=1
+// Mode `draco` loads the Draco .glb export with three.js's own GLTFLoader and
+// DRACOLoader (no meshstream code): the reference `make bench-web` measures.
+// window.meshstreamViewer holds the state a test reads: ready (the decoders
+// are loaded), status ('idle', 'loading', 'base', 'complete', 'error'), per
+// stream its levels and final hash, the timings (ms from the click: base and
+// full when the events came, baseDrawn and fullDrawn when the next frame
+// showed them) and the bytes.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -18,7 +22,7 @@ import { DecoderWorker } from './src/client.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
-const state = { status: 'idle', streams: {}, timings: {}, bytes: 0, error: null, frames: 0 };
+const state = { ready: false, status: 'idle', streams: {}, timings: {}, bytes: 0, error: null, frames: 0 };
 window.meshstreamViewer = state;
 
 const canvas = $('view');
@@ -34,6 +38,8 @@ const camera = new THREE.PerspectiveCamera(45, 1, 0.01, 1000);
 camera.position.set(0, 0, 3);
 const controls = new OrbitControls(camera, canvas);
 let dirty = true;
+let started = 0;
+const drawnMarks = new Set();  // 'baseDrawn', 'fullDrawn': stamped by the next frame
 controls.addEventListener('change', () => { dirty = true; });
 
 function resize() {
@@ -51,6 +57,8 @@ function frame() {
     renderer.render(scene, camera);
     state.frames += 1;
     dirty = false;
+    for (const mark of drawnMarks) state.timings[mark] = performance.now() - started;
+    drawnMarks.clear();
   }
   requestAnimationFrame(frame);
 }
@@ -58,6 +66,11 @@ requestAnimationFrame(frame);
 
 const dracoLoader = new DRACOLoader().setDecoderPath(new URL('./vendor/three/examples/jsm/libs/draco/gltf/', location.href).href);
 const worker = new DecoderWorker();  // shared by every load
+// Both decoders loaded before any timing starts (DRACOLoader's for the base
+// and the Draco page, the worker's wasm for the refinements).
+dracoLoader.preload();
+const decodersReady = Promise.all([worker.ready, dracoLoader.decoderPending]).then(() => { state.ready = true; });
+decodersReady.catch((e) => fail(new Error('loading the decoders: ' + e.message)));
 let current = null;  // { progressive, root }
 
 function frameObject(root) {
@@ -122,12 +135,10 @@ async function load() {
   const asset = $('asset').value;
   const version = $('version').value.trim() || 'latest';
   const live = $('mode').value === 'live';
+  if ($('mode').value === 'draco') return loadDraco();
   const lod = Number($('lod').value);
   const loss = live ? 0 : Number($('loss').value) || 0;
-  Object.assign(state, { status: 'loading', streams: {}, timings: {}, bytes: 0, error: null });
-  $('error').textContent = '';
-  show('s-state', 'loading');
-  const started = performance.now();
+  begin();
   const url = new URL(`v1/assets/${encodeURIComponent(asset)}/versions/${version}/progressive`, location.href).href;
   const options = { headers: headers(), lod, loss, seed: 1, tintPredicted: $('tint').checked, worker };
   if (live) {
@@ -155,6 +166,7 @@ async function load() {
   });
   progressive.addEventListener('complete', (e) => {
     state.timings.full = performance.now() - started;
+    drawnMarks.add('fullDrawn');
     state.bytes = e.stats.bytes;
     state.status = 'complete';
     show('s-state', 'complete');
@@ -172,13 +184,52 @@ async function load() {
     const root = gltf.scene || gltf.scenes[0];
     scene.add(root);
     frameObject(root);
+    drawnMarks.add('baseDrawn');
     current = { progressive, root };
     // A file without progressive primitives is complete at its base.
     if (progressive.geometries.size === 0) {
       state.status = 'complete';
       state.timings.full = state.timings.base;
+      drawnMarks.add('fullDrawn');
       show('s-state', 'complete');
     }
+  } catch (e) {
+    fail(e);
+  }
+}
+
+function begin() {
+  Object.assign(state, { status: 'loading', streams: {}, timings: {}, bytes: 0, error: null });
+  $('error').textContent = '';
+  for (const id of ['s-level', 's-vertices', 's-predicted', 's-bytes', 's-base', 's-full']) show(id, '-');
+  show('s-state', 'loading');
+  drawnMarks.clear();
+  started = performance.now();
+}
+
+// The reference: the Draco .glb export through three.js alone. Its first
+// view is its full view.
+async function loadDraco() {
+  const asset = $('asset').value;
+  const version = $('version').value.trim() || 'latest';
+  begin();
+  const url = new URL(`v1/assets/${encodeURIComponent(asset)}/versions/${version}/draco`, location.href).href;
+  const loader = new GLTFLoader().setDRACOLoader(dracoLoader);
+  loader.setRequestHeader(headers());
+  try {
+    const gltf = await loader.loadAsync(url, (e) => { state.bytes = e.loaded; });
+    state.timings.base = state.timings.full = performance.now() - started;
+    const root = gltf.scene || gltf.scenes[0];
+    scene.add(root);
+    frameObject(root);
+    drawnMarks.add('baseDrawn');
+    drawnMarks.add('fullDrawn');
+    current = { progressive: { dispose() {} }, root };
+    state.status = 'complete';
+    show('s-state', 'complete');
+    show('s-base', state.timings.base.toFixed(0) + ' ms');
+    show('s-full', state.timings.full.toFixed(0) + ' ms');
+    show('s-bytes', state.bytes.toLocaleString());
   } catch (e) {
     fail(e);
   }
@@ -194,6 +245,6 @@ function fail(e) {
 for (const key of ['version', 'mode', 'lod', 'loss']) if (params.has(key)) $(key).value = params.get(key);
 if (params.has('tint')) $('tint').checked = params.get('tint') !== '0';
 $('load').addEventListener('click', load);
-listAssets().then(() => {
+Promise.all([listAssets(), decodersReady]).then(() => {
   if (params.get('auto') === '1') load();
 });
