@@ -21,11 +21,14 @@ const char kDetails[] =
     "required. SIGTERM or SIGINT drains: health NOT_SERVING, running requests finish within\n"
     "--grace-period, unfinished jobs resume at the next start. The first line on stdout is\n"
     "'listening on HOST:PORT' (port 0 picks a free port). docs/deploy.md has the details.\n"
+    "--http-listen adds HTTP (docs/http-api.md): the assets as files with ranges and ETags, and\n"
+    "the viewer's files; same tokens, same loopback rule, same TLS files.\n"
     "\n"
     "Examples:\n"
     "  meshstream serve --store ./meshstream-data\n"
     "  meshstream serve --listen 0.0.0.0:7600 --auth --tls-cert cert.pem --tls-key key.pem \\\n"
-    "                   --store postgresql://meshstream@db/meshstream";
+    "                   --store postgresql://meshstream@db/meshstream\n"
+    "  meshstream serve --http-listen 127.0.0.1:7680 --http-cors-origin http://localhost:5173";
 
 struct ServeArgs {
   ServerOptions options;
@@ -58,6 +61,7 @@ int RunServe(ServeArgs& args) {
   if (!server.ok()) return ReportError("serve", server.status());
   std::printf("listening on %s\n", (*server)->address().c_str());
   if (!(*server)->udp_address().empty()) std::printf("udp on %s\n", (*server)->udp_address().c_str());
+  if (!(*server)->http_address().empty()) std::printf("http on %s\n", (*server)->http_address().c_str());
   std::fflush(stdout);
   Server* raw = server->get();
   // The first signal drains (in its own thread); a second one while it
@@ -150,6 +154,17 @@ Verb AddServe(CLI::App& root) {
                           "(least recently used go first; 0: only what running sessions hold)")
               ->check(CLI::Range(int64_t{0}, int64_t{1} << 20)))
       ->capture_default_str();
+  FromEnv(cmd->add_option("--http-listen", o.http_listen,
+                          "HTTP HOST:PORT of the assets by ranges and the viewer (docs/http-api.md); off by default, "
+                          "7680 is the documented port (gRPC 7600, UDP 7601); port 0 picks a free one"));
+  FromEnv(cmd->add_option("--http-cors-origin", o.http_cors_origins,
+                          "an origin (https://HOST[:PORT]) whose pages may read the HTTP routes; repeatable; "
+                          "'*' allows any (unsafe with --auth)")
+              ->delimiter(','));
+  FromEnv(cmd->add_option("--http-root", o.http_root,
+                          "folder of the viewer's files served at / (default: ../share/meshstream/web or ../web "
+                          "beside the binary)")
+              ->check(CLI::ExistingDirectory));
   FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
   return {cmd, [args] { return RunServe(*args); }};
 }

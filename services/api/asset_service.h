@@ -59,6 +59,11 @@ class AssetServiceImpl final : public v1::AssetService::Service {
   grpc::Status Export(grpc::ServerContext* context, const v1::ExportRequest* request,
                       grpc::ServerWriter<v1::ExportChunk>* writer) override;
 
+  // The limit on concurrent exports that decode, for the server's other
+  // transports to share (services/http/asset_route.h): one bound per server.
+  CallLimit* export_limit() { return &exports_; }
+  const AssetServiceOptions& options() const { return options_; }
+
  private:
   StatusOr<Principal> Authenticate(const grpc::ServerContext& context) const;
 

@@ -149,18 +149,8 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   // The SessionStream. Start: the SessionStart the opener built, with what
   // only the send loop knows.
   void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    v1::SessionStart& start = *start_.mutable_session();
-    start.set_transport(ToProto(transport));
-    start.set_session_id(RandomHex(16));
-    if (udp != nullptr) {
-      start.mutable_udp()->set_host(service_->options_.udp_advertise_host);
-      start.mutable_udp()->set_port(service_->options_.udp_advertise_port);
-      start.set_udp_session_id(udp->id());
-      const SessionKeys& keys = udp->keys();
-      start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
-      start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
-    }
-    Queue(std::move(start_));
+    service_->CompleteStart(session_.start, transport, udp);
+    Queue(std::move(session_.start));
     base_handed_us_ = SteadyNowUs();
   }
 
@@ -169,7 +159,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   }
 
   void Control(const SenderAction& control) override {
-    Queue(ControlMessage(hot_->bytes, control));
+    Queue(ControlMessage(session_.hot->bytes, control));
   }
 
   void Datagram(const uint8_t* data, size_t size) override {
@@ -190,7 +180,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
 
   void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
     if (service_->options_.log) {
-      service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " ended (" +
+      service_->options_.log("session " + session_.version.asset + "@" + std::to_string(session_.version.version) + " ended (" +
                              reason + "): " + DescribeSession(stats) + OpenToBase(open_received_us_, base_handed_us_));
     }
     bool now = false, cut = false;
@@ -249,66 +239,17 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   // On the opener pool: the OpenRequest checked and planned, then the
   // session joins the send loop.
   void OpenSession() {
-    const Status s = Prepare(in_.open());
-    if (!s.ok()) return FinishNow(s);
-    const v1::OpenRequest& open = in_.open();
-    SessionSenderOptions options;
-    std::shared_ptr<UdpEndpoint::Session> udp;
-    if (open.transport() != v1::TRANSPORT_GRPC && service_->options_.udp != nullptr) {
-      auto registered = service_->options_.udp->RegisterSession();
-      if (registered.ok()) udp = std::move(registered).value();
-    }
-    options.transport = udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
-    if (udp) {
-      UdpEndpoint::Session* raw = udp.get();
-      options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
-    }
-    options.hello_timeout_us = static_cast<uint64_t>(service_->options_.hello_timeout.count()) * 1000;
-    options.idle_timeout_us = static_cast<uint64_t>(service_->options_.idle_timeout.count()) * 1000;
-    options.rate = service_->options_.rate;
-    options.server_share = service_->options_.server_share;
-    options.reliable_cut = service_->options_.reliable_cut;
-    options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
-    options.repair = open.repair();
-    // Every header, base mesh and the scene copied here, on the opener pool,
-    // not on the send thread under the session's lock.
-    start_ = SessionStartMessage(*plan_, hot_->bytes, options.transport);
-    start_.mutable_session()->set_asset(version_.asset);
-    start_.mutable_session()->set_version(version_.version);
-    start_.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(hot_->scene.data()), hot_->scene.size());
-    auto sender =
-        std::make_unique<SessionSender>(*plan_, hot_->bytes, open.max_level(), std::move(options), SteadyNowUs());
-    if (service_->options_.log) {
-      service_->options_.log("session " + version_.asset + "@" + std::to_string(version_.version) + " opened (" +
-                             (udp ? "udp" : "grpc") + ")");
-    }
+    auto prepared = service_->PrepareSession(tenant_, in_.open(), /*allow_udp=*/true);
+    if (!prepared.ok()) return FinishNow(prepared.status());
+    session_ = std::move(prepared).value();
     // Until Begin the send loop does not step the session (send_loop.h): the
     // client's messages and a cancel are only recorded, nothing can Finish
     // the call, and so gRPC cannot end it (OnDone) while this runs.
-    registration_ = service_->loop_.Add(std::move(sender), this, std::move(udp));
+    registration_ = service_->Register(session_, this, session_.udp ? "udp" : "grpc");
     StartRead(&in_);
     registered_ = true;
     if (cancelled_) Stop();
     registration_.Begin();  // the last touch of `this`: the session may finish at once
-  }
-
-  Status Prepare(const v1::OpenRequest& open) {
-    MS_RETURN_IF_ERROR(CheckOpen(open));
-    MS_ASSIGN_OR_RETURN(version_, service_->ResolveVersion(tenant_, open.asset(), open.version()));
-    // The artifact, its plan and its scene: kept in memory between sessions
-    // (artifact_cache.h); the store's read, which checks the digest, only
-    // when the cache has none.
-    const std::string& sha = version_.artifact.artifact_sha256;
-    MS_ASSIGN_OR_RETURN(hot_, service_->artifacts_.Get(sha, version_.artifact.layout_json, [&] {
-      return service_->store_->GetBlob(sha, service_->options_.max_artifact_bytes);
-    }));
-    if (open.max_level() < 0) {
-      plan_ = &hot_->plan;
-    } else {
-      cut_plan_ = CutPlan(hot_->plan, open.max_level());
-      plan_ = &cut_plan_;
-    }
-    return Status::Ok();
   }
 
   bool Draining() const { return service_->draining_ != nullptr && service_->draining_->load(); }
@@ -361,14 +302,11 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   uint64_t open_received_us_ = 0;  // when the OpenRequest arrived (SteadyNowUs)
   uint64_t base_handed_us_ = 0;    // when Start handed the SessionStart to gRPC (the send loop's thread)
 
-  // Set by the opener before the session joins the loop, read-only after.
+  // Set by the opener before the session joins the loop, read-only after
+  // (but the SessionStart, which Start moves out).
   std::string tenant_;
   CallLimit::Slot slot_;
-  VersionRecord version_;
-  ArtifactCache::Entry hot_;  // the artifact, its plan and scene, shared with the cache
-  SessionPlan cut_plan_;      // with max_level: the session's own cut of hot_->plan
-  const SessionPlan* plan_ = nullptr;  // &hot_->plan or &cut_plan_
-  v1::ServerMessage start_;  // the SessionStart but for Start's fields; moved out by Start
+  PreparedSession session_;
   SendLoop::Registration registration_;
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
@@ -388,6 +326,75 @@ StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, St
       artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
 
 StreamServiceImpl::~StreamServiceImpl() = default;
+
+StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& tenant, const v1::OpenRequest& open,
+                                                            bool allow_udp) {
+  MS_RETURN_IF_ERROR(CheckOpen(open));
+  PreparedSession p;
+  MS_ASSIGN_OR_RETURN(p.version, ResolveVersion(tenant, open.asset(), open.version()));
+  // The artifact, its plan and its scene: kept in memory between sessions
+  // (artifact_cache.h); the store's read, which checks the digest, only
+  // when the cache has none.
+  const std::string& sha = p.version.artifact.artifact_sha256;
+  MS_ASSIGN_OR_RETURN(p.hot, artifacts_.Get(sha, p.version.artifact.layout_json, [&] {
+    return store_->GetBlob(sha, options_.max_artifact_bytes);
+  }));
+  if (open.max_level() < 0) {
+    p.plan = &p.hot->plan;
+  } else {
+    p.cut_plan = std::make_unique<SessionPlan>(CutPlan(p.hot->plan, open.max_level()));
+    p.plan = p.cut_plan.get();
+  }
+  SessionSenderOptions options;
+  if (allow_udp && open.transport() != v1::TRANSPORT_GRPC && options_.udp != nullptr) {
+    auto registered = options_.udp->RegisterSession();
+    if (registered.ok()) p.udp = std::move(registered).value();
+  }
+  options.transport = p.udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
+  if (p.udp) {
+    UdpEndpoint::Session* raw = p.udp.get();
+    options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
+  }
+  options.hello_timeout_us = static_cast<uint64_t>(options_.hello_timeout.count()) * 1000;
+  options.idle_timeout_us = static_cast<uint64_t>(options_.idle_timeout.count()) * 1000;
+  options.rate = options_.rate;
+  options.server_share = options_.server_share;
+  options.reliable_cut = options_.reliable_cut;
+  options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
+  options.repair = open.repair();
+  // Every header, base mesh and the scene copied here, on the opener pool,
+  // not on the send thread under the session's lock.
+  p.start = SessionStartMessage(*p.plan, p.hot->bytes, options.transport);
+  p.start.mutable_session()->set_asset(p.version.asset);
+  p.start.mutable_session()->set_version(p.version.version);
+  p.start.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(p.hot->scene.data()), p.hot->scene.size());
+  p.sender = std::make_unique<SessionSender>(*p.plan, p.hot->bytes, open.max_level(), std::move(options), SteadyNowUs());
+  return p;
+}
+
+void StreamServiceImpl::CompleteStart(v1::ServerMessage& message, SessionTransport transport,
+                                      const UdpEndpoint::Session* udp) const {
+  v1::SessionStart& start = *message.mutable_session();
+  start.set_transport(ToProto(transport));
+  start.set_session_id(RandomHex(16));
+  if (udp != nullptr) {
+    start.mutable_udp()->set_host(options_.udp_advertise_host);
+    start.mutable_udp()->set_port(options_.udp_advertise_port);
+    start.set_udp_session_id(udp->id());
+    const SessionKeys& keys = udp->keys();
+    start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
+    start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
+  }
+}
+
+SendLoop::Registration StreamServiceImpl::Register(PreparedSession& session, SessionStream* stream,
+                                                   const std::string& transport) {
+  if (options_.log) {
+    options_.log("session " + session.version.asset + "@" + std::to_string(session.version.version) + " opened (" +
+                 transport + ")");
+  }
+  return loop_.Add(std::move(session.sender), stream, std::move(session.udp));
+}
 
 StatusOr<VersionRecord> StreamServiceImpl::ResolveVersion(const std::string& tenant, const std::string& asset,
                                                           int64_t version) {

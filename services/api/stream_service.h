@@ -61,6 +61,21 @@ struct StreamServiceOptions {
   std::function<void(const std::string&)> log;    // one line per session start and end; may be empty
 };
 
+// A session's parts every transport shares (the gRPC call here, the
+// WebSocket route of services/http/stream_socket.h), made by
+// StreamServiceImpl::PrepareSession on the opener pool: the OpenRequest
+// checked, its version resolved, its artifact, plan and scene from the cache,
+// the SessionStart but for what CompleteStart fills, and the sender.
+struct PreparedSession {
+  VersionRecord version;
+  ArtifactCache::Entry hot;                // the artifact, its plan and scene, shared with the cache
+  std::unique_ptr<SessionPlan> cut_plan;   // with max_level: the session's own cut of hot->plan
+  const SessionPlan* plan = nullptr;       // &hot->plan or cut_plan.get()
+  std::shared_ptr<UdpEndpoint::Session> udp;  // null: the datagrams go on the stream
+  v1::ServerMessage start;
+  std::unique_ptr<SessionSender> sender;
+};
+
 class StreamServiceImpl final : public v1::StreamService::CallbackService {
  public:
   StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
@@ -70,6 +85,26 @@ class StreamServiceImpl final : public v1::StreamService::CallbackService {
   grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>* Open(grpc::CallbackServerContext* context) override;
 
   size_t active_sessions() const { return loop_.sessions(); }
+
+  // For the transports beside gRPC's (services/http/stream_socket.h): the
+  // same limits, checks, cache and send loop as Open.
+  // A place among `max_sessions`; empty when they are all taken.
+  CallLimit::Slot TryAcquireSession() { return sessions_.Acquire(std::chrono::milliseconds(0)); }
+  int session_limit() const { return sessions_.limit(); }
+  // Blocks on the store: call it on the opener pool (openers()). With
+  // `allow_udp` false (or no UDP endpoint, or TRANSPORT_GRPC asked) the
+  // datagrams go on the stream.
+  StatusOr<PreparedSession> PrepareSession(const std::string& tenant, const v1::OpenRequest& open, bool allow_udp);
+  // Fills the SessionStart's transport, a fresh session id and, over UDP,
+  // the endpoint and keys: SessionStream::Start's work.
+  void CompleteStart(v1::ServerMessage& start, SessionTransport transport, const UdpEndpoint::Session* udp) const;
+  // Adds the prepared session to the send loop with `stream`, logging its
+  // opening; the caller Begins the registration once it holds it.
+  SendLoop::Registration Register(PreparedSession& session, SessionStream* stream, const std::string& transport);
+  WorkQueue& openers() { return openers_; }
+  const Authenticator& authenticator() const { return *auth_; }
+  bool draining() const { return draining_ != nullptr && draining_->load(); }
+  const StreamServiceOptions& options() const { return options_; }
 
  private:
   class Call;

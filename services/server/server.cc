@@ -24,6 +24,12 @@
 #include "services/api/asset_service.h"
 #include "services/api/stream_service.h"
 #include "services/auth/authenticator.h"
+#include "services/http/asset_route.h"
+#include "services/http/cors.h"
+#include "services/http/http_server.h"
+#include "services/http/router.h"
+#include "services/http/static_route.h"
+#include "services/http/stream_socket.h"
 #include "services/jobs/worker_pool.h"
 #include "services/store/blob_store.h"
 #include "services/store/open_store.h"
@@ -164,6 +170,13 @@ struct Server::Impl {
   std::unique_ptr<RateShare> share;
   std::unique_ptr<StreamServiceImpl> streams;
   std::unique_ptr<grpc::Server> server;
+  // HTTP (docs/http-api.md): the routes before the server, so that the
+  // server (its pool runs the routes) stops first.
+  std::unique_ptr<AssetRoute> http_assets;
+  std::unique_ptr<StaticRoute> http_files;
+  std::unique_ptr<HttpRouter> http_router;
+  std::shared_ptr<StreamSocketRoute> http_sessions;  // GET /v1/stream over WebSocket
+  std::unique_ptr<HttpServer> http;
   std::string address;
   std::string streams_advertise;
   std::atomic<bool> draining{false};
@@ -225,6 +238,48 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   }
   auto credentials = Credentials(options);
   if (!credentials.ok()) return credentials.status();
+  // HTTP's flags are checked before anything is opened.
+  CorsPolicy cors;
+  std::string http_root_note;
+  if (!options.http_listen.empty()) {
+    if (options.http_listen.rfind("unix:", 0) == 0) {
+      return InvalidArgument("--http-listen " + options.http_listen + ": HTTP listens on HOST:PORT, not a unix socket");
+    }
+    std::string http_host;
+    uint16_t http_port = 0;
+    Status http_address = SplitHostPort(options.http_listen, &http_host, &http_port);
+    if (!http_address.ok()) return http_address.WithContext("--http-listen");
+    const bool http_loopback = IsLoopbackListen(options.http_listen);
+    if (!http_loopback && !options.auth) {
+      if (!options.insecure) {
+        return InvalidArgument("--http-listen " + options.http_listen +
+                               ": not a loopback address, so --auth is required (or --insecure to serve anyone)");
+      }
+      impl->log("warning: --insecure: serving HTTP on " + options.http_listen + " without authentication");
+    }
+    if (!http_loopback && options.auth && options.tls_cert.empty()) {
+      impl->log("warning: tokens travel in clear text on " + options.http_listen + " (give --tls-cert and --tls-key)");
+    }
+    auto policy = CorsPolicy::Make(options.http_cors_origins);
+    if (!policy.ok()) return policy.status();
+    cors = std::move(policy).value();
+    if (cors.allows_any() && options.auth) {
+      impl->log("warning: --http-cors-origin '*' with --auth: any web page may use a token it holds to read assets");
+    }
+    WebRootSearch search;
+    if (options.http_root.empty()) search = FindDefaultWebRoot();
+    const std::string root = options.http_root.empty() ? search.found : options.http_root;
+    auto files = StaticRoute::Open(root, search.searched);
+    if (!files.ok()) return files.status();
+    impl->http_files = std::move(files).value();
+    if (!impl->http_files->root().empty()) {
+      http_root_note = "viewer files from " + impl->http_files->root();
+    } else {
+      std::string where;
+      for (const std::string& w : search.searched) where += (where.empty() ? "" : ", ") + w;
+      http_root_note = "no viewer files (looked in " + where + "; give --http-root DIR)";
+    }
+  }
 
   auto store = OpenStore(options.store);
   if (!store.ok()) return store.status().WithContext("--store " + options.store);
@@ -323,6 +378,32 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     impl->address = options.listen.substr(0, colon) + ":" + std::to_string(port);
   }
   impl->server->GetHealthCheckService()->SetServingStatus(true);
+  if (!options.http_listen.empty()) {
+    AssetRouteOptions asset_options;
+    asset_options.max_export_bytes = impl->service->options().max_export_bytes;
+    asset_options.export_wait_ms = impl->service->options().export_wait_ms;
+    impl->http_assets = std::make_unique<AssetRoute>(impl->store.get(), impl->auth.get(),
+                                                     impl->service->export_limit(), asset_options);
+    // The live session over WebSocket: the gRPC stream service's sessions
+    // (services/http/stream_socket.h), its origins those of CORS.
+    StreamSocketOptions socket_options;
+    socket_options.cors = cors;
+    socket_options.log = impl->log;
+    impl->http_sessions = std::make_shared<StreamSocketRoute>(impl->streams.get(), std::move(socket_options));
+    impl->http_router = std::make_unique<HttpRouter>(impl->http_assets.get(), impl->http_files.get(), std::move(cors),
+                                                     &impl->draining, impl->log);
+    HttpServerOptions http_options;
+    http_options.upgrades["/v1/stream"] = impl->http_sessions;
+    http_options.listen = options.http_listen;
+    http_options.tls_cert = options.tls_cert;
+    http_options.tls_key = options.tls_key;
+    http_options.log = impl->log;
+    HttpRouter* router = impl->http_router.get();
+    auto http = HttpServer::Start(std::move(http_options),
+                                  [router](const HttpRequest& request) { return router->Handle(request); });
+    if (!http.ok()) return http.status();
+    impl->http = std::move(http).value();
+  }
   Status started = impl->pool->Start();
   if (!started.ok()) return started;
   impl->maintenance = std::thread([raw] { raw->Maintain(); });
@@ -337,10 +418,15 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     impl->log("udp on " + impl->udp->local().ToString() + ", advertised as " +
               (impl->streams_advertise.empty() ? "the client's server host" : impl->streams_advertise));
   }
+  if (impl->http) {
+    impl->log("http on " + impl->http->address() + (impl->http->tls() ? " (TLS)" : "") + ", " + http_root_note);
+  }
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }
 
 std::string Server::udp_address() const { return impl_->udp ? impl_->udp->local().ToString() : std::string(); }
+
+std::string Server::http_address() const { return impl_->http ? impl_->http->address() : std::string(); }
 
 void Server::Drain() {
   Impl& s = *impl_;
@@ -359,7 +445,11 @@ void Server::Drain() {
   s.wake.notify_all();
   const auto grace = std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_period_s * 1000));
   const auto steady_deadline = std::chrono::steady_clock::now() + grace;
+  // HTTP: no new connection, idle keep-alive ones closed, running responses
+  // finish (each then closes its connection) within the same grace period.
+  if (s.http) s.http->BeginDrain();
   s.server->Shutdown(std::chrono::system_clock::now() + grace);
+  if (s.http) s.http->Stop(steady_deadline);
   const int64_t abandoned = s.pool->Drain(steady_deadline);
   if (abandoned > 0) {
     s.log("left " + std::to_string(abandoned) + " running jobs to the next start (or to another server)");
@@ -394,6 +484,11 @@ void Server::Wait() {
           std::to_string(u.addresses_refused) + " addresses refused, " + std::to_string(u.hello_acks_sent) +
           " HELLO_ACKs and " + std::to_string(u.data_sent) + " DATA sent, " + std::to_string(u.send_errors) +
           " send errors");
+  }
+  if (s.http) {
+    const HttpServerStats h = s.http->stats();
+    s.log("http: " + std::to_string(h.accepted) + " connections, " + std::to_string(h.requests) + " responses, " +
+          std::to_string(h.refused) + " connections refused (too many at once)");
   }
   s.log("stopped");
 }

@@ -1,5 +1,7 @@
 // `meshstream serve`: the gRPC server with its store, its worker pool and the
-// standard services (grpc.health.v1; reflection when asked or on loopback).
+// standard services (grpc.health.v1; reflection when asked or on loopback),
+// and when asked the HTTP server (services/http/: the assets by ranges, the
+// viewer's files; docs/http-api.md).
 //
 // Secure by default: without authentication the server listens only on a
 // loopback address (or a unix: socket); any other address is refused unless
@@ -7,7 +9,9 @@
 // in PEM files. SIGTERM (Drain) turns health to NOT_SERVING, stops claiming
 // jobs, lets running requests finish within the grace period, then cancels
 // the rest; unfinished jobs are taken up again by the next start (or by
-// another server sharing the PostgreSQL store) (docs/deploy.md).
+// another server sharing the PostgreSQL store) (docs/deploy.md). HTTP stops
+// accepting and closes its idle keep-alive connections at the same time as
+// gRPC refuses new calls; its running responses get the same grace period.
 //
 // Thread safety: Start, then Drain from any thread (a signal handler thread),
 // and Wait from one.
@@ -19,6 +23,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "codec/core/status.h"
 #include "proto/default_address.h"
@@ -62,6 +67,13 @@ struct ServerOptions {
   // Hot artifacts kept in memory for streaming sessions, with their plans and
   // scenes, by bytes, least recently used out first (--stream-cache-mb).
   uint64_t stream_cache_bytes = uint64_t{256} << 20;
+  // HTTP (docs/http-api.md): the assets by ranges and the viewer's files.
+  // http_listen empty: off; HOST:PORT (7680 is the documented port) or
+  // [V6]:PORT, port 0 picks a free one; the loopback rule of `listen`
+  // applies, and TLS with the same certificate and key.
+  std::string http_listen;
+  std::vector<std::string> http_cors_origins;  // --http-cors-origin; "*" for any
+  std::string http_root;                  // the viewer's files; empty: the default search (static_route.h)
   std::string server_id;                  // for job leases and logs; empty: host-pid-random
   // Log lines ("meshstream serve: ..."); default: stderr.
   std::function<void(const std::string&)> log;
@@ -79,6 +91,8 @@ class Server {
   const std::string& address() const;
   // The UDP endpoint bound ("127.0.0.1:41235"), empty when UDP is off.
   std::string udp_address() const;
+  // The HTTP address bound ("127.0.0.1:41236"), empty when HTTP is off.
+  std::string http_address() const;
   // Health NOT_SERVING, stop claiming, finish within the grace period.
   void Drain();
   // Blocks until the server has shut down (after Drain).

@@ -9,7 +9,7 @@
 #      dependencies) provide every shared library that $1 links; the build
 #      stage copies every folder the top-level CMakeLists.txt adds.
 #   3. compose.yaml parses and holds together (check_compose.js); nginx.conf
-#      passes `nginx -t` where nginx is installed.
+#      and nginx-cache.conf pass `nginx -t` where nginx is installed.
 # Usage: tests/deploy/check_deploy.sh BUILD/bin/meshstream
 # Exit: 0 all checked and good; 1 a check failed; 77 ("skipped: <reason>") when
 # a tool that a check needs is absent (after running every check it could).
@@ -205,9 +205,18 @@ if command -v nginx >/dev/null 2>&1; then
     fail "nginx -t deploy/nginx.conf:"
     printf '%s\n' "$out" | sed 's/^/    /'
   fi
+  # The caching example of docs/deploy.md ("Behind a CDN or cache"), its cache in $tmp.
+  sed -e 's/server meshstream-\([0-9]*\):7680/server 127.0.0.\1:7680/' \
+      -e "s|/var/cache/nginx/meshstream|$tmp/nginx-cache|" "$deploy/nginx-cache.conf" > "$tmp/nginx-cache.conf"
+  if out=$(nginx -t -q -c "$tmp/nginx-cache.conf" -g "pid $tmp/nginx-cache.pid;" 2>&1); then
+    ok "nginx -t deploy/nginx-cache.conf"
+  else
+    fail "nginx -t deploy/nginx-cache.conf:"
+    printf '%s\n' "$out" | sed 's/^/    /'
+  fi
 else
   # Optional: no project script installs nginx, so its absence is not a skip.
-  echo "note: nginx not installed, nginx.conf syntax not checked (apt-get install nginx)"
+  echo "note: nginx not installed, nginx.conf and nginx-cache.conf not checked (apt-get install nginx)"
 fi
 
 # -------------------------------------------------------------------------------

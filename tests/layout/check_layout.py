@@ -45,7 +45,9 @@ SERVICES_DEPENDS = {
     "export": ["pipeline"],
     "streaming": ["pipeline"],
     "api": ["ingest", "export", "streaming"],
-    "server": ["api", "jobs"],
+    # HTTP routes: the same library calls as api/ (and its CallLimit, shared).
+    "http": ["auth", "export", "api"],
+    "server": ["api", "jobs", "http"],
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {

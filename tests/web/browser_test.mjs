@@ -111,12 +111,15 @@ async function main() {
           ++failures;
         };
         try {
-          const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${mode}&tint=0&auto=1`, base);
+          const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${mode}&tint=0${token ? '' : '&auto=1'}`, base);
           await page.goto(url.href, { waitUntil: 'load' });
           if (token) {
             // The token goes through the form, as a user would type it.
-            await page.evaluate((t) => { document.getElementById('token').value = t; }, token);
-            await page.evaluate(() => document.getElementById('load').click());
+            await page.waitForFunction(() => window.meshstreamViewer.ready, { timeout: 60000 });
+            await page.evaluate((t) => {
+              document.getElementById('token').value = t;
+              document.getElementById('load').click();
+            }, token);
           }
           await page.waitForFunction(
             () => ['complete', 'error'].includes(window.meshstreamViewer.status), { timeout: 120000, polling: 50 });

@@ -2,7 +2,12 @@
 // progressive .glb with DecodeProgressiveGlb, the native decoder, and prints
 // one line per refined primitive, in stream order:
 //   <stream id> <vertices> <indices> <PrimitiveHash, 16 hex digits>
-// usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K]
+// With --repeat N it decodes N times and prints, after those lines, the
+// median decode time: "time_ms <median>" (make bench-web compares it with
+// the wasm decoder's, docs/web-benchmarks.md).
+// usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N]
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -17,16 +22,19 @@
 int main(int argc, char** argv) {
   using namespace meshstream;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K]\n");
+    std::fprintf(stderr,
+                 "usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N]\n");
     return 2;
   }
   ProgressiveDecodeOptions options;
+  int repeat = 1;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     if (flag == "--loss") options.loss.loss = std::atof(argv[i + 1]);
     else if (flag == "--burst") options.loss.burst = std::atof(argv[i + 1]);
     else if (flag == "--seed") options.loss.seed = std::strtoull(argv[i + 1], nullptr, 10);
     else if (flag == "--lod") options.lod = std::atoi(argv[i + 1]);
+    else if (flag == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
     else {
       std::fprintf(stderr, "meshstream_wasm_reference: unknown option %s\n", argv[i]);
       return 2;
@@ -39,7 +47,13 @@ int main(int argc, char** argv) {
   }
   const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   ProgressiveDecodeReport report;
+  std::vector<double> ms;
   auto scene = DecodeProgressiveGlb(bytes, options, &report);
+  for (int r = 0; repeat > 1 && r < repeat && scene.ok(); ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    scene = DecodeProgressiveGlb(bytes, options, &report);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
   if (!scene.ok()) {
     std::fprintf(stderr, "meshstream_wasm_reference: %s\n", scene.status().ToString().c_str());
     return 1;
@@ -54,6 +68,10 @@ int main(int argc, char** argv) {
       std::printf("%u %zu %zu %016llx\n", stream_id++, p.positions.size(), p.indices.size(),
                   static_cast<unsigned long long>(PrimitiveHash(p)));
     }
+  }
+  if (repeat > 1) {
+    std::sort(ms.begin(), ms.end());
+    std::printf("time_ms %.3f\n", ms[ms.size() / 2]);
   }
   return 0;
 }

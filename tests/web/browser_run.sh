@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# The browser path end to end (docs/web.md, "Tests"): starts
+# `meshstream serve --http-listen 127.0.0.1:0` on a temporary store, with the
+# viewer's bundle (make wasm puts it beside the binary's folder, the server's
+# default --http-root), ingests the bunny, the horse, 2CylinderEngine and
+# BoxTextured (no refinement) with `meshstream ingest --wait`, then runs
+#   - ws_session_test.mjs: the WebSocket session with a client of its own;
+#   - browser_test.mjs: the viewer in Debian's Chromium, by HTTP ranges and
+#     over WebSocket, against the native decode;
+# and stops the server with SIGTERM.
+# Usage: tests/web/browser_run.sh PATH/TO/meshstream REFERENCE_BIN WASM_MODULE MODELS_DIR
+#   MESHSTREAM_TEST_AUTH=1  serve with --auth: tokens of two tenants; the
+#                           viewer gets the first's token through its form
+#   MESHSTREAM_TEST_SHOTS   keep the screenshots in this folder
+# Exit: non-zero when a test fails, the server does not start or does not
+# stop within its grace period (the server's log is shown then).
+set -uo pipefail
+
+here=$(cd "$(dirname "$0")" && pwd)
+if [ $# -lt 4 ]; then
+  echo "usage: $0 PATH/TO/meshstream REFERENCE_BIN WASM_MODULE MODELS_DIR" >&2
+  exit 1
+fi
+bin=$(realpath "$1") reference=$(realpath "$2") module=$3 models=$4
+root=$(dirname "$(dirname "$bin")")/web
+for need in "$module" "$root/index.html"; do
+  if [ ! -f "$need" ]; then
+    echo "browser_run.sh: $need is missing: run 'make wasm' (it builds the module and the viewer's bundle)" >&2
+    exit 1
+  fi
+done
+if [ ! -f "$here/../../web/node_modules/puppeteer-core/package.json" ]; then
+  echo "browser_run.sh: web/node_modules has no puppeteer-core: run scripts/install-deps" >&2
+  exit 1
+fi
+
+for var in $(compgen -e | grep '^MESHSTREAM_' | grep -v '^MESHSTREAM_TEST_'); do
+  unset "$var"
+done
+
+tmp=$(mktemp -d)
+log="$tmp/server.log" out="$tmp/server.out"
+grace=10
+pid=""
+show_log() {
+  echo "--- server log (last 60 lines of $log) ---"
+  tail -n 60 "$log" 2>/dev/null
+  echo "---"
+}
+cleanup() {
+  if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+
+args=(serve --listen 127.0.0.1:0 --udp-listen off --http-listen 127.0.0.1:0 --store "$tmp/store" --grace-period "$grace")
+token="" other=""
+if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
+  token=$("$bin" token create --store "$tmp/store" --tenant web-a 2>"$tmp/token.err" | tail -n 1) &&
+    other=$("$bin" token create --store "$tmp/store" --tenant web-b 2>>"$tmp/token.err" | tail -n 1)
+  if [ -z "$token" ] || [ -z "$other" ]; then
+    echo "browser_run.sh: meshstream token create failed: $(cat "$tmp/token.err")" >&2
+    exit 1
+  fi
+  args+=(--auth)
+fi
+"$bin" "${args[@]}" >"$out" 2>"$log" &
+pid=$!
+for _ in $(seq 600); do
+  if grep -q '^http on ' "$out" 2>/dev/null; then break; fi
+  if ! kill -0 "$pid" 2>/dev/null; then
+    echo "browser_run.sh: the server exited before it listened" >&2
+    show_log
+    exit 1
+  fi
+  sleep 0.1
+done
+grpc=$(sed -n 's/^listening on //p' "$out" | head -1)
+http=$(sed -n 's/^http on //p' "$out" | head -1)
+if [ -z "$http" ]; then
+  echo "browser_run.sh: the server did not say where HTTP listens" >&2
+  show_log
+  exit 1
+fi
+echo "browser_run.sh: gRPC $grpc, HTTP $http, web root $root"
+
+assets=()
+for m in stanford-bunny.obj horse.ply gltf/2CylinderEngine.glb gltf/BoxTextured.glb; do
+  name=$(basename "${m%.*}")
+  if ! "$bin" ingest "$models/$m" --asset "$name" --wait --server "$grpc" ${token:+--token "$token"} \
+      >"$tmp/ingest.out" 2>&1; then
+    echo "browser_run.sh: ingesting $m failed: $(tail -n 5 "$tmp/ingest.out")" >&2
+    show_log
+    exit 1
+  fi
+  assets+=("$name")
+done
+
+rc=0
+node "$here/ws_session_test.mjs" --base "http://$http/" --reference "$reference" --wasm "$module" \
+  ${token:+--token "$token" --other-token "$other"} "${assets[@]}" || rc=1
+shots=${MESHSTREAM_TEST_SHOTS:-}
+node "$here/browser_test.mjs" --base "http://$http/" --reference "$reference" ${token:+--token "$token"} \
+  ${shots:+--shots "$shots"} "${assets[@]}" || rc=1
+
+kill -TERM "$pid"
+stopped=0
+for _ in $(seq $(((grace + 5) * 10))); do
+  if ! kill -0 "$pid" 2>/dev/null; then stopped=1; break; fi
+  sleep 0.1
+done
+if [ $stopped -eq 1 ]; then
+  wait "$pid"
+  pid=""
+else
+  echo "browser_run.sh: the server was still running $((grace + 5))s after SIGTERM" >&2
+  rc=1
+fi
+if [ $rc -ne 0 ]; then show_log; fi
+exit $rc
