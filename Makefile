@@ -107,6 +107,18 @@ bench-stream: build
 	$(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
 	$(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
 
+# The browser benchmark (docs/web-benchmarks.md): the viewer in headless Chromium against
+# `meshstream serve --http-listen`, the Draco .glb with three.js alone beside the progressive file
+# by HTTP ranges and over a WebSocket session, on loopback and on a shaped link (20 Mbit/s, 20 ms
+# each way); the wasm decoder beside the native one. WEB_BENCH_ARGS e.g. "--runs 3".
+WEB_BENCH_ARGS ?=
+.PHONY: bench-web
+bench-web: build wasm
+	@mkdir -p docs/bench
+	bench/web/run.sh $(BUILD)/bin/meshstream $(BUILD)/bin/meshstream_wasm_reference $(WASM_BUILD)/meshstream_decoder.cjs \
+	  ../shared/models docs/bench/web.json $(WEB_BENCH_ARGS)
+	$(PYTHON) bench/plot_web.py docs/bench/web.json --doc docs/web-benchmarks.md
+
 # The soak (docs/stream-benchmarks.md, "Soak"): sessions opened at 20 per second for 30 minutes
 # against a `meshstream serve` process, the clients in a network namespace losing 5 % (root);
 # the server's memory over time. Not part of `make bench` (half an hour). SOAK_ARGS e.g. "--quick".

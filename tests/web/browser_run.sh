@@ -100,7 +100,7 @@ rc=0
 node "$here/ws_session_test.mjs" --base "http://$http/" --reference "$reference" --wasm "$module" \
   ${token:+--token "$token" --other-token "$other"} "${assets[@]}" || rc=1
 shots=${MESHSTREAM_TEST_SHOTS:-}
-node "$here/browser_test.mjs" --base "http://$http/" --reference "$reference" ${token:+--token "$token"} \
+node "$here/browser_test.mjs" --base "http://$http/" --reference "$reference" --wasm "$module" ${token:+--token "$token"} \
   ${shots:+--shots "$shots"} "${assets[@]}" || rc=1
 
 kill -TERM "$pid"

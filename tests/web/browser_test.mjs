@@ -3,9 +3,11 @@
 // server and streams each asset by HTTP ranges and over a live WebSocket
 // session. For every load it checks:
 //   - the status reaches 'complete' without an error;
-//   - every refined stream went through every level in order (1, 2, ...,
-//     its refinement count), with vertex counts that never decrease, and
-//     ended at the native decoder's vertex count;
+//   - every refined stream showed its levels in order (the page may skip
+//     levels it had no frame for, never go back), each with the vertex and
+//     face counts of that level (the wasm live decoder under node, itself
+//     checked against the native one by wasm_decoder, gives every level's
+//     counts), and ended at the native decoder's counts;
 //   - the final arrays' hash (PrimitiveHash in wasm) equals the native
 //     decode of the same file (meshstream_wasm_reference, the file fetched
 //     from the same server);
@@ -14,13 +16,17 @@
 // and saves a screenshot per load into --shots when given.
 // A browser that cannot start fails the test with the reason.
 //
-// usage: node browser_test.mjs --base http://HOST:PORT/ --reference BIN
+// usage: node browser_test.mjs --base http://HOST:PORT/ --reference BIN --wasm MODULE
 //          [--token T] [--shots DIR] [--modes ranges,live] ASSET...
 import { mkdtempSync, writeFileSync, rmSync, mkdirSync } from 'node:fs';
 import { execFileSync } from 'node:child_process';
 import { tmpdir } from 'node:os';
-import { join } from 'node:path';
+import { join, resolve } from 'node:path';
 import { createRequire } from 'node:module';
+import { parseGlb, progressivePrimitives } from '../../web/src/glb.js';
+import { decodeDracoBase } from '../../web/src/draco_base.js';
+import { LiveDecoder } from '../../web/src/decoder.js';
+import { BlobReader } from '../../web/src/blob_reader.js';
 
 const require = createRequire(import.meta.url);
 const puppeteer = require(join(process.env.MESHSTREAM_WEB_DIR || new URL('../../web', import.meta.url).pathname,
@@ -39,6 +45,7 @@ function take(flag, fallback) {
 }
 const base = take('--base');
 const reference = take('--reference');
+const wasmModule = take('--wasm');
 const token = take('--token', '');
 const shots = take('--shots', '');
 const modes = take('--modes', 'ranges,live').split(',');
@@ -58,10 +65,42 @@ async function nativeHashes(asset, work) {
   const streams = {};
   for (const line of out.trim().split('\n')) {
     const [id, vertices, indices, hash] = line.split(' ');
-    streams[id] = { vertices: Number(vertices), indices: Number(indices), hash };
+    streams[id] = { vertices: Number(vertices), indices: Number(indices), hash, levels: [] };
+  }
+  // Every level's counts, from the live decoder under node.
+  const bytes = new Uint8Array(await (await fetch(url, { headers })).arrayBuffer());
+  for (const p of progressivePrimitives(parseGlb(bytes))) {
+    const reader = new BlobReader();
+    let live = null;
+    const counts = () => {
+      live.snapshot();
+      const a = live.arrays();
+      streams[p.streamId].levels.push({ vertices: a.vertices, faces: a.indices.length / 3 });
+    };
+    try {
+      for (const e of reader.push(p.blob)) {
+        if (e.kind === 'header') {
+          live = new LiveDecoder(wasm.M, e.bytes, p.streamId);
+          live.setBase(decodeDracoBase(wasm.D, p.base, p.ids));
+          counts();
+        } else if (e.kind === 'control') {
+          live.control(e.bytes);
+        } else if (e.kind === 'datagram') {
+          live.datagram(e.bytes);
+        } else {
+          live.end(e.refinement, e.datagrams);
+          live.poll();
+          counts();
+        }
+      }
+    } finally {
+      if (live) live.close();
+    }
   }
   return streams;
 }
+
+const wasm = {};
 
 // Pixels of the WebGL canvas that are not the background, as a share.
 function drawnShare() {
@@ -80,6 +119,8 @@ function drawnShare() {
 }
 
 async function main() {
+  wasm.M = await require(resolve(wasmModule))();
+  wasm.D = await require(join(new URL('../../web', import.meta.url).pathname, 'node_modules/draco3d')).createDecoderModule({});
   const work = mkdtempSync(join(tmpdir(), 'meshstream-browser-'));
   let browser;
   try {
@@ -141,8 +182,17 @@ async function main() {
             }
             const levels = s.levels.map((l) => l.level);
             const inOrder = levels.every((l, k) => k === 0 || l > levels[k - 1]);
-            const growing = s.levels.every((l, k) => k === 0 || l.vertices >= s.levels[k - 1].vertices);
-            if (!inOrder || !growing) fail(`stream ${id}: levels ${JSON.stringify(s.levels)}`);
+            if (!inOrder) fail(`stream ${id}: levels out of order ${JSON.stringify(levels)}`);
+            for (const l of s.levels) {
+              const want = native[id].levels[l.level];
+              if (!want || want.vertices !== l.vertices || want.faces !== l.faces) {
+                fail(`stream ${id} level ${l.level}: ${l.vertices} vertices, ${l.faces} faces; ` +
+                     `expected ${want ? want.vertices + ', ' + want.faces : 'no such level'}`);
+              }
+            }
+            if (levels[levels.length - 1] !== native[id].levels.length - 1) {
+              fail(`stream ${id}: ended at level ${levels[levels.length - 1]} of ${native[id].levels.length - 1}`);
+            }
             const last = s.levels[s.levels.length - 1];
             if (last.vertices !== native[id].vertices || last.faces * 3 !== native[id].indices) {
               fail(`stream ${id}: ${last.vertices} vertices, ${last.faces} faces; native ${native[id].vertices}, ${native[id].indices / 3}`);

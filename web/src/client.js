@@ -21,7 +21,9 @@
 
 import { firstBlobOffset, glbJsonEnd, parseGlb, progressivePrimitives } from './glb.js';
 
-const FIRST_READ = 64 * 1024;
+// The first ranged GET: most files' JSON and bases are smaller; what it
+// reads of the blobs is not read again (jobSpec's `head`).
+const FIRST_READ = 16 * 1024;
 
 function rangeHeaders(headers, first, last) {
   return Object.assign({}, headers || {}, { Range: `bytes=${first}-${last}` });
@@ -127,7 +129,8 @@ export class DecoderWorker {
 
 // The worker's job spec for the refined primitives of `glb`: each base's
 // bytes copied (they are transferred), and where the blobs come from.
-export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, session = null }) {
+// `prefix`: fetchPrefix's result, when the file was read that way.
+export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, session = null, prefix = null }) {
   const prims = progressivePrimitives(glb);
   const streams = prims.map((p) => ({ streamId: p.streamId, base: p.base.slice(), ids: p.ids }));
   let source;
@@ -136,8 +139,13 @@ export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, sessi
   } else if (prims.every((p) => p.blob !== null)) {
     source = { kind: 'bytes', blobs: prims.map((p) => ({ streamId: p.streamId, bytes: p.blob.slice() })) };
   } else {
-    source = { kind: 'ranges', url: new URL(url, self.location.href).href, headers: headers || {},
-               blobs: prims.map((p) => ({ streamId: p.streamId, start: p.blobRange.start, end: p.blobRange.end })) };
+    // The bytes the prefix's reads already hold beyond the first blob's start
+    // go with the job; the ranged GET of the blobs starts after them.
+    const blobs = prims.map((p) => ({ streamId: p.streamId, start: p.blobRange.start, end: p.blobRange.end }));
+    const first = Math.min(...blobs.map((b) => b.start));
+    const have = prefix ? prefix.bytes.byteLength : first;
+    source = { kind: 'ranges', url: new URL(url, self.location.href).href, headers: headers || {}, blobs,
+               head: have > first ? prefix.bytes.slice(first, have) : new Uint8Array(0), headStart: first };
   }
   return { prims, spec: { streams, source, lod, loss, seed } };
 }
@@ -172,7 +180,7 @@ export class MeshstreamClient {
     client.worker = options.worker || new DecoderWorker(options);
     client.ownWorker = !options.worker;
     await client.worker.ready;
-    const { prims, spec } = jobSpec(prefix.glb, options);
+    const { prims, spec } = jobSpec(prefix.glb, Object.assign({}, options, { prefix }));
     client.primitives = prims.map((p) => ({ streamId: p.streamId, mesh: p.mesh, primitive: p.primitive, level: 0,
                                              levels: 0, arrays: null }));
     let bases = 0;

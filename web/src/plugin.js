@@ -81,7 +81,8 @@ export class MeshstreamProgressive extends EventDispatcher {
       bin: body ? new Uint8Array(body) : null,
       binOffset: pending ? pending.prefix.glb.binOffset : -1,
     };
-    const { prims, spec } = jobSpec(glb, Object.assign({}, this.options, { url: pending ? pending.url : null }));
+    const { prims, spec } = jobSpec(glb, Object.assign({}, this.options, { url: pending ? pending.url : null,
+                                                                          prefix: pending ? pending.prefix : null }));
     if (prims.length === 0) return;
     if (spec.source.kind === 'ranges' && !pending) throw new Error('MeshstreamProgressive: the blobs are not in memory');
     // Each progressive primitive's geometry, through GLTFLoader's associations.

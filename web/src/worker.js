@@ -6,8 +6,9 @@
 //   page -> worker
 //     { type: 'open', job, streams, source, lod, loss, seed }
 //         streams: per refined primitive { streamId, base (Draco bytes), ids }
-//         source:  { kind: 'ranges', url, headers, blobs: [{ streamId, start, end }] }
-//                    (file offsets of each stream blob, end exclusive)
+//         source:  { kind: 'ranges', url, headers, blobs: [{ streamId, start, end }], head, headStart }
+//                    (file offsets of each stream blob, end exclusive; `head`: the
+//                    file's bytes from headStart the page already read)
 //                  { kind: 'bytes', blobs: [{ streamId, bytes }] }  (the file already in memory)
 //                  { kind: 'session', ... }                         (session.js)
 //         loss:    a share of the datagrams to drop, to watch predictions (0: none)
@@ -217,21 +218,9 @@ class Job {
 // file, in stream order), dispatched to each stream's reader by offset.
 async function readRanges(job, source) {
   const blobs = [...source.blobs].sort((a, b) => a.start - b.start);
-  const first = blobs[0].start, last = blobs[blobs.length - 1].end;
-  const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${first}-${last - 1}` });
-  const response = await fetch(source.url, { headers, signal: job.abort.signal });
-  if (response.status !== 206 && response.status !== 200) {
-    let detail = '';
-    try { detail = (await response.json()).error || ''; } catch (e) { /* not JSON */ }
-    throw new Error(`${source.url}: HTTP ${response.status}${detail ? ' (' + detail + ')' : ''}`);
-  }
-  // A server that ignores ranges sends the whole file from byte 0.
-  let at = response.status === 206 ? first : 0;
-  const body = response.body.getReader();
-  for (;;) {
-    const { done, value } = await body.read();
-    if (done) break;
-    job.stats.bytes += value.byteLength;
+  const last = blobs[blobs.length - 1].end;
+  // Bytes [at, at + n) of the file to each stream's reader.
+  const dispatch = (value, at) => {
     const chunkEnd = at + value.byteLength;
     for (const b of blobs) {
       const lo = Math.max(at, b.start), hi = Math.min(chunkEnd, b.end);
@@ -239,7 +228,34 @@ async function readRanges(job, source) {
       const s = job.streams.get(b.streamId);
       for (const e of s.reader.push(value.subarray(lo - at, hi - at))) s.take(e);
     }
-    at = chunkEnd;
+    return chunkEnd;
+  };
+  let at = blobs[0].start;
+  if (source.head && source.head.byteLength > 0) at = dispatch(source.head, source.headStart);
+  if (at >= last) return;
+  const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${at}-${last - 1}` });
+  const response = await fetch(source.url, { headers, signal: job.abort.signal });
+  if (response.status !== 206 && response.status !== 200) {
+    let detail = '';
+    try { detail = (await response.json()).error || ''; } catch (e) { /* not JSON */ }
+    throw new Error(`${source.url}: HTTP ${response.status}${detail ? ' (' + detail + ')' : ''}`);
+  }
+  // A server that ignores ranges sends the whole file from byte 0: what
+  // was already read is skipped.
+  let skip = response.status === 206 ? 0 : at;
+  const body = response.body.getReader();
+  for (;;) {
+    const { done, value } = await body.read();
+    if (done) break;
+    job.stats.bytes += value.byteLength;
+    let chunk = value;
+    if (skip > 0) {
+      const n = Math.min(skip, chunk.byteLength);
+      skip -= n;
+      chunk = chunk.subarray(n);
+      if (chunk.byteLength === 0) continue;
+    }
+    at = dispatch(chunk, at);
     if (at >= last) break;
   }
   if (at < last) throw new Error(`${source.url}: the response ended at byte ${at} of ${last}`);
