@@ -68,8 +68,9 @@ def main():
                  "`meshstream serve --http-listen` and shows each asset three ways: the Draco .glb export "
                  "through three.js's `GLTFLoader` and `DRACOLoader` alone (the reference), the progressive "
                  "file by HTTP ranges with the meshstream plugin, and the same with its refinements from a "
-                 "live session over WebSocket. Time runs from the page starting the load (the page, three.js "
-                 "and both decoders already loaded) to the first frame that shows the base (first view) and "
+                 "live session over WebSocket. Time runs from the click that starts the load (the page, three.js "
+                 f"and both decoders already loaded, the worker's decoder warmed up, and {cfg.get('settle_ms', 0):g} ms "
+                 "for the page to settle before the click) to the first frame that shows the base (first view) and "
                  "to the first frame that shows every refinement (full). A fresh browser context per load "
                  f"(no cache); {cfg['runs']} rounds, the three kinds in turn in each; medians. The shaped "
                  f"link is a user-space proxy: {cfg['rate_mbit']:g} Mbit/s each way shared by every "
@@ -87,6 +88,11 @@ def main():
         lines.append(f"| {s['network']} | {s['asset']} | {KIND_NAMES[s['kind']]} | {fmt(s['first_ms'])} | "
                      f"{fmt(s['full_ms'])} | {fmt(s['bytes'])} | {fmt(s['first_vs_draco'], 2)} | "
                      f"{fmt(s['full_vs_draco'], 2)} |")
+    lines.append("")
+    fails = r.get("failures", [])
+    lines.append(f"Loads that failed and were tried again: {len(fails)}" +
+                 ("" if not fails else " (" + "; ".join(f"{f['network']} {f['asset']} {f['kind']}: {f['error'][:80]}"
+                                                        for f in fails) + ")") + ".")
     lines.append("")
     lines.append("## The wasm decoder against the native one")
     lines.append("")

@@ -9,7 +9,8 @@
 // way, shared by every connection, and `--delay-ms` each way), each kind in
 // turn within a round, `--runs` rounds, a fresh browser context (no cache)
 // per load. Time starts when the page starts the load (the page, three.js
-// and both decoders are loaded before): first view = the first frame that
+// and both decoders are loaded before, and the page had `--settle-ms` to
+// settle, as a user's page has before a click): first view = the first frame that
 // shows the base (`baseDrawn`), full = the first frame that shows every
 // refinement (`fullDrawn`). Also, in node, the wasm decoder against the
 // native one on the same files (the whole decode: Draco base and stream).
@@ -50,6 +51,7 @@ const rateMbit = Number(take('--rate', '20'));
 const delayMs = Number(take('--delay-ms', '20'));
 const token = take('--token', '');
 const decodeRuns = Number(take('--decode-runs', '9'));
+const settleMs = Number(take('--settle-ms', '1000'));
 const assets = args;
 const kinds = ['draco', 'ranges', 'live'];
 const median = (xs) => {
@@ -156,18 +158,24 @@ async function loadOnce(browser, pageBase, asset, kind) {
   const context = await browser.createBrowserContext();
   const page = await context.newPage();
   try {
-    const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${kind}&tint=0${token ? '' : '&auto=1'}`, pageBase);
+    const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${kind}&tint=0`, pageBase);
     await page.goto(url.href, { waitUntil: 'load', timeout: 120000 });
-    if (token) {
-      await page.waitForFunction(() => window.meshstreamViewer.ready, { timeout: 120000 });
-      await page.evaluate((t) => { document.getElementById('token').value = t; document.getElementById('load').click(); }, token);
-    }
+    // The page open and settled, as a user finds it: both decoders loaded
+    // (the worker's warmed up), then a second for the engine's background
+    // compilation to finish, then the click.
+    await page.waitForFunction(() => window.meshstreamViewer.ready, { timeout: 120000 });
+    await new Promise((r) => setTimeout(r, settleMs));
+    await page.evaluate((t) => {
+      document.getElementById('token').value = t;
+      document.getElementById('load').click();
+    }, token);
     await page.waitForFunction(() => ['complete', 'error'].includes(window.meshstreamViewer.status) &&
                                      (window.meshstreamViewer.status === 'error' || window.meshstreamViewer.timings.fullDrawn !== undefined),
                                { timeout: 300000, polling: 20 });
     const state = await page.evaluate(() => JSON.parse(JSON.stringify(window.meshstreamViewer)));
     if (state.status !== 'complete') throw new Error(`${asset} ${kind}: ${state.error}`);
-    return { first_ms: state.timings.baseDrawn, full_ms: state.timings.fullDrawn, bytes: state.bytes };
+    return { first_ms: state.timings.baseDrawn, full_ms: state.timings.fullDrawn, bytes: state.bytes,
+             worker_ms: state.stats ? state.stats.workerMs : null, levels: state.stats ? state.stats.levels : null };
   } finally {
     await context.close();
   }
@@ -176,8 +184,9 @@ async function loadOnce(browser, pageBase, asset, kind) {
 async function main() {
   const work = mkdtempSync(join(tmpdir(), 'meshstream-bench-web-'));
   const result = {
-    config: { runs, rate_mbit: rateMbit, delay_ms: delayMs, assets, kinds, chromium: '', date: new Date().toISOString() },
-    decode: [], loads: [], summary: [],
+    config: { runs, rate_mbit: rateMbit, delay_ms: delayMs, settle_ms: settleMs, assets, kinds, chromium: '',
+              date: new Date().toISOString() },
+    decode: [], loads: [], summary: [], failures: [],
   };
   let proxy = null;
   let browser = null;
@@ -196,7 +205,18 @@ async function main() {
       for (const asset of assets) {
         for (let run = 0; run < runs; ++run) {
           for (const kind of kinds) {
-            const r = await loadOnce(browser, pageBase, asset, kind);
+            // A load that fails (a renderer that crashed, a wait that broke) is
+            // counted and tried again, at most twice.
+            let r = null;
+            for (let attempt = 0; r === null; ++attempt) {
+              try {
+                r = await loadOnce(browser, pageBase, asset, kind);
+              } catch (e) {
+                result.failures.push({ network, asset, kind, run, attempt, error: String(e.message || e) });
+                console.error(`${network} ${asset} ${kind} run ${run}: failed (${e.message}), attempt ${attempt + 1}`);
+                if (attempt >= 2) throw e;
+              }
+            }
             result.loads.push(Object.assign({ network, asset, kind, run }, r));
             console.log(`${network} ${asset} ${kind} run ${run}: first ${r.first_ms.toFixed(0)} ms, full ${r.full_ms.toFixed(0)} ms, ${r.bytes} bytes`);
           }

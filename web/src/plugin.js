@@ -114,9 +114,11 @@ export class MeshstreamProgressive extends EventDispatcher {
       this.dispatchEvent({ type: 'level', streamId: msg.streamId, level: msg.level, levels: msg.levels,
                            vertices: msg.mesh.vertices, faces: msg.mesh.indices.length / 3,
                            predictedVertices: msg.mesh.predictedVertices, hash: msg.hash });
-      // The next level once this one is drawn: a page that draws slowly
-      // gets fewer levels, not a backlog.
-      if (this.worker) requestAnimationFrame(() => this.worker && this.worker.ack(msg.job, msg.streamId));
+      // The next level once this one is copied into the geometry: levels
+      // that come faster than frames replace each other in the buffers (the
+      // next frame shows the newest), and the worker never queues more than
+      // one per stream.
+      if (this.worker) this.worker.ack(msg.job, msg.streamId);
     } else if (msg.type === 'complete') {
       for (const entry of this.geometries.values()) this.updateBounds(entry);
       this.timings.complete = performance.now();

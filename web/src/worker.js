@@ -63,6 +63,9 @@ async function loadModules(urls) {
     self.createMeshstreamDecoder(),
     self.DracoDecoderModule({ wasmBinary }),
   ]);
+  // The decoder's hot code compiled before the first stream (docs/web.md,
+  // "Warming the decoder"): a sphere encoded and decoded in the module.
+  if (M._ms_wasm_warm_up() === 0) throw new Error('the decoder failed its warm-up decode');
   return { M, D };
 }
 
@@ -109,6 +112,15 @@ class StreamJob {
   // A piece of the stream (BlobReader's events, or a session's messages).
   take(e) {
     if (this.job.closed) return;
+    const t0 = performance.now();
+    try {
+      this.takeNow(e);
+    } finally {
+      this.job.stats.decodeMs += performance.now() - t0;
+    }
+  }
+
+  takeNow(e) {
     if (e.kind === 'header') {
       this.live = new LiveDecoder(modules.M, e.bytes, this.streamId, this.lod);
       this.live.setBase(this.base);
@@ -193,7 +205,11 @@ class Job {
     this.closed = false;
     this.abort = new AbortController();
     this.streams = new Map();
-    this.stats = { bytes: 0, dropped: 0, predictedVertices: {} };
+    // bytes; datagrams dropped by the simulated loss; per stream the
+    // predicted vertices; and where the worker's time went (ms): the bases
+    // (draco3d), the stream's pieces (the wasm decoder, the snapshots and
+    // posts), and the whole job (workerMs, to the last level taken).
+    this.stats = { bytes: 0, dropped: 0, predictedVertices: {}, baseMs: 0, decodeMs: 0 };
   }
 
   close() {
@@ -279,7 +295,9 @@ async function open(msg) {
     // The simulated loss applies to a file's datagrams (a session's transport decides its own).
     const drop = msg.loss > 0 && msg.source.kind !== 'session' ? lossGenerator(msg.loss, msg.seed || 1) : null;
     for (const spec of msg.streams) {
+      const t0 = performance.now();
       const base = decodeDracoBase(modules.D, spec.base, spec.ids);
+      job.stats.baseMs += performance.now() - t0;
       job.streams.set(spec.streamId, new StreamJob(job, spec, base, lod, drop));
       const copy = {
         vertices: base.vertices, positions: base.positions.slice(), normals: base.normals && base.normals.slice(),

@@ -166,6 +166,7 @@ async function load() {
   });
   progressive.addEventListener('complete', (e) => {
     state.timings.full = performance.now() - started;
+    state.stats = e.stats;  // the worker's: bytes, workerMs (its open to its last level), levels
     drawnMarks.add('fullDrawn');
     state.bytes = e.stats.bytes;
     state.status = 'complete';

@@ -63,6 +63,14 @@ const char* ms_wasm_hash(const ms_wasm_stream* s);
 // bits); null before a decode.
 const uint8_t* ms_wasm_reliable(const ms_wasm_stream* s);
 
+// Runs the decoder once on a mesh of its own (a sphere of about 2,500
+// vertices, encoded here and decoded three times), so that the engine has
+// compiled the decoder's hot code before the first real stream: a fresh
+// module otherwise decodes its first stream several times slower (docs/web.md,
+// "Warming the decoder"). Returns the vertices of the decoded sphere (0 on
+// an error).
+uint32_t ms_wasm_warm_up(void);
+
 // --- Live decoding: the refinements as they arrive ---------------------------
 // The same stream fed piece by piece, as a session's messages (SessionStart's
 // header and base, ControlBlocks, datagrams; docs/streaming-protocol.md) or a
