@@ -42,8 +42,8 @@ std::optional<uint64_t> Digits(std::string_view s) {
 
 }  // namespace
 
-ByteRange ParseByteRange(std::string_view header, uint64_t size) {
-  ByteRange whole;  // kWhole
+HttpRange ParseByteRange(std::string_view header, uint64_t size) {
+  HttpRange whole;  // kWhole
   header = Trim(header);
   const size_t equals = header.find('=');
   if (equals == std::string_view::npos) return whole;
@@ -70,17 +70,17 @@ ByteRange ParseByteRange(std::string_view header, uint64_t size) {
   const std::string_view first_text = spec.substr(0, dash);
   const std::string_view last_text = spec.substr(dash + 1);
 
-  ByteRange r;
+  HttpRange r;
   if (first_text.empty()) {
     // bytes=-N: the last N bytes.
     const std::optional<uint64_t> suffix = Digits(last_text);
     if (!suffix) return whole;
     if (*suffix == 0) {
-      r.kind = ByteRange::Kind::kUnsatisfiable;
+      r.kind = HttpRange::Kind::kUnsatisfiable;
       return r;
     }
     if (size == 0) return whole;
-    r.kind = ByteRange::Kind::kPartial;
+    r.kind = HttpRange::Kind::kPartial;
     r.first = *suffix >= size ? 0 : size - *suffix;
     r.last = size - 1;
     return r;
@@ -93,10 +93,10 @@ ByteRange ParseByteRange(std::string_view header, uint64_t size) {
     if (!last || *last < *first) return whole;  // malformed, or B < A: an invalid spec
   }
   if (*first >= size) {
-    r.kind = ByteRange::Kind::kUnsatisfiable;
+    r.kind = HttpRange::Kind::kUnsatisfiable;
     return r;
   }
-  r.kind = ByteRange::Kind::kPartial;
+  r.kind = HttpRange::Kind::kPartial;
   r.first = *first;
   r.last = last && *last < size - 1 ? *last : size - 1;
   return r;

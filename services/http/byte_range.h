@@ -32,7 +32,7 @@
 
 namespace meshstream {
 
-struct ByteRange {
+struct HttpRange {
   enum class Kind {
     kWhole,          // no usable Range: 200 with the whole body
     kPartial,        // 206 with bytes [first, last] (inclusive)
@@ -45,7 +45,7 @@ struct ByteRange {
   uint64_t length() const { return kind == Kind::kPartial ? last - first + 1 : 0; }
 };
 
-ByteRange ParseByteRange(std::string_view header, uint64_t size);
+HttpRange ParseByteRange(std::string_view header, uint64_t size);
 
 }  // namespace meshstream
 

@@ -20,7 +20,7 @@ HttpResponse ServeRepresentation(const HttpRequest& request, const Representatio
     return r;
   }
 
-  ByteRange range;  // kWhole
+  HttpRange range;  // kWhole
   if (request.method == "GET") {
     const auto range_header = request.Header("range");
     if (range_header) {
@@ -29,7 +29,7 @@ HttpResponse ServeRepresentation(const HttpRequest& request, const Representatio
     }
   }
 
-  if (range.kind == ByteRange::Kind::kUnsatisfiable) {
+  if (range.kind == HttpRange::Kind::kUnsatisfiable) {
     HttpResponse r = JsonError(416,
                                "Range: no byte of the requested range is within the " +
                                    std::to_string(size) + " bytes of the body",
@@ -42,7 +42,7 @@ HttpResponse ServeRepresentation(const HttpRequest& request, const Representatio
   HttpResponse r;
   add_common(&r);
   r.SetHeader("Content-Type", rep.content_type);
-  if (range.kind == ByteRange::Kind::kPartial) {
+  if (range.kind == HttpRange::Kind::kPartial) {
     r.status = 206;
     r.SetHeader("Content-Range", "bytes " + std::to_string(range.first) + "-" + std::to_string(range.last) + "/" +
                                      std::to_string(size));

@@ -372,7 +372,8 @@ StatusOr<std::string> StreamSocketRoute::CheckRequest(const HttpUpgradeRequest& 
     const auto host_field = request.find(http::field::host);
     const std::string own =
         host_field == request.end() ? "" : Lower((tls ? "https://" : "http://") + std::string(host_field->value()));
-    if (origin != own && !cors.AllowedOrigin(std::string(origin_field->value()))) {
+    const bool same_origin = !own.empty() && origin == own;
+    if (!same_origin && !cors.AllowedOrigin(std::string(origin_field->value()))) {
       *http_status = 403;
       return PermissionDenied("origin " + std::string(origin_field->value()) +
                               " may not open sessions (only this server's own origin and --http-cors-origin)");

@@ -9,10 +9,10 @@
 namespace meshstream {
 namespace {
 
-using Kind = ByteRange::Kind;
+using Kind = HttpRange::Kind;
 
 void ExpectPartial(const std::string& header, uint64_t size, uint64_t first, uint64_t last) {
-  const ByteRange r = ParseByteRange(header, size);
+  const HttpRange r = ParseByteRange(header, size);
   EXPECT_EQ(r.kind, Kind::kPartial) << "'" << header << "' of " << size;
   EXPECT_EQ(r.first, first) << "'" << header << "' of " << size;
   EXPECT_EQ(r.last, last) << "'" << header << "' of " << size;
@@ -23,25 +23,25 @@ void ExpectKind(const std::string& header, uint64_t size, Kind kind) {
   EXPECT_EQ(ParseByteRange(header, size).kind, kind) << "'" << header << "' of " << size;
 }
 
-TEST(ByteRange, ClosedRanges) {
+TEST(HttpRange, ClosedRanges) {
   ExpectPartial("bytes=0-0", 100, 0, 0);
   ExpectPartial("bytes=0-99", 100, 0, 99);
   ExpectPartial("bytes=10-19", 100, 10, 19);
   ExpectPartial("bytes=99-99", 100, 99, 99);
 }
 
-TEST(ByteRange, LastBeyondTheEndIsCut) {
+TEST(HttpRange, LastBeyondTheEndIsCut) {
   ExpectPartial("bytes=10-1000", 100, 10, 99);
   ExpectPartial("bytes=0-100", 100, 0, 99);
 }
 
-TEST(ByteRange, OpenEnded) {
+TEST(HttpRange, OpenEnded) {
   ExpectPartial("bytes=0-", 100, 0, 99);
   ExpectPartial("bytes=42-", 100, 42, 99);
   ExpectPartial("bytes=99-", 100, 99, 99);
 }
 
-TEST(ByteRange, Suffix) {
+TEST(HttpRange, Suffix) {
   ExpectPartial("bytes=-1", 100, 99, 99);
   ExpectPartial("bytes=-10", 100, 90, 99);
   ExpectPartial("bytes=-100", 100, 0, 99);
@@ -49,14 +49,14 @@ TEST(ByteRange, Suffix) {
   ExpectPartial("bytes=-1000", 100, 0, 99);
 }
 
-TEST(ByteRange, Unsatisfiable) {
+TEST(HttpRange, Unsatisfiable) {
   ExpectKind("bytes=100-", 100, Kind::kUnsatisfiable);
   ExpectKind("bytes=100-200", 100, Kind::kUnsatisfiable);
   ExpectKind("bytes=5000-", 100, Kind::kUnsatisfiable);
   ExpectKind("bytes=-0", 100, Kind::kUnsatisfiable);
 }
 
-TEST(ByteRange, EmptyBody) {
+TEST(HttpRange, EmptyBody) {
   ExpectKind("bytes=0-", 0, Kind::kUnsatisfiable);
   ExpectKind("bytes=0-0", 0, Kind::kUnsatisfiable);
   ExpectKind("bytes=-0", 0, Kind::kUnsatisfiable);
@@ -64,12 +64,12 @@ TEST(ByteRange, EmptyBody) {
   ExpectKind("bytes=-5", 0, Kind::kWhole);
 }
 
-TEST(ByteRange, LastBeforeFirstIsIgnored) {
+TEST(HttpRange, LastBeforeFirstIsIgnored) {
   ExpectKind("bytes=20-10", 100, Kind::kWhole);
   ExpectKind("bytes=200-100", 100, Kind::kWhole);
 }
 
-TEST(ByteRange, SeveralRangesAreServedWhole) {
+TEST(HttpRange, SeveralRangesAreServedWhole) {
   ExpectKind("bytes=0-1,5-6", 100, Kind::kWhole);
   ExpectKind("bytes=0-1, 5-6", 100, Kind::kWhole);
   ExpectKind("bytes=-1,0-0", 100, Kind::kWhole);
@@ -78,14 +78,14 @@ TEST(ByteRange, SeveralRangesAreServedWhole) {
   ExpectKind("bytes=500-,600-", 100, Kind::kWhole);
 }
 
-TEST(ByteRange, EmptyListElementsAreSkipped) {
+TEST(HttpRange, EmptyListElementsAreSkipped) {
   ExpectPartial("bytes=0-9,", 100, 0, 9);
   ExpectPartial("bytes=, 0-9 ,,", 100, 0, 9);
   ExpectKind("bytes=,", 100, Kind::kWhole);
   ExpectKind("bytes=", 100, Kind::kWhole);
 }
 
-TEST(ByteRange, Whitespace) {
+TEST(HttpRange, Whitespace) {
   ExpectPartial("  bytes=0-9  ", 100, 0, 9);
   ExpectPartial("bytes= 0-9", 100, 0, 9);
   ExpectPartial("bytes=\t0-9\t", 100, 0, 9);
@@ -96,7 +96,7 @@ TEST(ByteRange, Whitespace) {
   ExpectKind("bytes=- 5", 100, Kind::kWhole);
 }
 
-TEST(ByteRange, Units) {
+TEST(HttpRange, Units) {
   ExpectPartial("Bytes=0-9", 100, 0, 9);
   ExpectPartial("BYTES=0-9", 100, 0, 9);
   ExpectKind("items=0-9", 100, Kind::kWhole);
@@ -105,7 +105,7 @@ TEST(ByteRange, Units) {
   ExpectKind("=0-9", 100, Kind::kWhole);
 }
 
-TEST(ByteRange, Malformed) {
+TEST(HttpRange, Malformed) {
   for (const char* header : {"", "bytes", "bytes=-", "bytes=abc", "bytes=1", "bytes=+1-2", "bytes=1-+2",
                              "bytes=-+5", "bytes=-5-", "bytes=1-2-3", "bytes=0x10-20", "bytes=1.5-2",
                              "bytes=\xff-1"}) {
@@ -115,7 +115,7 @@ TEST(ByteRange, Malformed) {
   ExpectKind(std::string("bytes=\0-2", 9), 100, Kind::kWhole);
 }
 
-TEST(ByteRange, OverflowingDigitsSaturate) {
+TEST(HttpRange, OverflowingDigitsSaturate) {
   const std::string huge = "99999999999999999999999999999999999999";  // far above 2^64
   ExpectKind("bytes=" + huge + "-", 100, Kind::kUnsatisfiable);
   ExpectKind("bytes=" + huge + "-" + huge, 100, Kind::kUnsatisfiable);
@@ -131,7 +131,7 @@ TEST(ByteRange, OverflowingDigitsSaturate) {
   ExpectKind("bytes=" + std::string(100000, '9') + "-", 100, Kind::kUnsatisfiable);
 }
 
-TEST(ByteRange, OneByteBody) {
+TEST(HttpRange, OneByteBody) {
   ExpectPartial("bytes=0-0", 1, 0, 0);
   ExpectPartial("bytes=0-", 1, 0, 0);
   ExpectPartial("bytes=-1", 1, 0, 0);

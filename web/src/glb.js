@@ -6,6 +6,19 @@
 // Throws an Error naming what is wrong; never reads outside the buffer.
 
 const GLB_MAGIC = 0x46546c67;
+
+// The JSON's arrays and objects checked before use: the file is untrusted.
+const isObject = (v) => v !== null && typeof v === 'object' && !Array.isArray(v);
+function arrayOf(v, what) {
+  if (v === undefined) return [];
+  if (!Array.isArray(v)) throw new Error('glb: ' + what + ' is not an array');
+  return v;
+}
+function objectAt(list, i, what) {
+  if (!isObject(list[i])) throw new Error('glb: ' + what + '[' + i + '] is not an object');
+  return list[i];
+}
+const isCount = (v) => Number.isSafeInteger(v) && v >= 0;
 const CHUNK_JSON = 0x4e4f534a;
 const CHUNK_BIN = 0x004e4942;
 
@@ -59,24 +72,30 @@ export function glbJsonEnd(bytes) {
 // level lies before it), or the file's length when it has none.
 export function firstBlobOffset(json, binOffset, fileLength) {
   let first = fileLength;
-  for (const mesh of json.meshes || []) {
-    for (const prim of mesh.primitives || []) {
-      const ext = (prim.extensions || {}).MESHSTREAM_progressive;
-      if (!ext) continue;
-      const v = (json.bufferViews || [])[ext.bufferView];
-      if (v) first = Math.min(first, binOffset + (v.byteOffset || 0));
-    }
-  }
+  const meshes = arrayOf(json.meshes, 'meshes');
+  meshes.forEach((_, m) => {
+    const prims = arrayOf(objectAt(meshes, m, 'meshes').primitives, `meshes[${m}].primitives`);
+    prims.forEach((_, j) => {
+      const prim = objectAt(prims, j, `meshes[${m}].primitives`);
+      const ext = isObject(prim.extensions) ? prim.extensions.MESHSTREAM_progressive : undefined;
+      if (!isObject(ext)) return;
+      const v = arrayOf(json.bufferViews, 'bufferViews')[ext.bufferView];
+      if (isObject(v) && isCount(v.byteOffset || 0)) first = Math.min(first, binOffset + (v.byteOffset || 0));
+    });
+  });
   return first;
 }
 
 // A bufferView's bytes; null when `optional` and the bytes are not (yet)
 // there (a truncated file).
 export function bufferView(glb, index, optional = false) {
-  const views = glb.json.bufferViews || [];
-  const v = views[index];
-  if (!v) throw new Error('bufferView ' + index + ' does not exist');
-  const offset = v.byteOffset || 0;
+  const views = arrayOf(glb.json.bufferViews, 'bufferViews');
+  const v = Number.isSafeInteger(index) && index >= 0 ? views[index] : undefined;
+  if (!isObject(v)) throw new Error('bufferView ' + index + ' does not exist');
+  const offset = v.byteOffset === undefined ? 0 : v.byteOffset;
+  if (!isCount(offset) || !isCount(v.byteLength)) {
+    throw new Error('bufferView ' + index + ': byteOffset and byteLength must be counts');
+  }
   if (!glb.bin || offset + v.byteLength > glb.bin.byteLength) {
     if (optional) return null;
     throw new Error('bufferView ' + index + ' lies outside the binary chunk');
@@ -86,15 +105,20 @@ export function bufferView(glb, index, optional = false) {
 
 // A bufferView's place in the file: { start, end } (end exclusive).
 function fileRange(glb, index) {
-  const v = (glb.json.bufferViews || [])[index];
-  if (!v || !Number.isSafeInteger(v.byteLength)) throw new Error('bufferView ' + index + ' does not exist');
-  const start = glb.binOffset + (v.byteOffset || 0);
+  const v = Number.isSafeInteger(index) && index >= 0 ? arrayOf(glb.json.bufferViews, 'bufferViews')[index] : undefined;
+  if (!isObject(v)) throw new Error('bufferView ' + index + ' does not exist');
+  const offset = v.byteOffset === undefined ? 0 : v.byteOffset;
+  if (!isCount(offset) || !isCount(v.byteLength)) {
+    throw new Error('bufferView ' + index + ': byteOffset and byteLength must be counts');
+  }
+  const start = glb.binOffset + offset;
   return { start, end: start + v.byteLength };
 }
 
 // Draco attribute ids in the order the native importer reads them.
 function dracoIds(draco) {
-  const a = draco.attributes || {};
+  const a = draco.attributes === undefined ? {} : draco.attributes;
+  if (!isObject(a)) throw new Error('KHR_draco_mesh_compression.attributes is not an object');
   const texcoords = [];
   for (let k = 0; ('TEXCOORD_' + k) in a; ++k) texcoords.push(a['TEXCOORD_' + k]);
   return {
@@ -107,13 +131,15 @@ function dracoIds(draco) {
 
 export function progressivePrimitives(glb) {
   const out = [];
-  const meshes = glb.json.meshes || [];
-  meshes.forEach((mesh, m) => {
-    (mesh.primitives || []).forEach((prim, j) => {
-      const ext = prim.extensions || {};
+  const meshes = arrayOf(glb.json.meshes, 'meshes');
+  meshes.forEach((_, m) => {
+    const prims = arrayOf(objectAt(meshes, m, 'meshes').primitives, `meshes[${m}].primitives`);
+    prims.forEach((_, j) => {
+      const prim = objectAt(prims, j, `meshes[${m}].primitives`);
+      const ext = isObject(prim.extensions) ? prim.extensions : {};
       const progressive = ext.MESHSTREAM_progressive;
       const draco = ext.KHR_draco_mesh_compression;
-      if (!progressive || !draco) return;
+      if (!isObject(progressive) || !isObject(draco)) return;
       out.push({
         where: 'meshes[' + m + '].primitives[' + j + ']',
         mesh: m,
@@ -123,7 +149,8 @@ export function progressivePrimitives(glb) {
         blobRange: fileRange(glb, progressive.bufferView),
         base: bufferView(glb, draco.bufferView),
         ids: dracoIds(draco),
-        reliable: (progressive.delivery && progressive.delivery.reliable) || [],
+        reliable: isObject(progressive.delivery) && Array.isArray(progressive.delivery.reliable)
+          ? progressive.delivery.reliable.filter(isCount) : [],
       });
     });
   });

@@ -182,6 +182,9 @@ export function openSessionSource(job, source, take) {
         const m = readServerMessage(body);
         if (m.kind === 'start') {
           for (const p of m.primitives) {
+            if (p.header === null || p.base === null) {
+              throw new Error('primitive ' + p.primitive + ': the SessionStart has no header or no base mesh');
+            }
             const s = job.streams.get(p.primitive);
             if (!s) throw new Error('the session has primitive ' + p.primitive + ', the file does not');
             if (!sameBytes(p.base, s.baseBytes)) {
