@@ -171,7 +171,7 @@ async function loadOnce(browser, pageBase, asset, kind) {
     }, token);
     await page.waitForFunction(() => ['complete', 'error'].includes(window.meshstreamViewer.status) &&
                                      (window.meshstreamViewer.status === 'error' || window.meshstreamViewer.timings.fullDrawn !== undefined),
-                               { timeout: 300000, polling: 20 });
+                               { timeout: 120000, polling: 20 });
     const state = await page.evaluate(() => JSON.parse(JSON.stringify(window.meshstreamViewer)));
     if (state.status !== 'complete') throw new Error(`${asset} ${kind}: ${state.error}`);
     return { first_ms: state.timings.baseDrawn, full_ms: state.timings.fullDrawn, bytes: state.bytes,

@@ -141,7 +141,12 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
       }
     }
     if (!self) self = this->shared_from_this();
-    net::post(ws_.get_executor(), [self, ok = status.ok()] {
+    // `self` moves into the handler: this thread (the send loop's, in the
+    // middle of this session's step) must never hold the last reference.
+    // If it did, the handler having run already, the destructor would run
+    // here and wait for the step it is in (the registration's removal):
+    // the send loop would stop for good.
+    net::post(ws_.get_executor(), [self = std::move(self), ok = status.ok()] {
       if (!ok) {
         // A write the client does not take would hold the connection: the
         // close gets the handshake timeout, then the socket goes.

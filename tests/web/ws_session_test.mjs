@@ -174,6 +174,26 @@ async function main() {
   const work = mkdtempSync(join(tmpdir(), 'meshstream-ws-'));
   try {
     for (const asset of assets) await streamOne(asset, M, D, work);
+    // Sessions whose client closes the moment SessionEnd arrives, without
+    // `done` (the server's last writes and its close race the client's):
+    // each must end, and the next must stream. A session's end once stopped
+    // the server's send loop for good (its last reference dropped on the
+    // send loop's thread); the loop of the next session would hang.
+    for (let i = 0; i < 20; ++i) {
+      const r = await new Promise((resolve) => {
+        const ws = new WebSocket(wsUrl, ['meshstream.v1'], { headers: authHeaders(token) });
+        const timer = setTimeout(() => { ws.terminate(); resolve('stalled'); }, 20000);
+        ws.on('open', () => ws.send(frame(1, openMessage({ asset: assets[0] }))));
+        ws.on('message', (data) => {
+          const b = new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
+          if (b[0] === 2 && readServerMessage(b.slice(1)).kind === 'end') (i % 2 ? ws.terminate() : ws.close(1000));
+        });
+        ws.on('close', () => { clearTimeout(timer); resolve('ended'); });
+        ws.on('error', () => {});
+      });
+      check(r === 'ended', `abrupt session ${i}: ${r}`);
+    }
+    console.log('20 sessions closed by their client at SessionEnd: every one ended');
     const open = frame(1, openMessage({ asset: assets[0] }));
     const h = authHeaders(token);
     await refused('another origin', { headers: h, origin: 'http://evil.example', send: [open] }, 403);
