@@ -27,21 +27,12 @@ import net from 'node:net';
 import { parseGlb, progressivePrimitives } from '../../web/src/glb.js';
 import { decodeDracoBase } from '../../web/src/draco_base.js';
 import { StreamDecoder } from '../../web/src/decoder.js';
+import { flagTaker, launchChromium } from '../../web/tools/node_support.mjs';
 
 const require = createRequire(import.meta.url);
-const puppeteer = require('../../web/node_modules/puppeteer-core');
 
 const args = process.argv.slice(2);
-function take(flag, fallback) {
-  const i = args.indexOf(flag);
-  if (i < 0) {
-    if (fallback === undefined) throw new Error('missing ' + flag);
-    return fallback;
-  }
-  const v = args[i + 1];
-  args.splice(i, 2);
-  return v;
-}
+const take = flagTaker(args);
 const base = take('--base');
 const reference = take('--reference');
 const wasm = take('--wasm');
@@ -194,12 +185,7 @@ async function main() {
     result.decode = await decodeTimes(work);
     proxy = await shapedProxy(new URL(base), rateMbit * 1e6, delayMs);
     const shapedBase = `http://127.0.0.1:${proxy.address().port}/`;
-    browser = await puppeteer.launch({
-      executablePath: process.env.CHROMIUM || '/usr/bin/chromium', headless: true,
-      args: ['--no-sandbox', '--disable-dev-shm-usage', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-             '--window-size=800,600'],
-      defaultViewport: { width: 800, height: 600 },
-    });
+    browser = await launchChromium();
     result.config.chromium = await browser.version();
     for (const [network, pageBase] of [['loopback', base], ['shaped', shapedBase]]) {
       for (const asset of assets) {

@@ -27,22 +27,12 @@ import { parseGlb, progressivePrimitives } from '../../web/src/glb.js';
 import { decodeDracoBase } from '../../web/src/draco_base.js';
 import { LiveDecoder } from '../../web/src/decoder.js';
 import { BlobReader } from '../../web/src/blob_reader.js';
+import { chromiumPath, flagTaker, launchChromium } from '../../web/tools/node_support.mjs';
 
 const require = createRequire(import.meta.url);
-const puppeteer = require(join(process.env.MESHSTREAM_WEB_DIR || new URL('../../web', import.meta.url).pathname,
-                               'node_modules/puppeteer-core'));
 
 const args = process.argv.slice(2);
-function take(flag, fallback) {
-  const i = args.indexOf(flag);
-  if (i < 0) {
-    if (fallback === undefined) throw new Error('missing ' + flag);
-    return fallback;
-  }
-  const v = args[i + 1];
-  args.splice(i, 2);
-  return v;
-}
+const take = flagTaker(args);
 const base = take('--base');
 const reference = take('--reference');
 const wasmModule = take('--wasm');
@@ -51,7 +41,7 @@ const shots = take('--shots', '');
 const modes = take('--modes', 'ranges,live').split(',');
 const assets = args;
 if (assets.length === 0) throw new Error('no asset given');
-const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+const chromium = chromiumPath();
 
 // The native decode of the file the server serves.
 async function nativeHashes(asset, work) {
@@ -124,13 +114,7 @@ async function main() {
   const work = mkdtempSync(join(tmpdir(), 'meshstream-browser-'));
   let browser;
   try {
-    browser = await puppeteer.launch({
-      executablePath: chromium,
-      headless: true,
-      args: ['--no-sandbox', '--disable-dev-shm-usage', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-             '--ignore-gpu-blocklist', '--window-size=800,600'],
-      defaultViewport: { width: 800, height: 600 },
-    });
+    browser = await launchChromium();
   } catch (e) {
     console.error('browser_test: Chromium (' + chromium + ') did not start: ' + e.message +
                   '\n(scripts/install-deps installs the chromium package)');

@@ -24,21 +24,13 @@ import { LiveDecoder } from '../../web/src/decoder.js';
 import { decodeDracoBase } from '../../web/src/draco_base.js';
 import { datagramStream, openMessage, readServerMessage } from '../../web/src/session.js';
 import { parseGlb, progressivePrimitives } from '../../web/src/glb.js';
+import { flagTaker } from '../../web/tools/node_support.mjs';
 
 const require = createRequire(import.meta.url);
 const WebSocket = require('../../web/node_modules/ws');
 
 const args = process.argv.slice(2);
-function take(flag, fallback) {
-  const i = args.indexOf(flag);
-  if (i < 0) {
-    if (fallback === undefined) throw new Error('missing ' + flag);
-    return fallback;
-  }
-  const v = args[i + 1];
-  args.splice(i, 2);
-  return v;
-}
+const take = flagTaker(args);
 const base = take('--base');
 const reference = take('--reference');
 const wasm = take('--wasm');

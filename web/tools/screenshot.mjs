@@ -4,28 +4,15 @@
 // usage: node web/tools/screenshot.mjs --base http://HOST:PORT/ --asset NAME --out FILE.png
 //          [--mode ranges|live] [--token T]
 // Prints one line: the mode, levels, time to base and to full, bytes, the file.
-import { createRequire } from 'node:module';
+import { flagTaker, launchChromium } from './node_support.mjs';
 
-const require = createRequire(import.meta.url);
-const puppeteer = require('../node_modules/puppeteer-core');
 const args = process.argv.slice(2);
-const take = (flag, fallback) => {
-  const i = args.indexOf(flag);
-  if (i < 0) {
-    if (fallback === undefined) throw new Error('missing ' + flag);
-    return fallback;
-  }
-  return args[i + 1];
-};
+const take = flagTaker(args);
 const base = take('--base'), asset = take('--asset'), out = take('--out');
 const mode = take('--mode', 'live'), token = take('--token', '');
 
 async function main() {
-  const browser = await puppeteer.launch({
-    executablePath: process.env.CHROMIUM || '/usr/bin/chromium', headless: true,
-    args: ['--no-sandbox', '--disable-dev-shm-usage', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
-    defaultViewport: { width: 1024, height: 640 },
-  });
+  const browser = await launchChromium({ width: 1024, height: 640 });
   try {
     const page = await browser.newPage();
     const url = new URL(`?asset=${encodeURIComponent(asset)}&mode=${mode}&tint=1${token ? '' : '&auto=1'}`, base);
