@@ -50,6 +50,10 @@
 #include "codec/loss/lossy_decode.h"
 #include "codec/mesh/mesh.h"
 #include "codec/progressive/encoder.h"
+#include "codec/loss/datagram_harm.h"
+#include "codec/loss/protection.h"
+#include "fec/reed_solomon.h"
+#include "parallel/thread_pool.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
@@ -82,6 +86,7 @@ struct Args {
   unsigned threads = 2;
   int64_t samples = 0;
   bool quick = false;
+  bool protection_only = false;
   double base_ratio = ms::SimplifyOptions{}.base_ratio;
   double reliable_share = ms::kDefaultReliableShare;
 };
@@ -100,6 +105,9 @@ Args ParseArgs(int argc, char** argv) {
           "Hausdorff samples_per_side (default 0: every vertex, edge midpoint\n"
           "and face centroid, see codec/metrics/hausdorff.h)");
   o.Flag("--quick", &a.quick, "a tiny run for smoke testing (spot unless --model; 2 seeds)");
+  o.Flag("--protection-only", &a.protection_only,
+         "only the reliable cut and parity at 12 and 30 % loss, random and bursty (no timing):\n"
+         "a quick look at loss protection (docs/loss-protection.md)");
   o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
            "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
            "0.14 is close to the paper's base, see docs/loss-results.md)", true);
@@ -155,6 +163,9 @@ struct Stream {
   std::vector<uint32_t> cut;   // the reliable cut at --reliable-share (importance-ordered delivery)
   uint64_t cut_bytes = 0;      // its datagram bytes
   uint64_t total_bytes = 0;    // base, header, control blocks and datagrams
+  ms::DatagramHarm harm;       // single-loss harm per datagram (split packing only)
+  std::vector<double> refinement_harm;  // the encoder's measure per refinement (the record's "harm")
+  std::vector<uint8_t> tiers;  // per refinement: its ProtectionTier (the record's "parity")
 };
 
 struct Model {
@@ -170,7 +181,7 @@ struct Job {
   size_t model = 0;
   int packing = 0, pattern = 0;
   int delivery = 0;  // 0: the paper's scheme (split bits and base reliable); 1: the reliable cut as well;
-                     // 2: the cut and a simulated XOR parity datagram per unreliable refinement
+                     // 2: the cut and Reed-Solomon parity blocks (codec/loss/parity_plan.h)
   double loss = 0;
   uint64_t seed = 0;
   bool levels_predict = false;  // per-level metrics for prediction
@@ -247,7 +258,31 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
     std::vector<ms::QuantizedMesh> got(n + 1);
     auto options = DecodeOptions(job.loss, kBursts[job.pattern], job.seed, kRecoveries[r]);
     if (job.delivery >= 1) options.reliable = s.cut;
-    options.parity = job.delivery == 2;
+    if (job.delivery == 2) {
+      // Reed-Solomon parity over the unreliable refinements, sized for the
+      // loss and burst the client would report (the model's own).
+      options.parity.code = &ms::fec::DefaultErasureCode();
+      options.parity.loss = job.loss;
+      options.parity.burst = kBursts[job.pattern];
+      options.parity.protect = s.tiers;
+      if (std::getenv("MS_STRONG_RELIABLE")) {
+        std::vector<uint32_t> rel = s.cut;
+        for (uint32_t i = 0; i < s.tiers.size(); ++i) {
+          if (s.tiers[i] == ms::kStrongParity) {
+            rel.push_back(i);
+            options.parity.protect[i] = 0;
+          }
+        }
+        std::sort(rel.begin(), rel.end());
+        rel.erase(std::unique(rel.begin(), rel.end()), rel.end());
+        options.reliable = rel;
+      }
+      if (const char* f = std::getenv("MS_FAILURE")) options.parity.plan.block_failure = std::atof(f);
+      if (const char* f = std::getenv("MS_STRONG")) options.parity.plan.strong_failure = std::atof(f);
+      if (const char* f = std::getenv("MS_SPAN")) options.parity.plan.max_span = std::atoi(f);
+      if (const char* f = std::getenv("MS_K")) options.parity.plan.block_datagrams = std::atoi(f);
+      if (const char* f = std::getenv("MS_INTERLEAVE")) options.parity.plan.interleave = std::atoi(f);
+    }
     options.on_level = [&](size_t level, const ms::StreamReader& reader) {
       ms::QuantizedMesh m = reader.Mesh();
       if (level >= rr.level_vertices.size()) rr.level_vertices.resize(level, 0);
@@ -345,7 +380,10 @@ json JobJson(const Job& job, const JobResult& r) {
             {"lost_bytes", r.tx.lost_bytes},
             {"parity_datagrams", r.tx.parity_datagrams},
             {"parity_bytes", r.tx.parity_bytes},
-            {"parity_recovered", r.tx.parity_recovered},
+            {"parity_lost", r.tx.parity_lost},
+            {"parity_recovered", r.rc.recovered},
+            {"redecoded", r.rc.redecoded},
+            {"datagram_bytes", r.tx.datagram_bytes},
             {"repair_bytes", RepairBytes(r.tx)},
             {"repaired_identical", r.repaired_identical},
             {"finished_timeout", r.rc.finished_timeout},
@@ -429,6 +467,24 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
     for (size_t k = 0; k <= n; ++k) {
       s.ref.push_back(ms::DequantizeMesh(s.ref_q[k], -1));
       s.ref_diag.push_back(ms::bench::Diagonal(s.ref.back()));
+    }
+    if (p == 0) {
+      // The encoder's protection choice (codec/loss/protection.h), as
+      // EncodeProgressiveGlb records it, and every datagram's own harm for
+      // the JSON (what the choice is measured against).
+      const auto h0 = Clock::now();
+      ms::ThreadPool pool(2);
+      const ms::DatagramHarm quick = Check(ms::MeasureDatagramHarm(s.stream, s.base, &pool), file + ": harm");
+      const double quick_s = Ms(h0, Clock::now()) / 1000;
+      const ms::DeliveryRecord record =
+          ms::MakeDeliveryRecord(enc.mesh, s.stream, enc.base_bytes.size(), reliable_share, &quick);
+      s.tiers = ms::ProtectionTiers(record.parity, record.harm, n);
+      s.refinement_harm = record.harm;
+      ms::HarmOptions every;
+      every.every_datagram = true;
+      s.harm = Check(ms::MeasureDatagramHarm(s.stream, s.base, &pool, every), file + ": datagram harm");
+      std::fprintf(stderr, "  %s: harm measured in %.1f s (every datagram: %.1f s); %zu refinements protected\n",
+                   file.c_str(), quick_s, Ms(h0, Clock::now()) / 1000 - quick_s, record.parity.size());
     }
     if (s.ref_q[n].vertex_count() != m.level_vertices.back())
       std::fprintf(stderr, "  warning: %s %s: zero-loss decode has %zu vertices, the header says %u\n", file.c_str(),
@@ -545,6 +601,21 @@ json SettingsJson(const Args& args) {
 // every loss level for split packing with random loss; the other cells at
 // 4, 12 and 30 % (bursty with bundled packing at 12 % only).
 void PlanModelJobs(const Args& args, size_t mi, const Plan& p, std::vector<Job>& jobs) {
+  if (args.protection_only) {
+    for (int pt = 0; pt < 2; ++pt)
+      for (double loss : {0.12, 0.30})
+        for (int sd = 1; sd <= p.seeds; ++sd)
+          for (int delivery : {1, 2}) {
+            Job j;
+            j.model = mi;
+            j.pattern = pt;
+            j.loss = loss;
+            j.seed = static_cast<uint64_t>(sd);
+            j.delivery = delivery;
+            jobs.push_back(j);
+          }
+    return;
+  }
   for (int pk = 0; pk < 2; ++pk)
     for (int pt = 0; pt < 2; ++pt)
       for (double loss : p.losses) {
@@ -669,6 +740,17 @@ json ModelJson(const Model& m, size_t mi, const std::vector<Job>& jobs, const st
                                                                             static_cast<double>(m.streams[0].total_bytes)
                                                                       : 0.0}}},
              {"runs", runs}};
+  {
+    // The protection choice and what it rests on (docs/loss-protection.md).
+    const Stream& s = m.streams[0];
+    json tiers = json::array(), datagram_harm = json::array();
+    for (uint8_t t : s.tiers) tiers.push_back(t);
+    for (const auto& h : s.harm.harm) datagram_harm.push_back(h);
+    mj["protection"] = {{"tiers", tiers},
+                        {"refinement_harm", s.refinement_harm},
+                        {"datagram_harm", datagram_harm},
+                        {"datagram_bytes", ms::RefinementDatagramBytes(s.stream)}};
+  }
   if (!timing.is_null()) mj["timing"] = timing;
   return mj;
 }
@@ -688,7 +770,7 @@ int main(int argc, char** argv) {
   // 1. Timing, alone (nothing else runs in the process meanwhile).
   std::vector<json> timing(models.size());
   for (size_t mi = 0; mi < models.size(); ++mi) {
-    if (!models[mi].plan.per_level) continue;
+    if (!models[mi].plan.per_level || args.protection_only) continue;
     std::fprintf(stderr, "timing %s\n", models[mi].name.c_str());
     timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat);
   }

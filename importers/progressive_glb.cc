@@ -1,10 +1,13 @@
 #include "importers/progressive_glb.h"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "codec/loss/lossy_decode.h"
+#include "codec/loss/protection.h"
 #include "codec/bitstream/reader.h"
 #include "codec/mesh/scene_flatten.h"
 #include "importers/draco_base_coder.h"
@@ -71,7 +74,8 @@ StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, s
   const json d = json::parse(delivery_json, nullptr, false);
   if (d.is_discarded() || !d.is_object()) return InvalidInput(name + " is not an object");
   for (const auto& item : d.items()) {
-    if (item.key() != "share" && item.key() != "ranking" && item.key() != "reliable") {
+    if (item.key() != "share" && item.key() != "ranking" && item.key() != "reliable" && item.key() != "parity" &&
+        item.key() != "harm") {
       return InvalidInput(name + "." + item.key() + " is not defined");
     }
   }
@@ -94,6 +98,29 @@ StatusOr<DeliveryRecord> ParseDeliveryRecord(const std::string& delivery_json, s
     if (!seen[r.reliable[k]]) {
       return InvalidInput(name + ".reliable names refinement " + std::to_string(r.reliable[k]) +
                           ", which the ranking does not");
+    }
+  }
+  if (d.contains("parity")) {
+    MS_ASSIGN_OR_RETURN(r.parity, RefinementList(d["parity"], name + ".parity", refinements));
+    for (size_t k = 0; k < r.parity.size(); ++k) {
+      if (k > 0 && r.parity[k] <= r.parity[k - 1]) return InvalidInput(name + ".parity is not ascending");
+      if (std::binary_search(r.reliable.begin(), r.reliable.end(), r.parity[k])) {
+        return InvalidInput(name + ".parity names refinement " + std::to_string(r.parity[k]) +
+                            ", which travels on the reliable cut");
+      }
+    }
+  }
+  if (d.contains("harm")) {
+    const json& h = d["harm"];
+    if (!h.is_array() || h.size() != refinements) {
+      return InvalidInput(name + ".harm is not an array of " + std::to_string(refinements) + " numbers");
+    }
+    for (size_t k = 0; k < h.size(); ++k) {
+      if (!h[k].is_number() || !std::isfinite(h[k].get<double>()) || h[k].get<double>() < 0) {
+        return InvalidInput(name + ".harm[" + std::to_string(k) + "] = " + h[k].dump() +
+                            " is not a finite non-negative number");
+      }
+      r.harm.push_back(h[k].get<double>());
     }
   }
   return r;
@@ -130,6 +157,8 @@ std::string DeliveryRecordJson(const DeliveryRecord& record) {
   d["share"] = record.share;
   d["ranking"] = record.ranking;
   d["reliable"] = record.reliable;
+  if (!record.parity.empty()) d["parity"] = record.parity;
+  if (!record.harm.empty()) d["harm"] = std::vector<float>(record.harm.begin(), record.harm.end());
   return d.dump();
 }
 
@@ -146,12 +175,16 @@ std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream) {
 }
 
 DeliveryRecord MakeDeliveryRecord(const ProgressiveMesh& mesh, const ProgressiveStream& stream, uint64_t base_bytes,
-                                  double share) {
+                                  double share, const DatagramHarm* harm) {
   const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream);
   DeliveryRecord d;
   d.share = share;
   d.ranking = RankRefinements(RefinementImportance(mesh), refinement_bytes);
   d.reliable = CutForShare(d.ranking, refinement_bytes, StreamTotalBytes(base_bytes, stream), share);
+  if (harm != nullptr && harm->harm.size() == stream.control.size()) {
+    for (size_t i = 0; i < harm->harm.size(); ++i) d.harm.push_back(harm->RefinementMax(i));
+    d.parity = ChooseParity(d.harm, d.reliable, stream.control.size());
+  }
   return d;
 }
 
@@ -264,8 +297,20 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       pre.extension_bytes = stream->Serialize();
       // The reliable cut (codec/loss/reliable_cut.h): the ranking, and its
       // prefix for the encode-time share of this stream's bytes.
-      const DeliveryRecord delivery =
-          MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(), options.reliable_share);
+      // With the harm of each refinement's loss, which ones parity protects
+      // (codec/loss/protection.h), measured on the base as a client decodes it.
+      std::optional<DatagramHarm> harm;
+      if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty()) {
+        auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+        if (!header.ok()) return header.status().WithContext(where);
+        auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
+        if (!base.ok()) return base.status().WithContext(where + ": the base for the harm measure");
+        auto measured = MeasureDatagramHarm(stream.value(), base.value(), options.runner);
+        if (!measured.ok()) return measured.status().WithContext(where + ": harm");
+        harm = std::move(measured).value();
+      }
+      const DeliveryRecord delivery = MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(),
+                                                         options.reliable_share, harm ? &*harm : nullptr);
       // The error each level leaves, in scene units: what orders the
       // refinements of a scene's primitives (codec/progressive/scene_levels.h).
       std::vector<double> residual = encoded->residual_error;
@@ -290,6 +335,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
       for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
       r.reliable_cut = delivery.reliable;
+      r.parity = delivery.parity;
       r.residual_error = std::move(residual);
       local.primitives.push_back(std::move(r));
     }

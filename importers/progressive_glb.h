@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "codec/mesh/mesh.h"
+#include "codec/loss/datagram_harm.h"
 #include "codec/loss/reliable_cut.h"
 #include "codec/loss/simulator.h"
 #include "codec/progressive/encoder.h"
@@ -38,6 +39,12 @@ struct ProgressiveGlbOptions {
   // their datagrams (codec/loss/reliable_cut.h; recorded in the extension's
   // "delivery"); 0: none (the paper's scheme).
   double reliable_share = kDefaultReliableShare;
+  // Measure each refinement's harm (codec/loss/datagram_harm.h) and record
+  // which refinements parity protects (codec/loss/protection.h; the
+  // delivery's "parity" and "harm"). About one decode per refinement.
+  bool measure_harm = true;
+  // Workers for that measure (parallel/thread_pool.h); null: this thread.
+  TaskRunner* runner = nullptr;
   // Called with (primitive index, batch index, vertices left) during encoding.
   std::function<void(size_t, int, size_t)> progress;
 };
@@ -58,6 +65,7 @@ struct PrimitiveStreamReport {
   // and scale in the scene): the extension's "residual_error".
   std::vector<double> residual_error;
   std::vector<uint32_t> reliable_cut;    // its refinements, ascending (Total: none)
+  std::vector<uint32_t> parity;          // the refinements parity protects, ascending (Total: none)
 };
 
 struct ProgressiveGlbReport {
@@ -127,9 +135,11 @@ uint64_t StreamTotalBytes(uint64_t base_bytes, const ProgressiveStream& stream);
 std::vector<uint64_t> RefinementDatagramBytes(const ProgressiveStream& stream);
 // The record EncodeProgressiveGlb writes for an encoded primitive: the
 // ranking of its refinements and the cut for `share` of its bytes (the base's
-// `base_bytes` and the stream's).
+// `base_bytes` and the stream's), and with `harm` (datagram_harm.h) each
+// refinement's harm and the refinements to protect with parity
+// (protection.h).
 DeliveryRecord MakeDeliveryRecord(const ProgressiveMesh& mesh, const ProgressiveStream& stream, uint64_t base_bytes,
-                                  double share);
+                                  double share, const DatagramHarm* harm = nullptr);
 
 struct ProgressiveDecodeReport {
   uint64_t levels = 0;           // the most refinements any primitive has

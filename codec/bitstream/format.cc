@@ -310,7 +310,7 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
   }
   h.version = version;
   MS_ASSIGN_OR_RETURN(uint8_t kind, r.U8("datagram: kind"));
-  if (kind > 3) return InvalidInput("datagram: kind " + std::to_string(kind) + " is reserved");
+  if (kind > 4) return InvalidInput("datagram: kind " + std::to_string(kind) + " is reserved");
   h.kind = static_cast<DatagramKind>(kind);
   MS_ASSIGN_OR_RETURN(uint64_t stream, r.Varint("datagram: stream", UINT32_MAX));
   MS_ASSIGN_OR_RETURN(uint64_t refinement, r.Varint("datagram: refinement", kMaxRefinements - 1));
@@ -321,6 +321,19 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
     if (stride != 1) return InvalidInput("datagram: END has stride " + std::to_string(stride) + ", not 1");
     if (offset != 0) return InvalidInput("datagram: END has offset " + std::to_string(offset) + ", not 0");
     if (r.remaining() != 0) return InvalidInput("datagram: END has " + std::to_string(r.remaining()) + " payload bytes");
+  } else if (kind == static_cast<uint8_t>(DatagramKind::kParity)) {
+    // stride: the block's rows n = k + m; offset: this parity's row; count: k.
+    if (stride > kParityMaxRows) {
+      return InvalidInput("datagram: parity of " + std::to_string(stride) + " rows (at most 256)");
+    }
+    if (count == 0 || count >= stride) {
+      return InvalidInput("datagram: parity of " + std::to_string(count) + " members in " + std::to_string(stride) +
+                          " rows (1 to rows - 1)");
+    }
+    if (offset < count || offset >= stride) {
+      return InvalidInput("datagram: parity row " + std::to_string(offset) + " is not in [" + std::to_string(count) +
+                          ", " + std::to_string(stride) + ")");
+    }
   } else if (stride == 0) {
     return InvalidInput("datagram: stride 0 is not allowed");
   } else if (offset >= stride) {

@@ -62,7 +62,13 @@ enum class DatagramKind : uint8_t {
   kStructure = 1,  // wings only
   kGeometry = 2,   // position and attribute differences only
   kEnd = 3,        // the sender's END of a refinement: count = its data datagrams, no payload
+  kParity = 4,     // Reed-Solomon parity of a block of data datagrams (codec/loss/parity.h)
 };
+
+// A parity datagram's header fields (section 6.1 of the spec): refinement is
+// the block's first refinement, stride its rows n = k + m (at most 256),
+// offset this parity's row (k <= row < n) and count its k data members.
+constexpr uint64_t kParityMaxRows = 256;
 
 // The reliable header of a stream.
 struct StreamHeader {
@@ -129,7 +135,9 @@ struct DatagramHeader {
   void Serialize(ByteWriter& w) const;
   // Checks magic, version, kind and that offset < stride; the reader checks
   // the ordinals against the refinement's split count. An END has stride 1,
-  // offset 0, any count (the refinement's data datagrams) and no payload.
+  // offset 0, any count (the refinement's data datagrams) and no payload. A
+  // parity has 1 <= count < stride <= 256 and count <= offset < stride; its
+  // payload is parsed by ParityDatagram::Parse (codec/loss/parity.h).
   static StatusOr<DatagramHeader> Parse(ByteReader& r);
 };
 

@@ -320,6 +320,11 @@ bool StreamReader::OfferDatagram(const ParsedDatagram& d) {
   return true;
 }
 
+bool StreamReader::HasEveryUnit() const {
+  return in_refinement_ && std::find(has_structure_.begin(), has_structure_.end(), 0) == has_structure_.end() &&
+         std::find(has_geometry_.begin(), has_geometry_.end(), 0) == has_geometry_.end();
+}
+
 Status StreamReader::FinishRefinement(Recovery recovery) {
   if (!in_refinement_) return InvalidArgument("no refinement was begun");
   const std::string where = "refinement " + std::to_string(next_);

@@ -73,6 +73,9 @@ class StreamReader {
   // were applied (version 2 codes them relative to predictions).
   const Refinement& current() const { return current_; }
   const std::vector<uint8_t>& has_structure() const { return has_structure_; }
+  // Between BeginRefinement and FinishRefinement: whether every split's
+  // structure and geometry have arrived (nothing will be predicted).
+  bool HasEveryUnit() const;
   const std::vector<uint8_t>& has_geometry() const { return has_geometry_; }
   const DatagramStats& stats() const { return stats_; }
   const RecoveryStats& recovery_stats() const { return recovery_stats_; }

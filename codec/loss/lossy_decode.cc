@@ -7,13 +7,15 @@ namespace meshstream {
 
 StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32_t stream_id, QuantizedMesh base,
                                          const LossyDecodeOptions& options, LossyDecodeReport* report) {
+  ReconstructorOptions reconstructor = options.reconstructor;
+  if (reconstructor.erasure == nullptr) reconstructor.erasure = options.parity.code;
   MS_ASSIGN_OR_RETURN(StreamReconstructor rec, StreamReconstructor::Create(stream.header.data(), stream.header.size(),
-                                                                           stream_id, options.reconstructor));
+                                                                           stream_id, reconstructor));
   // Refinements the reconstructor will decode; the simulator sends only those.
   const size_t refinements = std::min(stream.control.size(), rec.limit());
   MS_ASSIGN_OR_RETURN(Transmission sent,
                       SimulateTransmission(stream, stream_id, refinements, options.loss, options.timing,
-                                           options.reliable, options.parity));
+                                           options.reliable, &options.parity));
   MS_RETURN_IF_ERROR(rec.SetBase(std::move(base)));
 
   // One refinement at a time, so that on_level sees every level, not only

@@ -27,8 +27,9 @@ struct LossyDecodeOptions {
   // The refinements whose datagrams travel reliably (reliable_cut.h; the
   // progressive .glb records them); empty: the paper's scheme.
   std::vector<uint32_t> reliable;
-  // One simulated XOR parity datagram per unreliable refinement (simulator.h).
-  bool parity = false;
+  // Parity datagrams (simulator.h); with a code, the reconstructor gets it
+  // too unless reconstructor.erasure names one.
+  SimulatedParity parity;
   // Called after each decoded level (1 = after the first refinement).
   std::function<void(size_t level, const StreamReader& reader)> on_level;
 };

@@ -30,6 +30,7 @@ StatusOr<StreamReconstructor> StreamReconstructor::Create(const uint8_t* header,
   r.reader_.SetTaskRunner(options.runner);
   r.options_ = options;
   r.stream_id_ = stream_id;
+  if (options.erasure != nullptr) r.parity_.emplace(options.erasure, stream_id, options.max_buffered_bytes);
   return r;
 }
 
@@ -119,8 +120,14 @@ void StreamReconstructor::OnDatagram(const ParsedDatagram& d, uint64_t now_us) {
   (void)now_us;  // readiness is decided by control arrival times and Poll's clock
   if (!failed_.ok()) return;
   const DatagramHeader& h = d.header();
-  const uint8_t* data = d.data();
-  const size_t size = d.size();
+  std::vector<std::vector<uint8_t>> rebuilt;
+  if (h.kind == DatagramKind::kParity) {
+    ++stats_.parity;
+    if (!parity_ || h.stream != stream_id_ || h.version != reader_.header().version) return;
+    parity_->OnParity(d, &rebuilt);
+    ArriveRebuilt(rebuilt);
+    return;
+  }
   const bool end = h.kind == DatagramKind::kEnd;
   ++(end ? stats_.ends : stats_.datagrams);
   const StreamHeader& header = reader_.header();
@@ -132,6 +139,18 @@ void StreamReconstructor::OnDatagram(const ParsedDatagram& d, uint64_t now_us) {
     ++stats_.rejected;
     return;
   }
+  // A copy for parity blocks, whatever happens to the datagram below (one
+  // of a refinement already decoded still helps rebuild its block's others).
+  if (parity_ && !end && h.refinement < limit()) parity_->OnData(d, &rebuilt);
+  Arrive(d);
+  ArriveRebuilt(rebuilt);
+}
+
+void StreamReconstructor::Arrive(const ParsedDatagram& d) {
+  const DatagramHeader& h = d.header();
+  const uint8_t* data = d.data();
+  const size_t size = d.size();
+  const bool end = h.kind == DatagramKind::kEnd;
   if (h.refinement < applied() || h.refinement >= limit()) {
     if (!end) ++stats_.late;
     return;
@@ -174,6 +193,68 @@ void StreamReconstructor::OnDatagram(const ParsedDatagram& d, uint64_t now_us) {
   buffered_bytes_ += cost;
 }
 
+void StreamReconstructor::ArriveRebuilt(std::vector<std::vector<uint8_t>>& rebuilt) {
+  if (rebuilt.empty()) return;
+  uint32_t first_decoded = UINT32_MAX;
+  for (const std::vector<uint8_t>& bytes : rebuilt) {
+    auto d = ParsedDatagram::Parse(bytes.data(), bytes.size());
+    if (!d.ok()) continue;  // ParityRecovery returns only datagrams that parse
+    ++stats_.recovered;
+    const uint32_t r = d->header().refinement;
+    if (r < applied()) {
+      first_decoded = std::min(first_decoded, r);
+    } else {
+      Arrive(d.value());
+    }
+  }
+  if (first_decoded == UINT32_MAX) return;
+  const Status s = DecodeAgainFrom(first_decoded);
+  if (!s.ok()) failed_ = s.WithContext("reconstructor: decoding again");
+}
+
+Status StreamReconstructor::DecodeAgainFrom(uint32_t r) {
+  auto at = history_.find(r);
+  if (at == history_.end() || !at->second.before_finish) {
+    ++stats_.recovered_late;  // released, or decoded before parity was kept
+    return Status::Ok();
+  }
+  const size_t target = applied();
+  // The reader as it was before refinement r finished, with what arrived
+  // for r then; what arrived since (the rebuilt datagrams among it) is
+  // offered on top, then r and every later refinement finish again.
+  StreamReader reader = std::move(*at->second.before_finish);
+  std::swap(reader_, reader);
+  for (uint32_t i = r; i < target; ++i) {
+    Decoded& decoded = history_[i];
+    if (i > r) MS_RETURN_IF_ERROR(reader_.BeginRefinement(decoded.control.data(), decoded.control.size()));
+    for (const std::vector<uint8_t>* bytes : parity_->Kept(i)) reader_.OfferDatagram(bytes->data(), bytes->size());
+    decoded.before_finish.reset();
+    if (!reader_.HasEveryUnit()) decoded.before_finish.emplace(reader_);
+    MS_RETURN_IF_ERROR(reader_.FinishRefinement(options_.recovery));
+    ++stats_.redecoded;
+  }
+  ++decodes_again_;
+  // The refinement being decoded was begun in the old reader: begin it in
+  // this one with every datagram that arrived for it.
+  if (begun_ && !pending_.empty()) {
+    Pending& p = pending_.front();
+    MS_RETURN_IF_ERROR(reader_.BeginRefinement(p.control.data(), p.control.size()));
+    p.usable = 0;
+    for (const std::vector<uint8_t>* bytes : parity_->Kept(static_cast<uint32_t>(target))) {
+      auto d = ParsedDatagram::Parse(bytes->data(), bytes->size());
+      if (d.ok()) OfferOne(p, d.value());
+    }
+  }
+  return Status::Ok();
+}
+
+void StreamReconstructor::ReleaseHistory() {
+  if (!parity_ || applied() <= options_.parity_horizon) return;
+  const uint32_t first = static_cast<uint32_t>(applied() - options_.parity_horizon);
+  history_.erase(history_.begin(), history_.lower_bound(first));
+  parity_->Release(first);
+}
+
 StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   MS_RETURN_IF_ERROR(failed_);
   if (done() || pending_.empty() || !pending_.front().has_control) return false;
@@ -182,11 +263,18 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   const bool complete = Complete(p);
   const bool timed_out = now_us >= p.control_time_us && now_us - p.control_time_us >= options_.straggler_timeout_us;
   if (!complete && !timed_out && !p.declared && !flushing) return false;
+  if (parity_) {
+    // Kept so that parity arriving later can have it decoded again.
+    Decoded& decoded = history_[static_cast<uint32_t>(applied())];
+    decoded.control = p.control;
+    if (!reader_.HasEveryUnit()) decoded.before_finish.emplace(reader_);
+  }
   const Status finished = reader_.FinishRefinement(options_.recovery);
   if (!finished.ok()) return failed_ = finished.WithContext("reconstructor");
   ++(complete ? stats_.finished_complete : p.declared && !timed_out ? stats_.finished_declared : stats_.finished_timeout);
   begun_ = false;
   pending_.pop_front();
+  ReleaseHistory();
   if (!done() && !pending_.empty() && pending_.front().has_control) MS_RETURN_IF_ERROR(BeginFront());
   return true;
 }

@@ -51,10 +51,14 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
 #include "codec/bitstream/reader.h"
+#include "codec/core/erasure_code.h"
+#include "codec/loss/parity_recovery.h"
 
 namespace meshstream {
 
@@ -71,6 +75,16 @@ struct ReconstructorOptions {
   // (StreamReader::SetTaskRunner; the caller's, outliving the
   // reconstructor); null: the caller's thread alone.
   TaskRunner* runner = nullptr;
+  // The erasure code of parity datagrams (codec/core/erasure_code.h; the
+  // caller's, outliving the reconstructor). With one, parity datagrams
+  // rebuild lost data datagrams (parity_recovery.h) and a refinement decoded
+  // with a prediction before its datagram was rebuilt is decoded again from
+  // there; null: parity datagrams are counted and dropped.
+  ErasureCode* erasure = nullptr;
+  // With `erasure`: how many refinements behind the one being decoded stay
+  // ready to be decoded again (their control blocks and datagrams kept, the
+  // reader copied before each that missed something).
+  uint32_t parity_horizon = 16;
 };
 
 struct ReconstructorStats {
@@ -84,6 +98,10 @@ struct ReconstructorStats {
   uint64_t finished_complete = 0;  // refinements handed over with both ENDs and all datagrams
   uint64_t finished_timeout = 0;   // refinements handed over by the clock
   uint64_t finished_declared = 0;  // refinements handed over incomplete because the caller declared the rest lost
+  uint64_t parity = 0;          // parity datagrams offered (not in `datagrams`)
+  uint64_t recovered = 0;       // data datagrams parity rebuilt (then offered as arrivals)
+  uint64_t redecoded = 0;       // refinements decoded again because parity rebuilt a datagram of theirs or before
+  uint64_t recovered_late = 0;  // rebuilt datagrams of refinements too old to decode again
 };
 
 class StreamReconstructor {
@@ -115,6 +133,11 @@ class StreamReconstructor {
   bool done() const;  // every refinement to decode (lod) has been decoded
   const StreamReader& reader() const { return reader_; }
   const ReconstructorStats& stats() const { return stats_; }
+  // The parity side's counters (all zero without options.erasure).
+  ParityStats parity_stats() const { return parity_ ? parity_->stats() : ParityStats{}; }
+  // How many times decoded levels were replaced by a decode again (a view of
+  // an earlier level may now be stale).
+  uint64_t decodes_again() const { return decodes_again_; }
 
  private:
   friend StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream&, uint32_t, QuantizedMesh,
@@ -146,6 +169,15 @@ class StreamReconstructor {
   // Finishes refinement applied() if it is ready at now_us (or whenever its
   // control arrived, when flushing), then begins the next; returns whether it did.
   StatusOr<bool> DecodeNext(uint64_t now_us, bool flushing);
+  // A data datagram that passed the checks of OnDatagram, new or rebuilt.
+  void Arrive(const ParsedDatagram& d);
+  // Rebuilt datagrams: arrivals, and a decode again from the first of them
+  // that belongs to a refinement already decoded.
+  void ArriveRebuilt(std::vector<std::vector<uint8_t>>& rebuilt);
+  // Decodes refinements [r, applied()) again from the reader as it was
+  // before refinement r finished, with every datagram kept.
+  Status DecodeAgainFrom(uint32_t r);
+  void ReleaseHistory();
 
   StreamReader reader_;
   ReconstructorOptions options_;
@@ -157,6 +189,16 @@ class StreamReconstructor {
   bool begun_ = false;      // refinement applied() is begun in the reader
   size_t controls_ = 0;     // control blocks received
   Status failed_;           // the first error of the reader: the session is over
+  // With options.erasure: the parity blocks and datagram copies, and per
+  // decoded refinement within the horizon its control block and, when it
+  // missed something, the reader right before it finished.
+  struct Decoded {
+    std::vector<uint8_t> control;
+    std::optional<StreamReader> before_finish;
+  };
+  std::optional<ParityRecovery> parity_;
+  std::map<uint32_t, Decoded> history_;
+  uint64_t decodes_again_ = 0;
 };
 
 }  // namespace meshstream

@@ -40,6 +40,12 @@ struct DeliveryRecord {
   double share = 0;                // the encode-time budget, a share of the stream's bytes
   std::vector<uint32_t> ranking;   // refinements by importance per byte (RankRefinements)
   std::vector<uint32_t> reliable;  // the cut for `share`, ascending
+  // Loss protection (protection.h), empty in a record written before it:
+  // the refinements to protect with parity, ascending and off the cut, and
+  // per refinement its harm (its datagrams' largest single-loss Hausdorff
+  // distance as datagram_harm.h measures it, a share of the diagonal).
+  std::vector<uint32_t> parity;
+  std::vector<double> harm;
 };
 
 // Per refinement, the distortion its loss would cause, as a share of the

@@ -4,7 +4,11 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <deque>
 #include <utility>
+
+#include "codec/loss/parity.h"
+#include "codec/loss/protection.h"
 
 namespace meshstream {
 namespace {
@@ -45,6 +49,13 @@ class LossChain {
   }
   // The initial state, drawn from the stationary distribution.
   void Start(double u) { bad_ = u < loss_; }
+  // With bursts: whether the chain is in its bad state for the next
+  // datagram (a parity sent just before it shares its burst); otherwise
+  // `u` < loss. Does not advance the chain.
+  bool Peek(double u) const {
+    if (!bursty_ || loss_ <= 0.0 || loss_ >= 1.0) return u < loss_;
+    return bad_;
+  }
   // Whether the next datagram is lost; `u` is one uniform draw.
   bool Next(double u) {
     if (!bursty_ || loss_ <= 0.0 || loss_ >= 1.0) return u < loss_;
@@ -74,7 +85,7 @@ Status LossModel::Validate() const {
 
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
                                             const LossModel& model, const LinkTiming& timing,
-                                            const std::vector<uint32_t>& reliable, bool parity) {
+                                            const std::vector<uint32_t>& reliable, const SimulatedParity* parity) {
   MS_RETURN_IF_ERROR(model.Validate());
   if (refinements > stream.control.size() || refinements > stream.datagrams.size()) {
     return InvalidArgument("cannot send " + std::to_string(refinements) + " refinements: the stream has " +
@@ -100,8 +111,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
   // A datagram of the reliable cut takes the same draws and advances the
   // loss chain, but arrives whatever they say.
   // `dropped_out`: whether the network dropped it (a reliable one never is).
-  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end, bool on_reliable,
-                  bool* dropped_out = nullptr) -> Status {
+  auto send = [&](const std::vector<uint8_t>& bytes, uint64_t send_us, bool end, bool on_reliable) -> Status {
     const double u_loss = Uniform(rng), u_reorder = Uniform(rng), u_delay = Uniform(rng);
     const double u_duplicate = Uniform(rng), u_copy_delay = Uniform(rng);
     (end ? t.stats.ends_sent : t.stats.datagrams_sent) += 1;
@@ -110,7 +120,6 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
       ++t.stats.reliable_datagrams;
       t.stats.reliable_bytes += bytes.size();
     }
-    if (dropped_out != nullptr) *dropped_out = dropped && !on_reliable;
     if (dropped && !on_reliable) {
       (end ? t.stats.ends_lost : t.stats.datagrams_lost) += 1;
       if (!end) t.stats.lost_bytes += bytes.size();
@@ -152,8 +161,67 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
                              " is out of range or out of order");
     }
   }
+  // Parity: every block's datagrams made up front (events point into them,
+  // so the vector must not grow later), each due after a position in the
+  // sequence of data datagrams sent.
+  struct DueParity {
+    uint64_t after;  // send after this many data datagrams
+    size_t index;    // into t.parity_datagrams
+  };
+  std::deque<DueParity> due;
+  if (parity != nullptr && parity->code != nullptr && parity->loss > 0.0) {
+    std::vector<uint8_t> protect = parity->protect;
+    if (protect.empty()) protect.assign(refinements, kStrongParity);
+    for (uint32_t r : reliable) {
+      if (r < protect.size()) protect[r] = 0;
+    }
+    // Position in the send sequence of each refinement's first data datagram.
+    std::vector<uint64_t> first_position(refinements + 1, 0);
+    for (size_t i = 0; i < refinements; ++i) first_position[i + 1] = first_position[i] + stream.datagrams[i].size();
+    const uint32_t interleave = std::max<uint32_t>(1, parity->plan.interleave);
+    std::vector<std::pair<uint64_t, std::vector<uint8_t>>> made;
+    for (const ParityBlockPlan& block : PlanParityBlocks(stream, refinements, protect, parity->plan)) {
+      const uint32_t k = static_cast<uint32_t>(block.members.size());
+      const uint32_t m = ParityRowsFor(k, parity->loss, parity->burst, parity->plan, block.tier);
+      if (m == 0) continue;
+      std::vector<const std::vector<uint8_t>*> members;
+      for (const auto& [r, d] : block.members) members.push_back(&stream.datagrams[r][d]);
+      MS_ASSIGN_OR_RETURN(std::vector<std::vector<uint8_t>> rows, EncodeParity(*parity->code, stream_id, members, k + m, k, m));
+      ++t.stats.parity_blocks;
+      const auto& [last_r, last_d] = block.members.back();
+      const uint64_t last = first_position[last_r] + last_d + 1;  // data datagrams sent with the last member
+      for (uint32_t j = 0; j < m; ++j) made.push_back({last + uint64_t(j + 1) * interleave, std::move(rows[j])});
+    }
+    std::stable_sort(made.begin(), made.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    t.parity_datagrams.reserve(made.size());
+    for (auto& [after, bytes] : made) {
+      due.push_back({after, t.parity_datagrams.size()});
+      t.parity_datagrams.push_back(std::move(bytes));
+    }
+  }
   // The parity datagrams' own draws, apart from the data datagrams' sequence.
   std::mt19937_64 parity_rng(model.seed ^ 0x9e3779b97f4a7c15ull);
+  uint64_t data_sent = 0;
+  uint64_t last_send_us = 0;
+  auto send_parity = [&](uint64_t send_us) -> Status {
+    while (!due.empty() && due.front().after <= data_sent) {
+      const std::vector<uint8_t>& bytes = t.parity_datagrams[due.front().index];
+      due.pop_front();
+      ++t.stats.parity_datagrams;
+      t.stats.parity_bytes += bytes.size();
+      if (chain.Peek(Uniform(parity_rng))) {
+        ++t.stats.parity_lost;
+        continue;
+      }
+      ChannelEvent e;
+      e.kind = ChannelEvent::Kind::kDatagram;
+      if (AddOverflows(send_us, timing.unreliable_latency_us, &e.time_us)) return too_late;
+      e.data = bytes.data();
+      e.size = bytes.size();
+      t.events.push_back(e);
+    }
+    return Status::Ok();
+  };
   size_t next_reliable = 0;
   // Events are created in send order; the stable sort by arrival time then
   // orders ties by that sequence.
@@ -174,43 +242,27 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     t.events.push_back(control);
     const auto& datagrams = stream.datagrams[i];
     const uint64_t lost_before = t.stats.datagrams_lost;
-    size_t lost_one = SIZE_MAX, lost_count = 0, longest = 0;
-    uint64_t end_send_us = 0;
     for (size_t d = 0; d <= datagrams.size(); ++d) {
       uint64_t offset = 0, send_us = 0;
       if (MulOverflows(d, timing.datagram_interval_us, &offset) || AddOverflows(start, offset, &send_us)) {
         return too_late;
       }
       const bool end = d == datagrams.size();
-      bool dropped = false;
-      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable, &dropped));
-      if (end) {
-        end_send_us = send_us;
-      } else {
-        longest = std::max(longest, datagrams[d].size());
-        if (dropped) {
-          lost_one = d;
-          ++lost_count;
-        }
-      }
-    }
-    if (parity && !on_reliable && !datagrams.empty()) {
-      ++t.stats.parity_datagrams;
-      t.stats.parity_bytes += longest;
-      const bool parity_lost = Uniform(parity_rng) < model.loss;
-      if (!parity_lost && lost_count == 1) {
-        ChannelEvent e;
-        e.kind = ChannelEvent::Kind::kDatagram;
-        if (AddOverflows(end_send_us, timing.unreliable_latency_us, &e.time_us)) return too_late;
-        e.data = datagrams[lost_one].data();
-        e.size = datagrams[lost_one].size();
-        t.events.push_back(e);
-        --t.stats.datagrams_lost;
-        t.stats.lost_bytes -= datagrams[lost_one].size();
-        ++t.stats.parity_recovered;
+      MS_RETURN_IF_ERROR(send(end ? t.end_datagrams[i] : datagrams[d], send_us, end, on_reliable));
+      last_send_us = send_us;
+      if (!end) {
+        t.stats.datagram_bytes += datagrams[d].size();
+        ++data_sent;
+        MS_RETURN_IF_ERROR(send_parity(send_us));
       }
     }
     if (t.stats.datagrams_lost > lost_before) ++t.stats.refinements_with_loss;
+  }
+  // What is still due goes out after the last datagram, one interval apart.
+  while (!due.empty()) {
+    data_sent = due.front().after;
+    if (AddOverflows(last_send_us, timing.datagram_interval_us, &last_send_us)) return too_late;
+    MS_RETURN_IF_ERROR(send_parity(last_send_us));
   }
   std::stable_sort(t.events.begin(), t.events.end(),
                    [](const ChannelEvent& a, const ChannelEvent& b) { return a.time_us < b.time_us; });

@@ -18,7 +18,9 @@
 #include <vector>
 
 #include "codec/bitstream/format.h"
+#include "codec/core/erasure_code.h"
 #include "codec/core/status.h"
+#include "codec/loss/parity_plan.h"
 
 namespace meshstream {
 
@@ -56,19 +58,34 @@ struct TransmissionStats {
   uint64_t reliable_bytes = 0;      // their bytes
   uint64_t lost_bytes = 0;          // bytes of the data datagrams dropped
   uint64_t refinements_with_loss = 0;  // refinements that lost at least one data datagram
-  uint64_t parity_datagrams = 0;    // simulated XOR parity datagrams (one per unreliable refinement)
-  uint64_t parity_bytes = 0;        // their bytes (each as long as its refinement's longest datagram)
-  uint64_t parity_recovered = 0;    // data datagrams a parity datagram gave back (not in datagrams_lost)
+  uint64_t parity_blocks = 0;       // parity blocks (SimulatedParity) that got at least one parity row
+  uint64_t parity_datagrams = 0;    // parity datagrams sent (not in datagrams_sent)
+  uint64_t parity_bytes = 0;        // their bytes
+  uint64_t parity_lost = 0;         // parity datagrams the simulator dropped
+  uint64_t datagram_bytes = 0;      // bytes of the data datagrams sent (reliable ones included)
   uint64_t ends_sent = 0;
   uint64_t ends_lost = 0;
   uint64_t duplicated = 0;
   uint64_t reordered = 0;
 };
 
+// Parity on the unreliable channel (parity_plan.h, parity.h): the sender's
+// blocks over the protected refinements, with rows sized for `loss` and
+// `burst` (what the client reported), sent interleaved after each block.
+struct SimulatedParity {
+  ErasureCode* code = nullptr;   // null: no parity
+  std::vector<uint8_t> protect;  // per refinement: its ProtectionTier (protection.h); empty: every refinement
+                                 // not on the reliable cut, strong
+  double loss = 0;               // the loss parity is sized for; 0: none sent
+  double burst = 0;              // the mean loss run it is sized for (<= 1: independent)
+  ParityPlanOptions plan;
+};
+
 // Move it, do not copy it: a copy's events still point at the original's
-// END datagrams.
+// END and parity datagrams.
 struct Transmission {
   std::vector<std::vector<uint8_t>> end_datagrams;  // owned END datagrams
+  std::vector<std::vector<uint8_t>> parity_datagrams;  // owned parity datagrams, in send order
   std::vector<ChannelEvent> events;                  // by arrival time
   TransmissionStats stats;
 };
@@ -97,17 +114,20 @@ struct Transmission {
 // ordered by arrival time, ties by send order (a control block before its
 // refinement's datagrams, a copy after its original).
 //
-// `parity` (an experiment, not a wire format: docs/loss-tolerance.md,
-// "Parity, simulated"): every refinement on the unreliable channel with data
-// datagrams is followed by one XOR parity datagram, as long as its longest
-// datagram, sent with its END. Its loss is drawn from a generator of its own
-// (Bernoulli at `loss`, so the data datagrams see the same pattern as without
-// parity); when it arrives and exactly one data datagram of the refinement
-// was lost, that datagram arrives with it (XOR of the others and the parity)
-// and counts in parity_recovered instead of datagrams_lost.
+// `parity` (null or without a code: none): the blocks of PlanParityBlocks
+// over the protected refinements (never those of the reliable cut), each
+// with ParityRowsFor(k, parity->loss, parity->burst) rows. Parity j of a
+// block is sent after the ((j + 1) x interleave)-th data datagram that
+// follows the block's last member (after the last datagram at the end of
+// the stream), at that datagram's send time. A parity datagram takes no
+// draw from the data's generator, so the data see the same loss pattern with
+// and without parity for one seed: with bursts it is lost when the chain is
+// in its bad state for the next data datagram (a burst spans it), otherwise
+// by a draw of its own at `loss`; it is never reordered or duplicated.
 StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uint32_t stream_id, size_t refinements,
                                             const LossModel& model, const LinkTiming& timing = {},
-                                            const std::vector<uint32_t>& reliable = {}, bool parity = false);
+                                            const std::vector<uint32_t>& reliable = {},
+                                            const SimulatedParity* parity = nullptr);
 
 }  // namespace meshstream
 

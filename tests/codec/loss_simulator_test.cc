@@ -378,56 +378,5 @@ TEST(LossSimulator, ReliableRefinementsArriveAndLeaveTheOthersPatternAlone) {
   EXPECT_FALSE(SimulateTransmission(s, 0, 6, m, timing, {6}).ok()) << "out of range";
 }
 
-// The simulated parity datagram: a refinement that lost exactly one data
-// datagram gets it back when its parity arrives; one that lost two or more
-// keeps its losses; the data datagrams' pattern is the one without parity.
-TEST(LossSimulator, ParityGivesBackASingleLossAndNothingMore) {
-  const ProgressiveStream s = SyntheticStream(200, 4);
-  LossModel m;
-  m.loss = 0.12;
-  m.seed = 9;
-  auto plain = SimulateTransmission(s, 0, 200, m, LinkTiming{});
-  auto parity = SimulateTransmission(s, 0, 200, m, LinkTiming{}, {3}, true);
-  auto cut = SimulateTransmission(s, 0, 200, m, LinkTiming{}, {3});
-  ASSERT_TRUE(plain.ok() && parity.ok() && cut.ok());
-  std::map<const uint8_t*, int> in_cut, in_parity;
-  for (const ChannelEvent& e : cut->events) {
-    if (e.kind == ChannelEvent::Kind::kDatagram) ++in_cut[e.data];
-  }
-  for (const ChannelEvent& e : parity->events) {
-    if (e.kind == ChannelEvent::Kind::kDatagram) ++in_parity[e.data];
-  }
-  uint64_t single = 0, recovered = 0;
-  for (size_t i = 0; i < 200; ++i) {
-    int lost = 0;
-    for (const auto& d : s.datagrams[i]) lost += in_cut[d.data()] == 0;
-    for (const auto& d : s.datagrams[i]) {
-      if (in_cut[d.data()] != 0) {
-        EXPECT_EQ(in_parity[d.data()], in_cut[d.data()]) << "refinement " << i << ": the same pattern";
-      } else if (lost >= 2) {
-        EXPECT_EQ(in_parity[d.data()], 0) << "refinement " << i << ": two losses are more than XOR gives back";
-      } else {
-        recovered += in_parity[d.data()] == 1;
-      }
-    }
-    single += lost == 1;
-  }
-  EXPECT_GT(single, 20u);
-  EXPECT_EQ(recovered, parity->stats.parity_recovered);
-  // The parity datagram is lost at the model's rate, so most single losses come back, not all.
-  EXPECT_GT(recovered, single / 2);
-  EXPECT_LT(recovered, single);
-  EXPECT_EQ(parity->stats.datagrams_lost + recovered, cut->stats.datagrams_lost);
-  EXPECT_EQ(parity->stats.parity_datagrams, 199u) << "every refinement but the reliable one";
-  uint64_t longest = 0;
-  for (size_t i = 0; i < 200; ++i) {
-    size_t l = 0;
-    for (const auto& d : s.datagrams[i]) l = std::max(l, d.size());
-    if (i != 3) longest += l;
-  }
-  EXPECT_EQ(parity->stats.parity_bytes, longest) << "each as long as its refinement's longest datagram";
-  EXPECT_EQ(plain->stats.parity_datagrams, 0u);
-}
-
 }  // namespace
 }  // namespace meshstream

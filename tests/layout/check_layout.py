@@ -9,6 +9,7 @@
 - importers/ uses codec/ and third-party libraries, never parallel/,
   services/, sdk/, cli/, bench/, tests/ or testing/;
 - parallel/ (threads for the codec's TaskRunner) uses codec/ only;
+- fec/ (the codec's erasure code on ISA-L) uses codec/ only;
 - net/ uses codec/ and third-party libraries, never services/, sdk/, cli/,
   bench/, tests/ or testing/;
 - services/ and sdk/ never include cli/, bench/, tests/ or testing/; sdk/
@@ -34,7 +35,7 @@ CODEC_DEPENDS = {
     "progressive": ["mesh", "entropy"],
     "recovery": ["progressive"],
     "bitstream": ["recovery"],
-    "loss": ["bitstream"],
+    "loss": ["bitstream", "metrics"],
 }
 SERVICES_DEPENDS = {
     "store": [],
@@ -51,10 +52,12 @@ SERVICES_DEPENDS = {
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
-    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel"],
-    "importers": ["services", "sdk", "cli", "bench", "tests", "testing", "parallel"],
+    "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel", "fec"],
+    "importers": ["services", "sdk", "cli", "bench", "tests", "testing", "parallel", "fec"],
     # Threads for the codec's TaskRunner: codec/core and the standard library only.
-    "parallel": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
+    "parallel": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "fec"],
+    # The codec's erasure code on ISA-L: codec/core and the library only.
+    "fec": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel"],
     "net": ["services", "sdk", "cli", "bench", "tests", "testing"],
     "services": ["sdk", "cli", "bench", "tests", "testing"],
     "sdk": ["services", "cli", "bench", "tests", "testing"],
@@ -65,7 +68,7 @@ LAYER_FORBIDDEN = {
     # Benchmarks use the product and testing/, never the test suites.
     "bench": ["tests"],
     # The browser side's C ABI (web/wasm, compiled to WebAssembly): codec/ only.
-    "web": ["importers", "parallel", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
+    "web": ["importers", "parallel", "fec", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
 }
 # The pure library does no I/O, keeps no clock and starts no thread.
 CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",

@@ -352,7 +352,12 @@ TEST(FormatRefusal, DatagramHeader) {
   EXPECT_EQ(DatagramError(Patched(d, 0, 0x4E)), "datagram: magic 78 is not 0x4D");
   EXPECT_EQ(DatagramError(Patched(d, 1, 4)), "datagram: version 4 is not 1, 2 or 3");
   EXPECT_EQ(DatagramError(Patched(d, 1, 0)), "datagram: version 0 is not 1, 2 or 3");
-  for (int k = 4; k < 256; ++k) {
+  // Kind 4 is a parity datagram (section 6.1): this header's rows, row and
+  // count do not make one.
+  EXPECT_EQ(DatagramError(Patched(d, 2, 4)), "datagram: parity of 3 members in 1 rows (1 to rows - 1)");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 3, 4, 0, 0, 0x81, 0x02, 0, 1}), "datagram: parity of 257 rows (at most 256)");
+  EXPECT_EQ(DatagramError(Bytes{0x4D, 3, 4, 0, 0, 4, 1, 2}), "datagram: parity row 1 is not in [2, 4)");
+  for (int k = 5; k < 256; ++k) {
     EXPECT_EQ(DatagramError(Patched(d, 2, static_cast<uint8_t>(k))), "datagram: kind " + std::to_string(k) + " is reserved");
   }
   EXPECT_EQ(DatagramError(Bytes{0x4D, 1, 0, 0, 0xFF, 0x01, 1, 0, 3}), "datagram: refinement = 255 exceeds 254");

@@ -1,0 +1,436 @@
+// Parity datagrams end to end without a mesh: the format (codec/loss/parity.h)
+// byte for byte and against hostile bytes, the receiver's rebuild
+// (parity_recovery.h) for every pattern a block survives, the sender's plan
+// (parity_plan.h) and the simulator's schedule (simulator.h), with the real
+// erasure code on ISA-L.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "codec/core/byte_io.h"
+#include "codec/loss/parity.h"
+#include "codec/loss/parity_plan.h"
+#include "codec/loss/parity_recovery.h"
+#include "codec/loss/simulator.h"
+#include "fec/reed_solomon.h"
+
+namespace meshstream {
+namespace {
+
+std::vector<uint8_t> DataDatagram(uint32_t stream, uint32_t refinement, DatagramKind kind, uint32_t offset,
+                                  uint32_t stride, size_t payload, uint32_t seed) {
+  DatagramHeader h;
+  h.kind = kind;
+  h.stream = stream;
+  h.refinement = refinement;
+  h.stride = stride;
+  h.offset = offset;
+  h.count = 1;
+  ByteWriter w;
+  h.Serialize(w);
+  std::mt19937 rng(seed);
+  for (size_t i = 0; i < payload; ++i) w.U8(static_cast<uint8_t>(rng()));
+  return std::move(w.bytes());
+}
+
+ParsedDatagram Parsed(const std::vector<uint8_t>& bytes) {
+  auto d = ParsedDatagram::Parse(bytes.data(), bytes.size());
+  EXPECT_TRUE(d.ok()) << d.status().message();
+  return d.value();
+}
+
+// A block of `k` datagrams over refinements 3.. of stream 2, lengths varied.
+std::vector<std::vector<uint8_t>> Block(size_t k, uint32_t seed) {
+  std::vector<std::vector<uint8_t>> out;
+  std::mt19937 rng(seed);
+  for (size_t i = 0; i < k; ++i) {
+    const uint32_t refinement = 3 + static_cast<uint32_t>(i / 5);
+    const DatagramKind kind = (i % 5) < 3 ? DatagramKind::kStructure : DatagramKind::kGeometry;
+    const uint32_t offset = (i % 5) < 3 ? static_cast<uint32_t>(i % 5) : static_cast<uint32_t>(i % 5 - 3);
+    out.push_back(DataDatagram(2, refinement, kind, offset, 3, 20 + rng() % 300, seed * 1000 + static_cast<uint32_t>(i)));
+  }
+  return out;
+}
+
+std::vector<const std::vector<uint8_t>*> Pointers(const std::vector<std::vector<uint8_t>>& v) {
+  std::vector<const std::vector<uint8_t>*> p;
+  for (const auto& x : v) p.push_back(&x);
+  return p;
+}
+
+TEST(ParityDatagram, RoundTripsItsMembersInBlockOrder) {
+  auto& code = fec::DefaultErasureCode();
+  auto block = Block(12, 1);
+  std::vector<const std::vector<uint8_t>*> shuffled = Pointers(block);
+  std::reverse(shuffled.begin(), shuffled.end());  // any order in, block order out
+  auto parity = EncodeParity(code, 2, shuffled, 16, 12, 4);
+  ASSERT_TRUE(parity.ok()) << parity.status().message();
+  ASSERT_EQ(parity->size(), 4u);
+  size_t longest = 0;
+  for (const auto& d : block) longest = std::max(longest, d.size());
+  for (uint32_t j = 0; j < 4; ++j) {
+    auto d = Parsed((*parity)[j]);
+    EXPECT_EQ(d.header().kind, DatagramKind::kParity);
+    auto p = ParityDatagram::Parse(d);
+    ASSERT_TRUE(p.ok()) << p.status().message();
+    EXPECT_EQ(p->stream, 2u);
+    EXPECT_EQ(p->rows, 16u);
+    EXPECT_EQ(p->row, 12u + j);
+    EXPECT_EQ(p->symbol_size, longest);
+    ASSERT_EQ(p->members.size(), 12u);
+    for (size_t i = 0; i < 12; ++i) {
+      EXPECT_TRUE(p->members[i].SameDatagram(Parsed(block[i]).header(), block[i].size())) << i;
+    }
+    EXPECT_EQ(p->first_refinement(), 3u);
+    EXPECT_EQ(p->last_refinement(), 5u);
+  }
+}
+
+// The test vector of docs/progressive-format.md, section 6.1.
+TEST(ParityDatagram, SpecTestVector) {
+  const std::vector<std::vector<uint8_t>> block = {
+      {0x4D, 0x03, 0x01, 0x00, 0x05, 0x02, 0x00, 0x01, 0xAA},
+      {0x4D, 0x03, 0x01, 0x00, 0x05, 0x02, 0x01, 0x01, 0xBB, 0xCC},
+      {0x4D, 0x03, 0x02, 0x00, 0x06, 0x01, 0x00, 0x02, 0x11},
+  };
+  auto parity = EncodeParity(fec::DefaultErasureCode(), 0, Pointers(block), 5, 3, 2);
+  ASSERT_TRUE(parity.ok()) << parity.status().message();
+  const std::vector<uint8_t> want0 = {0x4D, 0x03, 0x04, 0x00, 0x05, 0x05, 0x03, 0x03,  // header
+                                      0x02, 0x00, 0x01, 0x00, 0x02, 0x01, 0x02, 0x00, 0x01,  // runs
+                                      0x09, 0x00, 0x0A, 0x00, 0x09, 0x00,                    // lengths
+                                      0xDE, 0x8D, 0x78, 0x00, 0x89, 0xF5, 0x8E, 0x78, 0xA4, 0x66};  // symbol
+  EXPECT_EQ((*parity)[0], want0);
+  // Row 4 rebuilds the first two members from the third and row 3, with row 4.
+  ParityRecovery rec(&fec::DefaultErasureCode(), 0, 1 << 20);
+  std::vector<std::vector<uint8_t>> rebuilt;
+  rec.OnData(Parsed(block[2]), &rebuilt);
+  rec.OnParity(Parsed((*parity)[0]), &rebuilt);
+  EXPECT_TRUE(rebuilt.empty());
+  rec.OnParity(Parsed((*parity)[1]), &rebuilt);
+  ASSERT_EQ(rebuilt.size(), 2u);
+  EXPECT_EQ(rebuilt[0], block[0]);
+  EXPECT_EQ(rebuilt[1], block[1]);
+}
+
+TEST(ParityDatagram, RefusesHostileBytes) {
+  auto block = Block(7, 2);
+  auto parity = EncodeParity(fec::DefaultErasureCode(), 2, Pointers(block), 9, 7, 1);
+  ASSERT_TRUE(parity.ok());
+  const std::vector<uint8_t> good = (*parity)[0];
+  // Every truncation and every one-byte change either fails to parse or
+  // parses into members and a symbol that the bytes hold.
+  for (size_t n = 0; n < good.size(); ++n) {
+    auto d = ParsedDatagram::Parse(good.data(), n);
+    if (!d.ok()) continue;
+    EXPECT_FALSE(ParityDatagram::Parse(d.value()).ok()) << "truncated to " << n;
+  }
+  for (size_t at = 0; at < good.size(); ++at) {
+    for (uint8_t x : {0x01, 0x80, 0xFF}) {
+      std::vector<uint8_t> bad = good;
+      bad[at] ^= x;
+      auto d = ParsedDatagram::Parse(bad.data(), bad.size());
+      if (!d.ok() || d->header().kind != DatagramKind::kParity) continue;
+      auto p = ParityDatagram::Parse(d.value());
+      if (!p.ok()) continue;
+      EXPECT_EQ(p->symbol + p->symbol_size, bad.data() + bad.size());
+      for (size_t i = 1; i < p->members.size(); ++i) EXPECT_TRUE(MemberBefore(p->members[i - 1], p->members[i]));
+    }
+  }
+  // Named cases.
+  auto refuse = [](std::vector<uint8_t> bytes, const char* what) {
+    auto d = ParsedDatagram::Parse(bytes.data(), bytes.size());
+    if (!d.ok()) return;  // refused by the header already
+    auto p = ParityDatagram::Parse(d.value());
+    EXPECT_FALSE(p.ok()) << what;
+  };
+  // header: 4D 03 04 stream=0 refinement=0 rows=3 row=2 k=2; 1 run
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x01, 0x01, 0x01, 0x00, 0x02, 0x01, 0x00, 0x01, 0x00, 0xAA},
+         "first delta not 0");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x01, 0x00, 0x03, 0x00, 0x02, 0x01, 0x00, 0x01, 0x00, 0xAA},
+         "member kind END");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x01, 0x00, 0x01, 0x00, 0x03, 0x01, 0x00, 0x01, 0x00, 0xAA},
+         "run longer than k");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x01, 0x00, 0x01, 0x00, 0x02, 0x00, 0x00, 0x01, 0x00},
+         "a member of length 0");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x01, 0x00, 0x01, 0x00, 0x02, 0x01, 0x00, 0x01, 0x00},
+         "symbol missing");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x02, 0x02, 0x02, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x01,
+          0x00, 0x01, 0x00, 0xAA},
+         "members not increasing");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x03, 0x01, 0x02, 0x01, 0x00, 0x01, 0x00, 0x02, 0x01, 0x00, 0x01, 0x00, 0xAA},
+         "a row below k");
+  refuse({0x4D, 0x03, 0x04, 0x00, 0x00, 0x81, 0x02, 0x02, 0x02, 0x01, 0x00, 0x01, 0x00, 0x02, 0x01, 0x00, 0x01, 0x00,
+          0xAA},
+         "more than 256 rows");
+}
+
+// Every pattern of lost members and parity rows: the block comes back
+// exactly when at most m of its k + m rows are lost, and nothing is rebuilt
+// otherwise.
+TEST(ParityRecovery, RebuildsEveryPatternItCan) {
+  auto& code = fec::DefaultErasureCode();
+  for (size_t k : {1, 2, 5, 7}) {
+    for (uint32_t m : {1u, 2u, 3u}) {
+      auto block = Block(k, static_cast<uint32_t>(k * 10 + m));
+      auto parity = EncodeParity(code, 2, Pointers(block), static_cast<uint32_t>(k + m), static_cast<uint32_t>(k), m);
+      ASSERT_TRUE(parity.ok());
+      const size_t n = k + m;
+      for (uint32_t mask = 0; mask < (1u << n); ++mask) {
+        const size_t lost = static_cast<size_t>(__builtin_popcount(mask));
+        size_t lost_data = 0;
+        ParityRecovery rec(&code, 2, 1 << 20);
+        std::vector<std::vector<uint8_t>> rebuilt;
+        // Data first, then parity; and for half the masks parity first.
+        auto feed_data = [&] {
+          for (size_t i = 0; i < k; ++i) {
+            if ((mask >> i) & 1) continue;
+            rec.OnData(Parsed(block[i]), &rebuilt);
+          }
+        };
+        auto feed_parity = [&] {
+          for (size_t j = 0; j < m; ++j) {
+            if ((mask >> (k + j)) & 1) continue;
+            rec.OnParity(Parsed((*parity)[j]), &rebuilt);
+          }
+        };
+        if (mask & 1) {
+          feed_parity();
+          feed_data();
+        } else {
+          feed_data();
+          feed_parity();
+        }
+        for (size_t i = 0; i < k; ++i) lost_data += (mask >> i) & 1;
+        // A block rebuilds as soon as k rows are in, so members still on
+        // their way (fed after) may be rebuilt too: each rebuilt datagram is
+        // a member, and every lost one is among them.
+        const std::set<std::vector<uint8_t>> members(block.begin(), block.end());
+        for (const auto& r : rebuilt) EXPECT_TRUE(members.count(r)) << "k " << k << " m " << m << " mask " << mask;
+        if (lost <= m) {
+          std::set<std::vector<uint8_t>> got(rebuilt.begin(), rebuilt.end());
+          for (size_t i = 0; i < k; ++i) {
+            if ((mask >> i) & 1) EXPECT_TRUE(got.count(block[i])) << "k " << k << " m " << m << " mask " << mask;
+          }
+          EXPECT_GE(rebuilt.size(), lost_data);
+          EXPECT_EQ(rec.stats().recovered, rebuilt.size());
+        } else {
+          EXPECT_TRUE(rebuilt.empty()) << "k " << k << " m " << m << " mask " << mask;
+        }
+      }
+    }
+  }
+}
+
+TEST(ParityRecovery, DropsWhatDoesNotBelong) {
+  auto& code = fec::DefaultErasureCode();
+  auto block = Block(6, 9);
+  auto parity = EncodeParity(code, 2, Pointers(block), 8, 6, 2);
+  ASSERT_TRUE(parity.ok());
+  std::vector<std::vector<uint8_t>> rebuilt;
+  // Another stream's parity.
+  ParityRecovery other(&code, 5, 1 << 20);
+  other.OnParity(Parsed((*parity)[0]), &rebuilt);
+  EXPECT_EQ(other.stats().rejected, 1u);
+  // A parity whose symbol was changed where a rebuilt header lies: the
+  // rebuilt datagram does not name its member, so nothing is returned.
+  ParityRecovery rec(&code, 2, 1 << 20);
+  std::vector<uint8_t> bad = (*parity)[0];
+  auto parsed = ParityDatagram::Parse(Parsed(bad));
+  ASSERT_TRUE(parsed.ok());
+  const size_t symbol_at = static_cast<size_t>(parsed->symbol - Parsed(bad).data());
+  bad[symbol_at + 2] ^= 0x55;  // the rebuilt datagram's kind byte
+  for (size_t i = 1; i < 6; ++i) rec.OnData(Parsed(block[i]), &rebuilt);
+  rec.OnParity(Parsed(bad), &rebuilt);
+  EXPECT_TRUE(rebuilt.empty());
+  EXPECT_EQ(rec.stats().inconsistent, 1u);
+  // Past the horizon: late.
+  ParityRecovery old(&code, 2, 1 << 20);
+  old.Release(100);
+  old.OnParity(Parsed((*parity)[0]), &rebuilt);
+  EXPECT_EQ(old.stats().late, 1u);
+  // The byte budget holds: copies beyond it are dropped and counted.
+  ParityRecovery tight(&code, 2, 400);
+  for (const auto& d : block) tight.OnData(Parsed(d), &rebuilt);
+  EXPECT_LE(tight.held_bytes(), 400u);
+  EXPECT_GT(tight.stats().overflow, 0u);
+}
+
+TEST(ParityPlan, BlocksFollowTheLimits) {
+  ProgressiveStream s;
+  for (uint32_t r = 0; r < 20; ++r) {
+    s.control.push_back({0});
+    std::vector<std::vector<uint8_t>> level;
+    for (uint32_t d = 0; d < 1 + r % 7; ++d) level.push_back(DataDatagram(0, r, DatagramKind::kStructure, d, 7, 10, d));
+    s.datagrams.push_back(level);
+  }
+  std::vector<uint8_t> protect(20, 1);
+  protect[4] = protect[5] = 0;
+  ParityPlanOptions o;
+  o.block_datagrams = 10;
+  o.max_span = 3;
+  auto blocks = PlanParityBlocks(s, 20, protect, o);
+  size_t members = 0;
+  for (const auto& b : blocks) {
+    EXPECT_LE(b.members.size(), 10u);
+    EXPECT_LT(b.last_refinement() - b.first_refinement(), 3u);
+    for (const auto& [r, d] : b.members) {
+      EXPECT_TRUE(protect[r]);
+      EXPECT_LT(d, s.datagrams[r].size());
+    }
+    members += b.members.size();
+  }
+  size_t want = 0;
+  for (uint32_t r = 0; r < 20; ++r) want += protect[r] ? s.datagrams[r].size() : 0;
+  EXPECT_EQ(members, want);
+  EXPECT_TRUE(PlanParityBlocks(s, 20, {}, o).empty());
+}
+
+TEST(ParityPlan, RowsGrowWithLossAndBursts) {
+  EXPECT_EQ(ParityRowsFor(24, 0.0, 0.0), 0u);
+  EXPECT_EQ(ParityRowsFor(24, std::nan(""), 0.0), 0u);
+  uint32_t before = 0;
+  for (double loss : {0.01, 0.04, 0.12, 0.2, 0.3}) {
+    const uint32_t m = ParityRowsFor(24, loss, 0.0);
+    EXPECT_GE(m, before) << loss;
+    before = m;
+    EXPECT_GE(ParityRowsFor(24, loss, 4.0), m) << "bursts need at least as much, loss " << loss;
+  }
+  EXPECT_LE(ParityRowsFor(24, 0.9, 4.0), 12u);  // the rate cap
+  // The exact failure probability against a Monte Carlo of the same chain.
+  for (double burst : {0.0, 4.0}) {
+    std::mt19937_64 rng(5);
+    const double loss = 0.12;
+    const uint32_t n = 30, m = 6;
+    const double g2b = burst > 1 ? loss / (burst * (1 - loss)) : loss, b2g = burst > 1 ? 1 / burst : 1 - loss;
+    int failures = 0;
+    const int runs = 200000;
+    for (int run = 0; run < runs; ++run) {
+      bool bad = static_cast<double>(rng() >> 11) * 0x1.0p-53 < loss;
+      uint32_t lost = 0;
+      for (uint32_t i = 0; i < n; ++i) {
+        lost += bad;
+        const double u = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+        bad = bad ? !(u < b2g) : u < g2b;
+      }
+      failures += lost > m;
+    }
+    EXPECT_NEAR(BlockFailure(n, m, loss, burst), failures / double(runs), 0.004) << "burst " << burst;
+  }
+}
+
+}  // namespace
+}  // namespace meshstream
+
+namespace meshstream {
+namespace {
+
+ProgressiveStream SyntheticStream(uint32_t refinements, uint32_t per_refinement) {
+  ProgressiveStream s;
+  s.header = {1, 2, 3};
+  for (uint32_t r = 0; r < refinements; ++r) {
+    s.control.push_back({static_cast<uint8_t>(r)});
+    std::vector<std::vector<uint8_t>> level;
+    for (uint32_t d = 0; d < per_refinement; ++d) {
+      level.push_back(DataDatagram(0, r, DatagramKind::kStructure, d, per_refinement, 40 + (r * 7 + d) % 50, r * 100 + d));
+    }
+    s.datagrams.push_back(level);
+  }
+  return s;
+}
+
+// The simulator's parity: the data see the same pattern with and without
+// it; parity rows follow ParityRowsFor per block; none at a loss of 0; the
+// reliable cut's refinements are never members; the parity that arrives
+// rebuilds what the plan promises.
+TEST(SimulatedParity, AddsParityWithoutChangingTheDataPattern) {
+  const ProgressiveStream s = SyntheticStream(60, 4);
+  for (double burst : {0.0, 4.0}) {
+    LossModel model;
+    model.loss = 0.12;
+    model.burst = burst;
+    model.seed = 9;
+    SimulatedParity parity;
+    parity.code = &fec::DefaultErasureCode();
+    parity.loss = 0.12;
+    parity.burst = burst;
+    const std::vector<uint32_t> reliable = {0, 1, 7};
+    auto plain = SimulateTransmission(s, 0, 60, model, LinkTiming{}, reliable);
+    auto with = SimulateTransmission(s, 0, 60, model, LinkTiming{}, reliable, &parity);
+    ASSERT_TRUE(plain.ok() && with.ok());
+    std::vector<ChannelEvent> data;
+    size_t parity_events = 0;
+    ParityRecovery rec(&fec::DefaultErasureCode(), 0, 1 << 24);
+    std::vector<std::vector<uint8_t>> rebuilt;
+    std::set<std::pair<uint32_t, uint32_t>> arrived;
+    for (const ChannelEvent& e : with->events) {
+      if (e.kind != ChannelEvent::Kind::kDatagram) {
+        data.push_back(e);
+        continue;
+      }
+      auto d = ParsedDatagram::Parse(e.data, e.size);
+      ASSERT_TRUE(d.ok());
+      if (d->header().kind == DatagramKind::kParity) {
+        ++parity_events;
+        auto p = ParityDatagram::Parse(d.value());
+        ASSERT_TRUE(p.ok());
+        for (const ParityMember& m : p->members) {
+          EXPECT_TRUE(std::find(reliable.begin(), reliable.end(), m.refinement) == reliable.end());
+        }
+        rec.OnParity(d.value(), &rebuilt);
+        continue;
+      }
+      data.push_back(e);
+      if (d->header().kind != DatagramKind::kEnd) {
+        arrived.insert({d->header().refinement, d->header().offset});
+        rec.OnData(d.value(), &rebuilt);
+      }
+    }
+    ASSERT_EQ(data.size(), plain->events.size()) << "burst " << burst;
+    for (size_t i = 0; i < data.size(); ++i) {
+      EXPECT_EQ(data[i].time_us, plain->events[i].time_us);
+      EXPECT_EQ(std::vector<uint8_t>(data[i].data, data[i].data + data[i].size),
+                std::vector<uint8_t>(plain->events[i].data, plain->events[i].data + plain->events[i].size));
+    }
+    EXPECT_EQ(with->stats.datagrams_lost, plain->stats.datagrams_lost);
+    EXPECT_EQ(parity_events + with->stats.parity_lost, with->stats.parity_datagrams);
+    // Rows per block as the plan says.
+    std::vector<uint8_t> protect(60, 2);  // the simulator's default: every unreliable refinement, strong
+    for (uint32_t r : reliable) protect[r] = 0;
+    uint64_t rows = 0;
+    for (const auto& b : PlanParityBlocks(s, 60, protect, parity.plan)) {
+      rows += ParityRowsFor(static_cast<uint32_t>(b.members.size()), 0.12, burst, parity.plan, b.tier);
+    }
+    EXPECT_EQ(with->stats.parity_datagrams, rows);
+    EXPECT_GT(rows, 0u);
+    // What arrived plus what was rebuilt covers every unreliable datagram but
+    // those of the blocks that lost more than their parity.
+    for (const auto& r : rebuilt) {
+      auto d = ParsedDatagram::Parse(r.data(), r.size());
+      ASSERT_TRUE(d.ok());
+      EXPECT_TRUE(arrived.insert({d->header().refinement, d->header().offset}).second) << "rebuilt twice or arrived";
+    }
+    size_t missing = 0;
+    for (uint32_t r = 0; r < 60; ++r) {
+      if (!protect[r]) continue;
+      for (uint32_t d = 0; d < 4; ++d) missing += arrived.count({r, d}) == 0;
+    }
+    EXPECT_GT(rec.stats().recovered, 0u);
+    EXPECT_LT(missing, with->stats.datagrams_lost / 3) << "burst " << burst;
+  }
+  // No parity at a loss of 0.
+  LossModel model;
+  model.loss = 0.12;
+  SimulatedParity none;
+  none.code = &fec::DefaultErasureCode();
+  auto quiet = SimulateTransmission(s, 0, 60, model, LinkTiming{}, {}, &none);
+  ASSERT_TRUE(quiet.ok());
+  EXPECT_EQ(quiet->stats.parity_datagrams, 0u);
+}
+
+}  // namespace
+}  // namespace meshstream
