@@ -33,13 +33,16 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
   return blocks;
 }
 
-double BlockFailure(uint32_t n, uint32_t m, double loss, double burst) {
+double WeightedFailure(const std::vector<uint32_t>& weights, uint32_t m, double loss, double burst) {
   loss = Clamp01(loss);
-  if (m >= n || loss <= 0.0) return 0.0;
+  uint64_t total = 0;
+  for (uint32_t w : weights) total += w;
+  if (total <= m || loss <= 0.0) return 0.0;
   if (loss >= 1.0) return 1.0;
-  // dist[s][j]: probability of j losses so far with the chain in state s
-  // (0 good, 1 bad) for the next datagram. Independent losses: one state.
-  double g2b = loss, b2g = 1.0 - loss;  // independent: the next state ignores this one
+  // good[j] / bad[j]: probability of j rows lost so far (column m + 1
+  // gathers "more than m") with the chain good (delivers) or bad (loses) for
+  // the next datagram. Independent losses: the next state ignores this one.
+  double g2b = loss, b2g = 1.0 - loss;
   if (burst > 1.0 && std::isfinite(burst)) {
     g2b = loss / (burst * (1.0 - loss));
     b2g = 1.0 / burst;
@@ -51,13 +54,11 @@ double BlockFailure(uint32_t n, uint32_t m, double loss, double burst) {
   std::vector<double> good(m + 2, 0.0), bad(m + 2, 0.0), next_good(m + 2), next_bad(m + 2);
   good[0] = 1.0 - loss;
   bad[0] = loss;
-  // Column m + 1 gathers "more than m".
-  for (uint32_t i = 0; i < n; ++i) {
+  for (uint32_t w : weights) {
     std::fill(next_good.begin(), next_good.end(), 0.0);
     std::fill(next_bad.begin(), next_bad.end(), 0.0);
     for (uint32_t j = 0; j <= m + 1; ++j) {
-      // Good: delivered; bad: lost.
-      const uint32_t lost = std::min(j + 1, m + 1);
+      const uint32_t lost = static_cast<uint32_t>(std::min<uint64_t>(uint64_t(j) + w, m + 1));
       next_good[j] += good[j] * (1.0 - g2b);
       next_bad[j] += good[j] * g2b;
       next_good[lost] += bad[j] * b2g;
@@ -69,17 +70,43 @@ double BlockFailure(uint32_t n, uint32_t m, double loss, double burst) {
   return good[m + 1] + bad[m + 1];
 }
 
-uint32_t ParityRowsFor(uint32_t k, double loss, double burst, const ParityPlanOptions& options, uint8_t tier) {
-  const double failure = tier >= 2 ? options.strong_failure : options.block_failure;
+double BlockFailure(uint32_t n, uint32_t m, double loss, double burst) {
+  return WeightedFailure(std::vector<uint32_t>(n, 1), m, loss, burst);
+}
+
+ParityShape ShapeFor(const std::vector<uint32_t>& lengths, double loss, double burst,
+                     const ParityPlanOptions& options, uint8_t tier) {
+  ParityShape shape;
   loss = Clamp01(loss);
-  if (k == 0 || k >= kParityMaxRows || loss <= 0.0) return 0;
-  const double rate = std::isnan(options.max_rate) ? 0.0 : std::max(0.0, options.max_rate);
-  const uint32_t cap = std::min<uint32_t>(static_cast<uint32_t>(kParityMaxRows) - k,
-                                          static_cast<uint32_t>(std::ceil(rate * k)));
-  for (uint32_t m = 0; m < cap; ++m) {
-    if (BlockFailure(k + m, m, loss, burst) <= failure) return m;
+  if (lengths.empty() || loss <= 0.0) return shape;
+  const uint32_t max_k = std::max<uint32_t>(1, std::min<uint32_t>(options.max_data_rows, kParityMaxRows - 1));
+  shape.symbol_size = SymbolSizeFor(lengths, max_k);
+  uint64_t k = 0;
+  std::vector<uint32_t> weights;
+  for (uint32_t l : lengths) {
+    weights.push_back(static_cast<uint32_t>(SymbolsOf(l, shape.symbol_size)));
+    k += weights.back();
   }
-  return cap;
+  if (k >= kParityMaxRows) return shape;  // more members than rows allow: left unprotected
+  shape.k = static_cast<uint32_t>(k);
+  shape.per_datagram = RowsPerDatagram(shape.symbol_size, lengths.size(), options.packet_bytes);
+  const double failure = tier >= 2 ? options.strong_failure : options.block_failure;
+  const double rate = std::isnan(options.max_rate) ? 0.0 : std::max(0.0, options.max_rate);
+  const uint32_t cap = std::min<uint32_t>(static_cast<uint32_t>(kParityMaxRows) - shape.k,
+                                          static_cast<uint32_t>(std::ceil(rate * shape.k)));
+  const size_t members = weights.size();
+  for (uint32_t m = 0; m <= cap; ++m) {
+    // The block's datagrams: members, then ceil(m / c) parity datagrams.
+    weights.resize(members);
+    for (uint32_t left = m; left > 0;) {
+      const uint32_t c = std::min(left, shape.per_datagram);
+      weights.push_back(c);
+      left -= c;
+    }
+    shape.m = m;
+    if (WeightedFailure(weights, m, loss, burst) <= failure) break;
+  }
+  return shape;
 }
 
 }  // namespace meshstream

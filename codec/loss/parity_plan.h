@@ -10,12 +10,15 @@
 // interleaved with the data that follows (every `interleave`-th datagram), so
 // that one burst does not take a block's data and its parity.
 //
-// Rows: the fewest parity rows m with P(more than m of the block's k + m
-// datagrams lost) <= `block_failure` (`strong_failure` for a block of
-// strong tier) under the reported loss: independent
-// losses (binomial) or, with a mean loss run > 1, a Gilbert-Elliott chain of
-// that stationary loss and run length over k + m consecutive datagrams
-// (computed exactly). None at a loss of 0; at most max_rate x k rows.
+// Shape (parity.h): symbols of the smallest size that keeps the data rows at
+// most `max_data_rows`; as many parity rows per datagram as fit
+// `packet_bytes`; the fewest parity rows m with P(the lost datagrams, members
+// and parity, take more than m rows) <= `block_failure` (`strong_failure`
+// for a block of strong tier) under the reported loss: independent
+// losses or, with a mean loss run > 1, a Gilbert-Elliott chain of that
+// stationary loss and run length over the block's datagrams in send order
+// (members, then its parity), computed exactly. None at a loss of 0; at
+// most max_rate x k rows, and k + m <= 256.
 //
 // Contract: pure functions; any input (NaN, negative or > 1 losses count as
 // 0 and 1; sizes that do not agree give no blocks).
@@ -27,16 +30,19 @@
 #include <vector>
 
 #include "codec/bitstream/format.h"
+#include "codec/loss/parity.h"
 
 namespace meshstream {
 
 struct ParityPlanOptions {
-  uint32_t block_datagrams = 32;  // members per block, at most (and at most 255)
-  uint32_t max_span = 8;          // refinements one block spans, at most
+  uint32_t block_datagrams = 100;  // members per block, at most (and at most 255)
+  uint32_t max_span = 16;          // refinements one block spans, at most (the receiver's parity horizon: 20)
   uint32_t interleave = 3;        // a parity goes out after every this many data datagrams
-  double block_failure = 0.05;    // the chance a block keeps a loss, at most
-  double strong_failure = 0.01;   // the same for a block of the strong tier
-  double max_rate = 0.5;          // parity rows per member, at most
+  double block_failure = 0.3;     // the chance a block keeps a loss, at most (docs/loss-protection.md)
+  double strong_failure = 0.1;    // the same for a block of the strong tier
+  double max_rate = 0.5;          // parity rows per data row, at most
+  uint32_t max_data_rows = 160;   // data rows of a block, at most (the symbol size grows instead)
+  uint32_t packet_bytes = 1200;   // a parity datagram's size, at most (roughly)
 };
 
 struct ParityBlockPlan {
@@ -54,12 +60,16 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
                                               const std::vector<uint8_t>& protect,
                                               const ParityPlanOptions& options = {});
 
-// Parity rows for a block of k members of `tier` at `loss` with mean loss
-// runs of `burst` datagrams (<= 1: independent).
-uint32_t ParityRowsFor(uint32_t k, double loss, double burst, const ParityPlanOptions& options = {},
-                       uint8_t tier = 1);
+// How to code a block of members of `lengths` bytes (in send order) of
+// `tier` at `loss` with mean loss runs of `burst` datagrams (<= 1:
+// independent); m = 0 when no parity is needed (or the loss is 0).
+ParityShape ShapeFor(const std::vector<uint32_t>& lengths, double loss, double burst,
+                     const ParityPlanOptions& options = {}, uint8_t tier = 1);
 
-// P(more than m of n consecutive datagrams lost) under that loss model.
+// P(the lost ones of datagrams sent in this order, each taking weights[i]
+// rows, take more than m rows) under that loss model.
+double WeightedFailure(const std::vector<uint32_t>& weights, uint32_t m, double loss, double burst);
+// The same with every weight 1: P(more than m of n consecutive datagrams lost).
 double BlockFailure(uint32_t n, uint32_t m, double loss, double burst);
 
 }  // namespace meshstream

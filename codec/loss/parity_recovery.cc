@@ -76,77 +76,101 @@ void ParityRecovery::OnParity(const ParsedDatagram& d, std::vector<std::vector<u
     return;
   }
   size_t i = 0;
-  while (i < blocks_.size() && !SameMembers(blocks_[i].members, p.members)) ++i;
+  while (i < blocks_.size() && !(blocks_[i].symbol_size == p.symbol_size && SameMembers(blocks_[i].members, p.members))) {
+    ++i;
+  }
   if (i == blocks_.size()) {
     // A block whose members are all kept needs no parity.
     if (std::all_of(p.members.begin(), p.members.end(), [&](const ParityMember& m) { return Find(m) != nullptr; })) {
       ++stats_.late;
       return;
     }
-    blocks_.push_back(Block{std::move(p.members), {}});
+    blocks_.push_back(Block{std::move(p.members), p.k, p.symbol_size, {}});
   }
   Block& b = blocks_[i];
-  if (b.parity.count(p.row) != 0) return;  // a copy
-  const size_t cost = p.symbol_size + kEntryOverhead;
-  if (held_ > max_bytes_ || cost > max_bytes_ - held_) {
-    ++stats_.overflow;
-    if (b.parity.empty()) DropBlock(i);
+  for (uint32_t j = 0; j < p.count; ++j) {
+    const uint32_t row = p.first_row + j;
+    if (b.parity.count(row) != 0) continue;  // a copy
+    const size_t cost = p.symbol_size + kEntryOverhead;
+    if (held_ > max_bytes_ || cost > max_bytes_ - held_) {
+      ++stats_.overflow;
+      break;
+    }
+    const uint8_t* at = p.symbols + size_t(j) * p.symbol_size;
+    b.parity.emplace(row, std::vector<uint8_t>(at, at + p.symbol_size));
+    held_ += cost;
+  }
+  if (b.parity.empty()) {
+    DropBlock(i);
     return;
   }
-  b.parity.emplace(p.row, std::vector<uint8_t>(p.symbol, p.symbol + p.symbol_size));
-  held_ += cost;
   if (TryRebuild(b, rebuilt)) DropBlock(i);
 }
 
 bool ParityRecovery::TryRebuild(Block& b, std::vector<std::vector<uint8_t>>* rebuilt) {
-  const size_t k = b.members.size();
-  std::vector<uint32_t> rows, wanted;
-  std::vector<const uint8_t*> symbols;
-  size_t longest = 0;
-  for (const ParityMember& m : b.members) longest = std::max<size_t>(longest, m.length);
-  std::vector<std::vector<uint8_t>> padded;  // present members, zero-padded
-  padded.reserve(k);
-  for (uint32_t i = 0; i < k; ++i) {
-    const Copy* c = Find(b.members[i]);
+  const uint32_t k = b.k, S = b.symbol_size;
+  // Data rows of present members (their bytes cut into S-byte symbols, the
+  // last zero-padded) and the rows of missing ones.
+  std::vector<uint8_t> present_bytes;
+  std::vector<uint32_t> rows, wanted, missing;  // missing: member indices
+  std::vector<size_t> present_at;               // offsets into present_bytes, per row in `rows`
+  uint32_t row = 0;
+  for (uint32_t i = 0; i < b.members.size(); ++i) {
+    const ParityMember& m = b.members[i];
+    const uint32_t n = static_cast<uint32_t>(SymbolsOf(m.length, S));
+    const Copy* c = Find(m);
     if (c == nullptr) {
-      wanted.push_back(i);
-      continue;
+      missing.push_back(i);
+      for (uint32_t j = 0; j < n; ++j) wanted.push_back(row + j);
+    } else {
+      const size_t at = present_bytes.size();
+      present_bytes.resize(at + size_t(n) * S, 0);
+      std::memcpy(&present_bytes[at], c->bytes.data(), c->bytes.size());
+      for (uint32_t j = 0; j < n; ++j) {
+        rows.push_back(row + j);
+        present_at.push_back(at + size_t(j) * S);
+      }
     }
-    padded.emplace_back(longest, 0);
-    std::memcpy(padded.back().data(), c->bytes.data(), c->bytes.size());
-    rows.push_back(i);
-    symbols.push_back(padded.back().data());
+    row += n;
   }
-  if (wanted.empty()) return true;                          // whole
-  if (rows.size() + b.parity.size() < k) return false;      // not yet
-  for (const auto& [row, symbol] : b.parity) {
+  if (missing.empty()) return true;                     // whole
+  if (rows.size() + b.parity.size() < k) return false;  // not yet
+  std::vector<const uint8_t*> symbols;
+  for (size_t j = 0; j < rows.size() && j < k; ++j) symbols.push_back(&present_bytes[present_at[j]]);
+  rows.resize(std::min<size_t>(rows.size(), k));
+  for (const auto& [parity_row, symbol] : b.parity) {
     if (rows.size() == k) break;
-    rows.push_back(row);
+    rows.push_back(parity_row);
     symbols.push_back(symbol.data());
   }
-  std::vector<std::vector<uint8_t>> out(wanted.size(), std::vector<uint8_t>(longest));
-  std::vector<uint8_t*> out_ptrs;
-  for (auto& o : out) out_ptrs.push_back(o.data());
-  if (!code_->Rebuild(k, longest, rows.data(), symbols.data(), wanted.data(), wanted.size(), out_ptrs.data()).ok()) {
+  std::vector<uint8_t> out(wanted.size() * size_t(S));
+  std::vector<uint8_t*> out_ptrs(wanted.size());
+  for (size_t j = 0; j < wanted.size(); ++j) out_ptrs[j] = &out[j * S];
+  if (!code_->Rebuild(k, S, rows.data(), symbols.data(), wanted.data(), wanted.size(), out_ptrs.data()).ok()) {
     ++stats_.inconsistent;
     return true;
   }
   // Each rebuilt datagram must name the member it was rebuilt as; one that
-  // does not means a parity (or a member) was not the sender's.
-  for (size_t j = 0; j < wanted.size(); ++j) {
-    const ParityMember& m = b.members[wanted[j]];
-    auto d = ParsedDatagram::Parse(out[j].data(), m.length);
+  // does not means a parity (or a member) was not the sender's. The missing
+  // members' rows are consecutive in `out`, in member order.
+  std::vector<std::vector<uint8_t>> made;
+  size_t at = 0;
+  for (uint32_t i : missing) {
+    const ParityMember& m = b.members[i];
+    std::vector<uint8_t> bytes(out.begin() + at, out.begin() + at + m.length);
+    at += SymbolsOf(m.length, S) * S;
+    auto d = ParsedDatagram::Parse(bytes.data(), bytes.size());
     if (!d.ok() || !m.SameDatagram(d->header(), m.length) || d->header().stream != stream_) {
       ++stats_.inconsistent;
       return true;
     }
+    made.push_back(std::move(bytes));
   }
-  for (size_t j = 0; j < wanted.size(); ++j) {
-    const ParityMember& m = b.members[wanted[j]];
-    out[j].resize(m.length);
-    Keep(m.refinement, m.kind, m.offset, out[j].data(), out[j].size());
+  for (size_t j = 0; j < missing.size(); ++j) {
+    const ParityMember& m = b.members[missing[j]];
+    Keep(m.refinement, m.kind, m.offset, made[j].data(), made[j].size());
     ++stats_.recovered;
-    rebuilt->push_back(std::move(out[j]));
+    rebuilt->push_back(std::move(made[j]));
   }
   return true;
 }

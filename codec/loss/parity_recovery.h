@@ -63,6 +63,8 @@ class ParityRecovery {
   };
   struct Block {
     std::vector<ParityMember> members;
+    uint32_t k = 0;
+    uint32_t symbol_size = 0;
     std::map<uint32_t, std::vector<uint8_t>> parity;  // row -> symbol
   };
   const Copy* Find(const ParityMember& m) const;

@@ -84,7 +84,7 @@ struct ReconstructorOptions {
   // With `erasure`: how many refinements behind the one being decoded stay
   // ready to be decoded again (their control blocks and datagrams kept, the
   // reader copied before each that missed something).
-  uint32_t parity_horizon = 16;
+  uint32_t parity_horizon = 20;
 };
 
 struct ReconstructorStats {

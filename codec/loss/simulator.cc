@@ -181,16 +181,19 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     const uint32_t interleave = std::max<uint32_t>(1, parity->plan.interleave);
     std::vector<std::pair<uint64_t, std::vector<uint8_t>>> made;
     for (const ParityBlockPlan& block : PlanParityBlocks(stream, refinements, protect, parity->plan)) {
-      const uint32_t k = static_cast<uint32_t>(block.members.size());
-      const uint32_t m = ParityRowsFor(k, parity->loss, parity->burst, parity->plan, block.tier);
-      if (m == 0) continue;
       std::vector<const std::vector<uint8_t>*> members;
-      for (const auto& [r, d] : block.members) members.push_back(&stream.datagrams[r][d]);
-      MS_ASSIGN_OR_RETURN(std::vector<std::vector<uint8_t>> rows, EncodeParity(*parity->code, stream_id, members, k + m, k, m));
+      std::vector<uint32_t> lengths;
+      for (const auto& [r, d] : block.members) {
+        members.push_back(&stream.datagrams[r][d]);
+        lengths.push_back(static_cast<uint32_t>(stream.datagrams[r][d].size()));
+      }
+      const ParityShape shape = ShapeFor(lengths, parity->loss, parity->burst, parity->plan, block.tier);
+      if (shape.m == 0) continue;
+      MS_ASSIGN_OR_RETURN(std::vector<std::vector<uint8_t>> rows, EncodeParity(*parity->code, stream_id, members, shape));
       ++t.stats.parity_blocks;
       const auto& [last_r, last_d] = block.members.back();
       const uint64_t last = first_position[last_r] + last_d + 1;  // data datagrams sent with the last member
-      for (uint32_t j = 0; j < m; ++j) made.push_back({last + uint64_t(j + 1) * interleave, std::move(rows[j])});
+      for (size_t j = 0; j < rows.size(); ++j) made.push_back({last + uint64_t(j + 1) * interleave, std::move(rows[j])});
     }
     std::stable_sort(made.begin(), made.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     t.parity_datagrams.reserve(made.size());

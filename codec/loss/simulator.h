@@ -116,7 +116,8 @@ struct Transmission {
 //
 // `parity` (null or without a code: none): the blocks of PlanParityBlocks
 // over the protected refinements (never those of the reliable cut), each
-// with ParityRowsFor(k, parity->loss, parity->burst) rows. Parity j of a
+// coded as ShapeFor(its members' lengths, parity->loss, parity->burst) says.
+// Parity datagram j of a
 // block is sent after the ((j + 1) x interleave)-th data datagram that
 // follows the block's last member (after the last datagram at the end of
 // the stream), at that datagram's send time. A parity datagram takes no
