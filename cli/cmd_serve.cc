@@ -145,6 +145,8 @@ Verb AddServe(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_flag("--no-reliable-cut", o.no_reliable_cut,
                         "send every datagram as UDP, also those of the artifact's reliable cut (the paper's scheme)"));
+  FromEnv(cmd->add_flag("--no-parity", o.no_parity,
+                        "send no parity datagrams: what UDP loses is predicted, never rebuilt (docs/loss-protection.md)"));
   FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
                           "seconds a session may go without a message from its client")
               ->check(CLI::Range(0.1, 86400.0)))

@@ -351,6 +351,8 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
       out->decode_after_last_byte_ms = stats.decode_after_last_byte_ms;
     }
     if (MS_FIELD_FITS(out, ms_stats, parallel_splits)) out->parallel_splits = stats.parallel_splits;
+    if (MS_FIELD_FITS(out, ms_stats, datagrams_recovered)) out->datagrams_recovered = stats.datagrams_recovered;
+    if (MS_FIELD_FITS(out, ms_stats, parity_datagrams)) out->parity_datagrams = stats.parity_datagrams;
     return Ok();
   });
 }

@@ -167,6 +167,13 @@ struct SessionStats {
   double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
   double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
   uint64_t parallel_splits = 0;     // splits decoded on the decode_threads (0 with one thread)
+  // Parity (docs/loss-protection.md): datagrams_lost counts what the network
+  // lost (the raw loss the reports tell the server); of those, parity rebuilt
+  // datagrams_recovered locally, without asking again.
+  uint64_t parity_datagrams = 0;       // parity datagrams received
+  uint64_t parity_bytes = 0;           // their bytes
+  uint64_t datagrams_recovered = 0;    // data datagrams parity rebuilt
+  uint64_t refinements_decoded_again = 0;  // refinements decoded again because parity rebuilt a datagram late
 };
 
 class Session {

@@ -6,6 +6,7 @@
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/reader.h"
 #include "codec/mesh/quantized_mesh.h"
+#include "fec/reed_solomon.h"
 #include "importers/draco_base_coder.h"
 #include "importers/draco_codec.h"
 #include "importers/gltf_import.h"
@@ -63,6 +64,8 @@ struct SessionCore::PrimitiveState {
   size_t reported = 0;                  // refinements reported
   size_t given = 0;                     // control blocks given to the reconstructor (in order)
   size_t ended = 0;                     // refinements [0, ended) have had an END (theirs or a later one's)
+  uint64_t parity_expected = 0;         // parity datagrams the RefinementEnds announced
+  uint64_t parity_seen = 0;             // parity datagrams that arrived
   QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
 };
 
@@ -137,6 +140,9 @@ int32_t SessionCore::LevelEverywhere() const {
 bool SessionCore::AllDone() const {
   for (const PrimitiveState& p : primitives_) {
     if (p.reconstructor->applied() < p.start.refinements()) return false;
+    // Parity announced and not all here, while something is still
+    // predicted: it may yet rebuild it (the stragglers' window bounds the wait).
+    if (p.parity_seen < p.parity_expected && p.reconstructor->reader().unreliable_vertices() > 0) return false;
   }
   return true;
 }
@@ -189,6 +195,8 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   // stream, within the byte budget, rather than drop them for the window.
   ro.window = kMaxRefinements;
   ro.max_buffered_bytes = size_t{64} << 20;
+  // Parity datagrams rebuild what UDP lost (docs/loss-protection.md).
+  ro.erasure = &fec::DefaultErasureCode();
   const int threads = options_.decode_threads < 0 ? ThreadPool::HardwareWorkers() : options_.decode_threads;
   if (threads > 1) {
     decode_pool_ = std::make_unique<ThreadPool>(threads);
@@ -330,6 +338,18 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
   const DatagramHeader& h = parsed->header();
   touched_ = primitive->second;
   PrimitiveState& p = primitives_[touched_];
+  if (h.kind == DatagramKind::kParity) {
+    // Not a refinement's datagram: the reconstructor rebuilds what it can.
+    ++stats_.parity_datagrams;
+    stats_.parity_bytes += size;
+    ++p.parity_seen;
+    p.reconstructor->OnDatagram(parsed.value(), now);
+    if (packet_number != nullptr) {
+      NotePacketNumber(*packet_number, now);
+      MS_RETURN_IF_ERROR(DeclareLosses(StragglerClock(now)));
+    }
+    return Status::Ok();
+  }
   const bool end = h.kind == DatagramKind::kEnd;
   if (h.refinement < p.tracks.size()) {
     RefinementTrack& t = p.tracks[h.refinement];
@@ -476,6 +496,7 @@ Status SessionCore::OnRefinementEnd(const v1::RefinementEnd& e, uint64_t now) {
   touched_ = index;
   PrimitiveState& p = primitives_[index];
   if (e.refinement() >= p.tracks.size()) return InvalidInput("a refinement end for a refinement not in the session");
+  p.parity_expected += e.parity_datagrams();
   return GiveEnd(p, e.refinement(), e.datagrams_sent(), now);
 }
 
@@ -721,16 +742,21 @@ Status SessionCore::DecodeAgain(uint64_t now) {
 }
 
 void SessionCore::UpdateStats() {
-  uint64_t accepted = 0, rejected = 0, duplicates = 0, late = 0, planned = 0;
+  uint64_t accepted = 0, rejected = 0, duplicates = 0, late = 0, planned = 0, recovered = 0, again = 0;
   for (const PrimitiveState& p : primitives_) {
     planned += p.reconstructor->reader().recovery_stats().planned;
     const ReconstructorStats& r = p.reconstructor->stats();
+    recovered += r.recovered;
+    again += r.redecoded;
+    rejected += p.reconstructor->parity_stats().rejected + p.reconstructor->parity_stats().inconsistent;
     accepted += r.accepted;
     rejected += r.rejected + r.overflow;
     duplicates += r.duplicates + r.late;
     late += r.late;
   }
   stats_.datagrams_late = late;
+  stats_.datagrams_recovered = recovered;
+  stats_.refinements_decoded_again = again;
   stats_.parallel_splits = planned;
   stats_.datagrams_received = accepted;
   if (udp_running_) {
@@ -920,7 +946,10 @@ void SessionCore::TakeView(SessionView& view, ViewBuffers* buffers) const {
   for (size_t i = 0; i < primitives_.size(); ++i) {
     const StreamReader& r = primitives_[i].reconstructor->reader();
     PrimitiveView& v = view.primitives[i];
-    const uint64_t version = (decodes_again_ << 32) + primitives_[i].reconstructor->applied();
+    // A decode again (the repair's, or parity's within the reconstructor)
+    // changes the mesh without a new level.
+    const uint64_t version = ((decodes_again_ + primitives_[i].reconstructor->decodes_again()) << 32) +
+                             primitives_[i].reconstructor->applied();
     if (v.mesh && v.version == version) continue;
     std::shared_ptr<QuantizedMesh> mesh = Spare(buffers ? &buffers->spare_meshes : nullptr);
     const RefinementState& state = r.state();

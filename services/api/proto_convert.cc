@@ -66,6 +66,11 @@ ClientReportInfo FromProto(const v1::ClientReport& r) {
   info.refinement = r.refinement();
   info.received = r.datagrams_received();
   info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
+  // Runs of consecutive missing ordinals (the client lists them ascending):
+  // missing / runs is the mean loss run the sender sizes parity for.
+  for (int i = 0; i < r.missing_size() && i < (1 << 20); ++i) {
+    if (i == 0 || r.missing(i) != r.missing(i - 1) + 1) ++info.missing_runs;
+  }
   info.end_received = r.end_received();
   info.hold_us = r.hold_us();
   info.arrival_span_us = r.arrival_span_us();

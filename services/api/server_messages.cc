@@ -62,11 +62,13 @@ v1::ServerMessage DatagramMessage(const uint8_t* data, size_t size) {
   return m;
 }
 
-v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) {
+v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
+                                       uint32_t parity_datagrams) {
   v1::ServerMessage m;
   m.mutable_refinement_end()->set_primitive(stream);
   m.mutable_refinement_end()->set_refinement(refinement);
   m.mutable_refinement_end()->set_datagrams_sent(datagrams_sent);
+  if (parity_datagrams > 0) m.mutable_refinement_end()->set_parity_datagrams(parity_datagrams);
   return m;
 }
 

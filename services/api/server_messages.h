@@ -28,7 +28,8 @@ v1::ServerMessage TransportChangeMessage(SessionTransport transport, const std::
 // The ControlBlock of a kControl action.
 v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const SenderAction& control);
 v1::ServerMessage DatagramMessage(const uint8_t* data, size_t size);
-v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent);
+v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
+                                       uint32_t parity_datagrams = 0);
 v1::ServerMessage EndMessage(const std::string& reason);
 v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes);
 

@@ -12,6 +12,7 @@
 
 #include <grpcpp/alarm.h>
 
+#include "fec/reed_solomon.h"
 #include "net/steady_clock.h"
 #include "services/api/call_auth.h"
 #include "proto/rpc_status.h"
@@ -166,8 +167,9 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     Queue(DatagramMessage(data, size));
   }
 
-  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) override {
-    Queue(RefinementEndMessage(stream, refinement, datagrams_sent));
+  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
+                     uint32_t parity_datagrams) override {
+    Queue(RefinementEndMessage(stream, refinement, datagrams_sent, parity_datagrams));
   }
 
   void End(const std::string& reason) override {
@@ -360,6 +362,7 @@ StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& t
   options.rate = options_.rate;
   options.server_share = options_.server_share;
   options.reliable_cut = options_.reliable_cut;
+  options.erasure = options_.parity ? &fec::DefaultErasureCode() : nullptr;
   options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
   options.repair = open.repair();
   // Every header, base mesh and the scene copied here, on the opener pool,

@@ -57,6 +57,7 @@ struct StreamServiceOptions {
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate
   bool reliable_cut = true;                       // --no-reliable-cut: every datagram as UDP (the paper's scheme)
+  bool parity = true;                             // --no-parity: no parity datagrams (docs/loss-protection.md)
   int opener_threads = 2;                         // the pool that opens sessions (store, plan, scene)
   std::function<void(const std::string&)> log;    // one line per session start and end; may be empty
 };

@@ -116,8 +116,9 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
     std::copy(data, data + size, out.begin() + 1);
     Queue(std::move(out));
   }
-  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) override {
-    Queue(Frame(StreamFrame::kServerMessage, RefinementEndMessage(stream, refinement, datagrams_sent)));
+  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
+                     uint32_t parity_datagrams) override {
+    Queue(Frame(StreamFrame::kServerMessage, RefinementEndMessage(stream, refinement, datagrams_sent, parity_datagrams)));
   }
   void End(const std::string& reason) override {
     Queue(Frame(StreamFrame::kServerMessage, EndMessage(reason)));

@@ -123,6 +123,7 @@ StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
   setup.service.max_sessions = o.max_sessions;
   setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
   setup.service.reliable_cut = !o.no_reliable_cut;
+  setup.service.parity = !o.no_parity;
   setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);
   setup.service.stream_cache_bytes = o.stream_cache_bytes;
   setup.service.rate.max_bps = o.max_session_rate_bps;

@@ -63,6 +63,7 @@ struct ServerOptions {
   int max_sessions = 4096;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
+  bool no_parity = false;                 // no parity datagrams (docs/loss-protection.md)
   int64_t session_idle_timeout_ms = 30000;
   // Hot artifacts kept in memory for streaming sessions, with their plans and
   // scenes, by bytes, least recently used out first (--stream-cache-mb).

@@ -229,7 +229,7 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
         }
         break;
       case SenderAction::kRefinementEnd:
-        stream.RefinementEnd(a.stream, a.refinement->refinement, a.count);
+        stream.RefinementEnd(a.stream, a.refinement->refinement, a.count, a.parity);
         break;
       case SenderAction::kEnd:
         stream.End(a.reason);

@@ -62,7 +62,8 @@ class SessionStream {
   // `before_proof`).
   virtual void Control(const SenderAction& control) = 0;
   virtual void Datagram(const uint8_t* data, size_t size) = 0;
-  virtual void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent) = 0;
+  virtual void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
+                             uint32_t parity_datagrams) = 0;
   virtual void End(const std::string& reason) = 0;
   virtual void RepairEnd(uint32_t datagrams, uint64_t bytes) = 0;
   // The session is over: end the call with `status` once what is queued is

@@ -4,7 +4,11 @@
 #include <iomanip>
 #include <sstream>
 
+#include <cmath>
+
 #include "codec/bitstream/format.h"
+#include "codec/loss/parity.h"
+#include "codec/loss/protection.h"
 #include "codec/loss/reliable_cut.h"
 #include "net/packet_header.h"
 
@@ -25,6 +29,22 @@ std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vecto
 
 }  // namespace
 
+double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst) {
+  *burst = 0;
+  const uint64_t reported = received + missing;
+  if (reported < SessionSender::kMinReportedForCut) {
+    return expected_loss >= 0 ? std::min(1.0, expected_loss) : kReferenceLoss;
+  }
+  if (missing == 0) return 0;
+  const double n = static_cast<double>(reported);
+  const double p = static_cast<double>(missing) / n;
+  if (runs > 0) *burst = static_cast<double>(missing) / static_cast<double>(runs);
+  // One-sided 95 % upper bound of the rate (normal approximation); with
+  // bursts the losses are not independent: the effective count is n / burst.
+  const double effective = *burst > 1 ? n / *burst : n;
+  return std::min(1.0, p + 1.645 * std::sqrt(p * (1 - p) / effective));
+}
+
 std::string DescribeSession(const SessionSenderStats& st) {
   std::ostringstream out;
   out << (st.transport == SessionTransport::kUdp ? "udp" : "grpc") << ", " << st.datagrams_sent << " datagrams sent, "
@@ -32,7 +52,9 @@ std::string DescribeSession(const SessionSenderStats& st) {
       << st.final_rate_bps / 1e6 << " Mbit/s, " << st.rate_decreases << " decreases, srtt " << std::setprecision(2)
       << st.srtt_us / 1000.0 << " ms, " << st.early_refinements << " refinements before the proof (" << st.early_bytes
       << " bytes), " << st.reliable_refinements << " refinements reliable (" << st.reliable_bytes
-      << " bytes, for loss " << std::setprecision(3) << st.cut_loss << "), " << st.repaired << " repaired";
+      << " bytes, for loss " << std::setprecision(3) << st.cut_loss << "), " << st.parity_datagrams
+      << " parity datagrams (" << st.parity_bytes << " bytes, for loss " << st.parity_loss << "), " << st.repaired
+      << " repaired";
   return out.str();
 }
 
@@ -43,6 +65,22 @@ SessionSender::SessionSender(const SessionPlan& plan, const std::vector<uint8_t>
       pacer_(options_.rate.initial_bps, std::max<size_t>(1, options_.burst_datagrams) * kMaxDatagramBytes),
       controller_(options_.rate), last_heard_us_(now_us) {
   options_.burst_datagrams = std::max<size_t>(1, options_.burst_datagrams);
+  // Parity: each primitive's tiers from its delivery record, and where its
+  // last protected refinement lies in the plan (its block closes there).
+  tiers_.resize(plan_.primitives.size());
+  open_blocks_.resize(plan_.primitives.size());
+  last_protected_.assign(plan_.primitives.size(), SIZE_MAX);
+  if (options_.erasure != nullptr) {
+    for (size_t i = 0; i < plan_.primitives.size(); ++i) {
+      const DeliveryRecord& d = plan_.primitives[i].delivery;
+      tiers_[i] = ProtectionTiers(d.parity, d.harm, plan_.primitives[i].refinement_bytes.size());
+    }
+    for (size_t k = 0; k < plan_.refinements.size(); ++k) {
+      const PlannedRefinement& r = plan_.refinements[k];
+      const auto& t = tiers_[r.primitive];
+      if (r.refinement < t.size() && t[r.refinement] != kUnprotected) last_protected_[r.primitive] = k;
+    }
+  }
 }
 
 void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }
@@ -62,6 +100,7 @@ void SessionSender::OnReport(uint64_t now_us, const ClientReportInfo& report) {
   end_sent_us_.erase(it);
   udp_reported_received_ += report.received;
   udp_reported_missing_ += report.missing;
+  udp_reported_runs_ += std::min(report.missing_runs, report.missing);
   if (report.arrival_span_us > 0 && report.span_bytes > 0) {
     controller_.OnDeliverySample(now_us, 8e6 * static_cast<double>(report.span_bytes) /
                                              static_cast<double>(report.arrival_span_us));
@@ -195,8 +234,74 @@ bool SessionSender::InReliableCut(const PlannedRefinement& r) {
   return std::binary_search(cut.begin(), cut.end(), r.refinement);
 }
 
+void SessionSender::CloseParityBlock(uint32_t primitive) {
+  OpenBlock& b = open_blocks_[primitive];
+  if (b.members.empty()) return;
+  double burst = 0;
+  const double loss =
+      ParityLossFor(udp_reported_received_, udp_reported_missing_, udp_reported_runs_, options_.expected_loss, &burst);
+  stats_.parity_loss = loss;
+  stats_.parity_burst = burst;
+  std::vector<uint32_t> lengths;
+  std::vector<std::vector<uint8_t>> copies;
+  for (const ByteRange& d : b.members) {
+    lengths.push_back(static_cast<uint32_t>(d.length));
+    copies.emplace_back(artifact_.begin() + static_cast<std::ptrdiff_t>(d.offset),
+                        artifact_.begin() + static_cast<std::ptrdiff_t>(d.offset + d.length));
+  }
+  const ParityShape shape = ShapeFor(lengths, loss, burst, options_.parity_plan, b.tier);
+  b = OpenBlock{};
+  if (shape.m == 0) return;
+  std::vector<const std::vector<uint8_t>*> members;
+  for (const auto& c : copies) members.push_back(&c);
+  auto parity = EncodeParity(*options_.erasure, plan_.primitives[primitive].stream, members, shape);
+  if (!parity.ok()) return;  // the artifact's datagrams are the store's: not reached
+  ++stats_.parity_blocks;
+  for (auto& d : parity.value()) parity_due_.push_back(std::move(d));
+}
+
+void SessionSender::JoinParityBlock(const PlannedRefinement& r) {
+  const auto& tiers = tiers_[r.primitive];
+  const uint8_t tier = r.refinement < tiers.size() ? tiers[r.refinement] : kUnprotected;
+  if (tier == kUnprotected || r.datagrams.empty()) return;
+  OpenBlock& b = open_blocks_[r.primitive];
+  const ParityPlanOptions& o = options_.parity_plan;
+  if (!b.members.empty() && (b.tier != tier || r.refinement - b.first_refinement >= std::max<uint32_t>(1, o.max_span) ||
+                             b.members.size() + r.datagrams.size() > std::max<uint32_t>(1, o.block_datagrams))) {
+    CloseParityBlock(r.primitive);
+  }
+  if (b.members.empty()) {
+    b.tier = tier;
+    b.first_refinement = r.refinement;
+  }
+  b.members.insert(b.members.end(), r.datagrams.begin(), r.datagrams.end());
+}
+
 SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   SenderAction a;
+  if (index_ >= plan_.refinements.size() && transport_ == SessionTransport::kUdp && !trailing_parity_) {
+    // The parity still due, and that of the blocks still open, goes out now
+    // (over UDP, paced): after it, the end.
+    trailing_parity_ = true;
+    for (uint32_t p = 0; p < open_blocks_.size(); ++p) CloseParityBlock(p);
+    if (!parity_due_.empty()) {
+      parity_sent_ = std::move(parity_due_);
+      parity_due_.clear();
+      payloads_.clear();
+      for (const auto& d : parity_sent_) payloads_.emplace_back(d.data(), d.size());
+      mode_ = Mode::kUdp;
+      first_packet_number_ = options_.reserve_packet_numbers(payloads_.size());
+      next_payload_ = 0;
+      batch_reserved_ = false;
+      for (const auto& d : parity_sent_) {
+        ++stats_.parity_datagrams;
+        stats_.parity_bytes += d.size();
+      }
+    }
+  }
+  if (trailing_parity_ && mode_ == Mode::kUdp && next_payload_ < payloads_.size() && index_ >= plan_.refinements.size()) {
+    return NextBatch(now_us);
+  }
   if (index_ >= plan_.refinements.size()) {
     phase_ = options_.repair ? Phase::kAwaitRepair : Phase::kLinger;
     ended_us_ = now_us;
@@ -235,12 +340,30 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     } else {
       mode_ = transport_ == SessionTransport::kUdp ? Mode::kUdp : Mode::kStream;
     }
-    first_packet_number_ = mode_ == Mode::kUdp ? options_.reserve_packet_numbers(count + 1) : 0;
+    // Parity: over UDP a protected refinement joins its primitive's block,
+    // and the parity of blocks closed before follows this refinement's END
+    // (interleaved with the next block's data: one burst does not take both).
+    // The primitive's last block closes with its last protected refinement
+    // and its parity follows that refinement's END at once: the client
+    // decodes it before it completes, not after.
+    parity_sent_.clear();
+    if (mode_ == Mode::kUdp && options_.erasure != nullptr) {
+      JoinParityBlock(r);
+      if (last_protected_[r.primitive] == index_) CloseParityBlock(r.primitive);
+      parity_sent_ = std::move(parity_due_);
+      parity_due_.clear();
+    }
+    first_packet_number_ = mode_ == Mode::kUdp ? options_.reserve_packet_numbers(count + 1 + parity_sent_.size()) : 0;
     end_datagram_ = ServerEndDatagram(plan_, artifact_, r, count);
     payloads_.clear();
-    payloads_.reserve(count + 1);
+    payloads_.reserve(count + 1 + parity_sent_.size());
     for (const ByteRange& d : r.datagrams) payloads_.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));
     payloads_.emplace_back(end_datagram_.data(), end_datagram_.size());
+    for (const auto& d : parity_sent_) {
+      payloads_.emplace_back(d.data(), d.size());
+      ++stats_.parity_datagrams;
+      stats_.parity_bytes += d.size();
+    }
     next_payload_ = 0;
     batch_reserved_ = false;
     step_ = Step::kDatagrams;
@@ -257,7 +380,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     if (next_payload_ < payloads_.size()) return NextBatch(now_us);
     step_ = Step::kRefinementEnd;
   }
-  stats_.datagrams_sent += count + 1;
+  stats_.datagrams_sent += count + 1;  // parity not included (parity_datagrams)
   if (mode_ == Mode::kUdp) {
     end_sent_us_[{stream, r.refinement}] = now_us;
     // Entries of refinements never reported stay bounded by the plan's size.
@@ -268,6 +391,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   a.refinement = &r;
   a.stream = stream;
   a.count = count;
+  a.parity = mode_ == Mode::kUdp ? static_cast<uint32_t>(parity_sent_.size()) : 0;
   return a;
 }
 

@@ -64,7 +64,9 @@
 #include <utility>
 #include <vector>
 
+#include "codec/core/erasure_code.h"
 #include "codec/core/status.h"
+#include "codec/loss/parity_plan.h"
 #include "net/pacer.h"
 #include "net/rate_controller.h"
 #include "services/streaming/payload_span.h"
@@ -94,6 +96,11 @@ struct SessionSenderOptions {
   // counter, the first returned (UdpEndpoint::Session::ReservePacketNumbers;
   // a counter in tests). Unused over gRPC.
   std::function<uint64_t(uint64_t count)> reserve_packet_numbers;
+  // Parity datagrams (docs/loss-protection.md) over UDP for the refinements
+  // the artifact's delivery record protects, sized for the loss the reports
+  // show (ParityLossFor); null: none (--no-parity).
+  ErasureCode* erasure = nullptr;
+  ParityPlanOptions parity_plan;
 };
 
 struct ClientReportInfo {
@@ -108,6 +115,7 @@ struct ClientReportInfo {
   // none). Last, so that positional initialisers keep their meaning.
   uint64_t arrival_span_us = 0;
   uint64_t span_bytes = 0;
+  uint32_t missing_runs = 0;  // runs of consecutive missing ordinals (bursts)
 };
 
 struct SessionSenderStats {
@@ -128,7 +136,20 @@ struct SessionSenderStats {
   double cut_loss = 0;                // the loss the last cut decision was made for
   uint64_t repaired = 0;              // datagrams sent again for a RepairRequest
   uint64_t repaired_bytes = 0;
+  uint32_t parity_blocks = 0;         // blocks closed with at least one parity row
+  uint64_t parity_datagrams = 0;      // parity datagrams sent (UDP)
+  uint64_t parity_bytes = 0;          // and bytes
+  double parity_loss = 0;             // the loss the last block was sized for ...
+  double parity_burst = 0;            // ... and the mean loss run (0: independent)
 };
+
+// The loss a sender sizes parity for, from what the client reported over
+// UDP (received and missing data datagrams, the runs the missing ones
+// form): an upper bound (one-sided 95 %) of the raw loss rate once
+// kMinReportedForCut datagrams were reported; before, `expected_loss` when
+// the client stated one, else the reference loss. 0 when the reports show no
+// loss. `burst` gets the mean loss run (0 when runs were not seen).
+double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst);
 
 struct SenderAction {
   enum Kind {
@@ -151,6 +172,7 @@ struct SenderAction {
   const PlannedRefinement* refinement = nullptr;  // kControl, kRefinementEnd
   uint32_t stream = 0;            // kControl, kRefinementEnd: the wire stream id
   uint32_t count = 0;             // kControl, kRefinementEnd: data datagrams; kRepairEnd: datagrams
+  uint32_t parity = 0;            // kRefinementEnd: parity datagrams sent over UDP after its END
   uint64_t bytes = 0;             // kRepairEnd
   uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
   bool reliable = false;          // kControl: the datagrams follow on the stream
@@ -220,6 +242,11 @@ class SessionSender {
   SenderAction NextRefinementStep(uint64_t now_us);
   SenderAction AfterEnd(uint64_t now_us);
   bool InReliableCut(const PlannedRefinement& r);
+  // Parity: refinement `r` goes over UDP with these payloads; the open block
+  // of its primitive closes first when `r` cannot join it, and after it when
+  // `r` is the primitive's last protected refinement of the plan.
+  void JoinParityBlock(const PlannedRefinement& r);
+  void CloseParityBlock(uint32_t primitive);
   // The next batch of the current refinement: due now or kWait.
   SenderAction NextBatch(uint64_t now_us);
 
@@ -245,7 +272,7 @@ class SessionSender {
   size_t index_ = 0;
   Step step_ = Step::kControl;
   enum class Mode { kUdp, kStreamPaced, kStream } mode_ = Mode::kStream;
-  std::vector<DatagramPayload> payloads_;  // data datagrams, then the END; kDatagrams views it
+  std::vector<DatagramPayload> payloads_;  // data datagrams, the END, then parity due; kDatagrams views it
   std::vector<uint8_t> end_datagram_;
   size_t next_payload_ = 0;
   uint64_t first_packet_number_ = 0;
@@ -258,6 +285,22 @@ class SessionSender {
   bool client_done_ = false;
   bool repair_received_ = false;
   Status repair_status_;                // the request's refusal (not OK), or OK
+  // Parity: per primitive its tiers (protection.h) and open block, the
+  // index of its last protected refinement in the plan, and the parity
+  // datagrams made and not yet sent (they follow the next UDP refinement's
+  // END, or go out after the last refinement).
+  struct OpenBlock {
+    uint8_t tier = 0;
+    uint32_t first_refinement = 0;
+    std::vector<ByteRange> members;
+  };
+  std::vector<std::vector<uint8_t>> tiers_;
+  std::vector<OpenBlock> open_blocks_;
+  std::vector<size_t> last_protected_;
+  std::vector<std::vector<uint8_t>> parity_due_;   // made, waiting for a UDP refinement
+  std::vector<std::vector<uint8_t>> parity_sent_;  // in payloads_ now (kept until the refinement is over)
+  uint64_t udp_reported_runs_ = 0;
+  bool trailing_parity_ = false;  // payloads_ holds the parity sent after the last refinement
   std::vector<DatagramPayload> repair_payloads_;  // the datagrams it names, each once; kDatagrams views it
   size_t repair_next_ = 0;
   // Cancel.

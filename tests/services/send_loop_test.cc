@@ -54,7 +54,7 @@ class RecordingStream : public SessionStream {
   void TransportChanged(SessionTransport, const std::string&) override { Record("transport_change"); }
   void Control(const SenderAction&) override { Record("control"); }
   void Datagram(const uint8_t*, size_t) override { Record("datagram"); }
-  void RefinementEnd(uint32_t, uint32_t, uint32_t) override { Record("refinement_end"); }
+  void RefinementEnd(uint32_t, uint32_t, uint32_t, uint32_t) override { Record("refinement_end"); }
   void End(const std::string&) override { Record("end"); }
   void RepairEnd(uint32_t, uint64_t) override { Record("repair_end"); }
   void Finish(const Status& status, const std::string&, const SessionSenderStats&) override {

@@ -167,6 +167,8 @@ typedef struct {
   uint32_t losses_declared;     /* UDP refinements decoded once later packet numbers showed their loss */
   double decode_after_last_byte_ms; /* at COMPLETE: from the last arrival to the full mesh (the decoding left) */
   uint64_t parallel_splits;     /* splits decoded on the config's decode_threads (0 with one thread) */
+  uint64_t datagrams_recovered; /* data datagrams parity datagrams rebuilt (of datagrams_lost: no round trip) */
+  uint64_t parity_datagrams;    /* parity datagrams received */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
