@@ -11,6 +11,9 @@
 #include <gtest/gtest.h>
 
 #include "codec/bitstream/format.h"
+#include "codec/core/byte_io.h"
+#include "codec/loss/reliable_cut.h"
+#include "fec/reed_solomon.h"
 #include "net/packet_header.h"
 
 namespace meshstream {
@@ -674,6 +677,159 @@ TEST(SessionSender, TheServerShareHoldsBackEverySession) {
     for (const auto& d : a.datagrams) bytes += d.second + kPacketOverheadBytes;
   }
   EXPECT_GE(static_cast<double>(script.now), (static_cast<double>(bytes) - 64 * 1024) * 8) << "1 Mbit/s: 8 us per byte";
+}
+
+}  // namespace
+}  // namespace meshstream
+
+namespace meshstream {
+namespace {
+
+// Issue 27: the sender's parity follows the loss the client reports. The
+// fixture's datagrams are real datagram headers (the parity names its
+// members by them) and the delivery record protects every refinement.
+struct ParityFixture {
+  std::vector<uint8_t> artifact;
+  SessionPlan plan;
+  ParityFixture() {
+    constexpr uint32_t kCount = 6, kEach = 10;
+    artifact.assign(16, 0);
+    artifact[0] = kStreamVersion;
+    PlannedPrimitive p;
+    p.stream = kStream;
+    p.header = {0, 8};
+    p.base = {8, 8};
+    p.refinements = kCount;
+    for (uint32_t r = 0; r < kCount; ++r) {
+      p.delivery.ranking.push_back(r);
+      p.delivery.parity.push_back(r);
+      p.delivery.harm.push_back(0.01);  // strong
+      PlannedRefinement pr;
+      pr.primitive = 0;
+      pr.refinement = r;
+      pr.control = {artifact.size(), 16};
+      artifact.resize(artifact.size() + 16, 0);
+      for (uint32_t k = 0; k < kEach; ++k) {
+        DatagramHeader h;
+        h.version = kStreamVersion;
+        h.kind = DatagramKind::kStructure;
+        h.stream = kStream;
+        h.refinement = r;
+        h.stride = kEach;
+        h.offset = k;
+        h.count = 1;
+        ByteWriter w;
+        h.Serialize(w);
+        std::vector<uint8_t> d = std::move(w.bytes());
+        d.resize(900 + 10 * k, static_cast<uint8_t>(r * 16 + k));
+        pr.datagrams.push_back({artifact.size(), d.size()});
+        artifact.insert(artifact.end(), d.begin(), d.end());
+      }
+      p.refinement_bytes.push_back(0);
+      for (const ByteRange& d : pr.datagrams) p.refinement_bytes.back() += d.length;
+      plan.refinements.push_back(pr);
+    }
+    p.stream_bytes = artifact.size();
+    plan.primitives.push_back(p);
+    plan.levels = kCount;
+  }
+};
+
+struct ParitySession {
+  uint64_t parity = 0, parity_bytes = 0, announced = 0, end_us = 0;
+  bool after_ends = true;  // every parity datagram came after its refinement's END
+};
+
+// A UDP session whose client reports `missing` of every refinement's ten
+// datagrams (in runs of `run`), each report as its refinement ends.
+ParitySession RunReporting(uint32_t missing, uint32_t run, double expected_loss, bool parity = true) {
+  ParityFixture f;
+  SessionSenderOptions o = Options(SessionTransport::kUdp, 4e6);
+  o.expected_loss = expected_loss;
+  if (parity) o.erasure = &fec::DefaultErasureCode();
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  s.OnHello(0, true);
+  ParitySession out;
+  uint64_t now = 0;
+  bool seen_end = false;
+  for (int guard = 0; guard < 100000; ++guard) {
+    SenderAction a = s.Next(now);
+    if (a.kind == SenderAction::kWait) {
+      if (a.due_us == SenderAction::kNever) break;
+      now = a.due_us;
+      continue;
+    }
+    if (a.kind == SenderAction::kControl) seen_end = false;
+    if (a.kind == SenderAction::kDatagrams) {
+      for (const auto& [data, size] : a.datagrams) {
+        auto d = ParsedDatagram::Parse(data, size);
+        EXPECT_TRUE(d.ok());
+        if (!d.ok()) continue;
+        if (d->header().kind == DatagramKind::kEnd) seen_end = true;
+        if (d->header().kind == DatagramKind::kParity) {
+          ++out.parity;
+          out.parity_bytes += size;
+          out.after_ends = out.after_ends && seen_end;
+        }
+      }
+    }
+    if (a.kind == SenderAction::kRefinementEnd) {
+      out.announced += a.parity;
+      ClientReportInfo report{kStream, a.refinement->refinement, 10 - missing, missing, true, 0, {}};
+      report.missing_runs = missing == 0 ? 0 : (missing + run - 1) / run;
+      s.OnReport(now + 1000, report);
+    }
+    if (a.kind == SenderAction::kEnd) {
+      out.end_us = now;
+      break;
+    }
+  }
+  EXPECT_EQ(out.parity, s.stats().parity_datagrams);
+  EXPECT_EQ(out.parity_bytes, s.stats().parity_bytes);
+  return out;
+}
+
+TEST(SessionSender, ParityFollowsTheReportedLoss) {
+  // No loss reported, none expected: no parity at all.
+  const ParitySession quiet = RunReporting(0, 1, 0.0);
+  EXPECT_EQ(quiet.parity, 0u);
+  // Unknown before the reports (the reference loss), then none reported:
+  // the one block closes after the reports showed no loss.
+  EXPECT_EQ(RunReporting(0, 1, -1).parity, 0u);
+  // More parity as the reported loss rises.
+  const ParitySession low = RunReporting(1, 1, -1);
+  const ParitySession mid = RunReporting(2, 1, -1);
+  const ParitySession high = RunReporting(4, 1, -1);
+  EXPECT_GT(low.parity_bytes, 0u);
+  EXPECT_GT(mid.parity_bytes, low.parity_bytes);
+  EXPECT_GE(high.parity_bytes, mid.parity_bytes);  // at 40 % the rate cap (0.5 row per row) may bind
+  // Bursts in the reports ask for more than the same loss spread out.
+  EXPECT_GE(RunReporting(2, 2, -1).parity_bytes, mid.parity_bytes);
+  for (const ParitySession* p : {&low, &mid, &high}) {
+    EXPECT_TRUE(p->after_ends) << "parity goes after a refinement's END";
+    EXPECT_EQ(p->announced, p->parity) << "RefinementEnd announces every parity datagram";
+  }
+  // Parity is paced with the data at the session's rate (it counts against
+  // --max-rate): the session takes longer by about its bytes at the rate.
+  const ParitySession none = RunReporting(4, 1, -1, false);
+  EXPECT_EQ(none.parity, 0u);
+  EXPECT_GT(high.end_us, none.end_us);
+  const double parity_us = 8e6 * static_cast<double>(high.parity_bytes) / 4e6;
+  EXPECT_GE(static_cast<double>(high.end_us - none.end_us), 0.5 * parity_us);
+}
+
+TEST(SessionSender, TheParityLossIsAnUpperBoundOfTheReportedRate) {
+  double burst = 0;
+  EXPECT_EQ(ParityLossFor(0, 0, 0, 0.05, &burst), 0.05) << "before reports: the expected loss";
+  EXPECT_EQ(ParityLossFor(10, 2, 2, -1, &burst), kReferenceLoss) << "before 32 datagrams: the reference";
+  EXPECT_EQ(ParityLossFor(100, 0, 0, 0.3, &burst), 0.0) << "no loss reported: none";
+  const double p = ParityLossFor(880, 120, 120, -1, &burst);
+  EXPECT_GT(p, 0.12);
+  EXPECT_LT(p, 0.16);
+  EXPECT_DOUBLE_EQ(burst, 1.0);
+  const double bursty = ParityLossFor(880, 120, 30, -1, &burst);
+  EXPECT_DOUBLE_EQ(burst, 4.0);
+  EXPECT_GT(bursty, p) << "fewer independent samples: a wider bound";
 }
 
 }  // namespace
