@@ -265,23 +265,6 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
       options.parity.loss = job.loss;
       options.parity.burst = kBursts[job.pattern];
       options.parity.protect = s.tiers;
-      if (std::getenv("MS_STRONG_RELIABLE")) {
-        std::vector<uint32_t> rel = s.cut;
-        for (uint32_t i = 0; i < s.tiers.size(); ++i) {
-          if (s.tiers[i] == ms::kStrongParity) {
-            rel.push_back(i);
-            options.parity.protect[i] = 0;
-          }
-        }
-        std::sort(rel.begin(), rel.end());
-        rel.erase(std::unique(rel.begin(), rel.end()), rel.end());
-        options.reliable = rel;
-      }
-      if (const char* f = std::getenv("MS_FAILURE")) options.parity.plan.block_failure = std::atof(f);
-      if (const char* f = std::getenv("MS_STRONG")) options.parity.plan.strong_failure = std::atof(f);
-      if (const char* f = std::getenv("MS_SPAN")) options.parity.plan.max_span = std::atoi(f);
-      if (const char* f = std::getenv("MS_K")) options.parity.plan.block_datagrams = std::atoi(f);
-      if (const char* f = std::getenv("MS_INTERLEAVE")) options.parity.plan.interleave = std::atoi(f);
     }
     options.on_level = [&](size_t level, const ms::StreamReader& reader) {
       ms::QuantizedMesh m = reader.Mesh();
@@ -504,15 +487,21 @@ json TimeDecodes(const Model& m, int repeat) {
   const Stream& s = m.streams[0];
   std::vector<double> losses = {0.0};
   for (double l : m.plan.losses) losses.push_back(l);
-  // Per loss level: predict, LwoP, predict with the reliable cut.
-  constexpr int kColumns = 3;
+  // Per loss level: predict, LwoP, predict with the reliable cut, and with
+  // the cut and parity (sized for the loss, the run's own).
+  constexpr int kColumns = 4;
   std::vector<std::vector<double>> t(losses.size() * kColumns);
   for (int round = -1; round < repeat; ++round) {  // round -1: warm-up, not kept
     for (size_t li = 0; li < losses.size(); ++li)
       for (int c = 0; c < kColumns; ++c) {
         if (losses[li] == 0 && c != 0) continue;
         auto o = DecodeOptions(losses[li], 0, static_cast<uint64_t>(round + 2), kRecoveries[c == 1 ? 1 : 0]);
-        if (c == 2) o.reliable = s.cut;
+        if (c >= 2) o.reliable = s.cut;
+        if (c == 3) {
+          o.parity.code = &ms::fec::DefaultErasureCode();
+          o.parity.loss = losses[li];
+          o.parity.protect = s.tiers;
+        }
         ms::QuantizedMesh base = s.base;  // the copy is not timed
         ms::LossyDecodeReport report;
         const auto start = Clock::now();
@@ -524,7 +513,7 @@ json TimeDecodes(const Model& m, int repeat) {
   }
   const double zero = Median(t[0]);
   json rows = json::array();
-  const char* names[kColumns] = {"predict", "lwop", "predict_cut"};
+  const char* names[kColumns] = {"predict", "lwop", "predict_cut", "predict_parity"};
   for (size_t li = 0; li < losses.size(); ++li) {
     json row = {{"loss", losses[li]}};
     for (int c = 0; c < kColumns; ++c) {
@@ -537,9 +526,11 @@ json TimeDecodes(const Model& m, int repeat) {
     }
     rows.push_back(row);
     auto at = [&](int c) { return Median(t[li * kColumns + (losses[li] == 0 ? 0 : c)]); };
-    std::fprintf(stderr, "  time %s loss %4.1f%%: predict %.2f ms (x%.3f), lwop %.2f ms, predict with the cut %.2f ms (x%.3f)\n",
+    std::fprintf(stderr,
+                 "  time %s loss %4.1f%%: predict %.2f ms (x%.3f), lwop %.2f ms, predict with the cut %.2f ms (x%.3f), "
+                 "with the cut and parity %.2f ms (x%.3f)\n",
                  m.name.c_str(), 100 * losses[li], at(0), zero > 0 ? at(0) / zero : 0.0, at(1), at(2),
-                 zero > 0 ? at(2) / zero : 0.0);
+                 zero > 0 ? at(2) / zero : 0.0, at(3), zero > 0 ? at(3) / zero : 0.0);
   }
   return {{"packing", "split"}, {"pattern", "random"}, {"repeat", repeat}, {"zero_loss_median_ms", zero},
           {"rows", rows}};
@@ -645,8 +636,9 @@ void PlanModelJobs(const Args& args, size_t mi, const Plan& p, std::vector<Job>&
           c.levels_predict = subset && at12;
           c.levels_lwop = false;
           jobs.push_back(c);
-          // Parity on top of the cut, at 4, 12 and 30 % random loss.
-          if (pt == 0 && key) {
+          // Parity on top of the cut (issue 27), at 4, 12 and 30 %, random
+          // and bursty.
+          if (key) {
             Job q = c;
             q.delivery = 2;
             q.levels_predict = false;

@@ -12,6 +12,7 @@
 #include "cli/verbs.h"
 #include "codec/mesh/mesh_health.h"
 #include "codec/progressive/coding_tools.h"
+#include "fec/reed_solomon.h"
 #include "importers/gltf_export.h"
 #include "importers/import.h"
 #include "importers/mesh_writer.h"
@@ -33,7 +34,9 @@ const char kDetails[] =
     "section 4.4) or, with --recovery lwop, abandoned with every split that depends on it.\n"
     "With no loss the result is the lossless mesh, through the same code path. The\n"
     "refinements of the file's reliable cut travel with their datagrams on the reliable\n"
-    "channel, as a session sends them (--reliable-share 0: none, the paper's scheme).\n"
+    "channel, as a session sends them (--reliable-share 0: none, the paper's scheme); the\n"
+    "refinements it protects get parity datagrams as a session sends them, sized for the\n"
+    "simulated loss, which rebuild lost datagrams (--no-parity: none; docs/loss-protection.md).\n"
     "--threads N decodes each refinement that arrived whole on N threads (0: one per core;\n"
     "the mesh is the same bit for bit as on one thread, the default); --json's\n"
     "parallel_splits counts the splits decoded that way.\n"
@@ -51,6 +54,7 @@ struct DecodeArgs {
   int seed = 1;
   std::string recovery = "predict";
   double reliable_share = -1;
+  bool no_parity = false;
   int threads = 1;
   bool json = false;
 };
@@ -72,6 +76,7 @@ int RunDecode(const DecodeArgs& args) {
   options.loss.duplicate = args.duplicate;
   options.loss.seed = static_cast<uint64_t>(args.seed);
   options.reliable_share = args.reliable_share;
+  if (!args.no_parity) options.parity = &fec::DefaultErasureCode();
   const std::string& recovery = args.recovery;
   options.recovery = recovery == "lwop" ? Recovery::kLwop : Recovery::kPredict;
   // The pool's threads start once, outside the timed decodes.
@@ -127,6 +132,9 @@ int RunDecode(const DecodeArgs& args) {
       {"loss", args.loss},
       {"seed", args.seed},
       {"predicted_vertices", report.predicted_vertices},
+      {"parity_datagrams", report.parity_datagrams},
+      {"parity_bytes", report.parity_bytes},
+      {"datagrams_recovered", report.recovered_datagrams},
       {"unreferenced_vertices", health.unreferenced_vertices},
       {"degenerate_faces", health.degenerate_faces},
       {"nonmanifold_edges", health.nonmanifold_edges},
@@ -179,6 +187,8 @@ Verb AddDecode(CLI::App& root) {
                   "share of each stream's bytes whose refinements travel reliably (default: the cut the file "
                   "records; 0: none, the paper's scheme)")
       ->check(NumberIn(0, 1));
+  cmd->add_flag("--no-parity", args->no_parity,
+                "send no parity datagrams: what the network loses is predicted, never rebuilt");
   cmd->add_option("--threads", args->threads,
                   "threads for refinements that arrived whole (0: one per core; the output does not change)")
       ->check(CLI::Range(0, ThreadPool::kMaxWorkers))->capture_default_str();

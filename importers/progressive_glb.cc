@@ -461,6 +461,12 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     const size_t apply = options.lod < 0 ? levels : scene_levels.At(i, static_cast<uint32_t>(options.lod));
     // What travels reliably: the recorded cut, none, or the cut for another share.
     std::vector<uint32_t> reliable;
+    std::vector<uint8_t> protect;  // the record's parity tiers (protection.h)
+    if (ext.contains("delivery") && (options.reliable_share != 0 || options.parity != nullptr)) {
+      auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
+      if (!delivery.ok()) return delivery.status().WithContext(where);
+      protect = ProtectionTiers(delivery->parity, delivery->harm, levels);
+    }
     if (ext.contains("delivery") && options.reliable_share != 0) {
       auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
       if (!delivery.ok()) return delivery.status().WithContext(where);
@@ -483,6 +489,12 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     lossy.reconstructor.lod = static_cast<int>(apply);
     lossy.reconstructor.runner = options.runner;
     lossy.reliable = std::move(reliable);
+    if (options.parity != nullptr && !protect.empty()) {
+      lossy.parity.code = options.parity;
+      lossy.parity.protect = std::move(protect);
+      lossy.parity.loss = options.loss.loss;
+      lossy.parity.burst = options.loss.burst;
+    }
     LossyDecodeReport lr;
     auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
     if (!reader.ok()) return reader.status().WithContext(where);
@@ -496,7 +508,10 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     local.reliable_datagrams += lr.transmission.reliable_datagrams;
     local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
     local.recovery.Add(lr.recovery);
-    local.predicted_vertices += reader->unreliable_vertices();
+    local.predicted_vertices += reader->inexact_positions();
+    local.parity_datagrams += lr.transmission.parity_datagrams;
+    local.parity_bytes += lr.transmission.parity_bytes;
+    local.recovered_datagrams += lr.reconstructor.recovered;
     const RefinementState& state = reader->state();
     if (state.any_absent) {
       target = DequantizeMesh(reader->Mesh(), target.material);

@@ -110,6 +110,12 @@ struct ProgressiveDecodeOptions {
   // ("delivery"; none in a file without it), 0 none (the paper's scheme),
   // > 0 the cut for that share of each stream's bytes from the file's ranking.
   double reliable_share = -1;
+  // Parity datagrams (docs/loss-protection.md) as a session sends them: for
+  // the refinements the file's delivery record protects, sized for the
+  // model's own loss and burst (a client's reports), rebuilt by the
+  // reconstructor with this code (codec/core/erasure_code.h; fec/ has one);
+  // null: none.
+  ErasureCode* parity = nullptr;
   // Workers for the decode of complete refinements (parallel/thread_pool.h
   // has a pool of threads; the output is the same bit for bit); null: the
   // caller's thread alone.
@@ -150,7 +156,10 @@ struct ProgressiveDecodeReport {
   uint64_t reliable_datagrams = 0;       // sent on the reliable channel (the cut)
   uint64_t reliable_datagram_bytes = 0;
   RecoveryStats recovery;        // summed over primitives
-  uint64_t predicted_vertices = 0;  // vertices whose reliability bit is 0
+  uint64_t predicted_vertices = 0;  // vertices whose position may differ (StreamReader::inexact_positions)
+  uint64_t parity_datagrams = 0;    // parity datagrams sent (options.parity)
+  uint64_t parity_bytes = 0;
+  uint64_t recovered_datagrams = 0; // lost data datagrams parity rebuilt (not in lost_datagrams' complement)
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
   ToolSet tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
 };

@@ -192,8 +192,10 @@ class Session {
 
   size_t primitive_count() const;
   // The current mesh of a primitive (dequantized), and per vertex 1 where
-  // the value was predicted rather than decoded (the reconstructor's
-  // reliability bits).
+  // its position may differ from the loss-free decode: predicted, or placed
+  // relative to a predicted position (StreamReader::PositionExactInto; not
+  // the decoder's reliability bits, which also mark every vertex whose ring
+  // a prediction touched). All 0 when nothing was lost or parity rebuilt it.
   StatusOr<Primitive> Mesh(size_t primitive) const;
   StatusOr<std::vector<uint8_t>> Predicted(size_t primitive) const;
   // Where the primitive sits in the asset's glTF (mesh, primitive index).
@@ -201,7 +203,7 @@ class Session {
   int32_t levels() const;  // the most refinements any primitive has in this session
   // The level every primitive has reached (-1 before kBaseReady).
   int32_t level_shown() const;
-  // Vertices, over all primitives, whose value was predicted.
+  // Vertices, over all primitives, whose position may differ from the loss-free decode.
   uint64_t predicted_vertices() const;
   // The asset's scene (nodes, materials, textures, animations, carried
   // primitives: SessionStart.scene_glb) with every refined primitive at the

@@ -142,7 +142,7 @@ bool SessionCore::AllDone() const {
     if (p.reconstructor->applied() < p.start.refinements()) return false;
     // Parity announced and not all here, while something is still
     // predicted: it may yet rebuild it (the stragglers' window bounds the wait).
-    if (p.parity_seen < p.parity_expected && p.reconstructor->reader().unreliable_vertices() > 0) return false;
+    if (p.parity_seen < p.parity_expected && p.reconstructor->reader().inexact_positions() > 0) return false;
   }
   return true;
 }
@@ -893,7 +893,7 @@ const v1::PrimitiveStart& SessionCore::start(size_t primitive) const { return pr
 
 uint64_t SessionCore::predicted_vertices() const {
   uint64_t n = 0;
-  for (const PrimitiveState& p : primitives_) n += p.reconstructor->reader().unreliable_vertices();
+  for (const PrimitiveState& p : primitives_) n += p.reconstructor->reader().inexact_positions();
   return n;
 }
 
@@ -948,7 +948,7 @@ void SessionCore::TakeView(SessionView& view, ViewBuffers* buffers) const {
     PrimitiveView& v = view.primitives[i];
     // A decode again (the repair's, or parity's within the reconstructor)
     // changes the mesh without a new level.
-    const uint64_t version = ((decodes_again_ + primitives_[i].reconstructor->decodes_again()) << 32) +
+    const uint64_t version = (decodes_again_ << 44) + (primitives_[i].reconstructor->decodes_again() << 20) +
                              primitives_[i].reconstructor->applied();
     if (v.mesh && v.version == version) continue;
     std::shared_ptr<QuantizedMesh> mesh = Spare(buffers ? &buffers->spare_meshes : nullptr);
@@ -959,12 +959,12 @@ void SessionCore::TakeView(SessionView& view, ViewBuffers* buffers) const {
     r.MeshInto(*mesh);
     std::shared_ptr<std::vector<uint8_t>> bits = Spare(buffers ? &buffers->spare_bits : nullptr);
     Grow(*bits, r.reliable().size());
-    bits->assign(r.reliable().begin(), r.reliable().end());
+    r.PositionExactInto(*bits);
     Retire(v.mesh, buffers ? &buffers->retired_meshes : nullptr);
     Retire(v.reliable, buffers ? &buffers->retired_bits : nullptr);
     v.mesh = std::move(mesh);
     v.reliable = std::move(bits);
-    v.unreliable_vertices = r.unreliable_vertices();
+    v.unreliable_vertices = r.inexact_positions();
     v.version = version;
   }
   view.levels = levels_;

@@ -105,9 +105,11 @@ void StampHold(Outgoing& o, uint64_t sent_at_us);
 // with it. Immutable once taken: any thread may read it.
 struct PrimitiveView {
   std::shared_ptr<const QuantizedMesh> mesh;
-  std::shared_ptr<const std::vector<uint8_t>> reliable;  // the reader's reliability bits, per vertex
-  uint64_t unreliable_vertices = 0;
-  uint64_t version = 0;  // when taken: the refinements applied, and the decodes again (repair)
+  // Per vertex 1 where its position is the loss-free decode's, 0 where it
+  // may differ (StreamReader::PositionExactInto).
+  std::shared_ptr<const std::vector<uint8_t>> reliable;
+  uint64_t unreliable_vertices = 0;  // vertices whose position may differ
+  uint64_t version = 0;  // when taken: the refinements applied, and the decodes again (repair, parity's)
 };
 // What SessionStart fixed: where each primitive sits in the asset's glTF.
 struct SessionLayout {

@@ -26,6 +26,17 @@ uint64_t StreamReader::unreliable_vertices() const {
   return n;
 }
 
+void StreamReader::PositionExactInto(std::vector<uint8_t>& out) const {
+  out.resize(state_.flags.size());
+  for (size_t v = 0; v < out.size(); ++v) out[v] = (state_.flags[v] & (kPositionInexact | kAbsent)) == 0;
+}
+
+uint64_t StreamReader::inexact_positions() const {
+  uint64_t n = 0;
+  for (uint8_t f : state_.flags) n += (f & kPositionInexact) != 0 && (f & kAbsent) == 0 ? 1 : 0;
+  return n;
+}
+
 StatusOr<StreamReader> StreamReader::Create(const uint8_t* header, size_t size, uint32_t stream_id) {
   StreamReader r;
   MS_ASSIGN_OR_RETURN(r.header_, StreamHeader::Parse(header, size));

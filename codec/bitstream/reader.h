@@ -85,6 +85,14 @@ class StreamReader {
   const std::vector<uint8_t>& reliable() const { return state_.reliable; }
   // Vertices that reliable() marks 0 and that exist.
   uint64_t unreliable_vertices() const;
+  // What a viewer wants to know (the SDK's "predicted"): per canonical vertex
+  // 1 when its position is the loss-free decode's, 0 when it may differ
+  // (predicted, or placed relative to a predicted position or ring: the
+  // kPositionInexact flag; reliable() also marks vertices whose ring alone a
+  // prediction changed). Into `out`, reusing its capacity.
+  void PositionExactInto(std::vector<uint8_t>& out) const;
+  // Vertices that exist and whose position may differ.
+  uint64_t inexact_positions() const;
   // The current level. Vertices that LwoP never created are left out (the
   // others keep their relative order), so no vertex is unreferenced.
   QuantizedMesh Mesh() const { return state_.Snapshot(header_.grids); }

@@ -3,12 +3,14 @@
 // ranking and the cut for its share; DecodeProgressiveGlb sends that cut's
 // refinements reliably (as a session does), none with share 0, another cut
 // for another share; a hostile "delivery" is refused by name.
+#include <algorithm>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "importers/import.h"
+#include "fec/reed_solomon.h"
 #include "importers/progressive_glb.h"
 #include "testing/test_util.h"
 
@@ -84,6 +86,12 @@ TEST(ReliableCutGlb, AHostileDeliveryIsRefusedByName) {
       {R"({"share":0.1,"ranking":[0],"reliable":[1]})", "which the ranking does not"},
       {R"({"share":0.1,"ranking":"x","reliable":[]})", "is not an array"},
       {R"({"share":0.1})", "needs ranking and reliable"},
+      {R"({"share":0.1,"ranking":[0,1],"reliable":[0],"parity":[2,1]})", "parity is not ascending"},
+      {R"({"share":0.1,"ranking":[0,1],"reliable":[0],"parity":[0,1]})", "which travels on the reliable cut"},
+      {R"({"share":0.1,"ranking":[0],"reliable":[],"parity":[7]})", "delivery.parity[0]"},
+      {R"({"share":0.1,"ranking":[0],"reliable":[],"harm":[0.1,0.2]})", "harm is not an array of 3"},
+      {R"({"share":0.1,"ranking":[0],"reliable":[],"harm":[0.1,-1,0]})", "harm[1]"},
+      {R"({"share":0.1,"ranking":[0],"reliable":[],"harm":[0.1,"x",0]})", "harm[1]"},
   };
   for (const Case& c : cases) {
     auto r = ParseDeliveryRecord(c.json, 3);
@@ -94,11 +102,59 @@ TEST(ReliableCutGlb, AHostileDeliveryIsRefusedByName) {
   d.share = 0.1;
   d.ranking = {2, 0, 1};
   d.reliable = {0, 2};
+  d.parity = {1};
+  d.harm = {0.02, 0.004, 0.0};
   auto back = ParseDeliveryRecord(DeliveryRecordJson(d), 3);
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->ranking, d.ranking);
   EXPECT_EQ(back->reliable, d.reliable);
   EXPECT_DOUBLE_EQ(back->share, 0.1);
+  EXPECT_EQ(back->parity, d.parity);
+  ASSERT_EQ(back->harm.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_FLOAT_EQ(static_cast<float>(back->harm[i]), static_cast<float>(d.harm[i]));
+}
+
+// Issue 27: the encoder records each refinement's harm and which ones parity
+// protects; the record survives the .glb, and decode --loss sends parity for
+// exactly those, which rebuilds datagrams the simulated network lost.
+TEST(ReliableCutGlb, TheProtectionChoiceIsRecordedAndUsed) {
+  ProgressiveGlbReport report;
+  const std::vector<uint8_t> glb = EncodeSpot(kDefaultReliableShare, &report);
+  ASSERT_EQ(report.primitives.size(), 1u);
+  const PrimitiveStreamReport& p = report.primitives[0];
+  ASSERT_FALSE(p.parity.empty()) << "the spot's unreliable refinements harm more than 0.1 %";
+  for (uint32_t r : p.parity) {
+    EXPECT_TRUE(std::find(p.reliable_cut.begin(), p.reliable_cut.end(), r) == p.reliable_cut.end())
+        << "refinement " << r << " is on the cut and protected";
+  }
+  // The same record read back from the file.
+  const std::string json(glb.begin() + 20, glb.begin() + 20 + (glb[12] | (glb[13] << 8) | (glb[14] << 16)));
+  const size_t at = json.find("\"delivery\":");
+  ASSERT_NE(at, std::string::npos);
+  size_t depth = 0, end = at + 11;
+  for (; end < json.size(); ++end) {
+    if (json[end] == '{') ++depth;
+    if (json[end] == '}' && --depth == 0) break;
+  }
+  auto record = ParseDeliveryRecord(json.substr(at + 11, end - at - 10), p.level_vertices.size() - 1);
+  ASSERT_TRUE(record.ok()) << record.status().ToString();
+  EXPECT_EQ(record->parity, p.parity);
+  EXPECT_EQ(record->reliable, p.reliable_cut);
+  ASSERT_EQ(record->harm.size(), p.level_vertices.size() - 1);
+  for (double h : record->harm) EXPECT_GT(h, 0.0);
+  // decode --loss with parity (as the CLI does) rebuilds lost datagrams.
+  ProgressiveDecodeOptions o;
+  o.loss.loss = 0.12;
+  o.loss.seed = 3;
+  ProgressiveDecodeReport plain, with;
+  ASSERT_TRUE(DecodeProgressiveGlb(glb, o, &plain).ok());
+  o.parity = &fec::DefaultErasureCode();
+  ASSERT_TRUE(DecodeProgressiveGlb(glb, o, &with).ok());
+  EXPECT_EQ(plain.parity_datagrams, 0u);
+  EXPECT_GT(with.parity_datagrams, 0u);
+  EXPECT_EQ(with.lost_datagrams, plain.lost_datagrams) << "parity does not change the data's loss pattern";
+  EXPECT_GT(with.recovered_datagrams, 0u);
+  EXPECT_LE(with.predicted_vertices, plain.predicted_vertices);
 }
 
 }  // namespace

@@ -137,7 +137,7 @@ typedef struct {
   const float* texcoords;  /* uv per vertex (TEXCOORD_0), or NULL */
   size_t index_count;      /* three per triangle */
   const uint32_t* indices;
-  const uint8_t* predicted; /* 1 per vertex: 1 where the value was predicted after a loss, 0 decoded */
+  const uint8_t* predicted; /* 1 per vertex: 1 where its position may differ from the loss-free decode (predicted after a loss, or placed relative to a predicted one), 0 exact */
 } ms_mesh_view;
 
 /* What ms_session_stats reports (the struct has its own name because C has
@@ -151,7 +151,7 @@ typedef struct {
   double time_to_base_ms;       /* from open to BASE_READY; 0 before */
   double time_to_full_ms;       /* from open to COMPLETE; 0 before */
   const char* transport;        /* "grpc", "udp", or "" before BASE_READY; valid until the next poll or close */
-  uint64_t predicted_vertices;  /* over all primitives */
+  uint64_t predicted_vertices;  /* vertices whose position may differ from the loss-free decode, over all primitives */
   int32_t levels;               /* the most refinements any primitive has in this session */
   int32_t level_shown;          /* the level every primitive has reached; -1 before BASE_READY */
   uint32_t primitive_count;
