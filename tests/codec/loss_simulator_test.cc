@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "codec/loss/simulator.h"
+#include "tests/common/test_datagram.h"
 
 namespace meshstream {
 namespace {
@@ -24,16 +25,10 @@ ProgressiveStream SyntheticStream(size_t refinements, size_t per_refinement) {
     s.control.push_back({static_cast<uint8_t>(i), 0xC0});
     std::vector<std::vector<uint8_t>> level;
     for (size_t d = 0; d < per_refinement; ++d) {
-      DatagramHeader h;
-      h.kind = DatagramKind::kStructure;
-      h.refinement = static_cast<uint32_t>(i);
-      h.stride = static_cast<uint32_t>(per_refinement);
-      h.offset = static_cast<uint32_t>(d);
-      h.count = 1;
       ByteWriter w;
-      h.Serialize(w);
       w.U32(static_cast<uint32_t>(i * 100000 + d));
-      level.push_back(std::move(w.bytes()));
+      level.push_back(test_util::TestDatagram(0, static_cast<uint32_t>(i), DatagramKind::kStructure,
+                                              static_cast<uint32_t>(per_refinement), static_cast<uint32_t>(d), w.bytes()));
     }
     s.datagrams.push_back(std::move(level));
   }

@@ -18,24 +18,17 @@
 #include "codec/loss/parity_recovery.h"
 #include "codec/loss/simulator.h"
 #include "fec/reed_solomon.h"
+#include "tests/common/test_datagram.h"
 
 namespace meshstream {
 namespace {
 
 std::vector<uint8_t> DataDatagram(uint32_t stream, uint32_t refinement, DatagramKind kind, uint32_t offset,
                                   uint32_t stride, size_t payload, uint32_t seed) {
-  DatagramHeader h;
-  h.kind = kind;
-  h.stream = stream;
-  h.refinement = refinement;
-  h.stride = stride;
-  h.offset = offset;
-  h.count = 1;
-  ByteWriter w;
-  h.Serialize(w);
   std::mt19937 rng(seed);
-  for (size_t i = 0; i < payload; ++i) w.U8(static_cast<uint8_t>(rng()));
-  return std::move(w.bytes());
+  std::vector<uint8_t> bytes(payload);
+  for (auto& b : bytes) b = static_cast<uint8_t>(rng());
+  return test_util::TestDatagram(stream, refinement, kind, stride, offset, bytes);
 }
 
 ParsedDatagram Parsed(const std::vector<uint8_t>& bytes) {

@@ -24,6 +24,7 @@
 #include "codec/loss/parity.h"
 #include "codec/loss/parity_recovery.h"
 #include "fec/reed_solomon.h"
+#include "tests/common/test_datagram.h"
 #include "tests/fuzz/sphere_stream.h"
 
 namespace {
@@ -37,16 +38,10 @@ const std::vector<std::vector<uint8_t>>& Block() {
   static const std::vector<std::vector<uint8_t>> block = [] {
     std::vector<std::vector<uint8_t>> out;
     for (uint32_t i = 0; i < 8; ++i) {
-      DatagramHeader h;
-      h.kind = i < 5 ? DatagramKind::kStructure : DatagramKind::kGeometry;
-      h.refinement = 3 + i / 5;
-      h.stride = 5;
-      h.offset = i % 5;
-      h.count = 1;
-      ByteWriter w;
-      h.Serialize(w);
-      for (uint32_t b = 0; b < 20 + 13 * i; ++b) w.U8(static_cast<uint8_t>(i * 31 + b * 7));
-      out.push_back(std::move(w.bytes()));
+      std::vector<uint8_t> payload(20 + 13 * i);
+      for (uint32_t b = 0; b < payload.size(); ++b) payload[b] = static_cast<uint8_t>(i * 31 + b * 7);
+      out.push_back(test_util::TestDatagram(0, 3 + i / 5, i < 5 ? DatagramKind::kStructure : DatagramKind::kGeometry,
+                                            5, i % 5, payload));
     }
     return out;
   }();

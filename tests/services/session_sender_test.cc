@@ -14,6 +14,7 @@
 #include "codec/core/byte_io.h"
 #include "codec/loss/reliable_cut.h"
 #include "fec/reed_solomon.h"
+#include "tests/common/test_datagram.h"
 #include "net/packet_header.h"
 
 namespace meshstream {
@@ -710,17 +711,7 @@ struct ParityFixture {
       pr.control = {artifact.size(), 16};
       artifact.resize(artifact.size() + 16, 0);
       for (uint32_t k = 0; k < kEach; ++k) {
-        DatagramHeader h;
-        h.version = kStreamVersion;
-        h.kind = DatagramKind::kStructure;
-        h.stream = kStream;
-        h.refinement = r;
-        h.stride = kEach;
-        h.offset = k;
-        h.count = 1;
-        ByteWriter w;
-        h.Serialize(w);
-        std::vector<uint8_t> d = std::move(w.bytes());
+        std::vector<uint8_t> d = test_util::TestDatagram(kStream, r, DatagramKind::kStructure, kEach, k, {});
         d.resize(900 + 10 * k, static_cast<uint8_t>(r * 16 + k));
         pr.datagrams.push_back({artifact.size(), d.size()});
         artifact.insert(artifact.end(), d.begin(), d.end());
