@@ -11,7 +11,6 @@
 #include <gtest/gtest.h>
 
 #include "codec/bitstream/format.h"
-#include "codec/core/byte_io.h"
 #include "codec/loss/reliable_cut.h"
 #include "fec/reed_solomon.h"
 #include "tests/common/test_datagram.h"
