@@ -87,6 +87,7 @@ struct Args {
   int64_t samples = 0;
   bool quick = false;
   bool protection_only = false;
+  ms::ParityPlanOptions parity_plan;  // the blocks' limits (--parity-span, --parity-block)
   double base_ratio = ms::SimplifyOptions{}.base_ratio;
   double reliable_share = ms::kDefaultReliableShare;
 };
@@ -108,12 +109,17 @@ Args ParseArgs(int argc, char** argv) {
   o.Flag("--protection-only", &a.protection_only,
          "only the reliable cut and parity at 12 and 30 % loss, random and bursty (no timing):\n"
          "a quick look at loss protection (docs/loss-protection.md)");
+  int span = static_cast<int>(a.parity_plan.max_span), block = static_cast<int>(a.parity_plan.block_datagrams);
+  o.Int("--parity-span", "N", &span, 1, 255, "refinements a parity block spans at most (default 16)");
+  o.Int("--parity-block", "N", &block, 1, 255, "datagrams in a parity block at most (default 100)");
   o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
            "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
            "0.14 is close to the paper's base, see docs/loss-results.md)", true);
   o.Double("--reliable-share", "F", &a.reliable_share, 0, 1,
            "the share of the datagram bytes the reliable cut may take (default 0.10)");
   o.Parse(argc, argv);
+  a.parity_plan.max_span = static_cast<uint32_t>(span);
+  a.parity_plan.block_datagrams = static_cast<uint32_t>(block);
   return a;
 }
 
@@ -248,7 +254,7 @@ Metrics Measure(const ms::QuantizedMesh& ref_q, const ms::Primitive& ref, double
   return m;
 }
 
-JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
+JobResult RunJob(const Model& model, const Job& job, int64_t samples, const ms::ParityPlanOptions& plan) {
   JobResult out;
   const Stream& s = model.streams[job.packing];
   const size_t n = s.ref.size() - 1;
@@ -265,6 +271,7 @@ JobResult RunJob(const Model& model, const Job& job, int64_t samples) {
       options.parity.loss = job.loss;
       options.parity.burst = kBursts[job.pattern];
       options.parity.protect = s.tiers;
+      options.parity.plan = plan;
     }
     options.on_level = [&](size_t level, const ms::StreamReader& reader) {
       ms::QuantizedMesh m = reader.Mesh();
@@ -483,7 +490,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
 // Medians of DecodeStreamLossy alone, split packing, random loss, per loss
 // level and recovery; the warm-up round uses seed 1, kept round r seed r + 2; every round times every
 // configuration once, so all see the same machine load.
-json TimeDecodes(const Model& m, int repeat) {
+json TimeDecodes(const Model& m, int repeat, const ms::ParityPlanOptions& plan) {
   const Stream& s = m.streams[0];
   std::vector<double> losses = {0.0};
   for (double l : m.plan.losses) losses.push_back(l);
@@ -501,6 +508,7 @@ json TimeDecodes(const Model& m, int repeat) {
           o.parity.code = &ms::fec::DefaultErasureCode();
           o.parity.loss = losses[li];
           o.parity.protect = s.tiers;
+          o.parity.plan = plan;
         }
         ms::QuantizedMesh base = s.base;  // the copy is not timed
         ms::LossyDecodeReport report;
@@ -580,6 +588,8 @@ json SettingsJson(const Args& args) {
           {"level_seeds", args.level_seeds},
           {"level_step", kLevelStep},
           {"reliable_share", args.reliable_share},
+          {"parity_span", args.parity_plan.max_span},
+          {"parity_block", args.parity_plan.block_datagrams},
           {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
           {"quick", args.quick},
           {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "
@@ -676,7 +686,7 @@ std::vector<JobResult> RunMatrix(const Args& args, const std::vector<Model>& mod
       const size_t i = next.fetch_add(1);
       if (i >= jobs.size()) return;
       const auto s = Clock::now();
-      results[i] = RunJob(models[jobs[i].model], jobs[i], args.samples);
+      results[i] = RunJob(models[jobs[i].model], jobs[i], args.samples, args.parity_plan);
       results[i].seconds = Ms(s, Clock::now()) / 1000;
       const size_t f = finished.fetch_add(1) + 1;
       std::lock_guard<std::mutex> lock(log_mu);
@@ -764,7 +774,7 @@ int main(int argc, char** argv) {
   for (size_t mi = 0; mi < models.size(); ++mi) {
     if (!models[mi].plan.per_level || args.protection_only) continue;
     std::fprintf(stderr, "timing %s\n", models[mi].name.c_str());
-    timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat);
+    timing[mi] = TimeDecodes(models[mi], args.quick ? 2 : args.repeat, args.parity_plan);
   }
   // 2. The matrix, on worker threads.
   const std::vector<Job> jobs = PlanJobs(args, models);
