@@ -1,11 +1,13 @@
 // The codec's erasure code (codec/core/erasure_code.h) on Intel's ISA-L
 // (Debian's libisal-dev): the Cauchy matrix of the spec built with
 // ISA-L's gf_inv, tables by ec_init_tables, symbols multiplied by
-// ec_encode_data (SIMD, dispatched at run time), and a rebuild that inverts
-// the k x k matrix of the rows that arrived with gf_invert_matrix.
+// ec_encode_data (SIMD, dispatched at run time), and a rebuild that
+// subtracts the known data rows from the parity rows given and solves the
+// e x e Cauchy system of the e missing rows (gf_invert_matrix on e x e, not
+// k x k: the cost of a rebuild grows with what was lost).
 //
 // Contract: as ErasureCode; safe to call from several threads at once (no
-// state). Allocates O(k^2 + 32 k w) bytes of tables per call.
+// state). Allocates O(k e + e^2) bytes of coefficients and tables per call.
 #ifndef MESHSTREAM_FEC_REED_SOLOMON_H_
 #define MESHSTREAM_FEC_REED_SOLOMON_H_
 
