@@ -466,13 +466,9 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
       if (!delivery.ok()) return delivery.status().WithContext(where);
       protect = ProtectionTiers(delivery->parity, delivery->harm, levels);
-    }
-    if (ext.contains("delivery") && options.reliable_share != 0) {
-      auto delivery = ParseDeliveryRecord(ext["delivery"].dump(), levels);
-      if (!delivery.ok()) return delivery.status().WithContext(where);
       if (options.reliable_share < 0) {
         reliable = delivery->reliable;
-      } else {
+      } else if (options.reliable_share > 0) {
         // The base's Draco bytes (the importer has checked its bufferView).
         const json& draco = prim["extensions"]["KHR_draco_mesh_compression"];
         const uint64_t base_bytes = views.at(draco.at("bufferView").get<uint64_t>()).value("byteLength", uint64_t{0});

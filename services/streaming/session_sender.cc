@@ -29,15 +29,20 @@ std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vecto
 
 }  // namespace
 
-double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst) {
-  *burst = 0;
+double ReportedLoss(uint64_t received, uint64_t missing, double expected_loss) {
   const uint64_t reported = received + missing;
   if (reported < SessionSender::kMinReportedForCut) {
     return expected_loss >= 0 ? std::min(1.0, expected_loss) : kReferenceLoss;
   }
-  if (missing == 0) return 0;
+  return static_cast<double>(missing) / static_cast<double>(reported);
+}
+
+double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst) {
+  *burst = 0;
+  const double p = ReportedLoss(received, missing, expected_loss);
+  const uint64_t reported = received + missing;
+  if (reported < SessionSender::kMinReportedForCut || missing == 0) return p;
   const double n = static_cast<double>(reported);
-  const double p = static_cast<double>(missing) / n;
   if (runs > 0) *burst = static_cast<double>(missing) / static_cast<double>(runs);
   // One-sided 95 % upper bound of the rate (normal approximation); with
   // bursts the losses are not independent: the effective count is n / burst.
@@ -224,11 +229,7 @@ bool SessionSender::HelloWaitOver(uint64_t now_us) {
 
 bool SessionSender::InReliableCut(const PlannedRefinement& r) {
   if (!options_.reliable_cut) return false;
-  double loss = options_.expected_loss >= 0 ? options_.expected_loss : kReferenceLoss;
-  const uint64_t reported = udp_reported_received_ + udp_reported_missing_;
-  if (reported >= kMinReportedForCut) {
-    loss = static_cast<double>(udp_reported_missing_) / static_cast<double>(reported);
-  }
+  const double loss = ReportedLoss(udp_reported_received_, udp_reported_missing_, options_.expected_loss);
   stats_.cut_loss = loss;
   const std::vector<uint32_t> cut = ReliableCutFor(plan_.primitives[r.primitive], loss);
   return std::binary_search(cut.begin(), cut.end(), r.refinement);

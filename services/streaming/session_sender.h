@@ -143,6 +143,12 @@ struct SessionSenderStats {
   double parity_burst = 0;            // ... and the mean loss run (0: independent)
 };
 
+// The loss the reports show (missing / (received + missing) over the UDP
+// refinements) once kMinReportedForCut datagrams were reported; before,
+// `expected_loss` when the client stated one (>= 0), else the reference loss.
+// What the reliable cut is sized for.
+double ReportedLoss(uint64_t received, uint64_t missing, double expected_loss);
+
 // The loss a sender sizes parity for, from what the client reported over
 // UDP (received and missing data datagrams, the runs the missing ones
 // form): an upper bound (one-sided 95 %) of the raw loss rate once
