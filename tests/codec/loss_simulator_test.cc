@@ -19,20 +19,12 @@ namespace {
 // `refinements` refinements of `per_refinement` datagrams each; every
 // datagram's payload holds its refinement and index, so they all differ.
 ProgressiveStream SyntheticStream(size_t refinements, size_t per_refinement) {
-  ProgressiveStream s;
-  s.header = {1, 2, 3};
-  for (size_t i = 0; i < refinements; ++i) {
-    s.control.push_back({static_cast<uint8_t>(i), 0xC0});
-    std::vector<std::vector<uint8_t>> level;
-    for (size_t d = 0; d < per_refinement; ++d) {
-      ByteWriter w;
-      w.U32(static_cast<uint32_t>(i * 100000 + d));
-      level.push_back(test_util::TestDatagram(0, static_cast<uint32_t>(i), DatagramKind::kStructure,
-                                              static_cast<uint32_t>(per_refinement), static_cast<uint32_t>(d), w.bytes()));
-    }
-    s.datagrams.push_back(std::move(level));
-  }
-  return s;
+  return test_util::SyntheticStream(static_cast<uint32_t>(refinements), static_cast<uint32_t>(per_refinement),
+                                    [](uint32_t r, uint32_t d) {
+                                      ByteWriter w;
+                                      w.U32(r * 100000 + d);
+                                      return std::move(w.bytes());
+                                    });
 }
 
 // (refinement, datagram index) of a data datagram event; (-1, -1) for an END.

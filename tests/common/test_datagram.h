@@ -30,6 +30,25 @@ inline std::vector<uint8_t> TestDatagram(uint32_t stream, uint32_t refinement, D
   return out;
 }
 
+// A stream without a mesh behind it (the simulator's and the parity's tests
+// need only bytes): `refinements` refinements, each a two-byte control block
+// and `per_refinement` structure datagrams of stream 0 dealt as a writer
+// deals them (stride per_refinement, offset d) with payload(r, d).
+template <typename Payload>
+ProgressiveStream SyntheticStream(uint32_t refinements, uint32_t per_refinement, Payload payload) {
+  ProgressiveStream s;
+  s.header = {1, 2, 3};
+  for (uint32_t r = 0; r < refinements; ++r) {
+    s.control.push_back({static_cast<uint8_t>(r), 0xC0});
+    std::vector<std::vector<uint8_t>> level;
+    for (uint32_t d = 0; d < per_refinement; ++d) {
+      level.push_back(TestDatagram(0, r, DatagramKind::kStructure, per_refinement, d, payload(r, d)));
+    }
+    s.datagrams.push_back(std::move(level));
+  }
+  return s;
+}
+
 }  // namespace meshstream::test_util
 
 #endif  // MESHSTREAM_TESTS_COMMON_TEST_DATAGRAM_H_

@@ -382,18 +382,14 @@ TEST(ParityPlan, ShapesGrowWithLossAndBursts) {
 namespace meshstream {
 namespace {
 
+// Datagrams of 40 to 89 random bytes: symbols of unequal members.
 ProgressiveStream SyntheticStream(uint32_t refinements, uint32_t per_refinement) {
-  ProgressiveStream s;
-  s.header = {1, 2, 3};
-  for (uint32_t r = 0; r < refinements; ++r) {
-    s.control.push_back({static_cast<uint8_t>(r)});
-    std::vector<std::vector<uint8_t>> level;
-    for (uint32_t d = 0; d < per_refinement; ++d) {
-      level.push_back(DataDatagram(0, r, DatagramKind::kStructure, d, per_refinement, 40 + (r * 7 + d) % 50, r * 100 + d));
-    }
-    s.datagrams.push_back(level);
-  }
-  return s;
+  return test_util::SyntheticStream(refinements, per_refinement, [](uint32_t r, uint32_t d) {
+    std::mt19937 rng(r * 100 + d);
+    std::vector<uint8_t> payload(40 + (r * 7 + d) % 50);
+    for (auto& b : payload) b = static_cast<uint8_t>(rng());
+    return payload;
+  });
 }
 
 // The simulator's parity: the data see the same pattern with and without
