@@ -37,6 +37,7 @@ struct FetchArgs {
   bool json = false;
   std::string udp_via;
   bool repair = false;
+  bool no_parity = false;
   double expected_loss = -1;
   int threads = 1;
   RemoteOptions remote;
@@ -60,6 +61,7 @@ int RunFetch(const FetchArgs& args) {
   options.tcp_only = args.tcp_only;
   options.udp_via = args.udp_via;
   options.repair = args.repair;
+  options.no_parity = args.no_parity;
   options.expected_loss = args.expected_loss;
   options.decode_threads = args.threads == 0 ? -1 : args.threads;  // the SDK's -1: one per core
   auto session = sdk::Session::Open(**client, options);
@@ -160,6 +162,9 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_flag("--repair", args->repair,
                 "once the stream has ended, ask once for the datagrams that were lost and write the exact mesh "
                 "(default: the predicted one, nothing asked again)");
+  cmd->add_flag("--no-parity", args->no_parity,
+                "ask for no parity datagrams: what UDP loses is predicted (or repaired), never rebuilt "
+                "(docs/loss-protection.md)");
   cmd->add_option("--expected-loss", args->expected_loss,
                   "the loss rate this link is known to have, 0..1: the server sends more of the stream reliably "
                   "the higher it is (default: unknown)")

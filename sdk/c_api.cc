@@ -229,6 +229,7 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
     if (MS_FIELD_FITS(config, ms_session_config, udp_via) && config->udp_via != nullptr) options.udp_via = config->udp_via;
     if (MS_FIELD_FITS(config, ms_session_config, repair)) options.repair = config->repair != 0;
     if (MS_FIELD_FITS(config, ms_session_config, decode_threads)) options.decode_threads = config->decode_threads;
+    if (MS_FIELD_FITS(config, ms_session_config, no_parity)) options.no_parity = config->no_parity != 0;
     auto session = meshstream::sdk::Session::Open(*client->client, options);
     if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();

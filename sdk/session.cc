@@ -305,6 +305,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_max_level(options.max_level);
   open.mutable_open()->set_transport(options.tcp_only ? v1::TRANSPORT_GRPC : v1::TRANSPORT_UNSPECIFIED);
   open.mutable_open()->set_repair(options.repair);
+  open.mutable_open()->set_no_parity(options.no_parity);
   if (options.expected_loss >= 0) open.mutable_open()->set_expected_loss(options.expected_loss);
   if (!impl->stream->Write(open)) {
     const grpc::Status s = impl->stream->Finish();

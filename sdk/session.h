@@ -116,6 +116,12 @@ struct SessionOptions {
   // it is, until this session's reports show the real rate. < 0: unknown
   // (the server assumes the rate the artifact's cut was made for, 12 %).
   double expected_loss = -1;
+  // No parity datagrams for this session (docs/loss-protection.md): what UDP
+  // loses is predicted (or repaired with `repair`), never rebuilt; the
+  // stream is smaller by the parity's bytes. Off by default: the server
+  // sizes parity by the loss this session reports, none while it reports
+  // none.
+  bool no_parity = false;
   // Threads that decode a refinement whose datagrams all arrived (the
   // output is the same bit for bit; docs/decode-profile.md): 0 or 1 the
   // session's own thread (the default: a host that runs its own threads

@@ -324,7 +324,7 @@ json LossLevelJson(int loss, Clock::time_point loss_start, const Link& link, siz
 // Every loss, run, model and kind, one child at a time.
 Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, const std::string& snap_dir) {
   Runs out;
-  const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * 3;
+  const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * std::size(kShapedKinds);
   size_t done = 0;
   for (int loss : args.shaped_losses) {
     const Status l = link.ns->SetLoss(loss, args.shaped_udp_only_loss);
@@ -422,7 +422,7 @@ json RunShaped(const Args& args, const std::string& store, const std::string& fo
   json out;
   out["settings"] = SettingsJson(args, chosen, link);
   out["models"] = model_info;
-  out["summary"] = ShapedSummary(args.shaped_losses, models, runs.runs);
+  out["summary"] = ShapedSummary(args.shaped_losses, models, runs.runs, args.shaped_rate_mbit);
   out["runs"] = std::move(runs.runs);
   out["per_loss"] = runs.per_loss;
   out["server"] = {{"udp_totals_line", udp_totals}, {"log_notable", notable}};

@@ -46,8 +46,8 @@ ClientArgs ParseClientArgs(int argc, char** argv) {
   a.snapshot_path = argv[7];
   a.max_snapshots = static_cast<int>(ParseInt(argv[8], "MAX_SNAPSHOTS", 2, 1000));
   a.timeout_s = ParseDouble(argv[9], "TIMEOUT_S");
-  if (a.kind != "udp" && a.kind != "tcp_only" && a.kind != "draco_export") {
-    Die("--shaped-client: KIND udp, tcp_only or draco_export");
+  if (a.kind != "udp" && a.kind != "udp_no_parity" && a.kind != "tcp_only" && a.kind != "draco_export") {
+    Die("--shaped-client: KIND udp, udp_no_parity, tcp_only or draco_export");
   }
   return a;
 }
@@ -170,7 +170,11 @@ json StatsJson(const sdk::SessionStats& st) {
           {"datagrams_received", st.datagrams_received},
           {"datagrams_lost", st.datagrams_lost},
           {"datagrams_rejected", st.datagrams_rejected},
-          {"datagrams_duplicate", st.datagrams_duplicate}};
+          {"datagrams_duplicate", st.datagrams_duplicate},
+          {"parity_datagrams", st.parity_datagrams},
+          {"parity_bytes", st.parity_bytes},
+          {"datagrams_recovered", st.datagrams_recovered},
+          {"refinements_decoded_again", st.refinements_decoded_again}};
 }
 
 // kComplete: the stats, and whether the session reached the full mesh.
@@ -248,7 +252,8 @@ void RunSession(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots) 
   so.asset = a.asset;
   so.version = a.version;
   so.tcp_only = a.kind == "tcp_only";
-  if (a.kind == "udp") so.udp_via = a.udp_via;
+  if (a.kind != "tcp_only") so.udp_via = a.udp_via;
+  so.no_parity = a.kind == "udp_no_parity";
   auto session = sdk::Session::Open(*client.value(), so);
   if (!session.ok()) {
     j["error"] = "Session::Open: " + session.status().ToString();

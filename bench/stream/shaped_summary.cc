@@ -29,6 +29,8 @@ struct Cell {
   // Where a session's time went (SessionStats): the base, the last arrival,
   // the decoding left after it, the session thread's CPU, the HELLO.
   std::vector<double> base, last_arrival, decode_after, thread_cpu, hello_rtt, connect;
+  // Parity (issue 27): its bytes, what it rebuilt, what came over UDP at all.
+  std::vector<double> parity_bytes, recovered, udp_received;
   uint64_t n = 0, failed = 0, fallbacks = 0;
   json errors = json::array();
 
@@ -55,6 +57,9 @@ struct Cell {
       decode_after.push_back(st.value("decode_after_last_byte_ms", 0.0));
       thread_cpu.push_back(st.value("session_thread_cpu_ms", 0.0));
       hello_rtt.push_back(st.value("hello_rtt_ms", 0.0));
+      parity_bytes.push_back(st.value("parity_bytes", 0.0));
+      recovered.push_back(st.value("datagrams_recovered", 0.0));
+      udp_received.push_back(st.value("udp_datagrams_received", 0.0));
       lost.push_back(r["stats"]["datagrams_lost"]);
       received.push_back(r["stats"]["datagrams_received"]);
       if (!r["stats"]["fallback_reason"].get<std::string>().empty()) ++fallbacks;
@@ -92,6 +97,9 @@ struct Cell {
       s["predicted_vertices_median"] = Median(predicted);
       s["datagrams_lost_median"] = Median(lost);
       s["datagrams_received_median"] = Median(received);
+      s["udp_datagrams_received_median"] = Median(udp_received);
+      s["parity_bytes_median"] = Median(parity_bytes);
+      s["datagrams_recovered_median"] = Median(recovered);
       s["fallbacks"] = fallbacks;
       s["server_final_rate_mbps_median"] = Median(rate);
       s["server_srtt_ms_median"] = Median(srtt);
@@ -112,9 +120,30 @@ struct Cell {
   }
 };
 
+// Issue 27's targets on the shaped link, for the udp entry `u` against the
+// udp_no_parity entry `n` of the same loss and model: the median time to
+// full may exceed the one without parity by at most the median parity
+// bytes at the link's rate, and the final distance stays within the loss
+// targets (median 0.1 %, worst 0.25 % of the diagonal).
+json VsNoParity(const json& u, const json& n, double rate_mbit) {
+  if (!u["full_ms"].contains("median_ms") || !n["full_ms"].contains("median_ms")) return nullptr;
+  const double with = u["full_ms"]["median_ms"], without = n["full_ms"]["median_ms"];
+  const double parity_ms = u.value("parity_bytes_median", 0.0) * 8 / (rate_mbit * 1e3);
+  const double median = u["final_hausdorff_rel_median"], worst = u["final_hausdorff_rel_max"];
+  return {{"full_ms_with", with},
+          {"full_ms_without", without},
+          {"full_ms_difference", with - without},
+          {"parity_ms_at_link_rate", parity_ms},
+          {"time_met", with - without <= parity_ms},
+          {"final_distance_median_without", n["final_hausdorff_rel_median"]},
+          {"final_distance_max_without", n["final_hausdorff_rel_max"]},
+          {"distance_met", median <= 0.001 && worst <= 0.0025}};
+}
+
 }  // namespace
 
-json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& models, const json& runs) {
+json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& models, const json& runs,
+                   double rate_mbit) {
   json summary = json::array();
   for (int loss : losses) {
     for (const Model& m : models) {
@@ -127,13 +156,14 @@ json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& mod
         by_kind[kind] = cell.Json(loss, m.name, kind);
       }
       const json& d = by_kind["draco_export"];
-      for (const char* kind : {"udp", "tcp_only"}) {
+      for (const char* kind : {"udp", "udp_no_parity", "tcp_only"}) {
         json& s = by_kind[kind];
         if (s["first_ms"].contains("median_ms") && d["first_ms"].contains("median_ms")) {
           s["vs_draco"] = {{"first", s["first_ms"]["median_ms"].get<double>() / d["first_ms"]["median_ms"].get<double>()},
                            {"full", s["full_ms"]["median_ms"].get<double>() / d["full_ms"]["median_ms"].get<double>()}};
         }
       }
+      by_kind["udp"]["vs_no_parity"] = VsNoParity(by_kind["udp"], by_kind["udp_no_parity"], rate_mbit);
       for (const char* kind : kShapedKinds) summary.push_back(by_kind[kind]);
     }
   }

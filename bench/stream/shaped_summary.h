@@ -12,13 +12,17 @@
 
 namespace meshstream::bench::stream {
 
-// The kinds of the shaped link's runs, in the order they take turns.
-inline const char* const kShapedKinds[] = {"udp", "tcp_only", "draco_export"};
+// The kinds of the shaped link's runs, in the order they take turns:
+// udp_no_parity is a UDP session that asks for no parity datagrams
+// (OpenRequest.no_parity), the reference for what parity costs in time.
+inline const char* const kShapedKinds[] = {"udp", "udp_no_parity", "tcp_only", "draco_export"};
 
 // Runs (with their "quality") grouped by loss, model and kind: the
-// "summary" array, three entries per loss and model.
+// "summary" array, one entry per loss, model and kind. The udp entries
+// carry "vs_no_parity": issue 27's test of the time parity costs, against
+// its bytes at `rate_mbit` (the link's rate).
 nlohmann::json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& models,
-                             const nlohmann::json& runs);
+                             const nlohmann::json& runs, double rate_mbit);
 
 }  // namespace meshstream::bench::stream
 

@@ -362,7 +362,7 @@ StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& t
   options.rate = options_.rate;
   options.server_share = options_.server_share;
   options.reliable_cut = options_.reliable_cut;
-  options.erasure = options_.parity ? &fec::DefaultErasureCode() : nullptr;
+  options.erasure = options_.parity && !open.no_parity() ? &fec::DefaultErasureCode() : nullptr;
   options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
   options.repair = open.repair();
   // Every header, base mesh and the scene copied here, on the opener pool,

@@ -36,6 +36,7 @@
 #include "testing/serve_process.h"
 #include "testing/loopback_socket.h"
 #include "testing/test_util.h"
+#include "testing/udp_relay.h"
 
 namespace meshstream {
 namespace {
@@ -475,6 +476,37 @@ TEST_F(CApi, RepairAndTheReliableCutCounters) {
   EXPECT_DOUBLE_EQ(s.time_to_exact_ms, s.time_to_full_ms) << "nothing lost: exact at once";
   EXPECT_GT(s.reliable_datagram_bytes, 0u);
   EXPECT_EQ(s.predicted_vertices, 0u);
+}
+
+// config->no_parity through a relay that loses 30 % of what goes to the
+// client: the default session gets parity datagrams (what they rebuild is
+// StreamOverRelay's test); one with no_parity gets none and rebuilds
+// nothing (what it lost stays predicted), on the same loss pattern.
+TEST_F(CApi, NoParityMeansNoParityDatagrams) {
+  ClientPtr client = NewClient();
+  auto run = [&](int32_t no_parity) {
+    test_util::RelayOptions o;
+    o.upstream = SocketAddress::Parse(server_->udp_address()).value();
+    o.to_client = test_util::Impairment::Loss(0.30, 7);
+    auto relay = test_util::UdpRelay::Start(o);
+    EXPECT_TRUE(relay.ok()) << relay.status().ToString();
+    const std::string via = relay.value()->front().ToString();
+    ms_session_config config = SessionConfig("engine", -1);
+    config.udp_via = via.c_str();
+    config.no_parity = no_parity;
+    SessionPtr session = Open(client.get(), config);
+    EXPECT_NE(session, nullptr);
+    const auto events = PollToEnd(session.get());
+    EXPECT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+    return Stats(session.get());
+  };
+  const ms_stats with = run(0), without = run(1);
+  EXPECT_GT(with.datagrams_lost, 0u);
+  EXPECT_GT(with.parity_datagrams, 0u);
+  EXPECT_GT(without.datagrams_lost, 0u);
+  EXPECT_EQ(without.parity_datagrams, 0u);
+  EXPECT_EQ(without.datagrams_recovered, 0u);
+  EXPECT_GT(without.predicted_vertices, 0u) << "what was lost stays predicted";
 }
 
 // Every argument error: its status, and a message naming the argument.

@@ -175,7 +175,9 @@ uint64_t ExpectLikeLossless(const Result& got, const Result& lossless, bool expe
     EXPECT_GT(got.stats.datagrams_lost, 0u);
     EXPECT_GT(predicted + got.stats.datagrams_recovered, 0u);
   }
-  if (predicted > 0) EXPECT_GT(got.stats.datagrams_lost, got.stats.datagrams_recovered) << "something stayed lost";
+  if (predicted > 0) {
+    EXPECT_GT(got.stats.datagrams_lost, got.stats.datagrams_recovered) << "something stayed lost";
+  }
   return moved;
 }
 
@@ -299,6 +301,29 @@ TEST_F(StreamOverRelay, ParityRebuildsWhatTheRelayLostUnder12And30PercentLoss) {
     EXPECT_GT(recovered, 0u) << "parity rebuilt something at " << loss;
     EXPECT_GE(2 * within, sessions) << "the median session within 0.1 % of the diagonal at " << loss;
   }
+}
+
+// OpenRequest.no_parity (SessionOptions.no_parity): at 30 % loss, where the
+// same session gets parity (the test above), a client that asks for none
+// gets none, rebuilds nothing and still ends with every primitive at its
+// full level, what was lost predicted and flagged.
+TEST_F(StreamOverRelay, NoParityAskedMeansNoneSentUnder30PercentLoss) {
+  uint64_t lost = 0;
+  for (uint64_t seed : {41, 42}) {
+    for (const auto& [asset, file] : Models()) {
+      SCOPED_TRACE("seed " + std::to_string(seed) + ", " + asset);
+      auto relay = Relay(Impairment::Loss(0.30, seed));
+      sdk::SessionOptions options = test_util::SessionFor(asset, 0, -1, false, relay->front().ToString());
+      options.no_parity = true;
+      const Result got = RunSession(*client_, options);
+      ExpectLikeLossless(got, lossless_->at(asset), false);
+      EXPECT_EQ(got.stats.parity_datagrams, 0u);
+      EXPECT_EQ(got.stats.parity_bytes, 0u);
+      EXPECT_EQ(got.stats.datagrams_recovered, 0u);
+      lost += got.stats.datagrams_lost;
+    }
+  }
+  EXPECT_GT(lost, 0u) << "the relay lost something (the test above, on the same seeds, gets parity)";
 }
 
 // The reliable cut (codec/loss/reliable_cut.h) adapts to the loss the client

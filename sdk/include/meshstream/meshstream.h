@@ -111,6 +111,7 @@ typedef struct {
                               the last LEVEL_READY shows the predicted mesh, COMPLETE the exact one (docs/c-api.md) */
   int32_t decode_threads;  /* threads that decode a refinement whose datagrams all arrived (same output bit for bit):
                               0 or 1 the session's own thread, N > 1 a pool of N, -1 one per core; at most 64 */
+  int32_t no_parity;       /* non-zero: no parity datagrams; what UDP loses is predicted (or repaired), never rebuilt */
 } ms_session_config;
 #define MS_SESSION_CONFIG_V0_SIZE (offsetof(ms_session_config, tcp_only) + sizeof(int32_t))
 
