@@ -39,9 +39,16 @@ double ReportedLoss(uint64_t received, uint64_t missing, double expected_loss) {
 
 double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst) {
   *burst = 0;
-  const double p = ReportedLoss(received, missing, expected_loss);
   const uint64_t reported = received + missing;
-  if (reported < SessionSender::kMinReportedForCut || missing == 0) return p;
+  if (reported < SessionSender::kMinReportedForCut) {
+    // Too few reports for a rate: what the client stated, and nothing while
+    // it stated nothing and has reported no loss; once it has reported a
+    // loss, at least the reference loss (a statement of none was wrong).
+    const double stated = expected_loss > 0 ? std::min(1.0, expected_loss) : 0.0;
+    return missing == 0 ? stated : std::max(stated, kReferenceLoss);
+  }
+  const double p = ReportedLoss(received, missing, expected_loss);
+  if (missing == 0) return p;
   const double n = static_cast<double>(reported);
   if (runs > 0) *burst = static_cast<double>(missing) / static_cast<double>(runs);
   // One-sided 95 % upper bound of the rate (normal approximation); with
@@ -263,7 +270,7 @@ void SessionSender::CloseParityBlock(uint32_t primitive) {
 
 void SessionSender::JoinParityBlock(const PlannedRefinement& r) {
   const auto& tiers = tiers_[r.primitive];
-  const uint8_t tier = r.refinement < tiers.size() ? tiers[r.refinement] : kUnprotected;
+  const uint8_t tier = r.refinement < tiers.size() ? tiers[r.refinement] : static_cast<uint8_t>(kUnprotected);
   if (tier == kUnprotected || r.datagrams.empty()) return;
   OpenBlock& b = open_blocks_[r.primitive];
   const ParityPlanOptions& o = options_.parity_plan;

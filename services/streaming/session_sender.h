@@ -152,9 +152,11 @@ double ReportedLoss(uint64_t received, uint64_t missing, double expected_loss);
 // The loss a sender sizes parity for, from what the client reported over
 // UDP (received and missing data datagrams, the runs the missing ones
 // form): an upper bound (one-sided 95 %) of the raw loss rate once
-// kMinReportedForCut datagrams were reported; before, `expected_loss` when
-// the client stated one, else the reference loss. 0 when the reports show no
-// loss. `burst` gets the mean loss run (0 when runs were not seen).
+// kMinReportedForCut datagrams were reported, 0 when they show no loss.
+// Before: `expected_loss` when the client stated one above 0, else none
+// until a report shows a loss, then at least the reference loss. So a
+// client that states nothing and loses nothing gets no parity at all.
+// `burst` gets the mean loss run (0 when runs were not seen).
 double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double expected_loss, double* burst);
 
 struct SenderAction {

@@ -783,8 +783,7 @@ TEST(SessionSender, ParityFollowsTheReportedLoss) {
   // No loss reported, none expected: no parity at all.
   const ParitySession quiet = RunReporting(0, 1, 0.0);
   EXPECT_EQ(quiet.parity, 0u);
-  // Unknown before the reports (the reference loss), then none reported:
-  // the one block closes after the reports showed no loss.
+  // Nothing stated, and the reports show no loss: none either.
   EXPECT_EQ(RunReporting(0, 1, -1).parity, 0u);
   // More parity as the reported loss rises.
   const ParitySession low = RunReporting(1, 1, -1);
@@ -811,7 +810,11 @@ TEST(SessionSender, ParityFollowsTheReportedLoss) {
 TEST(SessionSender, TheParityLossIsAnUpperBoundOfTheReportedRate) {
   double burst = 0;
   EXPECT_EQ(ParityLossFor(0, 0, 0, 0.05, &burst), 0.05) << "before reports: the expected loss";
-  EXPECT_EQ(ParityLossFor(10, 2, 2, -1, &burst), kReferenceLoss) << "before 32 datagrams: the reference";
+  EXPECT_EQ(ParityLossFor(10, 2, 2, -1, &burst), kReferenceLoss) << "a loss before 32 datagrams: the reference";
+  EXPECT_EQ(ParityLossFor(10, 1, 1, 0.3, &burst), 0.3) << "... or the expected loss when it is higher";
+  EXPECT_EQ(ParityLossFor(10, 1, 1, 0, &burst), kReferenceLoss) << "a client that expected none was wrong";
+  EXPECT_EQ(ParityLossFor(0, 0, 0, -1, &burst), 0.0) << "nothing stated, nothing reported: none";
+  EXPECT_EQ(ParityLossFor(20, 0, 0, -1, &burst), 0.0) << "nothing stated, no loss reported: none";
   EXPECT_EQ(ParityLossFor(100, 0, 0, 0.3, &burst), 0.0) << "no loss reported: none";
   const double p = ParityLossFor(880, 120, 120, -1, &burst);
   EXPECT_GT(p, 0.12);
