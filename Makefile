@@ -107,7 +107,7 @@ define stream-bench
 $(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
 $(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
 rm -f docs/bench/stream-near.json
-$(BUILD)/bin/meshstream_bench_stream --only-shaped --shaped-delay-ms 5 --shaped-loss 0,12 --out docs/bench/stream-near.json $(STREAM_BENCH_ARGS)
+$(BUILD)/bin/meshstream_bench_stream --only-shaped --shaped-delay-ms 5 --shaped-loss 0,12 --shaped-runs 9 --out docs/bench/stream-near.json $(STREAM_BENCH_ARGS)
 $(PYTHON) bench/plot_stream.py docs/bench/stream-near.json --out docs/bench/stream-near --doc docs/stream-benchmarks-near.md
 endef
 .PHONY: bench-stream

@@ -10,6 +10,7 @@
 #ifndef MESHSTREAM_SDK_CLIENT_H_
 #define MESHSTREAM_SDK_CLIENT_H_
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -52,11 +53,25 @@ class Client {
   // (<= 0: none).
   void Prepare(grpc::ClientContext& context, double timeout_s) const;
 
+  // The link's loss as this client last saw it: the raw UDP loss (data
+  // datagrams lost / (lost + received over UDP), before any parity rebuilt
+  // them) of its last session that saw at least kLossMemoryMinimum UDP data
+  // datagrams; -1 before any. A session opened without expected_loss
+  // states it to the server (docs/loss-protection.md), which sizes parity
+  // and the reliable cut by it until the session's own reports take over:
+  // a clean link gets no parity from the first datagram, a lossy one gets
+  // it before its first loss is reported. Shared with the client's
+  // sessions (it outlives the client while one of them runs).
+  static constexpr uint64_t kLossMemoryMinimum = 16;
+  double remembered_loss() const { return loss_memory_->load(std::memory_order_relaxed); }
+  const std::shared_ptr<std::atomic<double>>& loss_memory() const { return loss_memory_; }
+
  private:
   Client(ClientOptions options, std::shared_ptr<grpc::Channel> channel)
       : options_(std::move(options)), channel_(std::move(channel)) {}
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
+  std::shared_ptr<std::atomic<double>> loss_memory_ = std::make_shared<std::atomic<double>>(-1.0);
 };
 
 }  // namespace meshstream::sdk

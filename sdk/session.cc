@@ -1,6 +1,7 @@
 #include "sdk/session.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -51,6 +52,7 @@ std::string HostOfTarget(std::string target) {
 struct Session::Impl {
   SessionOptions options;
   std::string server_target;
+  std::shared_ptr<std::atomic<double>> loss_memory;  // the client's (Client::remembered_loss)
   grpc::ClientContext context;
   std::unique_ptr<v1::StreamService::Stub> stub;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>> stream;
@@ -155,6 +157,14 @@ struct Session::Impl {
   }
 
   // The session thread's statistics: the core's, and its own CPU.
+  // The raw UDP loss this session saw, for the client's next session
+  // (Client::remembered_loss), when it saw enough UDP datagrams to say.
+  void RememberLoss(const SessionStats& st) const {
+    const uint64_t seen = st.udp_datagrams_received + st.datagrams_lost;
+    if (seen < Client::kLossMemoryMinimum) return;
+    loss_memory->store(static_cast<double>(st.datagrams_lost) / static_cast<double>(seen), std::memory_order_relaxed);
+  }
+
   SessionStats StatsNow() const {
     SessionStats st = core->stats();
     st.session_thread_cpu_ms = ThreadCpuMs();
@@ -260,6 +270,7 @@ struct Session::Impl {
     }
     std::lock_guard<std::mutex> lock(mutex);
     live_stats = StatsNow();
+    RememberLoss(live_stats);
     worker_over = true;
     published.notify_all();
   }
@@ -296,6 +307,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   }
   auto impl = std::make_unique<Impl>(options);
   impl->server_target = client.options().server;
+  impl->loss_memory = client.loss_memory();
   client.Authorize(impl->context);
   impl->stub = v1::StreamService::NewStub(client.channel());
   impl->stream = impl->stub->Open(&impl->context);
@@ -306,7 +318,12 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_transport(options.tcp_only ? v1::TRANSPORT_GRPC : v1::TRANSPORT_UNSPECIFIED);
   open.mutable_open()->set_repair(options.repair);
   open.mutable_open()->set_no_parity(options.no_parity);
-  if (options.expected_loss >= 0) open.mutable_open()->set_expected_loss(options.expected_loss);
+  const double remembered = client.remembered_loss();
+  if (options.expected_loss >= 0) {
+    open.mutable_open()->set_expected_loss(options.expected_loss);
+  } else if (remembered >= 0 && !options.tcp_only) {
+    open.mutable_open()->set_expected_loss(remembered);
+  }
   if (!impl->stream->Write(open)) {
     const grpc::Status s = impl->stream->Finish();
     return FromGrpcStatus(s).ok() ? Unavailable("the server closed the session at once") : FromGrpcStatus(s);

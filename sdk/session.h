@@ -113,8 +113,10 @@ struct SessionOptions {
   // The loss rate this client expects on its UDP path, in [0, 1] (e.g. the
   // last session's datagrams_lost / (datagrams_lost + datagrams_received)):
   // the server moves more of the stream to the reliable channel the higher
-  // it is, until this session's reports show the real rate. < 0: unknown
-  // (the server assumes the rate the artifact's cut was made for, 12 %).
+  // it is, until this session's reports show the real rate. < 0: the loss
+  // the client's last session saw (Client::remembered_loss), or unknown
+  // before any (the server then sizes its cut for the rate the artifact's
+  // cut was made for, 12 %, and sends no parity until a loss is reported).
   double expected_loss = -1;
   // No parity datagrams for this session (docs/loss-protection.md): what UDP
   // loses is predicted (or repaired with `repair`), never rebuilt; the

@@ -242,12 +242,13 @@ struct RunId {
 // One child in the namespace: its JSON line, with what crossed the link for
 // it (the gRPC probe calls and the channel set-up included) and the
 // server's line of its session.
-json RunChild(const Args& args, Link& link, const RunId& id, const std::string& snapshot_file) {
+json RunChild(const Args& args, Link& link, const RunId& id, const std::string& snapshot_file, double remembered) {
   static const std::string self = fs::read_symlink("/proc/self/exe").string();
   const std::vector<std::string> cargs = {self,           "--shaped-client",          id.kind,
                                           link.proxy->address(), link.udp_via,        id.model->name,
                                           std::to_string(id.model->version),          snapshot_file,
-                                          std::to_string(args.shaped_snapshots),      std::to_string(args.shaped_timeout_s)};
+                                          std::to_string(args.shaped_snapshots),      std::to_string(args.shaped_timeout_s),
+                                          std::to_string(remembered)};
   std::string command;
   for (const std::string& a : cargs) command += (command.empty() ? "" : " ") + ShellQuote(a);
   const size_t logged = link.log.session_count();
@@ -266,6 +267,7 @@ json RunChild(const Args& args, Link& link, const RunId& id, const std::string& 
   r["model"] = id.model->name;
   r["run"] = id.run;
   r["child_process_ms"] = child_ms;
+  if (std::string(id.kind) != "draco_export") r["expected_loss_stated"] = remembered;
   r["wire"] = {{"tcp", wire_tcp},
                {"udp", {{"datagrams_to_client", down1.forwarded - down0.forwarded},
                         {"bytes_to_client", down1.bytes - down0.bytes},
@@ -321,9 +323,23 @@ json LossLevelJson(int loss, Clock::time_point loss_start, const Link& link, siz
                      {"to_client_bytes", down1.bytes - down0.bytes}}}};
 }
 
-// Every loss, run, model and kind, one child at a time.
+// The raw UDP loss a UDP run saw, as sdk::Client remembers it
+// (Client::remembered_loss); `before` when it saw too few UDP datagrams.
+double RememberedLoss(const json& r, double before) {
+  if (!r.contains("stats")) return before;
+  const double lost = r["stats"].value("datagrams_lost", 0.0);
+  const double seen = lost + r["stats"].value("udp_datagrams_received", 0.0);
+  return seen >= static_cast<double>(sdk::Client::kLossMemoryMinimum) ? lost / seen : before;
+}
+
+// Every loss, run, model and kind, one child at a time. Each child is a
+// new process, so the loss a long-lived client would remember from its last
+// session (sdk::Client::remembered_loss) is passed to it: the last UDP
+// run's, across models and loss levels (the first run of a level states
+// what the level before it left).
 Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, const std::string& snap_dir) {
   Runs out;
+  double remembered = -1;
   const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * std::size(kShapedKinds);
   size_t done = 0;
   for (int loss : args.shaped_losses) {
@@ -337,7 +353,8 @@ Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, c
         for (const char* kind : kShapedKinds) {
           const RunId id{loss, run, &m, kind};
           const std::string file = snap_dir + "/" + std::to_string(out.runs.size()) + ".snap";
-          json r = RunChild(args, link, id, file);
+          json r = RunChild(args, link, id, file, remembered);
+          if (std::string(kind).rfind("udp", 0) == 0) remembered = RememberedLoss(r, remembered);
           if (!r.value("ok", false)) ++out.failures;
           LogRun(r, id, ++done, total);
           out.snapshot_files.push_back(fs::exists(file) ? file : "");

@@ -33,10 +33,11 @@ struct ClientArgs {
   std::string snapshot_path;
   int max_snapshots = 0;
   double timeout_s = 0;
+  double expected_loss = -1;
 };
 
 ClientArgs ParseClientArgs(int argc, char** argv) {
-  if (argc != 10) Die("--shaped-client KIND SERVER UDP_VIA ASSET VERSION SNAPSHOTS MAX_SNAPSHOTS TIMEOUT_S");
+  if (argc != 11) Die("--shaped-client KIND SERVER UDP_VIA ASSET VERSION SNAPSHOTS MAX_SNAPSHOTS TIMEOUT_S EXPECTED_LOSS");
   ClientArgs a;
   a.kind = argv[2];
   a.server = argv[3];
@@ -46,6 +47,8 @@ ClientArgs ParseClientArgs(int argc, char** argv) {
   a.snapshot_path = argv[7];
   a.max_snapshots = static_cast<int>(ParseInt(argv[8], "MAX_SNAPSHOTS", 2, 1000));
   a.timeout_s = ParseDouble(argv[9], "TIMEOUT_S");
+  a.expected_loss = ParseDouble(argv[10], "EXPECTED_LOSS");
+  if (a.expected_loss > 1) Die("--shaped-client: EXPECTED_LOSS at most 1 (< 0: unknown)");
   if (a.kind != "udp" && a.kind != "udp_no_parity" && a.kind != "tcp_only" && a.kind != "draco_export") {
     Die("--shaped-client: KIND udp, udp_no_parity, tcp_only or draco_export");
   }
@@ -254,6 +257,7 @@ void RunSession(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots) 
   so.tcp_only = a.kind == "tcp_only";
   if (a.kind != "tcp_only") so.udp_via = a.udp_via;
   so.no_parity = a.kind == "udp_no_parity";
+  so.expected_loss = a.expected_loss;
   auto session = sdk::Session::Open(*client.value(), so);
   if (!session.ok()) {
     j["error"] = "Session::Open: " + session.status().ToString();

@@ -7,7 +7,8 @@
 namespace meshstream::bench::stream {
 
 // --shaped-client KIND SERVER UDP_VIA ASSET VERSION SNAPSHOTS MAX_SNAPSHOTS
-// TIMEOUT_S: one session (KIND udp, udp_no_parity: the same without parity
+// TIMEOUT_S EXPECTED_LOSS: one session (stating EXPECTED_LOSS, < 0: none, as
+// a long-lived sdk::Client states the loss its last session saw) (KIND udp, udp_no_parity: the same without parity
 // datagrams, or tcp_only) or one Draco GLB download
 // and decode (draco_export) on a warm channel; prints one JSON line (its
 // times, events and stats, or its error); writes what it showed, flattened,

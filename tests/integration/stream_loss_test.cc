@@ -326,6 +326,39 @@ TEST_F(StreamOverRelay, NoParityAskedMeansNoneSentUnder30PercentLoss) {
   EXPECT_GT(lost, 0u) << "the relay lost something (the test above, on the same seeds, gets parity)";
 }
 
+// Client::remembered_loss: a client remembers the raw UDP loss of its last
+// session and states it as the next one's expected_loss. After a session
+// through a clean relay it remembers 0, and its next session starts with
+// the reliable cut of a client that expects no loss (smaller than a fresh
+// client's, which the server sizes for the reference 12 %); after one at
+// 30 % it remembers about 30 %.
+TEST_F(StreamOverRelay, TheClientRemembersTheLossOfItsLastSession) {
+  auto fresh_client = [&] {
+    return sdk::Client::Create(meshstream::test_util::PlainClientOptions(server_->address())).value();
+  };
+  auto clean = Relay(Impairment{});
+  const sdk::SessionOptions options = test_util::SessionFor("bunny", 0, -1, false, clean->front().ToString());
+  auto first_client = fresh_client();
+  EXPECT_EQ(first_client->remembered_loss(), -1.0) << "nothing remembered before a session";
+  const Result unknown = RunSession(*first_client, options);
+  ASSERT_EQ(unknown.last.type, sdk::EventType::kComplete) << unknown.last.status.ToString();
+  ASSERT_GE(unknown.stats.udp_datagrams_received, sdk::Client::kLossMemoryMinimum);
+  EXPECT_EQ(first_client->remembered_loss(), 0.0);
+  const Result remembered = RunSession(*first_client, options);
+  ASSERT_EQ(remembered.last.type, sdk::EventType::kComplete) << remembered.last.status.ToString();
+  EXPECT_LT(remembered.stats.reliable_datagram_bytes, unknown.stats.reliable_datagram_bytes)
+      << "the second session states the remembered 0 % and gets the smaller cut";
+
+  auto lossy = Relay(Impairment::Loss(0.30, 51));
+  auto second_client = fresh_client();
+  const Result stormy = RunSession(*second_client, test_util::SessionFor("bunny", 0, -1, false, lossy->front().ToString()));
+  ASSERT_EQ(stormy.last.type, sdk::EventType::kComplete) << stormy.last.status.ToString();
+  const double seen = static_cast<double>(stormy.stats.datagrams_lost) /
+                      static_cast<double>(stormy.stats.datagrams_lost + stormy.stats.udp_datagrams_received);
+  EXPECT_DOUBLE_EQ(second_client->remembered_loss(), seen);
+  EXPECT_GT(seen, 0.15);
+}
+
 // The reliable cut (codec/loss/reliable_cut.h) adapts to the loss the client
 // says it expects (the reports take over once 32 UDP datagrams have been
 // reported, later than a small stream's cut is decided): a client that

@@ -69,7 +69,9 @@ TEST(StreamKernelLoss, NftablesDropsInANamespace) {
     if (udp_loss.value("predicted_vertices", 0) > 0) {
       EXPECT_GT(udp_loss.value("datagrams_lost", 0), udp_loss.value("datagrams_recovered", 0)) << udp_loss.dump();
     }
-    if (udp_loss.value("datagrams_lost", 0) == 0) EXPECT_EQ(udp_loss.value("predicted_vertices", 0), 0) << udp_loss.dump();
+    if (udp_loss.value("datagrams_lost", 0) == 0) {
+      EXPECT_EQ(udp_loss.value("predicted_vertices", 0), 0) << udp_loss.dump();
+    }
     lost += udp_loss.value("datagrams_lost", 0.0);
     received += udp_loss.value("udp_datagrams_received", 0.0);
   }
