@@ -553,7 +553,8 @@ def parity_table(sh):
                "at %.0f Mbit/s | runs' spread | time target | final distance with parity: median (max) | without | distance target | "
                "datagrams over UDP / lost / rebuilt (median) |" % st["rate_mbit"])
     out.append("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---|---:|")
-    verdicts = {"met": "met", "within_noise": "within noise", "not_met": "**not met**"}
+    verdicts = {"met": "met", "within_noise": "within noise", "not_met": "**not met**",
+                "no_parity": "none sent"}
     for m, loss, u in rows:
         v = u["vs_no_parity"]
         out.append("| %s | %d %% | %s / %s | %+.1f ms | %s | %.1f ms | %.1f ms | %s | %s (%s) | %s (%s) | %s | %s / %s / %s |" % (

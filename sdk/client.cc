@@ -21,6 +21,19 @@ StatusOr<std::unique_ptr<Client>> Client::Create(const ClientOptions& options) {
   return std::unique_ptr<Client>(new Client(options, std::move(channel)));
 }
 
+void LossMemory::Add(uint64_t lost, uint64_t received_over_udp) {
+  const uint64_t seen = lost + received_over_udp;
+  if (seen < kMinimum) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  lost_ = lost_ / 2 + static_cast<double>(lost);
+  seen_ = seen_ / 2 + static_cast<double>(seen);
+}
+
+double LossMemory::Rate() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return seen_ > 0 ? lost_ / seen_ : -1.0;
+}
+
 void Client::Authorize(grpc::ClientContext& context) const {
   // The token as for any call; the deadline in whole milliseconds, not through
   // Prepare's seconds (ms / 1000.0 * 1e6 truncates some to a microsecond less).

@@ -10,9 +10,9 @@
 #ifndef MESHSTREAM_SDK_CLIENT_H_
 #define MESHSTREAM_SDK_CLIENT_H_
 
-#include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
@@ -38,6 +38,24 @@ struct ClientOptions {
   int64_t session_deadline_ms = 0;
 };
 
+// The loss a client has seen on its UDP path over its last sessions: the
+// raw loss (data datagrams lost / (lost + received over UDP), before any
+// parity rebuilt them), each session's counts added to the earlier ones
+// halved, so that the last two or three sessions weigh most and a short
+// session's noise is damped. Sessions that saw fewer than kMinimum UDP data
+// datagrams say too little and are not counted. Thread-safe.
+class LossMemory {
+ public:
+  static constexpr uint64_t kMinimum = 16;
+  void Add(uint64_t lost, uint64_t received_over_udp);
+  // In [0, 1]; -1 before any session was counted.
+  double Rate() const;
+
+ private:
+  mutable std::mutex mutex_;
+  double lost_ = 0, seen_ = 0;
+};
+
 class Client {
  public:
   // InvalidArgument for an empty server or a negative deadline. Does not
@@ -53,25 +71,22 @@ class Client {
   // (<= 0: none).
   void Prepare(grpc::ClientContext& context, double timeout_s) const;
 
-  // The link's loss as this client last saw it: the raw UDP loss (data
-  // datagrams lost / (lost + received over UDP), before any parity rebuilt
-  // them) of its last session that saw at least kLossMemoryMinimum UDP data
-  // datagrams; -1 before any. A session opened without expected_loss
-  // states it to the server (docs/loss-protection.md), which sizes parity
-  // and the reliable cut by it until the session's own reports take over:
-  // a clean link gets no parity from the first datagram, a lossy one gets
-  // it before its first loss is reported. Shared with the client's
-  // sessions (it outlives the client while one of them runs).
-  static constexpr uint64_t kLossMemoryMinimum = 16;
-  double remembered_loss() const { return loss_memory_->load(std::memory_order_relaxed); }
-  const std::shared_ptr<std::atomic<double>>& loss_memory() const { return loss_memory_; }
+  // The link's loss as this client's sessions saw it (LossMemory; -1
+  // before any). A session opened without expected_loss states it to the
+  // server (docs/loss-protection.md), which sizes parity and the reliable
+  // cut by it until the session's own reports take over: a clean link gets
+  // no parity from the first datagram, a lossy one gets it before its first
+  // loss is reported. Shared with the client's sessions (it outlives the
+  // client while one of them runs).
+  double remembered_loss() const { return loss_memory_->Rate(); }
+  const std::shared_ptr<LossMemory>& loss_memory() const { return loss_memory_; }
 
  private:
   Client(ClientOptions options, std::shared_ptr<grpc::Channel> channel)
       : options_(std::move(options)), channel_(std::move(channel)) {}
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
-  std::shared_ptr<std::atomic<double>> loss_memory_ = std::make_shared<std::atomic<double>>(-1.0);
+  std::shared_ptr<LossMemory> loss_memory_ = std::make_shared<LossMemory>();
 };
 
 }  // namespace meshstream::sdk

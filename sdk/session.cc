@@ -52,7 +52,7 @@ std::string HostOfTarget(std::string target) {
 struct Session::Impl {
   SessionOptions options;
   std::string server_target;
-  std::shared_ptr<std::atomic<double>> loss_memory;  // the client's (Client::remembered_loss)
+  std::shared_ptr<LossMemory> loss_memory;  // the client's (Client::remembered_loss)
   grpc::ClientContext context;
   std::unique_ptr<v1::StreamService::Stub> stub;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>> stream;
@@ -157,13 +157,9 @@ struct Session::Impl {
   }
 
   // The session thread's statistics: the core's, and its own CPU.
-  // The raw UDP loss this session saw, for the client's next session
-  // (Client::remembered_loss), when it saw enough UDP datagrams to say.
-  void RememberLoss(const SessionStats& st) const {
-    const uint64_t seen = st.udp_datagrams_received + st.datagrams_lost;
-    if (seen < Client::kLossMemoryMinimum) return;
-    loss_memory->store(static_cast<double>(st.datagrams_lost) / static_cast<double>(seen), std::memory_order_relaxed);
-  }
+  // The raw UDP loss this session saw, for the client's next sessions
+  // (Client::remembered_loss).
+  void RememberLoss(const SessionStats& st) const { loss_memory->Add(st.datagrams_lost, st.udp_datagrams_received); }
 
   SessionStats StatsNow() const {
     SessionStats st = core->stats();

@@ -323,23 +323,20 @@ json LossLevelJson(int loss, Clock::time_point loss_start, const Link& link, siz
                      {"to_client_bytes", down1.bytes - down0.bytes}}}};
 }
 
-// The raw UDP loss a UDP run saw, as sdk::Client remembers it
-// (Client::remembered_loss); `before` when it saw too few UDP datagrams.
-double RememberedLoss(const json& r, double before) {
-  if (!r.contains("stats")) return before;
-  const double lost = r["stats"].value("datagrams_lost", 0.0);
-  const double seen = lost + r["stats"].value("udp_datagrams_received", 0.0);
-  return seen >= static_cast<double>(sdk::Client::kLossMemoryMinimum) ? lost / seen : before;
+// A UDP run's raw loss into `memory`, as sdk::Client adds its sessions'.
+void Remember(const json& r, sdk::LossMemory& memory) {
+  if (!r.contains("stats")) return;
+  memory.Add(r["stats"].value("datagrams_lost", uint64_t{0}), r["stats"].value("udp_datagrams_received", uint64_t{0}));
 }
 
 // Every loss, run, model and kind, one child at a time. Each child is a
-// new process, so the loss a long-lived client would remember from its last
-// session (sdk::Client::remembered_loss) is passed to it: the last UDP
-// run's, across models and loss levels (the first run of a level states
-// what the level before it left).
+// new process, so the loss a long-lived client would remember from its
+// sessions (sdk::Client::remembered_loss) is passed to it: the UDP runs',
+// across models and loss levels (the first run of a level states what the
+// levels before it left).
 Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, const std::string& snap_dir) {
   Runs out;
-  double remembered = -1;
+  sdk::LossMemory memory;
   const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * std::size(kShapedKinds);
   size_t done = 0;
   for (int loss : args.shaped_losses) {
@@ -353,8 +350,8 @@ Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, c
         for (const char* kind : kShapedKinds) {
           const RunId id{loss, run, &m, kind};
           const std::string file = snap_dir + "/" + std::to_string(out.runs.size()) + ".snap";
-          json r = RunChild(args, link, id, file, remembered);
-          if (std::string(kind).rfind("udp", 0) == 0) remembered = RememberedLoss(r, remembered);
+          json r = RunChild(args, link, id, file, memory.Rate());
+          if (std::string(kind).rfind("udp", 0) == 0) Remember(r, memory);
           if (!r.value("ok", false)) ++out.failures;
           LogRun(r, id, ++done, total);
           out.snapshot_files.push_back(fs::exists(file) ? file : "");

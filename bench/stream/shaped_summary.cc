@@ -128,7 +128,8 @@ struct Cell {
 // targets (median 0.1 %, worst 0.25 % of the diagonal). An excess smaller
 // than the runs' own spread (the larger median absolute deviation of the
 // two kinds' times) is "within_noise": medians of a few runs on a shared
-// machine move by that much between identical sessions.
+// machine move by that much between identical sessions. "no_parity": the
+// median run sent none, so the two kinds are the same sessions.
 json VsNoParity(const json& u, const json& n, double rate_mbit) {
   if (!u["full_ms"].contains("median_ms") || !n["full_ms"].contains("median_ms")) return nullptr;
   const double with = u["full_ms"]["median_ms"], without = n["full_ms"]["median_ms"];
@@ -148,7 +149,10 @@ json VsNoParity(const json& u, const json& n, double rate_mbit) {
           {"full_ms_difference", with - without},
           {"parity_ms_at_link_rate", parity_ms},
           {"run_spread_ms", noise},
-          {"time_verdict", excess <= 0 ? "met" : excess <= noise ? "within_noise" : "not_met"},
+          {"time_verdict", u.value("parity_bytes_median", 0.0) == 0 ? "no_parity"
+                           : excess <= 0                             ? "met"
+                           : excess <= noise                         ? "within_noise"
+                                                                     : "not_met"},
           {"final_distance_median_without", n["final_hausdorff_rel_median"]},
           {"final_distance_max_without", n["final_hausdorff_rel_max"]},
           {"distance_met", median <= 0.001 && worst <= 0.0025}};

@@ -342,7 +342,7 @@ TEST_F(StreamOverRelay, TheClientRemembersTheLossOfItsLastSession) {
   EXPECT_EQ(first_client->remembered_loss(), -1.0) << "nothing remembered before a session";
   const Result unknown = RunSession(*first_client, options);
   ASSERT_EQ(unknown.last.type, sdk::EventType::kComplete) << unknown.last.status.ToString();
-  ASSERT_GE(unknown.stats.udp_datagrams_received, sdk::Client::kLossMemoryMinimum);
+  ASSERT_GE(unknown.stats.udp_datagrams_received, sdk::LossMemory::kMinimum);
   EXPECT_EQ(first_client->remembered_loss(), 0.0);
   const Result remembered = RunSession(*first_client, options);
   ASSERT_EQ(remembered.last.type, sdk::EventType::kComplete) << remembered.last.status.ToString();
