@@ -135,6 +135,7 @@ int RunDecode(const DecodeArgs& args) {
       {"parity_datagrams", report.parity_datagrams},
       {"parity_bytes", report.parity_bytes},
       {"datagrams_recovered", report.recovered_datagrams},
+      {"refinements_decoded_again", report.refinements_decoded_again},
       {"unreferenced_vertices", health.unreferenced_vertices},
       {"degenerate_faces", health.degenerate_faces},
       {"nonmanifold_edges", health.nonmanifold_edges},

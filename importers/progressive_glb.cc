@@ -508,6 +508,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     local.parity_datagrams += lr.transmission.parity_datagrams;
     local.parity_bytes += lr.transmission.parity_bytes;
     local.recovered_datagrams += lr.reconstructor.recovered;
+    local.refinements_decoded_again += lr.reconstructor.redecoded;
     const RefinementState& state = reader->state();
     if (state.any_absent) {
       target = DequantizeMesh(reader->Mesh(), target.material);

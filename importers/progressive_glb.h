@@ -160,6 +160,7 @@ struct ProgressiveDecodeReport {
   uint64_t parity_datagrams = 0;    // parity datagrams sent (options.parity)
   uint64_t parity_bytes = 0;
   uint64_t recovered_datagrams = 0; // lost data datagrams parity rebuilt (not in lost_datagrams' complement)
+  uint64_t refinements_decoded_again = 0;  // decoded again because parity rebuilt a datagram after a prediction
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
   ToolSet tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
 };
