@@ -47,6 +47,7 @@ struct SessionCore::RefinementTrack {
   uint64_t span_bytes = 0;         // the bytes of those after the first (the delivery rate)
   bool reliable = false;           // its datagrams come on the gRPC stream (ControlBlock.reliable)
   bool before_proof = false;       // ... because no UDP address was proven yet (ControlBlock.before_proof)
+  bool parity_follows = false;     // UDP: parity covering it follows (ControlBlock.parity_follows)
   uint64_t later_us = 0;           // UDP: when a datagram numbered after its data arrived (0: none yet)
   bool declared = false;           // UDP: what is missing was declared lost
   bool spurious = false;           // ... and a datagram of it came after all
@@ -312,6 +313,7 @@ Status SessionCore::GiveControls(PrimitiveState& p, uint64_t now, bool flushing)
     RefinementTrack& t = p.tracks[p.given];
     Status s = p.reconstructor->OnControl(Bytes(t.control), t.control.size(), now);
     if (!s.ok()) return s.WithContext(Where(p.start.primitive()));
+    if (t.parity_follows) p.reconstructor->ExpectParity(static_cast<uint32_t>(p.given));
     if (options_.repair) t.kept_control = std::move(t.control);
     t.control.clear();
     t.control.shrink_to_fit();
@@ -554,6 +556,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       t.first_packet_number = c.first_packet_number();
       t.reliable = c.reliable();
       t.before_proof = c.reliable() && c.before_proof();
+      t.parity_follows = !c.reliable() && c.parity_follows();
       // UDP may run ahead of the stream: datagrams numbered after this
       // refinement's may have come already; the window counts from now.
       if (!t.reliable && t.datagrams > 0 && SeenPacketNumber(t.first_packet_number + t.datagrams)) {

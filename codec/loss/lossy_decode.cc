@@ -9,6 +9,12 @@ StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32
                                          const LossyDecodeOptions& options, LossyDecodeReport* report) {
   ReconstructorOptions reconstructor = options.reconstructor;
   if (reconstructor.erasure == nullptr) reconstructor.erasure = options.parity.code;
+  // With parity, room to hold a refinement until its block's parity is in
+  // (ReconstructorOptions::parity_hold_us): a block spans up to max_span
+  // refinements and its parity follows the next one.
+  if (reconstructor.erasure != nullptr) {
+    reconstructor.window = std::max(reconstructor.window, options.parity.plan.max_span + 2);
+  }
   MS_ASSIGN_OR_RETURN(StreamReconstructor rec, StreamReconstructor::Create(stream.header.data(), stream.header.size(),
                                                                            stream_id, reconstructor));
   // Refinements the reconstructor will decode; the simulator sends only those.
@@ -30,6 +36,7 @@ StatusOr<StreamReader> DecodeStreamLossy(const ProgressiveStream& stream, uint32
   for (const ChannelEvent& e : sent.events) {
     if (e.kind == ChannelEvent::Kind::kControl) {
       MS_RETURN_IF_ERROR(rec.OnControl(e.data, e.size, e.time_us));
+      if (e.parity_follows) rec.ExpectParity(e.refinement);
     } else {
       rec.OnDatagram(e.data, e.size, e.time_us);
     }

@@ -71,6 +71,10 @@ void ParityRecovery::OnParity(const ParsedDatagram& d, std::vector<std::vector<u
     return;
   }
   ParityDatagram& p = parsed.value();
+  if (!p.members.empty()) {
+    newest_first_ = any_parity_ ? std::max(newest_first_, p.first_refinement()) : p.first_refinement();
+    any_parity_ = true;
+  }
   if (p.last_refinement() < first_) {
     ++stats_.late;
     return;
@@ -186,6 +190,13 @@ std::vector<const std::vector<uint8_t>*> ParityRecovery::Kept(uint32_t r) const 
   if (it == copies_.end()) return out;
   for (const Copy& c : it->second) out.push_back(&c.bytes);
   return out;
+}
+
+bool ParityRecovery::MayStillCover(uint32_t r) const {
+  if (!any_parity_ || newest_first_ <= r) return true;
+  return std::any_of(blocks_.begin(), blocks_.end(), [r](const Block& b) {
+    return b.members.front().refinement <= r && r <= b.members.back().refinement;
+  });
 }
 
 void ParityRecovery::Release(uint32_t first) {

@@ -51,6 +51,14 @@ class ParityRecovery {
   // Forgets refinements below `first`: their copies, and blocks whose last
   // member lies below it. Parity of such blocks counts as late after this.
   void Release(uint32_t first);
+  // Whether parity that rebuilds a datagram of refinement r may still come:
+  // some of a block that holds r came and the block is still short of rows,
+  // or no parity came yet for a block that begins after r. A sender begins
+  // sending its blocks' parity in the order of their members
+  // (docs/loss-protection.md), so once a later block's parity is in and no
+  // block holding r is gathering rows, r's block's parity was lost, or r
+  // has none.
+  bool MayStillCover(uint32_t r) const;
 
   const ParityStats& stats() const { return stats_; }
   size_t held_bytes() const { return held_; }
@@ -79,6 +87,8 @@ class ParityRecovery {
   size_t max_bytes_;
   size_t held_ = 0;
   uint32_t first_ = 0;  // refinements below are released
+  bool any_parity_ = false;    // a valid parity datagram of this stream arrived
+  uint32_t newest_first_ = 0;  // the latest first member refinement of those
   std::map<uint32_t, std::vector<Copy>> copies_;  // by refinement
   std::vector<Block> blocks_;
   ParityStats stats_;

@@ -259,10 +259,11 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   MS_RETURN_IF_ERROR(failed_);
   if (done() || pending_.empty() || !pending_.front().has_control) return false;
   if (!begun_) MS_RETURN_IF_ERROR(BeginFront());
-  const Pending& p = pending_.front();
+  Pending& p = pending_.front();
   const bool complete = Complete(p);
   const bool timed_out = now_us >= p.control_time_us && now_us - p.control_time_us >= options_.straggler_timeout_us;
   if (!complete && !timed_out && !p.declared && !flushing) return false;
+  if (!complete && !flushing && Held(p, now_us)) return false;
   if (parity_) {
     // Kept so that parity arriving later can have it decoded again.
     Decoded& decoded = history_[static_cast<uint32_t>(applied())];
@@ -277,6 +278,23 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
   ReleaseHistory();
   if (!done() && !pending_.empty() && pending_.front().has_control) MS_RETURN_IF_ERROR(BeginFront());
   return true;
+}
+
+bool StreamReconstructor::Held(Pending& p, uint64_t now_us) {
+  if (!parity_ || options_.parity_hold_us == 0 || !p.parity_follows) return false;
+  if (!parity_->MayStillCover(static_cast<uint32_t>(applied()))) return false;
+  if (pending_.size() > options_.window) return false;  // never drop data for a hold
+  if (now_us >= p.control_time_us && now_us - p.control_time_us >= options_.parity_hold_us) return false;
+  if (!p.held) {
+    p.held = true;
+    ++stats_.held_for_parity;
+  }
+  return true;
+}
+
+void StreamReconstructor::ExpectParity(uint32_t refinement) {
+  if (!failed_.ok() || refinement < applied() || refinement >= limit()) return;
+  At(refinement - applied()).parity_follows = true;
 }
 
 void StreamReconstructor::Declare(uint32_t refinement) {

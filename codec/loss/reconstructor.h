@@ -85,6 +85,16 @@ struct ReconstructorOptions {
   // ready to be decoded again (their control blocks and datagrams kept, the
   // reader copied before each that missed something).
   uint32_t parity_horizon = 20;
+  // With `erasure`: an incomplete refinement the sender said parity follows
+  // for (ExpectParity), which would be decoded with a prediction (declared,
+  // or its stragglers' wait over), is held while that parity may still come
+  // (ParityRecovery::MayStillCover),
+  // so that it is decoded once, rebuilt, instead of predicted and decoded
+  // again with every refinement after it. The hold ends at the latest
+  // `parity_hold_us` after its control block arrived, or when `window`
+  // refinements wait behind it (nothing is dropped for a hold), or at
+  // Flush. 0: no hold.
+  uint64_t parity_hold_us = 400000;
 };
 
 struct ReconstructorStats {
@@ -98,6 +108,7 @@ struct ReconstructorStats {
   uint64_t finished_complete = 0;  // refinements handed over with both ENDs and all datagrams
   uint64_t finished_timeout = 0;   // refinements handed over by the clock
   uint64_t finished_declared = 0;  // refinements handed over incomplete because the caller declared the rest lost
+  uint64_t held_for_parity = 0;    // refinements whose decode waited for parity (parity_hold_us)
   uint64_t parity = 0;          // parity datagrams offered (not in `datagrams`)
   uint64_t recovered = 0;       // data datagrams parity rebuilt (then offered as arrivals)
   uint64_t redecoded = 0;       // refinements decoded again because parity rebuilt a datagram of theirs or before
@@ -124,6 +135,11 @@ class StreamReconstructor {
   // complete or not. Ignored for a refinement already decoded or beyond the
   // level of detail.
   void Declare(uint32_t refinement);
+  // The sender says parity datagrams covering `refinement` follow (its
+  // control block's parity_follows): with options.erasure, it is held for
+  // them when incomplete (parity_hold_us). Ignored for a refinement already
+  // decoded or beyond the level of detail.
+  void ExpectParity(uint32_t refinement);
   // Decodes every refinement that is ready at now_us; returns how many.
   StatusOr<size_t> Poll(uint64_t now_us);
   // The session is over: decodes every refinement whose control block arrived.
@@ -152,6 +168,8 @@ class StreamReconstructor {
     uint64_t control_time_us = 0;
     bool has_end = false;
     bool declared = false;                          // Declare: wait no longer
+    bool parity_follows = false;                    // ExpectParity
+    bool held = false;                              // waited for parity (counted once)
     uint32_t announced = 0;                         // data datagrams the END announced
     // Distinct data datagrams (byte-identical copies are kept once) that
     // arrived before the refinement was begun, in arrival order.
@@ -166,6 +184,9 @@ class StreamReconstructor {
   void Offer(Pending& p);  // hands p's buffered datagrams to the reader and releases them
   void OfferOne(Pending& p, const ParsedDatagram& d);
   bool Complete(const Pending& p) const;
+  // Whether the front refinement `p`, incomplete and otherwise ready, waits
+  // for parity at now_us (ReconstructorOptions::parity_hold_us).
+  bool Held(Pending& p, uint64_t now_us);
   // Finishes refinement applied() if it is ready at now_us (or whenever its
   // control arrived, when flushing), then begins the next; returns whether it did.
   StatusOr<bool> DecodeNext(uint64_t now_us, bool flushing);

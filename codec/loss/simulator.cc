@@ -169,6 +169,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     size_t index;    // into t.parity_datagrams
   };
   std::deque<DueParity> due;
+  std::vector<bool> parity_follows(refinements, false);
   if (parity != nullptr && parity->code != nullptr && parity->loss > 0.0) {
     std::vector<uint8_t> protect = parity->protect;
     if (protect.empty()) protect.assign(refinements, kStrongParity);
@@ -189,6 +190,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
       }
       const ParityShape shape = ShapeFor(lengths, parity->loss, parity->burst, parity->plan, block.tier);
       if (shape.m == 0) continue;
+      for (const auto& member : block.members) parity_follows[member.first] = true;
       MS_ASSIGN_OR_RETURN(std::vector<std::vector<uint8_t>> rows, EncodeParity(*parity->code, stream_id, members, shape));
       ++t.stats.parity_blocks;
       const auto& [last_r, last_d] = block.members.back();
@@ -242,6 +244,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
     control.refinement = static_cast<uint32_t>(i);
     control.data = stream.control[i].data();
     control.size = stream.control[i].size();
+    control.parity_follows = parity_follows[i];
     t.events.push_back(control);
     const auto& datagrams = stream.datagrams[i];
     const uint64_t lost_before = t.stats.datagrams_lost;

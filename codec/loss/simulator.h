@@ -49,6 +49,10 @@ struct ChannelEvent {
   uint32_t refinement = 0;    // kControl: which control block
   const uint8_t* data = nullptr;
   size_t size = 0;
+  // kControl: parity datagrams covering the refinement follow (it is a
+  // member of a block that gets parity rows), as a session's control block
+  // says (ControlBlock.parity_follows).
+  bool parity_follows = false;
 };
 
 struct TransmissionStats {

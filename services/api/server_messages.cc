@@ -53,6 +53,7 @@ v1::ServerMessage ControlMessage(const std::vector<uint8_t>& artifact, const Sen
   c.set_first_packet_number(control.first_packet_number);
   c.set_reliable(control.reliable);
   c.set_before_proof(control.before_proof);
+  c.set_parity_follows(control.parity_follows);
   return m;
 }
 

@@ -268,10 +268,10 @@ void SessionSender::CloseParityBlock(uint32_t primitive) {
   for (auto& d : parity.value()) parity_due_.push_back(std::move(d));
 }
 
-void SessionSender::JoinParityBlock(const PlannedRefinement& r) {
+bool SessionSender::JoinParityBlock(const PlannedRefinement& r) {
   const auto& tiers = tiers_[r.primitive];
   const uint8_t tier = r.refinement < tiers.size() ? tiers[r.refinement] : static_cast<uint8_t>(kUnprotected);
-  if (tier == kUnprotected || r.datagrams.empty()) return;
+  if (tier == kUnprotected || r.datagrams.empty()) return false;
   OpenBlock& b = open_blocks_[r.primitive];
   const ParityPlanOptions& o = options_.parity_plan;
   if (!b.members.empty() && (b.tier != tier || r.refinement - b.first_refinement >= std::max<uint32_t>(1, o.max_span) ||
@@ -283,6 +283,7 @@ void SessionSender::JoinParityBlock(const PlannedRefinement& r) {
     b.first_refinement = r.refinement;
   }
   b.members.insert(b.members.end(), r.datagrams.begin(), r.datagrams.end());
+  return true;
 }
 
 SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
@@ -355,8 +356,14 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     // and its parity follows that refinement's END at once: the client
     // decodes it before it completes, not after.
     parity_sent_.clear();
+    bool parity_follows = false;
     if (mode_ == Mode::kUdp && options_.erasure != nullptr) {
-      JoinParityBlock(r);
+      // The client holds the refinement, when incomplete, for the parity
+      // announced here (reconstructor.h, parity_hold_us): announced when
+      // the loss its block would be sized for now is above 0.
+      double burst = 0;
+      parity_follows = JoinParityBlock(r) && ParityLossFor(udp_reported_received_, udp_reported_missing_,
+                                                           udp_reported_runs_, options_.expected_loss, &burst) > 0;
       if (last_protected_[r.primitive] == index_) CloseParityBlock(r.primitive);
       parity_sent_ = std::move(parity_due_);
       parity_due_.clear();
@@ -382,6 +389,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     a.first_packet_number = first_packet_number_;
     a.reliable = mode_ != Mode::kUdp;
     a.before_proof = early;
+    a.parity_follows = parity_follows;
     return a;
   }
   if (step_ == Step::kDatagrams) {

@@ -185,6 +185,7 @@ struct SenderAction {
   uint64_t first_packet_number = 0;  // kControl, kDatagrams as UDP
   bool reliable = false;          // kControl: the datagrams follow on the stream
   bool before_proof = false;      // kControl, UDP: ... because no address was proven yet
+  bool parity_follows = false;    // kControl, UDP: parity datagrams covering the refinement follow
   bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
   PayloadSpan datagrams;          // kDatagrams: valid until the next call (above)
   Status status;                  // kFinish
@@ -253,7 +254,7 @@ class SessionSender {
   // Parity: refinement `r` goes over UDP with these payloads; the open block
   // of its primitive closes first when `r` cannot join it, and after it when
   // `r` is the primitive's last protected refinement of the plan.
-  void JoinParityBlock(const PlannedRefinement& r);
+  bool JoinParityBlock(const PlannedRefinement& r);  // whether r joined a block
   void CloseParityBlock(uint32_t primitive);
   // The next batch of the current refinement: due now or kWait.
   SenderAction NextBatch(uint64_t now_us);

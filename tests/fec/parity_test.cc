@@ -157,7 +157,9 @@ TEST(ParityDatagram, RefusesHostileBytes) {
       EXPECT_EQ(p->symbols + size_t(p->count) * p->symbol_size, bad.data() + bad.size());
       uint64_t rows = 0;
       for (size_t i = 0; i < p->members.size(); ++i) {
-        if (i > 0) EXPECT_TRUE(MemberBefore(p->members[i - 1], p->members[i]));
+        if (i > 0) {
+          EXPECT_TRUE(MemberBefore(p->members[i - 1], p->members[i]));
+        }
         rows += SymbolsOf(p->members[i].length, p->symbol_size);
       }
       EXPECT_EQ(rows, p->k);

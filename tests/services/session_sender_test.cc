@@ -728,6 +728,7 @@ struct ParityFixture {
 struct ParitySession {
   uint64_t parity = 0, parity_bytes = 0, announced = 0, end_us = 0;
   bool after_ends = true;  // every parity datagram came after its refinement's END
+  uint64_t controls = 0, parity_follows = 0;  // control blocks, and those that announce parity
 };
 
 // A UDP session whose client reports `missing` of every refinement's ten
@@ -749,7 +750,11 @@ ParitySession RunReporting(uint32_t missing, uint32_t run, double expected_loss,
       now = a.due_us;
       continue;
     }
-    if (a.kind == SenderAction::kControl) seen_end = false;
+    if (a.kind == SenderAction::kControl) {
+      seen_end = false;
+      ++out.controls;
+      out.parity_follows += a.parity_follows;
+    }
     if (a.kind == SenderAction::kDatagrams) {
       for (const auto& [data, size] : a.datagrams) {
         auto d = ParsedDatagram::Parse(data, size);
@@ -783,6 +788,7 @@ TEST(SessionSender, ParityFollowsTheReportedLoss) {
   // No loss reported, none expected: no parity at all.
   const ParitySession quiet = RunReporting(0, 1, 0.0);
   EXPECT_EQ(quiet.parity, 0u);
+  EXPECT_EQ(quiet.parity_follows, 0u) << "no parity announced when none is sized";
   // Nothing stated, and the reports show no loss: none either.
   EXPECT_EQ(RunReporting(0, 1, -1).parity, 0u);
   // More parity as the reported loss rises.
@@ -790,6 +796,10 @@ TEST(SessionSender, ParityFollowsTheReportedLoss) {
   const ParitySession mid = RunReporting(2, 1, -1);
   const ParitySession high = RunReporting(4, 1, -1);
   EXPECT_GT(low.parity_bytes, 0u);
+  // Once the reports show a loss, the protected refinements' control blocks
+  // announce the parity that follows them (ControlBlock.parity_follows).
+  EXPECT_GT(low.parity_follows, 0u);
+  EXPECT_LT(low.parity_follows, low.controls) << "not before a loss was reported";
   EXPECT_GT(mid.parity_bytes, low.parity_bytes);
   EXPECT_GE(high.parity_bytes, mid.parity_bytes);  // at 40 % the rate cap (0.5 row per row) may bind
   // Bursts in the reports ask for more than the same loss spread out.
@@ -802,6 +812,7 @@ TEST(SessionSender, ParityFollowsTheReportedLoss) {
   // --max-rate): the session takes longer by about its bytes at the rate.
   const ParitySession none = RunReporting(4, 1, -1, false);
   EXPECT_EQ(none.parity, 0u);
+  EXPECT_EQ(none.parity_follows, 0u);
   EXPECT_GT(high.end_us, none.end_us);
   const double parity_us = 8e6 * static_cast<double>(high.parity_bytes) / 4e6;
   EXPECT_GE(static_cast<double>(high.end_us - none.end_us), 0.5 * parity_us);
