@@ -142,8 +142,11 @@ bool SessionCore::AllDone() const {
   for (const PrimitiveState& p : primitives_) {
     if (p.reconstructor->applied() < p.start.refinements()) return false;
     // Parity announced and not all here, while something is still
-    // predicted: it may yet rebuild it (the stragglers' window bounds the wait).
-    if (p.parity_seen < p.parity_expected && p.reconstructor->reader().inexact_positions() > 0) return false;
+    // predicted: it may yet rebuild it, until the reordering window after
+    // the stream's end has passed (Settle: holds_released_).
+    if (!holds_released_ && p.parity_seen < p.parity_expected && p.reconstructor->reader().inexact_positions() > 0) {
+      return false;
+    }
   }
   return true;
 }
@@ -481,8 +484,9 @@ Status SessionCore::Declare(PrimitiveState& p, size_t refinement, uint64_t now) 
 }
 
 uint64_t SessionCore::next_due_us() const {
-  if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return UINT64_MAX;
   uint64_t due = UINT64_MAX;
+  if (phase_ == SessionPhase::kEnding && !holds_released_) due = session_end_us_ + ReorderWindowUs();
+  if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return due;
   const uint64_t window = ReorderWindowUs();
   (void)ForOpenUdpRefinements(primitives_, [&](const PrimitiveState&, size_t, const RefinementTrack& t) {
     if (t.later_us != 0) due = std::min(due, t.later_us + window);
@@ -795,6 +799,16 @@ void SessionCore::CheckBudgets(uint64_t now) {
 // Late only once every arrival taken is handed over: a step that stopped at
 // an event leaves the rest of its arrivals in the inbox (commit 186bb1d).
 void SessionCore::Settle(uint64_t now) {
+  // Refinements held for parity (ControlBlock.parity_follows) wait no
+  // longer than the reordering window after the stream's end: every parity
+  // datagram was sent before it, and what has not come by then is lost
+  // (once every arrival taken is handed over, as for `late` below).
+  if (!holds_released_ && handed_over() && StragglerClock(now) >= session_end_us_ + ReorderWindowUs()) {
+    holds_released_ = true;
+    for (PrimitiveState& p : primitives_) p.reconstructor->StopHolding();
+    Status st = Advance(now, false);
+    if (!st.ok()) return Fail(st);
+  }
   const uint64_t window_us = 2 * static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000;
   const bool late = handed_over() && StragglerClock(now) > session_end_us_ + window_us;
   const bool budget = end_reason_ == EndReason::kByteBudget || end_reason_ == EndReason::kTimeBudget;

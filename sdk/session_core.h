@@ -292,6 +292,7 @@ class SessionCore {
   SessionTransport transport_ = SessionTransport::kNone;
   EndReason end_reason_ = EndReason::kNone;
   uint64_t session_end_us_ = 0;
+  bool holds_released_ = false;  // the reconstructors stopped holding for parity (Settle)
   bool writes_done_ = false;
   SessionPhase phase_ = SessionPhase::kOpening;
   bool rtt_reported_ = false;

@@ -281,7 +281,7 @@ StatusOr<bool> StreamReconstructor::DecodeNext(uint64_t now_us, bool flushing) {
 }
 
 bool StreamReconstructor::Held(Pending& p, uint64_t now_us) {
-  if (!parity_ || options_.parity_hold_us == 0 || !p.parity_follows) return false;
+  if (!parity_ || options_.parity_hold_us == 0 || !p.parity_follows || holds_over_) return false;
   if (!parity_->MayStillCover(static_cast<uint32_t>(applied()))) return false;
   if (pending_.size() > options_.window) return false;  // never drop data for a hold
   if (now_us >= p.control_time_us && now_us - p.control_time_us >= options_.parity_hold_us) return false;

@@ -8,7 +8,10 @@
 //   - its control block arrived at least `straggler_timeout_us` ago by the
 //     caller's clock (stragglers, and a lost END datagram, are too late); or
 //   - its control block has arrived and the caller declared what is missing
-//     lost (Declare: the client's packet numbers show later datagrams arrived).
+//     lost (Declare: the client's packet numbers show later datagrams arrived);
+// except that a refinement the sender announced parity for (ExpectParity)
+// is held, while incomplete, as long as that parity may still rebuild it
+// (parity_hold_us below).
 // Refinements are decoded in order; a refinement whose data is incomplete
 // goes through the reader's recovery (prediction or LwoP). Datagrams of a
 // refinement already decoded are counted as late and dropped.
@@ -140,6 +143,9 @@ class StreamReconstructor {
   // them when incomplete (parity_hold_us). Ignored for a refinement already
   // decoded or beyond the level of detail.
   void ExpectParity(uint32_t refinement);
+  // No more parity will come (the sender's stream has ended and what was in
+  // flight had its time): held refinements are decoded at the next Poll.
+  void StopHolding() { holds_over_ = true; }
   // Decodes every refinement that is ready at now_us; returns how many.
   StatusOr<size_t> Poll(uint64_t now_us);
   // The session is over: decodes every refinement whose control block arrived.
@@ -210,6 +216,7 @@ class StreamReconstructor {
   bool begun_ = false;      // refinement applied() is begun in the reader
   size_t controls_ = 0;     // control blocks received
   Status failed_;           // the first error of the reader: the session is over
+  bool holds_over_ = false; // StopHolding
   // With options.erasure: the parity blocks and datagram copies, and per
   // decoded refinement within the horizon its control block and, when it
   // missed something, the reader right before it finished.
