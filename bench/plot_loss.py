@@ -358,8 +358,9 @@ def protection_markdown(data, models):
     L.append("docs/loss-protection.md has the design. Parity: Reed-Solomon datagrams over blocks of the refinements "
              "the encoder protects (the delivery record's `parity`, by each refinement's single-loss harm), sized "
              "for the run's own loss and burst length as a client's reports would show them, sent after each block "
-             "and decoded by the reconstructor (a refinement already decoded with a prediction is decoded again "
-             "when a rebuilt datagram arrives). All on the same seeds; prediction, split packing; Hausdorff "
+             "and decoded by the reconstructor (an incomplete refinement whose control block announces parity is "
+             "held until that parity has rebuilt it or cannot; one decoded with a prediction before a rebuilt "
+             "datagram arrives is decoded again: *decoded again*, per run). All on the same seeds; prediction, split packing; Hausdorff "
              "distance to the loss-free decode, median (worst run); parity bytes as a share of the stream's bytes "
              "(base, header, control blocks, datagrams); repair: the decode after a repair of every lost datagram.")
     L.append("")
