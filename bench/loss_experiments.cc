@@ -112,6 +112,10 @@ Args ParseArgs(int argc, char** argv) {
   int span = static_cast<int>(a.parity_plan.max_span), block = static_cast<int>(a.parity_plan.block_datagrams);
   o.Int("--parity-span", "N", &span, 1, 255, "refinements a parity block spans at most (default 16)");
   o.Int("--parity-block", "N", &block, 1, 255, "datagrams in a parity block at most (default 100)");
+  int depth = 1;
+  o.Int("--parity-depth", "N", &depth, 1, 8,
+        "interleave N blocks over the same refinements, member i to block i mod N\n"
+        "(an experiment: the sessions send depth 1; docs/loss-protection.md)");
   o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
            "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
            "0.14 is close to the paper's base, see docs/loss-results.md)", true);
@@ -119,6 +123,7 @@ Args ParseArgs(int argc, char** argv) {
            "the share of the datagram bytes the reliable cut may take (default 0.10)");
   o.Parse(argc, argv);
   a.parity_plan.max_span = static_cast<uint32_t>(span);
+  a.parity_plan.depth = static_cast<uint32_t>(depth);
   a.parity_plan.block_datagrams = static_cast<uint32_t>(block);
   return a;
 }
@@ -590,6 +595,7 @@ json SettingsJson(const Args& args) {
           {"reliable_share", args.reliable_share},
           {"parity_span", args.parity_plan.max_span},
           {"parity_block", args.parity_plan.block_datagrams},
+          {"parity_depth", args.parity_plan.depth},
           {"cells", "full models: split+random at every loss level; split+bursty and bundled+random at 4, 12, 30 %; bundled+bursty at 12 %. Reduced models: the same cells at 4, 12, 30 % only"},
           {"quick", args.quick},
           {"timing", "median of --repeat in-process DecodeStreamLossy calls (simulator, reconstructor, "

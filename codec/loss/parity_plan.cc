@@ -14,7 +14,10 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
                                               const std::vector<uint8_t>& protect, const ParityPlanOptions& options) {
   std::vector<ParityBlockPlan> blocks;
   const size_t limit = std::min({refinements, stream.datagrams.size(), protect.size()});
-  const uint32_t most = std::max<uint32_t>(1, std::min<uint32_t>(options.block_datagrams, kParityMaxRows - 1));
+  const uint32_t depth = std::max<uint32_t>(1, options.depth);
+  // With depth > 1 a group of up to `depth` blocks' members is formed first,
+  // then dealt round-robin (each block still at most block_datagrams).
+  const uint32_t most = depth * std::max<uint32_t>(1, std::min<uint32_t>(options.block_datagrams, kParityMaxRows - 1));
   const uint32_t span = std::max<uint32_t>(1, options.max_span);
   ParityBlockPlan open;
   for (uint32_t r = 0; r < limit; ++r) {
@@ -30,7 +33,19 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
     }
   }
   if (!open.members.empty()) blocks.push_back(std::move(open));
-  return blocks;
+  if (depth == 1) return blocks;
+  std::vector<ParityBlockPlan> dealt;
+  for (const ParityBlockPlan& group : blocks) {
+    const uint32_t ways = std::min<uint32_t>(depth, static_cast<uint32_t>(group.members.size()));
+    std::vector<ParityBlockPlan> part(ways);
+    for (size_t i = 0; i < group.members.size(); ++i) part[i % ways].members.push_back(group.members[i]);
+    for (ParityBlockPlan& p : part) {
+      p.tier = group.tier;
+      p.stride = ways;
+      dealt.push_back(std::move(p));
+    }
+  }
+  return dealt;
 }
 
 double WeightedFailure(const std::vector<uint32_t>& weights, uint32_t m, double loss, double burst) {
@@ -75,7 +90,7 @@ double BlockFailure(uint32_t n, uint32_t m, double loss, double burst) {
 }
 
 ParityShape ShapeFor(const std::vector<uint32_t>& lengths, double loss, double burst,
-                     const ParityPlanOptions& options, uint8_t tier) {
+                     const ParityPlanOptions& options, uint8_t tier, uint32_t stride) {
   ParityShape shape;
   loss = Clamp01(loss);
   if (lengths.empty() || loss <= 0.0) return shape;
@@ -84,6 +99,7 @@ ParityShape ShapeFor(const std::vector<uint32_t>& lengths, double loss, double b
   uint64_t k = 0;
   std::vector<uint32_t> weights;
   for (uint32_t l : lengths) {
+    if (!weights.empty()) weights.insert(weights.end(), std::max<uint32_t>(1, stride) - 1, 0u);  // the others' datagrams
     weights.push_back(static_cast<uint32_t>(SymbolsOf(l, shape.symbol_size)));
     k += weights.back();
   }

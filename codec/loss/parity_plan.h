@@ -43,12 +43,18 @@ struct ParityPlanOptions {
   double max_rate = 0.5;          // parity rows per data row, at most
   uint32_t max_data_rows = 160;   // data rows of a block, at most (the symbol size grows instead)
   uint32_t packet_bytes = 1200;   // a parity datagram's size, at most (roughly)
+  // Blocks interleaved this deep: `depth` neighbouring blocks share their
+  // refinements, member i of the group going to block i mod depth, so that a
+  // burst of losses costs each of them a 1/depth share (an experiment of the
+  // loss bench, `--parity-depth`; the sessions send depth 1).
+  uint32_t depth = 1;
 };
 
 struct ParityBlockPlan {
   uint8_t tier = 1;  // ProtectionTier of its refinements
   // (refinement, index into stream.datagrams[refinement]), in send order.
   std::vector<std::pair<uint32_t, uint32_t>> members;
+  uint32_t stride = 1;  // its members lie this many datagrams apart in the send order (depth)
   uint32_t first_refinement() const { return members.front().first; }
   uint32_t last_refinement() const { return members.back().first; }
 };
@@ -63,8 +69,10 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
 // How to code a block of members of `lengths` bytes (in send order) of
 // `tier` at `loss` with mean loss runs of `burst` datagrams (<= 1:
 // independent); m = 0 when no parity is needed (or the loss is 0).
+// `stride`: the members lie that many datagrams apart in the send order
+// (the others' losses take none of this block's rows).
 ParityShape ShapeFor(const std::vector<uint32_t>& lengths, double loss, double burst,
-                     const ParityPlanOptions& options = {}, uint8_t tier = 1);
+                     const ParityPlanOptions& options = {}, uint8_t tier = 1, uint32_t stride = 1);
 
 // P(the lost ones of datagrams sent in this order, each taking weights[i]
 // rows, take more than m rows) under that loss model.

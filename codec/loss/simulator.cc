@@ -188,7 +188,7 @@ StatusOr<Transmission> SimulateTransmission(const ProgressiveStream& stream, uin
         members.push_back(&stream.datagrams[r][d]);
         lengths.push_back(static_cast<uint32_t>(stream.datagrams[r][d].size()));
       }
-      const ParityShape shape = ShapeFor(lengths, parity->loss, parity->burst, parity->plan, block.tier);
+      const ParityShape shape = ShapeFor(lengths, parity->loss, parity->burst, parity->plan, block.tier, block.stride);
       if (shape.m == 0) continue;
       for (const auto& member : block.members) parity_follows[member.first] = true;
       MS_ASSIGN_OR_RETURN(std::vector<std::vector<uint8_t>> rows, EncodeParity(*parity->code, stream_id, members, shape));

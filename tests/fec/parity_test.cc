@@ -330,6 +330,46 @@ TEST(ParityPlan, BlocksFollowTheLimits) {
   EXPECT_TRUE(PlanParityBlocks(s, 20, {}, o).empty());
 }
 
+// The loss bench's --parity-depth experiment (docs/loss-protection.md,
+// "Levers considered and left"): `depth` blocks share a group's refinements,
+// member i of the group to block i mod depth, each within the limits, every
+// protected datagram once; a burst then costs each block a share, so at
+// bursty loss a block with its members two apart needs no more rows than
+// one with them side by side.
+TEST(ParityPlan, InterleavedBlocksDealTheirMembersRoundRobin) {
+  ProgressiveStream s;
+  for (uint32_t r = 0; r < 12; ++r) {
+    s.control.push_back({0});
+    std::vector<std::vector<uint8_t>> level;
+    for (uint32_t d = 0; d < 5; ++d) level.push_back(DataDatagram(0, r, DatagramKind::kStructure, d, 7, 10, d));
+    s.datagrams.push_back(level);
+  }
+  ParityPlanOptions o;
+  o.block_datagrams = 10;
+  o.max_span = 16;
+  o.depth = 2;
+  const auto blocks = PlanParityBlocks(s, 12, std::vector<uint8_t>(12, 1), o);
+  std::set<std::pair<uint32_t, uint32_t>> seen;
+  ASSERT_EQ(blocks.size(), 6u);  // 60 datagrams: groups of 20, dealt in two
+  for (size_t b = 0; b < blocks.size(); b += 2) {
+    ASSERT_EQ(blocks[b].members.size(), 10u);
+    ASSERT_EQ(blocks[b + 1].members.size(), 10u);
+    EXPECT_EQ(blocks[b].stride, 2u);
+    for (size_t i = 0; i < 10; ++i) {
+      // The group's members in send order alternate between the two.
+      const auto a = blocks[b].members[i], c = blocks[b + 1].members[i];
+      EXPECT_EQ(a.first * 5 + a.second + 1, c.first * 5 + c.second);
+      EXPECT_TRUE(seen.insert(a).second && seen.insert(c).second);
+    }
+  }
+  EXPECT_EQ(seen.size(), 60u);
+  const std::vector<uint32_t> lengths(50, 1000);
+  const ParityShape side_by_side = ShapeFor(lengths, 0.12, 4.0, ParityPlanOptions{}, 2, 1);
+  const ParityShape two_apart = ShapeFor(lengths, 0.12, 4.0, ParityPlanOptions{}, 2, 2);
+  EXPECT_GT(side_by_side.m, 0u);
+  EXPECT_LT(two_apart.m, side_by_side.m) << "a burst costs a block half as much";
+}
+
 TEST(ParityPlan, ShapesGrowWithLossAndBursts) {
   std::vector<uint32_t> lengths;
   for (int i = 0; i < 24; ++i) lengths.push_back(400 + 30 * i);
