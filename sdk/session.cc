@@ -1,7 +1,6 @@
 #include "sdk/session.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -157,10 +156,6 @@ struct Session::Impl {
   }
 
   // The session thread's statistics: the core's, and its own CPU.
-  // The raw UDP loss this session saw, for the client's next sessions
-  // (Client::remembered_loss).
-  void RememberLoss(const SessionStats& st) const { loss_memory->Add(st.datagrams_lost, st.udp_datagrams_received); }
-
   SessionStats StatsNow() const {
     SessionStats st = core->stats();
     st.session_thread_cpu_ms = ThreadCpuMs();
@@ -266,7 +261,8 @@ struct Session::Impl {
     }
     std::lock_guard<std::mutex> lock(mutex);
     live_stats = StatsNow();
-    RememberLoss(live_stats);
+    // The raw UDP loss this session saw, for the client's next sessions.
+    loss_memory->Add(live_stats.datagrams_lost, live_stats.udp_datagrams_received);
     worker_over = true;
     published.notify_all();
   }

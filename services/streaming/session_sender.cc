@@ -47,8 +47,8 @@ double ParityLossFor(uint64_t received, uint64_t missing, uint64_t runs, double 
     const double stated = expected_loss > 0 ? std::min(1.0, expected_loss) : 0.0;
     return missing == 0 ? stated : std::max(stated, kReferenceLoss);
   }
+  if (missing == 0) return 0;
   const double p = ReportedLoss(received, missing, expected_loss);
-  if (missing == 0) return p;
   const double n = static_cast<double>(reported);
   if (runs > 0) *burst = static_cast<double>(missing) / static_cast<double>(runs);
   // One-sided 95 % upper bound of the rate (normal approximation); with
@@ -242,12 +242,15 @@ bool SessionSender::InReliableCut(const PlannedRefinement& r) {
   return std::binary_search(cut.begin(), cut.end(), r.refinement);
 }
 
+double SessionSender::ParityLossNow(double* burst) const {
+  return ParityLossFor(udp_reported_received_, udp_reported_missing_, udp_reported_runs_, options_.expected_loss, burst);
+}
+
 void SessionSender::CloseParityBlock(uint32_t primitive) {
   OpenBlock& b = open_blocks_[primitive];
   if (b.members.empty()) return;
   double burst = 0;
-  const double loss =
-      ParityLossFor(udp_reported_received_, udp_reported_missing_, udp_reported_runs_, options_.expected_loss, &burst);
+  const double loss = ParityLossNow(&burst);
   stats_.parity_loss = loss;
   stats_.parity_burst = burst;
   std::vector<uint32_t> lengths;
@@ -362,8 +365,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
       // announced here (reconstructor.h, parity_hold_us): announced when
       // the loss its block would be sized for now is above 0.
       double burst = 0;
-      parity_follows = JoinParityBlock(r) && ParityLossFor(udp_reported_received_, udp_reported_missing_,
-                                                           udp_reported_runs_, options_.expected_loss, &burst) > 0;
+      parity_follows = JoinParityBlock(r) && ParityLossNow(&burst) > 0;
       if (last_protected_[r.primitive] == index_) CloseParityBlock(r.primitive);
       parity_sent_ = std::move(parity_due_);
       parity_due_.clear();

@@ -255,6 +255,7 @@ class SessionSender {
   // of its primitive closes first when `r` cannot join it, and after it when
   // `r` is the primitive's last protected refinement of the plan.
   bool JoinParityBlock(const PlannedRefinement& r);  // whether r joined a block
+  double ParityLossNow(double* burst) const;          // ParityLossFor this session's reports so far
   void CloseParityBlock(uint32_t primitive);
   // The next batch of the current refinement: due now or kWait.
   SenderAction NextBatch(uint64_t now_us);
