@@ -71,10 +71,7 @@ void ParityRecovery::OnParity(const ParsedDatagram& d, std::vector<std::vector<u
     return;
   }
   ParityDatagram& p = parsed.value();
-  if (!p.members.empty()) {
-    newest_first_ = any_parity_ ? std::max(newest_first_, p.first_refinement()) : p.first_refinement();
-    any_parity_ = true;
-  }
+  if (!p.members.empty()) newest_first_ = std::max(newest_first_.value_or(0), p.first_refinement());
   if (p.last_refinement() < first_) {
     ++stats_.late;
     return;
@@ -193,7 +190,7 @@ std::vector<const std::vector<uint8_t>*> ParityRecovery::Kept(uint32_t r) const 
 }
 
 bool ParityRecovery::MayStillCover(uint32_t r) const {
-  if (!any_parity_ || newest_first_ <= r) return true;
+  if (!newest_first_ || *newest_first_ <= r) return true;
   return std::any_of(blocks_.begin(), blocks_.end(), [r](const Block& b) {
     return b.members.front().refinement <= r && r <= b.members.back().refinement;
   });

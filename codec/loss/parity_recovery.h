@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include "codec/bitstream/format.h"
@@ -87,8 +88,9 @@ class ParityRecovery {
   size_t max_bytes_;
   size_t held_ = 0;
   uint32_t first_ = 0;  // refinements below are released
-  bool any_parity_ = false;    // a valid parity datagram of this stream arrived
-  uint32_t newest_first_ = 0;  // the latest first member refinement of those
+  // The latest first member refinement of the parity datagrams of this
+  // stream that arrived (none before the first).
+  std::optional<uint32_t> newest_first_;
   std::map<uint32_t, std::vector<Copy>> copies_;  // by refinement
   std::vector<Block> blocks_;
   ParityStats stats_;

@@ -292,14 +292,17 @@ bool StreamReconstructor::Held(Pending& p, uint64_t now_us) {
   return true;
 }
 
+StreamReconstructor::Pending* StreamReconstructor::Ahead(uint32_t refinement) {
+  if (!failed_.ok() || refinement < applied() || refinement >= limit()) return nullptr;
+  return &At(refinement - applied());
+}
+
 void StreamReconstructor::ExpectParity(uint32_t refinement) {
-  if (!failed_.ok() || refinement < applied() || refinement >= limit()) return;
-  At(refinement - applied()).parity_follows = true;
+  if (Pending* p = Ahead(refinement)) p->parity_follows = true;
 }
 
 void StreamReconstructor::Declare(uint32_t refinement) {
-  if (!failed_.ok() || refinement < applied() || refinement >= limit()) return;
-  At(refinement - applied()).declared = true;
+  if (Pending* p = Ahead(refinement)) p->declared = true;
 }
 
 StatusOr<size_t> StreamReconstructor::Poll(uint64_t now_us) {

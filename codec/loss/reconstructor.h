@@ -186,6 +186,9 @@ class StreamReconstructor {
   StreamReconstructor() = default;
   size_t limit() const;  // refinements to decode (lod and the stream's count)
   Pending& At(size_t k);  // pending_[k], grown as needed
+  // The entry of `refinement` when it is still to decode (and the session
+  // has not failed); null otherwise.
+  Pending* Ahead(uint32_t refinement);
   Status BeginFront();    // begins refinement applied() when its control arrived
   void Offer(Pending& p);  // hands p's buffered datagrams to the reader and releases them
   void OfferOne(Pending& p, const ParsedDatagram& d);
