@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "codec/loss/reconstructor.h"
+#include "tests/fuzz/fuzz_input.h"
 #include "tests/fuzz/sphere_stream.h"
 
 namespace {
@@ -122,10 +123,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!based.ok()) Bug(kTarget, "the real base fails: " + based.ToString());
   const size_t limit = options.lod < 0 ? levels : std::min<size_t>(levels, options.lod);
 
-  size_t at = 1, controls = 0, applied = 0;
+  meshstream::fuzz::Input in{data, size, 1};  // byte 0 was read above
+  size_t controls = 0, applied = 0;
   uint64_t now = 0;
   bool failed = false, hostile = false;
-  auto next = [&]() -> uint8_t { return at < size ? data[at++] : 0; };
   // After a call that may have decoded: monotone, bounded, well formed.
   auto check = [&](const meshstream::Status& status) {
     if (rec.applied() < applied) Bug(kTarget, "applied went backwards");
@@ -154,8 +155,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::vector<uint8_t> copy = d;
     rec.OnDatagram(copy.data(), copy.size(), now);
   };
-  while (at < size) {
-    const uint8_t op = next() % 8;
+  while (!in.empty()) {
+    const uint8_t op = in.Byte() % 8;
     switch (op) {
       case kControl: {
         const size_t r = controls < levels ? controls : 0;
@@ -167,18 +168,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case kReal:
-        offer(real[next() % real.size()]);
+        offer(real[in.Byte() % real.size()]);
         break;
       case kBytes: {
         hostile = true;
-        const size_t wanted = next();  // before `at` is read below: argument order is unspecified
-        const size_t n = std::min<size_t>(wanted, size - at);
-        offer(std::vector<uint8_t>(data + at, data + at + n));
-        at += n;
+        offer(in.Take(in.Byte()));
         break;
       }
       case kClock:
-        now += uint64_t{next()} * 2000;
+        now += uint64_t{in.Byte()} * 2000;
         break;
       case kPoll: {
         auto polled = rec.Poll(now);
@@ -191,14 +189,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       case kMutated: {
         hostile = true;
-        std::vector<uint8_t> d = real[next() % real.size()];
-        const uint8_t p = next(), x = next();
+        std::vector<uint8_t> d = real[in.Byte() % real.size()];
+        const uint8_t p = in.Byte(), x = in.Byte();
         if (!d.empty()) d[p % d.size()] ^= x;
         offer(d);
         break;
       }
       case kRefinement: {
-        const size_t r = rec.applied() + next() % 3;
+        const size_t r = rec.applied() + in.Byte() % 3;
         if (r < levels) {
           for (const auto& d : s.stream.datagrams[r]) offer(d);
           offer(meshstream::MakeEndDatagram(0, static_cast<uint32_t>(r),

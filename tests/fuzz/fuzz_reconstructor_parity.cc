@@ -31,6 +31,7 @@
 #include "codec/loss/reconstructor.h"
 #include "codec/loss/simulator.h"
 #include "fec/reed_solomon.h"
+#include "tests/fuzz/fuzz_input.h"
 #include "tests/fuzz/sphere_stream.h"
 
 namespace {
@@ -98,10 +99,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const meshstream::Status based = rec.SetBase(s.base);
   if (!based.ok()) Bug(kTarget, "the real base fails: " + based.ToString());
 
-  size_t at = 1, controls = 0, applied = 0;
+  meshstream::fuzz::Input in{data, size, 1};  // byte 0 was read above
+  size_t controls = 0, applied = 0;
   uint64_t now = 0;
   bool failed = false;
-  auto next = [&]() -> uint8_t { return at < size ? data[at++] : 0; };
   auto check = [&](const meshstream::Status& status) {
     if (rec.applied() < applied) Bug(kTarget, "applied went backwards");  // a decode again keeps it
     if (rec.applied() > levels) Bug(kTarget, "decoded past the stream");
@@ -117,8 +118,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::vector<uint8_t> copy = d;  // its own size, so ASan sees any over-read
     rec.OnDatagram(copy.data(), copy.size(), now);
   };
-  while (at < size) {
-    switch (next() % 8) {
+  while (!in.empty()) {
+    switch (in.Byte() % 8) {
       case kControl: {
         if (controls >= levels) break;
         const meshstream::Status st =
@@ -129,17 +130,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case kSent:
-        offer(sent.datagrams[next() % sent.datagrams.size()]);
+        offer(sent.datagrams[in.Byte() % sent.datagrams.size()]);
         break;
       case kBytes: {
-        const size_t wanted = next();
-        const size_t n = std::min<size_t>(wanted, size - at);
-        offer(std::vector<uint8_t>(data + at, data + at + n));
-        at += n;
+        offer(in.Take(in.Byte()));
         break;
       }
       case kClock:
-        now += uint64_t{next()} * 2000;
+        now += uint64_t{in.Byte()} * 2000;
         break;
       case kPoll: {
         auto polled = rec.Poll(now);
@@ -153,7 +151,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case kExpect:
-        rec.ExpectParity(next());
+        rec.ExpectParity(in.Byte());
         break;
       case kStop:
         rec.StopHolding();

@@ -39,12 +39,14 @@
 #include <string>
 #include <vector>
 
+#include "tests/fuzz/fuzz_input.h"
 #include "tests/fuzz/sphere_stream.h"
 #include "tests/sdk/served_stream.h"
 
 namespace {
 
 using meshstream::fuzz::Bug;
+using meshstream::fuzz::Input;
 using meshstream::sdk_test::Arrival;
 using namespace meshstream::sdk;  // NOLINT
 namespace v1 = meshstream::v1;
@@ -183,19 +185,6 @@ struct Host {
       d.at_us = now;
       datagrams.push_back(std::move(d));
     }
-  }
-};
-
-struct Input {
-  const uint8_t* data;
-  size_t size, pos = 0;
-  bool empty() const { return pos >= size; }
-  uint8_t Byte() { return pos < size ? data[pos++] : 0; }
-  std::string Bytes(size_t n) {
-    n = std::min(n, size - std::min(pos, size));
-    std::string s(reinterpret_cast<const char*>(data + pos), n);
-    pos += n;
-    return s;
   }
 };
 
