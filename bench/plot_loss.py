@@ -206,6 +206,12 @@ def plot_lwop(data, path):
     return True
 
 
+def timing_at_12(model, column):
+    """The model's timing row at 12 % loss when it has `column`, else None."""
+    rows = [r for r in (model.get("timing") or {}).get("rows", []) if close(r["loss"], 0.12)]
+    return rows[0] if rows and column in rows[0] else None
+
+
 def cut_runs(model, loss=None, pattern="random"):
     return [r for r in model.get("cut_runs", []) if r["pattern"] == pattern and (loss is None or close(r["loss"], loss))]
 
@@ -313,13 +319,12 @@ def cut_markdown(data):
         L.append("- Prediction strictly closer than LwoP with the cut: %s of %d lossy runs (target at least 98 %%: %s; "
                  "the paper: about 70 %%)." % (pct(b, 1), len(cut_lossy), verdict(b >= CUT_BETTER)))
     for m in models:
-        t = m.get("timing")
-        row = [r for r in (t or {}).get("rows", []) if close(r["loss"], 0.12)]
-        if row and "predict_cut" in row[0]:
-            x = row[0]["predict_cut"]["ratio"]
+        row = timing_at_12(m, "predict_cut")
+        if row:
+            x = row["predict_cut"]["ratio"]
             L.append("- Decoding at 12 %% with the cut, %s: %.2fx the zero-loss decode (%.1f ms; without the cut "
-                     "%.2fx) — target at most 1.10x: %s." % (m["name"], x, row[0]["predict_cut"]["median_ms"],
-                                                          row[0]["predict"]["ratio"], verdict(x <= TARGET_TIME)))
+                     "%.2fx) — target at most 1.10x: %s." % (m["name"], x, row["predict_cut"]["median_ms"],
+                                                          row["predict"]["ratio"], verdict(x <= TARGET_TIME)))
     for m in models:
         a, b = cut_runs(m, 0.12), cut_runs(m, 0.30)
         if a and b:
@@ -430,12 +435,11 @@ def protection_markdown(data, models):
              "(`ParityPlan.ShapesGrowWithLossAndBursts`), and a session whose reports show no loss sends none "
              "(`SessionSender.ParityFollowsTheReportedLoss`).")
     for m in par:
-        t = m.get("timing")
-        row = [r for r in (t or {}).get("rows", []) if close(r["loss"], 0.12)]
-        if row and "predict_parity" in row[0]:
-            x = row[0]["predict_parity"]["ratio"]
+        row = timing_at_12(m, "predict_parity")
+        if row:
+            x = row["predict_parity"]["ratio"]
             L.append("- Decoding at 12 %% with the cut and parity, %s: %.2fx the zero-loss decode (%.1f ms) — target "
-                     "at most 1.10x: %s." % (m["name"], x, row[0]["predict_parity"]["median_ms"],
+                     "at most 1.10x: %s." % (m["name"], x, row["predict_parity"]["median_ms"],
                                              verdict(x <= TARGET_TIME)))
     L.append("")
     return L

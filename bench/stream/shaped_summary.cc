@@ -6,6 +6,7 @@
 #include <string>
 
 #include "bench/bench_util.h"
+#include "codec/loss/protection.h"
 
 namespace meshstream::bench::stream {
 
@@ -155,7 +156,7 @@ json VsNoParity(const json& u, const json& n, double rate_mbit) {
                                                                      : "not_met"},
           {"final_distance_median_without", n["final_hausdorff_rel_median"]},
           {"final_distance_max_without", n["final_hausdorff_rel_max"]},
-          {"distance_met", median <= 0.001 && worst <= 0.0025}};
+          {"distance_met", median <= kHarmTarget && worst <= kHarmWorst}};
 }
 
 }  // namespace
