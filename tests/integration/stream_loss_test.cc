@@ -21,6 +21,7 @@
 #include <gtest/gtest.h>
 
 #include "codec/mesh/mesh_health.h"
+#include "codec/loss/protection.h"
 #include "codec/metrics/hausdorff.h"
 #include "net/hello.h"
 #include "net/packet_crypto.h"
@@ -293,7 +294,7 @@ TEST_F(StreamOverRelay, ParityRebuildsWhatTheRelayLostUnder12And30PercentLoss) {
           worst = std::max(worst, d->hausdorff_rel);
         }
         ++sessions;
-        within += worst <= 0.001;
+        within += worst <= kHarmTarget;
       }
     }
     EXPECT_GT(lost, 0u) << "the relay lost something at " << loss;
