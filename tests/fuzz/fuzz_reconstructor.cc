@@ -116,11 +116,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   options.lod = (select & 0x80) ? 2 : -1;
   options.recovery = meshstream::Recovery::kPredict;
   options.straggler_timeout_us = 100000;
-  auto created = StreamReconstructor::Create(s.stream.header.data(), s.stream.header.size(), 0, options);
-  if (!created.ok()) Bug(kTarget, "the real header fails: " + created.status().ToString());
-  StreamReconstructor rec = std::move(created).value();
-  const meshstream::Status based = rec.SetBase(s.base);
-  if (!based.ok()) Bug(kTarget, "the real base fails: " + based.ToString());
+  StreamReconstructor rec = meshstream::fuzz::SphereReconstructor(kTarget, s, options);
   const size_t limit = options.lod < 0 ? levels : std::min<size_t>(levels, options.lod);
 
   meshstream::fuzz::Input in{data, size, 1};  // byte 0 was read above

@@ -27,6 +27,7 @@
 #include "codec/mesh/quantized_mesh.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
+#include "codec/loss/reconstructor.h"
 #include "tests/common/uv_sphere.h"
 
 namespace meshstream::fuzz {
@@ -134,6 +135,18 @@ inline SphereStream BuildSphereStream(Packing packing) {
 }
 
 // [0]: split packing, [1]: bundled.
+// A reconstructor of `s` (stream id 0) with `options`, its base set; a Bug
+// when the real stream does not take.
+inline StreamReconstructor SphereReconstructor(const char* target, const SphereStream& s,
+                                               const ReconstructorOptions& options) {
+  auto created = StreamReconstructor::Create(s.stream.header.data(), s.stream.header.size(), 0, options);
+  if (!created.ok()) Bug(target, "the real header fails: " + created.status().ToString());
+  StreamReconstructor rec = std::move(created).value();
+  const Status based = rec.SetBase(s.base);
+  if (!based.ok()) Bug(target, "the real base fails: " + based.ToString());
+  return rec;
+}
+
 inline const std::vector<SphereStream>& SphereStreams() {
   static const std::vector<SphereStream> streams = {BuildSphereStream(Packing::kSplit),
                                                     BuildSphereStream(Packing::kBundled)};
