@@ -148,6 +148,11 @@ int RunEncode(EncodeArgs& args) {
       {"tools", ToolNamesOf(total.tools)},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
+      // What each step of the encoding took (docs/cli.md): the rest of
+      // encode_ms is reading, quantizing and writing the file.
+      {"step_ms",
+       {{"hierarchy", total.hierarchy_ms}, {"stream", total.stream_ms}, {"harm", total.harm_ms},
+        {"delivery", total.delivery_ms}}},
   };
   if (json_out) {
     PrintJson(j);

@@ -143,6 +143,9 @@ Verb AddServe(CLI::App& root) {
                           "milliseconds a session waits for the client's UDP HELLO before it falls back to gRPC")
               ->check(CLI::Range(int64_t{10}, int64_t{60000})))
       ->capture_default_str();
+  FromEnv(cmd->add_flag("--udp-wait-hello", o.udp_wait_hello,
+                        "UDP sessions wait (up to --hello-timeout) for the client's HELLO before their first refinement, "
+                        "instead of starting on the stream: everything off the reliable cut then travels as UDP"));
   FromEnv(cmd->add_flag("--no-reliable-cut", o.no_reliable_cut,
                         "send every datagram as UDP, also those of the artifact's reliable cut (the paper's scheme)"));
   FromEnv(cmd->add_flag("--no-parity", o.no_parity,

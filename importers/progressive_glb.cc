@@ -1,5 +1,6 @@
 #include "importers/progressive_glb.h"
 
+#include <chrono>
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -219,6 +220,10 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
     t.removed_faces += p.removed_faces;
     t.tools |= p.tools;
     t.reliable_cut_bytes += p.reliable_cut_bytes;
+    t.hierarchy_ms += p.hierarchy_ms;
+    t.stream_ms += p.stream_ms;
+    t.harm_ms += p.harm_ms;
+    t.delivery_ms += p.delivery_ms;
   }
   std::vector<std::vector<uint32_t>> vertices;
   std::vector<std::vector<double>> errors;
@@ -281,15 +286,25 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       // The base coder's last call is the one the encoder kept: its Draco ids
       // and decoded floats describe the base in the glTF. (The encoder works
       // in the quantized mesh's arrays: EncodeProgressive without its copy.)
+      using Clock = std::chrono::steady_clock;
+      auto ms_since = [](Clock::time_point t) {
+        return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+      };
+      Clock::time_point step = Clock::now();
+      double hierarchy_ms = 0, stream_ms = 0, harm_ms = 0, delivery_ms = 0;
       auto encoded = EncodeProgressiveQuantized(std::move(quantized).value(), encode,
                                                 [&pre, level](const QuantizedMesh& base, int method) {
                                                   return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
                                                 });
       if (!encoded.ok()) return encoded.status().WithContext(where);
+      hierarchy_ms = ms_since(step);
+      step = Clock::now();
       StreamWriteOptions stream_options = options.stream;
       stream_options.stream_id = stream_id++;
       auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
       if (!stream.ok()) return stream.status().WithContext(where);
+      stream_ms = ms_since(step);
+      step = Clock::now();
 
       pre.draco_bytes = encoded->base_bytes;
       pre.extension_name = kProgressiveExtension;
@@ -305,12 +320,15 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
         if (!header.ok()) return header.status().WithContext(where);
         auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
         if (!base.ok()) return base.status().WithContext(where + ": the base for the harm measure");
-        auto measured = MeasureDatagramHarm(stream.value(), base.value(), options.runner);
+        auto measured = EstimateDatagramHarm(stream.value(), base.value(), options.runner);
         if (!measured.ok()) return measured.status().WithContext(where + ": harm");
         harm = std::move(measured).value();
       }
+      harm_ms = ms_since(step);
+      step = Clock::now();
       const DeliveryRecord delivery = MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(),
                                                          options.reliable_share, harm ? &*harm : nullptr);
+      delivery_ms = ms_since(step);
       // The error each level leaves, in scene units: what orders the
       // refinements of a scene's primitives (codec/progressive/scene_levels.h).
       std::vector<double> residual = encoded->residual_error;
@@ -337,6 +355,10 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       r.reliable_cut = delivery.reliable;
       r.parity = delivery.parity;
       r.residual_error = std::move(residual);
+      r.hierarchy_ms = hierarchy_ms;
+      r.stream_ms = stream_ms;
+      r.harm_ms = harm_ms;
+      r.delivery_ms = delivery_ms;
       local.primitives.push_back(std::move(r));
     }
   }

@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <string>
 
 #include "codec/bitstream/reader.h"
 #include "codec/metrics/hausdorff.h"
+#include "codec/metrics/triangle_grid.h"
 
 namespace meshstream {
 namespace {
@@ -80,7 +83,222 @@ Status DecodeFrom(StreamReader& reader, const ProgressiveStream& stream, size_t 
   return Status::Ok();
 }
 
+// The triangles of w and n in `state` (grid units), prepared for distances.
+void Fans(const RefinementState& state, uint32_t w, uint32_t n, std::vector<PreparedTriangle>* out) {
+  out->clear();
+  const SplitConnectivity& c = state.connectivity;
+  if (w >= c.vertex_count() || n >= c.vertex_count()) return;
+  auto add = [&](uint32_t f) {
+    const Face& t = c.faces()[f];
+    out->push_back(PrepareTriangle(ToDouble(state.positions[t[0]]), ToDouble(state.positions[t[1]]),
+                                   ToDouble(state.positions[t[2]])));
+  };
+  for (uint32_t f : c.faces_of(w)) add(f);
+  for (uint32_t f : c.faces_of(n)) {
+    const Face& t = c.faces()[f];
+    if (t[0] != w && t[1] != w && t[2] != w) add(f);  // (w, n, x) is w's too
+  }
+}
+
+// The larger distance of w and n to the triangles `to`.
+double PointsToFans(const std::vector<PreparedTriangle>& to, const Vec3d& w, const Vec3d& n) {
+  if (to.empty()) return 0;
+  auto distance = [&](const Vec3d& p) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const PreparedTriangle& t : to) {
+      const Vec3d d = Sub(p, ClosestPoint(t, p));
+      best = std::min(best, Dot(d, d));
+      if (best == 0) break;
+    }
+    return best;
+  };
+  return std::sqrt(std::max(distance(w), distance(n)));
+}
+
+// Scratch of one worker of the estimate.
+struct FanScratch {
+  std::vector<PreparedTriangle> coded, predicted;
+  std::vector<std::pair<double, uint32_t>> order;  // (bound, split) of one datagram
+};
+
+// The local distance of split (w, n) between the coded and the predicted
+// state, in grid units: the largest distance of w or n in either state to
+// the other state's fans (0 when both placed them alike). Measured on the
+// loss bench (docs/loss-protection.md, "The harm estimate"), adding the
+// fans' centroids (a cut the prediction placed elsewhere) changed the
+// largest distance of a refinement by at most 0.02 % of the diagonal on
+// the shared models and tripled the cost.
+double SplitDistance(const RefinementState& coded, const RefinementState& predicted, uint32_t w, uint32_t n,
+                     FanScratch& s) {
+  if (n >= predicted.positions.size() || n >= coded.positions.size()) return 0;
+  if (coded.positions[w] == predicted.positions[w] && coded.positions[n] == predicted.positions[n]) return 0;
+  Fans(coded, w, n, &s.coded);
+  Fans(predicted, w, n, &s.predicted);
+  return std::max(PointsToFans(s.predicted, ToDouble(coded.positions[w]), ToDouble(coded.positions[n])),
+                  PointsToFans(s.coded, ToDouble(predicted.positions[w]), ToDouble(predicted.positions[n])));
+}
+
+// Whether two datagrams carry no split in common.
+bool Disjoint(const DatagramHeader& a, const DatagramHeader& b) {
+  if (a.stride == b.stride) return a.offset != b.offset;
+  std::vector<uint64_t> in_a;
+  for (uint64_t k = 0; k < a.count; ++k) in_a.push_back(a.offset + k * uint64_t{a.stride});
+  for (uint64_t k = 0; k < b.count; ++k) {
+    if (std::binary_search(in_a.begin(), in_a.end(), b.offset + k * uint64_t{b.stride})) return false;
+  }
+  return true;
+}
+
 }  // namespace
+
+StatusOr<DatagramHarm> EstimateDatagramHarm(const ProgressiveStream& stream, const QuantizedMesh& base,
+                                            TaskRunner* runner, const HarmOptions& options) {
+  MS_ASSIGN_OR_RETURN(StreamReader reader, StreamReader::Create(stream.header.data(), stream.header.size()));
+  MS_RETURN_IF_ERROR(reader.SetBase(base));
+  const size_t n = std::min(stream.control.size(), stream.datagrams.size());
+  const std::vector<uint32_t> level_vertices = reader.header().level_vertices();
+  const bool bundled = reader.header().packing == Packing::kBundled;
+  DatagramHarm out;
+  out.harm.resize(n);
+  // Distances in grid units first; the diagonal is the final level's.
+  const int workers = runner != nullptr ? std::max(1, runner->workers()) : 1;
+  std::vector<FanScratch> scratch(static_cast<size_t>(workers));
+  for (size_t i = 0; i < n; ++i) {
+    const auto& list = stream.datagrams[i];
+    const std::string where = "refinement " + std::to_string(i);
+    // Which splits each datagram carries, and of which kind.
+    std::vector<DatagramHeader> headers;
+    headers.reserve(list.size());
+    for (size_t d = 0; d < list.size(); ++d) {
+      auto p = ParsedDatagram::Parse(list[d].data(), list[d].size());
+      if (!p.ok()) return p.status().WithContext(where + ", datagram " + std::to_string(d));
+      headers.push_back(p->header());
+    }
+    // The datagrams to measure, and the lossy decodes that lose them: with
+    // every_datagram, all structure datagrams in one decode and all geometry
+    // ones in another (bundled: all in one); else the largest of each kind,
+    // in one decode when they carry different splits (a split loses one of
+    // its two units, as when one datagram is lost).
+    std::vector<std::vector<uint32_t>> lossy_sets;
+    if (options.every_datagram) {
+      std::vector<uint32_t> structure, geometry;
+      for (uint32_t d = 0; d < list.size(); ++d) {
+        (headers[d].kind == DatagramKind::kGeometry ? geometry : structure).push_back(d);
+      }
+      for (auto* set : {&structure, &geometry}) {
+        if (!set->empty()) lossy_sets.push_back(std::move(*set));
+      }
+    } else if (!list.empty()) {
+      auto largest = [&](DatagramKind kind) {
+        uint32_t best = UINT32_MAX;
+        for (uint32_t d = 0; d < list.size(); ++d) {
+          if (headers[d].kind != kind) continue;
+          if (best == UINT32_MAX || list[d].size() > list[best].size()) best = d;
+        }
+        return best;
+      };
+      const uint32_t s = largest(bundled ? DatagramKind::kBundled : DatagramKind::kStructure);
+      const uint32_t g = bundled ? UINT32_MAX : largest(DatagramKind::kGeometry);
+      if (s != UINT32_MAX) lossy_sets.push_back({s});
+      if (g != UINT32_MAX) {
+        if (s != UINT32_MAX && Disjoint(headers[s], headers[g])) {
+          lossy_sets.back().push_back(g);
+        } else {
+          lossy_sets.push_back({g});
+        }
+      }
+    }
+    // One decode of refinement i from the same state per set, and the
+    // loss-free one, which advances `reader` itself.
+    std::vector<StreamReader> lossy(lossy_sets.size(), reader);
+    std::vector<Status> errors(lossy_sets.size() + 1, Status::Ok());
+    auto decode = [&](size_t t, int) {
+      StreamReader& r = t == 0 ? reader : lossy[t - 1];
+      Status s = r.BeginRefinement(stream.control[i].data(), stream.control[i].size());
+      for (uint32_t d = 0; s.ok() && d < list.size(); ++d) {
+        if (t > 0 && std::find(lossy_sets[t - 1].begin(), lossy_sets[t - 1].end(), d) != lossy_sets[t - 1].end()) {
+          continue;
+        }
+        r.OfferDatagram(list[d].data(), list[d].size());
+      }
+      if (s.ok()) s = r.FinishRefinement(Recovery::kPredict);
+      errors[t] = s;
+    };
+    if (runner != nullptr && workers > 1) {
+      runner->Run(errors.size(), decode);
+    } else {
+      for (size_t t = 0; t < errors.size(); ++t) decode(t, 0);
+    }
+    for (const Status& e : errors) MS_RETURN_IF_ERROR(e.WithContext(where));
+    const Refinement& r = reader.current();
+    const size_t splits = r.split_count();
+    const uint32_t first_new = level_vertices[i];
+    // One task per measured datagram: the largest distance of the splits it
+    // carries, in the decode that lost it.
+    std::vector<std::pair<uint32_t, uint32_t>> measured;  // (datagram, lossy decode)
+    for (uint32_t t = 0; t < lossy_sets.size(); ++t) {
+      for (uint32_t d : lossy_sets[t]) measured.push_back({d, t});
+    }
+    std::vector<double> distance(measured.size(), 0.0);
+    auto measure = [&](size_t m, int worker) {
+      FanScratch& s = scratch[static_cast<size_t>(worker)];
+      const DatagramHeader& h = headers[measured[m].first];
+      const RefinementState& predicted = lossy[measured[m].second].state();
+      const RefinementState& coded = reader.state();
+      // A vertex is no farther from the other fans than from its own other
+      // position (which lies on them): splits in descending order of that
+      // bound, until it cannot beat the largest distance found.
+      s.order.clear();
+      for (uint64_t j = h.offset; j < splits && (j - h.offset) / h.stride < h.count; j += h.stride) {
+        const uint32_t w = r.split_vertices[j], v = first_new + static_cast<uint32_t>(j);
+        if (v >= predicted.positions.size() || v >= coded.positions.size()) continue;
+        const double moved = std::max(Norm(Sub(ToDouble(coded.positions[w]), ToDouble(predicted.positions[w]))),
+                                      Norm(Sub(ToDouble(coded.positions[v]), ToDouble(predicted.positions[v]))));
+        if (moved > 0) s.order.push_back({moved, static_cast<uint32_t>(j)});
+      }
+      std::sort(s.order.begin(), s.order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      double worst = 0;
+      for (const auto& [bound, j] : s.order) {
+        if (bound <= worst) break;
+        worst = std::max(worst, SplitDistance(coded, predicted, r.split_vertices[j], first_new + j, s));
+      }
+      distance[m] = worst;
+    };
+    if (runner != nullptr && workers > 1 && measured.size() > 1) {
+      runner->Run(measured.size(), measure);
+    } else {
+      for (size_t m = 0; m < measured.size(); ++m) measure(m, 0);
+    }
+    if (options.every_datagram) {
+      out.harm[i].assign(list.size(), 0.0);
+      for (size_t m = 0; m < measured.size(); ++m) out.harm[i][measured[m].first] = distance[m];
+    } else if (!measured.empty()) {
+      out.harm[i].assign(1, *std::max_element(distance.begin(), distance.end()));
+    }
+  }
+  // The spread to finer refinements (header): a refinement with finer ones
+  // after it counts kSpreadMargin times its own distance.
+  for (size_t i = 0; i + 1 < n; ++i)
+    for (double& h : out.harm[i]) h *= kSpreadMargin;
+  // The final level's diagonal, in grid units (one step on every axis).
+  const std::vector<Vec3i>& p = reader.state().positions;
+  if (!p.empty()) {
+    Vec3i lo = p[0], hi = p[0];
+    for (const Vec3i& q : p) {
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], q[c]);
+        hi[c] = std::max(hi[c], q[c]);
+      }
+    }
+    double sum = 0;
+    for (int c = 0; c < 3; ++c) sum += (double(hi[c]) - lo[c]) * (double(hi[c]) - lo[c]);
+    const double diagonal = std::sqrt(sum);
+    out.diagonal = diagonal * reader.header().grids.position_grid.step();
+    for (auto& list : out.harm)
+      for (double& h : list) h = diagonal > 0 ? h / diagonal : 0.0;
+  }
+  return out;
+}
 
 double DatagramHarm::RefinementMax(size_t i) const {
   if (i >= harm.size() || harm[i].empty()) return 0;

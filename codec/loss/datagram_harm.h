@@ -61,6 +61,39 @@ struct HarmOptions {
 StatusOr<DatagramHarm> MeasureDatagramHarm(const ProgressiveStream& stream, const QuantizedMesh& base,
                                            TaskRunner* runner = nullptr, const HarmOptions& options = {});
 
+// The encoder's estimate of the same (docs/loss-protection.md, "The harm
+// estimate"), at about the cost of two decodes instead of one decode per
+// refinement: for each refinement, the refinement alone is decoded again
+// from the loss-free state before it, without the datagrams measured, and
+// recovered by prediction as a client does; a split's local distance is the
+// largest distance of its two vertices (w and the new one) as predicted
+// from the fans (the triangles of both) as coded, and of the coded ones from
+// the predicted fans. A datagram's harm is the largest local distance of the
+// splits whose units it carries (a seam pair's secondary counts where its
+// own ordinal is), a share of the final level's bounding-box diagonal.
+// By default, as MeasureDatagramHarm's default, a refinement's datagrams are
+// taken to harm alike (round-robin over the refinement): its largest
+// structure and its largest geometry datagram are measured (lost together
+// when they carry different splits) and harm[i] has one entry, the larger;
+// with every_datagram, harm[i] has one per datagram (all structure
+// datagrams lost in one decode, all geometry ones in another: under the
+// batch rule a refinement's splits do not touch each other's rings, so each
+// split is predicted as its own datagram's loss would predict it).
+// What the local distance leaves out is the spread to finer refinements (a
+// ring a prediction changed makes later splits on it predicted too), which
+// the measure includes: on the shared models the local distance of a
+// refinement with finer ones after it is 0.37-1.0 of the measure (median
+// about 0.65; at the finest refinement 1.0), so such a refinement's harm is
+// kSpreadMargin times it. With it, the tiers (protection.h) of the five
+// shared models are those the measure gives but for two of the bunny's
+// refinements, which get strong parity where the measure says parity
+// (docs/loss-protection.md, "The harm estimate"; the loss bench's
+// `datagram_harm_estimate` beside `datagram_harm`).
+// Contract: as MeasureDatagramHarm (stop_above and stop_after unused).
+constexpr double kSpreadMargin = 1.5;
+StatusOr<DatagramHarm> EstimateDatagramHarm(const ProgressiveStream& stream, const QuantizedMesh& base,
+                                            TaskRunner* runner = nullptr, const HarmOptions& options = {});
+
 // The distance between two final levels of one stream decoded in canonical
 // order (same vertex count), measured on what differs, as above; a share of
 // `diagonal` (model units). 0 when nothing differs.

@@ -174,6 +174,10 @@ Vec3d ClosestPointOnTriangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, con
   return ClosestOnItem(MakeItem(a, b, c), p);
 }
 
+PreparedTriangle PrepareTriangle(const Vec3d& a, const Vec3d& b, const Vec3d& c) { return MakeItem(a, b, c); }
+
+Vec3d ClosestPoint(const PreparedTriangle& t, const Vec3d& p) { return ClosestOnItem(t, p); }
+
 uint32_t TriangleGrid::CellCoord(double v, int axis) const {
   const double t = (v - origin_[axis]) * inv_cell_;
   if (!(t > 0)) return 0;

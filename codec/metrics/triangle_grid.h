@@ -148,6 +148,12 @@ class TriangleGrid {
   std::array<uint32_t, 3> dims_ = {1, 1, 1};
 };
 
+// A triangle prepared once for many distance queries (ClosestPointOnTriangle
+// prepares it again on every call): the same answers.
+using PreparedTriangle = TriangleGrid::Item;
+PreparedTriangle PrepareTriangle(const Vec3d& a, const Vec3d& b, const Vec3d& c);
+Vec3d ClosestPoint(const PreparedTriangle& t, const Vec3d& p);
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_METRICS_TRIANGLE_GRID_H_

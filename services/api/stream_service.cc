@@ -358,6 +358,7 @@ StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& t
     options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
   }
   options.hello_timeout_us = static_cast<uint64_t>(options_.hello_timeout.count()) * 1000;
+  options.wait_for_hello = options_.wait_for_hello;
   options.idle_timeout_us = static_cast<uint64_t>(options_.idle_timeout.count()) * 1000;
   options.rate = options_.rate;
   options.server_share = options_.server_share;

@@ -53,6 +53,7 @@ struct StreamServiceOptions {
   std::string udp_advertise_host;                 // what SessionStart names; empty: "the host you connected to"
   uint16_t udp_advertise_port = 0;
   std::chrono::milliseconds hello_timeout{1000};  // then fall back to gRPC
+  bool wait_for_hello = false;                    // --udp-wait-hello (SessionSenderOptions::wait_for_hello)
   std::chrono::milliseconds idle_timeout{30000};  // no client message this long: DEADLINE_EXCEEDED
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate

@@ -122,6 +122,7 @@ StatusOr<StreamingSetup> StreamingOptions(const ServerOptions& o, bool loopback,
   if (o.max_rate_bps < 0) return InvalidArgument("--max-rate: not negative (0: no server cap)");
   setup.service.max_sessions = o.max_sessions;
   setup.service.hello_timeout = std::chrono::milliseconds(o.hello_timeout_ms);
+  setup.service.wait_for_hello = o.udp_wait_hello;
   setup.service.reliable_cut = !o.no_reliable_cut;
   setup.service.parity = !o.no_parity;
   setup.service.idle_timeout = std::chrono::milliseconds(o.session_idle_timeout_ms);

@@ -62,6 +62,7 @@ struct ServerOptions {
   // sessions per server": 4096 measured).
   int max_sessions = 4096;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
+  bool udp_wait_hello = false;            // UDP sessions wait for the HELLO before their first UDP refinement
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
   bool no_parity = false;                 // no parity datagrams (docs/loss-protection.md)
   int64_t session_idle_timeout_ms = 30000;

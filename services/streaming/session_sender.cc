@@ -335,6 +335,12 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
       return a;
     }
     const bool cut = transport_ == SessionTransport::kUdp && InReliableCut(r);
+    if (unproven && !cut && options_.wait_for_hello) {
+      // The HELLO hook wakes the driver when an address is proven.
+      a.kind = SenderAction::kWait;
+      a.due_us = hello_deadline_us_;
+      return a;
+    }
     const bool early = unproven && !cut;
     if (early) {
       // No address to send DATA to yet: the refinement goes on the stream,

@@ -82,6 +82,12 @@ struct SessionSenderOptions {
   // for TRANSPORT_GRPC or the server has no UDP.
   SessionTransport transport = SessionTransport::kGrpc;
   uint64_t hello_timeout_us = 1000000;
+  // UDP: wait for the HELLO's proof (up to the HELLO wait, as above) before
+  // the first refinement that would go as UDP, instead of sending the
+  // refinements begun before it on the stream (--udp-wait-hello): every
+  // refinement off the reliable cut then travels as UDP, with its parity,
+  // at the price of one round trip before the first refinement.
+  bool wait_for_hello = false;
   uint64_t idle_timeout_us = 30000000;  // no client message this long: kFinish DEADLINE_EXCEEDED; 0: never
   RateControllerOptions rate;
   RateShare* server_share = nullptr;  // --max-rate; null: no server cap. Thread-safe, shared.

@@ -270,6 +270,47 @@ TEST(SessionSender, RefinementsStartOnTheStreamAndMoveToUdpOnceAnAddressIsProven
   EXPECT_EQ(s.stats().transport, SessionTransport::kUdp);
 }
 
+// --udp-wait-hello (SessionSenderOptions::wait_for_hello): nothing is sent
+// before the HELLO's proof; then every refinement goes as UDP. Without a
+// proof the wait ends in the fallback, as without the option.
+TEST(SessionSender, WaitingForTheHelloSendsEveryRefinementAsUdp) {
+  Fixture f(kShortRefinements, 1);
+  SessionSenderOptions o = Options(SessionTransport::kUdp, kTenPerSecond);
+  o.wait_for_hello = true;
+  SessionSender s(f.plan, f.artifact, -1, o, 0);
+  Script script;
+  const SenderAction waiting = script.Run(s, 250000);
+  ASSERT_EQ(script.actions.size(), 1u) << "only the start before the proof";
+  EXPECT_EQ(script.actions[0].kind, SenderAction::kStart);
+  EXPECT_EQ(waiting.kind, SenderAction::kWait);
+  EXPECT_EQ(waiting.due_us, o.hello_timeout_us) << "until the end of the HELLO wait";
+  s.OnHello(250000, true);
+  script.Run(s, UINT64_MAX, true);
+  size_t controls = 0;
+  for (size_t i = 1; i < script.actions.size(); ++i) {
+    const SenderAction& a = script.actions[i];
+    if (a.kind == SenderAction::kControl) {
+      ++controls;
+      EXPECT_FALSE(a.reliable) << "refinement " << a.refinement->refinement;
+      EXPECT_FALSE(a.before_proof);
+      EXPECT_GE(script.times[i], 250000u);
+    }
+    if (a.kind == SenderAction::kDatagrams) { EXPECT_FALSE(a.on_stream); }
+  }
+  EXPECT_EQ(controls, kShortRefinements);
+  EXPECT_EQ(s.stats().early_refinements, 0u);
+  EXPECT_EQ(s.stats().transport, SessionTransport::kUdp);
+
+  SessionSender unproven(f.plan, f.artifact, -1, o, 0);
+  Script never;
+  never.Run(unproven, UINT64_MAX, true);
+  const size_t change = FirstOf(never, SenderAction::kTransportChange);
+  ASSERT_NE(change, SIZE_MAX);
+  EXPECT_EQ(change, 1u) << "nothing before the fallback";
+  EXPECT_EQ(never.times[change], o.hello_timeout_us);
+  EXPECT_EQ(unproven.stats().transport, SessionTransport::kGrpc);
+}
+
 TEST(SessionSender, WithoutAHelloTheSessionFallsBackToGrpcAfterTheTimeout) {
   Fixture f(kShortRefinements, 1);
   SessionSenderOptions o = Options(SessionTransport::kUdp, kTenPerSecond);
