@@ -90,6 +90,7 @@ struct Args {
   ms::ParityPlanOptions parity_plan;  // the blocks' limits (--parity-span, --parity-block)
   double base_ratio = ms::SimplifyOptions{}.base_ratio;
   double reliable_share = ms::kDefaultReliableShare;
+  double harm_margin = -1;  // EstimateDatagramHarm's spread margin (< 0: the encoder's)
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -121,6 +122,8 @@ Args ParseArgs(int argc, char** argv) {
            "0.14 is close to the paper's base, see docs/loss-results.md)", true);
   o.Double("--reliable-share", "F", &a.reliable_share, 0, 1,
            "the share of the datagram bytes the reliable cut may take (default 0.10)");
+  o.Double("--harm-margin", "F", &a.harm_margin, 0, 100,
+           "the harm estimate's spread margin (default: the encoder's, codec/loss/datagram_harm.h)", true);
   o.Parse(argc, argv);
   a.parity_plan.max_span = static_cast<uint32_t>(span);
   a.parity_plan.depth = static_cast<uint32_t>(depth);
@@ -413,7 +416,7 @@ json JobJson(const Job& job, const JobResult& r) {
 // ------------------------------------------------------------ preparation
 
 Model Prepare(const std::string& dir, const std::string& file, const Plan& plan, double base_ratio,
-              double reliable_share) {
+              double reliable_share, double harm_margin) {
   Model m;
   m.file = file;
   m.name = Stem(file);
@@ -473,10 +476,12 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
       ms::ThreadPool pool(2);
       // The encoder's estimate (EstimateDatagramHarm), beside the measure it
       // stands for (every datagram decoded lost to the end), timed both.
-      const ms::DatagramHarm quick = Check(ms::EstimateDatagramHarm(s.stream, s.base, &pool), file + ": harm");
+      ms::HarmOptions estimate;
+      estimate.spread_margin = harm_margin;
+      const ms::DatagramHarm quick = Check(ms::EstimateDatagramHarm(s.stream, s.base, &pool, estimate), file + ": harm");
       const double quick_s = Ms(h0, Clock::now()) / 1000;
       s.harm_estimate_s = quick_s;
-      ms::HarmOptions every_estimate;
+      ms::HarmOptions every_estimate = estimate;
       every_estimate.every_datagram = true;
       s.harm_estimate = Check(ms::EstimateDatagramHarm(s.stream, s.base, &pool, every_estimate), file + ": harm estimate");
       const ms::DeliveryRecord record =
@@ -581,7 +586,7 @@ std::vector<Model> PrepareModels(const Args& args) {
     }
     std::fprintf(stderr, "prepare %s\n", f.c_str());
     const auto s = Clock::now();
-    models.push_back(Prepare(args.models_dir, f, plan, args.base_ratio, args.reliable_share));
+    models.push_back(Prepare(args.models_dir, f, plan, args.base_ratio, args.reliable_share, args.harm_margin));
     const Model& m = models.back();
     std::fprintf(stderr, "  %zu levels, %u vertices, datagrams split %llu bundled %llu (%.1f s)\n",
                  m.level_vertices.size() - 1, m.level_vertices.back(),

@@ -278,8 +278,9 @@ StatusOr<DatagramHarm> EstimateDatagramHarm(const ProgressiveStream& stream, con
   }
   // The spread to finer refinements (header): a refinement with finer ones
   // after it counts kSpreadMargin times its own distance.
+  const double margin = options.spread_margin >= 0 ? options.spread_margin : kSpreadMargin;
   for (size_t i = 0; i + 1 < n; ++i)
-    for (double& h : out.harm[i]) h *= kSpreadMargin;
+    for (double& h : out.harm[i]) h *= margin;
   // The final level's diagonal, in grid units (one step on every axis).
   const std::vector<Vec3i>& p = reader.state().positions;
   if (!p.empty()) {

@@ -53,6 +53,9 @@ struct HarmOptions {
   bool every_datagram = false;
   double stop_above = 0.0025;
   int stop_after = 2;
+  // EstimateDatagramHarm: a refinement with finer ones after it counts
+  // this many times its local distance (< 0: kSpreadMargin).
+  double spread_margin = -1;
 };
 
 // `base` is the single-rate decoder's output (StreamReader::SetBase).

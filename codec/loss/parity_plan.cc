@@ -23,12 +23,13 @@ std::vector<ParityBlockPlan> PlanParityBlocks(const ProgressiveStream& stream, s
   for (uint32_t r = 0; r < limit; ++r) {
     if (!protect[r]) continue;
     for (uint32_t d = 0; d < stream.datagrams[r].size(); ++d) {
-      if (!open.members.empty() &&
-          (open.members.size() >= most || r - open.first_refinement() >= span || open.tier != protect[r])) {
+      if (!open.members.empty() && (open.members.size() >= most || r - open.first_refinement() >= span)) {
         blocks.push_back(std::move(open));
         open = {};
       }
-      open.tier = protect[r];
+      // A block's tier is its strongest refinement's: a change of tier does
+      // not cut a block short (a small block needs more parity per member).
+      open.tier = open.members.empty() ? protect[r] : std::max(open.tier, protect[r]);
       open.members.push_back({r, d});
     }
   }

@@ -6,7 +6,8 @@
 // choice, protection.h), in send order, cut into blocks of at most
 // `block_datagrams` members spanning at most `max_span` refinements (the
 // receiver's window, within which a refinement decoded with a prediction can
-// still be decoded again); a block holds refinements of one tier. A block's parity goes out after its last member,
+// still be decoded again); a block's tier is the strongest of its
+// refinements' (a change of tier does not cut a block). A block's parity goes out after its last member,
 // interleaved with the data that follows (every `interleave`-th datagram), so
 // that one burst does not take a block's data and its parity.
 //

@@ -330,6 +330,37 @@ TEST(ParityPlan, BlocksFollowTheLimits) {
   EXPECT_TRUE(PlanParityBlocks(s, 20, {}, o).empty());
 }
 
+// A change of tier does not cut a block: its tier is its strongest
+// refinement's (issue 42: with blocks cut at every change, a refinement
+// protected more strongly could leave its neighbours in a block too small
+// to carry its share of parity, and a stronger choice lost more).
+TEST(ParityPlan, ABlockSpansTiersAtTheStrongestOfThem) {
+  ProgressiveStream s;
+  for (uint32_t r = 0; r < 6; ++r) {
+    s.control.push_back({0});
+    std::vector<std::vector<uint8_t>> level;
+    for (uint32_t d = 0; d < 3; ++d) level.push_back(DataDatagram(0, r, DatagramKind::kStructure, d, 3, 10, d));
+    s.datagrams.push_back(level);
+  }
+  ParityPlanOptions o;
+  o.block_datagrams = 100;
+  o.max_span = 16;
+  const auto mixed = PlanParityBlocks(s, 6, {1, 1, 2, 1, 1, 1}, o);
+  ASSERT_EQ(mixed.size(), 1u) << "one block, not three";
+  EXPECT_EQ(mixed[0].members.size(), 18u);
+  EXPECT_EQ(mixed[0].tier, 2u);
+  const auto plain = PlanParityBlocks(s, 6, {1, 1, 1, 1, 1, 1}, o);
+  ASSERT_EQ(plain.size(), 1u);
+  EXPECT_EQ(plain[0].tier, 1u);
+  // The limits still cut it.
+  o.max_span = 2;
+  const auto cut = PlanParityBlocks(s, 6, {1, 1, 2, 1, 1, 1}, o);
+  ASSERT_EQ(cut.size(), 3u);
+  EXPECT_EQ(cut[0].tier, 1u);
+  EXPECT_EQ(cut[1].tier, 2u);
+  EXPECT_EQ(cut[2].tier, 1u);
+}
+
 // The loss bench's --parity-depth experiment (docs/loss-protection.md,
 // "Levers considered and left"): `depth` blocks share a group's refinements,
 // member i of the group to block i mod depth, each within the limits, every
