@@ -36,8 +36,11 @@ struct EncodeArgs {
   int levels = 0;
   int format_version = kStreamVersion;
   std::string packing = "split";
+  std::string profile = "reliable";
+  std::string batch_rule = "strict";
   std::string tools = "all";
   bool json = false;
+  bool profile_given = false;
 };
 
 // --tools: "all", "none" or names of kToolNames; an unknown name is an error
@@ -87,6 +90,22 @@ int RunEncode(EncodeArgs& args) {
   options.encode.simplify.max_levels = static_cast<uint32_t>(args.levels);
   options.stream.version = static_cast<uint8_t>(args.format_version);
   options.stream.packing = packing == "split" ? Packing::kSplit : Packing::kBundled;
+  // The reliable profile is version 4's default; an older version is loss-tolerant.
+  if (options.stream.version < 4) {
+    if (args.profile_given && args.profile != "loss-tolerant") {
+      return ReportError("encode", InvalidArgument("--profile " + args.profile + " needs --format-version 4"));
+    }
+    options.profiles = ProfileSet::kLossTolerant;
+  } else {
+    options.profiles = args.profile == "both"       ? ProfileSet::kBoth
+                       : args.profile == "reliable" ? ProfileSet::kReliable
+                                                    : ProfileSet::kLossTolerant;
+  }
+  options.reliable_rule = args.batch_rule == "strict" ? BatchRule::kStrict : BatchRule::kMatching;
+  if (args.batch_rule == "matching" && options.profiles != ProfileSet::kReliable) {
+    return ReportError("encode", InvalidArgument("--batch-rule matching: only for --profile reliable (the "
+                                                 "loss-tolerant profile needs the strict rule)"));
+  }
   auto tools = ParseTools(args.tools, options.stream.version);
   if (!tools.ok()) return ReportError("encode", tools.status());
   options.stream.tools = tools.value();
@@ -120,6 +139,15 @@ int RunEncode(EncodeArgs& args) {
                  reliable = total.base_bytes + total.reliable_bytes, unreliable = total.unreliable_bytes,
                  datagrams = total.datagrams, removed = total.removed_faces;
   const std::vector<uint32_t>& level_vertices = total.level_vertices;
+  // level_bytes: the file's bytes up to each level (its container, JSON and
+  // carried data counted at the base: a client reads them first).
+  // With both profiles, each profile's levels count its own stream (the
+  // other's bytes are not read by a client of this one).
+  std::vector<uint64_t> level_bytes = total.level_bytes, reliable_level_bytes = total.reliable_level_bytes;
+  const uint64_t streams = (level_bytes.empty() ? 0 : level_bytes.back()) + total.reliable_profile_bytes;
+  const uint64_t container = report.file_bytes > streams ? report.file_bytes - streams : 0;
+  for (uint64_t& b : level_bytes) b += container;
+  for (uint64_t& b : reliable_level_bytes) b += container;
   const double v = vertices ? static_cast<double>(vertices) : 1.0;
   nlohmann::json j = {
       {"input", Utf8(in)},
@@ -145,6 +173,11 @@ int RunEncode(EncodeArgs& args) {
       {"packing", packing},
       {"packet_bytes", options.stream.packet_bytes},
       {"format_version", options.stream.version},
+      {"profile", options.profiles == ProfileSet::kBoth       ? "both"
+                  : options.profiles == ProfileSet::kReliable ? "reliable"
+                                                              : "loss-tolerant"},
+      {"level_bytes", level_bytes},
+      {"reliable_level_bytes", reliable_level_bytes},
       {"tools", ToolNamesOf(total.tools)},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
@@ -193,14 +226,28 @@ Verb AddEncode(CLI::App& root) {
   FromEnv(cmd->add_option("--base-ratio", o.encode.simplify.base_ratio, "stop simplifying at this fraction of the vertices")
               ->check(NumberIn(1e-6, 1.0)))
       ->capture_default_str();
-  FromEnv(cmd->add_option("--packing", args->packing, "split or bundled")->check(CLI::IsMember({"split", "bundled"})))
+  FromEnv(cmd->add_option("--packing", args->packing, "split or bundled (the loss-tolerant profile's datagrams)")
+              ->check(CLI::IsMember({"split", "bundled"})))
+      ->capture_default_str();
+  CLI::Option* profile =
+      cmd->add_option("--profile", args->profile,
+                      "reliable (files, HTTP, WebSocket and gRPC-only sessions: smaller, faster to decode), "
+                      "loss-tolerant (UDP sessions: datagrams that decode on their own), or both in one file (what "
+                      "the server stores); docs/progressive-format.md")
+          ->check(CLI::IsMember({"reliable", "loss-tolerant", "both"}));
+  FromEnv(profile)->capture_default_str();
+  profile->each([args](const std::string&) { args->profile_given = true; });
+  FromEnv(cmd->add_option("--batch-rule", args->batch_rule,
+                          "the batch rule of --profile reliable: strict (the loss-tolerant profile's hierarchy; "
+                          "smaller on most meshes) or matching (fuller batches, fewer levels; docs/codec.md)")
+              ->check(CLI::IsMember({"matching", "strict"})))
       ->capture_default_str();
   FromEnv(cmd->add_option("--packet-bytes", o.stream.packet_bytes, "datagram payload limit, header included")
               ->check(CLI::Range(kMinPacketBytes, kMaxPacketBytes)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--format-version", args->format_version,
-                          "progressive format version: 3, or 2 or 1 for decoders that predate version 3 "
-                          "(larger streams; an older version drops the tools it does not define)")
+                          "progressive format version: 4, or 3, 2 or 1 for decoders that predate it (larger "
+                          "streams, loss-tolerant only; an older version drops the tools it does not define)")
               ->check(CLI::Range(static_cast<int>(kOldestStreamVersion), static_cast<int>(kStreamVersion))))
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,

@@ -38,6 +38,7 @@ struct FetchArgs {
   std::string udp_via;
   bool repair = false;
   bool no_parity = false;
+  std::string profile = "auto";
   double expected_loss = -1;
   int threads = 1;
   RemoteOptions remote;
@@ -62,6 +63,9 @@ int RunFetch(const FetchArgs& args) {
   options.udp_via = args.udp_via;
   options.repair = args.repair;
   options.no_parity = args.no_parity;
+  options.profile = args.profile == "reliable"        ? sdk::SessionOptions::Profile::kReliable
+                    : args.profile == "loss-tolerant" ? sdk::SessionOptions::Profile::kLossTolerant
+                                                      : sdk::SessionOptions::Profile::kAuto;
   options.expected_loss = args.expected_loss;
   options.decode_threads = args.threads == 0 ? -1 : args.threads;  // the SDK's -1: one per core
   auto session = sdk::Session::Open(**client, options);
@@ -107,6 +111,7 @@ int RunFetch(const FetchArgs& args) {
                       {"datagrams_lost", st.datagrams_lost},
                       {"datagrams_recovered", st.datagrams_recovered},
                       {"parity_datagrams", st.parity_datagrams},
+                      {"profile", st.profile},
                       {"parity_bytes", st.parity_bytes},
                       {"refinements_decoded_again", st.refinements_decoded_again},
                       {"datagrams_duplicate", st.datagrams_duplicate},
@@ -162,6 +167,11 @@ Verb AddFetch(CLI::App& root) {
   cmd->add_flag("--repair", args->repair,
                 "once the stream has ended, ask once for the datagrams that were lost and write the exact mesh "
                 "(default: the predicted one, nothing asked again)");
+  cmd->add_option("--profile", args->profile,
+                  "auto (the server's choice: reliable over --tcp-only, loss-tolerant over UDP), reliable (no "
+                  "datagrams: the stream alone) or loss-tolerant (docs/streaming-protocol.md)")
+      ->check(CLI::IsMember({"auto", "reliable", "loss-tolerant"}))
+      ->capture_default_str();
   cmd->add_flag("--no-parity", args->no_parity,
                 "ask for no parity datagrams: what UDP loses is predicted (or repaired), never rebuilt "
                 "(docs/loss-protection.md)");

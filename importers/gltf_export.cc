@@ -57,18 +57,23 @@ class DocumentBuilder {
   // (PlaceDeferredViews): a progressive primitive's refinements, so that the
   // file up to its first refinement holds every base mesh, the scene and its
   // images (docs/progressive-format.md, "Layout"). `bytes` outlives Build.
-  int AddDeferredView(const std::vector<uint8_t>* bytes) {
+  // `late`: after every other deferred view (a file with both profiles puts
+  // the reliable profile's blobs first, which a viewer reading ranges needs,
+  // and the loss-tolerant ones last).
+  int AddDeferredView(const std::vector<uint8_t>* bytes, bool late = false) {
     views_.push_back({{"buffer", 0}, {"byteOffset", 0}, {"byteLength", bytes->size()}});
-    deferred_.emplace_back(static_cast<int>(views_.size()) - 1, bytes);
-    return deferred_.back().first;
+    (late ? deferred_late_ : deferred_).emplace_back(static_cast<int>(views_.size()) - 1, bytes);
+    return static_cast<int>(views_.size()) - 1;
   }
   void PlaceDeferredViews() {
-    for (const auto& [view, bytes] : deferred_) {
-      while (bin_.size() % 4) bin_.push_back(0);
-      views_[view]["byteOffset"] = bin_.size();
-      bin_.insert(bin_.end(), bytes->begin(), bytes->end());
+    for (auto* list : {&deferred_, &deferred_late_}) {
+      for (const auto& [view, bytes] : *list) {
+        while (bin_.size() % 4) bin_.push_back(0);
+        views_[view]["byteOffset"] = bin_.size();
+        bin_.insert(bin_.end(), bytes->begin(), bytes->end());
+      }
+      list->clear();
     }
-    deferred_.clear();
   }
 
   int AddAccessor(json accessor) {
@@ -127,6 +132,7 @@ class DocumentBuilder {
   const ExportOptions& options_;
   std::vector<uint8_t> bin_;
   std::vector<std::pair<int, const std::vector<uint8_t>*>> deferred_;  // AddDeferredView
+  std::vector<std::pair<int, const std::vector<uint8_t>*>> deferred_late_;
   json views_ = json::array();
   json accessors_ = json::array();
 };
@@ -219,8 +225,11 @@ json DocumentBuilder::PrecodedJson(const PrecodedPrimitive& pre) {
   encoded.ids = pre.ids;
   json prim = DracoJson(encoded, pre.decoded);
   if (!pre.extension_name.empty()) {
-    const int view = AddDeferredView(&pre.extension_bytes);
+    const bool both = !pre.reliable_bytes.empty();
+    const int reliable = both ? AddDeferredView(&pre.reliable_bytes) : -1;
+    const int view = AddDeferredView(&pre.extension_bytes, both);
     json ext = {{"bufferView", view}, {"version", pre.extension_version}};
+    if (both) ext["reliable"] = reliable;
     if (!pre.extension_fields.empty()) {
       const json fields = json::parse(pre.extension_fields);  // kept alive: items() refers into it
       for (const auto& item : fields.items()) ext[item.key()] = item.value();

@@ -37,6 +37,10 @@ struct PrecodedPrimitive {
   Primitive decoded;                    // what the Draco bytes decode to
   std::string extension_name;           // empty: none
   std::vector<uint8_t> extension_bytes; // referenced as {"bufferView": n}
+  // A second blob of the extension's, referenced as {"reliable": n} (the
+  // reliable profile's stream when a file carries both; empty: none). The
+  // binary chunk holds every such blob before every extension_bytes.
+  std::vector<uint8_t> reliable_bytes;
   int extension_version = 1;
   // A JSON object (text) whose members are added to the extension's object
   // beside "bufferView" and "version"; empty: none.

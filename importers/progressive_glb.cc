@@ -24,10 +24,12 @@ namespace {
 using json = nlohmann::json;
 
 // The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
-// section 1): "bufferView" (an unsigned integer), "version" 1, 2 or 3, an
-// optional "delivery" (checked against the stream by ParseDeliveryRecord), an
-// optional "residual_error" (ParseResidualErrors), and
-// nothing else but glTF's "extras" and "extensions".
+// section 1): "bufferView" (an unsigned integer), "version" 1 to 4, an
+// optional "reliable" (version 4: an unsigned integer, the bufferView of the
+// reliable profile's stream beside the loss-tolerant one), an optional
+// "delivery" (checked against the stream by ParseDeliveryRecord), an optional
+// "residual_error" (ParseResidualErrors), and nothing else but glTF's
+// "extras" and "extensions".
 Status CheckProgressiveExtension(const json& ext) {
   const std::string name = kProgressiveExtension;
   if (!ext.is_object()) return InvalidInput(name + " is not an object");
@@ -39,12 +41,16 @@ Status CheckProgressiveExtension(const json& ext) {
   if (!version.is_number_unsigned() || !IsStreamVersion(version.get<uint64_t>())) {
     return Unsupported(name + ".version " + version.dump() + " is not " + kStreamVersionsText);
   }
+  const bool four = version.get<uint64_t>() >= 4;
   for (const auto& item : ext.items()) {
     const std::string& key = item.key();
     if (key != "bufferView" && key != "version" && key != "delivery" && key != "residual_error" && key != "extras" &&
-        key != "extensions") {
+        key != "extensions" && !(four && key == "reliable")) {
       return InvalidInput(name + "." + key + " is not defined by version " + version.dump());
     }
+  }
+  if (ext.contains("reliable") && !ext["reliable"].is_number_unsigned()) {
+    return InvalidInput(name + ".reliable is not an unsigned integer");
   }
   return Status::Ok();
 }
@@ -231,11 +237,38 @@ PrimitiveStreamReport ProgressiveGlbReport::Total() const {
     vertices.push_back(p.level_vertices);
     errors.push_back(p.residual_error);
   }
-  t.level_vertices = SceneLevelVertices(SceneLevelsOf(vertices, errors), vertices);
+  const SceneLevels levels = SceneLevelsOf(vertices, errors);
+  t.level_vertices = SceneLevelVertices(levels, vertices);
+  auto by_scene_level = [&](std::vector<uint64_t> PrimitiveStreamReport::*field) {
+    std::vector<uint64_t> out;
+    for (size_t p = 0; p < primitives.size(); ++p) {
+      const std::vector<uint64_t>& b = primitives[p].*field;
+      if (b.empty()) continue;
+      out.resize(t.level_vertices.size(), 0);
+      for (uint32_t level = 0; level < out.size(); ++level) {
+        out[level] += b[std::min<size_t>(levels.At(p, level), b.size() - 1)];
+      }
+    }
+    return out;
+  };
+  t.level_bytes = by_scene_level(&PrimitiveStreamReport::level_bytes);
+  t.reliable_level_bytes = by_scene_level(&PrimitiveStreamReport::reliable_level_bytes);
+  for (const PrimitiveStreamReport& p : primitives) t.reliable_profile_bytes += p.reliable_profile_bytes;
   return t;
 }
 
 namespace {
+
+// Per level of `stream`, its bytes up to it, the base's `base_bytes` included.
+std::vector<uint64_t> LevelBytes(uint64_t base_bytes, const ProgressiveStream& stream) {
+  std::vector<uint64_t> out = {base_bytes + stream.header.size()};
+  for (size_t i = 0; i < stream.control.size(); ++i) {
+    uint64_t bytes = stream.control[i].size();
+    for (const auto& d : stream.datagrams[i]) bytes += d.size();
+    out.push_back(out.back() + bytes);
+  }
+  return out;
+}
 
 // Drops a refined primitive's vertex and index arrays (what the exporter
 // reads of a precoded primitive, its material, stays). Move-assigned from
@@ -292,17 +325,43 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       };
       Clock::time_point step = Clock::now();
       double hierarchy_ms = 0, stream_ms = 0, harm_ms = 0, delivery_ms = 0;
-      auto encoded = EncodeProgressiveQuantized(std::move(quantized).value(), encode,
-                                                [&pre, level](const QuantizedMesh& base, int method) {
-                                                  return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
-                                                });
+      auto base_coder = [&pre, level](const QuantizedMesh& base, int method) {
+        return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
+      };
+      // A file of the reliable profile alone may simplify by the matching
+      // rule; should its replay in split order ever fail, the strict rule's
+      // hierarchy (whose splits are independent, so any order is theirs)
+      // takes its place. Both profiles share the strict rule's.
+      const bool reliable = options.profiles == ProfileSet::kReliable;
+      const bool both = options.profiles == ProfileSet::kBoth;
+      std::optional<QuantizedMesh> strict_input;
+      encode.simplify.rule = BatchRule::kStrict;
+      if (reliable) {
+        encode.simplify.rule = options.reliable_rule;
+        if (options.reliable_rule != BatchRule::kStrict) strict_input = quantized.value();
+      }
+      auto encoded = EncodeProgressiveQuantized(std::move(quantized).value(), encode, base_coder);
+      if (!encoded.ok() && strict_input && encoded.status().code() == StatusCode::kInternal) {
+        encode.simplify.rule = BatchRule::kStrict;
+        encoded = EncodeProgressiveQuantized(std::move(*strict_input), encode, base_coder);
+      }
+      strict_input.reset();
       if (!encoded.ok()) return encoded.status().WithContext(where);
       hierarchy_ms = ms_since(step);
       step = Clock::now();
       StreamWriteOptions stream_options = options.stream;
       stream_options.stream_id = stream_id++;
+      stream_options.profile = reliable ? Profile::kReliable : Profile::kLossTolerant;
       auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
       if (!stream.ok()) return stream.status().WithContext(where);
+      std::optional<ProgressiveStream> reliable_stream;
+      if (both) {
+        stream_options.profile = Profile::kReliable;
+        auto second = WriteStream(encoded.value(), encode.quantization, stream_options);
+        if (!second.ok()) return second.status().WithContext(where + ": the reliable profile");
+        reliable_stream = std::move(second).value();
+        pre.reliable_bytes = reliable_stream->Serialize();
+      }
       stream_ms = ms_since(step);
       step = Clock::now();
 
@@ -315,7 +374,7 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       // With the harm of each refinement's loss, which ones parity protects
       // (codec/loss/protection.h), measured on the base as a client decodes it.
       std::optional<DatagramHarm> harm;
-      if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty()) {
+      if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty() && !reliable) {
         auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
         if (!header.ok()) return header.status().WithContext(where);
         auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
@@ -334,14 +393,21 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       std::vector<double> residual = encoded->residual_error;
       const double unit = encoded->mesh.base.position_grid.step() * scales[m];
       for (double& e : residual) e = static_cast<float>(e * unit);
-      pre.extension_fields = "{\"delivery\":" + DeliveryRecordJson(delivery) +
-                             ",\"residual_error\":" + ResidualErrorsJson(residual) + "}";
+      // The reliable profile has no datagrams: nothing to deliver otherwise.
+      pre.extension_fields = reliable ? "{\"residual_error\":" + ResidualErrorsJson(residual) + "}"
+                                      : "{\"delivery\":" + DeliveryRecordJson(delivery) +
+                                            ",\"residual_error\":" + ResidualErrorsJson(residual) + "}";
       export_options.precoded[m][k] = &pre;
 
       PrimitiveStreamReport r;
       r.vertices = encoded->input_vertices;
       r.faces = encoded->input_faces;
       r.level_vertices = encoded->mesh.level_vertices();
+      r.level_bytes = LevelBytes(pre.draco_bytes.size(), stream.value());
+      if (reliable_stream) {
+        r.reliable_profile_bytes = reliable_stream->reliable_bytes();
+        r.reliable_level_bytes = LevelBytes(pre.draco_bytes.size(), *reliable_stream);
+      }
       r.base_bytes = pre.draco_bytes.size();
       r.reliable_bytes = stream->reliable_bytes();
       r.unreliable_bytes = stream->unreliable_bytes();
@@ -422,10 +488,17 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       }
       const json& ext = prim["extensions"][kProgressiveExtension];
       MS_RETURN_IF_ERROR(CheckProgressiveExtension(ext).WithContext(where));
-      const uint64_t view = ext["bufferView"].get<uint64_t>();
+      // Which of the primitive's streams: the reliable profile's ("reliable",
+      // or "bufferView" when its header says so) or the other.
+      const bool has_second = ext.contains("reliable");
+      const bool nothing_lost = options.loss.loss == 0 && options.loss.reorder == 0 && options.loss.duplicate == 0;
+      const bool second = has_second && (options.profile == DecodeProfile::kReliable ||
+                                         (options.profile == DecodeProfile::kAuto && nothing_lost));
+      const char* member = second ? "reliable" : "bufferView";
+      const uint64_t view = ext[member].get<uint64_t>();
       const json& views = doc.at("bufferViews");
       if (!views.is_array() || view >= views.size()) {
-        return InvalidInput(where + ": " + kProgressiveExtension + ".bufferView does not exist");
+        return InvalidInput(where + ": " + kProgressiveExtension + "." + member + " does not exist");
       }
       const uint64_t offset = views[view].value("byteOffset", uint64_t{0});
       const uint64_t length = views[view].value("byteLength", uint64_t{0});
@@ -441,6 +514,20 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
         return InvalidInput(where + ": " + kProgressiveExtension + ".version " + ext["version"].dump() +
                             ", the stream blob's version " + std::to_string(stream.version) +
                             " and its header's " + std::to_string(header->version) + " differ");
+      }
+      if (second != header->reliable() && has_second) {
+        return InvalidInput(where + ": " + kProgressiveExtension + "." + member + " names a stream of the " +
+                            ProfileName(header->profile) + " profile");
+      }
+      if (options.profile == DecodeProfile::kReliable && !header->reliable()) {
+        return InvalidArgument(where + ": the file has no stream of the reliable profile");
+      }
+      if (options.profile == DecodeProfile::kLossTolerant && header->reliable()) {
+        return InvalidArgument(where + ": the file has no stream of the loss-tolerant profile");
+      }
+      if (header->reliable() && !nothing_lost) {
+        return InvalidArgument(where + ": the file holds the reliable profile alone, which has no datagrams to lose "
+                                       "(encode with --profile loss-tolerant or both to simulate a lossy network)");
       }
       Found f;
       f.m = m;
@@ -526,6 +613,7 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     local.reliable_datagrams += lr.transmission.reliable_datagrams;
     local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
     local.recovery.Add(lr.recovery);
+    (header.reliable() ? local.reliable_profile_streams : local.loss_tolerant_streams) += 1;
     local.predicted_vertices += reader->inexact_positions();
     local.parity_datagrams += lr.transmission.parity_datagrams;
     local.parity_bytes += lr.transmission.parity_bytes;

@@ -31,9 +31,17 @@ namespace meshstream {
 
 constexpr char kProgressiveExtension[] = "MESHSTREAM_progressive";
 
+// Which profiles of format version 4 (codec/bitstream/format.h) a file
+// carries: one, or both from one hierarchy (the strict rule's: both profiles
+// then have the same levels and vertex ids), the reliable profile's blob
+// under MESHSTREAM_progressive's "reliable" and the loss-tolerant one's
+// under its "bufferView" (docs/progressive-format.md, section 1).
+enum class ProfileSet : uint8_t { kLossTolerant, kReliable, kBoth };
+
 struct ProgressiveGlbOptions {
   ProgressiveEncodeOptions encode;
-  StreamWriteOptions stream;
+  StreamWriteOptions stream;  // its `profile` is set from `profiles`
+  ProfileSet profiles = ProfileSet::kLossTolerant;
   int draco_compression_level = 7;
   // The share of each stream's bytes whose refinements travel reliably with
   // their datagrams (codec/loss/reliable_cut.h; recorded in the extension's
@@ -43,6 +51,11 @@ struct ProgressiveGlbOptions {
   // which refinements parity protects (codec/loss/protection.h; the
   // delivery's "parity" and "harm"). About one decode per refinement.
   bool measure_harm = true;
+  // The batch rule of a file of the reliable profile alone: kStrict (the
+  // default: the loss-tolerant profile's hierarchy, the smaller stream on
+  // every shared model but spot) or kMatching (fuller batches, fewer levels;
+  // docs/codec.md, "Version 4"). Both profiles in one file share kStrict's.
+  BatchRule reliable_rule = BatchRule::kStrict;
   // Workers for that measure (parallel/thread_pool.h); null: this thread.
   TaskRunner* runner = nullptr;
   // Called with (primitive index, batch index, vertices left) during encoding.
@@ -53,6 +66,10 @@ struct PrimitiveStreamReport {
   uint64_t vertices = 0;  // referenced input vertices
   uint64_t faces = 0;
   std::vector<uint32_t> level_vertices;
+  // Per level (as level_vertices), the stream's bytes a client needs to show
+  // it: the base's Draco bytes, the header, and every control block and
+  // datagram of the refinements up to it (Total: by the scene's levels).
+  std::vector<uint64_t> level_bytes;
   uint64_t base_bytes = 0;
   uint64_t reliable_bytes = 0;    // header, fix-ups, split bits, models (base excluded)
   uint64_t unreliable_bytes = 0;  // datagrams with their headers
@@ -66,6 +83,12 @@ struct PrimitiveStreamReport {
   std::vector<double> residual_error;
   std::vector<uint32_t> reliable_cut;    // its refinements, ascending (Total: none)
   std::vector<uint32_t> parity;          // the refinements parity protects, ascending (Total: none)
+  // With both profiles, the figures above are the loss-tolerant stream's
+  // and these the reliable one's (its header and control blocks; per level
+  // as level_bytes); with the reliable profile alone, the figures above are
+  // its own and these stay empty.
+  uint64_t reliable_profile_bytes = 0;
+  std::vector<uint64_t> reliable_level_bytes;
   // Milliseconds of each step of its encoding (Total: their sums): the
   // hierarchy (quantized mesh to refinements: simplification, base coding,
   // replay and its verification), the stream (the bitstream writer), the
@@ -103,7 +126,16 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlb(const Scene& scene, const Pr
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbReleasing(Scene* scene, const ProgressiveGlbOptions& options,
                                                              ProgressiveGlbReport* report);
 
+// Which stream of a primitive a decode reads (a file may carry both
+// profiles: ProfileSet::kBoth).
+enum class DecodeProfile : uint8_t {
+  kAuto,          // the reliable profile's when the file has it and nothing is lost, else the other
+  kReliable,      // the reliable profile's (an error when the file has none)
+  kLossTolerant,  // the loss-tolerant profile's (an error when the file has none)
+};
+
 struct ProgressiveDecodeOptions {
+  DecodeProfile profile = DecodeProfile::kAuto;
   // The scene's level to decode to (codec/progressive/scene_levels.h: with
   // one primitive, its refinements; with several, by their "residual_error",
   // or K refinements of each in a file without it); -1: all.
@@ -169,6 +201,8 @@ struct ProgressiveDecodeReport {
   uint64_t refinements_decoded_again = 0;  // decoded again because parity rebuilt a datagram after a prediction
   std::vector<uint32_t> level_vertices;  // summed over primitives (lossless counts)
   ToolSet tools = 0;             // the coding tools of the streams (StreamTool bits, their union)
+  uint32_t reliable_profile_streams = 0;  // streams decoded from the reliable profile
+  uint32_t loss_tolerant_streams = 0;     // ... from the loss-tolerant profile (versions 1-3 included)
 };
 
 // Decodes a progressive .glb held in memory into a scene at the requested

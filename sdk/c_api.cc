@@ -230,6 +230,12 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
     if (MS_FIELD_FITS(config, ms_session_config, repair)) options.repair = config->repair != 0;
     if (MS_FIELD_FITS(config, ms_session_config, decode_threads)) options.decode_threads = config->decode_threads;
     if (MS_FIELD_FITS(config, ms_session_config, no_parity)) options.no_parity = config->no_parity != 0;
+    if (MS_FIELD_FITS(config, ms_session_config, profile)) {
+      if (config->profile < MS_PROFILE_AUTO || config->profile > MS_PROFILE_LOSS_TOLERANT) {
+        return Fail(MS_ERR_INVALID_ARGUMENT, "config->profile: MS_PROFILE_AUTO, MS_PROFILE_RELIABLE or MS_PROFILE_LOSS_TOLERANT");
+      }
+      options.profile = static_cast<meshstream::sdk::SessionOptions::Profile>(config->profile);
+    }
     auto session = meshstream::sdk::Session::Open(*client->client, options);
     if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();
@@ -354,6 +360,11 @@ ms_status ms_session_stats(const ms_session* session, ms_stats* out) {
     if (MS_FIELD_FITS(out, ms_stats, parallel_splits)) out->parallel_splits = stats.parallel_splits;
     if (MS_FIELD_FITS(out, ms_stats, datagrams_recovered)) out->datagrams_recovered = stats.datagrams_recovered;
     if (MS_FIELD_FITS(out, ms_stats, parity_datagrams)) out->parity_datagrams = stats.parity_datagrams;
+    if (MS_FIELD_FITS(out, ms_stats, profile)) {
+      out->profile = stats.profile == "reliable"        ? MS_PROFILE_RELIABLE
+                     : stats.profile == "loss-tolerant" ? MS_PROFILE_LOSS_TOLERANT
+                                                        : MS_PROFILE_AUTO;
+    }
     return Ok();
   });
 }

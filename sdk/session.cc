@@ -310,6 +310,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_transport(options.tcp_only ? v1::TRANSPORT_GRPC : v1::TRANSPORT_UNSPECIFIED);
   open.mutable_open()->set_repair(options.repair);
   open.mutable_open()->set_no_parity(options.no_parity);
+  open.mutable_open()->set_profile(static_cast<v1::Profile>(static_cast<int>(options.profile)));
   const double remembered = client.remembered_loss();
   if (options.expected_loss >= 0) {
     open.mutable_open()->set_expected_loss(options.expected_loss);

@@ -130,6 +130,13 @@ struct SessionOptions {
   // keeps the cores), N > 1 a pool of N started with the session, -1 one
   // per core; at most 64.
   int32_t decode_threads = 1;
+  // The profile to stream (OpenRequest.profile; docs/streaming-protocol.md,
+  // "Profiles"): kAuto lets the server choose (the reliable profile over the
+  // stream alone, the loss-tolerant one over UDP); kReliable asks for the
+  // reliable one (the session is then TRANSPORT_GRPC: it has no datagrams);
+  // kLossTolerant for the loss-tolerant one over any transport.
+  enum class Profile { kAuto = 0, kReliable = 1, kLossTolerant = 2 };
+  Profile profile = Profile::kAuto;
 };
 
 enum class EventType { kNone = 0, kBaseReady, kLevelReady, kComplete, kError };
@@ -154,6 +161,7 @@ struct SessionStats {
   double time_to_base_ms = 0;
   double time_to_full_ms = 0;
   std::string transport;            // "grpc" or "udp"
+  std::string profile;              // "reliable" or "loss-tolerant" (SessionStart.profile; empty before the start)
   std::string end_reason;           // the server's SessionEnd reason, or "byte_budget" / "time_budget"
   std::string udp_local;            // the client's UDP socket ("0.0.0.0:PORT"), empty without UDP
   uint32_t reliable_refinements = 0;  // refinements whose datagrams came on the gRPC stream over UDP (the reliable cut)

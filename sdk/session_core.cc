@@ -192,6 +192,8 @@ StatusOr<size_t> SessionCore::PrimitiveOf(uint32_t stream_id) const {
 
 Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   SetTransport(start.transport() == v1::TRANSPORT_UDP ? SessionTransport::kUdp : SessionTransport::kGrpc);
+  // (A server before version 4 names no profile: its streams are loss-tolerant.)
+  stats_.profile = start.profile() == v1::PROFILE_RELIABLE ? "reliable" : "loss-tolerant";
   ReconstructorOptions ro;
   ro.straggler_timeout_us = static_cast<uint64_t>(std::max(1, options_.straggler_timeout_ms)) * 1000;
   // UDP may run ahead of the gRPC stream by many refinements (a loaded

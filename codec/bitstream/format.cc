@@ -71,6 +71,7 @@ Status DecodeFixupBlock(const std::vector<uint8_t>& block, size_t count, std::ve
 void StreamHeader::Serialize(ByteWriter& w) const {
   w.U8(version);
   w.U8(static_cast<uint8_t>(packing));
+  if (version >= 4) w.U8(static_cast<uint8_t>(profile));
   if (version == 2) w.U8(static_cast<uint8_t>(tools));
   if (version >= 3) w.U16(tools);
   w.U8(static_cast<uint8_t>(quantization.qp));
@@ -112,6 +113,13 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   MS_ASSIGN_OR_RETURN(uint8_t packing, r.U8("stream header: packing"));
   if (packing > 1) return refuse("packing " + std::to_string(packing) + " is reserved");
   h.packing = static_cast<Packing>(packing);
+  if (version >= 4) {
+    MS_ASSIGN_OR_RETURN(uint8_t profile, r.U8("stream header: profile"));
+    if (profile > 1) return refuse("profile " + std::to_string(profile) + " is reserved");
+    h.profile = static_cast<Profile>(profile);
+    // The reliable profile has no datagrams: its packing byte is 0.
+    if (h.reliable() && packing != 0) return refuse("packing " + std::to_string(packing) + " in the reliable profile (must be 0)");
+  }
   h.tools = 0;
   if (version == 2) {
     MS_ASSIGN_OR_RETURN(h.tools, r.U8("stream header: tools"));
@@ -121,6 +129,9 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   if ((h.tools & ~DefinedTools(version)) != 0) {
     return refuse("tools " + std::to_string(h.tools) + " has bits set that version " + std::to_string(version) +
                   " reserves");
+  }
+  if (h.reliable() && (h.tools & (kToolSplitContexts | kToolModelModes)) != 0) {
+    return refuse("tools " + std::to_string(h.tools) + ": bits 6 and 7 are the loss-tolerant profile's");
   }
   if ((h.tools & kToolRingPredictor) != 0 &&
       (h.tools & (kToolGeometryPrediction | kToolLocalFrame)) != (kToolGeometryPrediction | kToolLocalFrame)) {
@@ -351,6 +362,7 @@ StatusOr<DatagramHeader> DatagramHeader::Parse(ByteReader& r) {
 
 bool DatagramFits(const DatagramHeader& h, const StreamHeader& header) {
   if (h.version != header.version || h.refinement >= header.split_counts.size()) return false;
+  if (header.reliable()) return false;  // its refinements carry their data in the control block
   const bool kind_ok = header.packing == Packing::kBundled
                            ? h.kind == DatagramKind::kBundled
                            : h.kind == DatagramKind::kStructure || h.kind == DatagramKind::kGeometry;

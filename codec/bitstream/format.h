@@ -28,11 +28,13 @@
 
 namespace meshstream {
 
-// Version 3 is what the encoder writes; version 1 and 2 streams (and their
-// datagrams) are still decoded: a version 2 stream is a version 3 stream
-// whose tools fit one byte, a version 1 stream one without coding tools
+// Version 4 is what the encoder writes, in one of two profiles (Profile);
+// version 1, 2 and 3 streams (and their datagrams) are still decoded: a
+// version 3 stream is a version 4 stream of the loss-tolerant profile
+// without the profile byte, a version 2 stream a version 3 stream whose
+// tools fit one byte, a version 1 stream one without coding tools
 // (docs/progressive-format.md, section 10).
-constexpr uint8_t kStreamVersion = 3;
+constexpr uint8_t kStreamVersion = 4;
 constexpr uint8_t kOldestStreamVersion = 1;
 constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
 constexpr uint8_t kDatagramVersion = kStreamVersion;  // a datagram carries its stream's version
@@ -42,7 +44,18 @@ constexpr uint8_t kDatagramVersion = kStreamVersion;  // a datagram carries its 
 constexpr bool IsStreamVersion(uint64_t version) {
   return version >= kOldestStreamVersion && version <= kStreamVersion;
 }
-constexpr const char* kStreamVersionsText = "1, 2 or 3";
+constexpr const char* kStreamVersionsText = "1, 2, 3 or 4";
+
+// The two profiles of version 4 (docs/progressive-format.md, "Version 4").
+// Loss-tolerant: the paper's rules (independent splits, split bits from the
+// reliable graph, datagrams that decode on their own): what UDP sessions
+// receive; every stream before version 4 is one. Reliable: for transports
+// that lose nothing (files, HTTP ranges, WebSocket and gRPC-only sessions):
+// a refinement's splits apply one after the other under the matching rule,
+// their split bits in contexts of the whole coarser mesh, and their data in
+// the control block with models adapted over the whole stream; no datagrams.
+enum class Profile : uint8_t { kLossTolerant = 0, kReliable = 1 };
+inline const char* ProfileName(Profile p) { return p == Profile::kReliable ? "reliable" : "loss-tolerant"; }
 
 // The coding tools of a stream: codec/progressive/coding_tools.h.
 constexpr uint32_t kMinPacketBytes = 64;
@@ -76,6 +89,8 @@ struct StreamHeader {
   ToolSet tools = kAllTools;  // StreamTool bits: DefinedTools(version) at most
   bool has(StreamTool t) const { return (tools & t) != 0; }
   Packing packing = Packing::kSplit;
+  Profile profile = Profile::kLossTolerant;  // version 4's byte; before it, loss-tolerant
+  bool reliable() const { return profile == Profile::kReliable; }
   QuantizationParams quantization;
   QuantizedMesh grids;  // grids and layout only (no vertices)
   uint32_t base_vertices = 0;
@@ -169,7 +184,7 @@ class ParsedDatagram {
 
 // Whether a data datagram (not an END) fits a stream: its kind matches the
 // packing and its ordinals lie below the split count of its refinement
-// (which must exist). Stream number and timing are the receiver's business.
+// (which must exist); never in the reliable profile, which has none. Stream number and timing are the receiver's business.
 bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
 
 // The END datagram the sender puts on the unreliable channel after the data

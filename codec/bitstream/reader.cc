@@ -75,13 +75,70 @@ Status StreamReader::SetBase(QuantizedMesh base) {
   MS_RETURN_IF_ERROR(state_.SetTwins(header_.seam_twins).WithContext("stream header"));
   history_ = SplitHistory();
   history_.vertices = static_cast<uint32_t>(base.vertex_count());
-  if (h.has(kToolSplitContexts)) {
+  if (h.has(kToolSplitContexts) && !h.reliable()) {
     MS_RETURN_IF_ERROR(split_contexts_.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices));
+  }
+  if (h.reliable()) {
+    connected_.Reset(state_.connectivity);
+    payload_.Reset(ch);
   }
   models_.clear();
   predictor_ = kInitialPredictor;
   has_base_ = true;
   next_ = 0;
+  return Status::Ok();
+}
+
+Status StreamReader::ReadPredictor(ByteReader& r, const std::string& where, PredictorWeights* predictor) {
+  uint32_t alpha = 0;
+  if (header_.has(kToolRingPredictor)) {
+    auto mode = r.U8("predictor record");
+    if (!mode.ok()) return mode.status().WithContext(where + ": control block");
+    if (mode.value() > 1) {
+      return InvalidInput(where + ": control block: predictor record " + std::to_string(mode.value()) + " is not 0 or 1");
+    }
+    if (mode.value() == 1) {
+      static const char* const kWeightNames[kPredictorFeatures] = {"Laplacian", "sides", "ring"};
+      for (int g = 0; g < 2; ++g) {
+        for (int f = 0; f < kPredictorFeatures; ++f) {
+          const std::string what = std::string(g == 0 ? "tangential " : "normal ") + kWeightNames[f] + " weight";
+          auto z = r.Varint("predictor weight", uint64_t{2} * kMaxPredictorWeight);
+          if (!z.ok()) return z.status().WithContext(where + ": control block: " + what);
+          (g == 0 ? predictor->tangential : predictor->normal)[f] = UnZigZag(static_cast<uint32_t>(z.value()));
+        }
+      }
+    }
+  } else if (header_.has(kToolGeometryPrediction)) {
+    auto a = r.U8("alpha");
+    if (!a.ok()) return a.status().WithContext(where + ": control block");
+    alpha = a.value();
+  }
+  coding_ = SplitCoding{header_.tools, alpha, *predictor, 0};
+  if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
+  if (header_.has(kToolTexcoordPrediction)) {
+    coding_.mapped_first = header_.grids.layout.texcoord_offset(0);
+    coding_.mapped_count = header_.grids.layout.channels() - coding_.mapped_first;
+  }
+  return Status::Ok();
+}
+
+Status StreamReader::BeginReliable(ByteReader& r, Refinement& ref, const std::string& where) {
+  PredictorWeights predictor = predictor_;
+  MS_RETURN_IF_ERROR(ReadPredictor(r, where, &predictor));
+  const size_t k = ref.split_count();
+  const int ch = header_.grids.layout.channels();
+  ref.wings.assign(k, {0, 0});
+  ref.position_delta.assign(k, Vec3i{});
+  ref.attribute_delta.assign(k * ch, 0);
+  const size_t length = r.remaining();
+  MS_ASSIGN_OR_RETURN(const uint8_t* data_bytes, r.Take(length, "split data"));
+  const Status data = payload_.Decode(data_bytes, length, partner_, &ref);
+  if (!data.ok()) return data.WithContext(where);
+  predictor_ = predictor;
+  has_structure_.assign(k, 1);
+  has_geometry_.assign(k, 1);
+  coded_ = ref;
+  current_ = std::move(ref);
   return Status::Ok();
 }
 
@@ -97,13 +154,20 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   Refinement ref;
   ref.vertices_before = n;
   const std::vector<uint32_t>* twins = header_.has(kToolSeams) ? &state_.twin : nullptr;
-  const bool contexts = header_.has(kToolSplitContexts);
-  if ((contexts ? split_contexts_.vertices() : history_.vertices) != n) {
+  const bool reliable = header_.reliable();
+  const bool contexts = header_.has(kToolSplitContexts) && !reliable;
+  if (reliable ? connected_.vertices() != n : (contexts ? split_contexts_.vertices() : history_.vertices) != n) {
     return Internal(where + ": split history is out of step");
   }
   // Nothing of the reader changes until the whole block is valid.
   SplitBitContexts::Decoded decoded;
-  if (contexts) {
+  ConnectedSplitBits::Decoded connected;
+  if (reliable) {
+    auto got = connected_.Decode(bits, length, state_.connectivity, twins);
+    if (!got.ok()) return got.status().WithContext(where);
+    connected = std::move(got).value();
+    decoded.bits = connected.bits;
+  } else if (contexts) {
     auto got = split_contexts_.Decode(bits, length, twins);
     if (!got.ok()) return got.status().WithContext(where);
     decoded = std::move(got).value();
@@ -125,6 +189,12 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   if (header_.has(kToolSeams)) {
     const Status pairs = SeamPartners(ref.split_vertices, state_.twin, &partner_);
     if (!pairs.ok()) return pairs.WithContext(where + ": split bits");
+  }
+  if (reliable) {
+    MS_RETURN_IF_ERROR(BeginReliable(r, ref, where));
+    connected_.Advance(std::move(connected));
+    in_refinement_ = true;
+    return Status::Ok();
   }
   // Models: per slot, a flag (0: the previous refinement's, 1: a new one
   // follows), or with the model modes tool a mode (slot_model.h).
@@ -178,35 +248,7 @@ Status StreamReader::BeginRefinement(const uint8_t* control, size_t size) {
   }
   // The ring predictor's record, or version 2's alpha.
   PredictorWeights predictor = predictor_;
-  uint32_t alpha = 0;
-  if (header_.has(kToolRingPredictor)) {
-    auto mode = r.U8("predictor record");
-    if (!mode.ok()) return mode.status().WithContext(where + ": control block");
-    if (mode.value() > 1) {
-      return InvalidInput(where + ": control block: predictor record " + std::to_string(mode.value()) + " is not 0 or 1");
-    }
-    if (mode.value() == 1) {
-      static const char* const kWeightNames[kPredictorFeatures] = {"Laplacian", "sides", "ring"};
-      for (int g = 0; g < 2; ++g) {
-        for (int f = 0; f < kPredictorFeatures; ++f) {
-          const std::string what = std::string(g == 0 ? "tangential " : "normal ") + kWeightNames[f] + " weight";
-          auto z = r.Varint("predictor weight", uint64_t{2} * kMaxPredictorWeight);
-          if (!z.ok()) return z.status().WithContext(where + ": control block: " + what);
-          (g == 0 ? predictor.tangential : predictor.normal)[f] = UnZigZag(static_cast<uint32_t>(z.value()));
-        }
-      }
-    }
-  } else if (header_.has(kToolGeometryPrediction)) {
-    auto a = r.U8("alpha");
-    if (!a.ok()) return a.status().WithContext(where + ": control block");
-    alpha = a.value();
-  }
-  coding_ = SplitCoding{header_.tools, alpha, predictor, 0};
-  if (header_.has(kToolAttributePrediction) && header_.grids.layout.has_normals) coding_.normal_bits = header_.grids.layout.qn;
-  if (header_.has(kToolTexcoordPrediction)) {
-    coding_.mapped_first = header_.grids.layout.texcoord_offset(0);
-    coding_.mapped_count = header_.grids.layout.channels() - coding_.mapped_first;
-  }
+  MS_RETURN_IF_ERROR(ReadPredictor(r, where, &predictor));
   if (r.remaining() != 0) {
     return InvalidInput(where + ": control block: " + std::to_string(r.remaining()) + " stray bytes after the models");
   }

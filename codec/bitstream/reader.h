@@ -31,7 +31,9 @@
 #include "codec/recovery/recover_split.h"
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/slot_model.h"
+#include "codec/bitstream/reliable_payload.h"
 #include "codec/progressive/split_bit_contexts.h"
+#include "codec/progressive/split_bits_connected.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/entropy/symbol_model.h"
 
@@ -109,6 +111,8 @@ class StreamReader {
   bool in_refinement_ = false;
   SplitHistory history_;            // versions 1 and 2
   SplitBitContexts split_contexts_;  // version 3 (kToolSplitContexts)
+  ConnectedSplitBits connected_;     // version 4, reliable profile
+  ReliablePayload payload_;          // version 4, reliable profile: the split data's models
   Refinement coded_;    // what the datagrams carry
   Refinement current_;  // what was applied
   SplitCoding coding_;
@@ -130,6 +134,11 @@ class StreamReader {
   DatagramStats stats_;
   RecoveryStats recovery_stats_;
 
+  // The rest of a reliable profile's control block after its split bits:
+  // the predictor record (or alpha) and the split data, into `ref`.
+  Status BeginReliable(ByteReader& r, Refinement& ref, const std::string& where);
+  // The predictor record (or alpha) of a control block into coding_.
+  Status ReadPredictor(ByteReader& r, const std::string& where, PredictorWeights* predictor);
   // The splits of a complete refinement from the plans made on the runner,
   // window by window; returns the first split it left to the serial path
   // (split_count() when none).

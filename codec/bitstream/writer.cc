@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "codec/bitstream/reliable_payload.h"
 #include "codec/bitstream/slot_model.h"
 #include "codec/entropy/range_coder.h"
 #include "codec/progressive/geometry_prediction.h"
@@ -11,6 +12,7 @@
 #include "codec/progressive/seam_twins.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/progressive/split_bit_contexts.h"
+#include "codec/progressive/split_bits_connected.h"
 #include "codec/progressive/split_bits.h"
 #include "codec/progressive/texcoord_prediction.h"
 #include "codec/entropy/symbol_model.h"
@@ -522,6 +524,14 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   }
   h.seam_twins = pm.base_twins;
   h.packing = o.packing;
+  h.profile = o.profile;
+  const bool reliable = h.reliable();
+  if (reliable) {
+    if (o.version < 4) return InvalidArgument("the reliable profile needs format version 4");
+    h.packing = Packing::kSplit;  // no datagrams: the byte is 0
+    // Its split bits and models are its own (section 11 of the spec).
+    h.tools &= static_cast<ToolSet>(~(kToolSplitContexts | kToolModelModes));
+  }
   h.quantization = quantization;
   h.grids.position_grid = pm.base.position_grid;
   h.grids.layout = pm.base.layout;
@@ -547,9 +557,17 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   RefinementModels previous;
   // The coarser mesh as the decoder will have it, for the tools that predict from it.
   RefinementState state;
-  if (h.tools != 0) {
+  if (h.tools != 0 || reliable) {
     MS_RETURN_IF_ERROR(state.Reset(pm.base));
     MS_RETURN_IF_ERROR(state.SetTwins(pm.base_twins));
+  }
+  // The reliable profile: split bits in contexts of the coarser mesh, the
+  // split data in the control block (docs/progressive-format.md, "Version 4").
+  ConnectedSplitBits connected;
+  ReliablePayload payload;
+  if (reliable) {
+    connected.Reset(state.connectivity);
+    payload.Reset(channels);
   }
   std::vector<uint32_t> partner;
   PredictorWeights predictor = kInitialPredictor;  // the previous refinement's weights
@@ -563,6 +581,13 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
       MS_RETURN_IF_ERROR(SeamPartners(pm.refinements[i].split_vertices, state.twin, &partner));
       twin_before = state.twin;
     }
+    std::vector<uint8_t> connected_bits;  // the reliable profile's split bits, from the coarser mesh
+    if (reliable) {
+      std::vector<uint8_t> bits(pm.refinements[i].vertices_before, 0);
+      for (uint32_t v : pm.refinements[i].split_vertices) bits[v] = 1;
+      connected_bits = connected.Encode(bits, state.connectivity, h.has(kToolSeams) ? &state.twin : nullptr);
+      if (h.tools == 0) MS_RETURN_IF_ERROR(state.ApplyRefinement(pm.refinements[i]).WithContext("refinement " + std::to_string(i)));
+    }
     if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, o.ring_term_bits, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
@@ -571,6 +596,23 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     }
     const Refinement& plain = h.tools != 0 ? coded : pm.refinements[i];
     const CodedRefinement r{plain, partner};
+    if (reliable) {
+      // Split bits, the predictor's record (or alpha), the split data.
+      ByteWriter cw;
+      cw.Block(connected_bits);
+      if (h.has(kToolRingPredictor)) {
+        WritePredictorRecord(coding.predictor, predictor, cw);
+        predictor = coding.predictor;
+      } else if (h.tools & kToolGeometryPrediction) {
+        cw.U8(static_cast<uint8_t>(coding.alpha));
+      }
+      auto data = payload.Encode(plain, partner);
+      if (!data.ok()) return data.status().WithContext("refinement " + std::to_string(i));
+      cw.Bytes(data.value());
+      s.control.push_back(std::move(cw.bytes()));
+      s.datagrams.emplace_back();
+      continue;
+    }
     // Split bits, then the models.
     std::vector<uint8_t> bits(plain.vertices_before, 0);
     for (uint32_t v : plain.split_vertices) bits[v] = 1;

@@ -26,7 +26,10 @@ struct StreamWriteOptions {
   Packing packing = Packing::kSplit;
   uint32_t packet_bytes = 1200;  // payload bytes of a datagram, header included
   uint32_t stream_id = 0;        // the primitive's index in the asset
-  uint8_t version = kStreamVersion;  // 1 or 2 write the older formats (with the tools they define: none in 1)
+  uint8_t version = kStreamVersion;  // 1, 2 or 3 write the older formats (with the tools they define: none in 1)
+  // Version 4's profile (format.h): kReliable needs a hierarchy of the
+  // matching rule (BatchRule::kMatching), kLossTolerant one of the strict rule.
+  Profile profile = Profile::kLossTolerant;
   ToolSet tools = kAllTools;         // StreamTool bits (coding_tools.h)
   // With the ring predictor: a refinement uses its 2-ring term only where it
   // saves at least this many bits per split (estimated), because it costs

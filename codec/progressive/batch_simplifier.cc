@@ -7,6 +7,7 @@
 #include <new>
 #include <numeric>
 #include <type_traits>
+#include <unordered_map>
 
 #include "codec/progressive/seam_twins.h"
 
@@ -263,6 +264,7 @@ enum VertexFlag : uint8_t {
   kTouched = 8,      // a collapse touched it (dirty_, during UpdateCandidates)
   kChanged = 16,     // next to the last batch's collapses (MarkChanged)
   kReferenced = 32,  // in a triangle of the input (after clean-up)
+  kBatchEnd = 64,    // kMatching: an end of a collapse of the current batch
 };
 class VertexFlags {
  public:
@@ -614,13 +616,13 @@ class Simplifier {
   // One side of a seam collapse (u, v): legal on its own (see the header).
   // Fills nu_ and nv_.
   bool LegalSeamSide(uint32_t u, uint32_t v, Collapse& c) {
-    uint32_t a = UINT32_MAX;
+    uint32_t a = UINT32_MAX, fa = 0;
     int shared = 0;
     bool uva = false;
     for (uint32_t f : vertex_faces_[u]) {
       const Face r = RotateTo(faces_[f], u);
-      if (r[1] == v) { a = r[2]; uva = true; ++shared; }
-      else if (r[2] == v) { a = r[1]; uva = false; ++shared; }
+      if (r[1] == v) { a = r[2]; uva = true; ++shared; fa = f; }
+      else if (r[2] == v) { a = r[1]; uva = false; ++shared; fa = f; }
     }
     if (shared != 1) return false;
     if (!SharedNeighbours(u, v, 1) || common_[0] != a) return false;
@@ -629,9 +631,23 @@ class Simplifier {
     if (valence < 2 || valence > static_cast<size_t>(options_.max_valence) || valence >= kMaxSeamValence) return false;
     if (!HasNeighbours(a, 3)) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
-    c = Collapse{u, v, a, kNoWing, DeltaOf(u, v)};
+    c = Collapse{u, v, FineCorner(fa, a), kNoWing, DeltaOf(u, v)};
     c.uva = uva;
     return true;
+  }
+
+  // kMatching applies a batch's collapses as it goes, renaming the removed
+  // end of each in its triangles: a later collapse of the batch then finds
+  // the kept end as its wing where the batch's finer mesh (the one its
+  // split refines) has the removed one. The corner of face f that holds x
+  // now held this vertex before the batch.
+  uint32_t FineCorner(uint32_t f, uint32_t x) const {
+    const auto it = batch_faces_.find(f);
+    if (it == batch_faces_.end()) return x;
+    const Face now = faces_[f];
+    for (int k = 0; k < 3; ++k)
+      if (now[k] == x) return it->second[k];
+    return x;
   }
 
   // A seam edge and its twin edge, collapsed together; `twin_side` gets the
@@ -657,12 +673,12 @@ class Simplifier {
   bool Legal(uint32_t u, uint32_t v, Collapse& c) {
     constexpr uint8_t kNot = kLocked | kClosed | kSeam;  // a seam is LegalSeam's
     if (flags_.Has(u, kNot) || flags_.Has(v, kNot)) return false;
-    uint32_t a = UINT32_MAX, b = UINT32_MAX;
+    uint32_t a = UINT32_MAX, b = UINT32_MAX, fa = 0, fb = 0;
     int shared = 0;
     for (uint32_t f : vertex_faces_[u]) {
       const Face r = RotateTo(faces_[f], u);
-      if (r[1] == v) { a = r[2]; ++shared; }
-      else if (r[2] == v) { b = r[1]; ++shared; }
+      if (r[1] == v) { a = r[2]; ++shared; fa = f; }
+      else if (r[2] == v) { b = r[1]; ++shared; fb = f; }
     }
     if (shared != 2 || a == UINT32_MAX || b == UINT32_MAX || a == b) return false;
     if (!SharedNeighbours(u, v, 2)) return false;
@@ -670,7 +686,7 @@ class Simplifier {
     if (valence < 3 || valence > static_cast<size_t>(options_.max_valence)) return false;
     if (!HasNeighbours(a, 4) || !HasNeighbours(b, 4)) return false;
     if (!MidpointKeepsOrientation(u, v)) return false;
-    c = Collapse{u, v, a, b, DeltaOf(u, v)};
+    c = Collapse{u, v, FineCorner(fa, a), FineCorner(fb, b), DeltaOf(u, v)};
     return true;
   }
 
@@ -686,7 +702,10 @@ class Simplifier {
       face_alive_[f] = 0;
       for (uint32_t x : faces_[f]) vertex_faces_.Remove(x, f);
     }
-    for (uint32_t f : vertex_faces_[v]) faces_.Rename(f, v, u);
+    for (uint32_t f : vertex_faces_[v]) {
+      if (options_.rule == BatchRule::kMatching) batch_faces_.emplace(f, faces_[f]);  // FineCorner
+      faces_.Rename(f, v, u);
+    }
     vertex_faces_.MoveInto(u, v);
     for (int k = 0; k < 3; ++k) positions_[u][k] = Midpoint(positions_[u][k], positions_[v][k]);
     for (int k = 0; k < channels_; ++k) {
@@ -696,6 +715,12 @@ class Simplifier {
     for (int k = 0; k < 10; ++k) quadrics_[u][k] += quadrics_[v][k];
     dirty_.push_back(u);
     dirty_.push_back(v);
+  }
+
+  // The channels of c.u and c.v before c is applied, into the batch.
+  void RecordAttributes(const Collapse& c, CollapseBatch& batch) const {
+    for (int k = 0; k < channels_; ++k) batch.attr_u.push_back(attributes_[size_t(c.u) * channels_ + k]);
+    for (int k = 0; k < channels_; ++k) batch.attr_v.push_back(attributes_[size_t(c.v) * channels_ + k]);
   }
 
   static bool CandidateBefore(const Candidate& a, const Candidate& b) { return CandidateOrder()(a, b); }
@@ -828,7 +853,8 @@ class Simplifier {
         candidates_.swap(kept);  // go on with the kept list and its marks
       }
     }
-    flags_.UnsetAll(kClosed);
+    flags_.UnsetAll(kClosed | kBatchEnd);
+    batch_faces_.clear();
     CollapseBatch batch;
     // Room for the batch at once, not grown by doubling and then copied to
     // its size (a second block at the peak): a batch collapses about a
@@ -837,17 +863,33 @@ class Simplifier {
     // never written, so it costs address space, not resident memory (a copy
     // to size at the end of Run measured worse: new pages beside the old).
     batch.collapses.reserve(alive / 4 + 16);
+    const bool matching = options_.rule == BatchRule::kMatching;
+    // kMatching: at most this many collapses (SimplifyOptions::max_batch_share).
+    const size_t most = matching && options_.max_batch_share < 1
+                            ? std::max<size_t>(1, static_cast<size_t>(double(alive) * options_.max_batch_share))
+                            : SIZE_MAX;
     for (Candidate& cand : candidates_) {
+      if (batch.collapses.size() >= most) break;
       Collapse c;
       const uint32_t cv = cand.v();
-      if (options_.rule == BatchRule::kStrict && flags_.Has(cand.u, kSeam) && flags_.Has(cv, kSeam)) {
+      if (options_.rule != BatchRule::kPaper && flags_.Has(cand.u, kSeam) && flags_.Has(cv, kSeam)) {
         Collapse t;
         if (flags_.Has(cand.u, kClosed) || flags_.Has(cv, kClosed) || !LegalSeam(cand.u, cv, c, t)) continue;
         const uint32_t at = static_cast<uint32_t>(batch.collapses.size());
         c.twin = at + 1;
         t.twin = at;
+        if (matching && (flags_.Has(c.a, kBatchEnd) || flags_.Has(t.a, kBatchEnd))) continue;
         for (uint32_t x : {c.u, c.v, t.u, t.v}) flags_.Set(x, kClosed);
-        for (uint32_t x : seam_neighbours_) flags_.Set(x, kClosed);
+        if (matching) {
+          for (uint32_t x : {c.a, t.a}) flags_.Set(x, kClosed);
+          for (uint32_t x : {c.u, c.v, t.u, t.v}) flags_.Set(x, kBatchEnd);
+          RecordAttributes(c, batch);
+          Apply(c);
+          RecordAttributes(t, batch);
+          Apply(t);
+        } else {
+          for (uint32_t x : seam_neighbours_) flags_.Set(x, kClosed);
+        }
         batch.collapses.push_back(c);
         batch.collapses.push_back(t);
         continue;
@@ -865,7 +907,26 @@ class Simplifier {
       }
       flags_.Set(c.u, kClosed);
       flags_.Set(c.v, kClosed);
-      if (options_.rule == BatchRule::kStrict) {
+      if (matching) {
+        // A wing of a collapse is never an end of another of its batch, nor
+        // the reverse: the split of either then finds its wings and its two
+        // sides the same whichever is applied first (the decoder's order is
+        // the split vertices' ids, not this one).
+        if (flags_.Has(c.a, kBatchEnd) || flags_.Has(c.b, kBatchEnd)) {
+          flags_.Unset(c.u, kClosed);
+          flags_.Unset(c.v, kClosed);
+          continue;
+        }
+        flags_.Set(c.a, kClosed);
+        flags_.Set(c.b, kClosed);
+        flags_.Set(c.u, kBatchEnd);
+        flags_.Set(c.v, kBatchEnd);
+        // Applied at once, so that the next candidate is checked on the
+        // mesh as it is now (its values recorded first: untouched by the
+        // batch's other collapses, which share no vertex with it).
+        RecordAttributes(c, batch);
+        Apply(c);
+      } else if (options_.rule == BatchRule::kStrict) {
         // Close every neighbour too: the produced vertices stay pairwise
         // non-adjacent in the coarser mesh.
         for (uint32_t x : nu_) flags_.Set(x, kClosed);
@@ -879,8 +940,12 @@ class Simplifier {
       }
       batch.collapses.push_back(c);
     }
-    // kPaper applied its collapses one by one above (attributes not recorded).
-    if (options_.rule != BatchRule::kStrict) return batch;
+    // kPaper and kMatching applied their collapses one by one above
+    // (kPaper without recording attributes).
+    if (options_.rule != BatchRule::kStrict) {
+      for (const Collapse& c : batch.collapses) MarkChanged(c.u);
+      return batch;
+    }
     if (batch.collapses.size() < min_collapses) return CollapseBatch();
     // Record attributes before applying anything (collapses are disjoint).
     for (const Collapse& c : batch.collapses) {
@@ -918,6 +983,9 @@ class Simplifier {
   bool candidates_built_ = false;
   bool candidates_differ_ = false;  // check_candidates found a difference
   std::vector<uint32_t> dirty_;    // vertices collapses touched since the list was made
+  // kMatching: the triangles the batch has renamed so far, as they were
+  // before it (FineCorner).
+  std::unordered_map<uint32_t, Face> batch_faces_;
 };
 
 }  // namespace

@@ -52,10 +52,18 @@
 namespace meshstream {
 
 enum class BatchRule {
-  kStrict,  // split vertices pairwise non-adjacent in the coarser mesh (the codec's rule)
-  kPaper,   // only: collapsed edges share no vertex (the paper's minimum). The
-            // progressive codec does not accept hierarchies built with it; it
-            // exists to measure batch sizes against the strict rule.
+  kStrict,    // split vertices pairwise non-adjacent in the coarser mesh (the
+              // loss-tolerant profile's rule)
+  kPaper,     // only: collapsed edges share no vertex (the paper's minimum). The
+              // progressive codec does not accept hierarchies built with it; it
+              // exists to measure batch sizes against the strict rule.
+  kMatching,  // the reliable profile's (format version 4): collapsed edges share
+              // no vertex, each collapse applied at once and checked on the mesh
+              // the earlier ones of its batch left (legal in that order); seams
+              // collapse on both sides together as under kStrict. The decoder
+              // applies a refinement's splits one after the other in split-bit
+              // order, each on the mesh the earlier ones left
+              // (docs/progressive-format.md, "Version 4").
 };
 
 struct SimplifyOptions {
@@ -70,6 +78,9 @@ struct SimplifyOptions {
   double min_batch_share = 0.05;
   uint32_t min_batch_collapses = 16;
   int max_valence = 14;         // of a collapsed vertex
+  // kMatching: a batch takes at most this share of the vertices left (1:
+  // every legal collapse, in order of cost).
+  double max_batch_share = 1.0;
   bool collapse_seams = false;  // collapse seam edges on both sides together (format version 2's seams tool)
   // Tests: before every batch, compare the candidate list kept up to date
   // since the last batch with one evaluated and sorted from scratch, and fail

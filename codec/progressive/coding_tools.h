@@ -36,7 +36,7 @@ constexpr ToolSet kAllTools = kVersion3Tools;
 // The tools a stream of `version` may carry (0 for version 1, and for an
 // unknown version).
 constexpr ToolSet DefinedTools(uint8_t version) {
-  return version == 2 ? kVersion2Tools : version == 3 ? kVersion3Tools : ToolSet{0};
+  return version == 2 ? kVersion2Tools : version == 3 || version == 4 ? kVersion3Tools : ToolSet{0};
 }
 
 // The tools' names, as the CLI's --tools and the --json reports spell them,

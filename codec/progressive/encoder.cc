@@ -176,9 +176,13 @@ StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const Pro
 
 StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, const ProgressiveEncodeOptions& options,
                                                         const BaseMeshEncoder& base_encoder) {
-  if (options.simplify.rule != BatchRule::kStrict) {
-    return InvalidArgument("the progressive codec needs the strict batch rule (docs/codec.md)");
+  if (options.simplify.rule == BatchRule::kPaper) {
+    return InvalidArgument("the progressive codec takes the strict batch rule or the matching rule (docs/codec.md)");
   }
+  // The matching rule's splits are applied one after the other, each on the
+  // mesh the earlier ones of its refinement left (docs/progressive-format.md,
+  // "Version 4"); the strict rule's are independent.
+  const bool sequential = options.simplify.rule == BatchRule::kMatching;
   const AttributeLayout layout = input.layout;
   const QuantizationGrid position_grid = input.position_grid;
   const int ch = layout.channels();
@@ -283,19 +287,36 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
   h.positions = decltype(h.positions)();
   h.attributes = decltype(h.attributes)();
   std::vector<uint32_t> ring;
+  // Sequential replay: per input vertex of the current batch's collapses,
+  // the other end of its collapse (the coarse vertex stands for a removed
+  // end until its split is applied).
+  std::vector<uint32_t> other_end(sequential ? input_vertices : 0, UINT32_MAX);
+  auto id_of = [&](uint32_t x) {
+    uint32_t c = canonical[x];
+    if (c == UINT32_MAX && sequential && other_end[x] != UINT32_MAX) c = canonical[other_end[x]];
+    return c;
+  };
   for (auto batch = h.batches.rbegin(); batch != h.batches.rend(); ++batch) {
     const size_t k = batch->collapses.size();
+    if (sequential) {
+      for (const Collapse& c : batch->collapses) {
+        other_end[c.u] = c.v;
+        other_end[c.v] = c.u;
+      }
+    }
+    // The split vertex of each collapse, fixed before any split of the batch
+    // (a sequential replay renames as it goes).
+    std::vector<uint32_t> split_id(k);
+    for (size_t i = 0; i < k; ++i) split_id[i] = canonical[batch->collapses[i].u];
     std::vector<uint32_t> order(k);
     std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
-      return canonical[batch->collapses[x].u] < canonical[batch->collapses[y].u];
-    });
+    std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return split_id[x] < split_id[y]; });
     Refinement r;
     r.vertices_before = state.connectivity.vertex_count();
     std::vector<uint32_t> created(k);  // the input id that becomes the new vertex of split j
     for (uint32_t i : order) {
       const Collapse& c = batch->collapses[i];
-      const uint32_t w = canonical[c.u];
+      const uint32_t w = split_id[i];
       bool swap = false;  // v keeps w's id (the deltas are then v - u)
       std::array<uint16_t, 2> wings{};
       if (c.b == kNoWing) {
@@ -303,18 +324,18 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
         // fan, with the triangle (w, a, n); the secondary's the head, with
         // (w, n, a). The collapsed triangle's orientation says which end of
         // the edge is which (seam_twins.h).
-        if (c.twin >= k || state.twin[w] != canonical[batch->collapses[c.twin].u]) {
+        if (c.twin >= k || state.twin[w] != split_id[c.twin]) {
           return Internal("replay: a seam split's twin is not the other side's split");
         }
         if (!state.connectivity.OpenRing(w, ring)) return Internal("replay: a seam split vertex is not an open fan");
-        const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
+        const auto pa = std::find(ring.begin(), ring.end(), id_of(c.a));
         if (pa == ring.end()) return Internal("replay: a seam wing is not a neighbour of the split vertex");
         swap = (w < state.twin[w]) == c.uva;
         wings = {static_cast<uint16_t>(pa - ring.begin()), 0};
       } else {
         if (!state.connectivity.CyclicRing(w, ring)) return Internal("replay: a split vertex is not a closed fan");
-        const auto pa = std::find(ring.begin(), ring.end(), canonical[c.a]);
-        const auto pb = std::find(ring.begin(), ring.end(), canonical[c.b]);
+        const auto pa = std::find(ring.begin(), ring.end(), id_of(c.a));
+        const auto pb = std::find(ring.begin(), ring.end(), id_of(c.b));
         if (pa == ring.end() || pb == ring.end()) return Internal("replay: a wing is not a neighbour of the split vertex");
         const size_t d = ring.size();
         const size_t offset = (static_cast<size_t>(pb - pa) + d) % d;
@@ -333,11 +354,21 @@ StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, con
       const std::vector<int32_t>& an = swap ? batch->attr_u : batch->attr_v;
       for (int m = 0; m < ch; ++m) r.attribute_delta.push_back(ak[size_t(i) * ch + m] - an[size_t(i) * ch + m]);
       canonical[keep] = w;
-      created[r.split_vertices.size() - 1] = swap ? c.u : c.v;
+      const size_t j = r.split_vertices.size() - 1;
+      created[j] = swap ? c.u : c.v;
+      if (sequential) {
+        // Applied now: the next split's ring is the mesh this one leaves.
+        MS_RETURN_IF_ERROR(state.ApplySplit(r, j).WithContext("replay"));
+        canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
+      }
     }
-    MS_RETURN_IF_ERROR(state.ApplyRefinement(r).WithContext("replay"));
+    if (sequential) {
+      for (const Collapse& c : batch->collapses) other_end[c.u] = other_end[c.v] = UINT32_MAX;
+    } else {
+      MS_RETURN_IF_ERROR(state.ApplyRefinement(r).WithContext("replay"));
+      for (size_t j = 0; j < k; ++j) canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
+    }
     *batch = CollapseBatch{};  // replayed: its memory is not needed any more
-    for (size_t j = 0; j < k; ++j) canonical[created[j]] = r.vertices_before + static_cast<uint32_t>(j);
     out.mesh.refinements.push_back(std::move(r));
   }
 

@@ -21,6 +21,7 @@ v1::ServerMessage SessionStartMessage(const SessionPlan& plan, const std::vector
   v1::ServerMessage message;
   v1::SessionStart& start = *message.mutable_session();
   start.set_transport(ToProto(transport));
+  start.set_profile(plan.reliable_profile ? v1::PROFILE_RELIABLE : v1::PROFILE_LOSS_TOLERANT);
   start.set_max_datagram_bytes(static_cast<uint32_t>(kMaxDatagramBytes));
   for (const PlannedPrimitive& p : plan.primitives) {
     v1::PrimitiveStart& out = *start.add_primitives();

@@ -31,6 +31,7 @@ Status CheckOpen(const v1::OpenRequest& open) {
   MS_RETURN_IF_ERROR(CheckName("asset", open.asset()));
   if (open.max_level() < -1) return InvalidArgument("max_level: -1 (all) or a level >= 0");
   if (!v1::Transport_IsValid(open.transport())) return InvalidArgument("transport: unknown value");
+  if (!v1::Profile_IsValid(open.profile())) return InvalidArgument("profile: unknown value");
   if (open.has_expected_loss() && !(open.expected_loss() >= 0 && open.expected_loss() <= 1)) {
     return InvalidArgument("expected_loss: a rate in [0, 1]");
   }
@@ -341,18 +342,30 @@ StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& t
   MS_ASSIGN_OR_RETURN(p.hot, artifacts_.Get(sha, p.version.artifact.layout_json, [&] {
     return store_->GetBlob(sha, options_.max_artifact_bytes);
   }));
-  if (open.max_level() < 0) {
-    p.plan = &p.hot->plan;
-  } else {
-    p.cut_plan = std::make_unique<SessionPlan>(CutPlan(p.hot->plan, open.max_level()));
-    p.plan = p.cut_plan.get();
-  }
   SessionSenderOptions options;
-  if (allow_udp && open.transport() != v1::TRANSPORT_GRPC && options_.udp != nullptr) {
+  // The reliable profile has no datagrams: a client that asks for it gets
+  // the stream alone (docs/streaming-protocol.md, "Profiles").
+  const bool wants_reliable = open.profile() == v1::PROFILE_RELIABLE;
+  if (allow_udp && open.transport() != v1::TRANSPORT_GRPC && !wants_reliable && options_.udp != nullptr) {
     auto registered = options_.udp->RegisterSession();
     if (registered.ok()) p.udp = std::move(registered).value();
   }
   options.transport = p.udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
+  // The profile: the reliable one wherever nothing is lost (the stream:
+  // TRANSPORT_GRPC and the WebSocket), the loss-tolerant one over UDP
+  // (every refinement of a UDP session, also those begun on the stream
+  // before the HELLO, is of one profile: the decoder's state is the
+  // profile's), or what the client asked for.
+  const bool reliable =
+      open.profile() == v1::PROFILE_RELIABLE ||
+      (open.profile() == v1::PROFILE_AUTO && options.transport == SessionTransport::kGrpc);
+  const SessionPlan& full = reliable ? p.hot->reliable_plan : p.hot->plan;
+  if (open.max_level() < 0) {
+    p.plan = &full;
+  } else {
+    p.cut_plan = std::make_unique<SessionPlan>(CutPlan(full, open.max_level()));
+    p.plan = p.cut_plan.get();
+  }
   if (p.udp) {
     UdpEndpoint::Session* raw = p.udp.get();
     options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };

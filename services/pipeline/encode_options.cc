@@ -161,6 +161,10 @@ ProgressiveGlbOptions ToGlbOptions(const EncodeSettings& s) {
   o.stream.packing = s.packing == "bundled" ? Packing::kBundled : Packing::kSplit;
   o.stream.packet_bytes = s.packet_bytes;
   o.encode.simplify.base_ratio = s.base_ratio;
+  // One ingest, one job, both profiles in one artifact (format version 4):
+  // UDP sessions send the loss-tolerant one, the stream, the WebSocket and
+  // HTTP ranges the reliable one (docs/pipeline.md).
+  o.profiles = ProfileSet::kBoth;
   return o;
 }
 

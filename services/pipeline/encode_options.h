@@ -87,7 +87,10 @@ std::string EncoderId();
 // 4: the .glb records each level's residual error
 //    (MESHSTREAM_progressive.residual_error), by which a scene's levels and
 //    its sessions' order are made (codec/progressive/scene_levels.h).
-constexpr int kPipelineRevision = 4;
+// 5: format version 4, both profiles in the artifact (MESHSTREAM_progressive's
+//    "reliable" beside its loss-tolerant "bufferView"), the harm estimated
+//    (codec/loss/datagram_harm.h).
+constexpr int kPipelineRevision = 5;
 
 // The artifact cache key: SHA-256 (hex) over an unambiguous serialization
 // (every field length-prefixed) of the tenant (a cache hit must not tell one

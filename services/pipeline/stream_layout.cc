@@ -77,6 +77,10 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
   }
   MS_ASSIGN_OR_RETURN(p.stream_blob, ViewRange(doc, progressive["bufferView"], glb, file,
                                                where + ".extensions." + kProgressiveExtension));
+  if (progressive.contains("reliable")) {
+    MS_ASSIGN_OR_RETURN(p.reliable_blob, ViewRange(doc, progressive["reliable"], glb, file,
+                                                   where + ".extensions." + kProgressiveExtension + ".reliable"));
+  }
   auto parsed = ProgressiveStream::Parse(file + p.stream_blob.offset, static_cast<size_t>(p.stream_blob.length));
   if (!parsed.ok()) return parsed.status().WithContext(where);
   const ProgressiveStream& s = parsed.value();
@@ -103,6 +107,20 @@ StatusOr<PrimitiveLayout> PrimitiveFromFile(const json& doc, const json& prim, c
   auto first = FirstDatagramStream(s);
   if (!first.ok()) return first.status().WithContext(where);
   *datagram_stream = first.value();
+  if (p.has_reliable()) {
+    // The reliable profile's stream of the same hierarchy: same refinements, no datagrams.
+    auto second = ProgressiveStream::Parse(file + p.reliable_blob.offset, static_cast<size_t>(p.reliable_blob.length));
+    if (!second.ok()) return second.status().WithContext(where + ": the reliable profile");
+    auto second_header = second->ParseHeader();
+    if (!second_header.ok()) return second_header.status().WithContext(where + ": the reliable profile");
+    if (!second_header->reliable() || second->datagram_count() != 0) {
+      return InvalidInput(where + ": " + kProgressiveExtension + ".reliable is not a stream of the reliable profile");
+    }
+    if (second_header->split_counts != header->split_counts) {
+      return InvalidInput(where + ": the two profiles' streams have different refinements");
+    }
+    p.reliable_profile_bytes = second->reliable_bytes();
+  }
   return p;
 }
 
@@ -186,6 +204,10 @@ StatusOr<PrimitiveLayout> PrimitiveFromJson(const json& e, const std::string& wh
                       GetU32Array(e, where, "level_vertices", size_t{p.refinements} + 1, kMaxStreamVertices));
   MS_ASSIGN_OR_RETURN(p.reliable_bytes, GetU64(e, where, "reliable_bytes", p.stream_blob.length));
   MS_ASSIGN_OR_RETURN(p.unreliable_bytes, GetU64(e, where, "unreliable_bytes", p.stream_blob.length));
+  if (e.contains("reliable_blob")) {  // optional: layouts before version 4 and files of one profile have none
+    MS_ASSIGN_OR_RETURN(p.reliable_blob, GetRange(e, where, "reliable_blob", file_bytes));
+    MS_ASSIGN_OR_RETURN(p.reliable_profile_bytes, GetU64(e, where, "reliable_profile_bytes", p.reliable_blob.length));
+  }
   if (e.contains("delivery")) {  // optional: layouts stored before the reliable cut have none
     auto delivery = ParseDeliveryRecord(e["delivery"].dump(), p.refinements);
     if (!delivery.ok()) return InvalidInput("stream layout: " + where + ": " + delivery.status().message());
@@ -224,15 +246,17 @@ StatusOr<StreamLayout> ParseChecked(const std::string& text) {
 
 // --- walking the stream blob's framing ------------------------------------
 
-StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const PrimitiveLayout& entry) {
+StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const PrimitiveLayout& entry, bool reliable) {
   auto inside = [size](const ByteRange& r) { return r.offset <= size && r.length <= size - r.offset; };
   if (!inside(entry.base)) return InvalidInput("stream layout: the base mesh lies outside the file");
-  if (!inside(entry.stream_blob)) return InvalidInput("stream layout: the stream blob lies outside the file");
-  const uint8_t* blob = glb + entry.stream_blob.offset;
-  const uint64_t origin = entry.stream_blob.offset;
+  if (reliable && !entry.has_reliable()) return InvalidInput("stream layout: the stream has no reliable profile");
+  const ByteRange& chosen = reliable ? entry.reliable_blob : entry.stream_blob;
+  if (!inside(chosen)) return InvalidInput("stream layout: the stream blob lies outside the file");
+  const uint8_t* blob = glb + chosen.offset;
+  const uint64_t origin = chosen.offset;
   // The framing of docs/progressive-format.md section 2, with the checks of
   // ProgressiveStream::Parse, recording where each block lies.
-  ByteReader r(blob, static_cast<size_t>(entry.stream_blob.length));
+  ByteReader r(blob, static_cast<size_t>(chosen.length));
   static const uint8_t kMagic[4] = {'M', 'S', 'P', 'S'};
   for (uint8_t b : kMagic) {
     MS_ASSIGN_OR_RETURN(uint8_t got, r.U8("stream blob: magic"));
@@ -260,9 +284,10 @@ StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const Prim
     MS_ASSIGN_OR_RETURN(const uint8_t* control, r.Block("stream blob: control block", &length));
     out.control.push_back(range(control, length));
     MS_ASSIGN_OR_RETURN(uint64_t count, r.Varint("stream blob: datagram count", r.remaining() / 2));
-    if (count != entry.datagram_counts[i]) {
+    const uint64_t expected = reliable ? 0 : entry.datagram_counts[i];
+    if (count != expected) {
       return DataLoss("stream layout: refinement " + std::to_string(i) + " has " + std::to_string(count) +
-                      " datagrams, the layout " + std::to_string(entry.datagram_counts[i]));
+                      " datagrams, the layout " + std::to_string(expected));
     }
     out.datagrams.emplace_back();
     out.datagrams.back().reserve(static_cast<size_t>(count));
@@ -353,6 +378,10 @@ std::string StreamLayoutJson(const StreamLayout& layout) {
         {"reliable_bytes", p.reliable_bytes},
         {"unreliable_bytes", p.unreliable_bytes},
     };
+    if (p.has_reliable()) {
+      entry["reliable_blob"] = {{"offset", p.reliable_blob.offset}, {"length", p.reliable_blob.length}};
+      entry["reliable_profile_bytes"] = p.reliable_profile_bytes;
+    }
     if (p.delivery.share > 0 || !p.delivery.ranking.empty()) {
       entry["delivery"] = json::parse(DeliveryRecordJson(p.delivery));
     }
@@ -373,9 +402,10 @@ StatusOr<StreamLayout> ParseStreamLayout(const std::string& text) {
   }
 }
 
-StatusOr<StreamBlocks> LocateStreamBlocks(const uint8_t* glb, size_t size, const PrimitiveLayout& entry) {
+StatusOr<StreamBlocks> LocateStreamBlocks(const uint8_t* glb, size_t size, const PrimitiveLayout& entry,
+                                          bool reliable) {
   try {
-    return LocateChecked(glb, size, entry);
+    return LocateChecked(glb, size, entry, reliable);
   } catch (const std::bad_alloc&) {
     return ResourceExhausted("stream layout: out of memory");
   }

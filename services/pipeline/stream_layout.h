@@ -41,6 +41,13 @@ struct PrimitiveLayout {
   uint32_t stream = 0;     // the stream number in its datagram headers
   ByteRange base;          // the base mesh's Draco bytes (KHR_draco_mesh_compression)
   ByteRange stream_blob;   // the MSPS ProgressiveStream blob (MESHSTREAM_progressive)
+  // The reliable profile's blob beside it (MESHSTREAM_progressive's
+  // "reliable", format version 4): the same refinements and split counts, no
+  // datagrams. Length 0: the file has none (a file of one profile, or an
+  // artifact stored before version 4); then stream_blob is the only one.
+  ByteRange reliable_blob;
+  uint64_t reliable_profile_bytes = 0;  // its header and control blocks
+  bool has_reliable() const { return reliable_blob.length > 0; }
   QuantizationParams quantization;
   Packing packing = Packing::kSplit;
   uint32_t refinements = 0;
@@ -90,10 +97,13 @@ struct StreamBlocks {
 };
 
 // Parses only the MSPS framing of `entry`'s blob (no mesh, no header
-// decoding) and returns where every block lies. InvalidInput when the ranges
-// leave the file or the blob is malformed; DataLoss when the blob's counts
-// differ from the layout's (the layout belongs to another artifact).
-StatusOr<StreamBlocks> LocateStreamBlocks(const uint8_t* glb, size_t size, const PrimitiveLayout& entry);
+// decoding) and returns where every block lies: of its reliable profile's
+// blob with `reliable` (which the entry must have; it has no datagrams),
+// else of stream_blob. InvalidInput when the ranges leave the file or the
+// blob is malformed; DataLoss when the blob's counts differ from the
+// layout's (the layout belongs to another artifact).
+StatusOr<StreamBlocks> LocateStreamBlocks(const uint8_t* glb, size_t size, const PrimitiveLayout& entry,
+                                          bool reliable = false);
 
 }  // namespace meshstream
 

@@ -31,11 +31,12 @@ StatusOr<std::shared_ptr<HotArtifact>> MakeHotArtifact(const std::string& sha256
   hot->layout_json = layout_json;
   hot->bytes = std::move(bytes);
   MS_ASSIGN_OR_RETURN(hot->plan, PlanSession(hot->bytes, layout_json, -1));
+  MS_ASSIGN_OR_RETURN(hot->reliable_plan, PlanSession(hot->bytes, layout_json, -1, /*reliable=*/true));
   std::vector<std::pair<uint32_t, uint32_t>> refined;
   for (const PlannedPrimitive& p : hot->plan.primitives) refined.emplace_back(p.mesh, p.mesh_primitive);
   MS_ASSIGN_OR_RETURN(hot->scene, MakeSessionScene(hot->bytes, refined));
   hot->cost_bytes = sizeof(HotArtifact) + hot->sha256.size() + hot->layout_json.size() + hot->bytes.size() +
-                    hot->scene.size() + PlanBytes(hot->plan);
+                    hot->scene.size() + PlanBytes(hot->plan) + PlanBytes(hot->reliable_plan);
   return hot;
 }
 

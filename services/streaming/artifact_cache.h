@@ -44,7 +44,8 @@ struct HotArtifact {
   std::string sha256;
   std::string layout_json;       // what `plan` was made from
   std::vector<uint8_t> bytes;    // the stored progressive .glb, as the store's checked read gave it
-  SessionPlan plan;              // every refinement (max_level -1)
+  SessionPlan plan;              // every refinement (max_level -1), the loss-tolerant profile's streams
+  SessionPlan reliable_plan;     // the same of the reliable profile's, where the artifact has them
   std::vector<uint8_t> scene;    // SessionStart.scene_glb (MakeSessionScene)
   uint64_t cost_bytes = 0;       // what it counts against the cache's bound
 };

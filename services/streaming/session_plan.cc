@@ -60,7 +60,7 @@ std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss) {
 }
 
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
-                                  int32_t max_level) {
+                                  int32_t max_level, bool reliable) {
   auto layout = ParseStreamLayout(layout_json);
   if (!layout.ok()) return DataLoss("the version's stream layout: " + layout.status().message());
   if (layout->file_bytes != artifact.size()) {
@@ -68,10 +68,13 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
                     " bytes, the artifact has " + std::to_string(artifact.size()));
   }
   SessionPlan plan;
+  plan.reliable_profile = reliable && !layout->primitives.empty();
   std::vector<StreamBlocks> blocks;
   const nlohmann::json doc = layout->primitives.empty() ? nlohmann::json() : GlbJson(artifact);
   for (const PrimitiveLayout& entry : layout->primitives) {
-    auto located = LocateStreamBlocks(artifact.data(), artifact.size(), entry);
+    const bool second = reliable && entry.has_reliable();
+    plan.reliable_profile = plan.reliable_profile && second;
+    auto located = LocateStreamBlocks(artifact.data(), artifact.size(), entry, second);
     if (!located.ok()) return located.status().WithContext("stream " + std::to_string(entry.stream));
     PlannedPrimitive p;
     p.stream = entry.stream;
@@ -83,12 +86,12 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
     if (!attributes.ok()) return attributes.status();
     p.draco_attributes = std::move(attributes).value();
-    p.delivery = entry.delivery;
+    if (!second) p.delivery = entry.delivery;  // the reliable profile has nothing to deliver
     p.refinement_bytes.assign(located->datagrams.size(), 0);
     for (size_t i = 0; i < located->datagrams.size(); ++i) {
       for (const ByteRange& d : located->datagrams[i]) p.refinement_bytes[i] += d.length;
     }
-    p.stream_bytes = p.base.length + entry.reliable_bytes + entry.unreliable_bytes;
+    p.stream_bytes = p.base.length + (second ? entry.reliable_profile_bytes : entry.reliable_bytes + entry.unreliable_bytes);
     plan.reliable_bytes += p.header.length + p.base.length;
     plan.primitives.push_back(p);
     blocks.push_back(std::move(located).value());
@@ -122,6 +125,7 @@ SessionPlan CutPlan(const SessionPlan& full, int32_t max_level) {
   const uint32_t cut = std::min(static_cast<uint32_t>(max_level), full.levels);
   SessionPlan plan;
   plan.primitives = full.primitives;
+  plan.reliable_profile = full.reliable_profile;
   plan.levels = cut;
   for (PlannedPrimitive& p : plan.primitives) {
     p.level_refinements.resize(std::min<size_t>(cut, p.level_refinements.size()));

@@ -61,14 +61,17 @@ struct PlannedRefinement {
 
 struct SessionPlan {
   std::vector<PlannedPrimitive> primitives;
+  bool reliable_profile = false;  // every primitive's stream is of the reliable profile
   std::vector<PlannedRefinement> refinements;  // in sending order
   uint64_t reliable_bytes = 0;    // headers, base meshes and control blocks
   uint64_t unreliable_bytes = 0;  // datagrams
   uint32_t levels = 0;            // the scene's levels in this session
 };
 
+// `reliable`: of each primitive its reliable profile's stream when the
+// artifact has one (stream_layout.h: no datagrams), else its loss-tolerant one.
 StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const std::string& layout_json,
-                                  int32_t max_level);
+                                  int32_t max_level, bool reliable = false);
 
 // The plan of a session with `max_level` from `full`, the plan of every
 // refinement (PlanSession with -1): the same as PlanSession with `max_level`,

@@ -23,14 +23,23 @@ namespace meshstream::test_util {
 
 inline std::string VectorPath(const std::string& name) { return SourcePath("tests/data/vector/" + name); }
 
-// The options of regenerate.sh: --qp 8 --levels 1 --packing bundled --packet-bytes 1200 --cl 7.
+// The options of regenerate.sh: --qp 8 --levels 1 --profile loss-tolerant
+// --packing bundled --packet-bytes 1200 --cl 7 (octahedron-qp8-bundled);
+// ReliableVectorOptions: --profile reliable (octahedron-qp8-reliable).
 inline ProgressiveGlbOptions VectorOptions() {
   ProgressiveGlbOptions o;
+  o.profiles = ProfileSet::kLossTolerant;
   o.encode.quantization.qp = 8;
   o.encode.simplify.max_levels = 1;
   o.stream.packing = Packing::kBundled;
   o.stream.packet_bytes = 1200;
   o.draco_compression_level = 7;
+  return o;
+}
+
+inline ProgressiveGlbOptions ReliableVectorOptions() {
+  ProgressiveGlbOptions o = VectorOptions();
+  o.profiles = ProfileSet::kReliable;
   return o;
 }
 

@@ -103,7 +103,10 @@ TEST(SdkSession, PollsToTheFullMeshLevelByLevel) {
       for (size_t k = 1; k < level_events.size(); ++k) EXPECT_GT(level_events[k], level_events[k - 1]);
       EXPECT_EQ(level_events.back(), levels);
       EXPECT_EQ((*session)->stats().transport, "grpc");
-      EXPECT_GT((*session)->stats().datagrams_received, 0u);
+      // Over the stream alone: the reliable profile, which has no datagrams.
+      EXPECT_EQ((*session)->stats().profile, "reliable");
+      EXPECT_EQ((*session)->stats().datagrams_received, 0u);
+      EXPECT_GT((*session)->stats().reliable_bytes, 0u);
       EXPECT_EQ((*session)->stats().datagrams_rejected, 0u);
 
       // The final meshes are what decoding the stored file gives.

@@ -89,11 +89,15 @@ std::vector<std::shared_ptr<grpc::Channel>> Channels(const std::string& address,
   return out;
 }
 
+// The loss-tolerant profile's streams, also over gRPC: the reliable one's
+// (what a gRPC session gets by default) is small enough to fit the socket
+// buffers whole, and a session that is meant to stall would finish.
 v1::ClientMessage OpenMessage(const std::string& asset, v1::Transport transport) {
   v1::ClientMessage m;
   m.mutable_open()->set_asset(asset);
   m.mutable_open()->set_max_level(-1);
   m.mutable_open()->set_transport(transport);
+  m.mutable_open()->set_profile(v1::PROFILE_LOSS_TOLERANT);
   return m;
 }
 

@@ -53,7 +53,7 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
                      v1::Transport transport = v1::TRANSPORT_GRPC, bool repair = false,
                      const std::function<void(grpc::ClientReaderWriter<v1::ClientMessage, v1::ServerMessage>*)>&
                          after_end = nullptr,
-                     std::vector<v1::RepairEnd>* repair_ends = nullptr) {
+                     std::vector<v1::RepairEnd>* repair_ends = nullptr, v1::Profile profile = v1::PROFILE_AUTO) {
   auto stub = v1::StreamService::NewStub(channel);
   grpc::ClientContext context;
   if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
@@ -65,6 +65,7 @@ Received OpenSession(const std::shared_ptr<grpc::Channel>& channel, const std::s
   open.mutable_open()->set_max_level(max_level);
   open.mutable_open()->set_transport(transport);
   open.mutable_open()->set_repair(repair);
+  open.mutable_open()->set_profile(profile);
   Received r;
   const auto begin = std::chrono::steady_clock::now();
   stream->Write(open);
@@ -140,8 +141,15 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     auto layout = ComputeStreamLayout(exported.bytes.data(), exported.bytes.size());
     ASSERT_TRUE(layout.ok()) << layout.status().ToString();
 
-    const Received got = OpenSession(client->channel(), "m", 0, -1);
+    // Over the stream alone the session sends the reliable profile's
+    // streams (no datagrams), or the loss-tolerant ones when asked: each
+    // byte for byte as stored (docs/streaming-protocol.md, "Profiles").
+    for (const v1::Profile asked : {v1::PROFILE_AUTO, v1::PROFILE_LOSS_TOLERANT}) {
+    SCOPED_TRACE(v1::Profile_Name(asked));
+    const bool reliable = asked == v1::PROFILE_AUTO;
+    const Received got = OpenSession(client->channel(), "m", 0, -1, "", v1::TRANSPORT_GRPC, false, nullptr, nullptr, asked);
     ASSERT_TRUE(got.status.ok()) << got.status.error_message();
+    EXPECT_EQ(got.start.profile(), reliable ? v1::PROFILE_RELIABLE : v1::PROFILE_LOSS_TOLERANT);
     EXPECT_EQ(got.start.version(), r.version());
     EXPECT_EQ(got.start.transport(), v1::TRANSPORT_GRPC) << "the client asked for gRPC";
     EXPECT_EQ(got.start.udp_session_id(), 0u);
@@ -155,8 +163,14 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     for (int i = 0; i < got.start.primitives_size(); ++i) {
       const v1::PrimitiveStart& p = got.start.primitives(i);
       const PrimitiveLayout& entry = layout->primitives[static_cast<size_t>(i)];
-      auto stream = ProgressiveStream::Parse(exported.bytes.data() + entry.stream_blob.offset, entry.stream_blob.length);
+      ASSERT_TRUE(entry.has_reliable()) << "the artifact carries both profiles";
+      const ByteRange& blob = reliable ? entry.reliable_blob : entry.stream_blob;
+      auto stream = ProgressiveStream::Parse(exported.bytes.data() + blob.offset, blob.length);
       ASSERT_TRUE(stream.ok());
+      auto header = stream->ParseHeader();
+      ASSERT_TRUE(header.ok());
+      EXPECT_EQ(header->reliable(), reliable);
+      if (reliable) EXPECT_EQ(stream->datagram_count(), 0u);
       EXPECT_EQ(p.primitive(), entry.stream);
       EXPECT_EQ(p.header(), AsString(stream->header));
       EXPECT_EQ(p.base_mesh(), std::string(reinterpret_cast<const char*>(exported.bytes.data() + entry.base.offset),
@@ -172,7 +186,9 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
         // The stored datagrams, then the END datagram the sender makes.
         ASSERT_EQ(datagrams.size(), stream->datagrams[k].size() + 1);
         for (size_t d = 0; d + 1 < datagrams.size(); ++d) EXPECT_EQ(datagrams[d], AsString(stream->datagrams[k][d]));
-        EXPECT_EQ(datagrams.back(), AsString(MakeEndDatagram(p.primitive(), k, static_cast<uint32_t>(stream->datagrams[k].size()))));
+        EXPECT_EQ(datagrams.back(), AsString(MakeStreamEndDatagram(stream->header.data(), stream->header.size(),
+                                                                   p.primitive(), k,
+                                                                   static_cast<uint32_t>(stream->datagrams[k].size()))));
         ++refinements;
       }
     }
@@ -204,6 +220,7 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
       EXPECT_LE(p.level_refinements_size(), 2);
     }
     for (const auto& [key, control] : two.control) EXPECT_LT(key.second, at_two[key.first]);
+    }
   }
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
@@ -295,10 +312,13 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
       for (int i = 0; i < times; ++i) stream->Write(m);
     };
   };
+  // The repair asks for datagrams: the loss-tolerant profile's (the
+  // reliable one, what a gRPC-only session gets by default, has none).
+  constexpr v1::Profile kLossTolerant = v1::PROFILE_LOSS_TOLERANT;
   // Datagram 1 of refinement 3 and 0 of refinement 12, the first asked twice: each sent once.
   std::vector<v1::RepairEnd> ends;
   const Received repaired = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
-                                        ask({{3, {1, 1}}, {12, {0}}}, 1), &ends);
+                                        ask({{3, {1, 1}}, {12, {0}}}, 1), &ends, kLossTolerant);
   ASSERT_TRUE(repaired.status.ok()) << repaired.status.error_message();
   ASSERT_EQ(ends.size(), 1u);
   EXPECT_EQ(ends[0].datagrams(), 2u);
@@ -310,21 +330,21 @@ TEST(StreamSession, RepairSendsWhatIsAskedOnceAndRefusesWhatDoesNotFit) {
 
   // What does not fit the session: INVALID_ARGUMENT, nothing sent.
   const Received beyond = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
-                                      ask({{3, {999}}}, 1));
+                                      ask({{3, {999}}}, 1), nullptr, kLossTolerant);
   EXPECT_EQ(beyond.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(beyond.status.error_message().find("datagram 999"), std::string::npos) << beyond.status.error_message();
   EXPECT_EQ(beyond.datagrams.count({UINT32_MAX, 0}), 0u);
   const Received unknown = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
-                                       ask({{200, {0}}}, 1));
+                                       ask({{200, {0}}}, 1), nullptr, kLossTolerant);
   EXPECT_EQ(unknown.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   std::vector<v1::RepairEnd> twice_ends;
   const Received twice = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, true,
-                                     ask({{3, {0}}}, 2), &twice_ends);
+                                     ask({{3, {0}}}, 2), &twice_ends, kLossTolerant);
   EXPECT_TRUE(twice.status.ok()) << twice.status.error_message();
   EXPECT_EQ(twice_ends.size(), 1u) << "once per session: the second request is never read";
   EXPECT_EQ(twice.datagrams.at({UINT32_MAX, 0}).size(), 1u);
   const Received unasked = OpenSession(client->channel(), "spot", 0, -1, "", v1::TRANSPORT_GRPC, false,
-                                       ask({{3, {0}}}, 1));
+                                       ask({{3, {0}}}, 1), nullptr, kLossTolerant);
   EXPECT_EQ(unasked.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "a session opened without repair";
   EXPECT_EQ((*server)->Terminate(), 0);
 }

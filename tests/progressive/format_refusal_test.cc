@@ -57,10 +57,10 @@ std::string HeaderError(const Bytes& header) {
   return s.ok() ? "accepted" : s.message();
 }
 
-// Header offsets of the vector (version 3: two tool bytes; positions only,
-// one-byte varints).
-constexpr size_t kPacking = 1, kTools = 2, kQp = 4, kOrigin = 8, kRange = 20, kHasNormals = 24, kSets = 25,
-                 kHasColors = 26, kBaseMethod = 29, kSplitCount = 31, kPositionFix = 32;
+// Header offsets of the vector (version 4: the profile byte, two tool
+// bytes; positions only, one-byte varints).
+constexpr size_t kPacking = 1, kProfile = 2, kTools = 3, kQp = 5, kOrigin = 9, kRange = 21, kHasNormals = 25,
+                 kSets = 26, kHasColors = 27, kBaseMethod = 30, kSplitCount = 32, kPositionFix = 33;
 
 Bytes Patched(Bytes b, size_t at, uint8_t value) {
   b.at(at) = value;
@@ -78,13 +78,27 @@ TEST(FormatRefusal, TheVectorIsTheBlobStoredInTestData) {
 
 TEST(FormatRefusal, StreamHeaderFields) {
   const Bytes& h = TheVector().stream.header;
-  EXPECT_EQ(HeaderError(Patched(h, 0, 4)), "stream header: version 4 is not 1, 2 or 3");
-  EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1, 2 or 3");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 5)), "stream header: version 5 is not 1, 2, 3 or 4");
+  EXPECT_EQ(HeaderError(Patched(h, 0, 0)), "stream header: version 0 is not 1, 2, 3 or 4");
+  // The profile byte (version 4): 0 loss-tolerant, 1 reliable, the rest reserved.
+  EXPECT_EQ(h[kProfile], 0);
+  EXPECT_EQ(HeaderError(Patched(h, kProfile, 2)), "stream header: profile 2 is reserved");
+  EXPECT_EQ(HeaderError(Patched(h, kProfile, 255)), "stream header: profile 255 is reserved");
+  // The vector is bundled: the reliable profile has no datagrams, its packing is 0.
+  EXPECT_EQ(HeaderError(Patched(h, kProfile, 1)), "stream header: packing 1 in the reliable profile (must be 0)");
+  // ... and codes split bits and models its own way: tool bits 6 and 7 are refused.
+  EXPECT_EQ(HeaderError(Patched(Patched(h, kProfile, 1), kPacking, 0)),
+            "stream header: tools 463: bits 6 and 7 are the loss-tolerant profile's");
+  EXPECT_EQ(HeaderError(Patched(Patched(Patched(h, kProfile, 1), kPacking, 0), kTools, 0x0F)), "accepted");
+  // Version 3 is version 4's loss-tolerant profile without the profile byte.
+  Bytes v3 = Patched(h, 0, 3);
+  v3.erase(v3.begin() + kProfile);
+  EXPECT_EQ(HeaderError(v3), "accepted");
   // Tools: two bytes, little-endian; bits 9-15 reserved.
   EXPECT_EQ(h[kTools], 0xCF);
   EXPECT_EQ(h[kTools + 1], 0x01);
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x03)), "stream header: tools 975 has bits set that version 3 reserves");
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x81)), "stream header: tools 33231 has bits set that version 3 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x03)), "stream header: tools 975 has bits set that version 4 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x81)), "stream header: tools 33231 has bits set that version 4 reserves");
   // Bit 8 (the ring predictor) needs bits 0 and 1; without bit 8 the header is version 3 as stop 34 wrote it.
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCE)),
             "stream header: tools 462: the predictor tool needs the geometry and frame tools");
@@ -96,12 +110,13 @@ TEST(FormatRefusal, StreamHeaderFields) {
                                                        std::to_string(h.size()));
   // Bit 4 without texture coordinates or colours is accepted (it predicts nothing).
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0xDF)), "accepted");
-  // Bits 6 and 7 are version 3's: a version 2 header (one tool byte) refuses them.
+  // Bits 6 and 7 are version 3's: a version 2 header (one tool byte, no profile byte) refuses them.
   Bytes v2 = Patched(h, 0, 2);
   v2.erase(v2.begin() + kTools + 1);
+  v2.erase(v2.begin() + kProfile);
   EXPECT_EQ(HeaderError(v2), "stream header: tools 207 has bits set that version 2 reserves");
-  EXPECT_EQ(HeaderError(Patched(v2, kTools, 0x8F)), "stream header: tools 143 has bits set that version 2 reserves");
-  EXPECT_EQ(HeaderError(Patched(v2, kTools, 0x0F)), "accepted");
+  EXPECT_EQ(HeaderError(Patched(v2, kTools - 1, 0x8F)), "stream header: tools 143 has bits set that version 2 reserves");
+  EXPECT_EQ(HeaderError(Patched(v2, kTools - 1, 0x0F)), "accepted");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 2)), "stream header: packing 2 is reserved");
   EXPECT_EQ(HeaderError(Patched(h, kPacking, 255)), "stream header: packing 255 is reserved");
   const char* names[4] = {"qp", "qn", "qt", "qc"};
@@ -170,8 +185,8 @@ TEST(FormatRefusal, StreamBlob) {
   };
   EXPECT_EQ(error(blob), "accepted");
   EXPECT_EQ(error(Patched(blob, 0, 'X')), "stream blob: magic is not MSPS (not a meshstream progressive stream)");
-  EXPECT_EQ(error(Patched(blob, 4, 4)), "stream blob: version 4 is not 1, 2 or 3");
-  EXPECT_EQ(error(Patched(blob, 4, 2)), "stream blob: version 2 differs from its header's 3");
+  EXPECT_EQ(error(Patched(blob, 4, 5)), "stream blob: version 5 is not 1, 2, 3 or 4");
+  EXPECT_EQ(error(Patched(blob, 4, 2)), "stream blob: version 2 differs from its header's 4");
   Bytes stray = blob;
   stray.push_back(0);
   EXPECT_EQ(error(stray), "stream blob: 1 stray bytes after the last refinement");
@@ -346,12 +361,12 @@ std::string DatagramError(const Bytes& d) {
 
 TEST(FormatRefusal, DatagramHeader) {
   const Bytes& d = TheVector().stream.datagrams[0][0];
-  // 4D 03 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
-  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 3, 0, 0, 0, 1, 0, 3}));
+  // 4D 04 00 | stream 0 | refinement 0 | stride 1 | offset 0 | count 3 | payload.
+  ASSERT_EQ(Bytes(d.begin(), d.begin() + 8), (Bytes{0x4D, 4, 0, 0, 0, 1, 0, 3}));
   EXPECT_EQ(DatagramError(d), "accepted");
   EXPECT_EQ(DatagramError(Patched(d, 0, 0x4E)), "datagram: magic 78 is not 0x4D");
-  EXPECT_EQ(DatagramError(Patched(d, 1, 4)), "datagram: version 4 is not 1, 2 or 3");
-  EXPECT_EQ(DatagramError(Patched(d, 1, 0)), "datagram: version 0 is not 1, 2 or 3");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 5)), "datagram: version 5 is not 1, 2, 3 or 4");
+  EXPECT_EQ(DatagramError(Patched(d, 1, 0)), "datagram: version 0 is not 1, 2, 3 or 4");
   // Kind 4 is a parity datagram (section 6.1): this header's rows, row and
   // count do not make one.
   EXPECT_EQ(DatagramError(Patched(d, 2, 4)), "datagram: parity of 3 members in 1 rows (1 to rows - 1)");
@@ -410,15 +425,20 @@ TEST(FormatRefusal, ExtensionJson) {
   };
   const std::string where = "meshes[0].primitives[0]: MESHSTREAM_progressive.";
   EXPECT_EQ(with([](nlohmann::json& e) { e["extras"] = {{"note", 1}}; }), "accepted");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 4; }), where + "version 4 is not 1, 2 or 3");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1, 2 or 3");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "3"; }), where + "version \"3\" is not 1, 2 or 3");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1, 2 or 3");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 5; }), where + "version 5 is not 1, 2, 3 or 4");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 0; }), where + "version 0 is not 1, 2, 3 or 4");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = "4"; }), where + "version \"4\" is not 1, 2, 3 or 4");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["version"] = 1.5; }), where + "version 1.5 is not 1, 2, 3 or 4");
+  // "reliable" (version 4): a bufferView index naming the reliable profile's stream.
+  EXPECT_EQ(with([](nlohmann::json& e) { e["reliable"] = "x"; }), where + "reliable is not an unsigned integer");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["reliable"] = 999; }), where + "reliable does not exist");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["reliable"] = e["bufferView"]; }),
+            where + "reliable names a stream of the loss-tolerant profile");
   // The extension's version must be the stream's.
   EXPECT_NE(with([](nlohmann::json& e) { e["version"] = 2; }).find("differ"), std::string::npos);
   EXPECT_EQ(with([](nlohmann::json& e) { e.erase("version"); }), where + "version is missing");
   EXPECT_EQ(with([](nlohmann::json& e) { e["bufferView"] = -1; }), where + "bufferView is missing or not an unsigned integer");
-  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 3");
+  EXPECT_EQ(with([](nlohmann::json& e) { e["levels"] = 3; }), where + "levels is not defined by version 4");
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "codec/bitstream/format.h"
 #include "codec/progressive/split_bit_contexts.h"
+#include "codec/progressive/split_bits_connected.h"
 #include "tests/common/test_vector.h"
 
 namespace meshstream {
@@ -15,37 +16,51 @@ namespace {
 using test_util::BlobOf;
 using test_util::VectorPath;
 
+// One vector per profile of version 4: the encoder still writes exactly the
+// stored bytes.
 TEST(TestVector, TheEncoderStillWritesTheStoredBytes) {
-  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.glb"));
-  const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
-  ASSERT_EQ(blob.size(), 90u);
   auto scene = ImportFile(VectorPath("octahedron.obj"));
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
-  auto glb = EncodeProgressiveGlb(scene.value(), test_util::VectorOptions(), nullptr);
-  ASSERT_TRUE(glb.ok()) << glb.status().ToString();
-  EXPECT_EQ(glb.value(), stored);
-  EXPECT_EQ(BlobOf(glb.value()), blob);
+  struct Case {
+    const char* name;
+    ProgressiveGlbOptions options;
+    size_t blob_bytes;
+  };
+  for (const Case& c : {Case{"octahedron-qp8-bundled", test_util::VectorOptions(), 91},
+                        Case{"octahedron-qp8-reliable", test_util::ReliableVectorOptions(), 77}}) {
+    SCOPED_TRACE(c.name);
+    const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath(std::string(c.name) + ".glb"));
+    const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath(std::string(c.name) + ".msps"));
+    ASSERT_EQ(blob.size(), c.blob_bytes);
+    auto glb = EncodeProgressiveGlb(scene.value(), c.options, nullptr);
+    ASSERT_TRUE(glb.ok()) << glb.status().ToString();
+    EXPECT_EQ(glb.value(), stored);
+    EXPECT_EQ(BlobOf(glb.value()), blob);
+  }
 }
 
-// Version 2 is still written on request (--format-version 2), byte for byte
-// as when it was the current version.
-TEST(TestVector, VersionTwoIsStillWrittenByteForByte) {
-  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled-v2.glb"));
+// Versions 3 and 2 are still written on request (--format-version 3, 2),
+// byte for byte as when each was the current version.
+TEST(TestVector, VersionsThreeAndTwoAreStillWrittenByteForByte) {
   auto scene = ImportFile(VectorPath("octahedron.obj"));
   ASSERT_TRUE(scene.ok()) << scene.status().ToString();
-  ProgressiveGlbOptions options = test_util::VectorOptions();
-  options.stream.version = 2;
-  auto glb = EncodeProgressiveGlb(scene.value(), options, nullptr);
-  ASSERT_TRUE(glb.ok()) << glb.status().ToString();
-  EXPECT_EQ(glb.value(), stored);
-  EXPECT_EQ(BlobOf(glb.value()), test_util::ReadBytes(VectorPath("octahedron-qp8-bundled-v2.msps")));
+  for (int version : {3, 2}) {
+    SCOPED_TRACE("version " + std::to_string(version));
+    const std::string name = "octahedron-qp8-bundled-v" + std::to_string(version);
+    ProgressiveGlbOptions options = test_util::VectorOptions();
+    options.stream.version = static_cast<uint8_t>(version);
+    auto glb = EncodeProgressiveGlb(scene.value(), options, nullptr);
+    ASSERT_TRUE(glb.ok()) << glb.status().ToString();
+    EXPECT_EQ(glb.value(), test_util::ReadBytes(VectorPath(name + ".glb")));
+    EXPECT_EQ(BlobOf(glb.value()), test_util::ReadBytes(VectorPath(name + ".msps")));
+  }
 }
 
 TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-bundled.msps"));
   auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
   ASSERT_TRUE(stream.ok()) << stream.status().ToString();
-  EXPECT_EQ(stream->header.size(), 44u);
+  EXPECT_EQ(stream->header.size(), 45u);
   ASSERT_EQ(stream->control.size(), 1u);
   EXPECT_EQ(stream->control[0].size(), 17u);
   ASSERT_EQ(stream->datagrams[0].size(), 1u);
@@ -53,7 +68,8 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
   ASSERT_TRUE(header.ok()) << header.status().ToString();
   EXPECT_EQ(header->packing, Packing::kBundled);
-  EXPECT_EQ(header->version, 3);
+  EXPECT_EQ(header->version, 4);
+  EXPECT_EQ(header->profile, Profile::kLossTolerant);
   // No texture coordinates or colours, no seams.
   EXPECT_EQ(header->tools, kAllTools & ~kToolTexcoordPrediction & ~kToolSeams);
   EXPECT_EQ(header->quantization.qp, 8);
@@ -65,6 +81,56 @@ TEST(TestVector, TheStreamBlobHasTheDocumentedFields) {
   EXPECT_EQ(header->split_counts, std::vector<uint32_t>{3});
   ASSERT_TRUE(header->DecodeFixups().ok());
   EXPECT_EQ(header->base_position_fix, std::vector<int32_t>(45, 0));
+}
+
+// The reliable profile's vector (section 9, "The reliable profile's vector").
+TEST(TestVector, TheReliableVectorHasTheDocumentedFields) {
+  const std::vector<uint8_t> blob = test_util::ReadBytes(VectorPath("octahedron-qp8-reliable.msps"));
+  auto stream = ProgressiveStream::Parse(blob.data(), blob.size());
+  ASSERT_TRUE(stream.ok()) << stream.status().ToString();
+  EXPECT_EQ(stream->header.size(), 45u);
+  ASSERT_EQ(stream->control.size(), 1u);
+  EXPECT_EQ(stream->control[0].size(), 23u);
+  ASSERT_EQ(stream->datagrams[0].size(), 0u) << "no datagrams";
+  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+  ASSERT_TRUE(header.ok()) << header.status().ToString();
+  EXPECT_EQ(header->version, 4);
+  EXPECT_EQ(header->profile, Profile::kReliable);
+  EXPECT_EQ(header->packing, Packing::kSplit) << "the byte is 0";
+  EXPECT_EQ(header->tools, kToolGeometryPrediction | kToolLocalFrame | kToolWingRank | kToolAttributePrediction |
+                               kToolRingPredictor);
+  // The control block: split bits (a 5-byte block), the predictor record 0,
+  // then the 16-byte payload of the three splits.
+  const std::vector<uint8_t>& c = stream->control[0];
+  EXPECT_EQ(c[0], 5);
+  EXPECT_EQ(c[6], 0);
+  EXPECT_EQ(c.size() - 7, 16u);
+}
+
+// The reliable profile's split bits (section 11), in the contexts the spec
+// lists for the vector: from the base's connectivity as the decoder has it.
+TEST(TestVector, ReliableSplitBitContextsAreTheDocumentedOnes) {
+  const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath("octahedron-qp8-reliable.glb"));
+  ProgressiveDecodeOptions options;
+  options.lod = 0;
+  auto scene = DecodeProgressiveGlb(stored, options, nullptr);
+  ASSERT_TRUE(scene.ok()) << scene.status().ToString();
+  const Primitive& base = scene->meshes[0].primitives[0];
+  SplitConnectivity mesh;
+  ASSERT_TRUE(mesh.Reset(static_cast<uint32_t>(base.vertex_count()), base.indices).ok());
+  ConnectedSplitBits coder;
+  coder.Reset(mesh);
+  std::vector<uint8_t> bits(15, 0);
+  bits[1] = bits[8] = bits[11] = 1;
+  EXPECT_EQ(coder.Contexts(bits, mesh, nullptr),
+            (std::vector<int>{6, 7, 15, 15, 16, 15, 16, 7, 7, 15, 6, 7, 15, 15, 25}));
+  const std::vector<uint8_t> block = coder.Encode(bits, mesh, nullptr);
+  EXPECT_EQ(block, (std::vector<uint8_t>{0x40, 0x9F, 0x24, 0x2B, 0xE4}));
+  ConnectedSplitBits fresh;
+  fresh.Reset(mesh);
+  auto decoded = fresh.Decode(block.data(), block.size(), mesh, nullptr);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  EXPECT_EQ(decoded->bits, bits);
 }
 
 // The split bits' contexts the spec lists (section 9, "The split bits'
@@ -86,10 +152,11 @@ TEST(TestVector, SplitBitContextsAreTheDocumentedOnes) {
   EXPECT_EQ(contexts.Encode(bits), (std::vector<uint8_t>{0x42, 0xC2, 0x2A, 0xF1, 0xD1}));
 }
 
-// The vector of version 3 and those of versions 2 and 1 (which a version 3
-// decoder still reads) give the same mesh.
+// The vectors of version 4 (both profiles) and those of versions 3, 2 and 1
+// (which a version 4 decoder still reads) give the same mesh.
 TEST(TestVector, DecodesToTheDocumentedMesh) {
-  for (const char* file : {"octahedron-qp8-bundled.glb", "octahedron-qp8-bundled-v2.glb", "octahedron-qp8-bundled-v1.glb"}) {
+  for (const char* file : {"octahedron-qp8-bundled.glb", "octahedron-qp8-reliable.glb", "octahedron-qp8-bundled-v3.glb",
+                           "octahedron-qp8-bundled-v2.glb", "octahedron-qp8-bundled-v1.glb"}) {
   SCOPED_TRACE(file);
   const std::vector<uint8_t> stored = test_util::ReadBytes(VectorPath(file));
   for (int lod : {0, 1}) {

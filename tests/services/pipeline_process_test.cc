@@ -113,8 +113,9 @@ TEST(PipelineProcess, FiguresAreWhatTheEncoderReports) {
   }
 }
 
-// The reference: `meshstream encode --json` with the same flags
-// (services_tests depends on the CLI's target, so it is always built).
+// The reference: `meshstream encode --json` with the same flags and both
+// profiles, as the server stores them (services_tests depends on the CLI's
+// target, so it is always built).
 TEST(PipelineProcess, FiguresEqualTheCliJson) {
   ASSERT_TRUE(std::filesystem::exists(MESHSTREAM_CLI)) << "no CLI at " << MESHSTREAM_CLI;
   TempDir dir;
@@ -123,7 +124,7 @@ TEST(PipelineProcess, FiguresEqualTheCliJson) {
     const std::string out = dir.File("cli.glb");
     const auto run = test_util::RunCommand(
         "env -u MESHSTREAM_LEVELS -u MESHSTREAM_QC -u MESHSTREAM_CL " + test_util::Cli() + " encode --json --qp 13 --qn 9 --qt 11 " +
-        "--packing bundled --packet-bytes 400 --base-ratio 0.05 " + test_util::Quote(ModelPath(name)) + " -o " +
+        "--packing bundled --packet-bytes 400 --base-ratio 0.05 --profile both " + test_util::Quote(ModelPath(name)) + " -o " +
         test_util::Quote(out));
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const nlohmann::json j = nlohmann::json::parse(run.out);

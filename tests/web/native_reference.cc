@@ -5,7 +5,7 @@
 // With --repeat N it decodes N times and prints, after those lines, the
 // median decode time: "time_ms <median>" (make bench-web compares it with
 // the wasm decoder's, docs/web-benchmarks.md).
-// usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N]
+// usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N] [--profile auto|reliable|loss-tolerant]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   using namespace meshstream;
   if (argc < 2) {
     std::fprintf(stderr,
-                 "usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N]\n");
+                 "usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N] [--profile auto|reliable|loss-tolerant]\n");
     return 2;
   }
   ProgressiveDecodeOptions options;
@@ -35,6 +35,12 @@ int main(int argc, char** argv) {
     else if (flag == "--seed") options.loss.seed = std::strtoull(argv[i + 1], nullptr, 10);
     else if (flag == "--lod") options.lod = std::atoi(argv[i + 1]);
     else if (flag == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
+    else if (flag == "--profile") {
+      const std::string p = argv[i + 1];
+      options.profile = p == "reliable"        ? DecodeProfile::kReliable
+                        : p == "loss-tolerant" ? DecodeProfile::kLossTolerant
+                                               : DecodeProfile::kAuto;
+    }
     else {
       std::fprintf(stderr, "meshstream_wasm_reference: unknown option %s\n", argv[i]);
       return 2;

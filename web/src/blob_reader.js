@@ -61,7 +61,7 @@ export class BlobReader {
           if (this.buf[this.pos + i] !== MAGIC[i]) throw new Error('stream blob: bad magic at 0');
         }
         const version = this.buf[this.pos + 4];
-        if (version < 1 || version > 3) throw new Error('stream blob: version ' + version + ' at 4');
+        if (version < 1 || version > 4) throw new Error('stream blob: version ' + version + ' at 4');
         this.pos += 5;
         this.state = 'header';
         return undefined;

@@ -79,8 +79,11 @@ export function firstBlobOffset(json, binOffset, fileLength) {
       const prim = objectAt(prims, j, `meshes[${m}].primitives`);
       const ext = isObject(prim.extensions) ? prim.extensions.MESHSTREAM_progressive : undefined;
       if (!isObject(ext)) return;
-      const v = arrayOf(json.bufferViews, 'bufferViews')[ext.bufferView];
-      if (isObject(v) && isCount(v.byteOffset || 0)) first = Math.min(first, binOffset + (v.byteOffset || 0));
+      for (const index of [ext.bufferView, ext.reliable]) {
+        if (index === undefined) continue;
+        const v = arrayOf(json.bufferViews, 'bufferViews')[index];
+        if (isObject(v) && isCount(v.byteOffset || 0)) first = Math.min(first, binOffset + (v.byteOffset || 0));
+      }
     });
   });
   return first;
@@ -129,7 +132,9 @@ function dracoIds(draco) {
   };
 }
 
-export function progressivePrimitives(glb) {
+// `profile`: 'auto' (the reliable profile's stream where the file has both),
+// 'reliable' or 'loss-tolerant' (the other stream where it has one).
+export function progressivePrimitives(glb, profile = 'auto') {
   const out = [];
   const meshes = arrayOf(glb.json.meshes, 'meshes');
   meshes.forEach((_, m) => {
@@ -140,16 +145,24 @@ export function progressivePrimitives(glb) {
       const progressive = ext.MESHSTREAM_progressive;
       const draco = ext.KHR_draco_mesh_compression;
       if (!isObject(progressive) || !isObject(draco)) return;
+      // A file with both profiles (format version 4, what the server
+      // stores): the reliable profile's stream, which a file or HTTP ranges
+      // carry whole (smaller, faster to decode; docs/web.md). Its blobs lie
+      // together before the loss-tolerant ones, so one ranged GET reads them.
+      const both = progressive.reliable !== undefined;
+      const view = both && profile !== 'loss-tolerant' ? progressive.reliable : progressive.bufferView;
       out.push({
         where: 'meshes[' + m + '].primitives[' + j + ']',
         mesh: m,
         primitive: j,
         streamId: out.length,
-        blob: bufferView(glb, progressive.bufferView, true),  // null in a truncated file
-        blobRange: fileRange(glb, progressive.bufferView),
+        blob: bufferView(glb, view, true),  // null in a truncated file
+        blobRange: fileRange(glb, view),
         base: bufferView(glb, draco.bufferView),
         ids: dracoIds(draco),
-        reliable: isObject(progressive.delivery) && Array.isArray(progressive.delivery.reliable)
+        // The loss-tolerant profile's reliable cut (none in the reliable profile).
+        reliable: view === progressive.bufferView && isObject(progressive.delivery) &&
+          Array.isArray(progressive.delivery.reliable)
           ? progressive.delivery.reliable.filter(isCount) : [],
       });
     });

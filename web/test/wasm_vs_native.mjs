@@ -68,9 +68,12 @@ const files = args;
 if (files.length === 0) throw new Error('no .glb given');
 
 const cases = [
-  { name: 'no loss', loss: 0, burst: 0, seed: 1 },
-  { name: '12 % random loss', loss: 0.12, burst: 0, seed: 1 },
-  { name: '12 % in bursts of 4', loss: 0.12, burst: 4, seed: 2 },
+  // Each file carries both profiles: without loss each is compared, with loss
+  // the loss-tolerant one (the reliable profile has no datagrams to lose).
+  { name: 'no loss, reliable profile', loss: 0, burst: 0, seed: 1, profile: 'reliable' },
+  { name: 'no loss, loss-tolerant profile', loss: 0, burst: 0, seed: 1, profile: 'loss-tolerant' },
+  { name: '12 % random loss', loss: 0.12, burst: 0, seed: 1, profile: 'loss-tolerant' },
+  { name: '12 % in bursts of 4', loss: 0.12, burst: 4, seed: 2, profile: 'loss-tolerant' },
 ];
 
 // The module's glue rethrows unhandled rejections from inside itself (node
@@ -81,7 +84,9 @@ async function main() {
   let failures = 0, checked = 0;
   for (const file of files) {
     const glb = parseGlb(new Uint8Array(readFileSync(file)));
-    const prims = progressivePrimitives(glb);
+    const byProfile = { reliable: progressivePrimitives(glb, 'reliable'),
+                        'loss-tolerant': progressivePrimitives(glb, 'loss-tolerant') };
+    const prims = byProfile.reliable;
     if (prims.length === 0) {
       console.error(file + ': no progressive primitive');
       ++failures;
@@ -89,8 +94,9 @@ async function main() {
     }
     const bases = prims.map((p) => decodeDracoBase(D, p.base, p.ids));
     for (const c of cases) {
+      const prims = byProfile[c.profile];
       const native = execFileSync(referencePath, [file, '--loss', String(c.loss), '--burst', String(c.burst),
-                                                  '--seed', String(c.seed)], { encoding: 'utf8' })
+                                                  '--seed', String(c.seed), '--profile', c.profile], { encoding: 'utf8' })
                          .trim().split('\n').map((l) => l.split(' '));
       if (native.length !== prims.length) {
         console.error(`${file} (${c.name}): the native decoder has ${native.length} streams, the file ${prims.length}`);

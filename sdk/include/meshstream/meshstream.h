@@ -112,7 +112,13 @@ typedef struct {
   int32_t decode_threads;  /* threads that decode a refinement whose datagrams all arrived (same output bit for bit):
                               0 or 1 the session's own thread, N > 1 a pool of N, -1 one per core; at most 64 */
   int32_t no_parity;       /* non-zero: no parity datagrams; what UDP loses is predicted (or repaired), never rebuilt */
+  int32_t profile;         /* MS_PROFILE_*: which stream of the asset (docs/c-api.md); 0: the server's choice */
 } ms_session_config;
+
+/* ms_session_config.profile (docs/streaming-protocol.md, "Profiles"). */
+#define MS_PROFILE_AUTO 0           /* the reliable profile over the stream alone, the loss-tolerant one over UDP */
+#define MS_PROFILE_RELIABLE 1       /* smaller and faster to decode; no datagrams: the session uses the stream alone */
+#define MS_PROFILE_LOSS_TOLERANT 2  /* datagrams that decode on their own, over any transport */
 #define MS_SESSION_CONFIG_V0_SIZE (offsetof(ms_session_config, tcp_only) + sizeof(int32_t))
 
 typedef enum {
@@ -170,6 +176,7 @@ typedef struct {
   uint64_t parallel_splits;     /* splits decoded on the config's decode_threads (0 with one thread) */
   uint64_t datagrams_recovered; /* data datagrams parity datagrams rebuilt (of datagrams_lost: no round trip) */
   uint64_t parity_datagrams;    /* parity datagrams received */
+  int32_t profile;              /* MS_PROFILE_RELIABLE or MS_PROFILE_LOSS_TOLERANT once started; 0 before */
 } ms_stats;
 #define MS_STATS_V0_SIZE (offsetof(ms_stats, primitive_count) + sizeof(uint32_t))
 
