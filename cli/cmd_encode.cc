@@ -38,14 +38,15 @@ struct EncodeArgs {
   std::string packing = "split";
   std::string profile = "reliable";
   std::string batch_rule = "strict";
-  std::string tools = "all";
+  std::string tools = "default";
   bool json = false;
   bool profile_given = false;
 };
 
-// --tools: "all", "none" or names of kToolNames; an unknown name is an error
-// that lists the known ones, and so is a name the format `version` does not
-// define ("all" is every tool of the version).
+// --tools: "default", "all", "none" or names of kToolNames; an unknown name
+// is an error that lists the known ones, and so is a name the format
+// `version` does not define ("all" is every tool of the version, "default"
+// the measured defaults of codec/progressive/coding_tools.h, kAllTools).
 StatusOr<ToolSet> ParseTools(const std::string& list_of_names, uint8_t version) {
   ToolSet tools = 0;
   std::vector<std::string> names;
@@ -60,20 +61,27 @@ StatusOr<ToolSet> ParseTools(const std::string& list_of_names, uint8_t version) 
       tools |= DefinedTools(version);
       continue;
     }
+    if (n == "default") {
+      tools |= kAllTools & DefinedTools(version);
+      continue;
+    }
     if (n == "none") continue;
     bool known = false;
     for (const ToolName& t : kToolNames) {
       if (n == t.name) {
         if ((DefinedTools(version) & t.tool) == 0) {
+          uint8_t needs = version;
+          while (needs < kStreamVersion && (DefinedTools(needs) & t.tool) == 0) ++needs;
           return InvalidArgument("--tools: " + n + " is not a tool of format version " + std::to_string(version) +
-                                 (version >= 2 ? " (it needs --format-version 3)" : " (version 1 has no tools)"));
+                                 (version >= 2 ? " (it needs --format-version " + std::to_string(needs) + ")"
+                                               : " (version 1 has no tools)"));
         }
         tools |= t.tool;
         known = true;
       }
     }
     if (!known) {
-      std::string list = "all, none";
+      std::string list = "default, all, none";
       for (const ToolName& t : kToolNames) list += std::string(", ") + t.name;
       return InvalidArgument("--tools: unknown tool '" + n + "' (known: " + list + ")");
     }
@@ -251,9 +259,9 @@ Verb AddEncode(CLI::App& root) {
               ->check(CLI::Range(static_cast<int>(kOldestStreamVersion), static_cast<int>(kStreamVersion))))
       ->capture_default_str();
   FromEnv(cmd->add_option("--tools", args->tools,
-                          "coding tools, comma-separated: all, none, geometry, frame, rank, normals, texcoords, "
-                          "seams (version 2 and later), splitbits, models, predictor (version 3) (docs/codec.md; fewer "
-                          "tools, larger stream)")
+                          "coding tools, comma-separated: default (the measured defaults), all, none, geometry, "
+                          "frame, rank, normals, texcoords, seams (version 2 and later), splitbits, models, predictor "
+                          "(version 3), crossings (version 4) (docs/codec.md; fewer tools, larger stream)")
               ->capture_default_str());
   FromEnv(cmd->add_option("--ring-term-bits", o.stream.ring_term_bits,
                           "bits per split the predictor's 2-ring term must save before a refinement uses it (it "

@@ -133,6 +133,9 @@ StatusOr<StreamHeader> StreamHeader::Parse(const uint8_t* data, size_t size) {
   if (h.reliable() && (h.tools & (kToolSplitContexts | kToolModelModes)) != 0) {
     return refuse("tools " + std::to_string(h.tools) + ": bits 6 and 7 are the loss-tolerant profile's");
   }
+  if ((h.tools & kToolCutCrossings) != 0 && (h.tools & kToolWingRank) == 0) {
+    return refuse("tools " + std::to_string(h.tools) + ": the crossings tool orders the rank tool's ranks");
+  }
   if ((h.tools & kToolRingPredictor) != 0 &&
       (h.tools & (kToolGeometryPrediction | kToolLocalFrame)) != (kToolGeometryPrediction | kToolLocalFrame)) {
     return refuse("tools " + std::to_string(h.tools) + ": the predictor tool needs the geometry and frame tools");

@@ -5,6 +5,7 @@
 #include "codec/bitstream/reliable_payload.h"
 #include "codec/bitstream/slot_model.h"
 #include "codec/entropy/range_coder.h"
+#include "codec/progressive/cut_crossings.h"
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/normal_prediction.h"
 #include "codec/progressive/refinement_state.h"
@@ -333,6 +334,7 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
   Refinement& coded = *out;
   coded = r;
   WingRanking ranking;
+  CutCrossings crossings;
   const PredictorWeights previous = coding->predictor;
   const bool predictor = (tools & kToolRingPredictor) != 0;
   coding->tools = tools;
@@ -382,8 +384,12 @@ bool CodeRefinement(const Refinement& r, ToolSet tools, const AttributeLayout& l
     }
     if (tools & kToolWingRank) {
       uint32_t rank = 0;
-      if (!ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree, frames[j]) ||
-          !ranking.RankOf(s.a_at, s.b_at, &rank)) {
+      const bool ranked = (tools & kToolCutCrossings)
+                              ? crossings.Reset(coarse[j], rings.data() + s.ring_at, s.degree, frames[j]) &&
+                                    crossings.RankOf(s.a_at, s.b_at, &rank)
+                              : ranking.Reset(coarse[j], rings.data() + s.ring_at, s.degree, frames[j]) &&
+                                    ranking.RankOf(s.a_at, s.b_at, &rank);
+      if (!ranked) {
         if (predictor) state.EndSplits(r);
         return false;
       }
@@ -489,6 +495,8 @@ ToolSet ApplicableTools(ToolSet requested, const QuantizationParams& quantizatio
     tools &= static_cast<ToolSet>(~kToolRingPredictor);
   }
   if (layout.texcoord_sets == 0 && !layout.has_colors) tools &= static_cast<ToolSet>(~kToolTexcoordPrediction);
+  // The crossings order the rank tool's ranks.
+  if ((tools & kToolWingRank) == 0) tools &= static_cast<ToolSet>(~kToolCutCrossings);
   return tools;
 }
 
@@ -507,7 +515,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
   if (!IsStreamVersion(o.version)) {
     return InvalidArgument("stream version " + std::to_string(o.version) + " is not " + kStreamVersionsText);
   }
-  if ((o.tools & ~kAllTools) != 0) return InvalidArgument("unknown coding tools " + std::to_string(o.tools));
+  if ((o.tools & ~kEveryTool) != 0) return InvalidArgument("unknown coding tools " + std::to_string(o.tools));
   // An older version carries the tools it defines (none in version 1).
   h.tools = o.tools & DefinedTools(o.version);
   // The local frame's rotation is exact for residuals below 2^28, which
@@ -591,7 +599,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     if (h.tools != 0 && !CodeRefinement(pm.refinements[i], h.tools, pm.base.layout, o.ring_term_bits, state, &coding, &coded)) {
       // A ring the wing ranking does not cover: the whole stream without it.
       StreamWriteOptions without = o;
-      without.tools = static_cast<ToolSet>(h.tools & ~kToolWingRank);
+      without.tools = static_cast<ToolSet>(h.tools & ~(kToolWingRank | kToolCutCrossings));
       return WriteStream(e, quantization, without);
     }
     const Refinement& plain = h.tools != 0 ? coded : pm.refinements[i];

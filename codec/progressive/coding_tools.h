@@ -27,16 +27,21 @@ enum StreamTool : ToolSet {
   kToolSplitContexts = 64,      // version 3: split bits in contexts of the reliable graph (split_bit_contexts.h)
   kToolModelModes = 128,        // version 3: per slot a static table or a model adapted within each datagram (slot_model.h)
   kToolRingPredictor = 256,     // version 3: split vectors predicted in the frame from the ring and 2-ring (ring_predictor.h)
+  kToolCutCrossings = 512,      // version 4: the cut's rank in the order of the ring's crossings (cut_crossings.h; with bit 2)
 };
 constexpr ToolSet kVersion2Tools = kToolGeometryPrediction | kToolLocalFrame | kToolWingRank |
                                    kToolAttributePrediction | kToolTexcoordPrediction | kToolSeams;
 constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts | kToolModelModes | kToolRingPredictor;
+constexpr ToolSet kVersion4Tools = kVersion3Tools | kToolCutCrossings;
+// Every tool some version defines.
+constexpr ToolSet kEveryTool = kVersion4Tools;
+// What an encoder uses when told nothing (the measured defaults, docs/codec.md).
 constexpr ToolSet kAllTools = kVersion3Tools;
 
 // The tools a stream of `version` may carry (0 for version 1, and for an
 // unknown version).
 constexpr ToolSet DefinedTools(uint8_t version) {
-  return version == 2 ? kVersion2Tools : version == 3 || version == 4 ? kVersion3Tools : ToolSet{0};
+  return version == 2 ? kVersion2Tools : version == 3 ? kVersion3Tools : version == 4 ? kVersion4Tools : ToolSet{0};
 }
 
 // The tools' names, as the CLI's --tools and the --json reports spell them,
@@ -49,6 +54,7 @@ constexpr ToolName kToolNames[] = {
     {kToolGeometryPrediction, "geometry"}, {kToolLocalFrame, "frame"},         {kToolWingRank, "rank"},
     {kToolAttributePrediction, "normals"}, {kToolTexcoordPrediction, "texcoords"}, {kToolSeams, "seams"},
     {kToolSplitContexts, "splitbits"},     {kToolModelModes, "models"},         {kToolRingPredictor, "predictor"},
+    {kToolCutCrossings, "crossings"},
 };
 
 // The names of the tools set in `tools`, in bit order.

@@ -64,7 +64,7 @@ void RingGeometry(const RefinementState& state, uint32_t w, const uint32_t* ring
 }
 
 LocalFrame RingLocalFrame(const Vec3i& w, const Vec3i* ring, size_t degree) {
-  return LocalFrame::FromNormal(FanNormal(w, ring, degree));
+  return LocalFrame::FromScaledNormal(ScaledFanNormal(w, ring, degree, 20));
 }
 
 Vec3i DecodeSplitVector(const SplitCoding& coding, const Vec3i& coded, const Vec3i* ring, size_t degree, size_t a_at,

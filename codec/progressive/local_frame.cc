@@ -39,6 +39,41 @@ std::array<int64_t, 3> ScaleDown(const WideVec3& n, int bits) {
   return out;
 }
 
+std::array<int64_t, 3> ScaledFanNormal(const Vec3i& w, const Vec3i* ring, size_t d, int bits) {
+  constexpr int64_t kLimit = int64_t{1} << 28;
+  bool narrow = d <= 64;
+  for (size_t k = 0; k < d && narrow; ++k) {
+    for (int c = 0; c < 3; ++c) {
+      const int64_t a = int64_t{ring[k][c]} - w[c];
+      narrow = narrow && a < kLimit && a > -kLimit;
+    }
+  }
+  if (!narrow) return ScaleDown(FanNormal(w, ring, d), bits);
+  // Each product below 2^56, each component of a cross below 2^57, the sum
+  // of at most 64 below 2^63: exact in int64.
+  int64_t n[3] = {0, 0, 0};
+  for (size_t k = 0; k < d; ++k) {
+    const Vec3i& p = ring[k];
+    const Vec3i& q = ring[k + 1 < d ? k + 1 : 0];
+    const int64_t a0 = int64_t{p[0]} - w[0], a1 = int64_t{p[1]} - w[1], a2 = int64_t{p[2]} - w[2];
+    const int64_t b0 = int64_t{q[0]} - w[0], b1 = int64_t{q[1]} - w[1], b2 = int64_t{q[2]} - w[2];
+    n[0] += a1 * b2 - a2 * b1;
+    n[1] += a2 * b0 - a0 * b2;
+    n[2] += a0 * b1 - a1 * b0;
+  }
+  // ScaleDown's shift: the least s with max |n| >> s below 2^bits.
+  uint64_t m = 0;
+  for (int64_t c : n) m = std::max<uint64_t>(m, c < 0 ? uint64_t(0) - uint64_t(c) : uint64_t(c));
+  const int length = m == 0 ? 0 : 64 - __builtin_clzll(m);
+  const int shift = std::max(0, length - bits);
+  std::array<int64_t, 3> out{};
+  for (int c = 0; c < 3; ++c) {
+    const uint64_t mag = (n[c] < 0 ? uint64_t(0) - uint64_t(n[c]) : uint64_t(n[c])) >> shift;
+    out[c] = n[c] < 0 ? -static_cast<int64_t>(mag) : static_cast<int64_t>(mag);
+  }
+  return out;
+}
+
 int64_t IntegerSqrt(int64_t v) {
   if (v <= 0) return 0;
   int64_t r = static_cast<int64_t>(std::sqrt(static_cast<double>(v)));
@@ -61,8 +96,9 @@ LocalFrame::Rotation LocalFrame::Rotation::Of(int64_t c, int64_t s) {
   return out;
 }
 
-LocalFrame LocalFrame::FromNormal(const WideVec3& normal) {
-  const std::array<int64_t, 3> n = ScaleDown(normal, 20);
+LocalFrame LocalFrame::FromNormal(const WideVec3& normal) { return FromScaledNormal(ScaleDown(normal, 20)); }
+
+LocalFrame LocalFrame::FromScaledNormal(const std::array<int64_t, 3>& n) {
   LocalFrame f;
   // About z: (n_x, n_y) onto the +x axis; then in the (z, x) plane:
   // (n_z, rho) onto the +z axis.

@@ -35,6 +35,13 @@ WideVec3 FanNormal(const Vec3i& w, const Vec3i* ring, size_t degree);
 // below 2^bits (rounding toward zero), as int64.
 std::array<int64_t, 3> ScaleDown(const WideVec3& n, int bits);
 
+// ScaleDown(FanNormal(w, ring, degree), bits), the same integers, in 64-bit
+// arithmetic where that is exact (every coordinate of ring[k] - w below
+// 2^28 and degree at most 64: always within the frame's qp <= 24), else
+// through the 128-bit path (issue 42: the frame without 128-bit arithmetic
+// on the decoder's hot path, the same bits on every platform).
+std::array<int64_t, 3> ScaledFanNormal(const Vec3i& w, const Vec3i* ring, size_t degree, int bits);
+
 // floor(sqrt(v)) for v >= 0, exact.
 int64_t IntegerSqrt(int64_t v);
 
@@ -42,6 +49,8 @@ class LocalFrame {
  public:
   // The frame of a normal (any vector; zero gives the identity).
   static LocalFrame FromNormal(const WideVec3& normal);
+  // The same from a normal already scaled below 2^20 (ScaleDown(normal, 20)).
+  static LocalFrame FromScaledNormal(const std::array<int64_t, 3>& n);
   // Residual (x, y, z) -> (t1, t2, n).
   Vec3i Forward(const Vec3i& v) const;
   // (t1, t2, n) -> residual.

@@ -29,8 +29,8 @@ void RefinementPlan::PlanSplit(const Refinement& coded, const SplitCoding& codin
   RingGeometry(state, w, ring.data(), d, coding.tools, &rp, &worker.frame);
   size_t a_at = 0, b_at = 0;
   const bool ranked = (coding.tools & kToolWingRank) != 0;
-  if (!CodedWingPositions(coded.wings[j], ranked, ring, state.positions[w], rp.data(), worker.frame, &worker.ranking,
-                          &a_at, &b_at)) {
+  if (!CodedWingPositions(coded.wings[j], coding.tools, ring, state.positions[w], rp.data(), worker.frame,
+                          &worker.ranking, &worker.crossings, &a_at, &b_at)) {
     return;
   }
   out.wings = ranked ? WingsOf(ring, a_at, b_at) : coded.wings[j];

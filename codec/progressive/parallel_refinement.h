@@ -37,6 +37,7 @@
 
 #include "codec/core/task_runner.h"
 #include "codec/core/vec.h"
+#include "codec/progressive/cut_crossings.h"
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/local_frame.h"
 #include "codec/progressive/refinement.h"
@@ -101,6 +102,7 @@ class RefinementPlan {
     std::vector<Vec3i> ring_positions;
     LocalFrame frame;
     WingRanking ranking;
+    CutCrossings crossings;
     std::vector<Umbrella> umbrellas;
   };
   void PlanSplit(const Refinement& coded, const SplitCoding& coding, const RefinementState& state, size_t j,

@@ -248,11 +248,4 @@ bool WingRanking::PairAt(uint32_t rank, size_t* a_at, size_t* b_at) const {
   return true;
 }
 
-bool CodedWingPositions(const std::array<uint16_t, 2>& wings, bool ranked, const std::vector<uint32_t>& ring,
-                        const Vec3i& w, const Vec3i* ring_positions, const LocalFrame& frame, WingRanking* ranking,
-                        size_t* a_at, size_t* b_at) {
-  if (!ranked) return WingPositions(ring, wings, a_at, b_at);
-  return ranking->PairOfRank(w, ring_positions, ring.size(), frame, RankFromSymbols(wings), a_at, b_at);
-}
-
 }  // namespace meshstream

@@ -106,13 +106,8 @@ inline std::array<uint16_t, 2> RankSymbols(uint32_t rank) {
 }
 inline uint32_t RankFromSymbols(const std::array<uint16_t, 2>& s) { return uint32_t{s[0]} + 16u * s[1]; }
 
-// The ring positions of a split's coded wings on w's ring (w at `w`, the
-// ring's positions and local frame given): by rank in the ring's geometric
-// order when `ranked` (the wing-rank tool; `ranking` is the scratch), else by
-// id (WingPositions). False when they do not fit the ring.
-bool CodedWingPositions(const std::array<uint16_t, 2>& wings, bool ranked, const std::vector<uint32_t>& ring,
-                        const Vec3i& w, const Vec3i* ring_positions, const LocalFrame& frame, WingRanking* ranking,
-                        size_t* a_at, size_t* b_at);
+// (CodedWingPositions, which decodes a split's wings in either order of its
+// rank, is in cut_crossings.h.)
 
 }  // namespace meshstream
 

@@ -47,9 +47,9 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // Error control: coded structure is checked against the ring the decoder
   // really has; what does not fit is treated as lost.
   view.fits = view.fan && has_structure &&
-              CodedWingPositions(r.wings[j], (coding.tools & kToolWingRank) != 0, state.scratch_ring,
-                                 state.positions[view.w], scratch->ring_positions.data(), scratch->local_frame,
-                                 &scratch->ranking, &view.a_at, &view.b_at);
+              CodedWingPositions(r.wings[j], coding.tools, state.scratch_ring, state.positions[view.w],
+                                 scratch->ring_positions.data(), scratch->local_frame, &scratch->ranking,
+                                 &scratch->crossings, &view.a_at, &view.b_at);
   // A ring a prediction changed may still fit the coded ranks and yet not be
   // the ring they count: when the geometry arrived, it decides the wings
   // (case 3) instead. Measured on the bunny at 12 % loss: the median

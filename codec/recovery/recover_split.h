@@ -30,6 +30,7 @@
 #include "codec/progressive/geometry_prediction.h"
 #include "codec/progressive/refinement.h"
 #include "codec/progressive/refinement_state.h"
+#include "codec/progressive/cut_crossings.h"
 #include "codec/progressive/wing_rank.h"
 #include "codec/recovery/prediction.h"
 #include "codec/recovery/ring_frame.h"
@@ -61,6 +62,7 @@ struct RecoveryScratch {
   LocalFrame local_frame;             // and its local frame
   std::vector<Umbrella> umbrellas;    // and with the ring predictor reading the 2-ring, its umbrellas
   WingRanking ranking;
+  CutCrossings crossings;
   std::vector<int32_t> values, u_channels, v_channels;
   RingFrame frame;
   PredictedGeometry geometry;

@@ -223,7 +223,9 @@ TEST_F(AssetApi, ExportsEveryFormatThatValidatesAndDecodesOnTheGrid) {
 
 // A streaming session of every shared model (meshstream fetch through the
 // SDK): over UDP nothing is lost on loopback and the mesh is the source on
-// the grid; --tcp-only gives the same mesh vertex for vertex.
+// the grid; --tcp-only gives the same mesh vertex for vertex, from the
+// reliable profile (no datagrams, fewer bytes), and --tcp-only --profile
+// loss-tolerant the same stream as UDP's.
 TEST_F(AssetApi, EveryModelStreamsOverUdpAndOverTcpToTheSameMesh) {
   test_util::TempDir out;
   std::vector<std::string> gltf_files;
@@ -235,15 +237,33 @@ TEST_F(AssetApi, EveryModelStreamsOverUdpAndOverTcpToTheSameMesh) {
     const nlohmann::json udp = test_util::RunCliJson("fetch --json " + in.model.asset + " -o " + test_util::Quote(udp_file) + remote);
     const nlohmann::json tcp =
         test_util::RunCliJson("fetch --json --tcp-only " + in.model.asset + " -o " + test_util::Quote(tcp_file) + remote);
+    const nlohmann::json tcp_lt = test_util::RunCliJson("fetch --json --tcp-only --profile loss-tolerant " +
+                                                        in.model.asset + " -o " + test_util::Quote(out.File("lt.glb")) + remote);
     EXPECT_EQ(udp["transport"], "udp") << udp.dump();
     EXPECT_EQ(tcp["transport"], "grpc") << tcp.dump();
+    EXPECT_EQ(udp["profile"], "loss-tolerant") << udp.dump();
+    EXPECT_EQ(tcp_lt["profile"], "loss-tolerant") << tcp_lt.dump();
     EXPECT_EQ(udp["datagrams_lost"], 0) << udp.dump();
     EXPECT_EQ(udp["datagrams_rejected"], 0) << udp.dump();
     EXPECT_EQ(udp["predicted_vertices"], 0) << udp.dump();
-    EXPECT_EQ(udp["datagrams_received"], tcp["datagrams_received"]);
-    EXPECT_EQ(udp["unreliable_bytes"], tcp["unreliable_bytes"]);
+    EXPECT_EQ(udp["datagrams_received"], tcp_lt["datagrams_received"]);
+    EXPECT_EQ(udp["unreliable_bytes"], tcp_lt["unreliable_bytes"]);
+    if (udp["vertices"] != 0) {
+      EXPECT_EQ(tcp["profile"], "reliable") << tcp.dump();
+      EXPECT_EQ(tcp["datagrams_received"], 0) << "the reliable profile has no datagrams";
+      // Smaller wherever there is something to refine; a mesh without
+      // refinements (the textured box) is the same base in both profiles.
+      const uint64_t reliable_total = tcp["reliable_bytes"].get<uint64_t>();
+      const uint64_t udp_total = udp["reliable_bytes"].get<uint64_t>() + udp["unreliable_bytes"].get<uint64_t>();
+      if (udp["datagrams_received"].get<uint64_t>() > 0) {
+        EXPECT_LT(reliable_total, udp_total) << tcp.dump();
+      } else {
+        EXPECT_LE(reliable_total, udp_total) << tcp.dump();
+      }
+    }
     EXPECT_EQ(udp["vertices"], tcp["vertices"]);
     EXPECT_EQ(udp["faces"], tcp["faces"]);
+    EXPECT_EQ(tcp_lt["vertices"], tcp["vertices"]);
     // The session exports the asset's scene: its structure is the source's.
     const nlohmann::json source = test_util::RunCliJson("info --json " + test_util::Quote(in.model.path));
     const nlohmann::json fetched = test_util::RunCliJson("info --json " + test_util::Quote(udp_file));

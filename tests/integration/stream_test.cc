@@ -170,7 +170,9 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
       auto header = stream->ParseHeader();
       ASSERT_TRUE(header.ok());
       EXPECT_EQ(header->reliable(), reliable);
-      if (reliable) EXPECT_EQ(stream->datagram_count(), 0u);
+      if (reliable) {
+        EXPECT_EQ(stream->datagram_count(), 0u);
+      }
       EXPECT_EQ(p.primitive(), entry.stream);
       EXPECT_EQ(p.header(), AsString(stream->header));
       EXPECT_EQ(p.base_mesh(), std::string(reinterpret_cast<const char*>(exported.bytes.data() + entry.base.offset),

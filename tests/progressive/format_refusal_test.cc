@@ -94,10 +94,16 @@ TEST(FormatRefusal, StreamHeaderFields) {
   Bytes v3 = Patched(h, 0, 3);
   v3.erase(v3.begin() + kProfile);
   EXPECT_EQ(HeaderError(v3), "accepted");
-  // Tools: two bytes, little-endian; bits 9-15 reserved.
+  // ... and bit 9 (crossings) is version 4's: version 3 reserves it.
+  EXPECT_EQ(HeaderError(Patched(v3, kTools, 0x03)), "stream header: tools 975 has bits set that version 3 reserves");
+  // Tools: two bytes, little-endian; bits 10-15 reserved.
   EXPECT_EQ(h[kTools], 0xCF);
   EXPECT_EQ(h[kTools + 1], 0x01);
-  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x03)), "stream header: tools 975 has bits set that version 4 reserves");
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x05)), "stream header: tools 1487 has bits set that version 4 reserves");
+  // Bit 9 (crossings) orders the ranks of bit 2: accepted with it, refused without.
+  EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x03)), "accepted");
+  EXPECT_EQ(HeaderError(Patched(Patched(h, kTools + 1, 0x03), kTools, 0xCB)),
+            "stream header: tools 971: the crossings tool orders the rank tool's ranks");
   EXPECT_EQ(HeaderError(Patched(h, kTools + 1, 0x81)), "stream header: tools 33231 has bits set that version 4 reserves");
   // Bit 8 (the ring predictor) needs bits 0 and 1; without bit 8 the header is version 3 as stop 34 wrote it.
   EXPECT_EQ(HeaderError(Patched(h, kTools, 0xCE)),

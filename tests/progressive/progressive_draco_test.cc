@@ -52,13 +52,16 @@ TEST(ProgressiveDraco, EverySharedModelIsLosslessAtQp11And14) {
 // Encode, write the stream, parse it back, decode through StreamReader with
 // Draco decoding the base: the quantized input comes back, on every shared
 // model at qp 11 and 14, in both packings, with every coding tool of version
-// 3, with each tool left out, some alone, and as versions 2 and 1.
+// 3, with each tool left out, some alone, as version 4 with every tool it
+// defines, and as versions 2 and 1.
 TEST(ProgressiveDraco, StreamRoundTripIsLosslessInBothPackingsWithEveryTool) {
   struct Variant {
     uint8_t version;
     ToolSet tools;
   };
   const Variant variants[] = {{3, kAllTools},
+                              // Version 4 with every tool it defines (the crossings' order of ranks).
+                              {4, kVersion4Tools},
                               {3, kAllTools & ~kToolGeometryPrediction},
                               {3, kAllTools & ~kToolLocalFrame},
                               {3, kAllTools & ~kToolWingRank},
