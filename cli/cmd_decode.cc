@@ -53,11 +53,19 @@ struct DecodeArgs {
   double loss = 0, burst = 0, reorder = 0, duplicate = 0;
   int seed = 1;
   std::string recovery = "predict";
+  std::string profile = "auto";
   double reliable_share = -1;
   bool no_parity = false;
   int threads = 1;
   bool json = false;
 };
+
+// The profile the streams were decoded from: "reliable", "loss-tolerant",
+// "mixed" (a scene whose primitives differ) or "none" (a plain glTF file).
+const char* ProfileOf(const ProgressiveDecodeReport& report) {
+  if (report.reliable_profile_streams == 0) return report.loss_tolerant_streams == 0 ? "none" : "loss-tolerant";
+  return report.loss_tolerant_streams == 0 ? "reliable" : "mixed";
+}
 
 int RunDecode(const DecodeArgs& args) {
   const std::string& in = args.in;
@@ -76,6 +84,9 @@ int RunDecode(const DecodeArgs& args) {
   options.loss.duplicate = args.duplicate;
   options.loss.seed = static_cast<uint64_t>(args.seed);
   options.reliable_share = args.reliable_share;
+  options.profile = args.profile == "reliable"        ? DecodeProfile::kReliable
+                    : args.profile == "loss-tolerant" ? DecodeProfile::kLossTolerant
+                                                      : DecodeProfile::kAuto;
   if (!args.no_parity) options.parity = &fec::DefaultErasureCode();
   const std::string& recovery = args.recovery;
   options.recovery = recovery == "lwop" ? Recovery::kLwop : Recovery::kPredict;
@@ -122,6 +133,9 @@ int RunDecode(const DecodeArgs& args) {
       {"levels", report.levels},
       {"levels_applied", report.levels_applied},
       {"tools", ToolNamesOf(report.tools)},
+      {"profile", ProfileOf(report)},
+      {"reliable_profile_streams", report.reliable_profile_streams},
+      {"loss_tolerant_streams", report.loss_tolerant_streams},
       {"level_vertices", report.level_vertices},
       {"datagrams", report.datagrams},
       {"lost_datagrams", report.lost_datagrams},
@@ -181,6 +195,11 @@ Verb AddDecode(CLI::App& root) {
   cmd->add_option("--duplicate", args->duplicate, "fraction of datagrams delivered twice")
       ->check(NumberIn(0, 1))->capture_default_str();
   cmd->add_option("--seed", args->seed, "seed of the simulated network")->check(CLI::Range(0, 2147483647))
+      ->capture_default_str();
+  cmd->add_option("--profile", args->profile,
+                  "the stream to decode where the file has both: auto (the reliable one unless --loss, --reorder "
+                  "or --duplicate simulate a network), reliable or loss-tolerant; docs/progressive-format.md")
+      ->check(CLI::IsMember({"auto", "reliable", "loss-tolerant"}))
       ->capture_default_str();
   cmd->add_option("--recovery", args->recovery, "predict: predict lost splits; lwop: abandon them and their dependants")
       ->check(CLI::IsMember({"predict", "lwop"}))->capture_default_str();

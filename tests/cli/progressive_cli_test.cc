@@ -246,11 +246,28 @@ TEST(ProgressiveCli, FormatVersionsOneToThreeAreWrittenOnRequestAndDecodeToTheSa
   EXPECT_GT(U(lossy, "datagrams"), 0u) << "a lossy decode reads the loss-tolerant stream";
   EXPECT_EQ(RunCommand(Cli() + " decode --loss 0.2 " + Quote(dir.File("v4.glb")) + " -o " + Quote(dir.File("x.obj")))
                 .exit_code, 2) << "the reliable profile alone has no datagrams to lose";
+  // decode --profile: auto takes the reliable stream when nothing is lost;
+  // either one on request, the same mesh; the one a file lacks is an error.
+  for (const char* p : {"auto", "reliable", "loss-tolerant"}) {
+    const std::string obj = dir.File(std::string(p) + ".obj");
+    const json d = RunJson("decode --json --profile " + std::string(p) + " " + Quote(dir.File("both.glb")) + " -o " +
+                           Quote(obj));
+    EXPECT_EQ(d["profile"], std::string(p) == "loss-tolerant" ? "loss-tolerant" : "reliable") << p;
+    EXPECT_EQ(U(d, std::string(p) == "loss-tolerant" ? "loss_tolerant_streams" : "reliable_profile_streams"), 1u) << p;
+    EXPECT_EQ(U(d, "datagrams") > 0, std::string(p) == "loss-tolerant") << p << ": " << d.dump();
+    const json c = RunJson("compare --json --qp 11 " + Quote(obj) + " " + Quote(dir.File("v4.obj")));
+    EXPECT_EQ(c["same_on_grid"], true) << p << ": " << c.dump();
+  }
+  EXPECT_EQ(RunJson("decode --json " + Quote(dir.File("lt.glb")) + " -o " + Quote(dir.File("x.obj")))["profile"],
+            "loss-tolerant");
+  const test_util::CommandResult missing =
+      RunCommand(Cli() + " decode --profile loss-tolerant " + Quote(dir.File("v4.glb")) + " -o " + Quote(dir.File("x.obj")));
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.err.find("the file has no stream of the loss-tolerant profile"), std::string::npos) << missing.err;
+  EXPECT_EQ(RunCommand(Cli() + " decode --profile fast " + Quote(dir.File("v4.glb")) + " -o " + Quote(dir.File("x.obj")))
+                .exit_code, 2);
 }
 
-// --tools chooses the coding tools (for measuring what each saves);
-// --json reports the ones the stream was written with. Fewer tools: larger,
-// and the same mesh.
 // The reliable cut from the CLI (docs/loss-tolerance.md, "The reliable cut"):
 // encode records it within its share, decode --loss sends it reliably unless
 // told otherwise, and both refuse a share outside [0, 1].
@@ -275,6 +292,9 @@ TEST(ProgressiveCli, TheReliableCutIsRecordedAndDecodeLossSendsIt) {
                        Quote(dir.File("s.glb"))).exit_code, 2);
 }
 
+// --tools chooses the coding tools (for measuring what each saves);
+// --json reports the ones the stream was written with. Fewer tools: larger,
+// and the same mesh.
 TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   TempDir dir;
   const std::string src = Quote(ModelPath("fandisk.obj"));
