@@ -67,6 +67,7 @@ struct Args {
   double loop_seconds = 0;
   int loop_lod = -1;
   int threads = 1;
+  std::string profile = "loss-tolerant";  // the streams encoded (format version 4's profiles)
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -86,7 +87,10 @@ Args ParseArgs(int argc, char** argv) {
   o.Int("--threads", "N", &a.threads, 1, ms::ThreadPool::kMaxWorkers,
         "also time all levels on N threads (default 1: not timed); with --loop: decode on N threads");
   o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
+  o.String("--profile", "P", &a.profile,
+           "loss-tolerant (default) or reliable: the profile the models are encoded in (docs/progressive-format.md)");
   o.Parse(argc, argv);
+  if (a.profile != "loss-tolerant" && a.profile != "reliable") Die("--profile: loss-tolerant or reliable");
   return a;
 }
 
@@ -110,7 +114,7 @@ struct Model {
   std::vector<ms::DracoEncoded> draco;  // cl 7, one per primitive
 };
 
-Model Prepare(const std::string& models_dir, const std::string& file, int qp) {
+Model Prepare(const std::string& models_dir, const std::string& file, int qp, const std::string& profile) {
   Model m;
   m.name = Stem(file);
   const std::string path = models_dir + "/" + file;
@@ -119,6 +123,7 @@ Model Prepare(const std::string& models_dir, const std::string& file, int qp) {
   if (prims.empty()) Die(path + ": no triangles");
   ms::ProgressiveGlbOptions options;
   options.encode.quantization.qp = qp;
+  options.profiles = profile == "reliable" ? ms::ProfileSet::kReliable : ms::ProfileSet::kLossTolerant;
   ms::ProgressiveGlbReport report;
   m.glb = Check(ms::EncodeProgressiveGlb(scene, options, &report), m.name + ": EncodeProgressiveGlb");
   m.vertices = report.Total().vertices;
@@ -166,7 +171,7 @@ double CpuMs() {
 }
 
 int Loop(const Args& args) {
-  const Model m = Prepare(args.models_dir, ms::bench::ChooseSharedModels({args.loop_model}).front(), args.qp);
+  const Model m = Prepare(args.models_dir, ms::bench::ChooseSharedModels({args.loop_model}).front(), args.qp, args.profile);
   const auto start = Clock::now();
   const double cpu_start = CpuMs();
   size_t runs = 0;
@@ -209,7 +214,7 @@ int main(int argc, char** argv) {
   std::printf("%-15s %8s %8s | %9s %9s %9s | %6s %6s | %s\n", "model", "vertices", "faces", "all ms", "base ms",
               "draco ms", "all/d", "base/d", "decode hash");
   for (const std::string& file : ms::bench::ChooseSharedModels(args.only)) {
-    const Model m = Prepare(args.models_dir, file, args.qp);
+    const Model m = Prepare(args.models_dir, file, args.qp, args.profile);
     struct Timed {
       std::function<uint64_t()> run;
       std::vector<double> times;

@@ -1,17 +1,23 @@
 // meshstream_bench: the benchmark of issue 3 (docs/benchmarks.md).
 //
 // For every shared model at every --qp, in one run on one machine:
-//   - meshstream, both packings (split, bundled): sizes (base, reliable,
-//     unreliable, total, the .glb), bits per referenced vertex, vertices and
-//     growth per level, encode time (EncodeProgressiveGlb) and decode time
-//     (DecodeProgressiveGlb, the .glb bytes in memory to the final mesh in
-//     memory), medians of in-process runs;
+//   - meshstream, the loss-tolerant profile in both packings (split,
+//     bundled) and the reliable profile (issue 42: no datagrams): sizes
+//     (base, reliable, unreliable, total, the .glb, bytes per level), bits
+//     per referenced vertex, vertices and growth per level, encode time
+//     (EncodeProgressiveGlb) and decode time (DecodeProgressiveGlb, the .glb
+//     bytes in memory to the final mesh in memory), medians of in-process
+//     runs;
 //   - Draco (the library, linked here) at the same quantization, compression
 //     levels 7 and 10: whole-buffer size, encode and decode medians;
 //   - the ratios meshstream / Draco;
 //   - the rate-distortion curve: bytes received up to level K against the
 //     symmetric Hausdorff distance between the level-K mesh and the full
 //     mesh, beside the LODs `gltfpack -si R` makes of the same full mesh;
+//   - the Draco LOD chain (issue 42; what needle's gltf-progressive ships):
+//     `gltfpack -si R` LODs each compressed by Draco cl7, then the whole
+//     mesh in Draco cl7, downloaded one after the other; per step its
+//     distance and the bytes each profile needs to get as close;
 //   - the order-0 entropy of what the refinements carry (where bits go).
 // Writes one JSON object (--out, default docs/bench/results.json).
 //
@@ -91,6 +97,7 @@ struct Args {
   unsigned threads = 0;
   int64_t samples = 200000;
   std::vector<double> ratios = {0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0};
+  std::vector<double> chain = {1.0 / 64, 1.0 / 16, 1.0 / 4};  // the LOD chain's steps before the whole mesh
   std::string gltfpack = "gltfpack";
   bool use_gltfpack = true;
   bool distortion = true;
@@ -116,8 +123,17 @@ Args ParseArgs(int argc, char** argv) {
       a.ratios.push_back(r);
     }
   }, "gltfpack -si ratios (default 0.01,0.02,0.05,0.1,0.2,0.4,0.7,1)");
+  o.Custom("--chain", "LIST", [&a](const std::string& v) {
+    a.chain.clear();
+    for (const auto& s : SplitList(v)) {
+      const double r = ParseDouble(s, "--chain");
+      if (r <= 0 || r >= 1) Die("--chain: each ratio must be in (0, 1)");
+      if (!a.chain.empty() && r <= a.chain.back()) Die("--chain: ratios must ascend");
+      a.chain.push_back(r);
+    }
+  }, "the Draco LOD chain's -si ratios, ascending, before the whole mesh (default 0.015625,0.0625,0.25)");
   o.String("--gltfpack", "PATH", &a.gltfpack, "the gltfpack to run (default: gltfpack on the PATH)");
-  o.Action("--no-gltfpack", [&a] { a.use_gltfpack = false; }, "no gltfpack LODs");
+  o.Action("--no-gltfpack", [&a] { a.use_gltfpack = false; }, "no gltfpack LODs and no Draco LOD chain");
   o.Action("--no-distortion", [&a] { a.distortion = false; }, "no distances (the rate-distortion curve without them)");
   o.Parse(argc, argv);
   if (a.threads == 0) a.threads = std::max(1u, std::thread::hardware_concurrency());
@@ -315,13 +331,18 @@ void DecodeTimings(std::vector<Decoder>& decoders, int n) {
   }
 }
 
+// `profiles`: kLossTolerant (split or bundled by `packing`) or kReliable
+// (no datagrams; `packing` is then split, the header's 0).
 MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationParams& q, ms::Packing packing,
-                              int repeat, const std::string& label, uint8_t version = ms::kStreamVersion) {
+                              int repeat, const std::string& label, uint8_t version = ms::kStreamVersion,
+                              ms::ProfileSet profiles = ms::ProfileSet::kLossTolerant) {
   MeshstreamRun run;
   ms::ProgressiveGlbOptions options;
   options.encode.quantization = q;
   options.stream.packing = packing;
   options.stream.version = version;
+  options.profiles = profiles;
+  const bool reliable_profile = profiles == ms::ProfileSet::kReliable;
   std::vector<double> enc;
   for (int i = 0; i < repeat; ++i) {
     const auto s = Clock::now();
@@ -329,8 +350,14 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
     enc.push_back(Ms(s, Clock::now()));
     run.glb = Check(std::move(glb), label + ": EncodeProgressiveGlb");
   }
-  // Decoded once here to check it; timed later with the other decoders.
-  const ms::Scene full = Check(ms::DecodeProgressiveGlb(run.glb, {}, nullptr), label + ": DecodeProgressiveGlb");
+  // Decoded once here to check it (and that the default decode reads the
+  // profile measured); timed later with the other decoders.
+  ms::ProgressiveDecodeReport decoded;
+  const ms::Scene full = Check(ms::DecodeProgressiveGlb(run.glb, {}, &decoded), label + ": DecodeProgressiveGlb");
+  if ((reliable_profile ? decoded.reliable_profile_streams : decoded.loss_tolerant_streams) !=
+      run.report.primitives.size()) {
+    Die(label + ": the decode did not read the " + (reliable_profile ? "reliable" : "loss-tolerant") + " profile");
+  }
 
   const ms::PrimitiveStreamReport total = run.report.Total();
   const uint64_t vertices = total.vertices, faces = total.faces, base = total.base_bytes,
@@ -351,6 +378,7 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
   const uint64_t rel_all = base + reliable;
   run.j = {
       {"packing", PackingName(packing)},
+      {"profile", reliable_profile ? "reliable" : "loss-tolerant"},
       {"vertices", vertices},
       {"faces", faces},
       {"removed_faces", removed},
@@ -365,6 +393,7 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
       {"unreliable_bytes", unreliable},
       {"total_bytes", rel_all + unreliable},
       {"file_bytes", run.report.file_bytes},
+      {"level_bytes", total.level_bytes},  // per level: base, header, control blocks and datagrams up to it
       {"datagrams", datagrams},
       {"base_bpv", 8.0 * base / v},
       {"reliable_bpv", 8.0 * rel_all / v},
@@ -375,8 +404,9 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
       {"encode", Timing(enc)},
       {"encode_ms", Median(enc)},
   };
-  std::fprintf(stderr, "  meshstream %-7s %8llu B total (%.2f bpv, reliable %.2f), %zu levels, encode %.0f ms\n",
-               PackingName(packing), static_cast<unsigned long long>(rel_all + unreliable), 8.0 * (rel_all + unreliable) / v,
+  std::fprintf(stderr, "  meshstream %-8s %8llu B total (%.2f bpv, reliable %.2f), %zu levels, encode %.0f ms\n",
+               reliable_profile ? "reliable" : PackingName(packing),
+               static_cast<unsigned long long>(rel_all + unreliable), 8.0 * (rel_all + unreliable) / v,
                8.0 * rel_all / v, levels.empty() ? 0 : levels.size() - 1, Median(enc));
   return run;
 }
@@ -468,15 +498,22 @@ void DracoDecodeToPrimitive(const DracoRun& run, const std::string& label) {
   }
 }
 
-DracoRun BenchDraco(const ms::Scene& scene, const ms::QuantizationParams& q, int cl, int repeat, uint64_t vertices,
-                    const std::string& label) {
-  const auto prims = Primitives(scene);
+// Draco at meshstream's quantization: positions on the primitive's brief
+// grid at qp, normals at qn, texture coordinates at qt, colours at qc.
+ms::DracoEncodeOptions DracoOptions(const ms::QuantizationParams& q, int cl) {
   ms::DracoEncodeOptions opt;
   opt.qp = q.qp;
   opt.qn = q.qn;
   opt.qt = q.qt;
   opt.qc = q.qc;
   opt.compression_level = cl;
+  return opt;
+}
+
+DracoRun BenchDraco(const ms::Scene& scene, const ms::QuantizationParams& q, int cl, int repeat, uint64_t vertices,
+                    const std::string& label) {
+  const auto prims = Primitives(scene);
+  const ms::DracoEncodeOptions opt = DracoOptions(q, cl);
   DracoRun run;
   run.encoded.resize(prims.size());
   const std::vector<double> enc = TimeRuns(repeat, [&]() {
@@ -589,6 +626,15 @@ json SettingsJson(const Args& args) {
       {"max_levels", ms::SimplifyOptions{}.max_levels},
       {"hausdorff_samples_per_side", args.samples},
       {"gltfpack_ratios", args.ratios},
+      {"chain_ratios", args.chain},
+      {"chain_mode",
+       "the Draco LOD chain: gltfpack -si R -noq of the full mesh (the same input as gltfpack's LODs) for each "
+       "chain ratio, each LOD compressed by Draco cl7 at the run's qp/qn/qt (positions on the LOD's own brief grid), "
+       "then the whole mesh in Draco cl7 (draco.cl7); a client downloads the steps in order (cumulative_bytes); "
+       "each step's distance is that of Draco's decode of it"},
+      {"profiles",
+       "split and bundled: the loss-tolerant profile (ProfileSet::kLossTolerant, the library default); reliable: "
+       "ProfileSet::kReliable (no datagrams), the same hierarchy and so the same mesh at every level"},
       {"gltfpack_mode",
        "default quantization (-vp 14 -vt 12 -vn 8, KHR_mesh_quantization), no -sa; bytes_cc: the same with -cc "
        "(EXT_meshopt_compression); input: the full meshstream mesh at the qp, as a plain .glb"},
@@ -617,10 +663,11 @@ DecodePools& Pools() {
 // into the meshstream runs' JSON and into *draco7, *draco10 (copies of the
 // Draco runs' JSON).
 // `split_v2` is the split packing written as version 2 (issue 24: version 3
-// must decode no slower).
+// must decode no slower); `reliable` the reliable profile (issue 42: all
+// levels, default options, as a client of a loss-free transport decodes it).
 void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundled, const MeshstreamRun& split_v2,
-                  const DracoRun& d7run, const DracoRun& d10run, const std::string& label, json* draco7,
-                  json* draco10) {
+                  MeshstreamRun& reliable, const DracoRun& d7run, const DracoRun& d10run, const std::string& label,
+                  json* draco7, json* draco10) {
   ms::ProgressiveDecodeOptions all_levels, base_only, but_last, lossy, two_threads, two_but_last, four_threads;
   base_only.lod = 0;  // the base alone: what a viewer waits for before the first mesh
   // Issue 25: every level but the last (the decode left after the last
@@ -643,6 +690,7 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
   std::vector<Decoder> decoders = {
       {"split", progressive(split, all_levels), {}},
       {"bundled", progressive(bundled, all_levels), {}},
+      {"reliable", progressive(reliable, all_levels), {}},
       {"split_v2", progressive(split_v2, all_levels), {}},
       {"split_base", progressive(split, base_only), {}},
       {"split_but_last", progressive(split, but_last), {}},
@@ -661,8 +709,9 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
       if (d.name == name) return d.times;
     Die("no decoder " + name);
   };
-  for (auto* m : {&split, &bundled}) {
-    const std::vector<double>& t = times(m == &split ? "split" : "bundled");
+  for (auto [m, n] : {std::pair<MeshstreamRun*, const char*>{&split, "split"}, {&bundled, "bundled"},
+                      {&reliable, "reliable"}}) {
+    const std::vector<double>& t = times(n);
     m->j["decode"] = Timing(t);
     m->j["decode_ms"] = Median(t);
   }
@@ -681,6 +730,7 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
   split.j["decode_base"] = Timing(times("split_base"));
   split.j["decode_base_ms"] = Median(times("split_base"));
   bundled.j["decode_base_ms"] = nullptr;
+  reliable.j["decode_base_ms"] = nullptr;  // the same Draco base as split's
   *draco7 = d7run.j;
   *draco10 = d10run.j;
   for (auto [d, n] : {std::pair<json*, const char*>{draco7, "draco7"}, {draco10, "draco10"}}) {
@@ -689,9 +739,10 @@ void TimeDecoders(int decode_repeat, MeshstreamRun& split, MeshstreamRun& bundle
     (*d)["decode_to_primitive"] = Timing(times(std::string(n) + "_primitive"));
     (*d)["decode_to_primitive_ms"] = Median(times(std::string(n) + "_primitive"));
   }
-  std::fprintf(stderr, "  decode (median ms): meshstream split %.1f, bundled %.1f, base only %.2f; draco cl7 %.1f, cl10 %.1f\n",
-               Median(times("split")), Median(times("bundled")), Median(times("split_base")),
-               Median(times("draco7")), Median(times("draco10")));
+  std::fprintf(stderr, "  decode (median ms): meshstream split %.1f, bundled %.1f, reliable %.1f, base only %.2f; "
+                       "draco cl7 %.1f, cl10 %.1f\n",
+               Median(times("split")), Median(times("bundled")), Median(times("reliable")),
+               Median(times("split_base")), Median(times("draco7")), Median(times("draco10")));
 }
 
 // meshstream's sizes and times against Draco's.
@@ -708,16 +759,29 @@ json RatiosJson(const json& m, const json& draco7, const json& draco10) {
               {"encode_vs_draco_cl7", de7 > 0 ? m["encode_ms"].get<double>() / de7 : 0.0}};
 }
 
-// gltfpack's LODs of the full mesh (`full_scene`, one primitive) at every
-// --ratios: rd["gltfpack_input_bytes"] and one entry of rd["gltfpack"] per
-// LOD that gltfpack made, its mesh appended to *meshes.
-void GltfpackLods(const Args& args, const WorkDir& work, const std::string& name, int qp, const ms::Scene& full_scene,
-                  json& rd, std::vector<std::shared_ptr<const ms::Primitive>>* meshes) {
+// The full mesh (`full_scene`, one primitive) as the plain .glb gltfpack
+// reads (no Draco, no material); returns its path in the work folder.
+std::string PlainGlb(const WorkDir& work, const std::string& name, int qp, const ms::Scene& full_scene) {
   ms::Primitive plain = *Primitives(full_scene)[0];
   plain.material = -1;
   const std::string in = work.path + "/" + name + "-qp" + std::to_string(qp) + ".glb";
   const ms::Status w = ms::ExportGltfFile(ms::SceneFromPrimitive(plain, name), in, {});
   if (!w.ok()) Die(in + ": " + w.ToString());
+  return in;
+}
+
+// The vertices `p`'s triangles use (an imported LOD may keep others).
+size_t ReferencedVertices(const ms::Primitive& p) {
+  std::vector<uint8_t> used(p.vertex_count(), 0);
+  for (uint32_t i : p.indices) used[i] = 1;
+  return static_cast<size_t>(std::count(used.begin(), used.end(), uint8_t{1}));
+}
+
+// gltfpack's LODs of the full mesh (`in`, PlainGlb's file) at every
+// --ratios: rd["gltfpack_input_bytes"] and one entry of rd["gltfpack"] per
+// LOD that gltfpack made, its mesh appended to *meshes.
+void GltfpackLods(const Args& args, const WorkDir& work, const std::string& in, const std::string& name, int qp,
+                  json& rd, std::vector<std::shared_ptr<const ms::Primitive>>* meshes) {
   rd["gltfpack_input_bytes"] = FileSize(in);
   for (double ratio : args.ratios) {
     const std::string o = work.path + "/" + name + "-qp" + std::to_string(qp) + "-si" + FormatRatio(ratio);
@@ -735,19 +799,89 @@ void GltfpackLods(const Args& args, const WorkDir& work, const std::string& name
       continue;
     }
     auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(lod_scene.value()));
-    size_t referenced = 0;
-    {
-      std::vector<uint8_t> used(p->vertex_count(), 0);
-      for (uint32_t i : p->indices) used[i] = 1;
-      for (uint8_t u : used) referenced += u;
-    }
     rd["gltfpack"].push_back({{"ratio", ratio},
-                              {"vertices", referenced},
+                              {"vertices", ReferencedVertices(*p)},
                               {"faces", p->face_count()},
                               {"bytes", FileSize(o + ".glb")},
                               {"bytes_cc", FileSize(o + "-cc.glb")}});
     meshes->push_back(p);
   }
+}
+
+// `scene` with its one refined primitive replaced by `p`, flattened to world
+// space: a mesh decoded from a file of that primitive, placed as the scene
+// places it (the distances compare world-space meshes).
+std::shared_ptr<const ms::Primitive> FlattenedWith(ms::Scene scene, ms::Primitive p, const std::string& what) {
+  ms::Primitive* slot = nullptr;
+  for (ms::Mesh& m : scene.meshes)
+    for (ms::Primitive& q : m.primitives)
+      if (q.face_count() > 0) {
+        if (slot) Die(what + ": more than one primitive");
+        slot = &q;
+      }
+  if (!slot) Die(what + ": no triangles");
+  *slot = std::move(p);
+  return std::make_shared<const ms::Primitive>(ms::FlattenScene(scene));
+}
+
+// The Draco LOD chain of issue 42 (the pattern needle's gltf-progressive
+// ships: one file per LOD, the client downloads the coarsest first and then
+// each finer one): for each --chain ratio R, `gltfpack -si R` of the full
+// mesh (`in`, PlainGlb's file) compressed by Draco cl7 at the run's
+// quantization, then the whole mesh in Draco cl7 (the run's own, `d7run`,
+// the figure every table calls Draco cl7). One entry of rd["chain"] per
+// step: its own bytes and the chain's bytes up to it; the mesh a client
+// shows (Draco's decode of the step, in world space) appended to *meshes for
+// the distances.
+// gltfpack runs with -noq: Draco puts the LOD on its own grid at qp, and a
+// 14-bit grid before it would round the positions twice.
+void DracoChain(const Args& args, const WorkDir& work, const std::string& in, const std::string& name,
+                const ms::QuantizationParams& q, const ms::Scene& scene, const DracoRun& d7run, json& rd,
+                std::vector<std::shared_ptr<const ms::Primitive>>* meshes, const std::string& label) {
+  const ms::DracoEncodeOptions opt = DracoOptions(q, 7);
+  rd["chain"] = json::array();
+  uint64_t cumulative = 0;
+  auto add = [&](double ratio, const std::string& source, uint64_t bytes, uint64_t dropped,
+                 std::shared_ptr<const ms::Primitive> mesh, json extra) {
+    cumulative += bytes;
+    json step = {{"step", rd["chain"].size()},
+                 {"ratio", ratio},
+                 {"source", source},
+                 {"vertices", ReferencedVertices(*mesh)},
+                 {"faces", mesh->face_count()},
+                 {"bytes", bytes},
+                 {"cumulative_bytes", cumulative},
+                 {"dropped_faces", dropped}};
+    step.update(extra);
+    rd["chain"].push_back(std::move(step));
+    meshes->push_back(std::move(mesh));
+  };
+  for (double ratio : args.chain) {
+    const std::string o =
+        work.path + "/" + name + "-qp" + std::to_string(q.qp) + "-chain" + FormatRatio(ratio) + ".glb";
+    const std::string log = work.path + "/gltfpack.log";
+    if (Run(ShellQuote(args.gltfpack) + " -i " + ShellQuote(in) + " -si " + FormatRatio(ratio) + " -noq -o " +
+            ShellQuote(o) + " >" + ShellQuote(log) + " 2>&1") != 0) {
+      std::fprintf(stderr, "  gltfpack -si %g -noq failed (the chain goes on without the step); see its output:\n",
+                   ratio);
+      Run("cat " + ShellQuote(log) + " >&2");
+      continue;
+    }
+    const ms::Scene lod = Check(ms::ImportFile(o), label + ": " + o);
+    const auto prims = Primitives(lod);
+    if (prims.size() != 1) Die(label + ": " + o + ": not one primitive");
+    const ms::DracoEncoded e = Check(ms::EncodeDracoPrimitive(*prims[0], opt), label + ": chain: EncodeDracoPrimitive");
+    ms::Primitive decoded =
+        Check(ms::DecodeDracoPrimitive(e.bytes.data(), e.bytes.size(), e.ids), label + ": chain: DecodeDracoPrimitive");
+    add(ratio, "gltfpack -si " + FormatRatio(ratio) + " -noq, Draco cl7", e.bytes.size(), e.dropped_faces,
+        FlattenedWith(lod, std::move(decoded), label + ": " + o), {{"gltfpack_bytes", FileSize(o)}});
+  }
+  if (d7run.encoded.size() != 1) Die(label + ": chain: the Draco run has more than one primitive");
+  const ms::DracoEncoded& full = d7run.encoded[0];
+  ms::Primitive decoded = Check(ms::DecodeDracoPrimitive(full.bytes.data(), full.bytes.size(), full.ids),
+                                label + ": chain: DecodeDracoPrimitive (whole mesh)");
+  add(1.0, "the whole mesh, Draco cl7", full.bytes.size(), full.dropped_faces,
+      FlattenedWith(scene, std::move(decoded), label + ": chain"), json::object());
 }
 
 // Where the model and qp are, for the rate-distortion part.
@@ -758,12 +892,16 @@ struct RdInput {
   std::string name, label;
 };
 
-// Rate-distortion: the levels of the split packing and gltfpack's LODs into
+// Rate-distortion: the levels of the split packing (with the reliable
+// profile's bytes per level), gltfpack's LODs and the Draco LOD chain into
 // r["rate_distortion"] (and the entropy report into r["entropy_order0"]);
 // their distances to the full mesh become jobs, which point into r (kept in
-// place until they ran).
-void AddRateDistortion(const RdInput& in, const std::vector<const ms::Primitive*>& prims, const ms::QuantizationParams& q,
-                       const MeshstreamRun& split, uint64_t vertices, json& r, std::vector<DistanceJob>& jobs) {
+// place until they ran). rd["vs_chain"] follows once they ran
+// (CompareWithChain).
+void AddRateDistortion(const RdInput& in, const ms::Scene& scene, const ms::QuantizationParams& q,
+                       const MeshstreamRun& split, const MeshstreamRun& reliable, const DracoRun& d7run,
+                       uint64_t vertices, json& r, std::vector<DistanceJob>& jobs) {
+  const std::vector<const ms::Primitive*> prims = Primitives(scene);
   json rd;
   rd["reference"] = "the full meshstream decode at this qp (the quantized input)";
   if (prims.size() != 1) {
@@ -779,17 +917,51 @@ void AddRateDistortion(const RdInput& in, const std::vector<const ms::Primitive*
   auto full = std::make_shared<const ms::Primitive>(ms::FlattenScene(full_scene));
   rd["diagonal"] = Diagonal(*full);
   const size_t level_count = rd["levels"].size();
+  // The reliable profile is written from the same hierarchy (the strict
+  // rule's), so its level K is the loss-tolerant level K, vertex for vertex:
+  // only its bytes differ, and the level distances serve both. Checked here
+  // (same levels, the same decoded primitive at every level); where it does
+  // not hold the reliable profile is left out of vs_chain.
+  const ms::PrimitiveStreamReport split_total = split.report.Total(), reliable_total = reliable.report.Total();
+  bool same = reliable_total.level_vertices == split_total.level_vertices &&
+              reliable_total.level_bytes.size() == level_count;
+  if (!same) std::fprintf(stderr, "  warning: %s: the reliable profile has other levels\n", in.label.c_str());
   // Level meshes are decoded here; their distances come later.
   std::vector<std::shared_ptr<const ms::Primitive>> meshes;
   for (size_t k = 0; k < level_count; ++k) {
     dopt.lod = static_cast<int>(k);
     const ms::Scene s = Check(ms::DecodeProgressiveGlb(split.glb, dopt, nullptr), in.label + ": decode lod");
+    if (same) {
+      const ms::Scene rs =
+          Check(ms::DecodeProgressiveGlb(reliable.glb, dopt, nullptr), in.label + ": decode reliable lod");
+      if (ms::PrimitiveHash(*Primitives(rs)[0]) != ms::PrimitiveHash(*Primitives(s)[0])) {
+        std::fprintf(stderr, "  warning: %s: the reliable profile's level %zu is another mesh\n", in.label.c_str(), k);
+        same = false;
+      }
+    }
     auto p = std::make_shared<const ms::Primitive>(ms::FlattenScene(s));
     rd["levels"][k]["faces"] = p->face_count();
+    if (k < split_total.level_bytes.size() && split_total.level_bytes[k] != rd["levels"][k]["bytes"].get<uint64_t>()) {
+      std::fprintf(stderr, "  warning: %s: level %zu: %llu bytes here, %llu in the encoder's level_bytes\n",
+                   in.label.c_str(), k, static_cast<unsigned long long>(rd["levels"][k]["bytes"].get<uint64_t>()),
+                   static_cast<unsigned long long>(split_total.level_bytes[k]));
+    }
+    // The reliable profile's bytes up to level K ("reliable_bytes" is taken:
+    // the loss-tolerant stream's reliable channel up to K).
+    if (k < reliable_total.level_bytes.size()) {
+      rd["levels"][k]["reliable_profile_bytes"] = reliable_total.level_bytes[k];
+    }
     meshes.push_back(p);
   }
+  rd["reliable_same_meshes"] = same;
   rd["gltfpack"] = json::array();
-  if (in.gltfpack_ok) GltfpackLods(*in.args, *in.work, in.name, q.qp, full_scene, rd, &meshes);
+  rd["chain"] = json::array();
+  std::vector<std::shared_ptr<const ms::Primitive>> chain_meshes;
+  if (in.gltfpack_ok) {
+    const std::string plain = PlainGlb(*in.work, in.name, q.qp, full_scene);
+    GltfpackLods(*in.args, *in.work, plain, in.name, q.qp, rd, &meshes);
+    DracoChain(*in.args, *in.work, plain, in.name, q, scene, d7run, rd, &chain_meshes, in.label);
+  }
   r["rate_distortion"] = std::move(rd);
   // Jobs point into the run object, which is not moved again.
   json& rdj = r["rate_distortion"];
@@ -800,11 +972,63 @@ void AddRateDistortion(const RdInput& in, const std::vector<const ms::Primitive*
     jobs.push_back({full, meshes[level_count + g], &rdj["gltfpack"][g],
                     in.label + " gltfpack " + FormatRatio(rdj["gltfpack"][g]["ratio"].get<double>())});
   }
+  for (size_t c = 0; c < chain_meshes.size(); ++c) {
+    jobs.push_back({full, chain_meshes[c], &rdj["chain"][c],
+                    in.label + " chain " + FormatRatio(rdj["chain"][c]["ratio"].get<double>())});
+  }
 }
 
-// One model at one qp: both packings and Draco at levels 7 and 10, the
-// decoders interleaved, the levers, the ratios and the rate-distortion
-// curve (its distances queued on `jobs`). The run object stays put.
+// The first of `levels` whose distance `key` is at most `d`: its level, its
+// bytes (`bytes_key`) and their ratio to `chain_bytes`; nulls when none is
+// (a level without the distance is passed over).
+json Reach(const json& levels, const char* key, double d, const char* bytes_key, double chain_bytes) {
+  for (const json& l : levels) {
+    if (!l.contains(key) || !l.contains(bytes_key) || l[key].get<double>() > d) continue;
+    const double b = l[bytes_key].get<double>();
+    return {{"level", l["level"]}, {"bytes", l[bytes_key]}, {"vs_chain", chain_bytes > 0 ? b / chain_bytes : 0.0}};
+  }
+  return {{"level", nullptr}, {"bytes", nullptr}, {"vs_chain", nullptr}};
+}
+
+// rd["vs_chain"] (issue 42), once the distances ran: per step of the Draco
+// LOD chain with a distance, the bytes each profile's stream needs to be at
+// least as close to the full mesh (the first level at most the step's
+// Hausdorff distance; by_mean: the same by mean distance) and their ratio to
+// the chain's bytes up to that step. A client of the chain has those bytes
+// when it shows the step; a client of the stream shows that level.
+void CompareWithChain(json& rd) {
+  rd["vs_chain"] = json::array();
+  if (!rd.contains("chain") || !rd.contains("levels")) return;
+  const json& levels = rd["levels"];
+  const bool reliable = rd.value("reliable_same_meshes", false);
+  for (const json& c : rd["chain"]) {
+    if (!c.contains("hausdorff_rel")) continue;  // no distance: --no-distortion, or its computation failed
+    const double chain_bytes = c["cumulative_bytes"].get<double>();
+    // Both profiles at the first level at most `d` by distance `key`.
+    auto both = [&](const char* key, double d) {
+      return std::pair<json, json>{
+          Reach(levels, key, d, "bytes", chain_bytes),
+          reliable ? Reach(levels, key, d, "reliable_profile_bytes", chain_bytes) : json(nullptr)};
+    };
+    const double h = c["hausdorff_rel"].get<double>(), m = c["mean_rel"].get<double>();
+    const auto [by_h_lt, by_h_rel] = both("hausdorff_rel", h);
+    const auto [by_m_lt, by_m_rel] = both("mean_rel", m);
+    rd["vs_chain"].push_back({
+        {"step", c["step"]},
+        {"ratio", c["ratio"]},
+        {"chain_bytes", c["cumulative_bytes"]},
+        {"hausdorff_rel", h},
+        {"loss_tolerant", by_h_lt},
+        {"reliable", by_h_rel},
+        {"by_mean", {{"mean_rel", m}, {"loss_tolerant", by_m_lt}, {"reliable", by_m_rel}}},
+    });
+  }
+}
+
+// One model at one qp: both packings of the loss-tolerant profile, the
+// reliable profile and Draco at levels 7 and 10, the decoders interleaved,
+// the levers, the ratios and the rate-distortion curves with the Draco LOD
+// chain (their distances queued on `jobs`). The run object stays put.
 std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int qp, std::vector<DistanceJob>& jobs) {
   const Args& args = *in.args;
   ms::QuantizationParams q;
@@ -814,12 +1038,14 @@ std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int 
   std::fprintf(stderr, " qp %d\n", q.qp);
   MeshstreamRun split = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, in.label + " split");
   MeshstreamRun bundled = BenchMeshstream(scene, q, ms::Packing::kBundled, args.repeat, in.label + " bundled");
+  MeshstreamRun reliable = BenchMeshstream(scene, q, ms::Packing::kSplit, args.repeat, in.label + " reliable",
+                                           ms::kStreamVersion, ms::ProfileSet::kReliable);
   const MeshstreamRun split_v2 = BenchMeshstream(scene, q, ms::Packing::kSplit, 1, in.label + " split v2", 2);
   const uint64_t vertices = split.j["vertices"].get<uint64_t>();
   DracoRun d7run = BenchDraco(scene, q, 7, args.repeat, vertices, in.label);
   DracoRun d10run = BenchDraco(scene, q, 10, args.repeat, vertices, in.label);
   json draco7, draco10;
-  TimeDecoders(args.decode_repeat, split, bundled, split_v2, d7run, d10run, in.label, &draco7, &draco10);
+  TimeDecoders(args.decode_repeat, split, bundled, split_v2, reliable, d7run, d10run, in.label, &draco7, &draco10);
 
   auto run = std::make_unique<json>();
   json& r = *run;
@@ -828,16 +1054,82 @@ std::unique_ptr<json> MeasureRun(const RdInput& in, const ms::Scene& scene, int 
   r["qt"] = q.qt;
   r["vertices"] = vertices;
   r["faces"] = split.j["faces"];
-  r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}};
+  r["meshstream"] = {{"split", split.j}, {"bundled", bundled.j}, {"reliable", reliable.j}};
   r["draco"] = {{"cl7", draco7}, {"cl10", draco10}};
   r["levers"] = LeverTable(scene, q, in.label);
-  r["ratios"] = {{"split", RatiosJson(split.j, draco7, draco10)}, {"bundled", RatiosJson(bundled.j, draco7, draco10)}};
-  AddRateDistortion(in, Primitives(scene), q, split, vertices, r, jobs);
+  r["ratios"] = {{"split", RatiosJson(split.j, draco7, draco10)},
+                 {"bundled", RatiosJson(bundled.j, draco7, draco10)},
+                 {"reliable", RatiosJson(reliable.j, draco7, draco10)}};
+  AddRateDistortion(in, scene, q, split, reliable, d7run, vertices, r, jobs);
   return run;
 }
 
-// The targets of issue 11 (codec version 2) and issue 24 (version 3),
-// stated from the numbers.
+// Issue 42's targets of one model and qp (format version 4's profiles):
+// each profile's total against Draco cl7, its decode of all levels on one
+// thread against Draco cl7's, and at the worst step of the Draco LOD chain
+// the bytes its stream needs to be as close as the step (vs_chain). The
+// loss-tolerant profile is measured in both packings ("value" split,
+// "value_bundled" bundled); for the reliable profile both are its own.
+void Issue42Targets(const std::string& name, const json& r, json& targets) {
+  const int qp = r["qp"];
+  auto add = [&](const std::string& target, const char* profile, double value, double value_bundled, double limit,
+                 json extra) {
+    json t = {{"target", target}, {"issue", 42},       {"profile", profile}, {"model", name}, {"qp", qp},
+              {"value", value},   {"value_bundled", value_bundled}, {"limit", limit},
+              {"met", value <= limit && value_bundled <= limit}};
+    t.update(extra);
+    targets.push_back(std::move(t));
+  };
+  const json& rt = r["ratios"];
+  if (!rt.contains("reliable")) return;  // a run before the reliable profile
+  {
+    const bool low = qp <= 11;
+    const double v = rt["reliable"]["total_vs_draco_cl7"];
+    add(std::string("issue 42: reliable profile total <= ") + (low ? "1.15" : "1.10") + " x Draco cl7", "reliable", v,
+        v, low ? 1.15 : 1.10, json::object());
+  }
+  if (qp == 11) {
+    add("issue 42: loss-tolerant profile total <= 1.35 x Draco cl7", "loss-tolerant",
+        rt["split"]["total_vs_draco_cl7"], rt["bundled"]["total_vs_draco_cl7"], 1.35, json::object());
+  }
+  const json draco_ms = r["draco"]["cl7"]["decode_ms"];
+  add("issue 42: decode all levels (1 thread) <= 1.0 x Draco cl7, loss-tolerant profile", "loss-tolerant",
+      rt["split"]["decode_vs_draco_cl7"], rt["bundled"]["decode_vs_draco_cl7"], 1.0,
+      {{"meshstream_ms", r["meshstream"]["split"]["decode_ms"]}, {"draco_ms", draco_ms}});
+  add("issue 42: decode all levels (1 thread) <= 1.0 x Draco cl7, reliable profile", "reliable",
+      rt["reliable"]["decode_vs_draco_cl7"], rt["reliable"]["decode_vs_draco_cl7"], 1.0,
+      {{"meshstream_ms", r["meshstream"]["reliable"]["decode_ms"]}, {"draco_ms", draco_ms}});
+  const json vs = r.contains("rate_distortion") ? r["rate_distortion"].value("vs_chain", json::array()) : json::array();
+  for (const char* profile : {"loss-tolerant", "reliable"}) {
+    const std::string key = std::string(profile) == "reliable" ? "reliable" : "loss_tolerant";
+    double worst = 0;
+    json worst_step = nullptr;
+    int unreached = 0, steps = 0;
+    for (const json& e : vs) {
+      if (e[key].is_null()) continue;  // the reliable profile's meshes differ: not comparable
+      ++steps;
+      if (e[key]["vs_chain"].is_null()) {
+        ++unreached;
+        continue;
+      }
+      const double v = e[key]["vs_chain"];
+      if (worst_step.is_null() || v > worst) {
+        worst = v;
+        worst_step = e["ratio"];
+      }
+    }
+    if (steps == 0) continue;  // no chain or no distances
+    json t = {{"target", std::string("issue 42: bytes to reach each LOD chain step's distance <= 0.8 x the chain's, ") +
+                             profile + " profile"},
+              {"issue", 42}, {"profile", profile}, {"model", name}, {"qp", qp}, {"value", worst},
+              {"value_bundled", worst}, {"limit", 0.8}, {"worst_step_ratio", worst_step},
+              {"unreached_steps", unreached}, {"met", unreached == 0 && worst <= 0.8}};
+    targets.push_back(std::move(t));
+  }
+}
+
+// The targets of issue 11 (codec version 2), issue 24 (version 3), issue 25
+// (decode speed) and issue 42 (version 4's profiles), stated from the numbers.
 json Targets(const json& models) {
   json targets = json::array();
   const std::map<std::string, double> paper_reliable = {{"stanford-bunny", 4.3}, {"horse", 2.87}};
@@ -912,6 +1204,7 @@ json Targets(const json& models) {
                            {"value_bundled", b["encode_ms"]}, {"limit", 1000.0},
                            {"met", e < 1000.0 && b["encode_ms"].get<double>() < 1000.0}});
       }
+      Issue42Targets(name, r, targets);
     }
   }
   return targets;
@@ -919,12 +1212,14 @@ json Targets(const json& models) {
 
 // The console summary: one line per model and qp, one per target.
 void PrintSummary(const json& models, const json& targets) {
-  std::printf("%-15s %3s %9s %6s %7s %9s %9s %6s %6s %8s %8s %8s\n", "model", "qp", "ms_total", "bpv", "rel_bpv",
-              "draco7", "draco10", "x_d7", "x_d10", "dec_ms", "draco_ms", "enc_ms");
+  std::printf("%-15s %3s %9s %6s %7s %9s %9s %6s %6s %8s %8s %8s %9s %6s %8s\n", "model", "qp", "ms_total", "bpv",
+              "rel_bpv", "draco7", "draco10", "x_d7", "x_d10", "dec_ms", "draco_ms", "enc_ms", "reliable", "x_d7",
+              "dec_ms");
   for (const json& m : models) {
     for (const json& r : m["runs"]) {
       const json& s = r["meshstream"]["split"];
-      std::printf("%-15s %3d %9llu %6.2f %7.2f %9llu %9llu %6.2f %6.2f %8.1f %8.1f %8.0f\n",
+      const json& rel = r["meshstream"]["reliable"];
+      std::printf("%-15s %3d %9llu %6.2f %7.2f %9llu %9llu %6.2f %6.2f %8.1f %8.1f %8.0f %9llu %6.2f %8.1f\n",
                   m["name"].get<std::string>().c_str(), r["qp"].get<int>(),
                   static_cast<unsigned long long>(s["total_bytes"].get<uint64_t>()), s["total_bpv"].get<double>(),
                   s["reliable_bpv"].get<double>(),
@@ -932,7 +1227,9 @@ void PrintSummary(const json& models, const json& targets) {
                   static_cast<unsigned long long>(r["draco"]["cl10"]["bytes"].get<uint64_t>()),
                   r["ratios"]["split"]["total_vs_draco_cl7"].get<double>(),
                   r["ratios"]["split"]["total_vs_draco_cl10"].get<double>(), s["decode_ms"].get<double>(),
-                  r["draco"]["cl7"]["decode_ms"].get<double>(), s["encode_ms"].get<double>());
+                  r["draco"]["cl7"]["decode_ms"].get<double>(), s["encode_ms"].get<double>(),
+                  static_cast<unsigned long long>(rel["total_bytes"].get<uint64_t>()),
+                  r["ratios"]["reliable"]["total_vs_draco_cl7"].get<double>(), rel["decode_ms"].get<double>());
     }
   }
   for (const json& t : targets) {
@@ -997,7 +1294,9 @@ int main(int argc, char** argv) {
     RunDistanceJobs(jobs, args.threads, args.samples);
   }
   for (size_t i = 0; i < run_objects.size(); ++i) {
-    out["models"][run_owner[i].first]["runs"][run_owner[i].second] = std::move(*run_objects[i]);
+    json& run = out["models"][run_owner[i].first]["runs"][run_owner[i].second];
+    run = std::move(*run_objects[i]);
+    if (run.contains("rate_distortion")) CompareWithChain(run["rate_distortion"]);
   }
   out["targets"] = Targets(out["models"]);
   out["machine"]["loadavg_at_end"] = ms::bench::LoadAverage();

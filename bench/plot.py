@@ -6,6 +6,10 @@ usage: bench/plot.py [RESULTS.json] [--out DIR] [--doc docs/benchmarks.md]
 Writes into DIR (default: the JSON's folder):
   rd-<model>-qp<N>.png  bytes received against Hausdorff distance to the full
                         mesh: meshstream level by level, gltfpack -si LODs
+  rdp-<model>-qp<N>.png the same for both profiles of format version 4
+                        (loss-tolerant, reliable) beside the Draco LOD chain
+                        (bytes downloaded up to each step), gltfpack's LODs
+                        and, where ../shared/research has them, LLD's totals
   bpv.png               bits per vertex: meshstream (base / reliable stream /
                         datagrams) beside Draco cl7 and cl10
   times.png             decode and encode times against Draco's
@@ -91,6 +95,101 @@ def plot_rd(model, run, path):
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle("%s, qp %d: distance to the full mesh against bytes received" % (model["name"], run["qp"]))
     save_figure(fig, path, 100, rect=(0, 0.08, 1, 1))
+    return True
+
+
+# Lee-Lavoue-Dupont 2012 (the valence-driven progressive coder of MEPP2, commit
+# d977d054), lossless on the grid: total bits per referenced vertex by model
+# and position bits, from ../shared/research/codec-anchors.md ("Sizes",
+# measured 2026-12-01 on the project's machine). Positions and connectivity
+# only (no normals); whole streams, no per-level figures. Drawn as one point
+# at distance 0: bpv x the run's vertices / 8 bytes.
+LLD_BPV = {
+    ("stanford-bunny", 10): 13.36, ("stanford-bunny", 11): 15.96, ("stanford-bunny", 12): 18.81,
+    ("horse", 10): 11.74, ("horse", 11): 14.12, ("horse", 12): 16.78,
+}
+LLD_SOURCE = "../shared/research/codec-anchors.md"
+
+
+def same_grid(qp):
+    """The distance (share of the diagonal) below which two meshes count as the same
+    mesh on the qp grid: a tenth of a grid step. The chain's last step is Draco's
+    decode of the whole mesh on the stream's grid, off by float rounding only
+    (1e-7 to 2e-6 of the diagonal on the shared models); drawn at the floor like
+    the exact full level."""
+    return 0.1 / ((1 << qp) - 1)
+
+
+def plot_profiles(model, run, path):
+    """Both profiles level by level, the Draco LOD chain step by step (the bytes a
+    client has downloaded when it shows each step), gltfpack's LODs and LLD's
+    whole stream: distance to the full mesh against bytes."""
+    rd = run.get("rate_distortion", {})
+    levels = [l for l in rd.get("levels", []) if "hausdorff_rel" in l]
+    if not levels or "reliable" not in run["meshstream"]:
+        return False
+    reliable = rd.get("reliable_same_meshes") and all("reliable_profile_bytes" in l for l in levels)
+    chain = [c for c in rd.get("chain", []) if "hausdorff_rel" in c]
+    packs = [g for g in rd.get("gltfpack", []) if "hausdorff_rel" in g]
+    lld = LLD_BPV.get((model["name"], run["qp"]))
+    d7 = run["draco"]["cl7"]["bytes"]
+    zero = same_grid(run["qp"])
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6))
+    for ax, key, title in ((axes[0], "hausdorff_rel", "Hausdorff distance (max)"),
+                           (axes[1], "mean_rel", "mean surface distance")):
+        values = [l[key] for l in levels] + [c[key] for c in chain] + [g[key] for g in packs]
+        nonzero = [v for v in values if v > zero]
+        floor = (min(nonzero) / 4.0) if nonzero else 1e-6
+
+        def at_floor(v):
+            return v if v > zero else floor
+
+        ys = [at_floor(l[key]) for l in levels]
+        xs = [kb(l["bytes"]) for l in levels]
+        ax.plot(xs, ys, "-o", color="C0", ms=3.5,
+                label="meshstream, loss-tolerant profile (split packing), level by level")
+        if reliable:
+            xr = [kb(l["reliable_profile_bytes"]) for l in levels]
+            ax.plot(xr, ys, "-s", color="C4", ms=3.5,
+                    label="meshstream, reliable profile (same meshes), level by level")
+        if levels[-1][key] <= zero:
+            ax.plot([xs[-1]] + ([xr[-1]] if reliable else []), [floor] * (2 if reliable else 1), "D", color="k",
+                    ms=5, fillstyle="none",
+                    label="full mesh: distance 0 or < 0.1 grid step (drawn at the floor)")
+        if chain:
+            cx = [kb(c["cumulative_bytes"]) for c in chain]
+            cy = [at_floor(c[key]) for c in chain]
+            # A client of the chain shows step i from its download on, until
+            # step i+1 has arrived: a staircase.
+            ax.plot(cx, cy, "-", drawstyle="steps-post", color="C3", linewidth=1.2)
+            ax.plot(cx, cy, "o", color="C3", ms=6, mfc="white", mew=1.5,
+                    label="Draco LOD chain: gltfpack -si R -noq + Draco cl7 per step, then the whole mesh "
+                          "(bytes up to the step)")
+            for c, x, y in zip(chain, cx, cy):
+                what = "full" if c["ratio"] >= 1 else "1/%g" % (1.0 / c["ratio"])
+                ax.annotate(what, (x, y), textcoords="offset points", xytext=(4, 5), fontsize=7, color="C3")
+        if packs:
+            gx = [kb(g["bytes"]) for g in packs]
+            gy = [at_floor(g[key]) for g in packs]
+            ax.plot(gx, gy, "^", color="C1", ms=6, alpha=0.7,
+                    label="gltfpack -si R, one LOD (.glb, KHR_mesh_quantization)")
+            ax.plot([kb(g["bytes_cc"]) for g in packs], gy, "v", color="C2", ms=6, alpha=0.7,
+                    label="gltfpack -si R -cc, one LOD (EXT_meshopt_compression)")
+        if lld:
+            ax.plot([kb(lld * run["vertices"] / 8.0)], [floor], "*", color="C6", ms=12,
+                    label="LLD 2012 (MEPP2), whole stream, positions only: %.2f bpv (%s)" % (lld, LLD_SOURCE))
+        ax.axvline(kb(d7), color="C3", linestyle="--", linewidth=0.8,
+                   label="Draco cl7, whole mesh (%s B)" % fmt_int(d7))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("bytes received (KiB, log)")
+        ax.set_ylabel("%s / bbox diagonal (log)" % title)
+        ax.set_title(title)
+        ax.grid(True, which="both", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=7.5, frameon=False)
+    fig.suptitle("%s, qp %d: both profiles against the Draco LOD chain" % (model["name"], run["qp"]))
+    save_figure(fig, path, 100, rect=(0, 0.15, 1, 1))
     return True
 
 
@@ -198,6 +297,7 @@ def markdown(data, plots, prefix):
                "container adds its JSON, see `file_bytes` in the JSON). Draco: the whole Draco buffer of the "
                "same primitive at the same qp/qn/qt.")
     out.append("")
+    profiles_table(data, out)
     out.append("### Times (ms, medians)")
     out.append("")
     out.append("| model | qp | encode | decode all levels (split) | decode (bundled) | decode base only | "
@@ -271,6 +371,7 @@ def markdown(data, plots, prefix):
                                             g.get("hausdorff_rel", float("nan"))) for g in rd.get("gltfpack", [])]
         out.append("- **%s qp 11**: meshstream %s; gltfpack %s." % (m["name"], "; ".join(cells), "; ".join(gp)))
     out.append("")
+    chain_table(data, plots, prefix, out)
     out.append("![bits per vertex](%sbpv.png)" % prefix)
     out.append("")
     out.append("![times](%stimes.png)" % prefix)
@@ -296,11 +397,130 @@ def markdown(data, plots, prefix):
     out.append("| target | model | qp | measured (split) | measured (bundled) | limit | verdict |")
     out.append("|---|---|---:|---:|---:|---:|---|")
     for t in data["targets"]:
+        if t.get("issue") == 42:
+            continue
         out.append("| %s | %s | %d | %.3g | %.3g | %g | %s |" % (
             t["target"], t["model"], t["qp"], t["value"], t["value_bundled"], t["limit"],
             "**met**" if t["met"] else "**not met**"))
     out.append("")
+    issue42_targets(data, out)
     return "\n".join(out)
+
+
+def same_meshes_note(rows):
+    """What the benchmark's check of the profiles' level meshes found (rate_distortion.reliable_same_meshes)."""
+    differ = ["%s qp %d" % (m["name"], r["qp"]) for m, r in rows
+              if r.get("rate_distortion", {}).get("reliable_same_meshes") is False]
+    if differ:
+        return " (except where the check found other meshes: %s)" % ", ".join(differ)
+    return " (checked level by level)"
+
+
+def profiles_table(data, out):
+    """The table "Profiles": each profile's bytes and decode time against Draco cl7."""
+    rows = [(m, r) for m, r in runs(data) if "reliable" in r["meshstream"]]
+    if not rows:
+        return
+    out.append("### Profiles (format version 4)")
+    out.append("")
+    out.append("The loss-tolerant profile (the library default; split and bundled packings) and the reliable "
+               "profile (`ProfileSet::kReliable`: no datagrams, every refinement's data in its control block; "
+               "docs/progressive-format.md, section 11), encoded from the same hierarchy: the same meshes at "
+               "every level, other bytes%s. Total = base + header + control blocks (+ datagrams); decode = "
+               "`DecodeProgressiveGlb` of all levels on one thread with default options, timed in the same "
+               "interleaved rounds as Draco's." % same_meshes_note(rows))
+    out.append("")
+    out.append("| model | qp | loss-tolerant (split) | bundled | **reliable** | Draco cl7 | loss-tolerant x cl7 | "
+               "**reliable x cl7** | reliable / loss-tolerant | decode split (ms) | decode reliable (ms) | "
+               "Draco cl7 decode (ms) | split decode x cl7 | reliable decode x cl7 |")
+    out.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m, r in rows:
+        s, b, rel = r["meshstream"]["split"], r["meshstream"]["bundled"], r["meshstream"]["reliable"]
+        rs, rr = r["ratios"]["split"], r["ratios"]["reliable"]
+        out.append("| %s | %d | %s | %s | **%s** | %s | %.3f | **%.3f** | %.3f | %.1f | %.1f | %.1f | %.2f | %.2f |" % (
+            m["name"], r["qp"], fmt_int(s["total_bytes"]), fmt_int(b["total_bytes"]), fmt_int(rel["total_bytes"]),
+            fmt_int(r["draco"]["cl7"]["bytes"]), rs["total_vs_draco_cl7"], rr["total_vs_draco_cl7"],
+            rel["total_bytes"] / float(s["total_bytes"]), s["decode_ms"], rel["decode_ms"],
+            r["draco"]["cl7"]["decode_ms"], rs["decode_vs_draco_cl7"], rr["decode_vs_draco_cl7"]))
+    out.append("")
+
+
+def step_name(ratio):
+    """A step of the Draco LOD chain by its gltfpack ratio: 1/64, ..., the whole mesh."""
+    return "whole mesh" if ratio >= 1 else "1/%g" % (1.0 / ratio)
+
+
+def fmt_reach(e):
+    """A profile's cell of the chain table: the level that reaches the step, its bytes, x the chain's."""
+    if e is None:
+        return "n/a"
+    if e["level"] is None:
+        return "not reached"
+    return "L%d %s B **%.2f**" % (e["level"], fmt_int(e["bytes"]), e["vs_chain"])
+
+
+def chain_table(data, plots, prefix, out):
+    """The Draco LOD chain against both profiles (rate_distortion.chain and .vs_chain)."""
+    rows = [(m, r) for m, r in runs(data) if r.get("rate_distortion", {}).get("vs_chain")]
+    if not rows:
+        return
+    st = data["settings"]
+    out.append("#### Against the Draco LOD chain (issue 42)")
+    out.append("")
+    ratios = ", ".join("1/%g" % (1.0 / r) for r in st.get("chain_ratios", []))
+    out.append("The chain is what a glTF viewer with separate LOD files downloads (needle's gltf-progressive "
+               "pattern): `gltfpack -si R -noq` of the same full mesh for R = %s, each LOD compressed by Draco "
+               "cl7 at the run's qp, qn and qt (positions on the LOD's own grid), then the whole mesh in Draco "
+               "cl7; the client downloads them in order, so showing a step costs the chain's bytes up to it. A "
+               "step's distance is that of the mesh Draco decodes from it, against the same full mesh. For each "
+               "step and profile: the first level of the stream at most as far from the full mesh (Hausdorff), "
+               "its bytes, and those bytes x the chain's (below 1: the stream needs fewer bytes to look at least "
+               "as good; issue 42 asks at most 0.8 at every step). The same comparison by mean distance is "
+               "`by_mean` in the JSON." % ratios)
+    out.append("")
+    out.append("| model | qp | step | vertices | step bytes | chain bytes | Hausdorff | loss-tolerant: level, bytes, "
+               "**x chain** | reliable: level, bytes, **x chain** |")
+    out.append("|---|---:|---|---:|---:|---:|---:|---|---|")
+    for m, r in rows:
+        rd = r["rate_distortion"]
+        chain = {c["step"]: c for c in rd.get("chain", [])}
+        for v in rd["vs_chain"]:
+            c = chain.get(v["step"], {})
+            what = step_name(v["ratio"])
+            out.append("| %s | %d | %s | %s | %s | %s | %.2g | %s | %s |" % (
+                m["name"], r["qp"], what, fmt_int(c.get("vertices", 0)), fmt_int(c.get("bytes", 0)),
+                fmt_int(v["chain_bytes"]), v["hausdorff_rel"], fmt_reach(v["loss_tolerant"]),
+                fmt_reach(v["reliable"])))
+    out.append("")
+    for p in plots.get("rdp", []):
+        out.append("![%s](%s%s)" % (p, prefix, p))
+    out.append("")
+
+
+def issue42_targets(data, out):
+    """Issue 42's targets: each profile against Draco cl7 and the LOD chain."""
+    ts = [t for t in data["targets"] if t.get("issue") == 42]
+    if not ts:
+        return
+    out.append("### Targets of issue 42 (format version 4's profiles)")
+    out.append("")
+    out.append("Loss-tolerant rows give the split packing, then the bundled one (both must meet the limit); the "
+               "chain rows give the worst step of the Draco LOD chain.")
+    out.append("")
+    out.append("| target | model | qp | profile | measured | limit | verdict |")
+    out.append("|---|---|---:|---|---:|---:|---|")
+    for t in ts:
+        measured = "%.3g" % t["value"]
+        if t["profile"] == "loss-tolerant" and t["value_bundled"] != t["value"]:
+            measured += " / %.3g" % t["value_bundled"]
+        if t.get("worst_step_ratio") is not None:
+            measured += " (at %s)" % step_name(t["worst_step_ratio"])
+        if t.get("unreached_steps"):
+            measured += ", %d steps not reached" % t["unreached_steps"]
+        out.append("| %s | %s | %d | %s | %s | %g | %s |" % (
+            t["target"].replace("issue 42: ", ""), t["model"], t["qp"], t["profile"], measured, t["limit"],
+            "**met**" if t["met"] else "**not met**"))
+    out.append("")
 
 
 def main():
@@ -315,7 +535,7 @@ def main():
     data = load(a.results)
     out = output_dir(a.out, a.results)
 
-    plots = {"rd": []}
+    plots = {"rd": [], "rdp": []}
     written = 2
     for m, r in runs(data):
         name = "rd-%s-qp%d.png" % (m["name"], r["qp"])
@@ -323,6 +543,11 @@ def main():
             written += 1
             if r["qp"] == 11:
                 plots["rd"].append(name)
+        name = "rdp-%s-qp%d.png" % (m["name"], r["qp"])
+        if plot_profiles(m, r, os.path.join(out, name)):
+            written += 1
+            if r["qp"] == 11:
+                plots["rdp"].append(name)
     plot_bpv(data, os.path.join(out, "bpv.png"))
     plot_times(data, os.path.join(out, "times.png"))
     write_text(os.path.join(out, "results.md"),

@@ -14,6 +14,13 @@
 // peak, at most 3 x Draco's encode time at 2 M vertices. And the decoders
 // (issue 25): `meshstream decode` against `meshstream convert` of the Draco
 // file, time and peak memory (targets: 1.0 x and 1.3 x Draco's).
+// Issue 42: the encoder runs `--profile both --json` (what an ingest stores:
+// both profiles, the harm estimate, the delivery record) and each row keeps
+// the medians of its step times (`step_ms`: hierarchy, stream, harm,
+// delivery); both profiles are decoded (the reliable one is what `decode`
+// takes by default); and the series runs twice, on the smooth subdivision
+// and on the same meshes with scan-like surface noise
+// (bench/scaling/surface_noise.h), whose rows carry "surface": "noisy".
 // Writes one JSON object (--out, default docs/bench/scaling.json) and prints
 // the table as markdown.
 #include <unistd.h>
@@ -31,6 +38,7 @@
 #include "bench/harness.h"
 #include "bench/scaling/measured_run.h"
 #include "bench/scaling/subdivide.h"
+#include "bench/scaling/surface_noise.h"
 #include "importers/import.h"
 #include "importers/mesh_writer.h"
 
@@ -47,18 +55,26 @@ struct Args {
   std::string work_dir = "/tmp";
   std::string out = "docs/bench/scaling.json";
   std::string keep_inputs;  // copy each subdivided mesh here (for profiling)
+  std::vector<std::string> surfaces = {"smooth", "noisy"};
+  double noise = 0.25;  // the noisy surface's amplitude, in mean edge lengths
 };
 
 void Usage() {
   std::printf(
       "usage: meshstream_bench_scaling [--model FILE] [--subdivisions N] [--runs N] [--qp Q]\n"
-      "                                [--work-dir DIR] [--out FILE] [--keep-inputs DIR]\n\n"
+      "                                [--work-dir DIR] [--out FILE] [--keep-inputs DIR]\n"
+      "                                [--surfaces smooth,noisy] [--noise A]\n\n"
       "The encoder at scale: FILE (a shared model, default stanford-bunny.obj) subdivided 0..N\n"
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
       "CPU time and peak resident memory, medians of --runs (default 3). About 9 minutes for\n"
       "the default. Writes one JSON object (default docs/bench/scaling.json). --keep-inputs DIR\n"
-      "keeps the subdivided meshes there (levelN.ply) to profile the encoder on them.\n");
+      "keeps the subdivided meshes there (levelN.ply, noisyN.ply) to profile the encoder on them.\n"
+      "The encoder runs as an ingest does (--profile both: both profiles, the harm estimate,\n"
+      "the delivery record; each row keeps its step times), both profiles are decoded, and\n"
+      "--surfaces (default smooth,noisy) runs the series on the smooth subdivision and on the\n"
+      "same meshes with surface noise like a scan's: every vertex moved along its normal by up\n"
+      "to --noise (default 0.25) mean edge lengths.\n");
 }
 
 Args Parse(int argc, char** argv) {
@@ -87,6 +103,19 @@ Args Parse(int argc, char** argv) {
       a.out = value();
     } else if (flag == "--keep-inputs") {
       a.keep_inputs = value();
+    } else if (flag == "--surfaces") {
+      a.surfaces.clear();
+      const std::string list = value();
+      for (size_t at = 0; at <= list.size();) {
+        const size_t comma = std::min(list.find(',', at), list.size());
+        const std::string name = list.substr(at, comma - at);
+        if (name != "smooth" && name != "noisy") ms::bench::Die("--surfaces: '" + name + "' is not smooth or noisy");
+        a.surfaces.push_back(name);
+        at = comma + 1;
+      }
+    } else if (flag == "--noise") {
+      a.noise = ms::bench::ParseDouble(value(), flag);
+      if (!(a.noise >= 0 && a.noise <= 10)) ms::bench::Die("--noise must be between 0 and 10");
     } else {
       ms::bench::Die("unknown flag " + flag + " (--help lists them)");
     }
@@ -94,18 +123,17 @@ Args Parse(int argc, char** argv) {
   return a;
 }
 
-// The medians of `runs` runs of `argv`; Die when one fails. With
-// `decode_ms`, each run's stdout is a JSON object whose "decode_ms" is kept.
-json Measure(const std::vector<std::string>& argv, int runs, uint64_t vertices,
-             std::vector<double>* decode_ms = nullptr) {
+// The medians of `runs` runs of `argv`; Die when one fails. With `outputs`,
+// each run's stdout is a JSON object, kept.
+json Measure(const std::vector<std::string>& argv, int runs, uint64_t vertices, std::vector<json>* outputs = nullptr) {
   std::vector<double> wall, cpu, rss;
   for (int r = 0; r < runs; ++r) {
     const ms::bench::MeasuredRun m = ms::bench::RunMeasured(argv);
     if (m.exit_code != 0) ms::bench::Die(argv[1] + " failed (exit " + std::to_string(m.exit_code) + ") on " + argv.back());
-    if (decode_ms) {
+    if (outputs) {
       const json j = json::parse(m.out, nullptr, false);
-      if (j.is_discarded() || !j.contains("decode_ms")) ms::bench::Die(argv[1] + ": no decode_ms in its --json output");
-      decode_ms->push_back(j["decode_ms"].get<double>());
+      if (j.is_discarded() || !j.is_object()) ms::bench::Die(argv[1] + ": its --json output is not a JSON object");
+      outputs->push_back(j);
     }
     wall.push_back(m.wall_s);
     cpu.push_back(m.cpu_s);
@@ -116,6 +144,18 @@ json Measure(const std::vector<std::string>& argv, int runs, uint64_t vertices,
           {"cpu_s", ms::bench::Median(cpu)},
           {"peak_rss_bytes", peak},
           {"peak_bytes_per_vertex", peak / static_cast<double>(vertices)}};
+}
+
+// The median over `outputs` of the number at `key` (a member, or a member of
+// the member `parent`); Die when a run lacks it.
+double MedianOf(const std::vector<json>& outputs, const std::string& key, const std::string& parent = "") {
+  std::vector<double> values;
+  for (const json& j : outputs) {
+    const json& o = parent.empty() ? j : j.value(parent, json::object());
+    if (!o.contains(key) || !o[key].is_number()) ms::bench::Die("no " + parent + (parent.empty() ? "" : ".") + key + " in a --json output");
+    values.push_back(o[key].get<double>());
+  }
+  return ms::bench::Median(values);
 }
 
 uint64_t FileBytes(const std::string& path) {
@@ -136,84 +176,115 @@ int main(int argc, char** argv) {
       ms::bench::Check(ms::ImportFile(std::string(MESHSTREAM_MODELS_DIR) + "/" + args.model), "reading " + args.model);
   const std::vector<const ms::Primitive*> primitives = ms::bench::Primitives(scene);
   if (primitives.size() != 1) ms::bench::Die(args.model + ": one primitive expected");
-  ms::Primitive mesh;
-  mesh.positions = primitives[0]->positions;
-  mesh.indices = primitives[0]->indices;
+  ms::Primitive source;
+  source.positions = primitives[0]->positions;
+  source.indices = primitives[0]->indices;
 
   json rows = json::array();
-  for (int level = 0; level <= args.subdivisions; ++level) {
-    if (level > 0) mesh = ms::bench::SubdivideMidpoint(mesh);
-    const std::string in = dir + "/level" + std::to_string(level) + ".ply";
-    const ms::Status written = ms::WriteMeshFile(ms::SceneFromPrimitive(mesh, "scaled"), in);
-    if (!written.ok()) ms::bench::Die("writing " + in + ": " + written.ToString());
-    const uint64_t vertices = mesh.vertex_count();
-    std::fprintf(stderr, "meshstream_bench_scaling: %llu vertices, %zu triangles\n",
-                 static_cast<unsigned long long>(vertices), mesh.face_count());
-    if (!args.keep_inputs.empty()) {
-      std::error_code ec;
-      std::filesystem::create_directories(args.keep_inputs, ec);
-      std::filesystem::copy_file(in, args.keep_inputs + "/level" + std::to_string(level) + ".ply",
-                                 std::filesystem::copy_options::overwrite_existing, ec);
-      if (ec) ms::bench::Die("keeping " + in + " in " + args.keep_inputs + ": " + ec.message());
+  for (const std::string& surface : args.surfaces) {
+    const bool noisy = surface == "noisy";
+    ms::Primitive smooth = source;
+    size_t first_row = rows.size();
+    for (int level = 0; level <= args.subdivisions; ++level) {
+      if (level > 0) smooth = ms::bench::SubdivideMidpoint(smooth);
+      const ms::Primitive mesh =
+          noisy ? ms::bench::WithSurfaceNoise(smooth, args.noise, 1000 + static_cast<uint64_t>(level)) : smooth;
+      const std::string stem = (noisy ? "noisy" : "level") + std::to_string(level);
+      const std::string in = dir + "/" + stem + ".ply";
+      const ms::Status written = ms::WriteMeshFile(ms::SceneFromPrimitive(mesh, "scaled"), in);
+      if (!written.ok()) ms::bench::Die("writing " + in + ": " + written.ToString());
+      const uint64_t vertices = mesh.vertex_count();
+      std::fprintf(stderr, "meshstream_bench_scaling: %s, %llu vertices, %zu triangles\n", surface.c_str(),
+                   static_cast<unsigned long long>(vertices), mesh.face_count());
+      if (!args.keep_inputs.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(args.keep_inputs, ec);
+        std::filesystem::copy_file(in, args.keep_inputs + "/" + stem + ".ply",
+                                   std::filesystem::copy_options::overwrite_existing, ec);
+        if (ec) ms::bench::Die("keeping " + in + " in " + args.keep_inputs + ": " + ec.message());
+      }
+      const std::string plain = dir + "/plain.glb", draco = dir + "/draco.glb", ours = dir + "/ours.glb";
+      const std::string qp = std::to_string(args.qp);
+      json row = {{"surface", surface}, {"subdivisions", level}, {"vertices", vertices}, {"faces", mesh.face_count()}};
+      row["read_and_write"] = Measure({cli, "convert", "--quiet", in, plain}, args.runs, vertices);
+      row["draco"] =
+          Measure({cli, "convert", "--quiet", "--draco", "--qp", qp, "--cl", "7", in, draco}, args.runs, vertices);
+      row["draco"]["output_bytes"] = FileBytes(draco);
+      // The encoder as an ingest runs it: both profiles in one file.
+      std::vector<json> encodes;
+      row["meshstream"] =
+          Measure({cli, "encode", "--json", "--profile", "both", "--qp", qp, in, "-o", ours}, args.runs, vertices, &encodes);
+      row["meshstream"]["output_bytes"] = FileBytes(ours);
+      row["meshstream"]["profile"] = "both";
+      row["meshstream"]["reliable_profile_bytes"] = encodes.front().value("reliable_level_bytes", json::array()).empty()
+                                                        ? json(nullptr)
+                                                        : encodes.front()["reliable_level_bytes"].back();
+      row["meshstream"]["step_ms"] = json::object();
+      for (const char* step : {"hierarchy", "stream", "harm", "delivery"}) {
+        row["meshstream"]["step_ms"][step] = MedianOf(encodes, step, "step_ms");
+      }
+      // Issue 25: the decoders, whole processes that read the .glb, decode
+      // and write a plain .glb: `meshstream decode` (all levels; it also checks the
+      // mesh's health, as it does for a user) against `meshstream convert` of
+      // the Draco file (Draco's decoder through the glTF importer). The decode
+      // alone, in the process, is what `decode --json` reports as decode_ms.
+      // `decode` takes the reliable profile of the file; the loss-tolerant one
+      // is meshstream_decode_loss_tolerant.
+      const std::string decoded = dir + "/decoded.glb";
+      std::vector<json> decodes;
+      row["meshstream_decode"] = Measure({cli, "decode", "--json", ours, "-o", decoded}, args.runs, vertices, &decodes);
+      row["meshstream_decode"]["decode_ms"] = MedianOf(decodes, "decode_ms");
+      row["meshstream_decode"]["profile"] = decodes.front().value("profile", "");
+      std::vector<json> lt_decodes;
+      row["meshstream_decode_loss_tolerant"] =
+          Measure({cli, "decode", "--json", "--profile", "loss-tolerant", ours, "-o", decoded}, args.runs, vertices,
+                  &lt_decodes);
+      row["meshstream_decode_loss_tolerant"]["decode_ms"] = MedianOf(lt_decodes, "decode_ms");
+      row["draco_decode"] = Measure({cli, "convert", "--quiet", draco, decoded}, args.runs, vertices);
+      // The same decode on 2 threads (decode --threads 2: whole refinements planned in parallel).
+      std::vector<json> decodes2;
+      row["meshstream_decode_2threads"] =
+          Measure({cli, "decode", "--json", "--threads", "2", ours, "-o", decoded}, args.runs, vertices, &decodes2);
+      row["meshstream_decode_2threads"]["decode_ms"] = MedianOf(decodes2, "decode_ms");
+      const double draco_decode_s = row["draco_decode"]["wall_s"].get<double>();
+      row["ratios"] = {
+          {"time_vs_draco", row["meshstream"]["wall_s"].get<double>() / row["draco"]["wall_s"].get<double>()},
+          {"memory_vs_draco",
+           row["meshstream"]["peak_rss_bytes"].get<double>() / row["draco"]["peak_rss_bytes"].get<double>()},
+          {"decode_time_vs_draco", row["meshstream_decode"]["wall_s"].get<double>() / draco_decode_s},
+          {"decode_loss_tolerant_time_vs_draco",
+           row["meshstream_decode_loss_tolerant"]["wall_s"].get<double>() / draco_decode_s},
+          {"decode_memory_vs_draco", row["meshstream_decode"]["peak_rss_bytes"].get<double>() /
+                                         row["draco_decode"]["peak_rss_bytes"].get<double>()},
+          {"decode_2threads_time_vs_draco", row["meshstream_decode_2threads"]["wall_s"].get<double>() / draco_decode_s}};
+      if (rows.size() > first_row) {
+        const json& before = rows.back();
+        row["growth_per_4x"] = {
+            {"time", row["meshstream"]["wall_s"].get<double>() / before["meshstream"]["wall_s"].get<double>()},
+            {"memory",
+             row["meshstream"]["peak_rss_bytes"].get<double>() / before["meshstream"]["peak_rss_bytes"].get<double>()},
+            {"draco_time", row["draco"]["wall_s"].get<double>() / before["draco"]["wall_s"].get<double>()}};
+      }
+      rows.push_back(row);
     }
-    const std::string plain = dir + "/plain.glb", draco = dir + "/draco.glb", ours = dir + "/ours.glb";
-    const std::string qp = std::to_string(args.qp);
-    json row = {{"subdivisions", level}, {"vertices", vertices}, {"faces", mesh.face_count()}};
-    row["read_and_write"] = Measure({cli, "convert", "--quiet", in, plain}, args.runs, vertices);
-    row["draco"] = Measure({cli, "convert", "--quiet", "--draco", "--qp", qp, "--cl", "7", in, draco}, args.runs, vertices);
-    row["draco"]["output_bytes"] = FileBytes(draco);
-    row["meshstream"] = Measure({cli, "encode", "--qp", qp, in, "-o", ours}, args.runs, vertices);
-    row["meshstream"]["output_bytes"] = FileBytes(ours);
-    // Issue 25: the decoders, whole processes that read the .glb, decode
-    // and write a plain .glb: `meshstream decode` (all levels; it also checks the
-    // mesh's health, as it does for a user) against `meshstream convert` of
-    // the Draco file (Draco's decoder through the glTF importer). The decode
-    // alone, in the process, is what `decode --json` reports as decode_ms.
-    const std::string decoded = dir + "/decoded.glb";
-    std::vector<double> decode_ms;
-    row["meshstream_decode"] = Measure({cli, "decode", "--json", ours, "-o", decoded}, args.runs, vertices, &decode_ms);
-    row["meshstream_decode"]["decode_ms"] = ms::bench::Median(decode_ms);
-    row["draco_decode"] = Measure({cli, "convert", "--quiet", draco, decoded}, args.runs, vertices);
-    // The same decode on 2 threads (decode --threads 2: whole refinements planned in parallel).
-    std::vector<double> decode2_ms;
-    row["meshstream_decode_2threads"] =
-        Measure({cli, "decode", "--json", "--threads", "2", ours, "-o", decoded}, args.runs, vertices, &decode2_ms);
-    row["meshstream_decode_2threads"]["decode_ms"] = ms::bench::Median(decode2_ms);
-    row["ratios"] = {
-        {"time_vs_draco", row["meshstream"]["wall_s"].get<double>() / row["draco"]["wall_s"].get<double>()},
-        {"memory_vs_draco",
-         row["meshstream"]["peak_rss_bytes"].get<double>() / row["draco"]["peak_rss_bytes"].get<double>()},
-        {"decode_time_vs_draco",
-         row["meshstream_decode"]["wall_s"].get<double>() / row["draco_decode"]["wall_s"].get<double>()},
-        {"decode_memory_vs_draco", row["meshstream_decode"]["peak_rss_bytes"].get<double>() /
-                                       row["draco_decode"]["peak_rss_bytes"].get<double>()},
-        {"decode_2threads_time_vs_draco", row["meshstream_decode_2threads"]["wall_s"].get<double>() /
-                                              row["draco_decode"]["wall_s"].get<double>()}};
-    if (!rows.empty()) {
-      const json& before = rows.back();
-      row["growth_per_4x"] = {
-          {"time", row["meshstream"]["wall_s"].get<double>() / before["meshstream"]["wall_s"].get<double>()},
-          {"memory",
-           row["meshstream"]["peak_rss_bytes"].get<double>() / before["meshstream"]["peak_rss_bytes"].get<double>()},
-          {"draco_time", row["draco"]["wall_s"].get<double>() / before["draco"]["wall_s"].get<double>()}};
-    }
-    rows.push_back(row);
   }
   std::filesystem::remove_all(dir);
 
   json out;
   out["benchmark"] = "meshstream_bench_scaling";
   out["machine"] = ms::bench::MachineInfo(args.work_dir, MESHSTREAM_SOURCE_DIR, MESHSTREAM_BUILD_TYPE);
-  out["settings"] = {{"model", args.model}, {"subdivisions", args.subdivisions}, {"runs", args.runs}, {"qp", args.qp},
-                     {"draco_compression_level", 7}};
+  out["settings"] = {{"model", args.model},   {"subdivisions", args.subdivisions}, {"runs", args.runs},
+                     {"qp", args.qp},         {"draco_compression_level", 7},      {"surfaces", args.surfaces},
+                     {"noise", args.noise},   {"profile", "both"}};
   out["rows"] = rows;
   ms::bench::WriteJson(args.out, out);
 
-  std::printf("| vertices | meshstream encode s | peak MB | bytes/vertex | Draco s | Draco peak MB | time vs Draco | growth per 4 x (time, memory) |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|---|\n");
+  std::printf("| surface | vertices | meshstream encode s (hierarchy, stream, harm, delivery) | peak MB | bytes/vertex | Draco s | Draco peak MB | time vs Draco | growth per 4 x (time, memory) |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
   for (const json& r : rows) {
     const json& m = r["meshstream"];
     const json& d = r["draco"];
+    const json& st = m["step_ms"];
     std::string growth = "-";
     if (r.contains("growth_per_4x")) {
       char g[64];
@@ -221,22 +292,28 @@ int main(int argc, char** argv) {
                     r["growth_per_4x"]["memory"].get<double>());
       growth = g;
     }
-    std::printf("| %llu | %.2f | %.0f | %.0f | %.2f | %.0f | %.2f | %s |\n",
-                static_cast<unsigned long long>(r["vertices"].get<uint64_t>()), m["wall_s"].get<double>(),
+    std::printf("| %s | %llu | %.2f (%.2f, %.2f, %.2f, %.2f) | %.0f | %.0f | %.2f | %.0f | %.2f | %s |\n",
+                r["surface"].get<std::string>().c_str(), static_cast<unsigned long long>(r["vertices"].get<uint64_t>()),
+                m["wall_s"].get<double>(), st["hierarchy"].get<double>() / 1000.0, st["stream"].get<double>() / 1000.0,
+                st["harm"].get<double>() / 1000.0, st["delivery"].get<double>() / 1000.0,
                 m["peak_rss_bytes"].get<double>() / 1e6, m["peak_bytes_per_vertex"].get<double>(),
                 d["wall_s"].get<double>(), d["peak_rss_bytes"].get<double>() / 1e6,
                 r["ratios"]["time_vs_draco"].get<double>(), growth.c_str());
   }
-  std::printf("\n| vertices | meshstream decode s (decode alone) | peak MB | Draco decode s | Draco peak MB | time vs Draco | memory vs Draco | 2 threads s (decode alone) | 2 threads vs Draco |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  std::printf("\n| surface | vertices | reliable decode s (decode alone) | loss-tolerant s (alone) | peak MB | Draco decode s | Draco peak MB | reliable vs Draco | loss-tolerant vs Draco | memory vs Draco | 2 threads s (alone) | 2 threads vs Draco |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const json& r : rows) {
     const json& m = r["meshstream_decode"];
+    const json& lt = r["meshstream_decode_loss_tolerant"];
     const json& d = r["draco_decode"];
     const json& m2 = r["meshstream_decode_2threads"];
-    std::printf("| %llu | %.2f (%.2f) | %.0f | %.2f | %.0f | %.2f | %.2f | %.2f (%.2f) | %.2f |\n",
-                static_cast<unsigned long long>(r["vertices"].get<uint64_t>()), m["wall_s"].get<double>(),
-                m["decode_ms"].get<double>() / 1000.0, m["peak_rss_bytes"].get<double>() / 1e6, d["wall_s"].get<double>(),
-                d["peak_rss_bytes"].get<double>() / 1e6, r["ratios"]["decode_time_vs_draco"].get<double>(),
+    std::printf("| %s | %llu | %.2f (%.2f) | %.2f (%.2f) | %.0f | %.2f | %.0f | %.2f | %.2f | %.2f | %.2f (%.2f) | %.2f |\n",
+                r["surface"].get<std::string>().c_str(), static_cast<unsigned long long>(r["vertices"].get<uint64_t>()),
+                m["wall_s"].get<double>(), m["decode_ms"].get<double>() / 1000.0, lt["wall_s"].get<double>(),
+                lt["decode_ms"].get<double>() / 1000.0, m["peak_rss_bytes"].get<double>() / 1e6,
+                d["wall_s"].get<double>(), d["peak_rss_bytes"].get<double>() / 1e6,
+                r["ratios"]["decode_time_vs_draco"].get<double>(),
+                r["ratios"]["decode_loss_tolerant_time_vs_draco"].get<double>(),
                 r["ratios"]["decode_memory_vs_draco"].get<double>(), m2["wall_s"].get<double>(),
                 m2["decode_ms"].get<double>() / 1000.0, r["ratios"]["decode_2threads_time_vs_draco"].get<double>());
   }
