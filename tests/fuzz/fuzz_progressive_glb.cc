@@ -9,8 +9,11 @@
 // primitives carrying our extension have level_vertices[K] vertices between
 // them. The decode on two threads (a ThreadPool as the decode's TaskRunner,
 // codec/progressive/parallel_refinement.h) must end the same way: the same
-// error, or the same scene bit for bit. Anything else stops the fuzzer
-// (__builtin_trap).
+// error, or the same scene bit for bit. Where the file holds the reliable
+// profile (format version 4), its loss-tolerant stream is decoded too
+// (DecodeProfile::kLossTolerant): a scene of valid triangles, or an error
+// with a message (a file of one profile has no other). Anything else stops
+// the fuzzer (__builtin_trap).
 //
 // Built as a real libFuzzer binary with MESHSTREAM_FUZZ=ON (make fuzz), and
 // always as fuzz_progressive_glb_replay, which replays
@@ -94,6 +97,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           full.status().ToString());
     }
     if (full.ok() && !SameScene(parallel.value(), full.value())) Bug("the decode on two threads differs");
+  }
+  if (full.ok() && full_report.reliable_profile_streams > 0) {
+    ProgressiveDecodeOptions other;
+    other.profile = meshstream::DecodeProfile::kLossTolerant;
+    auto loss_tolerant = meshstream::DecodeProgressiveGlb(bytes, other, nullptr);
+    if (loss_tolerant.ok()) {
+      CheckScene(loss_tolerant.value());
+    } else if (loss_tolerant.status().message().empty()) {
+      Bug("an error without a message (the loss-tolerant profile)");
+    }
   }
   if (!full.ok()) {
     if (full.status().message().empty()) Bug("an error without a message");

@@ -193,8 +193,9 @@ def edit_header(blob, edit):
 
 def header_counts_at(header):
     """Offset of the base vertex count in a stream header (the tools field:
-    none in version 1, one byte in version 2, two in version 3)."""
-    tools = {1: 0, 2: 1, 3: 2}[header[0]]
+    none in version 1, one byte in version 2, two in version 3; version 4
+    has its profile byte before them)."""
+    tools = {1: 0, 2: 1, 3: 2, 4: 3}[header[0]]
     sets, colours = header[22 + tools], header[23 + tools]
     return 24 + tools + 12 * sets + (20 if colours else 0)
 
@@ -228,18 +229,28 @@ def make_glb_corpus(meshstream, out, tmp):
     write_obj(plain_obj, 9, 12, attributes=False)
     write_obj(attr_obj, 8, 10, attributes=True)
     write_two_mesh_gltf(scene)
+    # Both profiles in one file as the server stores them (the loss-tolerant
+    # stream, which the packings and packet sizes shape, and the reliable
+    # one), one profile alone, version 3, the crossings tool and the looser
+    # batch rule.
+    both = ["--profile", "both"]
     jobs = [
-        ("glb-sphere-split", plain_obj, ["--packing", "split"]),
-        ("glb-sphere-bundled", plain_obj, ["--packing", "bundled"]),
-        ("glb-sphere-qp8-small-packets", plain_obj, ["--qp", "8", "--packet-bytes", "64"]),
-        ("glb-sphere-attributes-split", attr_obj, ["--packing", "split"]),
-        ("glb-sphere-attributes-bundled", attr_obj, ["--packing", "bundled", "--qp", "14"]),
-        ("glb-sphere-three-levels", plain_obj, ["--levels", "3"]),
-        ("glb-two-meshes", scene, []),
+        ("glb-sphere-split", plain_obj, ["--packing", "split"] + both),
+        ("glb-sphere-bundled", plain_obj, ["--packing", "bundled"] + both),
+        ("glb-sphere-qp8-small-packets", plain_obj, ["--qp", "8", "--packet-bytes", "64"] + both),
+        ("glb-sphere-attributes-split", attr_obj, ["--packing", "split"] + both),
+        ("glb-sphere-attributes-bundled", attr_obj, ["--packing", "bundled", "--qp", "14"] + both),
+        ("glb-sphere-three-levels", plain_obj, ["--levels", "3"] + both),
+        ("glb-two-meshes", scene, both),
+        ("glb-sphere-reliable", plain_obj, ["--profile", "reliable"]),
+        ("glb-sphere-attributes-reliable-crossings", attr_obj, ["--profile", "reliable", "--tools", "all"]),
+        ("glb-sphere-loss-tolerant-crossings", plain_obj, ["--profile", "loss-tolerant", "--tools", "all"]),
+        ("glb-sphere-matching", plain_obj, ["--batch-rule", "matching", "--profile", "reliable"]),
+        ("glb-sphere-version3", plain_obj, ["--format-version", "3"]),
     ]
     fandisk = os.path.join(MODELS, "fandisk.obj")
     if os.path.exists(fandisk):
-        jobs.append(("glb-fandisk", fandisk, ["--qp", "10", "--packing", "bundled"]))
+        jobs.append(("glb-fandisk", fandisk, ["--qp", "10", "--packing", "bundled"] + both))
     made = {}
     for name, src, flags in jobs:
         dst = os.path.join(folder, name + ".glb")
@@ -251,17 +262,21 @@ def make_glb_corpus(meshstream, out, tmp):
     # Headers that lie: a base of almost 2^28 vertices (the most a stream may have)
     # whose fix-ups must not be allocated before the bytes show them, and one
     # more vertex than the Draco base has.
-    sphere = made["glb-sphere-split"]
-    write(os.path.join(folder, "mut-header-huge-base.glb"),
-          replace_stream(sphere, lambda b: edit_header(b, lambda h: with_base_vertices(h, (1 << 28) - 1000))))
-    write(os.path.join(folder, "mut-header-base-plus-one.glb"),
-          replace_stream(sphere, lambda b: edit_header(
-              b, lambda h: with_base_vertices(h, read_varint(h, header_counts_at(h))[0] + 1))))
-    # The same stream through the rewriting above: must still decode.
-    write(os.path.join(folder, "mut-stream-identity.glb"), replace_stream(sphere, lambda b: b))
+    # (In a file of both profiles the stream edited is the loss-tolerant one;
+    # the -reliable files edit the reliable profile's only stream.)
+    for source, suffix in (("glb-sphere-split", ""), ("glb-sphere-reliable", "-reliable")):
+        sphere = made[source]
+        write(os.path.join(folder, "mut-header-huge-base%s.glb" % suffix),
+              replace_stream(sphere, lambda b: edit_header(b, lambda h: with_base_vertices(h, (1 << 28) - 1000))))
+        write(os.path.join(folder, "mut-header-base-plus-one%s.glb" % suffix),
+              replace_stream(sphere, lambda b: edit_header(
+                  b, lambda h: with_base_vertices(h, read_varint(h, header_counts_at(h))[0] + 1))))
+        # The same stream through the rewriting above: must still decode.
+        write(os.path.join(folder, "mut-stream-identity%s.glb" % suffix), replace_stream(sphere, lambda b: b))
 
     rng = random.Random(3)
-    for name in ("glb-sphere-split", "glb-sphere-attributes-bundled", "glb-two-meshes"):
+    for name in ("glb-sphere-split", "glb-sphere-attributes-bundled", "glb-two-meshes", "glb-sphere-reliable",
+                 "glb-sphere-attributes-reliable-crossings"):
         data = made[name]
         n = len(data)
         for cut in (n // 2, 3 * n // 4, n - 9):
