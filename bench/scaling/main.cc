@@ -67,7 +67,7 @@ void Usage() {
       "The encoder at scale: FILE (a shared model, default stanford-bunny.obj) subdivided 0..N\n"
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
-      "CPU time and peak resident memory, medians of --runs (default 3). About 9 minutes for\n"
+      "CPU time and peak resident memory, medians of --runs (default 3). About 13 minutes on 2 cores for\n"
       "the default. Writes one JSON object (default docs/bench/scaling.json). --keep-inputs DIR\n"
       "keeps the subdivided meshes there (levelN.ply, noisyN.ply) to profile the encoder on them.\n"
       "The encoder runs as an ingest does (--profile both: both profiles, the harm estimate,\n"
