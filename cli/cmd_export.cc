@@ -10,6 +10,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
+#include "proto/export_formats.h"
 #include "importers/import.h"
 #include "sdk/asset_client.h"
 
@@ -36,17 +37,9 @@ struct ExportArgs {
 };
 
 StatusOr<v1::Format> ParseFormat(const std::string& format, const std::string& out) {
-  std::string f = format;
-  if (f.empty()) {
-    const std::string ext = FileExtension(out);
-    f = ext == ".obj" ? "obj" : ext == ".ply" ? "ply" : "glb";
-  }
-  if (f == "glb") return v1::FORMAT_GLB;
-  if (f == "draco") return v1::FORMAT_DRACO_GLB;
-  if (f == "progressive") return v1::FORMAT_PROGRESSIVE_GLB;
-  if (f == "obj") return v1::FORMAT_OBJ;
-  if (f == "ply") return v1::FORMAT_PLY;
-  return InvalidArgument("--format " + f + ": expected glb, draco, progressive, obj or ply");
+  if (format.empty()) return ExportFormatForPath(out).proto;
+  if (const ExportFormatInfo* info = ExportFormatNamed(format)) return info->proto;
+  return InvalidArgument("--format " + format + ": expected one of " + ExportFormatNames());
 }
 
 int RunExport(const ExportArgs& args) {
@@ -91,8 +84,10 @@ Verb AddExport(CLI::App& root) {
   CLI::App* cmd = AddVerb(root, "export", "Downloads a version of an asset from a server in a format.", kDetails);
   cmd->add_option("ASSET", args->target, "ASSET or ASSET@VERSION")->required();
   cmd->add_option("-o,--output", args->out, "the file to write")->required();
-  cmd->add_option("--format", args->format, "glb, draco, progressive, obj or ply (default: by -o's extension)")
-      ->check(CLI::IsMember({"glb", "draco", "progressive", "obj", "ply"}));
+  std::vector<std::string> formats;
+  for (const ExportFormatInfo& info : ExportFormats()) formats.push_back(info.name);
+  cmd->add_option("--format", args->format, ExportFormatNames() + " (default: by -o's extension)")
+      ->check(CLI::IsMember(formats));
   cmd->add_option("--lod", args->lod, "level of detail (0: the base mesh; default: full)")->check(CLI::Range(0, 1 << 20));
   cmd->add_flag("--json", args->json, "print one JSON object");
   AddRemoteOptions(cmd, args->remote);

@@ -9,7 +9,7 @@
 #include "services/api/call_auth.h"
 #include "proto/rpc_status.h"
 #include "services/api/proto_convert.h"
-#include "services/export/version_export.h"
+#include "services/export/export_version.h"
 #include "services/store/page_token.h"
 
 namespace meshstream {

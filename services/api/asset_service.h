@@ -13,7 +13,7 @@
 #include <functional>
 
 #include "meshstream/v1/asset_service.grpc.pb.h"
-#include "services/api/call_limit.h"
+#include "parallel/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/ingest/ingest_upload.h"
 #include "services/store/store.h"

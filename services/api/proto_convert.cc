@@ -4,6 +4,8 @@
 
 #include <google/protobuf/util/time_util.h>
 
+#include "proto/export_formats.h"
+
 namespace meshstream {
 
 namespace {
@@ -60,46 +62,10 @@ IngestMeta FromProto(const v1::IngestMetadata& m) {
 
 ResourceMeta FromProto(const v1::IngestResource& r) { return ResourceMeta{r.name(), r.size(), r.sha256()}; }
 
-ClientReportInfo FromProto(const v1::ClientReport& r) {
-  ClientReportInfo info;
-  info.stream = r.primitive();
-  info.refinement = r.refinement();
-  info.received = r.datagrams_received();
-  info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
-  // Runs of consecutive missing ordinals (the client lists them ascending):
-  // missing / runs is the mean loss run the sender sizes parity for.
-  for (int i = 0; i < r.missing_size() && i < (1 << 20); ++i) {
-    if (i == 0 || r.missing(i) != r.missing(i - 1) + 1) ++info.missing_runs;
-  }
-  info.end_received = r.end_received();
-  info.hold_us = r.hold_us();
-  info.arrival_span_us = r.arrival_span_us();
-  info.span_bytes = r.span_bytes();
-  for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
-  return info;
-}
-
-std::vector<RepairItem> FromProto(const v1::RepairRequest& request) {
-  std::vector<RepairItem> items;
-  items.reserve(static_cast<size_t>(request.items_size()));
-  for (const v1::RepairItem& item : request.items()) {
-    items.push_back(RepairItem{item.primitive(), item.refinement(),
-                               std::vector<uint32_t>(item.datagrams().begin(), item.datagrams().end())});
-  }
-  return items;
-}
-
 StatusOr<ExportFormat> FromProto(v1::Format format) {
-  switch (format) {
-    case v1::FORMAT_GLB: return ExportFormat::kGlb;
-    case v1::FORMAT_DRACO_GLB: return ExportFormat::kDracoGlb;
-    case v1::FORMAT_PROGRESSIVE_GLB: return ExportFormat::kProgressiveGlb;
-    case v1::FORMAT_OBJ: return ExportFormat::kObj;
-    case v1::FORMAT_PLY: return ExportFormat::kPly;
-    default: break;
-  }
-  return InvalidArgument("format: " + std::to_string(static_cast<int>(format)) +
-                         " is not one of FORMAT_GLB, FORMAT_DRACO_GLB, FORMAT_PROGRESSIVE_GLB, FORMAT_OBJ, FORMAT_PLY");
+  if (const ExportFormatInfo* info = ExportFormatOf(format)) return info->format;
+  return InvalidArgument("format: " + std::to_string(static_cast<int>(format)) + " is not one of " +
+                         ExportFormatProtoNames());
 }
 
 v1::EncodeOptions ToProto(const EncodeSettings& s) {

@@ -7,13 +7,10 @@
 #include <vector>
 
 #include "meshstream/v1/asset_service.pb.h"
-#include "meshstream/v1/stream.pb.h"
 #include "services/ingest/ingest_upload.h"
 #include "services/pipeline/encode_options.h"
-#include "services/pipeline/export_version.h"
+#include "services/pipeline/export_artifact.h"
 #include "services/store/store.h"
-#include "services/streaming/repair_request.h"
-#include "services/streaming/session_sender.h"
 
 namespace meshstream {
 
@@ -21,10 +18,6 @@ EncodeSettings FromProto(const v1::EncodeOptions& options);
 IngestMeta FromProto(const v1::IngestMetadata& metadata);
 ResourceMeta FromProto(const v1::IngestResource& resource);
 StatusOr<ExportFormat> FromProto(v1::Format format);
-// A client's report: `missing` counts the ordinals (at most 2^20), and at
-// most 16 RTT samples are kept (the rest of an untrusted report is ignored).
-ClientReportInfo FromProto(const v1::ClientReport& report);
-std::vector<RepairItem> FromProto(const v1::RepairRequest& request);
 
 v1::EncodeOptions ToProto(const EncodeSettings& settings);
 v1::Asset ToProto(const AssetRecord& asset);

@@ -12,31 +12,14 @@
 
 #include <grpcpp/alarm.h>
 
-#include "fec/reed_solomon.h"
 #include "net/steady_clock.h"
-#include "services/api/call_auth.h"
 #include "proto/rpc_status.h"
-#include "services/api/proto_convert.h"
-#include "services/api/server_messages.h"
-#include "services/export/version_export.h"
-#include "services/store/blob_store.h"
-#include "services/streaming/session_plan.h"
-#include "services/streaming/session_sender.h"
+#include "services/api/call_auth.h"
+#include "services/streaming/queued_session_stream.h"
 
 namespace meshstream {
 
 namespace {
-
-Status CheckOpen(const v1::OpenRequest& open) {
-  MS_RETURN_IF_ERROR(CheckName("asset", open.asset()));
-  if (open.max_level() < -1) return InvalidArgument("max_level: -1 (all) or a level >= 0");
-  if (!v1::Transport_IsValid(open.transport())) return InvalidArgument("transport: unknown value");
-  if (!v1::Profile_IsValid(open.profile())) return InvalidArgument("profile: unknown value");
-  if (open.has_expected_loss() && !(open.expected_loss() >= 0 && open.expected_loss() <= 1)) {
-    return InvalidArgument("expected_loss: a rate in [0, 1]");
-  }
-  return Status::Ok();
-}
 
 // The session log line's last field: the server's own time from the Open's
 // arrival to the SessionStart (the base meshes) handed to gRPC, when it was.
@@ -47,12 +30,6 @@ std::string OpenToBase(uint64_t open_us, uint64_t base_us) {
   return text;
 }
 
-SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
-  SendLoopOptions options;  // the default max_queued
-  options.draining = draining;
-  return options;
-}
-
 }  // namespace
 
 // One Open call: the reactor gRPC drives, and the SessionStream the send
@@ -60,13 +37,13 @@ SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
 // (gRPC allows one write in flight); the send loop stops feeding the
 // session while the queue is full.
 class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>,
-                                      public SessionStream {
+                                      public QueuedSessionStream {
  public:
   using Reactor = grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>;
 
-  Call(StreamServiceImpl* service, grpc::CallbackServerContext* context) : service_(service), context_(context) {
+  Call(SessionHost* host, grpc::CallbackServerContext* context) : QueuedSessionStream(host), context_(context) {
     cancel_->context = context;
-    service_->openers_.Post([this] { Admit(); });
+    host_->openers().Post([this] { Admit(); });
   }
 
   // The reactor.
@@ -77,24 +54,13 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
       if (!ok || in_.kind_case() != v1::ClientMessage::kOpen) {
         return FinishNow(InvalidArgument("the first message must be open"));
       }
-      service_->openers_.Post([this] { OpenSession(); });
+      host_->openers().Post([this] { OpenSession(); });
       return;
     }
     if (!ok) return registration_.OnClientClosed(false);  // a half-close, or the call ended
-    switch (in_.kind_case()) {
-      case v1::ClientMessage::kReport:
-        registration_.OnReport(FromProto(in_.report()));
-        break;
-      case v1::ClientMessage::kRepair:
-        // Once per session: after its repair request the server reads
-        // nothing more from the client (a second one is never seen).
-        return registration_.OnRepair(FromProto(in_.repair()));
-      case v1::ClientMessage::kDone:
-        return registration_.OnClientClosed(true);
-      default:
-        registration_.OnClientMessage();
-        break;
-    }
+    // After a repair request (once per session) or done the server reads
+    // nothing more from the client.
+    if (Deliver(in_) != AfterClientMessage::kReadMore) return;
     StartRead(&in_);
   }
 
@@ -148,44 +114,18 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     delete this;
   }
 
-  // The SessionStream. Start: the SessionStart the opener built, with what
-  // only the send loop knows.
-  void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    service_->CompleteStart(session_.start, transport, udp);
-    Queue(std::move(session_.start));
-    base_handed_us_ = SteadyNowUs();
+  size_t queued() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return queue_.size();
   }
 
-  void TransportChanged(SessionTransport transport, const std::string& reason) override {
-    Queue(TransportChangeMessage(transport, reason));
-  }
+ private:
+  // The wire (QueuedSessionStream), from the send loop's thread.
+  void Send(v1::ServerMessage message) override { Queue(std::move(message)); }
+  void Started() override { base_handed_us_ = SteadyNowUs(); }
+  std::string EndTail() const override { return OpenToBase(open_received_us_, base_handed_us_); }
 
-  void Control(const SenderAction& control) override {
-    Queue(ControlMessage(session_.hot->bytes, control));
-  }
-
-  void Datagram(const uint8_t* data, size_t size) override {
-    Queue(DatagramMessage(data, size));
-  }
-
-  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
-                     uint32_t parity_datagrams) override {
-    Queue(RefinementEndMessage(stream, refinement, datagrams_sent, parity_datagrams));
-  }
-
-  void End(const std::string& reason) override {
-    Queue(EndMessage(reason));
-  }
-
-  void RepairEnd(uint32_t datagrams, uint64_t bytes) override {
-    Queue(RepairEndMessage(datagrams, bytes));
-  }
-
-  void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
-    if (service_->options_.log) {
-      service_->options_.log("session " + session_.version.asset + "@" + std::to_string(session_.version.version) + " ended (" +
-                             reason + "): " + DescribeSession(stats) + OpenToBase(open_received_us_, base_handed_us_));
-    }
+  void Close(const Status& status) override {
     bool now = false, cut = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -219,47 +159,33 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
     if (cut) context_->TryCancel();
   }
 
-  size_t queued() const override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return queue_.size();
-  }
-
- private:
   // On the opener pool: who, a slot, then the first message.
   void Admit() {
-    auto principal = AuthenticateCall(*service_->auth_, *context_);
-    if (!principal.ok()) return FinishNow(principal.status());
-    tenant_ = principal->tenant;
-    slot_ = service_->sessions_.Acquire(std::chrono::milliseconds(0));
-    if (!slot_) {
-      return FinishNow(ResourceExhausted("Open: " + std::to_string(service_->sessions_.limit()) +
-                                         " sessions are running on this server; retry later"));
-    }
-    if (Draining()) return FinishNow(Unavailable("the server is shutting down; open the session on another server"));
+    auto admission = host_->Admit(AuthenticateCall(host_->authenticator(), *context_));
+    if (!admission.ok()) return FinishNow(admission.status());
+    admission_ = std::move(admission).value();
     StartRead(&in_);
   }
 
   // On the opener pool: the OpenRequest checked and planned, then the
   // session joins the send loop.
   void OpenSession() {
-    auto prepared = service_->PrepareSession(tenant_, in_.open(), /*allow_udp=*/true);
+    auto prepared = host_->Prepare(admission_.tenant, in_.open(), /*allow_udp=*/true);
     if (!prepared.ok()) return FinishNow(prepared.status());
     session_ = std::move(prepared).value();
     // Until Begin the send loop does not step the session (send_loop.h): the
     // client's messages and a cancel are only recorded, nothing can Finish
     // the call, and so gRPC cannot end it (OnDone) while this runs.
-    registration_ = service_->Register(session_, this, session_.udp ? "udp" : "grpc");
+    registration_ = host_->Register(session_, this, session_.udp ? "udp" : "grpc");
     StartRead(&in_);
     registered_ = true;
     if (cancelled_) Stop();
     registration_.Begin();  // the last touch of `this`: the session may finish at once
   }
 
-  bool Draining() const { return service_->draining_ != nullptr && service_->draining_->load(); }
-
   // The call was cancelled: by the client, or by the server draining.
   void Stop() {
-    if (Draining()) {
+    if (host_->draining()) {
       registration_.Drain();
     } else {
       registration_.Cancel(Cancelled("the client went away"), "client went away");
@@ -296,7 +222,6 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   };
   static constexpr std::chrono::seconds kFinishGrace{2};
 
-  StreamServiceImpl* service_;
   grpc::CallbackServerContext* context_;
   std::shared_ptr<CancelHandle> cancel_ = std::make_shared<CancelHandle>();
   grpc::Alarm grace_;
@@ -305,12 +230,7 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   uint64_t open_received_us_ = 0;  // when the OpenRequest arrived (SteadyNowUs)
   uint64_t base_handed_us_ = 0;    // when Start handed the SessionStart to gRPC (the send loop's thread)
 
-  // Set by the opener before the session joins the loop, read-only after
-  // (but the SessionStart, which Start moves out).
-  std::string tenant_;
-  CallLimit::Slot slot_;
-  PreparedSession session_;
-  SendLoop::Registration registration_;
+  SessionAdmission admission_;  // set by the opener before the first read
   std::atomic<bool> registered_{false};
   std::atomic<bool> cancelled_{false};
 
@@ -323,120 +243,9 @@ class StreamServiceImpl::Call final : public grpc::ServerBidiReactor<v1::ClientM
   grpc::Status finish_status_;
 };
 
-StreamServiceImpl::StreamServiceImpl(Store* store, const Authenticator* auth, StreamServiceOptions options,
-                                     const std::atomic<bool>* draining)
-    : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
-
-StreamServiceImpl::~StreamServiceImpl() = default;
-
-StatusOr<PreparedSession> StreamServiceImpl::PrepareSession(const std::string& tenant, const v1::OpenRequest& open,
-                                                            bool allow_udp) {
-  MS_RETURN_IF_ERROR(CheckOpen(open));
-  PreparedSession p;
-  MS_ASSIGN_OR_RETURN(p.version, ResolveVersion(tenant, open.asset(), open.version()));
-  // The artifact, its plan and its scene: kept in memory between sessions
-  // (artifact_cache.h); the store's read, which checks the digest, only
-  // when the cache has none.
-  const std::string& sha = p.version.artifact.artifact_sha256;
-  MS_ASSIGN_OR_RETURN(p.hot, artifacts_.Get(sha, p.version.artifact.layout_json, [&] {
-    return store_->GetBlob(sha, options_.max_artifact_bytes);
-  }));
-  SessionSenderOptions options;
-  // The reliable profile has no datagrams: a client that asks for it gets
-  // the stream alone (docs/streaming-protocol.md, "Profiles").
-  const bool wants_reliable = open.profile() == v1::PROFILE_RELIABLE;
-  if (allow_udp && open.transport() != v1::TRANSPORT_GRPC && !wants_reliable && options_.udp != nullptr) {
-    auto registered = options_.udp->RegisterSession();
-    if (registered.ok()) p.udp = std::move(registered).value();
-  }
-  options.transport = p.udp ? SessionTransport::kUdp : SessionTransport::kGrpc;
-  // The profile: the reliable one wherever nothing is lost (the stream:
-  // TRANSPORT_GRPC and the WebSocket), the loss-tolerant one over UDP
-  // (every refinement of a UDP session, also those begun on the stream
-  // before the HELLO, is of one profile: the decoder's state is the
-  // profile's), or what the client asked for.
-  const bool reliable =
-      open.profile() == v1::PROFILE_RELIABLE ||
-      (open.profile() == v1::PROFILE_AUTO && options.transport == SessionTransport::kGrpc);
-  const SessionPlan& full = reliable ? p.hot->reliable_plan : p.hot->plan;
-  if (open.max_level() < 0) {
-    p.plan = &full;
-  } else {
-    p.cut_plan = std::make_unique<SessionPlan>(CutPlan(full, open.max_level()));
-    p.plan = p.cut_plan.get();
-  }
-  if (p.udp) {
-    UdpEndpoint::Session* raw = p.udp.get();
-    options.reserve_packet_numbers = [raw](uint64_t count) { return raw->ReservePacketNumbers(count); };
-  }
-  options.hello_timeout_us = static_cast<uint64_t>(options_.hello_timeout.count()) * 1000;
-  options.wait_for_hello = options_.wait_for_hello;
-  options.idle_timeout_us = static_cast<uint64_t>(options_.idle_timeout.count()) * 1000;
-  options.rate = options_.rate;
-  options.server_share = options_.server_share;
-  options.reliable_cut = options_.reliable_cut;
-  options.erasure = options_.parity && !open.no_parity() ? &fec::DefaultErasureCode() : nullptr;
-  options.expected_loss = open.has_expected_loss() ? open.expected_loss() : -1;
-  options.repair = open.repair();
-  // Every header, base mesh and the scene copied here, on the opener pool,
-  // not on the send thread under the session's lock.
-  p.start = SessionStartMessage(*p.plan, p.hot->bytes, options.transport);
-  p.start.mutable_session()->set_asset(p.version.asset);
-  p.start.mutable_session()->set_version(p.version.version);
-  p.start.mutable_session()->set_scene_glb(reinterpret_cast<const char*>(p.hot->scene.data()), p.hot->scene.size());
-  p.sender = std::make_unique<SessionSender>(*p.plan, p.hot->bytes, open.max_level(), std::move(options), SteadyNowUs());
-  return p;
-}
-
-void StreamServiceImpl::CompleteStart(v1::ServerMessage& message, SessionTransport transport,
-                                      const UdpEndpoint::Session* udp) const {
-  v1::SessionStart& start = *message.mutable_session();
-  start.set_transport(ToProto(transport));
-  start.set_session_id(RandomHex(16));
-  if (udp != nullptr) {
-    start.mutable_udp()->set_host(options_.udp_advertise_host);
-    start.mutable_udp()->set_port(options_.udp_advertise_port);
-    start.set_udp_session_id(udp->id());
-    const SessionKeys& keys = udp->keys();
-    start.set_client_to_server_key(std::string(keys.client_to_server.begin(), keys.client_to_server.end()));
-    start.set_server_to_client_key(std::string(keys.server_to_client.begin(), keys.server_to_client.end()));
-  }
-}
-
-SendLoop::Registration StreamServiceImpl::Register(PreparedSession& session, SessionStream* stream,
-                                                   const std::string& transport) {
-  if (options_.log) {
-    options_.log("session " + session.version.asset + "@" + std::to_string(session.version.version) + " opened (" +
-                 transport + ")");
-  }
-  return loop_.Add(std::move(session.sender), stream, std::move(session.udp));
-}
-
-StatusOr<VersionRecord> StreamServiceImpl::ResolveVersion(const std::string& tenant, const std::string& asset,
-                                                          int64_t version) {
-  auto key = std::make_tuple(tenant, asset, version);
-  if (version > 0) {
-    std::lock_guard<std::mutex> lock(ready_mutex_);
-    auto it = ready_.find(key);
-    if (it != ready_.end()) return it->second;
-  }
-  auto record = ResolveReadyVersion(*store_, tenant, asset, version);
-  if (!record.ok() || version <= 0) return record;
-  std::lock_guard<std::mutex> lock(ready_mutex_);
-  if (ready_.emplace(key, record.value()).second) {
-    ready_order_.push_back(std::move(key));
-    if (ready_order_.size() > kMaxReadyVersions) {
-      ready_.erase(ready_order_.front());
-      ready_order_.pop_front();
-    }
-  }
-  return record;
-}
-
 grpc::ServerBidiReactor<v1::ClientMessage, v1::ServerMessage>* StreamServiceImpl::Open(
     grpc::CallbackServerContext* context) {
-  return new Call(this, context);
+  return new Call(host_, context);
 }
 
 }  // namespace meshstream

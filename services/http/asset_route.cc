@@ -9,10 +9,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "services/export/version_export.h"
+#include "services/export/export_version.h"
 #include "services/http/conditional.h"
 #include "services/http/representation.h"
 #include "services/http/url.h"
+#include "proto/export_formats.h"
 #include "services/store/store_checks.h"
 
 namespace meshstream {
@@ -21,16 +22,6 @@ namespace {
 
 constexpr char kFileRoute[] = "/v1/assets/{asset}/versions/{version}/{format}[?lod=K]";
 constexpr int kMaxLod = 1 << 20;  // the CLI's --lod range
-constexpr const char* kFormats[] = {"glb", "draco", "progressive", "obj", "ply"};
-
-std::optional<ExportFormat> FormatOf(std::string_view name) {
-  if (name == "glb") return ExportFormat::kGlb;
-  if (name == "draco") return ExportFormat::kDracoGlb;
-  if (name == "progressive") return ExportFormat::kProgressiveGlb;
-  if (name == "obj") return ExportFormat::kObj;
-  if (name == "ply") return ExportFormat::kPly;
-  return std::nullopt;
-}
 
 // A decimal number without sign or leading zeros, at most `max`.
 std::optional<int64_t> Decimal(std::string_view text, int64_t max) {
@@ -59,23 +50,12 @@ std::string Quote(std::string_view text) {
 
 // The URL of a numbered version (asset names need no encoding).
 std::string FileUrl(const std::string& asset, int64_t version, ExportFormat format, std::optional<int> lod) {
-  std::string url = "/v1/assets/" + asset + "/versions/" + std::to_string(version) + "/" + ExportFormatName(format);
+  std::string url = "/v1/assets/" + asset + "/versions/" + std::to_string(version) + "/" + InfoOf(format).name;
   if (lod) url += "?lod=" + std::to_string(*lod);
   return url;
 }
 
 }  // namespace
-
-const char* ExportContentType(ExportFormat format) {
-  switch (format) {
-    case ExportFormat::kGlb:
-    case ExportFormat::kDracoGlb:
-    case ExportFormat::kProgressiveGlb: return "model/gltf-binary";
-    case ExportFormat::kObj: return "model/obj";
-    case ExportFormat::kPly: return "application/octet-stream";
-  }
-  return "application/octet-stream";
-}
 
 StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view query) {
   const std::vector<std::string_view> s = PathSegments(path);
@@ -100,9 +80,9 @@ StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view
     r.version = *version;
   }
 
-  const auto format = FormatOf(s[5]);
-  if (!format) return InvalidArgument("format: " + Quote(s[5]) + " is not one of glb, draco, progressive, obj, ply");
-  r.format = *format;
+  const ExportFormatInfo* format = ExportFormatNamed(s[5]);
+  if (format == nullptr) return InvalidArgument("format: " + Quote(s[5]) + " is not one of " + ExportFormatNames());
+  r.format = format->format;
 
   auto params = ParseQuery(query);
   if (!params.ok()) return params.status();
@@ -115,7 +95,7 @@ StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view
     }
     r.lod = static_cast<int>(*lod);
   }
-  if (r.lod && r.format == ExportFormat::kProgressiveGlb) {
+  if (r.lod && !InfoOf(r.format).decodes) {
     // Refused here as ExportArtifact would, before the store is asked.
     return InvalidArgument("lod: not supported for the progressive format (it holds every level)");
   }
@@ -206,7 +186,8 @@ HttpResponse AssetRoute::List(const HttpRequest& request, const Principal& princ
     auto ready = store_->GetLatestReadyVersion(principal.tenant, a.name);
     if (ready.ok()) {
       item["ready_version"] = ready->version;
-      item["formats"] = kFormats;
+      item["formats"] = nlohmann::json::array();
+      for (const ExportFormatInfo& format : ExportFormats()) item["formats"].push_back(format.name);
     } else if (ready.status().code() == StatusCode::kNotFound) {
       item["ready_version"] = nullptr;
       item["formats"] = nlohmann::json::array();
@@ -243,7 +224,7 @@ HttpResponse AssetRoute::Export(const HttpRequest& request, const Principal& pri
   Representation rep;
   rep.bytes = std::make_shared<const std::vector<uint8_t>>(std::move(exported->bytes));
   rep.etag = StrongEntityTag(exported->sha256);
-  rep.content_type = ExportContentType(file.format);
+  rep.content_type = InfoOf(file.format).content_type;
   HttpResponse caching;
   AddCaching(&caching, file.version != 0);
   if (file.version == 0) {

@@ -42,10 +42,10 @@
 #include <string>
 #include <string_view>
 
-#include "services/api/call_limit.h"
+#include "parallel/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/http/http_message.h"
-#include "services/pipeline/export_version.h"
+#include "services/pipeline/export_artifact.h"
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -72,10 +72,6 @@ struct AssetRequest {
 // `query`: InvalidArgument naming the part that is wrong, NotFound when the
 // path is not of the file route's shape.
 StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view query);
-
-// "model/gltf-binary" for glb, draco and progressive; "model/obj";
-// "application/octet-stream" for ply.
-const char* ExportContentType(ExportFormat format);
 
 class AssetRoute {
  public:

@@ -17,8 +17,7 @@
 #include <boost/beast/websocket/ssl.hpp>
 
 #include "proto/rpc_status.h"
-#include "services/api/proto_convert.h"
-#include "services/api/server_messages.h"
+#include "services/streaming/queued_session_stream.h"
 
 namespace meshstream {
 
@@ -66,11 +65,11 @@ std::vector<uint8_t> Frame(StreamFrame type, const v1::ServerMessage& message) {
 // on the connection's strand; the send loop's calls queue frames under
 // `mutex_` and post the writes there.
 template <class Stream>
-class SocketSession final : public SessionStream, public std::enable_shared_from_this<SocketSession<Stream>> {
+class SocketSession final : public QueuedSessionStream, public std::enable_shared_from_this<SocketSession<Stream>> {
  public:
-  SocketSession(Stream stream, HttpConnectionSlot slot, StreamServiceImpl* service, const StreamSocketOptions* options,
+  SocketSession(Stream stream, HttpConnectionSlot slot, SessionHost* host, const StreamSocketOptions* options,
                 std::string remote)
-      : ws_(std::move(stream)), slot_(std::move(slot)), service_(service), options_(options),
+      : QueuedSessionStream(host), ws_(std::move(stream)), slot_(std::move(slot)), options_(options),
         remote_(std::move(remote)) {}
 
   ~SocketSession() override {
@@ -94,43 +93,21 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
     request_ = std::move(request);
     ws_.async_accept(request_, [self = this->shared_from_this()](beast::error_code ec) {
       if (ec) return;  // the client went away during the handshake
-      self->service_->openers().Post([self] { self->Admit(); });
+      self->host_->openers().Post([self] { self->Admit(); });
     });
   }
 
-  // The SessionStream, from the send loop's thread.
-  void Start(SessionTransport transport, const UdpEndpoint::Session* udp) override {
-    service_->CompleteStart(session_.start, transport, udp);
-    Queue(Frame(StreamFrame::kServerMessage, session_.start));
-    session_.start.Clear();
-  }
-  void TransportChanged(SessionTransport transport, const std::string& reason) override {
-    Queue(Frame(StreamFrame::kServerMessage, TransportChangeMessage(transport, reason)));
-  }
-  void Control(const SenderAction& control) override {
-    Queue(Frame(StreamFrame::kServerMessage, ControlMessage(session_.hot->bytes, control)));
-  }
+  // The wire (QueuedSessionStream), from the send loop's thread: a
+  // ServerMessage frame, or the datagram frame for a datagram.
+  void Send(v1::ServerMessage message) override { Queue(Frame(StreamFrame::kServerMessage, message)); }
   void Datagram(const uint8_t* data, size_t size) override {
     std::vector<uint8_t> out(1 + size);
     out[0] = static_cast<uint8_t>(StreamFrame::kDatagram);
     std::copy(data, data + size, out.begin() + 1);
     Queue(std::move(out));
   }
-  void RefinementEnd(uint32_t stream, uint32_t refinement, uint32_t datagrams_sent,
-                     uint32_t parity_datagrams) override {
-    Queue(Frame(StreamFrame::kServerMessage, RefinementEndMessage(stream, refinement, datagrams_sent, parity_datagrams)));
-  }
-  void End(const std::string& reason) override {
-    Queue(Frame(StreamFrame::kServerMessage, EndMessage(reason)));
-  }
-  void RepairEnd(uint32_t datagrams, uint64_t bytes) override {
-    Queue(Frame(StreamFrame::kServerMessage, RepairEndMessage(datagrams, bytes)));
-  }
-  void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) override {
-    if (options_->log) {
-      options_->log("session " + session_.version.asset + "@" + std::to_string(session_.version.version) +
-                    " ended (" + reason + ", websocket " + remote_ + "): " + DescribeSession(stats));
-    }
+  std::string EndNote() const override { return ", websocket " + remote_; }
+  void Close(const Status& status) override {
     std::shared_ptr<SocketSession> self;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -164,15 +141,9 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
  private:
   // On the opener pool: who, a slot, then the first message.
   void Admit() {
-    auto principal = service_->authenticator().Authenticate(authorization_);
-    if (!principal.ok()) return CloseNow(principal.status());
-    tenant_ = principal->tenant;
-    session_slot_ = service_->TryAcquireSession();
-    if (!session_slot_) {
-      return CloseNow(ResourceExhausted("Open: " + std::to_string(service_->session_limit()) +
-                                        " sessions are running on this server; retry later"));
-    }
-    if (service_->draining()) return CloseNow(Unavailable("the server is shutting down; open the session on another server"));
+    auto admission = host_->Admit(host_->authenticator().Authenticate(authorization_));
+    if (!admission.ok()) return CloseNow(admission.status());
+    admission_ = std::move(admission).value();
     net::post(ws_.get_executor(), [self = this->shared_from_this()] { self->Read(); });
   }
 
@@ -209,30 +180,19 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
       opened_ = true;
       if (bad.ok() && message.kind_case() != v1::ClientMessage::kOpen) bad = InvalidArgument("the first message must be open");
       if (!bad.ok()) return CloseNow(bad);
-      service_->openers().Post([self = this->shared_from_this(), open = message.open()] { self->OpenSession(open); });
+      host_->openers().Post([self = this->shared_from_this(), open = message.open()] { self->OpenSession(open); });
       return;
     }
     if (!bad.ok()) return registration_.Cancel(bad, "bad client message");
-    switch (message.kind_case()) {
-      case v1::ClientMessage::kReport:
-        registration_.OnReport(FromProto(message.report()));
-        break;
-      case v1::ClientMessage::kRepair:
-        // Once per session, as over gRPC: nothing is read after it.
-        return registration_.OnRepair(FromProto(message.repair()));
-      case v1::ClientMessage::kDone:
-        registration_.OnClientClosed(true);
-        break;
-      default:
-        registration_.OnClientMessage();
-        break;
-    }
+    // Once per session, as over gRPC: nothing is read after a repair
+    // request. After done the socket is read on, for its close.
+    if (Deliver(message) == AfterClientMessage::kRepairAsked) return;
     Read();
   }
 
   // On the opener pool: the session prepared, then in the send loop.
   void OpenSession(const v1::OpenRequest& open) {
-    auto prepared = service_->PrepareSession(tenant_, open, /*allow_udp=*/false);
+    auto prepared = host_->Prepare(admission_.tenant, open, /*allow_udp=*/false);
     if (!prepared.ok()) return CloseNow(prepared.status());
     session_ = std::move(prepared).value();
     {
@@ -240,7 +200,7 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
       keep_alive_ = this->shared_from_this();  // until Finish: the send loop holds `this` by pointer
     }
     net::post(ws_.get_executor(), [self = this->shared_from_this()] {
-      self->registration_ = self->service_->Register(self->session_, self.get(), "websocket " + self->remote_);
+      self->registration_ = self->host_->Register(self->session_, self.get(), "websocket " + self->remote_);
       self->registered_ = true;
       self->Read();
       self->registration_.Begin();
@@ -316,22 +276,16 @@ class SocketSession final : public SessionStream, public std::enable_shared_from
 
   websocket::stream<Stream> ws_;
   HttpConnectionSlot slot_;  // our place among the HTTP connections, for the connection's life
-  StreamServiceImpl* service_;
   const StreamSocketOptions* options_;
   std::string remote_;
   HttpUpgradeRequest request_;
   std::optional<std::string> authorization_;
   beast::flat_buffer in_;
 
-  // The opener pool's, before the session joins the loop; read-only after
-  // (but the SessionStart, which Start moves out).
-  std::string tenant_;
-  CallLimit::Slot session_slot_;
-  PreparedSession session_;
+  SessionAdmission admission_;  // the opener pool's, before the first read
   // The strand's.
   bool opened_ = false;
   bool registered_ = false;
-  SendLoop::Registration registration_;
 
   mutable std::mutex mutex_;  // below
   std::deque<std::vector<uint8_t>> queue_;  // its front is being written while writing_
@@ -366,8 +320,8 @@ void Refuse(Stream stream, const HttpUpgradeRequest& request, int status, const 
 
 }  // namespace
 
-StreamSocketRoute::StreamSocketRoute(StreamServiceImpl* service, StreamSocketOptions options)
-    : service_(service), options_(std::move(options)) {}
+StreamSocketRoute::StreamSocketRoute(SessionHost* host, StreamSocketOptions options)
+    : host_(host), options_(std::move(options)) {}
 
 StatusOr<std::string> StreamSocketRoute::CheckRequest(const HttpUpgradeRequest& request, const CorsPolicy& cors,
                                                      bool tls, int* http_status, bool* offered_subprotocol) {
@@ -423,7 +377,7 @@ void StreamSocketRoute::Take(Stream stream, HttpUpgradeRequest request, HttpConn
   beast::error_code ec;
   const auto peer = beast::get_lowest_layer(stream).socket().remote_endpoint(ec);
   const std::string remote = ec ? "?" : peer.address().to_string() + ":" + std::to_string(peer.port());
-  auto session = std::make_shared<SocketSession<Stream>>(std::move(stream), std::move(slot), service_, &options_, remote);
+  auto session = std::make_shared<SocketSession<Stream>>(std::move(stream), std::move(slot), host_, &options_, remote);
   std::optional<std::string> header;
   if (!authorization->empty()) header = std::move(authorization).value();
   session->Accept(std::move(request), std::move(header), subprotocol);

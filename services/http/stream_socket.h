@@ -1,9 +1,10 @@
 // `GET /v1/stream` upgraded to a WebSocket: a live session for browsers
 // (docs/streaming-protocol.md, "WebSocket transport"), the same session as
 // StreamService.Open over gRPC with its datagrams on the reliable channel
-// (TRANSPORT_GRPC): the same OpenRequest check, version resolution, tenant,
-// artifact cache, send loop, limits, idle timeout and drain
-// (StreamServiceImpl::PrepareSession and Register). Only the framing differs.
+// (TRANSPORT_GRPC): a thin transport on the session host
+// (services/streaming/session_host.h: the same OpenRequest check, version
+// resolution, tenant, hot artifacts, send loop, limits, idle timeout and
+// drain). Only the framing differs.
 //
 // Framing: every WebSocket message is binary and carries one message, its
 // first byte saying what follows: 1 a ClientMessage (client to server),
@@ -45,7 +46,7 @@
 #include <functional>
 #include <string>
 
-#include "services/api/stream_service.h"
+#include "services/streaming/session_host.h"
 #include "services/http/cors.h"
 #include "services/http/upgrade.h"
 
@@ -66,8 +67,8 @@ struct StreamSocketOptions {
 
 class StreamSocketRoute final : public HttpUpgradeHandler {
  public:
-  // `service` outlives the route and every connection it took over.
-  StreamSocketRoute(StreamServiceImpl* service, StreamSocketOptions options);
+  // `host` outlives the route and every connection it took over.
+  StreamSocketRoute(SessionHost* host, StreamSocketOptions options);
 
   void Upgrade(HttpPlainStream stream, HttpUpgradeRequest request, HttpConnectionSlot slot) override;
   void Upgrade(HttpTlsStream stream, HttpUpgradeRequest request, HttpConnectionSlot slot) override;
@@ -82,7 +83,7 @@ class StreamSocketRoute final : public HttpUpgradeHandler {
   template <class Stream>
   void Take(Stream stream, HttpUpgradeRequest request, HttpConnectionSlot slot, bool tls);
 
-  StreamServiceImpl* service_;
+  SessionHost* host_;
   StreamSocketOptions options_;
 };
 

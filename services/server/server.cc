@@ -107,7 +107,7 @@ bool IsLoopbackListen(const std::string& listen) {
 
 struct StreamingSetup {
   std::optional<SocketAddress> udp_listen;  // unset: UDP off
-  StreamServiceOptions service;
+  SessionHostOptions service;
 };
 
 // The streaming flags checked and turned into the service's options.
@@ -170,6 +170,7 @@ struct Server::Impl {
   std::unique_ptr<AssetServiceImpl> service;
   std::unique_ptr<UdpEndpoint> udp;   // before streams: sessions use it until they end
   std::unique_ptr<RateShare> share;
+  std::unique_ptr<SessionHost> sessions;  // every session, whatever its transport (below)
   std::unique_ptr<StreamServiceImpl> streams;
   std::unique_ptr<grpc::Server> server;
   // HTTP (docs/http-api.md): the routes before the server, so that the
@@ -349,8 +350,9 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     impl->share = std::make_unique<RateShare>(options.max_rate_bps);
     stream_options->service.server_share = impl->share.get();
   }
-  impl->streams = std::make_unique<StreamServiceImpl>(impl->store.get(), impl->auth.get(), stream_options->service,
-                                                      &impl->draining);
+  impl->sessions = std::make_unique<SessionHost>(impl->store.get(), impl->auth.get(), stream_options->service,
+                                                 &impl->draining);
+  impl->streams = std::make_unique<StreamServiceImpl>(impl->sessions.get());
   builder.RegisterService(impl->streams.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
   // A bounded number of threads for the synchronous AssetService: calls
@@ -391,7 +393,7 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     StreamSocketOptions socket_options;
     socket_options.cors = cors;
     socket_options.log = impl->log;
-    impl->http_sessions = std::make_shared<StreamSocketRoute>(impl->streams.get(), std::move(socket_options));
+    impl->http_sessions = std::make_shared<StreamSocketRoute>(impl->sessions.get(), std::move(socket_options));
     impl->http_router = std::make_unique<HttpRouter>(impl->http_assets.get(), impl->http_files.get(), std::move(cors),
                                                      &impl->draining, impl->log);
     HttpServerOptions http_options;

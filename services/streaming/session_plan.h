@@ -75,7 +75,7 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
 
 // The plan of a session with `max_level` from `full`, the plan of every
 // refinement (PlanSession with -1): the same as PlanSession with `max_level`,
-// without reading the artifact or the layout again (artifact_cache.h keeps
+// without reading the artifact or the layout again (hot_artifacts.h keeps
 // `full`). `max_level` < 0: `full` as it is.
 SessionPlan CutPlan(const SessionPlan& full, int32_t max_level);
 

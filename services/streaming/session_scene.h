@@ -9,7 +9,7 @@
 // that an export of the session is the asset's scene.
 //
 // Made by decoding the stored progressive .glb at lod 0 (no refinement is
-// touched) and exporting it; the cache of hot artifacts (artifact_cache.h)
+// touched) and exporting it; the cache of hot artifacts (hot_artifacts.h)
 // keeps it with its artifact, since every session of a version needs the
 // same bytes.
 //

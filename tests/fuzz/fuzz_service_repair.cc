@@ -1,6 +1,6 @@
 // libFuzzer target for a client's RepairRequest on the server
 // (services/streaming/repair_request.h, reached through the protobuf
-// translation of services/api/proto_convert.h and the session core,
+// translation of services/streaming/session_messages.h and the session core,
 // services/streaming/session_sender.h): the request comes from the client,
 // so whatever its bytes the server answers with the datagrams it names,
 // each once, or INVALID_ARGUMENT naming the first item that does not fit
@@ -29,7 +29,7 @@
 
 #include "codec/core/status.h"
 #include "meshstream/v1/stream.pb.h"
-#include "services/api/proto_convert.h"
+#include "services/streaming/session_messages.h"
 #include "services/streaming/repair_request.h"
 #include "services/streaming/session_sender.h"
 #include "tests/fuzz/fuzz_service_util.h"

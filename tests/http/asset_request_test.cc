@@ -85,11 +85,11 @@ TEST(AssetRequest, OtherShapesAreNotFound) {
 }
 
 TEST(AssetRequest, ContentTypes) {
-  EXPECT_STREQ(ExportContentType(ExportFormat::kGlb), "model/gltf-binary");
-  EXPECT_STREQ(ExportContentType(ExportFormat::kProgressiveGlb), "model/gltf-binary");
-  EXPECT_STREQ(ExportContentType(ExportFormat::kDracoGlb), "model/gltf-binary");
-  EXPECT_STREQ(ExportContentType(ExportFormat::kObj), "model/obj");
-  EXPECT_STREQ(ExportContentType(ExportFormat::kPly), "application/octet-stream");
+  EXPECT_STREQ(InfoOf(ExportFormat::kGlb).content_type, "model/gltf-binary");
+  EXPECT_STREQ(InfoOf(ExportFormat::kProgressiveGlb).content_type, "model/gltf-binary");
+  EXPECT_STREQ(InfoOf(ExportFormat::kDracoGlb).content_type, "model/gltf-binary");
+  EXPECT_STREQ(InfoOf(ExportFormat::kObj).content_type, "model/obj");
+  EXPECT_STREQ(InfoOf(ExportFormat::kPly).content_type, "application/octet-stream");
 }
 
 }  // namespace

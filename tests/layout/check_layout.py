@@ -44,10 +44,12 @@ SERVICES_DEPENDS = {
     "jobs": ["pipeline"],
     "ingest": ["auth", "pipeline"],
     "export": ["pipeline"],
-    "streaming": ["pipeline"],
+    # The session host and what every transport shares (auth: the host admits).
+    "streaming": ["pipeline", "auth"],
+    # The two transports of the API, siblings on the same library calls:
+    # gRPC (api/) and HTTP with its WebSocket sessions (http/).
     "api": ["ingest", "export", "streaming"],
-    # HTTP routes: the same library calls as api/ (and its CallLimit, shared).
-    "http": ["auth", "export", "api"],
+    "http": ["auth", "export", "streaming"],
     "server": ["api", "jobs", "http"],
 }
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}

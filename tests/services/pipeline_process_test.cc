@@ -18,7 +18,7 @@
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
 #include "services/pipeline/encode_options.h"
-#include "services/pipeline/export_version.h"
+#include "services/pipeline/export_artifact.h"
 #include "services/pipeline/stream_layout.h"
 #include "services/store/blob_store.h"
 #include "testing/test_util.h"
@@ -329,7 +329,7 @@ TEST(PipelineProcess, ExportsInEveryFormatDecode) {
 
   // OBJ and PLY: one mesh, every face.
   for (ExportFormat format : {ExportFormat::kObj, ExportFormat::kPly}) {
-    const std::string ext = ExportExtension(format);
+    const std::string ext = InfoOf(format).extension;
     auto bytes = ExportArtifact(artifact, format, std::nullopt);
     ASSERT_TRUE(bytes.ok()) << ext << ": " << bytes.status().ToString();
     auto scene = ImportBytes(bytes.value(), ext);

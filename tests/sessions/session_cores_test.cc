@@ -5,9 +5,9 @@
 //
 // Simulated, as the real drivers do it:
 //   - the server's actions become ServerMessages through the builders
-//     StreamService uses (services/api/server_messages.h), and the client's
-//     ClientMessages reach the sender through proto_convert.h, as
-//     StreamService's reactor hands them over (report, repair: nothing read
+//     every transport uses (services/streaming/session_messages.h), and the
+//     client's ClientMessages reach the sender through the same header, as
+//     the transports hand them over (report, repair: nothing read
 //     after it, done; a half-close);
 //   - the reliable channel (the gRPC stream, both ways): in order, delayed,
 //     never lost; the call's status follows the last message;
@@ -51,8 +51,7 @@
 #include "importers/draco_codec.h"
 #include "net/packet_header.h"
 #include "sdk/session_core.h"
-#include "services/api/proto_convert.h"
-#include "services/api/server_messages.h"
+#include "services/streaming/session_messages.h"
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
 #include "services/streaming/session_plan.h"

@@ -1,4 +1,4 @@
-#include "services/export/version_export.h"
+#include "services/export/export_version.h"
 
 #include "services/store/blob_store.h"
 
@@ -6,55 +6,13 @@ namespace meshstream {
 
 namespace {
 
-const char* StateName(VersionState state) {
-  switch (state) {
-    case VersionState::kProcessing: return "PROCESSING";
-    case VersionState::kReady: return "READY";
-    case VersionState::kFailed: return "FAILED";
-  }
-  return "UNKNOWN";
-}
-
 std::string ExportCacheKey(const std::string& artifact_sha256, ExportFormat format, std::optional<int> lod) {
-  const std::string text = "meshstream-export/" + std::to_string(kExporterRevision) + "\n" + artifact_sha256 + "\n" + ExportFormatName(format) + "\n" +
+  const std::string text = "meshstream-export/" + std::to_string(kExporterRevision) + "\n" + artifact_sha256 + "\n" + InfoOf(format).name + "\n" +
                            (lod ? std::to_string(*lod) : std::string("full"));
   return Sha256Hex(reinterpret_cast<const uint8_t*>(text.data()), text.size());
 }
 
 }  // namespace
-
-const char* ExportFormatName(ExportFormat format) {
-  switch (format) {
-    case ExportFormat::kGlb: return "glb";
-    case ExportFormat::kDracoGlb: return "draco";
-    case ExportFormat::kProgressiveGlb: return "progressive";
-    case ExportFormat::kObj: return "obj";
-    case ExportFormat::kPly: return "ply";
-  }
-  return "unknown";
-}
-
-StatusOr<VersionRecord> ResolveReadyVersion(Store& store, const std::string& tenant, const std::string& asset,
-                                            int64_t version) {
-  if (version < 0) return InvalidArgument("version: must not be negative (0 is the latest READY)");
-  if (version == 0) {
-    auto latest = store.GetVersion(tenant, asset, 0);  // NotFound for an unknown asset
-    if (!latest.ok()) return latest.status();
-    auto ready = store.GetLatestReadyVersion(tenant, asset);
-    if (ready.ok() || ready.status().code() != StatusCode::kNotFound) return ready;
-    return FailedPrecondition("asset " + asset + " has no READY version yet (version " +
-                              std::to_string(latest->version) + " is " + StateName(latest->state) + ")");
-  }
-  auto record = store.GetVersion(tenant, asset, version);
-  if (!record.ok()) return record.status();
-  if (record->state != VersionState::kReady) {
-    std::string message = "asset " + asset + " version " + std::to_string(version) + " is " + StateName(record->state);
-    if (record->state == VersionState::kFailed && !record->error.empty()) message += ": " + record->error;
-    if (record->state == VersionState::kProcessing) message += " (job " + record->job_id + ")";
-    return FailedPrecondition(message);
-  }
-  return record;
-}
 
 StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant, const std::string& asset,
                                         int64_t version, ExportFormat format, std::optional<int> lod,
@@ -64,7 +22,7 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
   ExportedVersion out;
   out.version = std::move(record).value();
   const std::string& artifact = out.version.artifact.artifact_sha256;
-  const bool as_stored = format == ExportFormat::kProgressiveGlb && !lod.has_value();
+  const bool as_stored = !InfoOf(format).decodes && !lod.has_value();
   // Only full-detail exports are cached: one blob per format, not one per
   // level a client may ask for.
   const bool cacheable = !as_stored && !lod.has_value();
@@ -99,7 +57,7 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
   if (!exported.ok()) return exported.status();
   out.bytes = std::move(exported).value();
   if (out.bytes.size() > max_bytes) {
-    return ResourceExhausted("the " + std::string(ExportFormatName(format)) + " export has " +
+    return ResourceExhausted("the " + std::string(InfoOf(format).name) + " export has " +
                              std::to_string(out.bytes.size()) + " bytes, more than the server's limit of " +
                              std::to_string(max_bytes));
   }

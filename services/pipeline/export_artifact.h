@@ -26,8 +26,8 @@
 // them). OBJ and PLY go through a private temporary folder (the writers
 // write files), removed before returning. No exception escapes.
 // Thread safety: calls are independent.
-#ifndef MESHSTREAM_SERVICES_PIPELINE_EXPORT_VERSION_H_
-#define MESHSTREAM_SERVICES_PIPELINE_EXPORT_VERSION_H_
+#ifndef MESHSTREAM_SERVICES_PIPELINE_EXPORT_ARTIFACT_H_
+#define MESHSTREAM_SERVICES_PIPELINE_EXPORT_ARTIFACT_H_
 
 #include <cstdint>
 #include <optional>
@@ -35,13 +35,9 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "proto/export_formats.h"
 
 namespace meshstream {
-
-enum class ExportFormat { kGlb, kDracoGlb, kProgressiveGlb, kObj, kPly };
-
-// ".glb", ".glb", ".glb", ".obj", ".ply".
-const char* ExportExtension(ExportFormat format);
 
 // `temp_parent`: where OBJ/PLY are written on the way ("" = the system's
 // temporary folder).
@@ -50,4 +46,4 @@ StatusOr<std::vector<uint8_t>> ExportArtifact(const std::vector<uint8_t>& progre
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_PIPELINE_EXPORT_VERSION_H_
+#endif  // MESHSTREAM_SERVICES_PIPELINE_EXPORT_ARTIFACT_H_

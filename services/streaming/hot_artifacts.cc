@@ -1,4 +1,4 @@
-#include "services/streaming/artifact_cache.h"
+#include "services/streaming/hot_artifacts.h"
 
 #include <utility>
 
@@ -40,7 +40,7 @@ StatusOr<std::shared_ptr<HotArtifact>> MakeHotArtifact(const std::string& sha256
   return hot;
 }
 
-ArtifactCache::Entry ArtifactCache::FindLocked(const std::string& sha256) {
+HotArtifacts::Entry HotArtifacts::FindLocked(const std::string& sha256) {
   auto kept = kept_.find(sha256);
   if (kept != kept_.end()) {
     lru_.splice(lru_.begin(), lru_, kept->second.lru);
@@ -59,7 +59,7 @@ ArtifactCache::Entry ArtifactCache::FindLocked(const std::string& sha256) {
   return entry;
 }
 
-void ArtifactCache::KeepLocked(const Entry& entry) {
+void HotArtifacts::KeepLocked(const Entry& entry) {
   if (entry->cost_bytes > max_bytes_) {
     held_[entry->sha256] = entry;  // too large to keep: shared while sessions hold it
     return;
@@ -79,7 +79,7 @@ void ArtifactCache::KeepLocked(const Entry& entry) {
   for (auto it = held_.begin(); it != held_.end();) it = it->second.expired() ? held_.erase(it) : std::next(it);
 }
 
-StatusOr<ArtifactCache::Entry> ArtifactCache::Get(const std::string& sha256, const std::string& layout_json,
+StatusOr<HotArtifacts::Entry> HotArtifacts::Get(const std::string& sha256, const std::string& layout_json,
                                                   const Loader& load) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -105,9 +105,9 @@ StatusOr<ArtifactCache::Entry> ArtifactCache::Get(const std::string& sha256, con
   return entry;
 }
 
-ArtifactCacheStats ArtifactCache::stats() const {
+HotArtifactsStats HotArtifacts::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  ArtifactCacheStats s = stats_;
+  HotArtifactsStats s = stats_;
   s.entries = kept_.size();
   return s;
 }

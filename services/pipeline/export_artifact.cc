@@ -1,4 +1,4 @@
-#include "services/pipeline/export_version.h"
+#include "services/pipeline/export_artifact.h"
 
 #include <exception>
 #include <new>
@@ -49,7 +49,7 @@ StatusOr<std::vector<uint8_t>> ExportChecked(const std::vector<uint8_t>& glb, Ex
     case ExportFormat::kObj:
     case ExportFormat::kPly: {
       MS_ASSIGN_OR_RETURN(WorkFolder folder, WorkFolder::Create(temp_parent));
-      const std::string path = folder.path() + "/export" + ExportExtension(format);
+      const std::string path = folder.path() + "/export" + InfoOf(format).extension;
       MS_RETURN_IF_ERROR(WriteMeshFile(scene, path));
       return ReadFileBytes(path, UINT64_MAX);
     }
@@ -60,17 +60,6 @@ StatusOr<std::vector<uint8_t>> ExportChecked(const std::vector<uint8_t>& glb, Ex
 }
 
 }  // namespace
-
-const char* ExportExtension(ExportFormat format) {
-  switch (format) {
-    case ExportFormat::kObj:
-      return ".obj";
-    case ExportFormat::kPly:
-      return ".ply";
-    default:
-      return ".glb";
-  }
-}
 
 StatusOr<std::vector<uint8_t>> ExportArtifact(const std::vector<uint8_t>& progressive_glb, ExportFormat format,
                                               std::optional<int> lod, const std::string& temp_parent) {

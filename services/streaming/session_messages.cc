@@ -1,4 +1,6 @@
-#include "services/api/server_messages.h"
+#include "services/streaming/session_messages.h"
+
+#include <algorithm>
 
 #include "net/packet_header.h"
 
@@ -85,6 +87,35 @@ v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes) {
   m.mutable_repair_end()->set_datagrams(datagrams);
   m.mutable_repair_end()->set_bytes(bytes);
   return m;
+}
+
+ClientReportInfo FromProto(const v1::ClientReport& r) {
+  ClientReportInfo info;
+  info.stream = r.primitive();
+  info.refinement = r.refinement();
+  info.received = r.datagrams_received();
+  info.missing = static_cast<uint32_t>(std::min<int>(r.missing_size(), 1 << 20));
+  // Runs of consecutive missing ordinals (the client lists them ascending):
+  // missing / runs is the mean loss run the sender sizes parity for.
+  for (int i = 0; i < r.missing_size() && i < (1 << 20); ++i) {
+    if (i == 0 || r.missing(i) != r.missing(i - 1) + 1) ++info.missing_runs;
+  }
+  info.end_received = r.end_received();
+  info.hold_us = r.hold_us();
+  info.arrival_span_us = r.arrival_span_us();
+  info.span_bytes = r.span_bytes();
+  for (int i = 0; i < r.rtt_samples_us_size() && i < 16; ++i) info.rtt_samples_us.push_back(r.rtt_samples_us(i));
+  return info;
+}
+
+std::vector<RepairItem> FromProto(const v1::RepairRequest& request) {
+  std::vector<RepairItem> items;
+  items.reserve(static_cast<size_t>(request.items_size()));
+  for (const v1::RepairItem& item : request.items()) {
+    items.push_back(RepairItem{item.primitive(), item.refinement(),
+                               std::vector<uint32_t>(item.datagrams().begin(), item.datagrams().end())});
+  }
+  return items;
 }
 
 }  // namespace meshstream

@@ -9,8 +9,8 @@
 // version 0 is the latest READY version; a version that is not READY is
 // FailedPrecondition naming its state (and the job's message when FAILED).
 // Thread safety: stateless; callable from any thread.
-#ifndef MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
-#define MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
+#ifndef MESHSTREAM_SERVICES_EXPORT_EXPORT_VERSION_H_
+#define MESHSTREAM_SERVICES_EXPORT_EXPORT_VERSION_H_
 
 #include <cstdint>
 #include <functional>
@@ -19,7 +19,8 @@
 #include <vector>
 
 #include "codec/core/status.h"
-#include "services/pipeline/export_version.h"
+#include "services/pipeline/export_artifact.h"
+#include "services/store/ready_version.h"
 #include "services/store/store.h"
 
 namespace meshstream {
@@ -34,11 +35,6 @@ struct ExportedVersion {
   bool cached = false;  // served from the export cache
 };
 
-// The version an export or a session of `asset` at `version` reads: version
-// 0 is the latest READY one.
-StatusOr<VersionRecord> ResolveReadyVersion(Store& store, const std::string& tenant, const std::string& asset,
-                                            int64_t version);
-
 // `before_decode`, when set, runs only when the export must decode (not for
 // the stored progressive file, nor for a hit in the export cache); an error
 // from it ends the export with that status (the service takes a slot of its
@@ -47,8 +43,6 @@ StatusOr<ExportedVersion> ExportVersion(Store& store, const std::string& tenant,
                                         int64_t version, ExportFormat format, std::optional<int> lod,
                                         uint64_t max_bytes, const std::function<Status()>& before_decode = {});
 
-const char* ExportFormatName(ExportFormat format);
-
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_EXPORT_VERSION_EXPORT_H_
+#endif  // MESHSTREAM_SERVICES_EXPORT_EXPORT_VERSION_H_

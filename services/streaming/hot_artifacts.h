@@ -22,8 +22,8 @@
 // from: a layout that differs (a version that describes the same bytes
 // otherwise) is planned on its own, not kept.
 // Thread safety: every method from any thread.
-#ifndef MESHSTREAM_SERVICES_STREAMING_ARTIFACT_CACHE_H_
-#define MESHSTREAM_SERVICES_STREAMING_ARTIFACT_CACHE_H_
+#ifndef MESHSTREAM_SERVICES_STREAMING_HOT_ARTIFACTS_H_
+#define MESHSTREAM_SERVICES_STREAMING_HOT_ARTIFACTS_H_
 
 #include <cstdint>
 #include <functional>
@@ -50,7 +50,7 @@ struct HotArtifact {
   uint64_t cost_bytes = 0;       // what it counts against the cache's bound
 };
 
-struct ArtifactCacheStats {
+struct HotArtifactsStats {
   uint64_t hits = 0;       // kept or held entries handed out
   uint64_t loads = 0;      // entries made (the store read, the plan, the scene)
   uint64_t evictions = 0;  // entries the bound pushed out of the LRU
@@ -58,19 +58,19 @@ struct ArtifactCacheStats {
   uint64_t entries = 0;    // kept now
 };
 
-class ArtifactCache {
+class HotArtifacts {
  public:
   using Entry = std::shared_ptr<const HotArtifact>;
   using Loader = std::function<StatusOr<std::vector<uint8_t>>()>;
 
-  explicit ArtifactCache(uint64_t max_bytes) : max_bytes_(max_bytes) {}
+  explicit HotArtifacts(uint64_t max_bytes) : max_bytes_(max_bytes) {}
 
   // The entry of artifact `sha256` planned from `layout_json`: kept, held by
   // a session, or made from `load()` (its error, or the plan's or the
   // scene's, is returned and nothing is kept).
   StatusOr<Entry> Get(const std::string& sha256, const std::string& layout_json, const Loader& load);
 
-  ArtifactCacheStats stats() const;
+  HotArtifactsStats stats() const;
 
  private:
   struct Kept {
@@ -88,7 +88,7 @@ class ArtifactCache {
   std::list<std::string> lru_;                       // most recently used first
   std::map<std::string, Kept> kept_;                 // within the bound
   std::map<std::string, std::weak_ptr<const HotArtifact>> held_;  // evicted or too large, while sessions hold them
-  ArtifactCacheStats stats_;
+  HotArtifactsStats stats_;
 };
 
 // An entry made from `bytes` (the store's checked read): the plan of every
@@ -98,4 +98,4 @@ StatusOr<std::shared_ptr<HotArtifact>> MakeHotArtifact(const std::string& sha256
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_STREAMING_ARTIFACT_CACHE_H_
+#endif  // MESHSTREAM_SERVICES_STREAMING_HOT_ARTIFACTS_H_

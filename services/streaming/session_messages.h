@@ -1,17 +1,19 @@
-// The ServerMessages of a session's reliable channel, built from the plan,
-// the artifact and the sender's actions (services/streaming/session_sender.h).
-// StreamService (stream_service.cc) queues them on the gRPC call; the
-// in-process tests of the two session cores (tests/sessions/) feed them to
-// the client's core, so both see the same translation.
+// The messages of a session's reliable channel: the ServerMessages built
+// from the plan, the artifact and the sender's actions (session_sender.h),
+// and the library's records of the client's messages. Every transport
+// (queued_session_stream.h: the gRPC call, the WebSocket) and the in-process
+// tests of the two session cores (tests/sessions/) use them, so all see the
+// same translation.
 // Thread safety: pure.
-#ifndef MESHSTREAM_SERVICES_API_SERVER_MESSAGES_H_
-#define MESHSTREAM_SERVICES_API_SERVER_MESSAGES_H_
+#ifndef MESHSTREAM_SERVICES_STREAMING_SESSION_MESSAGES_H_
+#define MESHSTREAM_SERVICES_STREAMING_SESSION_MESSAGES_H_
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "meshstream/v1/stream.pb.h"
+#include "services/streaming/repair_request.h"
 #include "services/streaming/session_plan.h"
 #include "services/streaming/session_sender.h"
 
@@ -33,6 +35,11 @@ v1::ServerMessage RefinementEndMessage(uint32_t stream, uint32_t refinement, uin
 v1::ServerMessage EndMessage(const std::string& reason);
 v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes);
 
+// A client's report: `missing` counts the ordinals (at most 2^20), and at
+// most 16 RTT samples are kept (the rest of an untrusted report is ignored).
+ClientReportInfo FromProto(const v1::ClientReport& report);
+std::vector<RepairItem> FromProto(const v1::RepairRequest& request);
+
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_SERVER_MESSAGES_H_
+#endif  // MESHSTREAM_SERVICES_STREAMING_SESSION_MESSAGES_H_

@@ -1,10 +1,10 @@
-// The cache of hot artifacts (services/streaming/artifact_cache.h) on real
+// The cache of hot artifacts (services/streaming/hot_artifacts.h) on real
 // artifacts of the pipeline and a real blob folder: entries stay between
 // sessions, within a bound of bytes, the least recently used going first;
 // an entry a session holds is shared beyond the bound; the store's checked
 // read happens once per load, and a corrupt blob is refused at load and
 // never kept.
-#include "services/streaming/artifact_cache.h"
+#include "services/streaming/hot_artifacts.h"
 
 #include <filesystem>
 #include <fstream>
@@ -45,7 +45,7 @@ Artifact Stored(const FileBlobStore& blobs, const std::string& model) {
 // The cache over a blob folder, counting the store's reads per digest.
 struct Fixture {
   explicit Fixture(const FileBlobStore& b) : blobs(b) {}
-  StatusOr<ArtifactCache::Entry> Get(ArtifactCache& cache, const Artifact& a) {
+  StatusOr<HotArtifacts::Entry> Get(HotArtifacts& cache, const Artifact& a) {
     return cache.Get(a.sha256, a.layout_json, [&] {
       ++reads[a.sha256];
       return blobs.Get(a.sha256, uint64_t{1} << 30);
@@ -61,7 +61,7 @@ uint64_t CostOf(const Artifact& a) {
   return hot.ok() ? hot.value()->cost_bytes : 0;
 }
 
-class ArtifactCacheTest : public ::testing::Test {
+class HotArtifactsTest : public ::testing::Test {
  protected:
   void SetUp() override {
     auto blobs = FileBlobStore::Open(dir_.path());
@@ -72,14 +72,14 @@ class ArtifactCacheTest : public ::testing::Test {
   std::optional<FileBlobStore> blobs_;
 };
 
-TEST_F(ArtifactCacheTest, EntriesStayWithinTheBoundLeastRecentlyUsedOutFirst) {
+TEST_F(HotArtifactsTest, EntriesStayWithinTheBoundLeastRecentlyUsedOutFirst) {
   const Artifact spot = Stored(*blobs_, "spot.obj"), fandisk = Stored(*blobs_, "fandisk.obj"),
                  rocker = Stored(*blobs_, "rocker-arm.obj");
   const uint64_t a = CostOf(spot), b = CostOf(fandisk), c = CostOf(rocker);
   ASSERT_GT(a, spot.glb.size());
   // Room for the two larger ones, never for all three.
   const uint64_t bound = a + b + c - std::min({a, b, c});
-  ArtifactCache cache(bound);
+  HotArtifacts cache(bound);
   Fixture f(*blobs_);
   ASSERT_TRUE(f.Get(cache, spot).ok());
   ASSERT_TRUE(f.Get(cache, fandisk).ok());
@@ -90,7 +90,7 @@ TEST_F(ArtifactCacheTest, EntriesStayWithinTheBoundLeastRecentlyUsedOutFirst) {
   EXPECT_EQ(f.reads[fandisk.sha256], 1);
   EXPECT_EQ(again.value()->plan.refinements.size(), PlanSession(spot.glb, spot.layout_json, -1)->refinements.size());
   EXPECT_FALSE(again.value()->scene.empty());
-  again = ArtifactCache::Entry();
+  again = HotArtifacts::Entry();
   // spot was used last: the rocker arm pushes fandisk out, not spot.
   ASSERT_TRUE(f.Get(cache, rocker).ok());
   EXPECT_LE(cache.stats().bytes, bound);
@@ -99,15 +99,15 @@ TEST_F(ArtifactCacheTest, EntriesStayWithinTheBoundLeastRecentlyUsedOutFirst) {
   EXPECT_EQ(f.reads[spot.sha256], 1) << "the most recently used entry stays";
   ASSERT_TRUE(f.Get(cache, fandisk).ok());
   EXPECT_EQ(f.reads[fandisk.sha256], 2) << "the least recently used entry went";
-  const ArtifactCacheStats s = cache.stats();
+  const HotArtifactsStats s = cache.stats();
   EXPECT_LE(s.bytes, bound);
   EXPECT_EQ(s.loads, 4u);
   EXPECT_EQ(s.hits, 2u);
 }
 
-TEST_F(ArtifactCacheTest, AnEntryASessionHoldsIsSharedBeyondTheBound) {
+TEST_F(HotArtifactsTest, AnEntryASessionHoldsIsSharedBeyondTheBound) {
   const Artifact spot = Stored(*blobs_, "spot.obj");
-  ArtifactCache cache(0);  // keeps nothing by itself
+  HotArtifacts cache(0);  // keeps nothing by itself
   Fixture f(*blobs_);
   auto held = f.Get(cache, spot);
   ASSERT_TRUE(held.ok());
@@ -116,13 +116,13 @@ TEST_F(ArtifactCacheTest, AnEntryASessionHoldsIsSharedBeyondTheBound) {
   EXPECT_EQ(second.value().get(), held.value().get()) << "one copy for every session of the artifact";
   EXPECT_EQ(f.reads[spot.sha256], 1);
   EXPECT_EQ(cache.stats().bytes, 0u);
-  held = ArtifactCache::Entry();
-  second = ArtifactCache::Entry();
+  held = HotArtifacts::Entry();
+  second = HotArtifacts::Entry();
   ASSERT_TRUE(f.Get(cache, spot).ok());
   EXPECT_EQ(f.reads[spot.sha256], 2) << "gone with the last session that held it";
 }
 
-TEST_F(ArtifactCacheTest, ACorruptArtifactIsRefusedAtLoadAndNeverKept) {
+TEST_F(HotArtifactsTest, ACorruptArtifactIsRefusedAtLoadAndNeverKept) {
   const Artifact spot = Stored(*blobs_, "spot.obj");
   const std::string path = blobs_->root() + "/" + spot.sha256.substr(0, 2) + "/" + spot.sha256;
   {
@@ -130,7 +130,7 @@ TEST_F(ArtifactCacheTest, ACorruptArtifactIsRefusedAtLoadAndNeverKept) {
     file.seekp(static_cast<std::streamoff>(spot.glb.size() / 2));
     file.put(static_cast<char>(spot.glb[spot.glb.size() / 2] ^ 0x5a));
   }
-  ArtifactCache cache(uint64_t{64} << 20);
+  HotArtifacts cache(uint64_t{64} << 20);
   Fixture f(*blobs_);
   for (int session = 0; session < 2; ++session) {
     auto entry = f.Get(cache, spot);
@@ -141,9 +141,9 @@ TEST_F(ArtifactCacheTest, ACorruptArtifactIsRefusedAtLoadAndNeverKept) {
   EXPECT_EQ(cache.stats().entries, 0u);
 }
 
-TEST_F(ArtifactCacheTest, AnotherLayoutOfTheSameBytesIsPlannedOnItsOwn) {
+TEST_F(HotArtifactsTest, AnotherLayoutOfTheSameBytesIsPlannedOnItsOwn) {
   const Artifact spot = Stored(*blobs_, "spot.obj");
-  ArtifactCache cache(uint64_t{64} << 20);
+  HotArtifacts cache(uint64_t{64} << 20);
   Fixture f(*blobs_);
   ASSERT_TRUE(f.Get(cache, spot).ok());
   Artifact wrong = spot;

@@ -1,8 +1,8 @@
 // A bound on how many calls of one kind run at once (WatchJob streams,
 // exports that decode): a counting semaphore whose acquisition is an RAII
 // slot. Thread-safe.
-#ifndef MESHSTREAM_SERVICES_API_CALL_LIMIT_H_
-#define MESHSTREAM_SERVICES_API_CALL_LIMIT_H_
+#ifndef MESHSTREAM_PARALLEL_CALL_LIMIT_H_
+#define MESHSTREAM_PARALLEL_CALL_LIMIT_H_
 
 #include <chrono>
 #include <condition_variable>
@@ -60,4 +60,4 @@ class CallLimit {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_CALL_LIMIT_H_
+#endif  // MESHSTREAM_PARALLEL_CALL_LIMIT_H_
