@@ -6,8 +6,11 @@
 #include <memory>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "cli/exit_codes.h"
 #include "cli/verbs.h"
+#include "importers/import.h"
 #include "services/server/server.h"
 
 namespace meshstream::cli {
@@ -20,7 +23,8 @@ const char kDetails[] =
     "Without --auth it listens only on loopback; on any other address --auth (or --insecure) is\n"
     "required. SIGTERM or SIGINT drains: health NOT_SERVING, running requests finish within\n"
     "--grace-period, unfinished jobs resume at the next start. The first line on stdout is\n"
-    "'listening on HOST:PORT' (port 0 picks a free port). docs/deploy.md has the details.\n"
+    "'listening on HOST:PORT' (port 0 picks a free port); --ready-file PATH also writes the\n"
+    "addresses as JSON once the server listens. docs/deploy.md has the details.\n"
     "--http-listen adds HTTP (docs/http-api.md): the assets as files with ranges and ETags, and\n"
     "the viewer's files; same tokens, same loopback rule, same TLS files.\n"
     "\n"
@@ -38,7 +42,20 @@ struct ServeArgs {
   int64_t stream_cache_mb = 256;
   bool reflection = false;
   bool no_reflection = false;
+  std::string ready_file;
 };
+
+// --ready-file: {"grpc": ADDRESS, "udp": ADDRESS or null, "http": ADDRESS or
+// null}, written whole (a temporary file renamed) once every listener is
+// up, so that a script or a test waits for the file instead of scraping
+// stdout. Removed when the server stops.
+Status WriteReadyFile(const std::string& path, const Server& server) {
+  nlohmann::json ready = {{"grpc", server.address()}, {"udp", nullptr}, {"http", nullptr}};
+  if (!server.udp_address().empty()) ready["udp"] = server.udp_address();
+  if (!server.http_address().empty()) ready["http"] = server.http_address();
+  const std::string text = ready.dump() + "\n";
+  return WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end()));
+}
 
 int RunServe(ServeArgs& args) {
   if (args.reflection && args.no_reflection) {
@@ -63,6 +80,13 @@ int RunServe(ServeArgs& args) {
   if (!(*server)->udp_address().empty()) std::printf("udp on %s\n", (*server)->udp_address().c_str());
   if (!(*server)->http_address().empty()) std::printf("http on %s\n", (*server)->http_address().c_str());
   std::fflush(stdout);
+  if (!args.ready_file.empty()) {
+    const Status written = WriteReadyFile(args.ready_file, **server);
+    if (!written.ok()) {
+      (*server)->Drain();
+      return ReportError("serve", written.WithContext("--ready-file"));
+    }
+  }
   Server* raw = server->get();
   // The first signal drains (in its own thread); a second one while it
   // drains ends the process at once.
@@ -76,6 +100,7 @@ int RunServe(ServeArgs& args) {
   });
   waiter.detach();
   raw->Wait();
+  if (!args.ready_file.empty()) std::remove(args.ready_file.c_str());
   return kExitOk;
 }
 
@@ -171,6 +196,9 @@ Verb AddServe(CLI::App& root) {
                           "beside the binary)")
               ->check(CLI::ExistingDirectory));
   FromEnv(cmd->add_option("--server-id", o.server_id, "name in job leases and logs (default host-pid-random)"));
+  FromEnv(cmd->add_option("--ready-file", args->ready_file,
+                          "once listening, write {\"grpc\": ADDRESS, \"udp\": ADDRESS|null, \"http\": ADDRESS|null} "
+                          "to this file (whole, by a rename); removed when the server stops"));
   return {cmd, [args] { return RunServe(*args); }};
 }
 

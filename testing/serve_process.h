@@ -1,7 +1,8 @@
 // A real `meshstream serve` process for integration tests: started with
-// --listen 127.0.0.1:0 (a free port), its address read from the first line
-// of its stdout ("listening on HOST:PORT"), its stderr kept in a file, and
-// stopped with SIGTERM (drain) or SIGKILL (a crash).
+// --listen 127.0.0.1:0 (a free port) and --ready-file, its addresses read
+// from that file once the server writes it (every listener up), its stderr
+// kept in a file, and stopped with SIGTERM (drain) or SIGKILL (a crash).
+// testing/serve.sh is the same fixture for shell scripts.
 #ifndef MESHSTREAM_TESTING_SERVE_PROCESS_H_
 #define MESHSTREAM_TESTING_SERVE_PROCESS_H_
 
@@ -41,6 +42,9 @@ class ServeProcess {
       argv_text.push_back("--listen");
       argv_text.push_back("127.0.0.1:0");
     }
+    p->ready_path_ = p->dir_.File("ready.json");
+    argv_text.push_back("--ready-file");
+    argv_text.push_back(p->ready_path_);
     argv_text.insert(argv_text.end(), args.begin(), args.end());
     const pid_t pid = fork();
     if (pid < 0) return IoError("fork failed");
@@ -61,32 +65,25 @@ class ServeProcess {
     close(out[1]);
     p->pid_ = pid;
     p->stdout_fd_ = out[0];
-    // The first line on stdout: "listening on ADDRESS".
-    std::string line;
+    // The ready file: {"grpc": ADDRESS, "udp": ADDRESS|null, "http": ADDRESS|null}.
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
-    while (line.find('\n') == std::string::npos) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-      if (left.count() <= 0) return Unavailable("serve did not say where it listens within the timeout: " + p->log());
-      pollfd fd{out[0], POLLIN, 0};
-      if (poll(&fd, 1, static_cast<int>(left.count())) <= 0) continue;
-      char buffer[256];
-      const ssize_t n = read(out[0], buffer, sizeof buffer);
-      if (n <= 0) {
-        const int code = p->WaitExit();
+    std::string ready;
+    while (ready.empty()) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        return Unavailable("serve did not write its ready file within the timeout: " + p->log());
+      }
+      int status = 0;
+      if (waitpid(pid, &status, WNOHANG) == pid) {
+        const int code = p->Record(status);
         return Unavailable("serve exited (" + std::to_string(code) + ") before listening: " + p->log());
       }
-      line.append(buffer, static_cast<size_t>(n));
+      ready = ReadText(p->ready_path_);
+      if (ready.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    const std::string prefix = "listening on ";
-    if (line.rfind(prefix, 0) != 0) return Internal("unexpected first line of serve: " + line);
-    p->address_ = line.substr(prefix.size(), line.find('\n') - prefix.size());
-    // serve writes "udp on HOST:PORT" in the same flush, when UDP is on.
-    const std::string udp_prefix = "udp on ";
-    const size_t second = line.find('\n') + 1;
-    if (line.compare(second, udp_prefix.size(), udp_prefix) == 0) {
-      const size_t end = line.find('\n', second);
-      p->udp_address_ = line.substr(second + udp_prefix.size(), end == std::string::npos ? std::string::npos : end - second - udp_prefix.size());
-    }
+    p->address_ = ReadyField(ready, "grpc");
+    p->udp_address_ = ReadyField(ready, "udp");
+    p->http_address_ = ReadyField(ready, "http");
+    if (p->address_.empty()) return Internal("serve's ready file names no gRPC address: " + ready);
     return p;
   }
 
@@ -98,6 +95,8 @@ class ServeProcess {
   const std::string& address() const { return address_; }
   // The UDP endpoint of the sessions ("127.0.0.1:PORT"), empty when UDP is off.
   const std::string& udp_address() const { return udp_address_; }
+  // The HTTP listener (--http-listen), empty when HTTP is off.
+  const std::string& http_address() const { return http_address_; }
   pid_t pid() const { return pid_; }
   bool running() const { return pid_ > 0 && !exited_; }
   std::string log() const { return ReadText(log_path_); }
@@ -144,10 +143,24 @@ class ServeProcess {
     return exit_code_;
   }
 
+  // The string value of `key` in the ready file's one-line JSON object
+  // (serve writes it: string values without escapes, or null); "" for null
+  // or a missing key.
+  static std::string ReadyField(const std::string& json, const std::string& key) {
+    const std::string quoted = "\"" + key + "\":\"";
+    const size_t at = json.find(quoted);
+    if (at == std::string::npos) return "";
+    const size_t begin = at + quoted.size();
+    const size_t end = json.find('"', begin);
+    return end == std::string::npos ? "" : json.substr(begin, end - begin);
+  }
+
   TempDir dir_;
   std::string log_path_;
+  std::string ready_path_;
   std::string address_;
   std::string udp_address_;
+  std::string http_address_;
   pid_t pid_ = -1;
   int stdout_fd_ = -1;
   bool exited_ = false;

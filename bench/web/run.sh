@@ -7,6 +7,8 @@
 # usage: bench/web/run.sh PATH/TO/meshstream REFERENCE_BIN WASM_MODULE MODELS_DIR OUT_JSON [bench_web.mjs options]
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=../../testing/serve.sh
+. "$here/../../testing/serve.sh"
 bin=$(realpath "$1") reference=$(realpath "$2") module=$(realpath "$3") models=$4 out=$5
 shift 5
 root=$(dirname "$(dirname "$bin")")/web
@@ -16,22 +18,14 @@ if [ ! -f "$root/index.html" ] || [ ! -f "$module" ]; then
 fi
 for var in $(compgen -e | grep '^MESHSTREAM_' || true); do unset "$var"; done
 tmp=$(mktemp -d)
-pid=""
 cleanup() {
-  if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then kill -TERM "$pid"; wait "$pid" 2>/dev/null || true; fi
+  serve_stop || true
   rm -rf "$tmp"
 }
 trap cleanup EXIT
-"$bin" serve --listen 127.0.0.1:0 --udp-listen off --http-listen 127.0.0.1:0 --store "$tmp/store" \
-  >"$tmp/server.out" 2>"$tmp/server.log" &
-pid=$!
-for _ in $(seq 600); do
-  grep -q '^http on ' "$tmp/server.out" 2>/dev/null && break
-  kill -0 "$pid" 2>/dev/null || { cat "$tmp/server.log" >&2; exit 1; }
-  sleep 0.1
-done
-grpc=$(sed -n 's/^listening on //p' "$tmp/server.out" | head -1)
-http=$(sed -n 's/^http on //p' "$tmp/server.out" | head -1)
+serve_start "$bin" "$tmp/server" --listen 127.0.0.1:0 --udp-listen off --http-listen 127.0.0.1:0 --store "$tmp/store"
+serve_ready 60
+grpc=$SERVE_GRPC http=$SERVE_HTTP
 assets=()
 for m in stanford-bunny.obj horse.ply gltf/2CylinderEngine.glb; do
   name=$(basename "${m%.*}")

@@ -19,6 +19,8 @@
 set -uo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=../../testing/serve.sh
+. "$here/../../testing/serve.sh"
 
 if [ $# -lt 2 ]; then
   echo "usage: $0 PATH/TO/meshstream MODELS_DIR" >&2
@@ -49,23 +51,15 @@ tmp=$(mktemp -d)
 store="$tmp/store"
 web="$tmp/web"
 exports="$tmp/exports"
-log="$tmp/server.log"
-out="$tmp/server.out"
 grace=10
-pid=""
-show_log() {
-  echo "--- server log (last 80 lines of $log) ---"
-  tail -n 80 "$log" 2>/dev/null
-  echo "---"
-}
 cleanup() {
-  if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
+  serve_kill
   rm -rf "$tmp"
 }
 trap cleanup EXIT
 fail() {
   echo "run.sh: $*" >&2
-  show_log
+  serve_log 80
   exit 1
 }
 
@@ -78,7 +72,7 @@ printf 'SECRET-OUTSIDE-THE-WEB-ROOT\n' >"$tmp/secret.txt"
 ln -s "$tmp/secret.txt" "$web/escape.txt"
 ln -s "$tmp" "$web/up"
 
-args=(serve --listen 127.0.0.1:0 --http-listen 127.0.0.1:0 --store "$store" --grace-period "$grace"
+args=(--listen 127.0.0.1:0 --http-listen 127.0.0.1:0 --store "$store" --grace-period "$grace"
       --http-root "$web" --http-cors-origin http://allowed.example)
 remote=()
 if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
@@ -91,27 +85,18 @@ if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
   args+=(--auth)
 fi
 
-echo "run.sh: $bin ${args[*]}"
-"$bin" "${args[@]}" >"$out" 2>"$log" &
-pid=$!
+echo "run.sh: $bin serve ${args[*]}"
+serve_start "$bin" "$tmp/server" "${args[@]}"
 
-# Ready: both addresses printed (stdout) and /v1/health answers 200.
+# Ready: the ready file names both addresses, and /v1/health answers 200.
 startup=${MESHSTREAM_TEST_STARTUP:-60}
 start=$SECONDS
-grpc="" http=""
-until [ -n "$grpc" ] && [ -n "$http" ]; do
-  grpc=$(sed -n 's/^listening on //p' "$out")
-  http=$(sed -n 's/^http on //p' "$out")
-  if ! kill -0 "$pid" 2>/dev/null; then
-    wait "$pid"
-    fail "the server exited with status $? before it listened"
-  fi
-  [ $((SECONDS - start)) -lt "$startup" ] || fail "the server printed no addresses after ${startup}s"
-  sleep 0.1
-done
+serve_ready "$startup" || exit 1
+grpc=$SERVE_GRPC http=$SERVE_HTTP
+[ -n "$http" ] || fail "the ready file names no HTTP address"
 health='require("http").get("http://'"$http"'/v1/health", r => process.exit(r.statusCode === 200 ? 0 : 1)).on("error", () => process.exit(1))'
 until node -e "$health"; do
-  kill -0 "$pid" 2>/dev/null || fail "the server exited before /v1/health answered"
+  kill -0 "$SERVE_PID" 2>/dev/null || fail "the server exited before /v1/health answered"
   [ $((SECONDS - start)) -lt "$startup" ] || fail "/v1/health did not answer 200 after ${startup}s"
   sleep 0.2
 done
@@ -136,26 +121,17 @@ MESHSTREAM_TEST_HTTP="$http" MESHSTREAM_TEST_EXPORTS="$exports" MESHSTREAM_TEST_
 rc=$?
 
 # Still alive after everything the test sent.
-kill -0 "$pid" 2>/dev/null || { echo "run.sh: the server died during the test" >&2; rc=1; }
+kill -0 "$SERVE_PID" 2>/dev/null || { echo "run.sh: the server died during the test" >&2; rc=1; }
 
 # SIGTERM drains; the server must be gone within its grace period (plus a margin).
-kill -TERM "$pid" 2>/dev/null
-stopped=0
-for _ in $(seq $(((grace + 5) * 10))); do
-  if ! kill -0 "$pid" 2>/dev/null; then stopped=1; break; fi
-  sleep 0.1
-done
+stopped=1
+serve_stop $((grace + 5)) || stopped=0
 if [ $stopped -eq 1 ]; then
-  wait "$pid"
-  status=$?
-  echo "run.sh: the server stopped after SIGTERM (exit status $status)"
-  pid=""
-  [ $status -eq 0 ] || { echo "run.sh: exit status $status after SIGTERM (expected 0)" >&2; rc=1; }
-else
-  echo "run.sh: the server was still running $((grace + 5))s after SIGTERM (grace period ${grace}s); killed" >&2
+  echo "run.sh: the server stopped after SIGTERM (exit status $SERVE_STATUS)"
+  [ "$SERVE_STATUS" -eq 0 ] || { echo "run.sh: exit status $SERVE_STATUS after SIGTERM (expected 0)" >&2; rc=1; }
 fi
 
-if [ $rc -ne 0 ] || [ $stopped -eq 0 ]; then show_log; fi
+if [ $rc -ne 0 ] || [ $stopped -eq 0 ]; then serve_log 80; fi
 if [ $rc -ne 0 ]; then exit $rc; fi
 [ $stopped -eq 1 ] || exit 1
 exit 0

@@ -56,7 +56,7 @@ FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
     "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel", "fec"],
     "importers": ["services", "sdk", "cli", "bench", "tests", "testing", "parallel", "fec"],
-    # Threads for the codec's TaskRunner: codec/core and the standard library only.
+    # Concurrency primitives (the codec's TaskRunner, call limits): codec/core and the standard library only.
     "parallel": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "fec"],
     # The codec's erasure code on ISA-L: codec/core and the library only.
     "fec": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel"],
@@ -68,10 +68,16 @@ LAYER_FORBIDDEN = {
     # The library tests/ and bench/ share; it serves them and uses none of them.
     "testing": ["cli", "bench", "tests"],
     # Benchmarks use the product and testing/, never the test suites.
-    "bench": ["tests"],
+    "bench": ["tests", "experiments"],
+    # Research programs: the product, testing/ and bench/'s helpers.
+    "experiments": ["tests"],
     # The browser side's C ABI (web/wasm, compiled to WebAssembly): codec/ only.
     "web": ["importers", "parallel", "fec", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
 }
+# Nothing depends on the research programs.
+for _top, _forbidden in LAYER_FORBIDDEN.items():
+    if _top != "experiments" and "experiments" not in _forbidden:
+        _forbidden.append("experiments")
 # The pure library does no I/O, keeps no clock and starts no thread.
 CODEC_FORBIDDEN_STD = {"fstream", "iostream", "cstdio", "filesystem", "thread", "mutex", "shared_mutex",
                        "condition_variable", "future", "atomic", "chrono", "ctime"}

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs the independent Node client test against a real server:
-#   starts `meshstream serve --listen 127.0.0.1:<free port> --store <temp dir>`,
+#   starts `meshstream serve --listen 127.0.0.1:0 --store <temp dir>` (testing/serve.sh:
+#   its address from the ready file),
 #   waits until grpc.health.v1 says SERVING, runs asset_client.test.js, sends
 #   SIGTERM and waits for the drain, removes the temp dir.
 # Usage: tests/node/run.sh PATH/TO/meshstream MODELS_DIR
@@ -14,6 +15,8 @@ set -uo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
+# shellcheck source=../../testing/serve.sh
+. "$root/testing/serve.sh"
 
 if [ $# -lt 2 ]; then
   echo "usage: $0 PATH/TO/meshstream MODELS_DIR" >&2
@@ -53,23 +56,14 @@ done
 
 tmp=$(mktemp -d)
 store="$tmp/store"
-log="$tmp/server.log"
 grace=10
-pid=""
-show_log() {
-  echo "--- server log (last 60 lines of $log) ---"
-  tail -n 60 "$log" 2>/dev/null
-  echo "---"
-}
 cleanup() {
-  if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
+  serve_kill
   rm -rf "$tmp"
 }
 trap cleanup EXIT
 
-port=$(node -e 'const s = require("net").createServer(); s.listen(0, "127.0.0.1", () => { console.log(s.address().port); s.close(); });')
-address="127.0.0.1:$port"
-args=(serve --listen "$address" --store "$store" --grace-period "$grace")
+args=(--listen 127.0.0.1:0 --store "$store" --grace-period "$grace")
 if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
   if ! out=$("$bin" token create --store "$store" --tenant node-test 2>"$tmp/token.err"); then
     echo "run.sh: meshstream token create failed: $(cat "$tmp/token.err")" >&2
@@ -80,23 +74,18 @@ if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
   args+=(--auth)
 fi
 
-echo "run.sh: $bin ${args[*]}"
-"$bin" "${args[@]}" >"$log" 2>&1 &
-pid=$!
-
-# Healthy: grpc.health.v1 Check answers SERVING (health_check.js, 2 s per try).
+echo "run.sh: $bin serve ${args[*]}"
+serve_start "$bin" "$tmp/server" "${args[@]}"
 startup=${MESHSTREAM_TEST_STARTUP:-60}
 start=$SECONDS
+serve_ready "$startup" || exit 1
+address=$SERVE_GRPC
+
+# Healthy: grpc.health.v1 Check answers SERVING (health_check.js, 2 s per try).
 until node "$here/health_check.js" "$address" >"$tmp/health.out" 2>&1; do
-  if ! kill -0 "$pid" 2>/dev/null; then
-    wait "$pid"
-    echo "run.sh: the server exited with status $? before it was healthy" >&2
-    show_log
-    exit 1
-  fi
   if [ $((SECONDS - start)) -ge "$startup" ]; then
     echo "run.sh: the server was not SERVING after ${startup}s: $(cat "$tmp/health.out")" >&2
-    show_log
+    serve_log
     exit 1
   fi
   sleep 0.5
@@ -107,22 +96,12 @@ MESHSTREAM_SERVER="$address" MESHSTREAM_TEST_MODEL="$model" node "$here/asset_cl
 rc=$?
 
 # SIGTERM drains; the server must be gone within its grace period (plus a margin).
-kill -TERM "$pid"
-stopped=0
-for _ in $(seq $(((grace + 5) * 10))); do
-  if ! kill -0 "$pid" 2>/dev/null; then stopped=1; break; fi
-  sleep 0.1
-done
+stopped=1
+serve_stop $((grace + 5)) || stopped=0
 if [ $stopped -eq 1 ]; then
-  wait "$pid"
-  status=$?
-  echo "run.sh: the server stopped after SIGTERM (exit status $status)"
-  pid=""
-else
-  echo "run.sh: the server was still running $((grace + 5))s after SIGTERM (grace period ${grace}s); killed" >&2
+  echo "run.sh: the server stopped after SIGTERM (exit status $SERVE_STATUS)"
 fi
-
-if [ $rc -ne 0 ] || [ $stopped -eq 0 ]; then show_log; fi
+if [ $rc -ne 0 ] || [ $stopped -eq 0 ]; then serve_log; fi
 if [ $rc -ne 0 ]; then exit $rc; fi
 [ $stopped -eq 1 ] || exit 1
 exit 0

@@ -17,6 +17,8 @@
 set -uo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=../../testing/serve.sh
+. "$here/../../testing/serve.sh"
 if [ $# -lt 4 ]; then
   echo "usage: $0 PATH/TO/meshstream REFERENCE_BIN WASM_MODULE MODELS_DIR" >&2
   exit 1
@@ -39,21 +41,14 @@ for var in $(compgen -e | grep '^MESHSTREAM_' | grep -v '^MESHSTREAM_TEST_'); do
 done
 
 tmp=$(mktemp -d)
-log="$tmp/server.log" out="$tmp/server.out"
 grace=10
-pid=""
-show_log() {
-  echo "--- server log (last 60 lines of $log) ---"
-  tail -n 60 "$log" 2>/dev/null
-  echo "---"
-}
 cleanup() {
-  if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
+  serve_kill
   rm -rf "$tmp"
 }
 trap cleanup EXIT
 
-args=(serve --listen 127.0.0.1:0 --udp-listen off --http-listen 127.0.0.1:0 --store "$tmp/store" --grace-period "$grace")
+args=(--listen 127.0.0.1:0 --udp-listen off --http-listen 127.0.0.1:0 --store "$tmp/store" --grace-period "$grace")
 token="" other=""
 if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
   token=$("$bin" token create --store "$tmp/store" --tenant web-a 2>"$tmp/token.err" | tail -n 1) &&
@@ -64,22 +59,12 @@ if [ "${MESHSTREAM_TEST_AUTH:-0}" = 1 ]; then
   fi
   args+=(--auth)
 fi
-"$bin" "${args[@]}" >"$out" 2>"$log" &
-pid=$!
-for _ in $(seq 600); do
-  if grep -q '^http on ' "$out" 2>/dev/null; then break; fi
-  if ! kill -0 "$pid" 2>/dev/null; then
-    echo "browser_run.sh: the server exited before it listened" >&2
-    show_log
-    exit 1
-  fi
-  sleep 0.1
-done
-grpc=$(sed -n 's/^listening on //p' "$out" | head -1)
-http=$(sed -n 's/^http on //p' "$out" | head -1)
+serve_start "$bin" "$tmp/server" "${args[@]}"
+serve_ready 60 || exit 1
+grpc=$SERVE_GRPC http=$SERVE_HTTP
 if [ -z "$http" ]; then
-  echo "browser_run.sh: the server did not say where HTTP listens" >&2
-  show_log
+  echo "browser_run.sh: the server's ready file names no HTTP address" >&2
+  serve_log
   exit 1
 fi
 echo "browser_run.sh: gRPC $grpc, HTTP $http, web root $root"
@@ -90,7 +75,7 @@ for m in stanford-bunny.obj horse.ply gltf/2CylinderEngine.glb gltf/BoxTextured.
   if ! "$bin" ingest "$models/$m" --asset "$name" --wait --server "$grpc" ${token:+--token "$token"} \
       >"$tmp/ingest.out" 2>&1; then
     echo "browser_run.sh: ingesting $m failed: $(tail -n 5 "$tmp/ingest.out")" >&2
-    show_log
+    serve_log
     exit 1
   fi
   assets+=("$name")
@@ -108,21 +93,12 @@ node "$here/browser_test.mjs" --base "http://$http/" --reference "$reference" --
 # docs/web.md, "Open defects").
 if [ $rc -ne 0 ] && command -v gdb >/dev/null 2>&1; then
   echo "--- the server's threads (gdb) ---"
-  timeout 60 gdb -p "$pid" -batch -ex "thread apply all bt 30" 2>/dev/null | grep -E '^(Thread|#)' | head -400
+  timeout 60 gdb -p "$SERVE_PID" -batch -ex "thread apply all bt 30" 2>/dev/null | grep -E '^(Thread|#)' | head -400
   echo "---"
 fi
-kill -TERM "$pid"
-stopped=0
-for _ in $(seq $(((grace + 5) * 10))); do
-  if ! kill -0 "$pid" 2>/dev/null; then stopped=1; break; fi
-  sleep 0.1
-done
-if [ $stopped -eq 1 ]; then
-  wait "$pid"
-  pid=""
-else
+if ! serve_stop $((grace + 5)); then
   echo "browser_run.sh: the server was still running $((grace + 5))s after SIGTERM" >&2
   rc=1
 fi
-if [ $rc -ne 0 ]; then show_log; fi
+if [ $rc -ne 0 ]; then serve_log; fi
 exit $rc

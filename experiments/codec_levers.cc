@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "bench/estimate_main.h"
+#include "experiments/estimate_main.h"
 #include "codec/entropy/symbol_model.h"
 #include "codec/progressive/refinement_state.h"
 #include "importers/import.h"

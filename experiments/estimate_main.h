@@ -2,8 +2,8 @@
 // (meshstream_codec_levers, meshstream_codec_levers_v3): --model, --qp and
 // --out, one JSON object printed per model, all of them written as an array
 // with --out.
-#ifndef MESHSTREAM_BENCH_ESTIMATE_MAIN_H_
-#define MESHSTREAM_BENCH_ESTIMATE_MAIN_H_
+#ifndef MESHSTREAM_EXPERIMENTS_ESTIMATE_MAIN_H_
+#define MESHSTREAM_EXPERIMENTS_ESTIMATE_MAIN_H_
 
 #include <cstdio>
 #include <fstream>
@@ -43,4 +43,4 @@ inline int EstimateMain(int argc, char** argv, const std::string& program, const
 
 }  // namespace meshstream::bench
 
-#endif  // MESHSTREAM_BENCH_ESTIMATE_MAIN_H_
+#endif  // MESHSTREAM_EXPERIMENTS_ESTIMATE_MAIN_H_

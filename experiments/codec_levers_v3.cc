@@ -25,7 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_util.h"
-#include "bench/estimate_main.h"
+#include "experiments/estimate_main.h"
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/writer.h"
 #include "codec/core/byte_io.h"
