@@ -9,7 +9,7 @@
 //   (b) the same with lod 0 (the base alone);
 //   (c) draco::Decoder::DecodeMeshFromBuffer of the whole mesh (cl 7).
 // With --threads N (N > 1), also (d) all levels with a pool of N threads
-// (parallel/thread_pool.h), whose decode must hash the same as (a).
+// (parallel/fork_join_pool.h), whose decode must hash the same as (a).
 // Prints the medians and the ratios a/c and b/c; --json FILE writes them.
 // Every round also checks that the decode is the same bit for bit as the
 // first (a hash of the decoded Scene's vertex and index arrays, printed so
@@ -37,7 +37,7 @@
 #include "importers/draco_codec.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 namespace {
 
@@ -84,7 +84,7 @@ Args ParseArgs(int argc, char** argv) {
     a.loop_seconds = ParseDouble(v[1], "--loop");
     if (a.loop_seconds <= 0) Die("--loop: SECONDS must be positive");
   }, "only decode MODEL (all levels) in a loop for SEC seconds (for perf)");
-  o.Int("--threads", "N", &a.threads, 1, ms::ThreadPool::kMaxWorkers,
+  o.Int("--threads", "N", &a.threads, 1, ms::ForkJoinPool::kMaxWorkers,
         "also time all levels on N threads (default 1: not timed); with --loop: decode on N threads");
   o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
   o.String("--profile", "P", &a.profile,
@@ -175,7 +175,7 @@ int Loop(const Args& args) {
   const auto start = Clock::now();
   const double cpu_start = CpuMs();
   size_t runs = 0;
-  ms::ThreadPool pool(args.threads);
+  ms::ForkJoinPool pool(args.threads);
   do {  // at least one decode, however short SECONDS (valgrind)
     ms::ProgressiveDecodeOptions o;
     o.lod = args.loop_lod;
@@ -210,7 +210,7 @@ int main(int argc, char** argv) {
   out["models"] = json::array();
 
   out["settings"]["threads"] = args.threads;
-  ms::ThreadPool pool(args.threads);
+  ms::ForkJoinPool pool(args.threads);
   std::printf("%-15s %8s %8s | %9s %9s %9s | %6s %6s | %s\n", "model", "vertices", "faces", "all ms", "base ms",
               "draco ms", "all/d", "base/d", "decode hash");
   for (const std::string& file : ms::bench::ChooseSharedModels(args.only)) {

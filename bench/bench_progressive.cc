@@ -60,7 +60,7 @@
 #include "importers/gltf_export.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 namespace {
 
@@ -650,9 +650,9 @@ constexpr double kLossyDecodeRate = 0.12;
 // Issue 25's parallel decode: 2 threads, and 4 where the machine has them
 // (pools made once, outside the timed decodes).
 struct DecodePools {
-  ms::ThreadPool two{2};
-  std::unique_ptr<ms::ThreadPool> four =
-      ms::ThreadPool::HardwareWorkers() >= 4 ? std::make_unique<ms::ThreadPool>(4) : nullptr;
+  ms::ForkJoinPool two{2};
+  std::unique_ptr<ms::ForkJoinPool> four =
+      ms::ForkJoinPool::HardwareWorkers() >= 4 ? std::make_unique<ms::ForkJoinPool>(4) : nullptr;
 };
 DecodePools& Pools() {
   static DecodePools pools;

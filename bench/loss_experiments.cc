@@ -53,7 +53,7 @@
 #include "codec/loss/datagram_harm.h"
 #include "codec/loss/protection.h"
 #include "fec/reed_solomon.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "codec/bitstream/reader.h"
 #include "codec/bitstream/writer.h"
 #include "importers/draco_base_coder.h"
@@ -473,7 +473,7 @@ Model Prepare(const std::string& dir, const std::string& file, const Plan& plan,
       // EncodeProgressiveGlb records it, and every datagram's own harm for
       // the JSON (what the choice is measured against).
       const auto h0 = Clock::now();
-      ms::ThreadPool pool(2);
+      ms::ForkJoinPool pool(2);
       // The encoder's estimate (EstimateDatagramHarm), beside the measure it
       // stands for (every datagram decoded lost to the end), timed both.
       ms::HarmOptions estimate;

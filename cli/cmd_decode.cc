@@ -17,7 +17,7 @@
 #include "importers/import.h"
 #include "importers/mesh_writer.h"
 #include "importers/progressive_glb.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 namespace meshstream::cli {
 
@@ -91,10 +91,10 @@ int RunDecode(const DecodeArgs& args) {
   const std::string& recovery = args.recovery;
   options.recovery = recovery == "lwop" ? Recovery::kLwop : Recovery::kPredict;
   // The pool's threads start once, outside the timed decodes.
-  const int threads = args.threads == 0 ? ThreadPool::HardwareWorkers() : args.threads;
-  std::unique_ptr<ThreadPool> pool;
+  const int threads = args.threads == 0 ? ForkJoinPool::HardwareWorkers() : args.threads;
+  std::unique_ptr<ForkJoinPool> pool;
   if (threads > 1) {
-    pool = std::make_unique<ThreadPool>(threads);
+    pool = std::make_unique<ForkJoinPool>(threads);
     options.runner = pool.get();
   }
   std::vector<double> times;
@@ -211,7 +211,7 @@ Verb AddDecode(CLI::App& root) {
                 "send no parity datagrams: what the network loses is predicted, never rebuilt");
   cmd->add_option("--threads", args->threads,
                   "threads for refinements that arrived whole (0: one per core; the output does not change)")
-      ->check(CLI::Range(0, ThreadPool::kMaxWorkers))->capture_default_str();
+      ->check(CLI::Range(0, ForkJoinPool::kMaxWorkers))->capture_default_str();
   cmd->add_option("--repeat", args->repeat, "decode N times in-process and report the median decode_ms")
       ->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_flag("--json", args->json, "print one JSON object");

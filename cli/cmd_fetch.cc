@@ -9,7 +9,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "importers/import.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
@@ -133,7 +133,7 @@ int RunFetch(const FetchArgs& args) {
                       {"last_arrival_ms", st.last_arrival_ms},
                       {"decode_after_last_byte_ms", st.decode_after_last_byte_ms},
                       {"session_thread_cpu_ms", st.session_thread_cpu_ms},
-                      {"threads", args.threads == 0 ? ThreadPool::HardwareWorkers() : args.threads},
+                      {"threads", args.threads == 0 ? ForkJoinPool::HardwareWorkers() : args.threads},
                       {"parallel_splits", st.parallel_splits},
                       {"repair", args.repair},
                       {"repaired_datagrams", st.repaired_datagrams},

@@ -56,7 +56,7 @@ struct ProgressiveGlbOptions {
   // every shared model but spot) or kMatching (fuller batches, fewer levels;
   // docs/codec.md, "Version 4"). Both profiles in one file share kStrict's.
   BatchRule reliable_rule = BatchRule::kStrict;
-  // Workers for that measure (parallel/thread_pool.h); null: this thread.
+  // Workers for that measure (parallel/fork_join_pool.h); null: this thread.
   TaskRunner* runner = nullptr;
   // Called with (primitive index, batch index, vertices left) during encoding.
   std::function<void(size_t, int, size_t)> progress;
@@ -154,7 +154,7 @@ struct ProgressiveDecodeOptions {
   // reconstructor with this code (codec/core/erasure_code.h; fec/ has one);
   // null: none.
   ErasureCode* parity = nullptr;
-  // Workers for the decode of complete refinements (parallel/thread_pool.h
+  // Workers for the decode of complete refinements (parallel/fork_join_pool.h
   // has a pool of threads; the output is the same bit for bit); null: the
   // caller's thread alone.
   TaskRunner* runner = nullptr;

@@ -18,7 +18,7 @@
 #include "net/udp_socket.h"
 #include "sdk/session_core.h"
 #include "sdk/udp_receiver.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 // The driver of a session: the gRPC stream's reader thread, the UDP receiver,
 // the real clock and the queues between them and Poll. Every decision is the
@@ -290,9 +290,9 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   if (options.expected_loss > 1 || options.expected_loss != options.expected_loss) {
     return InvalidArgument("expected_loss: a rate in [0, 1], or < 0 for unknown");
   }
-  if (options.decode_threads < -1 || options.decode_threads > ThreadPool::kMaxWorkers) {
+  if (options.decode_threads < -1 || options.decode_threads > ForkJoinPool::kMaxWorkers) {
     return InvalidArgument("decode_threads: -1 (one per core), 0 or 1 (the session's thread) or up to " +
-                           std::to_string(ThreadPool::kMaxWorkers));
+                           std::to_string(ForkJoinPool::kMaxWorkers));
   }
   if (options.straggler_timeout_ms < 1 || options.straggler_timeout_ms > 60000) {
     return InvalidArgument("straggler_timeout_ms: 1..60000");

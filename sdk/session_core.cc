@@ -203,9 +203,9 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   ro.max_buffered_bytes = size_t{64} << 20;
   // Parity datagrams rebuild what UDP lost (docs/loss-protection.md).
   ro.erasure = &fec::DefaultErasureCode();
-  const int threads = options_.decode_threads < 0 ? ThreadPool::HardwareWorkers() : options_.decode_threads;
+  const int threads = options_.decode_threads < 0 ? ForkJoinPool::HardwareWorkers() : options_.decode_threads;
   if (threads > 1) {
-    decode_pool_ = std::make_unique<ThreadPool>(threads);
+    decode_pool_ = std::make_unique<ForkJoinPool>(threads);
     ro.runner = decode_pool_.get();
   }
   reconstructor_options_ = ro;

@@ -57,7 +57,7 @@
 #include "codec/mesh/quantized_mesh.h"
 #include "meshstream/v1/stream.pb.h"
 #include "net/packet_crypto.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "sdk/session.h"
 
 namespace meshstream::sdk {
@@ -301,7 +301,7 @@ class SessionCore {
   uint64_t repair_asked_us_ = 0;
   uint64_t kept_bytes_ = 0;
   ReconstructorOptions reconstructor_options_;
-  std::unique_ptr<ThreadPool> decode_pool_;  // with decode_threads > 1 or -1
+  std::unique_ptr<ForkJoinPool> decode_pool_;  // with decode_threads > 1 or -1
   std::deque<Event> events_;
   std::vector<Outgoing> outgoing_;
   std::optional<UdpStart> udp_start_;

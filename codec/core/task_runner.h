@@ -1,6 +1,6 @@
 // A way to run independent tasks that the caller gives the codec: codec/
 // starts no threads of its own (docs/architecture.md), so a decoder that may
-// work on several cores is handed a TaskRunner (parallel/thread_pool.h has
+// work on several cores is handed a TaskRunner (parallel/fork_join_pool.h has
 // one made of threads) and calls Run with the work split into tasks.
 //
 // Contract: Run(tasks, fn) calls fn(task, worker) exactly once for every task

@@ -28,7 +28,7 @@
 #include <boost/beast/websocket/rfc6455.hpp>
 
 #include "net/udp_socket.h"
-#include "services/http/request_pool.h"
+#include "parallel/executor.h"
 #include "services/http/upgrade.h"
 
 namespace meshstream {
@@ -118,7 +118,7 @@ struct Core {
   HttpHandler handler;
   std::shared_ptr<HttpConnectionTable> table;
   std::optional<ssl::context> tls;
-  RequestPool pool;
+  Executor pool;  // the routes: what is queued at Stop is dropped (a draining server answers nothing more)
   std::atomic<bool> draining{false};
   std::atomic<uint64_t> accepted{0}, refused{0}, requests{0}, upgraded{0};
 
@@ -130,7 +130,7 @@ struct Core {
       : options(std::move(o)),
         handler(std::move(h)),
         table(std::make_shared<HttpConnectionTable>(options.max_connections)),
-        pool(options.pool_threads) {}
+        pool(options.pool_threads, Executor::StopPolicy::kDropQueued) {}
 
   void Log(const std::string& line) const {
     if (options.log) options.log(line);

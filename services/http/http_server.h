@@ -4,8 +4,8 @@
 //
 // Threads: `io_threads` run the io_context (accept, TLS, parse, write); each
 // connection lives on its own strand. A request that parsed is handed as a
-// plain HttpRequest to the handler on a RequestPool of `pool_threads`
-// (request_pool.h: the handler may block on the store or a decode), and the
+// plain HttpRequest to the handler on an Executor of `pool_threads`
+// (parallel/executor.h: the handler may block on the store or a decode), and the
 // response is written back on the connection's strand. One request per
 // connection at a time (keep-alive, pipelined requests answered in order).
 //

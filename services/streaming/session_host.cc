@@ -34,7 +34,8 @@ SendLoopOptions LoopOptions(const std::atomic<bool>* draining) {
 SessionHost::SessionHost(Store* store, const Authenticator* auth, SessionHostOptions options,
                          const std::atomic<bool>* draining)
     : store_(store), auth_(auth), options_(std::move(options)), draining_(draining), sessions_(options_.max_sessions),
-      artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)), openers_(options_.opener_threads) {}
+      artifacts_(options_.stream_cache_bytes), loop_(LoopOptions(draining)),
+      openers_(options_.opener_threads, Executor::StopPolicy::kRunQueued) {}
 
 SessionHost::~SessionHost() = default;
 

@@ -4,8 +4,8 @@
 // stream_socket.h) are thin transports on it, each keeping only its wire.
 //
 // It owns what every session shares: the session slots (`max_sessions`),
-// the opener pool (work_queue.h: a gRPC callback or an io thread must not
-// block on the store), the hot artifacts (hot_artifacts.h: each artifact
+// the opener pool (parallel/executor.h, every posted opening runs: a gRPC
+// callback or an io thread must not block on the store), the hot artifacts (hot_artifacts.h: each artifact
 // read, digest-checked, planned and its scene built once, kept between
 // sessions), the READY versions already resolved, the send loop (send_loop.h:
 // one thread for every session) and the UDP endpoint it is given. A
@@ -41,13 +41,13 @@
 #include "net/pacer.h"
 #include "net/rate_controller.h"
 #include "parallel/call_limit.h"
+#include "parallel/executor.h"
 #include "services/auth/authenticator.h"
 #include "services/store/store.h"
 #include "services/streaming/hot_artifacts.h"
 #include "services/streaming/send_loop.h"
 #include "services/streaming/session_sender.h"
 #include "services/streaming/udp_endpoint.h"
-#include "services/streaming/work_queue.h"
 
 namespace meshstream {
 
@@ -116,7 +116,7 @@ class SessionHost {
   void LogEnd(const PreparedSession& session, const std::string& reason, const std::string& note,
               const SessionSenderStats& stats, const std::string& tail) const;
 
-  WorkQueue& openers() { return openers_; }
+  Executor& openers() { return openers_; }
   const Authenticator& authenticator() const { return *auth_; }
   bool draining() const { return draining_ != nullptr && draining_->load(); }
   const SessionHostOptions& options() const { return options_; }
@@ -143,7 +143,7 @@ class SessionHost {
   std::map<std::tuple<std::string, std::string, int64_t>, VersionRecord> ready_;
   std::deque<std::tuple<std::string, std::string, int64_t>> ready_order_;  // oldest first
   SendLoop loop_;       // before openers_: the pool stops first
-  WorkQueue openers_;
+  Executor openers_;
 };
 
 }  // namespace meshstream

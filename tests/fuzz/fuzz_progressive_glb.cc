@@ -7,7 +7,7 @@
 // succeed too (a prefix of a stream that decodes whole decodes), with
 // levels_applied and the level's vertex count as the report says: the
 // primitives carrying our extension have level_vertices[K] vertices between
-// them. The decode on two threads (a ThreadPool as the decode's TaskRunner,
+// them. The decode on two threads (a ForkJoinPool as the decode's TaskRunner,
 // codec/progressive/parallel_refinement.h) must end the same way: the same
 // error, or the same scene bit for bit. Where the file holds the reliable
 // profile (format version 4), its loss-tolerant stream is decoded too
@@ -29,7 +29,7 @@
 #include "codec/mesh/mesh.h"
 #include "codec/core/status.h"
 #include "importers/progressive_glb.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 namespace {
 
@@ -87,7 +87,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ProgressiveDecodeReport full_report;
   auto full = meshstream::DecodeProgressiveGlb(bytes, ProgressiveDecodeOptions{}, &full_report);
   {
-    static meshstream::ThreadPool pool(2);
+    static meshstream::ForkJoinPool pool(2);
     ProgressiveDecodeOptions threaded;
     threaded.runner = &pool;
     auto parallel = meshstream::DecodeProgressiveGlb(bytes, threaded, nullptr);

@@ -12,7 +12,7 @@
 
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "testing/test_util.h"
 
 namespace meshstream {
@@ -75,7 +75,7 @@ TEST_P(ParallelDecode, IsTheOneThreadDecodeBitForBit) {
   ProgressiveGlbReport encoded;
   auto glb = EncodeProgressiveGlb(scene.value(), ProgressiveGlbOptions{}, &encoded);
   ASSERT_TRUE(glb.ok()) << glb.status().ToString();
-  ThreadPool two(2), three(3);
+  ForkJoinPool two(2), three(3);
   for (const Condition& c : kConditions) {
     ProgressiveDecodeOptions options;
     options.loss.loss = c.loss;
@@ -86,7 +86,7 @@ TEST_P(ParallelDecode, IsTheOneThreadDecodeBitForBit) {
     auto serial = DecodeProgressiveGlb(glb.value(), options, &serial_report);
     ASSERT_TRUE(serial.ok()) << c.name << ": " << serial.status().ToString();
     EXPECT_EQ(serial_report.recovery.planned, 0u) << c.name;
-    for (ThreadPool* pool : {&two, &three}) {
+    for (ForkJoinPool* pool : {&two, &three}) {
       const std::string what = GetParam() + ", " + c.name + ", " + std::to_string(pool->workers()) + " threads";
       options.runner = pool;
       ProgressiveDecodeReport report;

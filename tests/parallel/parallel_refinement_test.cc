@@ -6,7 +6,7 @@
 
 #include "codec/progressive/parallel_refinement.h"
 #include "codec/progressive/refinement_state.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "tests/common/sphere.h"
 
 namespace meshstream {
@@ -46,7 +46,7 @@ TEST(RefinementPlan, PlannedSplitsAppliedInOrderAreTheSerialSplits) {
   const Refinement r = RefinementOf(serial, {0, 20, 35});
   ASSERT_TRUE(serial.ApplyRefinement(r).ok());
 
-  ThreadPool pool(2);
+  ForkJoinPool pool(2);
   RefinementPlan plan;
   Refinement decoded = r;
   planned.BeginSplits(r);
@@ -64,7 +64,7 @@ TEST(RefinementPlan, PlannedSplitsAppliedInOrderAreTheSerialSplits) {
 
 // What a plan on two threads makes of each split of `r` on `state`.
 std::vector<RefinementPlan::Kind> KindsOf(RefinementState& state, const Refinement& r) {
-  ThreadPool pool(2);
+  ForkJoinPool pool(2);
   RefinementPlan plan;
   state.BeginSplits(r);
   plan.Plan(r, SplitCoding{}, state, 0, r.split_count(), pool);

@@ -13,7 +13,7 @@
 
 #include "codec/bitstream/writer.h"
 #include "codec/loss/lossy_decode.h"
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 #include "tests/common/hierarchy.h"
 #include "tests/common/uv_sphere.h"
 
@@ -55,7 +55,7 @@ const Encoded& Sphere() {
 TEST(ParallelStream, DecodesAsTheOneThreadDecodeWithAndWithoutLoss) {
   const Encoded& e = Sphere();
   ASSERT_FALSE(e.stream.control.empty());
-  ThreadPool two(2), four(4);
+  ForkJoinPool two(2), four(4);
   for (const double loss : {0.0, 0.12}) {
     for (const uint64_t seed : {1, 2}) {
       LossyDecodeOptions options;
@@ -64,7 +64,7 @@ TEST(ParallelStream, DecodesAsTheOneThreadDecodeWithAndWithoutLoss) {
       LossyDecodeReport serial_report;
       auto serial = DecodeStreamLossy(e.stream, 0, e.base, options, &serial_report);
       ASSERT_TRUE(serial.ok()) << serial.status().ToString();
-      for (ThreadPool* pool : {&two, &four}) {
+      for (ForkJoinPool* pool : {&two, &four}) {
         SCOPED_TRACE("loss " + std::to_string(loss) + ", seed " + std::to_string(seed) + ", " +
                      std::to_string(pool->workers()) + " threads");
         options.reconstructor.runner = pool;

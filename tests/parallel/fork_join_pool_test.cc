@@ -1,17 +1,17 @@
-// ThreadPool (parallel/thread_pool.h): the codec's TaskRunner made of threads.
+// ForkJoinPool (parallel/fork_join_pool.h): the codec's TaskRunner made of threads.
 #include <atomic>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 namespace meshstream {
 namespace {
 
-TEST(ThreadPool, RunsEveryTaskOnceOnAWorkerInRange) {
-  ThreadPool pool(3);
+TEST(ForkJoinPool, RunsEveryTaskOnceOnAWorkerInRange) {
+  ForkJoinPool pool(3);
   ASSERT_EQ(pool.workers(), 3);
   for (int round = 0; round < 50; ++round) {  // the same threads, Run after Run
     const size_t tasks = 1 + static_cast<size_t>(round) * 7;
@@ -26,8 +26,8 @@ TEST(ThreadPool, RunsEveryTaskOnceOnAWorkerInRange) {
   }
 }
 
-TEST(ThreadPool, ReturnsOnlyWhenEveryTaskHasReturned) {
-  ThreadPool pool(2);
+TEST(ForkJoinPool, ReturnsOnlyWhenEveryTaskHasReturned) {
+  ForkJoinPool pool(2);
   std::atomic<int> finished{0};
   pool.Run(8, [&](size_t, int) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -36,8 +36,8 @@ TEST(ThreadPool, ReturnsOnlyWhenEveryTaskHasReturned) {
   EXPECT_EQ(finished.load(), 8);
 }
 
-TEST(ThreadPool, TheOtherWorkersTakeTasksWhileTheCallerIsBusy) {
-  ThreadPool pool(2);
+TEST(ForkJoinPool, TheOtherWorkersTakeTasksWhileTheCallerIsBusy) {
+  ForkJoinPool pool(2);
   // Task 0 waits until another worker has run task 1: with one thread this
   // would never end, so it proves the second worker runs tasks concurrently.
   std::atomic<bool> second{false};
@@ -54,8 +54,8 @@ TEST(ThreadPool, TheOtherWorkersTakeTasksWhileTheCallerIsBusy) {
   EXPECT_GE(worker_of_second.load(), 0);
 }
 
-TEST(ThreadPool, OneWorkerRunsTheTasksInOrderOnTheCallersThread) {
-  ThreadPool pool(1);
+TEST(ForkJoinPool, OneWorkerRunsTheTasksInOrderOnTheCallersThread) {
+  ForkJoinPool pool(1);
   EXPECT_EQ(pool.workers(), 1);
   std::vector<size_t> order;
   const std::thread::id caller = std::this_thread::get_id();
@@ -68,15 +68,15 @@ TEST(ThreadPool, OneWorkerRunsTheTasksInOrderOnTheCallersThread) {
   EXPECT_FALSE(elsewhere);
 }
 
-TEST(ThreadPool, WorkerCountsAreClamped) {
-  EXPECT_EQ(ThreadPool(0).workers(), 1);
-  EXPECT_EQ(ThreadPool(-4).workers(), 1);
-  EXPECT_GE(ThreadPool::HardwareWorkers(), 1);
-  EXPECT_LE(ThreadPool::HardwareWorkers(), ThreadPool::kMaxWorkers);
+TEST(ForkJoinPool, WorkerCountsAreClamped) {
+  EXPECT_EQ(ForkJoinPool(0).workers(), 1);
+  EXPECT_EQ(ForkJoinPool(-4).workers(), 1);
+  EXPECT_GE(ForkJoinPool::HardwareWorkers(), 1);
+  EXPECT_LE(ForkJoinPool::HardwareWorkers(), ForkJoinPool::kMaxWorkers);
 }
 
-TEST(ThreadPool, NoTasksIsFine) {
-  ThreadPool pool(2);
+TEST(ForkJoinPool, NoTasksIsFine) {
+  ForkJoinPool pool(2);
   bool called = false;
   pool.Run(0, [&](size_t, int) { called = true; });
   EXPECT_FALSE(called);

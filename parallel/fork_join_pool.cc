@@ -1,16 +1,16 @@
-#include "parallel/thread_pool.h"
+#include "parallel/fork_join_pool.h"
 
 #include <algorithm>
 
 namespace meshstream {
 
-ThreadPool::ThreadPool(int workers) {
+ForkJoinPool::ForkJoinPool(int workers) {
   const int n = std::clamp(workers, 1, kMaxWorkers);
   threads_.reserve(static_cast<size_t>(n - 1));
   for (int k = 1; k < n; ++k) threads_.emplace_back([this, k] { Loop(k); });
 }
 
-ThreadPool::~ThreadPool() {
+ForkJoinPool::~ForkJoinPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -19,19 +19,19 @@ ThreadPool::~ThreadPool() {
   for (std::thread& t : threads_) t.join();
 }
 
-int ThreadPool::HardwareWorkers() {
+int ForkJoinPool::HardwareWorkers() {
   const unsigned n = std::thread::hardware_concurrency();
   return n == 0 ? 1 : static_cast<int>(std::min<unsigned>(n, kMaxWorkers));
 }
 
-void ThreadPool::Work(int worker) {
+void ForkJoinPool::Work(int worker) {
   for (size_t task = next_.fetch_add(1, std::memory_order_relaxed); task < tasks_;
        task = next_.fetch_add(1, std::memory_order_relaxed)) {
     (*fn_)(task, worker);
   }
 }
 
-void ThreadPool::Loop(int worker) {
+void ForkJoinPool::Loop(int worker) {
   uint64_t seen = 0;
   for (;;) {
     {
@@ -48,7 +48,7 @@ void ThreadPool::Loop(int worker) {
   }
 }
 
-void ThreadPool::Run(size_t tasks, const std::function<void(size_t task, int worker)>& fn) {
+void ForkJoinPool::Run(size_t tasks, const std::function<void(size_t task, int worker)>& fn) {
   if (threads_.empty() || tasks <= 1) {
     for (size_t task = 0; task < tasks; ++task) fn(task, 0);
     return;

@@ -1,18 +1,18 @@
-#include "services/http/request_pool.h"
+#include "parallel/executor.h"
 
 #include <utility>
 
 namespace meshstream {
 
-RequestPool::RequestPool(int threads) {
+Executor::Executor(int threads, StopPolicy policy) : policy_(policy) {
   if (threads < 1) threads = 1;
   threads_.reserve(static_cast<size_t>(threads));
   for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { Run(); });
 }
 
-RequestPool::~RequestPool() { Stop(); }
+Executor::~Executor() { Stop(); }
 
-bool RequestPool::Post(std::function<void()> work) {
+bool Executor::Post(std::function<void()> work) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stop_) return false;
@@ -22,12 +22,12 @@ bool RequestPool::Post(std::function<void()> work) {
   return true;
 }
 
-void RequestPool::Stop() {
+void Executor::Stop() {
   std::deque<std::function<void()>> dropped;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
-    dropped.swap(queue_);
+    if (policy_ == StopPolicy::kDropQueued) dropped.swap(queue_);
   }
   wake_.notify_all();
   dropped.clear();
@@ -37,13 +37,13 @@ void RequestPool::Stop() {
   }
 }
 
-void RequestPool::Run() {
+void Executor::Run() {
   for (;;) {
     std::function<void()> work;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stop_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopped
+      if (queue_.empty()) return;  // stopped, and nothing left to run
       work = std::move(queue_.front());
       queue_.pop_front();
     }

@@ -1,4 +1,4 @@
-// A fixed pool of threads that runs a TaskRunner's tasks (codec/core/
+// A fork-join pool: a fixed set of threads that runs a TaskRunner's tasks (codec/core/
 // task_runner.h): the codec's parallel decode takes one, so that the codec
 // itself starts no threads. The calling thread is worker 0 and works too, so
 // a pool of N workers starts N - 1 threads, once, in its constructor; they
@@ -8,8 +8,8 @@
 // that takes longer does not hold the others up) and returns when all have
 // run; with one worker (or one task) it runs them in order on the caller's
 // thread with no synchronization. Thread safety: one Run at a time.
-#ifndef MESHSTREAM_PARALLEL_THREAD_POOL_H_
-#define MESHSTREAM_PARALLEL_THREAD_POOL_H_
+#ifndef MESHSTREAM_PARALLEL_FORK_JOIN_POOL_H_
+#define MESHSTREAM_PARALLEL_FORK_JOIN_POOL_H_
 
 #include <atomic>
 #include <condition_variable>
@@ -24,13 +24,13 @@
 
 namespace meshstream {
 
-class ThreadPool final : public TaskRunner {
+class ForkJoinPool final : public TaskRunner {
  public:
   // `workers` is clamped to [1, kMaxWorkers].
-  explicit ThreadPool(int workers);
-  ~ThreadPool() override;
-  ThreadPool(const ThreadPool&) = delete;
-  ThreadPool& operator=(const ThreadPool&) = delete;
+  explicit ForkJoinPool(int workers);
+  ~ForkJoinPool() override;
+  ForkJoinPool(const ForkJoinPool&) = delete;
+  ForkJoinPool& operator=(const ForkJoinPool&) = delete;
 
   int workers() const override { return static_cast<int>(threads_.size()) + 1; }
   void Run(size_t tasks, const std::function<void(size_t task, int worker)>& fn) override;
@@ -58,4 +58,4 @@ class ThreadPool final : public TaskRunner {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_PARALLEL_THREAD_POOL_H_
+#endif  // MESHSTREAM_PARALLEL_FORK_JOIN_POOL_H_
