@@ -7,7 +7,7 @@ SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
-# The decoder as WebAssembly (docs/web.md); the test of tests/web reads it from here.
+# The decoder as WebAssembly (docs/design/web.md); the test of tests/web reads it from here.
 WASM_BUILD := build-wasm
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
@@ -38,7 +38,7 @@ test: build wasm test-asan test-tsan
 
 # codec/ and web/wasm's C ABI compiled by Debian's emscripten 3.1.6 into
 # $(WASM_BUILD)/meshstream_decoder.cjs. NODE_PATH: NodeSource's node does not
-# search Debian's JS modules, which emscripten's link step needs (docs/web.md).
+# search Debian's JS modules, which emscripten's link step needs (docs/design/web.md).
 # Then the viewer's bundle in $(BUILD)/web, which `meshstream serve --http-listen`
 # serves at / (its default --http-root: beside the binary's folder).
 wasm: deps
@@ -69,79 +69,79 @@ demo: build wasm
 	@scripts/demo
 
 # Benchmarks (never part of `make test`): meshstream against Draco in one binary, gltfpack
-# LODs; JSON, PNG plots and the tables of docs/benchmarks.md. BENCH_ARGS e.g. "--model spot".
-# Then the loss experiments (docs/loss-results.md); LOSS_BENCH_ARGS e.g. "--quick". Then the
+# LODs; JSON, PNG plots and the tables of docs/results/benchmarks.md. BENCH_ARGS e.g. "--model spot".
+# Then the loss experiments (docs/results/loss-results.md); LOSS_BENCH_ARGS e.g. "--quick". Then the
 # asset service's and the streaming sessions' benchmarks (bench-service, bench-stream below).
 PYTHON ?= $(shell [ -x /usr/bin/python3 ] && echo /usr/bin/python3 || echo python3)
 BENCH_ARGS ?=
 LOSS_BENCH_ARGS ?=
 bench: build
-	@mkdir -p docs/bench
-	$(BUILD)/bin/meshstream_rule_comparison --out docs/bench/rules.json
-	$(BUILD)/bin/meshstream_bench --out docs/bench/results.json $(BENCH_ARGS)
-	$(BUILD)/bin/meshstream_bench_scaling --out docs/bench/scaling.json $(SCALING_ARGS)
-	$(PYTHON) bench/plot.py docs/bench/results.json --doc docs/benchmarks.md
-	$(BUILD)/bin/meshstream_loss_bench --out docs/bench/loss.json $(LOSS_BENCH_ARGS)
-	$(PYTHON) bench/plot_loss.py docs/bench/loss.json --doc docs/loss-results.md
-	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
-	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_rule_comparison --out docs/results/bench/rules.json
+	$(BUILD)/bin/meshstream_bench --out docs/results/bench/results.json $(BENCH_ARGS)
+	$(BUILD)/bin/meshstream_bench_scaling --out docs/results/bench/scaling.json $(SCALING_ARGS)
+	$(PYTHON) bench/plot.py docs/results/bench/results.json --doc docs/results/benchmarks.md
+	$(BUILD)/bin/meshstream_loss_bench --out docs/results/bench/loss.json $(LOSS_BENCH_ARGS)
+	$(PYTHON) bench/plot_loss.py docs/results/bench/loss.json --doc docs/results/loss-results.md
+	$(BUILD)/bin/meshstream_bench_service --out docs/results/bench/service.json $(SERVICE_BENCH_ARGS)
+	$(PYTHON) bench/plot_service.py docs/results/bench/service.json --doc docs/results/service-benchmarks.md
 	$(stream-bench)
 
-# Only the asset service's benchmark (docs/service-benchmarks.md): `meshstream serve` in-process
+# Only the asset service's benchmark (docs/results/service-benchmarks.md): `meshstream serve` in-process
 # on SQLite and on a PostgreSQL cluster it starts (fsync on); SERVICE_BENCH_ARGS e.g. "--quick".
 SERVICE_BENCH_ARGS ?=
 .PHONY: bench-service
 bench-service: build
-	@mkdir -p docs/bench
-	$(BUILD)/bin/meshstream_bench_service --out docs/bench/service.json $(SERVICE_BENCH_ARGS)
-	$(PYTHON) bench/plot_service.py docs/bench/service.json --doc docs/service-benchmarks.md
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_bench_service --out docs/results/bench/service.json $(SERVICE_BENCH_ARGS)
+	$(PYTHON) bench/plot_service.py docs/results/bench/service.json --doc docs/results/service-benchmarks.md
 
-# Only the streaming sessions' benchmark (docs/stream-benchmarks.md): `meshstream serve` in-process
+# Only the streaming sessions' benchmark (docs/results/stream-benchmarks.md): `meshstream serve` in-process
 # on SQLite, SDK sessions over UDP and gRPC beside the Draco GLB export, the server's datagram rate
 # beside a sendmmsg loop; STREAM_BENCH_ARGS e.g. "--quick".
-# Then the shaped link again at 5 ms each way (docs/stream-benchmarks-near.md): the round trip
+# Then the shaped link again at 5 ms each way (docs/results/stream-benchmarks-near.md): the round trip
 # that proves a UDP address is short enough there for part of the stream to travel over UDP, so
-# that parity (docs/loss-protection.md) has something to protect; at 20 ms these models finish first.
+# that parity (docs/design/loss-protection.md) has something to protect; at 20 ms these models finish first.
 STREAM_BENCH_ARGS ?=
 define stream-bench
-$(BUILD)/bin/meshstream_bench_stream --out docs/bench/stream.json $(STREAM_BENCH_ARGS)
-$(PYTHON) bench/plot_stream.py docs/bench/stream.json --doc docs/stream-benchmarks.md
-rm -f docs/bench/stream-near.json
-$(BUILD)/bin/meshstream_bench_stream --only-shaped --shaped-delay-ms 5 --shaped-loss 0,12 --shaped-runs 9 --out docs/bench/stream-near.json $(STREAM_BENCH_ARGS)
-$(PYTHON) bench/plot_stream.py docs/bench/stream-near.json --out docs/bench/stream-near --doc docs/stream-benchmarks-near.md
+$(BUILD)/bin/meshstream_bench_stream --out docs/results/bench/stream.json $(STREAM_BENCH_ARGS)
+$(PYTHON) bench/plot_stream.py docs/results/bench/stream.json --doc docs/results/stream-benchmarks.md
+rm -f docs/results/bench/stream-near.json
+$(BUILD)/bin/meshstream_bench_stream --only-shaped --shaped-delay-ms 5 --shaped-loss 0,12 --shaped-runs 9 --out docs/results/bench/stream-near.json $(STREAM_BENCH_ARGS)
+$(PYTHON) bench/plot_stream.py docs/results/bench/stream-near.json --out docs/results/bench/stream-near --doc docs/results/stream-benchmarks-near.md
 endef
 .PHONY: bench-stream
 bench-stream: build
-	@mkdir -p docs/bench
+	@mkdir -p docs/results/bench
 	$(stream-bench)
 
-# The browser benchmark (docs/web-benchmarks.md): the viewer in headless Chromium against
+# The browser benchmark (docs/results/web-benchmarks.md): the viewer in headless Chromium against
 # `meshstream serve --http-listen`, the Draco .glb with three.js alone beside the progressive file
 # by HTTP ranges and over a WebSocket session, on loopback and on a shaped link (20 Mbit/s, 20 ms
 # each way); the wasm decoder beside the native one. WEB_BENCH_ARGS e.g. "--runs 3".
 WEB_BENCH_ARGS ?=
 .PHONY: bench-web
 bench-web: build wasm
-	@mkdir -p docs/bench
+	@mkdir -p docs/results/bench
 	bench/web/run.sh $(BUILD)/bin/meshstream $(BUILD)/bin/meshstream_wasm_reference $(WASM_BUILD)/meshstream_decoder.cjs \
-	  ../shared/models docs/bench/web.json $(WEB_BENCH_ARGS)
-	$(PYTHON) bench/plot_web.py docs/bench/web.json --doc docs/web-benchmarks.md
+	  ../shared/models docs/results/bench/web.json $(WEB_BENCH_ARGS)
+	$(PYTHON) bench/plot_web.py docs/results/bench/web.json --doc docs/results/web-benchmarks.md
 
-# The soak (docs/stream-benchmarks.md, "Soak"): sessions opened at 20 per second for 30 minutes
+# The soak (docs/results/stream-benchmarks.md, "Soak"): sessions opened at 20 per second for 30 minutes
 # against a `meshstream serve` process, the clients in a network namespace losing 5 % (root);
 # the server's memory over time. Not part of `make bench` (half an hour). SOAK_ARGS e.g. "--quick".
 SOAK_ARGS ?=
-# The encoder at scale (docs/benchmarks.md, "The encoder at scale"): the bunny subdivided to
+# The encoder at scale (docs/results/benchmarks.md, "The encoder at scale"): the bunny subdivided to
 # 2.2 M vertices, meshstream encode against Draco, time and peak memory (about 3 minutes).
 .PHONY: bench-scaling
 bench-scaling: build
-	@mkdir -p docs/bench
-	$(BUILD)/bin/meshstream_bench_scaling --out docs/bench/scaling.json $(SCALING_ARGS)
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_bench_scaling --out docs/results/bench/scaling.json $(SCALING_ARGS)
 
 .PHONY: bench-soak
 bench-soak: build
-	@mkdir -p docs/bench
-	$(BUILD)/bin/meshstream_bench_soak --out docs/bench/soak.json $(SOAK_ARGS)
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_bench_soak --out docs/results/bench/soak.json $(SOAK_ARGS)
 
 # libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
 # service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.

@@ -1,4 +1,4 @@
-// meshstream_bench_decode: the decoding speed of issue 11 (docs/decode-profile.md).
+// meshstream_bench_decode: the decoding speed of issue 11 (docs/results/decode-profile.md).
 //
 // For every shared model (or --model), encoded once with EncodeProgressiveGlb
 // (default options at --qp, default 11) and once with Draco at compression
@@ -88,7 +88,7 @@ Args ParseArgs(int argc, char** argv) {
         "also time all levels on N threads (default 1: not timed); with --loop: decode on N threads");
   o.Int("--lod", "N", &a.loop_lod, -1, 1 << 20, "with --loop: decode N levels (0: the base alone; default -1: all)");
   o.String("--profile", "P", &a.profile,
-           "loss-tolerant (default) or reliable: the profile the models are encoded in (docs/progressive-format.md)");
+           "loss-tolerant (default) or reliable: the profile the models are encoded in (docs/spec/progressive-format.md)");
   o.Parse(argc, argv);
   if (a.profile != "loss-tolerant" && a.profile != "reliable") Die("--profile: loss-tolerant or reliable");
   return a;

@@ -1,4 +1,4 @@
-// meshstream_bench: the benchmark of issue 3 (docs/benchmarks.md).
+// meshstream_bench: the benchmark of issue 3 (docs/results/benchmarks.md).
 //
 // For every shared model at every --qp, in one run on one machine:
 //   - meshstream, the loss-tolerant profile in both packings (split,
@@ -19,7 +19,7 @@
 //     mesh in Draco cl7, downloaded one after the other; per step its
 //     distance and the bytes each profile needs to get as close;
 //   - the order-0 entropy of what the refinements carry (where bits go).
-// Writes one JSON object (--out, default docs/bench/results.json).
+// Writes one JSON object (--out, default docs/results/bench/results.json).
 //
 // Timed work runs alone, one thing at a time; the decoders of a model and qp
 // are timed interleaved, round by round, so that meshstream and Draco see the
@@ -81,7 +81,7 @@ using ms::bench::Stem;
 
 const char kAbout[] =
     "Benchmarks meshstream against Draco (same binary, same quantization, same run) and\n"
-    "against gltfpack's LODs; writes one JSON object (default docs/bench/results.json).\n";
+    "against gltfpack's LODs; writes one JSON object (default docs/results/bench/results.json).\n";
 
 // ---------------------------------------------------------------- utilities
 
@@ -93,7 +93,7 @@ struct Args {
   int qt = 10;
   int repeat = 5;
   int decode_repeat = 15;
-  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/results.json";
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/results/bench/results.json";
   unsigned threads = 0;
   int64_t samples = 200000;
   std::vector<double> ratios = {0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0};
@@ -112,7 +112,7 @@ Args ParseArgs(int argc, char** argv) {
   o.Int("--qt", "N", &a.qt, 1, 30, "texture coordinate bits (default 10, both codecs)");
   o.Int("--repeat", "N", &a.repeat, 1, 1000, "in-process encode runs; the median is reported (default 5)");
   o.Int("--decode-repeat", "N", &a.decode_repeat, 1, 10000, "in-process decode runs, after one warm-up (default 15)");
-  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/results.json)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/results/bench/results.json)");
   o.Unsigned("--threads", "N", &a.threads, 1, 256, "threads for the (untimed) distance computations (default: nproc)");
   o.Int64("--samples", "N", &a.samples, 0, 100000000, "Hausdorff samples per side (default 200000)");
   o.Custom("--ratios", "LIST", [&a](const std::string& v) {
@@ -411,7 +411,7 @@ MeshstreamRun BenchMeshstream(const ms::Scene& scene, const ms::QuantizationPara
   return run;
 }
 
-// What each lever of codec versions 2 and 3 saves (docs/codec.md): the split
+// What each lever of codec versions 2 and 3 saves (docs/design/codec.md): the split
 // packing encoded with the tools added one at a time, from version 1 to the
 // default; bits per split saved = 8 x bytes saved / splits. Every encode is
 // decoded once and must give the default's vertex count.

@@ -1,6 +1,6 @@
 // meshstream_loss_bench: the loss experiments of the paper (sections 5.2-5.3,
 // Figures 6-9 and 11-15) with this codec; issue 4 "Experiments";
-// docs/loss-results.md.
+// docs/results/loss-results.md.
 //
 // Per model (qp 11, qn 8, qt 10), encoded once (progressive encoder, Draco
 // cl 7 base) and written once per packing (split, bundled):
@@ -20,7 +20,7 @@
 //     metric inside the timed part), per loss level, interleaved round by
 //     round with the zero-loss decode, before any other work starts.
 // Writes one JSON object (--out); bench/plot_loss.py turns it into plots and
-// the generated part of docs/loss-results.md. Aggregation happens there.
+// the generated part of docs/results/loss-results.md. Aggregation happens there.
 #include <unistd.h>
 
 #include <algorithm>
@@ -72,13 +72,13 @@ using ms::bench::Ms;
 using ms::bench::Stem;
 
 const char kAbout[] =
-    "The loss experiments of the paper with this codec (docs/loss-results.md); writes one\n"
-    "JSON object (default docs/bench/loss.json). Progress goes to stderr.\n";
+    "The loss experiments of the paper with this codec (docs/results/loss-results.md); writes one\n"
+    "JSON object (default docs/results/bench/loss.json). Progress goes to stderr.\n";
 
 struct Args {
   std::string models_dir = MESHSTREAM_MODELS_DIR;
   std::vector<std::string> only;
-  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/loss.json";
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/results/bench/loss.json";
   int seeds = 20;
   int small_seeds = 10;
   int level_seeds = 3;
@@ -109,17 +109,17 @@ Args ParseArgs(int argc, char** argv) {
   o.Flag("--quick", &a.quick, "a tiny run for smoke testing (spot unless --model; 2 seeds)");
   o.Flag("--protection-only", &a.protection_only,
          "only the reliable cut and parity at 12 and 30 % loss, random and bursty (no timing):\n"
-         "a quick look at loss protection (docs/loss-protection.md)");
+         "a quick look at loss protection (docs/design/loss-protection.md)");
   int span = static_cast<int>(a.parity_plan.max_span), block = static_cast<int>(a.parity_plan.block_datagrams);
   o.Int("--parity-span", "N", &span, 1, 255, "refinements a parity block spans at most (default 16)");
   o.Int("--parity-block", "N", &block, 1, 255, "datagrams in a parity block at most (default 100)");
   int depth = 1;
   o.Int("--parity-depth", "N", &depth, 1, 8,
         "interleave N blocks over the same refinements, member i to block i mod N\n"
-        "(an experiment: the sessions send depth 1; docs/loss-protection.md)");
+        "(an experiment: the sessions send depth 1; docs/design/loss-protection.md)");
   o.Double("--base-ratio", "F", &a.base_ratio, 0, 1,
            "simplify down to F of the vertices (default: the encoder's, 0.02;\n"
-           "0.14 is close to the paper's base, see docs/loss-results.md)", true);
+           "0.14 is close to the paper's base, see docs/results/loss-results.md)", true);
   o.Double("--reliable-share", "F", &a.reliable_share, 0, 1,
            "the share of the datagram bytes the reliable cut may take (default 0.10)");
   o.Double("--harm-margin", "F", &a.harm_margin, 0, 100,
@@ -131,7 +131,7 @@ Args ParseArgs(int argc, char** argv) {
   return a;
 }
 
-// The machine, as docs/loss-results.md quotes it (keys differ from
+// The machine, as docs/results/loss-results.md quotes it (keys differ from
 // meshstream_bench's: this JSON has its own readers).
 json MachineInfo() {
   json m = {{"cpu", ms::bench::CpuModel()},
@@ -354,7 +354,7 @@ json MetricsJson(const Metrics& m, bool laplacian) {
 }
 
 // What a repair (sdk/session.h, SessionOptions::repair) puts on the gRPC
-// stream for this transmission's losses (docs/streaming-protocol.md,
+// stream for this transmission's losses (docs/spec/streaming-protocol.md,
 // "Repair"), in protobuf bytes: the request (per refinement with a loss an
 // item of primitive, refinement and packed ordinals, at most 3 + 3 + 3 bytes
 // of fields and lengths plus 2 bytes per ordinal; 8 for the message and the
@@ -764,7 +764,7 @@ json ModelJson(const Model& m, size_t mi, const std::vector<Job>& jobs, const st
                                                                       : 0.0}}},
              {"runs", runs}};
   {
-    // The protection choice and what it rests on (docs/loss-protection.md).
+    // The protection choice and what it rests on (docs/design/loss-protection.md).
     const Stream& s = m.streams[0];
     json tiers = json::array(), datagram_harm = json::array();
     for (uint8_t t : s.tiers) tiers.push_back(t);

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots and tables from the benchmark's JSON (bench/bench_progressive.cc).
 
-usage: bench/plot.py [RESULTS.json] [--out DIR] [--doc docs/benchmarks.md]
+usage: bench/plot.py [RESULTS.json] [--out DIR] [--doc docs/results/benchmarks.md]
 
 Writes into DIR (default: the JSON's folder):
   rd-<model>-qp<N>.png  bytes received against Hausdorff distance to the full
@@ -379,10 +379,10 @@ def markdown(data, plots, prefix):
     out.append("### What each lever of codec versions 2 and 3 saved")
     out.append("")
     out.append("The split packing encoded with the tools of format versions 2 and 3 added one at a time "
-               "(docs/codec.md; `StreamWriteOptions::tools`), each decoded once; bits per split saved = "
+               "(docs/design/codec.md; `StreamWriteOptions::tools`), each decoded once; bits per split saved = "
                "8 x bytes saved against the row above / splits. The version 3 rows are issue 24's lever "
                "table (the last row is the ring predictor's 2-ring term, which the default encoder "
-               "charges 0.5 bit per split for the decoder's time; docs/codec.md).")
+               "charges 0.5 bit per split for the decoder's time; docs/design/codec.md).")
     out.append("")
     out.append("| model | qp | lever | total bytes | total bpv | bits per split saved |")
     out.append("|---|---:|---|---:|---:|---:|")
@@ -425,7 +425,7 @@ def profiles_table(data, out):
     out.append("")
     out.append("The loss-tolerant profile (the library default; split and bundled packings) and the reliable "
                "profile (`ProfileSet::kReliable`: no datagrams, every refinement's data in its control block; "
-               "docs/progressive-format.md, section 11), encoded from the same hierarchy: the same meshes at "
+               "docs/spec/progressive-format.md, section 11), encoded from the same hierarchy: the same meshes at "
                "every level, other bytes%s. Total = base + header + control blocks (+ datagrams); decode = "
                "`DecodeProgressiveGlb` of all levels on one thread with default options, timed in the same "
                "interleaved rounds as Draco's." % same_meshes_note(rows))

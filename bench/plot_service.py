@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots and tables from the service benchmark's JSON (bench/service/main.cc and its parts, bench/README.md).
 
-usage: bench/plot_service.py [SERVICE.json] [--out DIR] [--doc docs/service-benchmarks.md]
+usage: bench/plot_service.py [SERVICE.json] [--out DIR] [--doc docs/results/service-benchmarks.md]
 
 Writes into DIR (default: the JSON's folder):
   service-latency.png  GetVersion, ListVersions and health p50/p99 against the

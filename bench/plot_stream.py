@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots and tables from the streaming benchmark's JSON (bench/stream/main.cc and its parts, bench/README.md).
 
-usage: bench/plot_stream.py [STREAM.json] [--out DIR] [--doc docs/stream-benchmarks.md]
+usage: bench/plot_stream.py [STREAM.json] [--out DIR] [--doc docs/results/stream-benchmarks.md]
 
 Writes into DIR (default: the JSON's folder):
   stream-time.png       per model: time to the full mesh (above) and to the
@@ -566,13 +566,13 @@ def parity_table(sh):
             fmt_int(u.get("udp_datagrams_received_median", 0)), fmt_int(u.get("datagrams_lost_median", 0)),
             fmt_int(u.get("datagrams_recovered_median", 0))))
     out.append("")
-    out.append("The targets (docs/loss-protection.md): the median time to full with parity at most the median "
+    out.append("The targets (docs/design/loss-protection.md): the median time to full with parity at most the median "
                "without plus the parity's bytes at the link's rate; the final distance to the full lossless mesh "
                "at most 0.1 % of the diagonal in the median and 0.25 % in the worst run. *Runs' spread*: the larger "
                "median absolute deviation of the two kinds' times; an excess below it is *within noise*. *Without*: the same "
                "sessions asking for no parity (`OpenRequest.no_parity`, `fetch --no-parity`), their turns "
                "interleaved with the others. A session that finishes before its HELLO proves a UDP address sends "
-               "every refinement on the stream (docs/streaming-protocol.md, Sessions step 3): it has no UDP loss "
+               "every refinement on the stream (docs/spec/streaming-protocol.md, Sessions step 3): it has no UDP loss "
                "to protect, and its parity bytes are 0.")
     out.append("")
     return out

@@ -1,5 +1,5 @@
 // A TCP proxy that delays what it forwards, for the shaped-link part of the
-// streaming benchmark (bench/stream/shaped.cc, docs/stream-benchmarks.md):
+// streaming benchmark (bench/stream/shaped.cc, docs/results/stream-benchmarks.md):
 // the gRPC channels of the clients in a network namespace go through it so
 // that they see the same one-way delay as the UDP half, which goes through
 // the UDP relay (testing/udp_relay.h).

@@ -36,7 +36,7 @@ const char kRootFooter[] =
     "Inputs: .gltf .glb .obj .ply .off .stl. Outputs: .gltf .glb (decode also .obj .ply).\n"
     "Run 'meshstream VERB --help' for the options of a verb.\n"
     "Exit status: 0 success, 1 bad input (or refused by the server), 2 bad usage, 3 server unreachable.\n"
-    "Options marked Env may also be set from that environment variable (docs/cli.md).\n"
+    "Options marked Env may also be set from that environment variable (docs/spec/cli.md).\n"
     "\n"
     "Example:\n"
     "  meshstream encode bunny.obj -o bunny.glb && meshstream decode bunny.glb -o lod3.glb --lod 3";

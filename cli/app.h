@@ -1,6 +1,6 @@
 // The meshstream command line on CLI11: one subcommand per verb, typed options
 // with their valid ranges, help for every verb, and the environment-variable
-// rule (docs/cli.md).
+// rule (docs/spec/cli.md).
 #ifndef MESHSTREAM_CLI_APP_H_
 #define MESHSTREAM_CLI_APP_H_
 

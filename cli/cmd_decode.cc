@@ -36,7 +36,7 @@ const char kDetails[] =
     "refinements of the file's reliable cut travel with their datagrams on the reliable\n"
     "channel, as a session sends them (--reliable-share 0: none, the paper's scheme); the\n"
     "refinements it protects get parity datagrams as a session sends them, sized for the\n"
-    "simulated loss, which rebuild lost datagrams (--no-parity: none; docs/loss-protection.md).\n"
+    "simulated loss, which rebuild lost datagrams (--no-parity: none; docs/design/loss-protection.md).\n"
     "--threads N decodes each refinement that arrived whole on N threads (0: one per core;\n"
     "the mesh is the same bit for bit as on one thread, the default); --json's\n"
     "parallel_splits counts the splits decoded that way.\n"
@@ -198,7 +198,7 @@ Verb AddDecode(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--profile", args->profile,
                   "the stream to decode where the file has both: auto (the reliable one unless --loss, --reorder "
-                  "or --duplicate simulate a network), reliable or loss-tolerant; docs/progressive-format.md")
+                  "or --duplicate simulate a network), reliable or loss-tolerant; docs/spec/progressive-format.md")
       ->check(CLI::IsMember({"auto", "reliable", "loss-tolerant"}))
       ->capture_default_str();
   cmd->add_option("--recovery", args->recovery, "predict: predict lost splits; lwop: abandon them and their dependants")

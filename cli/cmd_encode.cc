@@ -24,7 +24,7 @@ namespace {
 const char kDetails[] =
     "IN is .gltf .glb .obj .ply .off .stl. The base mesh goes under\n"
     "KHR_draco_mesh_compression (any glTF viewer shows it), the refinements into the\n"
-    "MESHSTREAM_progressive extension (docs/progressive-format.md). --packing split keeps\n"
+    "MESHSTREAM_progressive extension (docs/spec/progressive-format.md). --packing split keeps\n"
     "structure and geometry in separate datagrams; bundled puts one fragment per split.\n"
     "\n"
     "Example:\n"
@@ -189,7 +189,7 @@ int RunEncode(EncodeArgs& args) {
       {"tools", ToolNamesOf(total.tools)},
       {"qp", q.qp},
       {"encode_ms", encode_ms},
-      // What each step of the encoding took (docs/cli.md): the rest of
+      // What each step of the encoding took (docs/spec/cli.md): the rest of
       // encode_ms is reading, quantizing and writing the file.
       {"step_ms",
        {{"hierarchy", total.hierarchy_ms}, {"stream", total.stream_ms}, {"harm", total.harm_ms},
@@ -220,7 +220,7 @@ Verb AddEncode(CLI::App& root) {
   cmd->add_option("IN", args->in, "the input file")->required();
   cmd->add_option("-o,--output", args->out, "the progressive file, .glb")->required();
   // The encoding settings are what an ingesting server is configured with:
-  // each may come from MESHSTREAM_<NAME> (docs/cli.md).
+  // each may come from MESHSTREAM_<NAME> (docs/spec/cli.md).
   const int max_bits = kMaxQuantizationBits;
   FromEnv(cmd->add_option("--qp", q.qp, "position quantization bits")->check(CLI::Range(kMinQuantizationBits, max_bits)))
       ->capture_default_str();
@@ -241,13 +241,13 @@ Verb AddEncode(CLI::App& root) {
       cmd->add_option("--profile", args->profile,
                       "reliable (files, HTTP, WebSocket and gRPC-only sessions: smaller, faster to decode), "
                       "loss-tolerant (UDP sessions: datagrams that decode on their own), or both in one file (what "
-                      "the server stores); docs/progressive-format.md")
+                      "the server stores); docs/spec/progressive-format.md")
           ->check(CLI::IsMember({"reliable", "loss-tolerant", "both"}));
   FromEnv(profile)->capture_default_str();
   profile->each([args](const std::string&) { args->profile_given = true; });
   FromEnv(cmd->add_option("--batch-rule", args->batch_rule,
                           "the batch rule of --profile reliable: strict (the loss-tolerant profile's hierarchy; "
-                          "smaller on most meshes) or matching (fuller batches, fewer levels; docs/codec.md)")
+                          "smaller on most meshes) or matching (fuller batches, fewer levels; docs/design/codec.md)")
               ->check(CLI::IsMember({"matching", "strict"})))
       ->capture_default_str();
   FromEnv(cmd->add_option("--packet-bytes", o.stream.packet_bytes, "datagram payload limit, header included")
@@ -261,16 +261,16 @@ Verb AddEncode(CLI::App& root) {
   FromEnv(cmd->add_option("--tools", args->tools,
                           "coding tools, comma-separated: default (the measured defaults), all, none, geometry, "
                           "frame, rank, normals, texcoords, seams (version 2 and later), splitbits, models, predictor "
-                          "(version 3), crossings (version 4) (docs/codec.md; fewer tools, larger stream)")
+                          "(version 3), crossings (version 4) (docs/design/codec.md; fewer tools, larger stream)")
               ->capture_default_str());
   FromEnv(cmd->add_option("--ring-term-bits", o.stream.ring_term_bits,
                           "bits per split the predictor's 2-ring term must save before a refinement uses it (it "
-                          "costs the decoder about 15 % more time; 0: wherever it saves; docs/codec.md)")
+                          "costs the decoder about 15 % more time; 0: wherever it saves; docs/design/codec.md)")
               ->check(NumberIn(0, 64)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--reliable-share", o.reliable_share,
                           "share of each stream's bytes whose refinements a session sends reliably, the most "
-                          "important per byte first (docs/loss-tolerance.md; 0: none)")
+                          "important per byte first (docs/design/loss-tolerance.md; 0: none)")
               ->check(NumberIn(0, 1)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")

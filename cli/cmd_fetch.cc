@@ -19,7 +19,7 @@ namespace meshstream::cli {
 namespace {
 
 const char kDetails[] =
-    "Streams a version through a session (docs/streaming-protocol.md) with the SDK: the base\n"
+    "Streams a version through a session (docs/spec/streaming-protocol.md) with the SDK: the base\n"
     "mesh first, then each level as it arrives, and writes the mesh reached (.glb or .gltf).\n"
     "ASSET alone or ASSET@0 is the latest READY version; --lod K stops after K levels. The\n"
     "refinement datagrams travel over UDP (authenticated, paced; what is lost is predicted, not\n"
@@ -169,12 +169,12 @@ Verb AddFetch(CLI::App& root) {
                 "(default: the predicted one, nothing asked again)");
   cmd->add_option("--profile", args->profile,
                   "auto (the server's choice: reliable over --tcp-only, loss-tolerant over UDP), reliable (no "
-                  "datagrams: the stream alone) or loss-tolerant (docs/streaming-protocol.md)")
+                  "datagrams: the stream alone) or loss-tolerant (docs/spec/streaming-protocol.md)")
       ->check(CLI::IsMember({"auto", "reliable", "loss-tolerant"}))
       ->capture_default_str();
   cmd->add_flag("--no-parity", args->no_parity,
                 "ask for no parity datagrams: what UDP loses is predicted (or repaired), never rebuilt "
-                "(docs/loss-protection.md)");
+                "(docs/design/loss-protection.md)");
   cmd->add_option("--expected-loss", args->expected_loss,
                   "the loss rate this link is known to have, 0..1: the server sends more of the stream reliably "
                   "the higher it is (default: unknown)")

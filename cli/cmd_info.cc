@@ -61,7 +61,7 @@ int RunInfo(const InfoArgs& args) {
   const Scene& scene = scene_or.value();
 
   MeshHealth total;
-  size_t carried_primitives = 0;  // kept as they are, not refined (docs/gltf-support.md)
+  size_t carried_primitives = 0;  // kept as they are, not refined (docs/spec/gltf-support.md)
   nlohmann::json meshes = nlohmann::json::array();
   for (const Mesh& mesh : scene.meshes) {
     nlohmann::json prims = nlohmann::json::array();

@@ -18,14 +18,14 @@ namespace meshstream::cli {
 namespace {
 
 const char kDetails[] =
-    "Serves meshstream.v1.AssetService (docs/api.md) with grpc.health.v1, on an embedded store\n"
+    "Serves meshstream.v1.AssetService (docs/spec/api.md) with grpc.health.v1, on an embedded store\n"
     "(a folder: SQLite + blobs) or a shared one (postgresql://...: several servers, one database).\n"
     "Without --auth it listens only on loopback; on any other address --auth (or --insecure) is\n"
     "required. SIGTERM or SIGINT drains: health NOT_SERVING, running requests finish within\n"
     "--grace-period, unfinished jobs resume at the next start. The first line on stdout is\n"
     "'listening on HOST:PORT' (port 0 picks a free port); --ready-file PATH also writes the\n"
-    "addresses as JSON once the server listens. docs/deploy.md has the details.\n"
-    "--http-listen adds HTTP (docs/http-api.md): the assets as files with ranges and ETags, and\n"
+    "addresses as JSON once the server listens. docs/design/deploy.md has the details.\n"
+    "--http-listen adds HTTP (docs/spec/http-api.md): the assets as files with ranges and ETags, and\n"
     "the viewer's files; same tokens, same loopback rule, same TLS files.\n"
     "\n"
     "Examples:\n"
@@ -174,7 +174,7 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_flag("--no-reliable-cut", o.no_reliable_cut,
                         "send every datagram as UDP, also those of the artifact's reliable cut (the paper's scheme)"));
   FromEnv(cmd->add_flag("--no-parity", o.no_parity,
-                        "send no parity datagrams: what UDP loses is predicted, never rebuilt (docs/loss-protection.md)"));
+                        "send no parity datagrams: what UDP loses is predicted, never rebuilt (docs/design/loss-protection.md)"));
   FromEnv(cmd->add_option("--session-idle-timeout", args->idle_timeout_s,
                           "seconds a session may go without a message from its client")
               ->check(CLI::Range(0.1, 86400.0)))
@@ -185,7 +185,7 @@ Verb AddServe(CLI::App& root) {
               ->check(CLI::Range(int64_t{0}, int64_t{1} << 20)))
       ->capture_default_str();
   FromEnv(cmd->add_option("--http-listen", o.http_listen,
-                          "HTTP HOST:PORT of the assets by ranges and the viewer (docs/http-api.md); off by default, "
+                          "HTTP HOST:PORT of the assets by ranges and the viewer (docs/spec/http-api.md); off by default, "
                           "7680 is the documented port (gRPC 7600, UDP 7601); port 0 picks a free one"));
   FromEnv(cmd->add_option("--http-cors-origin", o.http_cors_origins,
                           "an origin (https://HOST[:PORT]) whose pages may read the HTTP routes; repeatable; "

@@ -16,7 +16,7 @@ namespace {
 
 const char kVersionsDetails[] =
     "Lists every version of ASSET on the server (all pages), oldest first: state, size, levels\n"
-    "and what was uploaded. --json prints {\"versions\": [...]} with the fields of docs/api.md.\n"
+    "and what was uploaded. --json prints {\"versions\": [...]} with the fields of docs/spec/api.md.\n"
     "\n"
     "Example:\n"
     "  meshstream versions bunny --server 127.0.0.1:7600";

@@ -2,7 +2,7 @@
 // non-adjacent) and under the paper's minimum (collapsed edges share no
 // vertex), on the shared models at qp 11: levels, growth per level, and the
 // order-0 entropy of the split bits each rule implies. The codec accepts only
-// the strict rule (docs/codec.md); this measures what the other would give.
+// the strict rule (docs/design/codec.md); this measures what the other would give.
 // Usage: meshstream_rule_comparison [--out FILE.json]
 #include <cmath>
 #include <cstdio>

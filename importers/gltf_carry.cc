@@ -46,7 +46,7 @@ Status ReadCarriedPrimitive(const tg::Model& model, const json& raw_prim, const 
   if (raw_prim.is_object() && raw_prim.contains("extensions") && raw_prim["extensions"].is_object() &&
       raw_prim["extensions"].contains("KHR_draco_mesh_compression")) {
     return Unsupported(where + ": a Draco-compressed points, lines, skinned or morphed primitive is not "
-                       "carried yet (see docs/gltf-support.md)");
+                       "carried yet (see docs/spec/gltf-support.md)");
   }
   const int mode = tp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : tp.mode;
   if (mode > TINYGLTF_MODE_TRIANGLE_FAN) {

@@ -1,4 +1,4 @@
-// What the glTF importer carries instead of refining (docs/gltf-support.md,
+// What the glTF importer carries instead of refining (docs/spec/gltf-support.md,
 // "Carried through"): points and lines primitives, triangle primitives with
 // skinning attributes or morph targets, skins and animations. Their
 // accessors are copied into Scene::carried_accessors as packed bytes, once

@@ -56,7 +56,7 @@ class DocumentBuilder {
   // A bufferView whose bytes go after everything else in the buffer
   // (PlaceDeferredViews): a progressive primitive's refinements, so that the
   // file up to its first refinement holds every base mesh, the scene and its
-  // images (docs/progressive-format.md, "Layout"). `bytes` outlives Build.
+  // images (docs/spec/progressive-format.md, "Layout"). `bytes` outlives Build.
   // `late`: after every other deferred view (a file with both profiles puts
   // the reliable profile's blobs first, which a viewer reading ranges needs,
   // and the loss-tolerant ones last).

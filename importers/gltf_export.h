@@ -10,7 +10,7 @@
 // Materials, textures, samplers, cameras and images are written back as they
 // were imported; carried primitives, skins and animations too, their
 // accessors re-packed one bufferView each with min/max recomputed
-// (docs/gltf-support.md, "Carried through"). Strings that are not valid
+// (docs/spec/gltf-support.md, "Carried through"). Strings that are not valid
 // UTF-8 are written with U+FFFD, never thrown on.
 //
 // Contract: refuses scenes that fail ValidateScene and meshes with no

@@ -11,7 +11,7 @@
 // Dropped with a warning in Scene::warnings: attributes other than POSITION,
 // NORMAL, TEXCOORD_n and COLOR_0 (TANGENT, _CUSTOM, ...) of refined
 // primitives and optional extensions we do not know. JSON text that is not
-// valid UTF-8 is repaired (ToValidUtf8) with a warning. docs/gltf-support.md
+// valid UTF-8 is repaired (ToValidUtf8) with a warning. docs/spec/gltf-support.md
 // explains why.
 //
 // Contract: safe on untrusted input (see import.h). URIs may only name files

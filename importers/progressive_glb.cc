@@ -23,7 +23,7 @@ namespace {
 
 using json = nlohmann::json;
 
-// The MESHSTREAM_progressive object of a primitive (docs/progressive-format.md,
+// The MESHSTREAM_progressive object of a primitive (docs/spec/progressive-format.md,
 // section 1): "bufferView" (an unsigned integer), "version" 1 to 4, an
 // optional "reliable" (version 4: an unsigned integer, the bufferView of the
 // reliable profile's stream beside the loss-tolerant one), an optional

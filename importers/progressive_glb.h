@@ -2,7 +2,7 @@
 // mesh under KHR_draco_mesh_compression and their refinements in a
 // bufferView named by our extension MESHSTREAM_progressive (listed in
 // extensionsUsed, not in extensionsRequired), so any glTF reader shows the
-// base level (docs/design.md, "glTF container"; docs/progressive-format.md).
+// base level (docs/design/design.md, "glTF container"; docs/spec/progressive-format.md).
 //
 // Contract: DecodeProgressiveGlb is safe on untrusted bytes (the glTF import
 // checks of gltf_import.h, then the stream reader's). Every refined (triangle)
@@ -35,7 +35,7 @@ constexpr char kProgressiveExtension[] = "MESHSTREAM_progressive";
 // carries: one, or both from one hierarchy (the strict rule's: both profiles
 // then have the same levels and vertex ids), the reliable profile's blob
 // under MESHSTREAM_progressive's "reliable" and the loss-tolerant one's
-// under its "bufferView" (docs/progressive-format.md, section 1).
+// under its "bufferView" (docs/spec/progressive-format.md, section 1).
 enum class ProfileSet : uint8_t { kLossTolerant, kReliable, kBoth };
 
 struct ProgressiveGlbOptions {
@@ -54,7 +54,7 @@ struct ProgressiveGlbOptions {
   // The batch rule of a file of the reliable profile alone: kStrict (the
   // default: the loss-tolerant profile's hierarchy, the smaller stream on
   // every shared model but spot) or kMatching (fuller batches, fewer levels;
-  // docs/codec.md, "Version 4"). Both profiles in one file share kStrict's.
+  // docs/design/codec.md, "Version 4"). Both profiles in one file share kStrict's.
   BatchRule reliable_rule = BatchRule::kStrict;
   // Workers for that measure (parallel/fork_join_pool.h); null: this thread.
   TaskRunner* runner = nullptr;
@@ -148,7 +148,7 @@ struct ProgressiveDecodeOptions {
   // ("delivery"; none in a file without it), 0 none (the paper's scheme),
   // > 0 the cut for that share of each stream's bytes from the file's ranking.
   double reliable_share = -1;
-  // Parity datagrams (docs/loss-protection.md) as a session sends them: for
+  // Parity datagrams (docs/design/loss-protection.md) as a session sends them: for
   // the refinements the file's delivery record protects, sized for the
   // model's own loss and burst (a client's reports), rebuilt by the
   // reconstructor with this code (codec/core/erasure_code.h; fec/ has one);

@@ -1,5 +1,5 @@
 // The server's send budget towards one UDP address of a session
-// (docs/streaming-protocol.md, "Anti-amplification").
+// (docs/spec/streaming-protocol.md, "Anti-amplification").
 //
 // Until the address is proven (an authenticated HELLO from it echoed the
 // challenge the server sent it), the server sends it at most as many bytes as

@@ -1,5 +1,5 @@
 // Why a received datagram was dropped, and the counters a receiver keeps of
-// them (docs/streaming-protocol.md, "Receiving").
+// them (docs/spec/streaming-protocol.md, "Receiving").
 //
 // Contract: a receiver drops every datagram for which ParseHeader, the
 // session lookup, OpenPacket or the ReplayWindow returns a reason other than

@@ -1,5 +1,5 @@
 // The payloads of HELLO and HELLO_ACK, the handshake by which a client's UDP
-// address proves it holds the session key (docs/streaming-protocol.md,
+// address proves it holds the session key (docs/spec/streaming-protocol.md,
 // "HELLO and address validation").
 //
 // HELLO (client -> server) is exactly kHelloDatagramBytes on the wire: a

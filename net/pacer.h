@@ -1,4 +1,4 @@
-// Spaces a sender's datagrams at a rate (docs/streaming-protocol.md,
+// Spaces a sender's datagrams at a rate (docs/spec/streaming-protocol.md,
 // "Pacing and congestion control"): a leaky bucket of bytes that drains at
 // the rate. Each datagram is due when the backlog ahead of it leaves room
 // for it within `burst_bytes`, so a rate change applies at once; a burst

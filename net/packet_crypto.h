@@ -1,5 +1,5 @@
 // Sealing and opening meshstream UDP datagrams with the IETF
-// ChaCha20-Poly1305 AEAD of libsodium (docs/streaming-protocol.md,
+// ChaCha20-Poly1305 AEAD of libsodium (docs/spec/streaming-protocol.md,
 // "Datagram" and "Keys and nonces").
 //
 // A datagram is the 20-byte header (net/packet_header.h), the payload

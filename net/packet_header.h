@@ -1,5 +1,5 @@
 // The fixed 20-byte header of every meshstream UDP datagram
-// (docs/streaming-protocol.md, "Datagram"), without any cryptography: the
+// (docs/spec/streaming-protocol.md, "Datagram"), without any cryptography: the
 // receiver parses it to find the session, and with it the key, before it
 // authenticates the rest.
 //

@@ -1,4 +1,4 @@
-// The sending rate of one session (docs/streaming-protocol.md, "Pacing and
+// The sending rate of one session (docs/spec/streaming-protocol.md, "Pacing and
 // congestion control"): a rate-based AIMD controller in the spirit of
 // RFC 8085 (UDP usage guidelines: congestion-controlled, paced, backing off
 // on congestion) with RFC 9002's RTT estimator, and a delay signal so that

@@ -1,5 +1,5 @@
 // The receiver's replay window over 64-bit packet numbers
-// (docs/streaming-protocol.md, "Replay window").
+// (docs/spec/streaming-protocol.md, "Replay window").
 //
 // Remembers the highest packet number accepted and which of the kWindow
 // numbers at and below it were accepted. Accept takes each number at most

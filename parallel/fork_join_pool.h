@@ -35,7 +35,7 @@ class ForkJoinPool final : public TaskRunner {
   int workers() const override { return static_cast<int>(threads_.size()) + 1; }
   void Run(size_t tasks, const std::function<void(size_t task, int worker)>& fn) override;
 
-  // More threads than this buys nothing for one decode (docs/decode-profile.md).
+  // More threads than this buys nothing for one decode (docs/results/decode-profile.md).
   static constexpr int kMaxWorkers = 64;
   // The workers a host has (std::thread::hardware_concurrency, at least 1).
   static int HardwareWorkers();

@@ -27,7 +27,7 @@
 // UNKNOWN, UNIMPLEMENTED). Messages are kept as they are both ways; a
 // client-side status with no message (a transport failure, a deadline) gets
 // one that names what happened ("deadline exceeded").
-// (docs/api.md, "Errors"; tests/services/rpc_status_test.cc pins the table.)
+// (docs/spec/api.md, "Errors"; tests/services/rpc_status_test.cc pins the table.)
 //
 // Thread safety: pure functions.
 #ifndef MESHSTREAM_PROTO_RPC_STATUS_H_

@@ -1,4 +1,4 @@
-// The client of meshstream.v1.AssetService (docs/api.md): upload a mesh as
+// The client of meshstream.v1.AssetService (docs/spec/api.md): upload a mesh as
 // the next version of an asset (resumable, with progress), follow its job,
 // list assets and versions, export a version with its digest checked. The
 // one client of the API in meshstream: the CLI's client verbs (ingest,
@@ -89,10 +89,10 @@ StatusOr<Upload> UploadFromPath(const std::string& asset, const std::string& pat
 // The upload id Ingest uses for a resumable upload unless one is given: "cli-"
 // and 48 hex digits of SHA-256(asset + "\n" + the main file's sha256), so the
 // same file sent again as the same asset continues the same upload (the name
-// is the CLI's, docs/cli.md, kept so that both resume each other's uploads).
+// is the CLI's, docs/spec/cli.md, kept so that both resume each other's uploads).
 std::string DefaultUploadId(const std::string& asset, const std::string& main_sha256);
 
-// The messages of an Ingest stream that name its files (docs/api.md): the
+// The messages of an Ingest stream that name its files (docs/spec/api.md): the
 // first, the metadata with the asset and the main file's name, size and
 // sha256 (Ingest adds the upload's options, comment, labels, upload id and
 // offset), and the header before each resource's chunks (its name, size and

@@ -1,4 +1,4 @@
-// The C API (sdk/include/meshstream/meshstream.h, docs/c-api.md): a thin
+// The C API (sdk/include/meshstream/meshstream.h, docs/spec/c-api.md): a thin
 // translation onto sdk::Client and sdk::Session. What this file adds is only
 // what C needs: argument checks, the struct_size rule, Status -> ms_status,
 // the thread's last error, no exception across the boundary, and buffers

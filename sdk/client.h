@@ -73,7 +73,7 @@ class Client {
 
   // The link's loss as this client's sessions saw it (LossMemory; -1
   // before any). A session opened without expected_loss states it to the
-  // server (docs/loss-protection.md), which sizes parity and the reliable
+  // server (docs/design/loss-protection.md), which sizes parity and the reliable
   // cut by it until the session's own reports take over: a clean link gets
   // no parity from the first datagram, a lossy one gets it before its first
   // loss is reported. Shared with the client's sessions (it outlives the

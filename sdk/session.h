@@ -1,6 +1,6 @@
 // A streaming session of the SDK: opens StreamService.Open for an asset
 // version, and refines the mesh as the session's blocks arrive
-// (docs/streaming-protocol.md). Poll model: the host calls Poll on its own
+// (docs/spec/streaming-protocol.md). Poll model: the host calls Poll on its own
 // thread and gets events; no callback ever runs on an internal thread.
 //
 // Events, in order: kBaseReady (every primitive's base mesh decoded), then
@@ -18,7 +18,7 @@
 // arrived, or `straggler_timeout_ms` after the first of its ENDs arrived,
 // counted on the arrival horizon (UdpReceiver::caught_up_us), so a host
 // that polls seldom or starves the UDP thread never loses what arrived
-// (docs/streaming-protocol.md).
+// (docs/spec/streaming-protocol.md).
 //
 // Budgets: max_level stops the server early; byte_budget (bytes received
 // on both channels) and time_budget_ms (since Open) stop the session on the
@@ -88,7 +88,7 @@ namespace meshstream::sdk {
 struct SessionOptions {
   std::string asset;
   int64_t version = 0;    // 0: the latest READY version
-  int32_t max_level = -1; // the scene's level to stop at (docs/streaming-protocol.md, "Levels of a scene"); -1: all
+  int32_t max_level = -1; // the scene's level to stop at (docs/spec/streaming-protocol.md, "Levels of a scene"); -1: all
   bool tcp_only = false;  // ask for the datagrams over gRPC
   uint64_t byte_budget = 0;       // 0: none
   int64_t time_budget_ms = 0;     // 0: none
@@ -118,19 +118,19 @@ struct SessionOptions {
   // before any (the server then sizes its cut for the rate the artifact's
   // cut was made for, 12 %, and sends no parity until a loss is reported).
   double expected_loss = -1;
-  // No parity datagrams for this session (docs/loss-protection.md): what UDP
+  // No parity datagrams for this session (docs/design/loss-protection.md): what UDP
   // loses is predicted (or repaired with `repair`), never rebuilt; the
   // stream is smaller by the parity's bytes. Off by default: the server
   // sizes parity by the loss this session reports, none while it reports
   // none.
   bool no_parity = false;
   // Threads that decode a refinement whose datagrams all arrived (the
-  // output is the same bit for bit; docs/decode-profile.md): 0 or 1 the
+  // output is the same bit for bit; docs/results/decode-profile.md): 0 or 1 the
   // session's own thread (the default: a host that runs its own threads
   // keeps the cores), N > 1 a pool of N started with the session, -1 one
   // per core; at most 64.
   int32_t decode_threads = 1;
-  // The profile to stream (OpenRequest.profile; docs/streaming-protocol.md,
+  // The profile to stream (OpenRequest.profile; docs/spec/streaming-protocol.md,
   // "Profiles"): kAuto lets the server choose (the reliable profile over the
   // stream alone, the loss-tolerant one over UDP); kReliable asks for the
   // reliable one (the session is then TRANSPORT_GRPC: it has no datagrams);
@@ -172,18 +172,18 @@ struct SessionStats {
   uint64_t repair_bytes = 0;        // their bytes
   double time_to_exact_ms = 0;      // from open to the exact mesh: time_to_full_ms without loss, after the repair with it
   std::string repair_error;         // why a repair asked for did not complete (the predicted mesh stays)
-  // Loss detection by packet numbers (docs/streaming-protocol.md, "The client"):
+  // Loss detection by packet numbers (docs/spec/streaming-protocol.md, "The client"):
   uint32_t losses_declared = 0;     // UDP refinements decoded incomplete because later datagrams had arrived
   uint32_t losses_spurious = 0;     // ... of which a datagram declared lost came after all (reordering)
   uint64_t datagrams_late = 0;      // UDP data datagrams that came after their refinement was decoded without
                                     // them (in datagrams_lost and datagrams_duplicate too: their vertices stay predicted)
   double reorder_window_ms = 0;     // the wait after a later datagram, as it ended (0: no RTT sample, straggler_timeout_ms)
-  // Where the time to full went (docs/streaming-protocol.md, "The client"):
+  // Where the time to full went (docs/spec/streaming-protocol.md, "The client"):
   double last_arrival_ms = 0;       // from open to the last arrival before the full mesh (either channel)
   double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
   double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
   uint64_t parallel_splits = 0;     // splits decoded on the decode_threads (0 with one thread)
-  // Parity (docs/loss-protection.md): datagrams_lost counts what the network
+  // Parity (docs/design/loss-protection.md): datagrams_lost counts what the network
   // lost (the raw loss the reports tell the server); of those, parity rebuilt
   // datagrams_recovered locally, without asking again.
   uint64_t parity_datagrams = 0;       // parity datagrams received

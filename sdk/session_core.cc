@@ -201,7 +201,7 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   // stream, within the byte budget, rather than drop them for the window.
   ro.window = kMaxRefinements;
   ro.max_buffered_bytes = size_t{64} << 20;
-  // Parity datagrams rebuild what UDP lost (docs/loss-protection.md).
+  // Parity datagrams rebuild what UDP lost (docs/design/loss-protection.md).
   ro.erasure = &fec::DefaultErasureCode();
   const int threads = options_.decode_threads < 0 ? ForkJoinPool::HardwareWorkers() : options_.decode_threads;
   if (threads > 1) {
@@ -229,7 +229,7 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (options_.repair) state.kept_base = base.value();
     Status s = state.reconstructor->SetBase(std::move(base).value());
     if (!s.ok()) return s.WithContext(where);
-    // The scene's levels (docs/streaming-protocol.md, "Levels of a scene"):
+    // The scene's levels (docs/spec/streaming-protocol.md, "Levels of a scene"):
     // non-decreasing counts, the last one all of this session's refinements.
     const auto& at = p.level_refinements();
     for (int i = 0; i < at.size(); ++i) {

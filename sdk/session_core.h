@@ -1,4 +1,4 @@
-// The client's session as a deterministic core (docs/streaming-protocol.md,
+// The client's session as a deterministic core (docs/spec/streaming-protocol.md,
 // "The client"): what sdk::Session decides, without its threads, sockets or
 // clock. The driver (session.cc) owns the gRPC stream's reader thread, the
 // UDP receiver (udp_receiver.h), the real clock and the queues between them;

@@ -1,4 +1,4 @@
-// The client's UDP half of a session (docs/streaming-protocol.md, "HELLO and
+// The client's UDP half of a session (docs/spec/streaming-protocol.md, "HELLO and
 // address validation", "Receiving"): one socket and one thread that proves
 // the socket's address to the server and hands every authenticated DATA
 // payload on.

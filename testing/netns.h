@@ -1,6 +1,6 @@
 // A network namespace joined to the host by a veth pair, for tests and
 // benchmarks that need the kernel to lose, shape or delay real packets
-// (docs/streaming-protocol.md, "Testing"): the host side is 10.77.X.1/24,
+// (docs/spec/streaming-protocol.md, "Testing"): the host side is 10.77.X.1/24,
 // the namespace side 10.77.X.2/24 (X from the pid), and commands run inside
 // with `ip netns exec`. Loss is an nftables rule in the namespace
 // (`numgen random mod 100 < P drop` on its input, UDP only or every

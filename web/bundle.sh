@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Assembles the viewer and the npm package's browser files into one folder,
-# the static root `meshstream serve --http-listen` serves at / (docs/web.md,
+# the static root `meshstream serve --http-listen` serves at / (docs/design/web.md,
 # "The bundle"): the viewer page, web/src, the wasm decoder from build-wasm/,
 # and, from web/node_modules (npm, pinned in web/package.json; nothing is
 # vendored in the repository), the parts of three.js and draco3d the page

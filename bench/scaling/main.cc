@@ -1,4 +1,4 @@
-// meshstream_bench_scaling: the encoder at scale (issue 24; docs/benchmarks.md,
+// meshstream_bench_scaling: the encoder at scale (issue 24; docs/results/benchmarks.md,
 // "The encoder at scale"). A shared model subdivided 0..N times (1-to-4
 // midpoint subdivision, bench/scaling/subdivide.h: the bunny's 35 k vertices
 // become 140 k, 560 k, 2.2 M), each written as a PLY, then three commands of
@@ -21,7 +21,7 @@
 // takes by default); and the series runs twice, on the smooth subdivision
 // and on the same meshes with scan-like surface noise
 // (bench/scaling/surface_noise.h), whose rows carry "surface": "noisy".
-// Writes one JSON object (--out, default docs/bench/scaling.json) and prints
+// Writes one JSON object (--out, default docs/results/bench/scaling.json) and prints
 // the table as markdown.
 #include <unistd.h>
 
@@ -53,7 +53,7 @@ struct Args {
   int runs = 3;  // Draco's own time moves by 20 % between single runs on a 2-core machine
   int qp = 11;
   std::string work_dir = "/tmp";
-  std::string out = "docs/bench/scaling.json";
+  std::string out = "docs/results/bench/scaling.json";
   std::string keep_inputs;  // copy each subdivided mesh here (for profiling)
   std::vector<std::string> surfaces = {"smooth", "noisy"};
   double noise = 0.25;  // the noisy surface's amplitude, in mean edge lengths
@@ -68,7 +68,7 @@ void Usage() {
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
       "CPU time and peak resident memory, medians of --runs (default 3). About 13 minutes on 2 cores for\n"
-      "the default. Writes one JSON object (default docs/bench/scaling.json). --keep-inputs DIR\n"
+      "the default. Writes one JSON object (default docs/results/bench/scaling.json). --keep-inputs DIR\n"
       "keeps the subdivided meshes there (levelN.ply, noisyN.ply) to profile the encoder on them.\n"
       "The encoder runs as an ingest does (--profile both: both profiles, the harm estimate,\n"
       "the delivery record; each row keeps its step times), both profiles are decoded, and\n"

@@ -1,5 +1,5 @@
 // Deterministic 1-to-4 midpoint subdivision, for the encoder's scaling
-// benchmark (docs/benchmarks.md, "The encoder at scale"): every triangle
+// benchmark (docs/results/benchmarks.md, "The encoder at scale"): every triangle
 // becomes four, each edge gaining one vertex at its midpoint (shared by the
 // triangles on both sides, so the surface stays closed where it was). The
 // new vertices lie on the old flat triangles; that is what "the bunny

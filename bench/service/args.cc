@@ -17,7 +17,7 @@ namespace {
 
 const char kAbout[] =
     "Benchmarks the asset service (meshstream serve, in this process) on both stores, beside\n"
-    "the floors measured in the same run; writes one JSON object (default docs/bench/service.json).\n";
+    "the floors measured in the same run; writes one JSON object (default docs/results/bench/service.json).\n";
 
 }  // namespace
 
@@ -48,7 +48,7 @@ Args ParseArgs(int argc, char** argv) {
     if (v != "on" && v != "off") Die("--pg-fsync: on or off");
     a.pg_fsync = v == "on";
   }, "PostgreSQL's fsync (default on: what a deployment pays)");
-  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/service.json)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/results/bench/service.json)");
   o.Flag("--verbose", &a.verbose, "the servers' log lines on stderr");
   o.Parse(argc, argv);
   if (a.quick) {

@@ -25,7 +25,7 @@ struct Args {
   bool pg_fsync = true;
   bool quick = false;
   bool verbose = false;
-  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/service.json";
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/results/bench/service.json";
 };
 
 // The options of argv (Die on a bad one, exit 0 after --help), --quick's

@@ -1,5 +1,5 @@
 // meshstream_bench_service: the benchmark of the asset service
-// (docs/service-benchmarks.md).
+// (docs/results/service-benchmarks.md).
 //
 // One process runs everything on one machine, in one run:
 //   - a meshstream server per backend (Server::Start, in-process, 2 workers):
@@ -24,7 +24,7 @@
 //     call (decode + export + store) and second call (the export cache).
 // Every call's status is checked; a failed call is counted and reported in
 // the JSON ("failures"), never timed. Writes one JSON object (--out, default
-// docs/bench/service.json); bench/plot_service.py draws it.
+// docs/results/bench/service.json); bench/plot_service.py draws it.
 // The parts: args, models, backend, ingest, references, latency (bench/README.md).
 #include <cstdio>
 #include <memory>

@@ -1,5 +1,5 @@
 // meshstream_bench_soak: the server's memory under a long churn of sessions
-// (issue 23's soak; docs/stream-benchmarks.md, "Soak").
+// (issue 23's soak; docs/results/stream-benchmarks.md, "Soak").
 //
 // One run:
 //   - a network namespace joined to the host by a veth pair
@@ -18,7 +18,7 @@
 // minute never more than 10 % above its value at the first minute.
 // A session that fails, or that the pool could not open within a second of
 // its time (the machine could not keep the rate), is counted and reported.
-// Writes one JSON object (--out, default docs/bench/soak.json).
+// Writes one JSON object (--out, default docs/results/bench/soak.json).
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -80,7 +80,7 @@ json MsQuantiles(std::vector<double> v) {
                "  --workers N         client threads polling sessions at once (default 16)\n"
                "  --sample-s S        seconds between memory samples (default 5)\n"
                "  --session-timeout-s S  a session not complete by then is a failure (default 60)\n"
-               "  --out FILE          the JSON written (default docs/bench/soak.json)\n");
+               "  --out FILE          the JSON written (default docs/results/bench/soak.json)\n");
   std::exit(error.empty() ? 0 : 2);
 }
 
@@ -93,7 +93,7 @@ struct Args {
   double sample_s = 5;
   double session_timeout_s = 60;
   bool quick = false;
-  std::string out = "docs/bench/soak.json";
+  std::string out = "docs/results/bench/soak.json";
   // --client only
   std::string server;
   std::string asset;

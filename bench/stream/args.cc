@@ -15,7 +15,7 @@ const char kAbout[] =
     "Benchmarks the streaming sessions (meshstream serve, in this process, SQLite store) against\n"
     "the Draco GLB export of the same server and the loopback's sendmmsg limit, measured in the\n"
     "same run, and then over a shaped, lossy link (a network namespace; skipped, with the reason,\n"
-    "where namespaces cannot be made); writes one JSON object (default docs/bench/stream.json).\n";
+    "where namespaces cannot be made); writes one JSON object (default docs/results/bench/stream.json).\n";
 
 // The loopback parts' options (1. and 2.).
 void LoopbackOptions(Options& o, Args& a) {
@@ -42,7 +42,7 @@ void LoopbackOptions(Options& o, Args& a) {
         "niceness of the clients' processes on loopback (default 0: the server's;\n"
         "19: the server first, as on a machine of its own)");
   o.String("--work-dir", "DIR", &a.work_dir, "where the store lives (default: $TMPDIR or /tmp)");
-  o.String("--out", "FILE", &a.out, "the JSON written (default docs/bench/stream.json)");
+  o.String("--out", "FILE", &a.out, "the JSON written (default docs/results/bench/stream.json)");
   o.Flag("--verbose", &a.verbose, "the server's log lines on stderr");
 }
 

@@ -37,7 +37,7 @@ struct Args {
   int64_t shaped_samples = 200000;
   double shaped_timeout_s = 60;
   bool shaped_udp_only_loss = false;
-  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/bench/stream.json";
+  std::string out = std::string(MESHSTREAM_SOURCE_DIR) + "/docs/results/bench/stream.json";
 };
 
 // The options of argv (Die on a bad one, exit 0 after --help), --quick's

@@ -1,5 +1,5 @@
 // meshstream_bench_stream: the benchmark of the streaming sessions
-// (docs/stream-benchmarks.md).
+// (docs/results/stream-benchmarks.md).
 //
 // One process runs everything on one machine, in one run:
 //   - a meshstream server (Server::Start, in-process, 2 workers, UDP on the
@@ -41,7 +41,7 @@
 // A session that ends in kError (or does not reach the full mesh, or takes
 // longer than the deadline) and an export that fails are counted and
 // reported ("failures"; the shaped link's in "shaped"), never timed.
-// Writes one JSON object (--out, default docs/bench/stream.json);
+// Writes one JSON object (--out, default docs/results/bench/stream.json);
 // bench/plot_stream.py draws it.
 #include <cstdio>
 #include <filesystem>

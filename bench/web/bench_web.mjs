@@ -1,4 +1,4 @@
-// The browser benchmark (make bench-web, docs/web-benchmarks.md): in headless
+// The browser benchmark (make bench-web, docs/results/web-benchmarks.md): in headless
 // Chromium (Debian's, driven by puppeteer-core), the viewer page of a real
 // `meshstream serve --http-listen` loads each asset
 //   - `draco`:  the Draco .glb export through three.js's GLTFLoader and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# make bench-web (docs/web-benchmarks.md): starts `meshstream serve
+# make bench-web (docs/results/web-benchmarks.md): starts `meshstream serve
 # --http-listen 127.0.0.1:0` on a temporary store with the viewer's bundle,
 # ingests the bunny, the horse and 2CylinderEngine, runs bench_web.mjs (the
 # three pages in headless Chromium on loopback and on the shaped link, and

@@ -1,4 +1,4 @@
-// The progressive bitstream of one primitive (docs/progressive-format.md):
+// The progressive bitstream of one primitive (docs/spec/progressive-format.md):
 // shared definitions of the stream writer (writer.h) and reader (reader.h),
 // mirrored stages in the manner of Draco's prediction schemes.
 //
@@ -33,7 +33,7 @@ namespace meshstream {
 // version 3 stream is a version 4 stream of the loss-tolerant profile
 // without the profile byte, a version 2 stream a version 3 stream whose
 // tools fit one byte, a version 1 stream one without coding tools
-// (docs/progressive-format.md, section 10).
+// (docs/spec/progressive-format.md, section 10).
 constexpr uint8_t kStreamVersion = 4;
 constexpr uint8_t kOldestStreamVersion = 1;
 constexpr uint8_t kDatagramMagic = 0x4D;  // 'M'
@@ -46,7 +46,7 @@ constexpr bool IsStreamVersion(uint64_t version) {
 }
 constexpr const char* kStreamVersionsText = "1, 2, 3 or 4";
 
-// The two profiles of version 4 (docs/progressive-format.md, "Version 4").
+// The two profiles of version 4 (docs/spec/progressive-format.md, "Version 4").
 // Loss-tolerant: the paper's rules (independent splits, split bits from the
 // reliable graph, datagrams that decode on their own): what UDP sessions
 // receive; every stream before version 4 is one. Reliable: for transports
@@ -188,7 +188,7 @@ class ParsedDatagram {
 bool DatagramFits(const DatagramHeader& h, const StreamHeader& header);
 
 // The END datagram the sender puts on the unreliable channel after the data
-// datagrams of a refinement (docs/progressive-format.md, section 6).
+// datagrams of a refinement (docs/spec/progressive-format.md, section 6).
 std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint32_t datagrams,
                                      uint8_t version = kStreamVersion);
 
@@ -196,7 +196,7 @@ std::vector<uint8_t> MakeEndDatagram(uint32_t stream, uint32_t refinement, uint3
 // `stream_header` (its bytes as the artifact and SessionStart carry them):
 // the one form of a session's END, whether the server sends it as a datagram
 // or the client rebuilds it from RefinementEnd or for a repair. It carries
-// the stream's version, the header's first byte (docs/progressive-format.md,
+// the stream's version, the header's first byte (docs/spec/progressive-format.md,
 // sections 3 and 6; kStreamVersion for an empty header, which no reader
 // accepts anyway). Safe on any header bytes: only the first is read.
 std::vector<uint8_t> MakeStreamEndDatagram(const uint8_t* stream_header, size_t header_size, uint32_t stream,

@@ -8,10 +8,10 @@
 // before anything it carries is stored, and a datagram that does not decode
 // cleanly is dropped whole and counted. Split bits and models are reliable:
 // an error there fails the stream, and their decoding never looks at
-// connectivity or positions (docs/design.md, "Reliable data"), so they decode bit-exactly
+// connectivity or positions (docs/design/design.md, "Reliable data"), so they decode bit-exactly
 // whatever was lost.
 //
-// Loss (docs/loss-tolerance.md): FinishRefinement applies every split whose
+// Loss (docs/design/loss-tolerance.md): FinishRefinement applies every split whose
 // structure and geometry arrived, and recovers the others by `Recovery`:
 // kPredict predicts what is missing (paper, section 4.4; split_prediction.h)
 // so every level has the lossless vertex count; kLwop abandons the split and
@@ -83,7 +83,7 @@ class StreamReader {
   const RecoveryStats& recovery_stats() const { return recovery_stats_; }
   const RefinementState& state() const { return state_; }
   // Per canonical vertex id: 1 decoded exactly, 0 predicted, moved by a
-  // prediction, or with a ring a prediction changed (docs/design.md, "Prediction").
+  // prediction, or with a ring a prediction changed (docs/design/design.md, "Prediction").
   const std::vector<uint8_t>& reliable() const { return state_.reliable; }
   // Vertices that reliable() marks 0 and that exist.
   uint64_t unreliable_vertices() const;

@@ -1,5 +1,5 @@
 // The split data of a refinement in the reliable profile (format version 4,
-// profile 1; docs/progressive-format.md, "Version 4", "Reliable payload"):
+// profile 1; docs/spec/progressive-format.md, "Version 4", "Reliable payload"):
 // after the split bits and the predictor record, the rest of the control
 // block is one range-coded payload with every split's structure and
 // geometry in split order, coded with one adaptive model per slot (the

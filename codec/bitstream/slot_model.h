@@ -2,7 +2,7 @@
 // one refinement, and the coder a datagram runs with it. Without the model
 // modes tool every slot is static: one table that every datagram of the
 // refinement shares. With it (version 3, kToolModelModes;
-// docs/progressive-format.md, section 5.1) a slot may instead be adaptive:
+// docs/spec/progressive-format.md, section 5.1) a slot may instead be adaptive:
 // each datagram starts an AdaptiveModel from the slot's prior, so the
 // datagrams still decode on their own.
 #ifndef MESHSTREAM_CODEC_BITSTREAM_SLOT_MODEL_H_
@@ -26,7 +26,7 @@ enum class ModelMode : uint8_t {
 constexpr uint8_t kModelModes = 4;
 
 // What slot k codes: slots 0 and 1 the cut rank's digits (indices below
-// the maximum valence), slots 2.. signed values (docs/progressive-format.md,
+// the maximum valence), slots 2.. signed values (docs/spec/progressive-format.md,
 // section 5). A larger alphabet names nothing.
 inline SymbolKind SlotKind(size_t slot) { return slot < 2 ? SymbolKind::kIndex : SymbolKind::kSigned; }
 inline uint32_t SlotAlphabet(size_t slot) { return SlotAlphabetOf(SlotKind(slot)); }

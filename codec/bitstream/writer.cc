@@ -26,7 +26,7 @@ namespace {
 // then one per attribute channel. Each slot either carries a new model or
 // reuses the previous refinement's (when that costs fewer bits); with the
 // model modes tool a new model may be adaptive (slot_model.h), see
-// docs/progressive-format.md, "Control block".
+// docs/spec/progressive-format.md, "Control block".
 struct RefinementModels {
   std::vector<SlotModel> slots;
 };
@@ -34,7 +34,7 @@ struct RefinementModels {
 // A refinement as the datagrams carry it: its splits and, per split, the
 // index of its seam twin's split (kNoTwin for an interior split). A seam
 // pair's primary (the smaller index) carries both sides; the secondary's
-// unit is empty (docs/progressive-format.md, "Seam split").
+// unit is empty (docs/spec/progressive-format.md, "Seam split").
 struct CodedRefinement {
   const Refinement& r;
   const std::vector<uint32_t>& partner;
@@ -308,7 +308,7 @@ double ResidualBits(const std::vector<Vec3i>& residuals) {
 // spaced): the fit's cost and memory stay bounded on any mesh.
 constexpr size_t kMaxPredictorSamples = 1 << 16;
 
-// The ring predictor's record in a control block (docs/progressive-format.md
+// The ring predictor's record in a control block (docs/spec/progressive-format.md
 // section 4.7): 0 to keep the previous refinement's weights, or 1 and the
 // six weights as zigzag varints.
 void WritePredictorRecord(const PredictorWeights& w, const PredictorWeights& previous, ByteWriter& out) {
@@ -570,7 +570,7 @@ StatusOr<ProgressiveStream> WriteStream(const ProgressiveEncoded& e, const Quant
     MS_RETURN_IF_ERROR(state.SetTwins(pm.base_twins));
   }
   // The reliable profile: split bits in contexts of the coarser mesh, the
-  // split data in the control block (docs/progressive-format.md, "Version 4").
+  // split data in the control block (docs/spec/progressive-format.md, "Version 4").
   ConnectedSplitBits connected;
   ReliablePayload payload;
   if (reliable) {

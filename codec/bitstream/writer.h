@@ -1,6 +1,6 @@
 // Writes a ProgressiveEncoded mesh as a progressive stream: entropy coding of
 // the reliable part (split bits with contexts, static models) and
-// packetization of structure and geometry into datagrams (paper, 4.2; docs/design.md,
+// packetization of structure and geometry into datagrams (paper, 4.2; docs/design/design.md,
 // "Independent datagrams").
 //
 // Interleaving: the splits of a refinement are dealt round-robin to its D
@@ -33,7 +33,7 @@ struct StreamWriteOptions {
   ToolSet tools = kAllTools;         // StreamTool bits (coding_tools.h)
   // With the ring predictor: a refinement uses its 2-ring term only where it
   // saves at least this many bits per split (estimated), because it costs
-  // the decoder a walk over the faces of the ring (docs/codec.md, "The ring
+  // the decoder a walk over the faces of the ring (docs/design/codec.md, "The ring
   // predictor": about 0.3 % of the bunny's bytes for about 15 % more decode
   // instructions). 0: wherever it saves anything.
   double ring_term_bits = 0.5;

@@ -1,5 +1,5 @@
 // Little-endian byte writing and bounds-checked reading for meshstream's
-// bitstreams (docs/progressive-format.md).
+// bitstreams (docs/spec/progressive-format.md).
 //
 // Contract: ByteReader is safe on untrusted input: it never reads past its span; every getter returns an
 // error naming `what` when the bytes are missing or a varint is malformed

@@ -1,4 +1,4 @@
-// The erasure code of parity datagrams (docs/progressive-format.md, section
+// The erasure code of parity datagrams (docs/spec/progressive-format.md, section
 // 7 "Parity"), as a caller gives it to the codec: codec/ links no
 // third-party library (docs/architecture.md), so the code's arithmetic comes
 // from outside, as threads do (task_runner.h). fec/reed_solomon.h has the one

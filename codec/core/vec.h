@@ -31,7 +31,7 @@ inline Vec2d Sub(const Vec2d& a, const Vec2d& b) { return {a[0] - b[0], a[1] - b
 inline double Cross(const Vec2d& a, const Vec2d& b) { return a[0] * b[1] - a[1] * b[0]; }
 // Plane coordinates come from 32-bit grid values, so the squares cannot
 // overflow a double: plain sqrt (std::hypot's overflow care cost 13 % of a
-// decode at 12 % loss, docs/decode-profile.md).
+// decode at 12 % loss, docs/results/decode-profile.md).
 inline double Distance(const Vec2d& a, const Vec2d& b) {
   const double dx = a[0] - b[0], dy = a[1] - b[1];
   return std::sqrt(dx * dx + dy * dy);

@@ -1,10 +1,10 @@
 // Adaptive frequency models for the datagram payloads of version 3 (tool
-// kToolModelModes; docs/progressive-format.md, section 5.1). A model starts
+// kToolModelModes; docs/spec/progressive-format.md, section 5.1). A model starts
 // from prior counts that the refinement's control block describes, either a
 // one-byte member of a parametric family (ParametricPrior) or a static table
 // (TablePrior), and adapts to the symbols it codes within one datagram only:
 // every datagram starts again from the prior, so each still decodes on its
-// own (docs/design.md, "Independent datagrams").
+// own (docs/design/design.md, "Independent datagrams").
 //
 // Adaptation: a coded symbol's count grows by kIncrement; when the total
 // exceeds kLimit every count is halved, rounding up (no count reaches 0,
@@ -77,7 +77,7 @@ constexpr uint32_t SlotAlphabetOf(SymbolKind kind) { return kind == SymbolKind::
 
 // The parametric family: parameter x in [0, kParametricParameters) stands
 // for theta = 1 - 8 / ((8 + x mod 8) 2^(x / 8)) (from a spike at 0 to
-// nearly flat), counts summing to about 4096 (docs/progressive-format.md,
+// nearly flat), counts summing to about 4096 (docs/spec/progressive-format.md,
 // section 5.1, gives the integer arithmetic).
 constexpr uint32_t kParametricParameters = 160;
 ModelPrior ParametricPrior(SymbolKind kind, uint32_t alphabet, uint32_t x);

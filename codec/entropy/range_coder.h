@@ -74,7 +74,7 @@ class RangeDecoder {
   // per normalization; the encoder's 5 final shifts minus its dropped first
   // byte make the same count), so this holds at the end of every block the
   // encoder wrote; a block with stray bytes after its data, or cut short,
-  // fails it (docs/progressive-format.md, section 7).
+  // fails it (docs/spec/progressive-format.md, section 7).
   bool ended_exactly() const { return pos_ == size_; }
 
  private:

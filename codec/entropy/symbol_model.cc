@@ -114,7 +114,7 @@ void EncodeSignedRest(RangeEncoder& enc, uint32_t symbol, int32_t v) {
 
 int32_t DecodeSignedRest(RangeDecoder& dec, uint32_t symbol) {
   // Unreachable from a stream: the reader's signed-value models have at most
-  // kSignedSymbols symbols (docs/progressive-format.md, section 5).
+  // kSignedSymbols symbols (docs/spec/progressive-format.md, section 5).
   if (symbol >= kSignedSymbols) return 0;
   const uint32_t length = (symbol - kDirectSymbols) / 2 + 5;
   const uint32_t second = (symbol - kDirectSymbols) & 1;

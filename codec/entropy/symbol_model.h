@@ -31,7 +31,7 @@ class StaticModel {
   // frequency. An all-zero histogram gives a model of symbol 0 only.
   static StaticModel FromCounts(const std::vector<uint64_t>& counts);
   // Refuses an alphabet size of 0 or above `max_alphabet` (the slot's: 16 for
-  // wings, kSignedSymbols for signed values; docs/progressive-format.md,
+  // wings, kSignedSymbols for signed values; docs/spec/progressive-format.md,
   // section 5), a stray high nibble, codes that are all 0, and codes whose
   // largest symbol would be left with a frequency below 1.
   static StatusOr<StaticModel> Parse(ByteReader& reader, uint32_t max_alphabet = kMaxAlphabet);

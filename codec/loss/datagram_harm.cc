@@ -124,7 +124,7 @@ struct FanScratch {
 // The local distance of split (w, n) between the coded and the predicted
 // state, in grid units: the largest distance of w or n in either state to
 // the other state's fans (0 when both placed them alike). Measured on the
-// loss bench (docs/loss-protection.md, "The harm estimate"), adding the
+// loss bench (docs/design/loss-protection.md, "The harm estimate"), adding the
 // fans' centroids (a cut the prediction placed elsewhere) changed the
 // largest distance of a refinement by at most 0.02 % of the diagonal on
 // the shared models and tripled the cost.

@@ -44,7 +44,7 @@ struct DatagramHarm {
 
 // What the encoder measures by default, in a fraction of the time: a
 // refinement deals its splits round-robin to its datagrams, so they harm
-// alike (docs/loss-protection.md has the measurements); one datagram per
+// alike (docs/design/loss-protection.md has the measurements); one datagram per
 // refinement (its largest) is measured, finest refinement first, and once
 // `stop_after` refinements in a row harm more than `stop_above` the coarser
 // ones (which harm more still) are not measured but given the largest value
@@ -64,7 +64,7 @@ struct HarmOptions {
 StatusOr<DatagramHarm> MeasureDatagramHarm(const ProgressiveStream& stream, const QuantizedMesh& base,
                                            TaskRunner* runner = nullptr, const HarmOptions& options = {});
 
-// The encoder's estimate of the same (docs/loss-protection.md, "The harm
+// The encoder's estimate of the same (docs/design/loss-protection.md, "The harm
 // estimate"), at about the cost of two decodes instead of one decode per
 // refinement: for each refinement, the refinement alone is decoded again
 // from the loss-free state before it, without the datagrams measured, and
@@ -90,7 +90,7 @@ StatusOr<DatagramHarm> MeasureDatagramHarm(const ProgressiveStream& stream, cons
 // kSpreadMargin times it. With it, the tiers (protection.h) of the five
 // shared models are those the measure gives but for two of the bunny's
 // refinements, which get strong parity where the measure says parity
-// (docs/loss-protection.md, "The harm estimate"; the loss bench's
+// (docs/design/loss-protection.md, "The harm estimate"; the loss bench's
 // `datagram_harm_estimate` beside `datagram_harm`).
 // Contract: as MeasureDatagramHarm (stop_above and stop_after unused).
 constexpr double kSpreadMargin = 1.5;

@@ -1,7 +1,7 @@
-// Parity datagrams (docs/progressive-format.md, section 6.1): Reed-Solomon
+// Parity datagrams (docs/spec/progressive-format.md, section 6.1): Reed-Solomon
 // parity over a block of data datagrams that may span consecutive
 // refinements of one stream, so that a receiver rebuilds lost datagrams
-// without asking again (docs/loss-protection.md). The code's arithmetic is
+// without asking again (docs/design/loss-protection.md). The code's arithmetic is
 // the caller's ErasureCode (codec/core/erasure_code.h).
 //
 // Symbols: the block's members in block order, each cut into symbols of S

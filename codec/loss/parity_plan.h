@@ -1,6 +1,6 @@
 // Which data datagrams a sender protects with parity, in which blocks, and
 // how many parity rows a block gets for the loss a client reports
-// (docs/loss-protection.md, "Blocks" and "How much parity").
+// (docs/design/loss-protection.md, "Blocks" and "How much parity").
 //
 // Blocks: the datagrams of the protected refinements (the delivery record's
 // choice, protection.h), in send order, cut into blocks of at most
@@ -39,7 +39,7 @@ struct ParityPlanOptions {
   uint32_t block_datagrams = 100;  // members per block, at most (and at most 255)
   uint32_t max_span = 16;          // refinements one block spans, at most (the receiver's parity horizon: 20)
   uint32_t interleave = 3;        // a parity goes out after every this many data datagrams
-  double block_failure = 0.3;     // the chance a block keeps a loss, at most (docs/loss-protection.md)
+  double block_failure = 0.3;     // the chance a block keeps a loss, at most (docs/design/loss-protection.md)
   double strong_failure = 0.1;    // the same for a block of the strong tier
   double max_rate = 0.5;          // parity rows per data row, at most
   uint32_t max_data_rows = 160;   // data rows of a block, at most (the symbol size grows instead)

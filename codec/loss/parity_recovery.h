@@ -1,7 +1,7 @@
 // The receiver's half of parity datagrams (codec/loss/parity.h): keeps a
 // copy of every data datagram of a stream's recent refinements, gathers the
 // parity of each block, and rebuilds a block's lost members as soon as k of
-// its n rows are in (docs/loss-protection.md, "Receiving"). The stream
+// its n rows are in (docs/design/loss-protection.md, "Receiving"). The stream
 // reconstructor owns one and hands what it rebuilds back to itself as
 // arrivals.
 //
@@ -56,7 +56,7 @@ class ParityRecovery {
   // some of a block that holds r came and the block is still short of rows,
   // or no parity came yet for a block that begins after r. A sender begins
   // sending its blocks' parity in the order of their members
-  // (docs/loss-protection.md), so once a later block's parity is in and no
+  // (docs/design/loss-protection.md), so once a later block's parity is in and no
   // block holding r is gathering rows, r's block's parity was lost, or r
   // has none.
   bool MayStillCover(uint32_t r) const;

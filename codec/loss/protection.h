@@ -1,4 +1,4 @@
-// Protection by harm per byte (docs/loss-protection.md): per refinement of a
+// Protection by harm per byte (docs/design/loss-protection.md): per refinement of a
 // stream, what its datagrams' loss would do to the final mesh (its largest
 // single-loss Hausdorff distance, datagram_harm.h) decides how it travels:
 //   - on the reliable cut (reliable_cut.h): it cannot be lost;

@@ -1,4 +1,4 @@
-// Importance-ordered delivery (docs/loss-tolerance.md, "The reliable cut"):
+// Importance-ordered delivery (docs/design/loss-tolerance.md, "The reliable cut"):
 // which refinements of a stream travel on the reliable channel with their
 // datagrams, so that their loss cannot happen, and which go as datagrams that
 // may be lost and are then predicted.
@@ -33,7 +33,7 @@ constexpr double kReferenceLoss = 0.12;
 constexpr double kMaxReliableShare = 0.20;
 
 // A stream's reliable cut as the progressive .glb records it (the "delivery"
-// member of MESHSTREAM_progressive, docs/progressive-format.md section 1;
+// member of MESHSTREAM_progressive, docs/spec/progressive-format.md section 1;
 // importers/progressive_glb.h reads and writes it) and the stream layout
 // carries it. A share of 0 and empty lists: no cut (every datagram as UDP).
 struct DeliveryRecord {

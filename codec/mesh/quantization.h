@@ -1,7 +1,7 @@
 // Quantization of vertex attributes onto integer grids, with parameters like
 // Draco's (--qp, --qn, --qt, --qc).
 //
-// Positions (docs/design.md, "The position grid"): origin at the minimum corner of the
+// Positions (docs/design/design.md, "The position grid"): origin at the minimum corner of the
 // bounding box of the referenced vertices, one step for all three axes,
 // step = range / (2^bits - 1) where range is the largest extent (rounded to
 // float, as Draco stores it; 1 when the extent is 0), value = round((x - origin) / step).

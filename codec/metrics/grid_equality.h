@@ -1,9 +1,9 @@
 // Bit-exact comparison of two triangle primitives on one position grid: the
-// check behind "lossless when nothing is lost" (docs/design.md, "Lossless") and
+// check behind "lossless when nothing is lost" (docs/design/design.md, "Lossless") and
 // `meshstream compare --qp`.
 //
 // Both primitives are quantized on A's grid, PositionGrid(a.positions,
-// a.indices, qp) (codec/mesh/quantization.h; docs/design.md, "The position grid"). A face
+// a.indices, qp) (codec/mesh/quantization.h; docs/design/design.md, "The position grid"). A face
 // becomes the triple of the integer positions of its three corners. Two faces
 // are equal when one triple is a cyclic rotation of the other: (p, q, r),
 // (q, r, p) and (r, p, q) are the same oriented triangle, (p, r, q) (reversed

@@ -1,5 +1,5 @@
 // Simplification of a quantized mesh in batches of edge collapses: the
-// encoder side of the progressive codec (paper, section 3 and 4.5; docs/design.md,
+// encoder side of the progressive codec (paper, section 3 and 4.5; docs/design/design.md,
 // "Batches").
 //
 // Each batch picks edges by a quadric error metric evaluated at the
@@ -63,7 +63,7 @@ enum class BatchRule {
               // collapse on both sides together as under kStrict. The decoder
               // applies a refinement's splits one after the other in split-bit
               // order, each on the mesh the earlier ones left
-              // (docs/progressive-format.md, "Version 4").
+              // (docs/spec/progressive-format.md, "Version 4").
 };
 
 struct SimplifyOptions {
@@ -74,7 +74,7 @@ struct SimplifyOptions {
   // min_batch_collapses and less than min_batch_share of the vertices left:
   // a level costs its control block and datagram headers (about 130 bytes
   // on spot) whatever its size, more than a few base vertices cost in Draco
-  // (docs/codec.md, "The base").
+  // (docs/design/codec.md, "The base").
   double min_batch_share = 0.05;
   uint32_t min_batch_collapses = 16;
   int max_valence = 14;         // of a collapsed vertex

@@ -1,8 +1,8 @@
 // The coding tools of a stream: the bits of the stream header's `tools`
-// field (docs/progressive-format.md, section 3). The encoder uses all of them
+// field (docs/spec/progressive-format.md, section 3). The encoder uses all of them
 // that its version defines (kToolTexcoordPrediction only in streams with
 // texture coordinates or colours); each can be turned off
-// (StreamWriteOptions::tools) to measure what it saves (docs/codec.md). A
+// (StreamWriteOptions::tools) to measure what it saves (docs/design/codec.md). A
 // version 1 stream has no tools; version 2 defines bits 0-5 (one byte in its
 // header), version 3 bits 0-8 (two bytes).
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_CODING_TOOLS_H_
@@ -35,7 +35,7 @@ constexpr ToolSet kVersion3Tools = kVersion2Tools | kToolSplitContexts | kToolMo
 constexpr ToolSet kVersion4Tools = kVersion3Tools | kToolCutCrossings;
 // Every tool some version defines.
 constexpr ToolSet kEveryTool = kVersion4Tools;
-// What an encoder uses when told nothing (the measured defaults, docs/codec.md).
+// What an encoder uses when told nothing (the measured defaults, docs/design/codec.md).
 constexpr ToolSet kAllTools = kVersion3Tools;
 
 // The tools a stream of `version` may carry (0 for version 1, and for an

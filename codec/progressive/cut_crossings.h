@@ -1,5 +1,5 @@
 // Cut edges ranked by the ring's crossings (format version 4, tool bit 9;
-// docs/progressive-format.md section 4.8): the same candidates and rank
+// docs/spec/progressive-format.md section 4.8): the same candidates and rank
 // symbols as wing_rank.h (the D floor(D/2) pairs (x, x + k mod D), 1 <= k <=
 // D/2, the rank as two base-16 digits), in an order that costs O(D)
 // arithmetic to predict instead of a score of every pair (issue 42: the

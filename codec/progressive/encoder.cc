@@ -177,10 +177,10 @@ StatusOr<ProgressiveEncoded> EncodeProgressive(const Primitive& input, const Pro
 StatusOr<ProgressiveEncoded> EncodeProgressiveQuantized(QuantizedMesh input, const ProgressiveEncodeOptions& options,
                                                         const BaseMeshEncoder& base_encoder) {
   if (options.simplify.rule == BatchRule::kPaper) {
-    return InvalidArgument("the progressive codec takes the strict batch rule or the matching rule (docs/codec.md)");
+    return InvalidArgument("the progressive codec takes the strict batch rule or the matching rule (docs/design/codec.md)");
   }
   // The matching rule's splits are applied one after the other, each on the
-  // mesh the earlier ones of its refinement left (docs/progressive-format.md,
+  // mesh the earlier ones of its refinement left (docs/spec/progressive-format.md,
   // "Version 4"); the strict rule's are independent.
   const bool sequential = options.simplify.rule == BatchRule::kMatching;
   const AttributeLayout layout = input.layout;

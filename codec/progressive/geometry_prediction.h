@@ -1,5 +1,5 @@
 // Prediction of a split's geometry from the coarser mesh (format version 2,
-// docs/progressive-format.md section 4, "Geometry prediction"): the split
+// docs/spec/progressive-format.md section 4, "Geometry prediction"): the split
 // vector d = u - v is predicted from the positions of w's ring on the two
 // sides of the cut, and the residual is coded in the ring's local frame
 // (local_frame.h: two tangential components and a normal one).

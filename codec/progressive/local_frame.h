@@ -1,4 +1,4 @@
-// The local frame of a split (format version 2, docs/progressive-format.md
+// The local frame of a split (format version 2, docs/spec/progressive-format.md
 // section 4.1): an exactly invertible integer rotation that takes the fan
 // normal of w's ring to the z axis, so that a residual's two tangential
 // components and its normal component are coded with their own models.

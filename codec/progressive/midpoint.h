@@ -1,6 +1,6 @@
 // The reversible midpoint/difference transform of the geometric data of a
 // split: the coarser vertex holds floor((u + v) / 2), the split sends
-// d = u - v, and FromMidpoint gives u back exactly (docs/progressive-format.md,
+// d = u - v, and FromMidpoint gives u back exactly (docs/spec/progressive-format.md,
 // "Geometry"). Header-only, pure, overflow-free for any int32 inputs.
 #ifndef MESHSTREAM_CODEC_PROGRESSIVE_MIDPOINT_H_
 #define MESHSTREAM_CODEC_PROGRESSIVE_MIDPOINT_H_

@@ -1,5 +1,5 @@
 // Prediction of a split's normals from its decoded geometry (format version
-// 2, tool bit 3; docs/progressive-format.md section 4.3): once a split's
+// 2, tool bit 3; docs/spec/progressive-format.md section 4.3): once a split's
 // positions and triangles are in place, the normals of w and of the new
 // vertex are predicted as the octahedral codes (at qn bits) of their
 // area-weighted vertex normals, and the normal channels' difference
@@ -23,7 +23,7 @@ namespace meshstream {
 WideVec3 VertexNormal(const RefinementState& state, uint32_t v);
 
 // The octahedral code (s, t) of a direction at `bits` per component
-// (docs/progressive-format.md section 3, "Octahedral normals", in integers).
+// (docs/spec/progressive-format.md section 3, "Octahedral normals", in integers).
 std::array<int32_t, 2> OctahedralCode(const WideVec3& n, int bits);
 
 // The predicted difference of the normal codes of w and the new vertex n,

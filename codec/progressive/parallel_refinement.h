@@ -1,6 +1,6 @@
 // A refinement whose data all arrived, decoded in two phases so that its
 // splits can run on several cores with the output bit-identical to the
-// one-thread decode (docs/decode-profile.md, "The batch in parallel"):
+// one-thread decode (docs/results/decode-profile.md, "The batch in parallel"):
 //
 //   Plan (phase A, tasks on a TaskRunner, read-only on the state): per
 //   split, w's ring and its triangles, the ring's positions and local

@@ -3,7 +3,7 @@
 // bitstream/writer.h turns it into bytes and datagrams, bitstream/reader.h
 // back; this header is the contract between encoder and decoder.
 //
-// Canonical order (docs/design.md, "Canonical order"): the base mesh's vertices are numbered
+// Canonical order (docs/design/design.md, "Canonical order"): the base mesh's vertices are numbered
 // in the order in which its decoder (Draco) returns them. Refinement i splits
 // the vertices whose split bit is 1, in ascending id order; the j-th split
 // creates vertex `vertices_before + j`. Ids therefore follow from the split

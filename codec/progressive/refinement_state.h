@@ -5,7 +5,7 @@
 // This header applies splits whose structure and geometry are both known
 // (the lossless path, and case 1 of the paper under loss). What happens to a
 // split whose data was lost lives in recovery/recover_split.h; both keep the
-// vertex numbering of the split bits (docs/design.md, "Canonical order").
+// vertex numbering of the split bits (docs/design/design.md, "Canonical order").
 //
 // Contract: pure; errors leave the state valid. Reserve* grow storage only
 // by the splits really applied, never to a size a header merely claims.
@@ -26,7 +26,7 @@
 
 namespace meshstream {
 
-// Per-vertex flags of a decoder's state (docs/loss-tolerance.md).
+// Per-vertex flags of a decoder's state (docs/design/loss-tolerance.md).
 enum VertexFlag : uint8_t {
   kRingInexact = 1,      // its ring may differ from the lossless decode's
   kPositionInexact = 2,  // its values may differ from the lossless decode's

@@ -1,4 +1,4 @@
-// The ring predictor of format version 3 (tool bit 8, docs/progressive-format.md
+// The ring predictor of format version 3 (tool bit 8, docs/spec/progressive-format.md
 // section 4.7): a split vector predicted in the ring's local frame as a
 // weighted sum of three features of the coarser mesh, with one set of weights
 // for the two tangential components and one for the normal one:
@@ -11,7 +11,7 @@
 //          refinement and not split by it (the 2-ring term).
 // Only stable vertices enter, so no split of a refinement reads what another
 // writes: the prediction is the same whatever order the splits are applied
-// in (the property docs/design.md's batches rest on), except where a ring
+// in (the property docs/design/design.md's batches rest on), except where a ring
 // vertex's triangle count crosses kMaxUmbrellaFaces during the refinement
 // (a split adds a triangle to each of its wings; the count is taken when the
 // split is applied): the parallel decode checks that (RefinementPlan::Holds).

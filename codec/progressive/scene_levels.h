@@ -1,6 +1,6 @@
 // What a level means across the primitives of a scene, and the order their
-// refinements travel in (docs/streaming-protocol.md, "Levels of a scene";
-// docs/progressive-format.md, "Levels of a scene").
+// refinements travel in (docs/spec/streaming-protocol.md, "Levels of a scene";
+// docs/spec/progressive-format.md, "Levels of a scene").
 //
 // The order: every refinement of every primitive, by the error its
 // primitive still has before it (progressive/residual_error.h, in scene

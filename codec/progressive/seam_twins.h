@@ -1,6 +1,6 @@
 // Seam twins: the two copies of a vertex on a UV or normal seam, which a
-// glTF primitive keeps as two vertices with one position (docs/codec.md,
-// "Seams"; docs/progressive-format.md, "Seam split"). With the seams tool a
+// glTF primitive keeps as two vertices with one position (docs/design/codec.md,
+// "Seams"; docs/spec/progressive-format.md, "Seam split"). With the seams tool a
 // seam edge is collapsed on both sides in one batch, so the decoder splits
 // both copies in one refinement, with one split vector, and both sides stay
 // crack-free at every level.

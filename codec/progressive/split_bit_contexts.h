@@ -1,6 +1,6 @@
 // Coding of split bits in version 3 (tool kToolSplitContexts;
-// docs/progressive-format.md, section 4.6): an adaptive binary range coder
-// whose 41 contexts are computed from reliable data only (docs/design.md,
+// docs/spec/progressive-format.md, section 4.6): an adaptive binary range coder
+// whose 41 contexts are computed from reliable data only (docs/design/design.md,
 // "Reliable data") and whose models adapt over the whole stream (the
 // reliable channel is ordered, so refinement i's block is decoded after
 // refinement i - 1's).
@@ -23,7 +23,7 @@
 //     bit of v's parent in refinement i for a vertex made by refinement
 //     i - 1 and v's own bit in refinement i - 1 otherwise, and `degree` is
 //     v's number of reliable neighbours.
-// Measured before it was built (bench/codec_levers_v3.cc, docs/codec.md):
+// Measured before it was built (bench/codec_levers_v3.cc, docs/design/codec.md):
 // 3.10 against version 2's 3.52 bits per split on the bunny at qp 11.
 //
 // A vertex whose seam twin has a smaller id takes its twin's bit, which is

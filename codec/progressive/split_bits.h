@@ -1,7 +1,7 @@
 // Coding of a refinement's split bits in versions 1 and 2 (version 3:
 // split_bit_contexts.h) (one per vertex of the coarser mesh,
 // in canonical order) on the reliable channel: an adaptive binary range coder
-// whose contexts use only reliable data (docs/design.md, "Reliable data"):
+// whose contexts use only reliable data (docs/design/design.md, "Reliable data"):
 //   - the vertex's age: created by the previous refinement, by the one
 //     before, or older (base mesh);
 //   - for a vertex created by the previous refinement, whether the vertex it

@@ -1,5 +1,5 @@
 // Split bits of the reliable profile (format version 4, profile 1;
-// docs/progressive-format.md, "Version 4"): an adaptive binary range coder
+// docs/spec/progressive-format.md, "Version 4"): an adaptive binary range coder
 // whose contexts come from the coarser mesh as the decoder has it, which a
 // loss-free transport guarantees to be the encoder's (the loss-tolerant
 // profile may read only the reliable graph: split_bit_contexts.h).

@@ -7,7 +7,7 @@
 // triangle (w, x, y)) from b to a: the triangles on that path move to n, and
 // the triangles (w, n, a) and (n, w, b) are added. This is the exact inverse
 // of collapsing the edge (w, n) whose left and right triangles were
-// (w, n, a) and (n, w, b) (docs/progressive-format.md, "Vertex split").
+// (w, n, a) and (n, w, b) (docs/spec/progressive-format.md, "Vertex split").
 //
 // Contract: pure, no allocation beyond its vectors. A split needs w to be a
 // closed manifold fan: CyclicRing says so, and SplitAt may only follow a
@@ -60,7 +60,7 @@ class SplitConnectivity {
   // What a ring walk needs besides the ring: the walk's scratch and the
   // ring's triangles, which SplitAt reads. The walks only read the
   // connectivity, so with one RingWalk each, rings can be walked
-  // concurrently (a refinement's splits in parallel, docs/decode-profile.md).
+  // concurrently (a refinement's splits in parallel, docs/results/decode-profile.md).
   struct RingWalk {
     std::vector<uint32_t> xy;     // x then y per triangle of the ring
     std::vector<uint32_t> faces;  // triangle (w, ring[k], ring[k + 1])
@@ -96,7 +96,7 @@ class SplitConnectivity {
   uint32_t SplitAt(uint32_t w, const uint32_t* ring, const uint32_t* ring_faces, size_t degree, size_t a_at,
                    size_t b_at);
   // Splits a boundary vertex w right after OpenRing(w, ring) returned true,
-  // with the wing a = ring[a_at] (docs/progressive-format.md, "Seam split"):
+  // with the wing a = ring[a_at] (docs/spec/progressive-format.md, "Seam split"):
   // the triangles after a (toward ring.back()) move to the new vertex n when
   // `tail` is true, the triangles before a when it is false, and the
   // triangle (w, a, n) (tail) or (w, n, a) (head) is added. Returns n.
@@ -161,7 +161,7 @@ class SplitConnectivity {
 };
 
 // A triangle that names a vertex twice: it has no area, and the encoder
-// removes it before simplifying (docs/codec.md, "Locks and clean-up").
+// removes it before simplifying (docs/design/codec.md, "Locks and clean-up").
 inline bool RepeatsAnIndex(const Face& f) { return f[0] == f[1] || f[1] == f[2] || f[0] == f[2]; }
 
 // Rotates a face so that vertex v comes first; v must be in the face.

@@ -1,5 +1,5 @@
 // Prediction of a split's texture coordinate and colour differences from
-// the ring (format version 2, tool bit 4; docs/progressive-format.md section
+// the ring (format version 2, tool bit 4; docs/spec/progressive-format.md section
 // 4.4): within one UV chart the channels are locally a linear function of
 // the position on the surface, so the ring's least-squares linear map from
 // the tangent plane to each channel, applied to the split's own decoded

@@ -1,5 +1,5 @@
 // The cut edges of a split as a rank (format version 2, tool bit 2;
-// docs/progressive-format.md section 4.2): the wings (a, b) are one of the
+// docs/spec/progressive-format.md section 4.2): the wings (a, b) are one of the
 // D floor(D/2) pairs (x, x + k), 1 <= k <= D/2, of w's ring of D vertices,
 // and the decoder orders those pairs by how well the ring's geometry
 // suggests them: a split's cut runs across the direction in which the ring

@@ -1,5 +1,5 @@
 // Prediction of a vertex split whose data was lost (paper, section 4.4;
-// docs/loss-tolerance.md). Everything works on one split vertex w and its
+// docs/design/loss-tolerance.md). Everything works on one split vertex w and its
 // one-ring, in the least-squares plane of the ring: O(valence) per split, no
 // global pass.
 //
@@ -65,7 +65,7 @@ void PredictGeometry(const RingFrame& frame, size_t a_at, size_t b_at, const Vec
 // With structure and geometry both lost, a pair close to the coarse vertex
 // keeps the surface near the coarse one: measured on the bunny at 12 % loss
 // with bundled packing, 8 of 8 seeds closer to the lossless decode than LwoP
-// against 4 of 8 at the paper's full spread (docs/loss-tolerance.md).
+// against 4 of 8 at the paper's full spread (docs/design/loss-tolerance.md).
 constexpr double kCase2Spread = 0.25;
 
 }  // namespace meshstream

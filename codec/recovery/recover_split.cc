@@ -54,7 +54,7 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // the ring they count: when the geometry arrived, it decides the wings
   // (case 3) instead. Measured on the bunny at 12 % loss: the median
   // Hausdorff distance to the lossless decode drops from 1.5 % to 0.9 % of
-  // the diagonal (docs/loss-tolerance.md).
+  // the diagonal (docs/design/loss-tolerance.md).
   // Ranks in the ring's geometric order (the wing-rank tool) also count on
   // the ring's positions, and so do the split vector and the channels the
   // tools predict from the ring: a split applied as coded must be exact
@@ -62,7 +62,7 @@ SplitView Classify(const Refinement& r, size_t j, bool has_structure, bool has_g
   // predicted position are distrusted. (Trusting them instead brought the
   // bunny closer to the lossless decode at 12 % loss, mean distance summed
   // over seeds 1-6 0.95 -> 0.89 % of the diagonal, but applied inexact
-  // splits as exact; docs/loss-tolerance.md.)
+  // splits as exact; docs/design/loss-tolerance.md.)
   // (No flag is set before the first prediction or abandoned split.)
   // Without the rank, wings named by id fit or not whatever the positions,
   // but the split vector and the predicted channels still come from the
@@ -413,7 +413,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
   // closer (ranks trusted on predicted positions, mean distance summed over
   // seeds 1-6: 0.89 -> 0.77 per cent of
   // the diagonal) but fandisk farther than LwoP on all 6 seeds
-  // (docs/loss-tolerance.md).
+  // (docs/design/loss-tolerance.md).
   const bool relative = (coding.tools & kToolGeometryPrediction) != 0;
   const bool geometry = has_geometry && !(relative && !split.structure);
   Vec3i delta{};
@@ -442,7 +442,7 @@ Status Predict(const Refinement& r, size_t j, bool has_geometry, const SplitView
       ++stats->structure_fallbacks;
     }
   }
-  // Reliability bits (paper, section 4.5; docs/design.md, "Prediction"): the
+  // Reliability bits (paper, section 4.5; docs/design/design.md, "Prediction"): the
   // vertices of a split inherit what w depends on; predicted geometry marks
   // both; predicted structure marks both and the neighbours the new vertex
   // joins (ring[b..a]), whose rings it changed. Nothing spreads further: a

@@ -1,5 +1,5 @@
 // One split of a refinement with whatever of its data arrived (paper,
-// sections 4.3-4.5 and 5.3; docs/loss-tolerance.md):
+// sections 4.3-4.5 and 5.3; docs/design/loss-tolerance.md):
 //   case 1  structure and geometry arrived and fit the ring: applied as coded;
 //   case 2  both lost: wings and geometry predicted (recovery/prediction.h);
 //   case 3  structure lost (or not trusted), geometry arrived: wings from it;
@@ -7,7 +7,7 @@
 // With Recovery::kLwop (the paper's "loss without prediction") a split whose
 // data is missing, or that depends on one that was abandoned, is abandoned.
 //
-// Reliability bits (docs/design.md, "Prediction"): predicted vertices, split
+// Reliability bits (docs/design/design.md, "Prediction"): predicted vertices, split
 // vertices a prediction moved, and every vertex whose ring a prediction
 // changed are marked in the state's flags; a later split of a marked vertex
 // checks its coded structure against the ring it really has.

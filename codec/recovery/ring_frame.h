@@ -1,6 +1,6 @@
 // w's one-ring in its least-squares plane: the parametric plane in which
 // every prediction of a split works (paper, section 4.4, step 1;
-// docs/loss-tolerance.md).
+// docs/design/loss-tolerance.md).
 //
 // Contract: pure; never fails (a degenerate ring falls back to the fan's
 // plane, then to any plane); reuses the storage of `out`, so fitting a ring

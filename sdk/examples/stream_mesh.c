@@ -1,4 +1,4 @@
-/* stream_mesh: the C API of meshstream (docs/c-api.md) from end to end.
+/* stream_mesh: the C API of meshstream (docs/spec/c-api.md) from end to end.
  *
  *   stream_mesh SERVER ASSET OUT.glb [--tcp-only] [--token T]
  *

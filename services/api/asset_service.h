@@ -1,7 +1,7 @@
 // meshstream.v1.AssetService: a thin translation between protobuf and the
 // library (ingest/, export/, store/). Each method authenticates, converts
 // the request, calls the library and returns ToGrpcStatus of its Status
-// (docs/api.md).
+// (docs/spec/api.md).
 //
 // Thread safety: gRPC calls the methods from its threads at once; the class
 // holds only pointers to thread-safe parts.

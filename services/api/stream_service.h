@@ -1,5 +1,5 @@
 // meshstream.v1.StreamService: the reliable half of a streaming session
-// (docs/streaming-protocol.md, "Sessions") on gRPC's callback API. A thin
+// (docs/spec/streaming-protocol.md, "Sessions") on gRPC's callback API. A thin
 // transport on the session host (services/streaming/session_host.h), which
 // admits, prepares, registers and drives every session: each Open is a
 // grpc::ServerBidiReactor (StreamServiceImpl::Call, a QueuedSessionStream)

@@ -1,4 +1,4 @@
-// The assets over HTTP (docs/http-api.md, "Assets"): a thin translation of
+// The assets over HTTP (docs/spec/http-api.md, "Assets"): a thin translation of
 //   GET|HEAD /v1/assets/{asset}/versions/{version}/{format}[?lod=K]
 //   GET|HEAD /v1/assets[?page_size=N&page_token=T]
 // to the calls the gRPC AssetService makes (services/api/asset_service.cc):

@@ -1,5 +1,5 @@
 // Cross-origin reads from browsers (the Fetch standard's CORS protocol), by
-// `--http-cors-origin` (docs/http-api.md, "CORS").
+// `--http-cors-origin` (docs/spec/http-api.md, "CORS").
 //
 // A list of allowed origins, none by default: then no response carries a
 // CORS header and browsers keep pages of other origins from reading ours.

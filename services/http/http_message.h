@@ -2,12 +2,12 @@
 // (services/http/router.h) reads and returns, with no Boost type in sight, so
 // that routes are tested without sockets and run on any thread.
 //
-// Also the one mapping of a Status to HTTP (docs/http-api.md, "Status
+// Also the one mapping of a Status to HTTP (docs/spec/http-api.md, "Status
 // codes"): every error leaves as a JSON body `{"error": "...", "code":
 // "NOT_FOUND"}` with `Cache-Control: no-store`.
 //
 // Contract: a request's fields are untrusted (the server has bounded their
-// size: docs/http-api.md, "Limits"). Header names of a request are lower
+// size: docs/spec/http-api.md, "Limits"). Header names of a request are lower
 // case; values are as sent (the parser has removed surrounding whitespace).
 // Thread safety: plain values; a response's body is shared immutable bytes,
 // safe to hand between threads.
@@ -68,7 +68,7 @@ struct HttpResponse {
   std::string_view body() const;
 };
 
-// The HTTP status of a meshstream Status code (docs/http-api.md):
+// The HTTP status of a meshstream Status code (docs/spec/http-api.md):
 // InvalidArgument/InvalidInput/Unsupported 400, Unauthenticated 401,
 // PermissionDenied 403, NotFound 404, FailedPrecondition/AlreadyExists 409,
 // ResourceExhausted 429, Unavailable/Cancelled 503, DeadlineExceeded 504,

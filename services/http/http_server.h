@@ -1,4 +1,4 @@
-// The HTTP/1.1 server of `meshstream serve --http-listen` (docs/http-api.md):
+// The HTTP/1.1 server of `meshstream serve --http-listen` (docs/spec/http-api.md):
 // Boost.Beast over Boost.Asio, with TLS by Asio's OpenSSL stream when a
 // certificate and a key are given.
 //

@@ -1,7 +1,7 @@
 // A GET or HEAD of one representation (an export, a static file): the body
 // with its entity tag, answered as 200, 206 for a single satisfiable Range,
 // 416 for an unsatisfiable one, or 304 when If-None-Match matches
-// (docs/http-api.md, "Caching and ranges").
+// (docs/spec/http-api.md, "Caching and ranges").
 //
 // Order, as RFC 9110 section 13.2.2 has it: If-None-Match first (304, which
 // wins over Range); then Range on GET only (HEAD ignores it), kept only when

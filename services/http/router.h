@@ -1,5 +1,5 @@
 // Which route answers a request of `meshstream serve --http-listen`
-// (docs/http-api.md):
+// (docs/spec/http-api.md):
 //   OPTIONS *any*          CORS preflight (cors.h): 204
 //   /v1/health             200 {"status":"SERVING"}, 503 NOT_SERVING while draining
 //   /v1/assets, /v1/assets/...   asset_route.h

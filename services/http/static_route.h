@@ -1,4 +1,4 @@
-// The viewer's static files from a folder (docs/http-api.md, "The viewer"):
+// The viewer's static files from a folder (docs/spec/http-api.md, "The viewer"):
 // `--http-root DIR`, or by default the first folder that exists of
 // `<folder of the binary>/../share/meshstream/web` (an installed tree) and
 // `<folder of the binary>/../web`. Without one, every file request is 404

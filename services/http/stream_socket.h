@@ -1,5 +1,5 @@
 // `GET /v1/stream` upgraded to a WebSocket: a live session for browsers
-// (docs/streaming-protocol.md, "WebSocket transport"), the same session as
+// (docs/spec/streaming-protocol.md, "WebSocket transport"), the same session as
 // StreamService.Open over gRPC with its datagrams on the reliable channel
 // (TRANSPORT_GRPC): a thin transport on the session host
 // (services/streaming/session_host.h: the same OpenRequest check, version

@@ -1,5 +1,5 @@
 // The extension point of the HTTP server for routes that take over their
-// connection: `GET /v1/stream` with `Upgrade: websocket` (docs/web.md,
+// connection: `GET /v1/stream` with `Upgrade: websocket` (docs/design/web.md,
 // "Live"). Register a handler for a path in HttpServerOptions::upgrades
 // (http_server.h); the server then hands it every GET of that exact path
 // that is a WebSocket upgrade (beast::websocket::is_upgrade), and answers
@@ -30,7 +30,7 @@
 //
 // Contract: Upgrade must not block (it runs on one of a few io threads;
 // post blocking work elsewhere) and must not throw. The request is
-// untrusted; the server has bounded its size (docs/http-api.md, "Limits").
+// untrusted; the server has bounded its size (docs/spec/http-api.md, "Limits").
 // Thread safety: Upgrade is called from the io threads, for different
 // connections at once.
 #ifndef MESHSTREAM_SERVICES_HTTP_UPGRADE_H_

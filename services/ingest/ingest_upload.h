@@ -1,6 +1,6 @@
 // One Ingest call as the library sees it: metadata, then the main file's
 // chunks, then for a .gltf each external file (a resource) with its chunks;
-// Finish makes the bytes durable and creates the version (docs/api.md,
+// Finish makes the bytes durable and creates the version (docs/spec/api.md,
 // "Ingest").
 //
 // Contract: every field is untrusted. Sizes are checked against the limits

@@ -1,7 +1,7 @@
 // The workers of one server: they claim processing jobs from the Store,
 // run the pipeline on each (services/pipeline/), and record the result.
 //
-// Per claimed job (docs/pipeline.md, "The job"):
+// Per claimed job (docs/design/pipeline.md, "The job"):
 //   1. GetVersion; the options from its options_json; the artifact cache key.
 //   2. FindArtifact: a cached artifact (whose blob exists) completes the job
 //      at once, with the message "reused the artifact of an identical source

@@ -163,7 +163,7 @@ ProgressiveGlbOptions ToGlbOptions(const EncodeSettings& s) {
   o.encode.simplify.base_ratio = s.base_ratio;
   // One ingest, one job, both profiles in one artifact (format version 4):
   // UDP sessions send the loss-tolerant one, the stream, the WebSocket and
-  // HTTP ranges the reliable one (docs/pipeline.md).
+  // HTTP ranges the reliable one (docs/design/pipeline.md).
   o.profiles = ProfileSet::kBoth;
   return o;
 }

@@ -1,7 +1,7 @@
 // A version's artifact in the format a client asks for (the Export RPC),
 // at a level of detail.
 //
-// Rules (docs/pipeline.md, "Export"):
+// Rules (docs/design/pipeline.md, "Export"):
 //   kProgressiveGlb  the artifact's bytes unchanged. A lod is refused
 //                    (InvalidArgument "lod: not supported for the progressive
 //                    format (it holds every level)"): cutting levels would

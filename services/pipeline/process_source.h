@@ -8,7 +8,7 @@
 //                           (primitive, batch, vertices left) is mapped onto
 //                           0.1 .. 0.95, each primitive weighted by its vertices
 //   0.95 "encoded"          the layout and the summary are computed
-// The caller stores 1.0 when the result is stored (docs/pipeline.md).
+// The caller stores 1.0 when the result is stored (docs/design/pipeline.md).
 //
 // Contract: the source is untrusted (the importers check it); a failure is
 // the importer's or encoder's Status with its message naming the file by its

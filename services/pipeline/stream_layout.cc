@@ -254,7 +254,7 @@ StatusOr<StreamBlocks> LocateChecked(const uint8_t* glb, size_t size, const Prim
   if (!inside(chosen)) return InvalidInput("stream layout: the stream blob lies outside the file");
   const uint8_t* blob = glb + chosen.offset;
   const uint64_t origin = chosen.offset;
-  // The framing of docs/progressive-format.md section 2, with the checks of
+  // The framing of docs/spec/progressive-format.md section 2, with the checks of
   // ProgressiveStream::Parse, recording where each block lies.
   ByteReader r(blob, static_cast<size_t>(chosen.length));
   static const uint8_t kMagic[4] = {'M', 'S', 'P', 'S'};
@@ -328,7 +328,7 @@ StatusOr<StreamLayout> ComputeChecked(const uint8_t* data, size_t size) {
       MS_ASSIGN_OR_RETURN(PrimitiveLayout p, PrimitiveFromFile(doc, prim, glb, data, where, &datagram_stream));
       p.mesh = static_cast<uint32_t>(m);
       p.primitive = static_cast<uint32_t>(j);
-      // Streams are numbered in file order (docs/progressive-format.md,
+      // Streams are numbered in file order (docs/spec/progressive-format.md,
       // section 1); the datagrams carry the same number.
       if (datagram_stream >= 0 && datagram_stream != stream) {
         return InvalidInput(where + ": its datagrams name stream " + std::to_string(datagram_stream) + ", not " +

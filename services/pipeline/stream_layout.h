@@ -1,9 +1,9 @@
 // Where each primitive's base mesh and progressive stream sit inside a
-// progressive .glb (importers/progressive_glb.h; docs/progressive-format.md
+// progressive .glb (importers/progressive_glb.h; docs/spec/progressive-format.md
 // sections 1-2), so that a streaming session sends them straight from the
 // artifact's bytes, without decoding any mesh. The layout is computed once,
 // when the artifact is made, and stored as JSON with the version
-// (ArtifactSummary::layout_json; the format is in docs/pipeline.md).
+// (ArtifactSummary::layout_json; the format is in docs/design/pipeline.md).
 //
 // Offsets are absolute byte offsets inside the .glb file.
 //
@@ -80,7 +80,7 @@ struct StreamLayout {
 // StreamHeader::Parse). A file without refined primitives has an empty layout.
 StatusOr<StreamLayout> ComputeStreamLayout(const uint8_t* glb, size_t size);
 
-// One line of JSON (docs/pipeline.md, "Stream layout").
+// One line of JSON (docs/design/pipeline.md, "Stream layout").
 std::string StreamLayoutJson(const StreamLayout& layout);
 // The inverse, on untrusted text: InvalidInput naming the field that is
 // missing, of the wrong type, out of range or inconsistent.

@@ -173,7 +173,7 @@ struct Server::Impl {
   std::unique_ptr<SessionHost> sessions;  // every session, whatever its transport (below)
   std::unique_ptr<StreamServiceImpl> streams;
   std::unique_ptr<grpc::Server> server;
-  // HTTP (docs/http-api.md): the routes before the server, so that the
+  // HTTP (docs/spec/http-api.md): the routes before the server, so that the
   // server (its pool runs the routes) stops first.
   std::unique_ptr<AssetRoute> http_assets;
   std::unique_ptr<StaticRoute> http_files;

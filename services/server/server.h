@@ -1,7 +1,7 @@
 // `meshstream serve`: the gRPC server with its store, its worker pool and the
 // standard services (grpc.health.v1; reflection when asked or on loopback),
 // and when asked the HTTP server (services/http/: the assets by ranges, the
-// viewer's files; docs/http-api.md).
+// viewer's files; docs/spec/http-api.md).
 //
 // Secure by default: without authentication the server listens only on a
 // loopback address (or a unix: socket); any other address is refused unless
@@ -9,7 +9,7 @@
 // in PEM files. SIGTERM (Drain) turns health to NOT_SERVING, stops claiming
 // jobs, lets running requests finish within the grace period, then cancels
 // the rest; unfinished jobs are taken up again by the next start (or by
-// another server sharing the PostgreSQL store) (docs/deploy.md). HTTP stops
+// another server sharing the PostgreSQL store) (docs/design/deploy.md). HTTP stops
 // accepting and closes its idle keep-alive connections at the same time as
 // gRPC refuses new calls; its running responses get the same grace period.
 //
@@ -49,7 +49,7 @@ struct ServerOptions {
   int max_threads = 256;                  // gRPC threads; calls beyond them are RESOURCE_EXHAUSTED
   int max_watchers = 128;                 // concurrent WatchJob streams
   int max_exports = 0;                    // concurrent exports that decode (0: the worker count)
-  // Streaming sessions (docs/streaming-protocol.md). udp_listen empty: the
+  // Streaming sessions (docs/spec/streaming-protocol.md). udp_listen empty: the
   // --listen host and the next port (port 0: any free one); "off": every
   // session over gRPC. udp_advertise empty: the bound address, or only its
   // port when it is 0.0.0.0 / :: (clients then use the host they connected to).
@@ -58,18 +58,18 @@ struct ServerOptions {
   double max_rate_bps = 1e9;              // all sessions together (--max-rate)
   double max_session_rate_bps = 400e6;    // one session
   // Streaming sessions at once; each costs memory (about 40 KiB stalled,
-  // plus its share of the artifact), no thread (docs/deploy.md, "Streaming
+  // plus its share of the artifact), no thread (docs/design/deploy.md, "Streaming
   // sessions per server": 4096 measured).
   int max_sessions = 4096;
   int64_t hello_timeout_ms = 1000;        // no HELLO proved an address: gRPC fallback
   bool udp_wait_hello = false;            // UDP sessions wait for the HELLO before their first UDP refinement
   bool no_reliable_cut = false;           // every datagram as UDP, none on the stream (the paper's scheme)
-  bool no_parity = false;                 // no parity datagrams (docs/loss-protection.md)
+  bool no_parity = false;                 // no parity datagrams (docs/design/loss-protection.md)
   int64_t session_idle_timeout_ms = 30000;
   // Hot artifacts kept in memory for streaming sessions, with their plans and
   // scenes, by bytes, least recently used out first (--stream-cache-mb).
   uint64_t stream_cache_bytes = uint64_t{256} << 20;
-  // HTTP (docs/http-api.md): the assets by ranges and the viewer's files.
+  // HTTP (docs/spec/http-api.md): the assets by ranges and the viewer's files.
   // http_listen empty: off; HOST:PORT (7680 is the documented port) or
   // [V6]:PORT, port 0 picks a free one; the loopback rule of `listen`
   // applies, and TLS with the same certificate and key.

@@ -1,5 +1,5 @@
 // Content-addressed blobs in a folder: the blob half of the embedded store
-// (docs/store.md). A blob is named by the SHA-256 of its bytes, so the same
+// (docs/design/store.md). A blob is named by the SHA-256 of its bytes, so the same
 // bytes are stored once.
 //
 // Layout under the store's folder:

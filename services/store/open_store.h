@@ -1,4 +1,4 @@
-// Opens the store a --store spec names (docs/store.md):
+// Opens the store a --store spec names (docs/design/store.md):
 //
 //   postgresql://...  or  postgres://...   a PostgreSQL database (a libpq
 //       connection URI: host, port, user, password, dbname, parameters), the

@@ -173,7 +173,7 @@ PgMigration Migration2() {
 
 // Version 3: blob chunks are stored uncompressed. Meshes compress poorly
 // (a third at best) and pglz cost the benchmark's bunny 75 ms of a 94 ms
-// ingest (docs/service-benchmarks.md). Applies to rows written from now on.
+// ingest (docs/results/service-benchmarks.md). Applies to rows written from now on.
 PgMigration Migration3() {
   PgMigration m;
   m.version = 3;

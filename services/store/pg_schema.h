@@ -1,4 +1,4 @@
-// The PostgreSQL schema of the shared store (docs/store.md, "The shared
+// The PostgreSQL schema of the shared store (docs/design/store.md, "The shared
 // store"): every table lives in the schema `meshstream`; the table
 // `meshstream.meshstream_schema` holds one row per applied migration.
 //

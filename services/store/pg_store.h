@@ -1,4 +1,4 @@
-// The shared store: metadata and blobs in PostgreSQL (docs/store.md, "The
+// The shared store: metadata and blobs in PostgreSQL (docs/design/store.md, "The
 // shared store (PostgreSQL)"), so that any number of `meshstream serve`
 // processes work on one database. Blobs are rows of at most 1 MiB of bytea
 // under their SHA-256; the schema is migrated at open (services/store/pg_schema.h).

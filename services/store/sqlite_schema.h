@@ -1,4 +1,4 @@
-// The schema of the embedded store's metadata (docs/store.md, "The embedded
+// The schema of the embedded store's metadata (docs/design/store.md, "The embedded
 // store (SQLite)"), mirroring pg_schema.h: the DDL of each schema version,
 // and the connection's set-up (WAL, synchronous=FULL, foreign keys, busy
 // timeout) with the migration of an older database at open.

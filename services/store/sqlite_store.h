@@ -1,4 +1,4 @@
-// The embedded store (docs/store.md, "The embedded store (SQLite)"): one
+// The embedded store (docs/design/store.md, "The embedded store (SQLite)"): one
 // folder that holds everything a single meshstream server keeps.
 //
 //   <dir>/LOCK              flock'd by the process that has the store open

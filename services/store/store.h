@@ -1,4 +1,4 @@
-// The versioned store of the asset service (docs/store.md): one interface,
+// The versioned store of the asset service (docs/design/store.md): one interface,
 // two backends. `SqliteStore` (services/store/sqlite_store.h) is the embedded
 // default: SQLite in WAL mode for metadata and a FileBlobStore folder for
 // blobs. `PgStore` (services/store/pg_store.h) keeps metadata and blobs
@@ -26,7 +26,7 @@
 // the messages of what a backend refuses (NotFound, a lost lease, a missing
 // blob, a damaged row) come from services/store/store_records.h. So both
 // backends give the same code and message for every refusal
-// (tests/services/store_suite_test.cc proves it on both; docs/store.md,
+// (tests/services/store_suite_test.cc proves it on both; docs/design/store.md,
 // "One contract, two backends", lists the decisions).
 //
 // Contract: every string argument is untrusted unless stated (refused with

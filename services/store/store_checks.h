@@ -1,4 +1,4 @@
-// The one validating layer in front of both store backends (docs/store.md,
+// The one validating layer in front of both store backends (docs/design/store.md,
 // "One contract, two backends"). Store's public methods (store.h) run these
 // checks before they call a backend, so every refusal of an argument has one
 // code and one message whichever backend serves the call; ingest

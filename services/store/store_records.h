@@ -1,4 +1,4 @@
-// What both store backends share about rows (docs/store.md, "One contract,
+// What both store backends share about rows (docs/design/store.md, "One contract,
 // two backends"): the JSON columns, the range check of stored states, the
 // messages of every refusal a backend decides (a missing asset, version, job,
 // upload, token or blob; an upload offset; a lost or finished lease; a

@@ -1,5 +1,5 @@
 // The SessionStream of a transport whose reliable channel carries the
-// protocol's messages (docs/streaming-protocol.md): what the send loop asks
+// protocol's messages (docs/spec/streaming-protocol.md): what the send loop asks
 // for (start, control blocks, datagrams on the stream, refinement ends, the
 // end, the repair's end) translated once into ServerMessages
 // (session_messages.h), and the client's messages handed to the session's

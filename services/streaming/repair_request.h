@@ -1,4 +1,4 @@
-// A client's RepairRequest on the server (docs/streaming-protocol.md,
+// A client's RepairRequest on the server (docs/spec/streaming-protocol.md,
 // "Sessions", step 5): the datagrams it names, checked against the session's
 // plan. The protobuf message is translated to RepairItems by
 // services/api/proto_convert.h; this is where its content is judged.

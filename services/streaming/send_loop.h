@@ -1,4 +1,4 @@
-// The server's sending thread (docs/streaming-protocol.md, "The server"):
+// The server's sending thread (docs/spec/streaming-protocol.md, "The server"):
 // one thread drives every session's SessionSender (session_sender.h) by its
 // next due time, from a timer heap, so that a session costs no thread of its
 // own. It hands each session's actions to that session's SessionStream (the

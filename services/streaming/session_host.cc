@@ -66,7 +66,7 @@ StatusOr<PreparedSession> SessionHost::Prepare(const std::string& tenant, const 
   }));
   SessionSenderOptions options;
   // The reliable profile has no datagrams: a client that asks for it gets
-  // the stream alone (docs/streaming-protocol.md, "Profiles").
+  // the stream alone (docs/spec/streaming-protocol.md, "Profiles").
   const bool wants_reliable = open.profile() == v1::PROFILE_RELIABLE;
   if (allow_udp && open.transport() != v1::TRANSPORT_GRPC && !wants_reliable && options_.udp != nullptr) {
     auto registered = options_.udp->RegisterSession();

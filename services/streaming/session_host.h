@@ -1,4 +1,4 @@
-// The host of the streaming sessions (docs/streaming-protocol.md,
+// The host of the streaming sessions (docs/spec/streaming-protocol.md,
 // "Sessions"), whatever carries their reliable channel: the gRPC call
 // (services/api/stream_service.h) and the WebSocket (services/http/
 // stream_socket.h) are thin transports on it, each keeping only its wire.
@@ -64,7 +64,7 @@ struct SessionHostOptions {
   RateControllerOptions rate;                     // max_bps: the per-session cap
   RateShare* server_share = nullptr;              // --max-rate
   bool reliable_cut = true;                       // --no-reliable-cut: every datagram as UDP (the paper's scheme)
-  bool parity = true;                             // --no-parity: no parity datagrams (docs/loss-protection.md)
+  bool parity = true;                             // --no-parity: no parity datagrams (docs/design/loss-protection.md)
   int opener_threads = 2;                         // the pool that opens sessions (store, plan, scene)
   std::function<void(const std::string&)> log;    // one line per session start and end; may be empty
 };

@@ -1,5 +1,5 @@
 // What a streaming session sends, in which order, as byte ranges of the
-// stored artifact (docs/streaming-protocol.md): per primitive its stream
+// stored artifact (docs/spec/streaming-protocol.md): per primitive its stream
 // header and base mesh first (the session start), then the refinements by
 // the scene's levels (codec/progressive/scene_levels.h: within a level, the
 // refinement that leaves the larger error first, whichever primitive it

@@ -1,5 +1,5 @@
 // The scene a session's client builds on (SessionStart.scene_glb,
-// docs/streaming-protocol.md "Sessions"): the asset's glTF at level 0, as a
+// docs/spec/streaming-protocol.md "Sessions"): the asset's glTF at level 0, as a
 // plain .glb: nodes, materials, textures, skins, animations, the carried
 // primitives, and every refined primitive as a one-triangle stand-in
 // (its first three base vertices with their attributes, so the primitive

@@ -18,7 +18,7 @@ namespace {
 
 // The codec's END datagram of refinement `r` carrying `count` data
 // datagrams, with its stream's version (the first byte of the stream header;
-// docs/progressive-format.md, sections 3 and 6). The server builds it here
+// docs/spec/progressive-format.md, sections 3 and 6). The server builds it here
 // and nowhere else.
 std::vector<uint8_t> ServerEndDatagram(const SessionPlan& plan, const std::vector<uint8_t>& artifact,
                                        const PlannedRefinement& r, uint32_t count) {

@@ -1,5 +1,5 @@
 // One streaming session's sending side as a deterministic core
-// (docs/streaming-protocol.md, "Sessions"): the plan, the client's messages
+// (docs/spec/streaming-protocol.md, "Sessions"): the plan, the client's messages
 // and the caller's clock in, the next thing to do out. It reads no clock,
 // sleeps nowhere, starts no thread and touches no socket, as net/pacer.h and
 // net/rate_controller.h; services/streaming/send_loop.h drives it for real
@@ -102,7 +102,7 @@ struct SessionSenderOptions {
   // counter, the first returned (UdpEndpoint::Session::ReservePacketNumbers;
   // a counter in tests). Unused over gRPC.
   std::function<uint64_t(uint64_t count)> reserve_packet_numbers;
-  // Parity datagrams (docs/loss-protection.md) over UDP for the refinements
+  // Parity datagrams (docs/design/loss-protection.md) over UDP for the refinements
   // the artifact's delivery record protects, sized for the loss the reports
   // show (ParityLossFor); null: none (--no-parity).
   ErasureCode* erasure = nullptr;

@@ -1,4 +1,4 @@
-// The server's UDP half of the streaming sessions (docs/streaming-protocol.md,
+// The server's UDP half of the streaming sessions (docs/spec/streaming-protocol.md,
 // "HELLO and address validation", "Receiving"): one socket, one receiving
 // thread that answers HELLOs, and the table of live sessions.
 //

@@ -1,5 +1,5 @@
 #!/bin/sh
-# libmeshstream exports the C API and nothing else (docs/c-api.md):
+# libmeshstream exports the C API and nothing else (docs/spec/c-api.md):
 #   check_exports.sh LIBMESHSTREAM.so MESHSTREAM.H
 # - every dynamic symbol the library defines is an ms_* function at version
 #   MESHSTREAM_0 (besides the version node MESHSTREAM_0 itself);

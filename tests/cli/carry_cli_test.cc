@@ -1,4 +1,4 @@
-// The CLI verbs keep what the codec does not refine (docs/gltf-support.md,
+// The CLI verbs keep what the codec does not refine (docs/spec/gltf-support.md,
 // "Carried through"): `convert` (to .glb and .gltf, plain and --draco),
 // `encode` and `decode` at every --lod of AnimatedMorphCube, simple_skin and a
 // scene of points, lines and a refinable sphere. Every output passes the

@@ -1,6 +1,6 @@
 // The CLI contract of `meshstream encode` and `meshstream decode` (issue 3),
 // run as real processes on the shared models: lossless decoding on the grid
-// (docs/design.md, "Lossless"), every level of detail with its vertex count, the JSON
+// (docs/design/design.md, "Lossless"), every level of detail with its vertex count, the JSON
 // keys, attributes, the progressive .glb as valid glTF whose base any reader
 // shows (property 9), a multi-primitive scene, and the exit codes.
 #include <algorithm>
@@ -268,7 +268,7 @@ TEST(ProgressiveCli, FormatVersionsOneToThreeAreWrittenOnRequestAndDecodeToTheSa
                 .exit_code, 2);
 }
 
-// The reliable cut from the CLI (docs/loss-tolerance.md, "The reliable cut"):
+// The reliable cut from the CLI (docs/design/loss-tolerance.md, "The reliable cut"):
 // encode records it within its share, decode --loss sends it reliably unless
 // told otherwise, and both refuse a share outside [0, 1].
 TEST(ProgressiveCli, TheReliableCutIsRecordedAndDecodeLossSendsIt) {
@@ -313,7 +313,7 @@ TEST(ProgressiveCli, ToolsAreChosenReportedAndDecodeToTheSameMesh) {
   const json lone = RunJson("encode --json --tools geometry,predictor " + src + " -o " + Quote(dir.File("lone.glb")));
   EXPECT_EQ(lone["tools"], json::array({"geometry"})) << lone.dump();
   EXPECT_EQ(RunCommand(Cli() + " encode --ring-term-bits -1 " + src + " -o " + Quote(dir.File("x.glb"))).exit_code, 2);
-  // The crossings (version 4, not a default: docs/codec.md "Version 4")
+  // The crossings (version 4, not a default: docs/design/codec.md "Version 4")
   // order the rank tool's ranks: `all` takes them in both profiles, and
   // without `rank` they are not used.
   const json every = RunJson("encode --json --tools all " + src + " -o " + Quote(dir.File("every.glb")));

@@ -56,7 +56,7 @@ TEST(AdaptiveModel, RoundTripsMixedWithStaticAndRawSymbols) {
 }
 
 // The priors are part of the format: these numbers must not change on any
-// platform (docs/progressive-format.md, section 5.1).
+// platform (docs/spec/progressive-format.md, section 5.1).
 TEST(AdaptiveModel, ParametricPriorsArePinned) {
   const ModelPrior spike = ParametricPrior(SymbolKind::kSigned, kSignedSymbols, 0);
   EXPECT_EQ(spike[0], 4096) << "theta = 0: everything at value 0, the floors above it";

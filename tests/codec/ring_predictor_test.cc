@@ -1,5 +1,5 @@
 // The ring predictor of format version 3 (codec/progressive/ring_predictor.h,
-// ring_predictor_fit.h; docs/progressive-format.md section 4.7): its 2-ring
+// ring_predictor_fit.h; docs/spec/progressive-format.md section 4.7): its 2-ring
 // term is the same whatever order a refinement's splits are applied in, its
 // coding is exactly invertible, its arithmetic stays in range on hostile
 // values, and the fit finds weights that are there.

@@ -179,7 +179,7 @@ TEST(SplitBits, TruncatedInputFailsCleanly) {
   // Nothing at all, for a mesh with vertices: refused. For none, the block is
   // what the encoder writes for no bits (its flush), which decodes to nothing;
   // an empty block is not what the encoder writes, and a decoder must read a
-  // range-coded block to its exact end (docs/progressive-format.md), so it is
+  // range-coded block to its exact end (docs/spec/progressive-format.md), so it is
   // refused too.
   EXPECT_FALSE(DecodeSplitBits(nullptr, 0, h).ok());
   SplitHistory empty;

@@ -219,7 +219,7 @@ TEST(SplitConnectivity, SortedNeighboursOnNonManifoldVertices) {
 }
 
 // A refinement in two phases, as a parallel decoder would apply it
-// (docs/decode-profile.md): every split's ring walked first, each with its
+// (docs/results/decode-profile.md): every split's ring walked first, each with its
 // own RingWalk, before any split is applied; then the splits applied in
 // order from the recorded rings and triangles. The rings and the resulting
 // connectivity are the serial walk-then-split ones, on every refinement of

@@ -1,4 +1,4 @@
-// The test vector of docs/progressive-format.md ("Test vector"): the
+// The test vector of docs/spec/progressive-format.md ("Test vector"): the
 // octahedron subdivided once (tests/data/vector/octahedron.obj) encoded with
 // fixed options, its .glb and stream blob stored beside it
 // (tests/data/vector/regenerate.sh writes them with the CLI). The tests

@@ -205,7 +205,7 @@ if command -v nginx >/dev/null 2>&1; then
     fail "nginx -t deploy/nginx.conf:"
     printf '%s\n' "$out" | sed 's/^/    /'
   fi
-  # The caching example of docs/deploy.md ("Behind a CDN or cache"), its cache in $tmp.
+  # The caching example of docs/design/deploy.md ("Behind a CDN or cache"), its cache in $tmp.
   sed -e 's/server meshstream-\([0-9]*\):7680/server 127.0.0.\1:7680/' \
       -e "s|/var/cache/nginx/meshstream|$tmp/nginx-cache|" "$deploy/nginx-cache.conf" > "$tmp/nginx-cache.conf"
   if out=$(nginx -t -q -c "$tmp/nginx-cache.conf" -g "pid $tmp/nginx-cache.pid;" 2>&1); then

@@ -99,7 +99,7 @@ TEST(ParityDatagram, RoundTripsItsMembersInBlockOrder) {
   EXPECT_FALSE(EncodeParity(code, 2, shuffled, wrong).ok());
 }
 
-// The test vector of docs/progressive-format.md, section 6.1.
+// The test vector of docs/spec/progressive-format.md, section 6.1.
 TEST(ParityDatagram, SpecTestVector) {
   const std::vector<std::vector<uint8_t>> block = {
       {0x4D, 0x03, 0x01, 0x00, 0x05, 0x02, 0x00, 0x01, 0xAA},
@@ -361,7 +361,7 @@ TEST(ParityPlan, ABlockSpansTiersAtTheStrongestOfThem) {
   EXPECT_EQ(cut[2].tier, 1u);
 }
 
-// The loss bench's --parity-depth experiment (docs/loss-protection.md,
+// The loss bench's --parity-depth experiment (docs/design/loss-protection.md,
 // "Levers considered and left"): `depth` blocks share a group's refinements,
 // member i of the group to block i mod depth, each within the limits, every
 // protected datagram once; a burst then costs each block a share, so at

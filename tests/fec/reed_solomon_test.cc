@@ -1,4 +1,4 @@
-// The erasure code on ISA-L against the spec (docs/progressive-format.md,
+// The erasure code on ISA-L against the spec (docs/spec/progressive-format.md,
 // section 7): parity computed by an independent GF(2^8) implementation here
 // must match byte for byte, and every erasure pattern a block can survive is
 // rebuilt exactly: exhaustively for small blocks, at random for large ones.
@@ -106,7 +106,7 @@ TEST(ReedSolomon, ParityMatchesTheSpecsArithmetic) {
   }
 }
 
-// The test vector of docs/progressive-format.md, section 7.
+// The test vector of docs/spec/progressive-format.md, section 7.
 TEST(ReedSolomon, SpecTestVector) {
   ReedSolomon rs;
   const std::vector<std::vector<uint8_t>> data = {{0x01, 0x02, 0x03}, {0x10, 0x20, 0x00}, {0xFF, 0x00, 0x80}};

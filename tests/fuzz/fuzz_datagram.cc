@@ -1,4 +1,4 @@
-// libFuzzer target for UDP datagrams (docs/design.md, "Independent datagrams" and "Hostile input"): whatever
+// libFuzzer target for UDP datagrams (docs/design/design.md, "Independent datagrams" and "Hostile input"): whatever
 // bytes arrive, the reader drops or uses each datagram whole, never crashes,
 // hangs or allocates beyond what the refinement's split count allows, and a
 // refinement it finishes is well formed.

@@ -1,4 +1,4 @@
-// libFuzzer target for the glTF/GLB importer (docs/design.md, "Hostile input"
+// libFuzzer target for the glTF/GLB importer (docs/design/design.md, "Hostile input"
 // gets a clear error, never a crash).
 //
 // Every input goes through ImportGltfBytes with no base folder, so no URI can

@@ -1,5 +1,5 @@
 // libFuzzer target for the OBJ (tinyobjloader behind our prescan) importer
-// (docs/design.md, "Hostile input" gets a clear error, never a crash).
+// (docs/design/design.md, "Hostile input" gets a clear error, never a crash).
 // Each input is written to a temporary .obj file and read through ImportFile;
 // see mesh_file_fuzz.h for what is checked. Built as a real libFuzzer binary
 // with MESHSTREAM_FUZZ=ON (make fuzz), and always as fuzz_obj_replay,

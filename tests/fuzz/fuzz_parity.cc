@@ -1,4 +1,4 @@
-// libFuzzer target for parity datagrams (docs/progressive-format.md, section
+// libFuzzer target for parity datagrams (docs/spec/progressive-format.md, section
 // 6.1; codec/loss/parity.h, parity_recovery.h): whatever bytes arrive, the
 // parser refuses them or describes members and rows that the bytes hold, and
 // the receiver never crashes, never holds more than its budget, and hands

@@ -1,4 +1,4 @@
-// libFuzzer target for the progressive container (docs/design.md, "Hostile input" and "glTF container"):
+// libFuzzer target for the progressive container (docs/design/design.md, "Hostile input" and "glTF container"):
 // DecodeProgressiveGlb on arbitrary bytes returns a scene or an error with a
 // message, and never crashes, hangs or allocates without bound.
 //

@@ -1,4 +1,4 @@
-// libFuzzer target for the stream reconstructor (docs/design.md, "Prediction" and "Hostile input"):
+// libFuzzer target for the stream reconstructor (docs/design/design.md, "Prediction" and "Hostile input"):
 // whatever arrives on either channel, in whatever order and at whatever
 // time, the reconstructor never crashes or hangs, never decodes past the
 // stream, and every level it hands over is well formed; when only the

@@ -1,5 +1,5 @@
 // libFuzzer target for a refinement's control block (split bits and the
-// static models; the reliable channel of docs/design.md, "Reliable data"): hostile bytes
+// static models; the reliable channel of docs/design/design.md, "Reliable data"): hostile bytes
 // get an error, never a crash, a hang or an unbounded allocation.
 //
 // The stream is the valid sphere stream of sphere_stream.h (split packing).

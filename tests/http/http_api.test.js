@@ -1,5 +1,5 @@
 #!/usr/bin/env node
-// The HTTP routes of a real `meshstream serve --http-listen` (docs/http-api.md),
+// The HTTP routes of a real `meshstream serve --http-listen` (docs/spec/http-api.md),
 // with node's own HTTP client and raw sockets (no npm package):
 //   the files byte for byte against `meshstream export`, ETag = SHA-256, HEAD,
 //   single ranges, 416, several ranges, If-None-Match, If-Range,

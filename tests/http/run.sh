@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The HTTP routes of `meshstream serve` seen by a real client (docs/http-api.md):
+# The HTTP routes of `meshstream serve` seen by a real client (docs/spec/http-api.md):
 #   starts `meshstream serve --listen 127.0.0.1:0 --http-listen 127.0.0.1:0`
 #   on a temporary store with a temporary web root (index.html, app.js, a
 #   symbolic link that points out of the root) and --http-cors-origin

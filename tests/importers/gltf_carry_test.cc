@@ -1,5 +1,5 @@
 // What the codec does not refine is carried through unchanged
-// (docs/gltf-support.md, "Carried through"): points and lines primitives,
+// (docs/spec/gltf-support.md, "Carried through"): points and lines primitives,
 // skinned and morphed primitives, skins, animations. Each round trip (export
 // to .glb and .gltf, plain and --draco; progressive encode and decode at
 // every level) gives back byte-equal carried data, the Khronos validator

@@ -1,4 +1,4 @@
-// Application data and lights survive every round trip (docs/gltf-support.md):
+// Application data and lights survive every round trip (docs/spec/gltf-support.md):
 // "extras" on meshes, nodes, scenes, carried primitives, skins and
 // animations, and KHR_lights_punctual (the root's lights, each node's light),
 // through import, export (.glb and .gltf, plain and Draco), and the

@@ -1,4 +1,4 @@
-// Hostile glTF/GLB input (docs/design.md, "Hostile input"): every malformed, lying or
+// Hostile glTF/GLB input (docs/design/design.md, "Hostile input"): every malformed, lying or
 // escaping document gets the expected StatusCode and a message that names the
 // problem; nothing crashes, nothing outside the asset's folder is opened. The
 // good side too: strips, fans, sparse accessors, KHR_mesh_quantization,

@@ -3,7 +3,7 @@
 // model is ingested once (the fixture), then exported in every format; the
 // glTF outputs pass the Khronos validator and the progressive export decodes
 // on the grid of its source. Then pagination, resumable uploads, the cache,
-// and every error code of docs/api.md, with the server still healthy after.
+// and every error code of docs/spec/api.md, with the server still healthy after.
 #include <algorithm>
 #include <filesystem>
 #include <map>
@@ -144,7 +144,7 @@ TEST_F(AssetApi, EveryModelBecomesReadyWithItsFigures) {
     EXPECT_GT(in.version.options().qp(), 0) << "the stored options are the effective ones";
     if (in.model.triangles_only) {
       // The figures count the refined (triangle) primitives; a scene of
-      // only skinned or morphed primitives has none (docs/api.md).
+      // only skinned or morphed primitives has none (docs/spec/api.md).
       EXPECT_GT(in.version.vertices(), 0);
       EXPECT_GT(in.version.faces(), 0);
       ASSERT_EQ(in.version.level_vertices_size(), in.version.levels() + 1);

@@ -10,7 +10,7 @@
 // Its own executable, linked against the shared library and no generated
 // proto code: libmeshstream registers meshstream/v1/*.proto with the
 // process's protobuf, and a second copy in the same process aborts
-// (docs/c-api.md, "One copy per process"). So the assets go in through the
+// (docs/spec/c-api.md, "One copy per process"). So the assets go in through the
 // CLI (`meshstream ingest`, `export`) rather than sdk::AssetClient.
 #include <arpa/inet.h>
 #include <netinet/in.h>

@@ -149,7 +149,7 @@ TEST_F(CliRemote, AMultiFileGltfTravelsWithItsResources) {
 
 TEST_F(CliRemote, IngestResumesAnUploadTheServerHoldsPartOf) {
   // What an interrupted `meshstream ingest` leaves: the first 512 KiB under
-  // the CLI's upload id (docs/cli.md: "cli-" + 48 hex digits of
+  // the CLI's upload id (docs/spec/cli.md: "cli-" + 48 hex digits of
   // SHA-256(asset + "\n" + file digest)).
   const std::vector<uint8_t> horse = ReadFileBytes(ModelPath("horse.ply"), 1 << 30).value();
   const std::string digest = Sha256Hex(horse.data(), horse.size());
@@ -185,7 +185,7 @@ TEST_F(CliRemote, ExitCodesForAMissingServerAndRefusedRequests) {
   EXPECT_EQ(unreachable.exit_code, 3) << unreachable.err;
   EXPECT_NE(unreachable.err.find("127.0.0.1:1"), std::string::npos) << unreachable.err;
   // A listener that never answers: the request's deadline (--timeout) runs
-  // out, which is exit 3 like an unreachable server (docs/cli.md).
+  // out, which is exit 3 like an unreachable server (docs/spec/cli.md).
   {
     test_util::LoopbackSocket listener(true);
     ASSERT_TRUE(listener.ok());

@@ -265,7 +265,7 @@ TEST_F(StreamOverRelay, RepairGivesTheExactMeshUnder12And30PercentLoss) {
   }
 }
 
-// Issue 27: the server's parity datagrams (docs/loss-protection.md) through
+// Issue 27: the server's parity datagrams (docs/design/loss-protection.md) through
 // the real relay at 12 % and 30 % random loss: lost datagrams are rebuilt
 // without a round trip, the flags stay honest (ExpectLikeLossless: a vertex
 // not flagged is exact), the reports still count the raw loss, and most

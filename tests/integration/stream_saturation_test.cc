@@ -6,7 +6,7 @@
 // sessions beyond --max-threads were refused and GetVersion found no thread.
 //
 // The same tests measure what the server holds (threads, resident memory,
-// file descriptors), printed as "saturation: ..." lines. docs/deploy.md
+// file descriptors), printed as "saturation: ..." lines. docs/design/deploy.md
 // records a larger run:
 //   MESHSTREAM_SATURATION_SESSIONS=4096 build/bin/integration_tests --gtest_filter='StreamSaturation.*'
 #include <dirent.h>

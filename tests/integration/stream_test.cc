@@ -143,7 +143,7 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
 
     // Over the stream alone the session sends the reliable profile's
     // streams (no datagrams), or the loss-tolerant ones when asked: each
-    // byte for byte as stored (docs/streaming-protocol.md, "Profiles").
+    // byte for byte as stored (docs/spec/streaming-protocol.md, "Profiles").
     for (const v1::Profile asked : {v1::PROFILE_AUTO, v1::PROFILE_LOSS_TOLERANT}) {
     SCOPED_TRACE(v1::Profile_Name(asked));
     const bool reliable = asked == v1::PROFILE_AUTO;
@@ -202,7 +202,7 @@ TEST(StreamSession, TheSessionIsTheStoredStreamsByteForByte) {
     for (const v1::PrimitiveStart& p : got.start.primitives()) base_bytes += p.base_mesh().size();
     EXPECT_FALSE(got.start.scene_glb().empty());
     EXPECT_LT(got.start.scene_glb().size(), base_bytes / 2 + 8192) << base_bytes << " bytes of base meshes";
-    // The scene's order (docs/streaming-protocol.md, "Levels of a scene"):
+    // The scene's order (docs/spec/streaming-protocol.md, "Levels of a scene"):
     // each primitive's refinements in their own order, and its count at
     // every level of the session announced.
     std::map<uint32_t, uint32_t> next;

@@ -27,7 +27,7 @@ std::vector<uint8_t> Seal(PacketType type, uint64_t pn, const PacketKey& key, co
   return sealed.ok() ? *sealed : std::vector<uint8_t>{};
 }
 
-// docs/streaming-protocol.md, "Test vectors" (computed independently with
+// docs/spec/streaming-protocol.md, "Test vectors" (computed independently with
 // Python's cryptography package, not with this code).
 TEST(PacketCrypto, DataTestVector) {
   const auto sealed = Seal(PacketType::kData, 0x1122334455667788ull, CountingKey(0x00), Bytes("meshstream"));

@@ -1,5 +1,5 @@
 // Every reserved or out-of-range value of the progressive format is refused
-// with an error naming the field (docs/progressive-format.md): each test takes
+// with an error naming the field (docs/spec/progressive-format.md): each test takes
 // the valid test vector (tests/data/vector/), patches one field, and expects
 // the error text to name it. The unpatched vector is accepted by each path.
 #include <string>

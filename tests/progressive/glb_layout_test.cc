@@ -1,4 +1,4 @@
-// The progressive .glb's layout (docs/progressive-format.md, "Layout"): every
+// The progressive .glb's layout (docs/spec/progressive-format.md, "Layout"): every
 // primitive's base mesh (and everything else of the scene) comes before any
 // refinement, so that a file read up to its first refinement (an HTTP range)
 // shows the whole scene at its base level; and the file still decodes to

@@ -1,4 +1,4 @@
-// Golden files of the released progressive formats (docs/progressive-format.md,
+// Golden files of the released progressive formats (docs/spec/progressive-format.md,
 // versions 1, 2 and 3). They were written once by `meshstream encode` and must
 // decode forever, to the same levels and losslessly against their sources:
 //   fandisk-qp11-v1.glb:          encode fandisk.obj (qp 11, split packing, 1200 bytes), version 1

@@ -73,7 +73,7 @@ Counts DecodeLosing(const test_util::ModelStream& m, const std::set<std::pair<si
 // refinements, the middle and the fine ones): every vertex whose position
 // differs from the loss-free decode is flagged, the flag marks no more than
 // the reliability bits do, and fewer where the losses are fine. (Measured
-// here, docs/loss-protection.md "Predicted flags": one lost datagram moves
+// here, docs/design/loss-protection.md "Predicted flags": one lost datagram moves
 // 78-99 % of the bunny's vertices, by more than 0.1 % of the diagonal for
 // most of them: the flag is that large because the mesh really differs.)
 TEST(PredictedFlags, CoverEveryVertexThatDiffersAndNoMore) {

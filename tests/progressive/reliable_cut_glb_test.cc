@@ -1,5 +1,5 @@
 // The reliable cut in the progressive .glb (importers/progressive_glb.h,
-// docs/progressive-format.md section 1 "delivery"): the encoder records the
+// docs/spec/progressive-format.md section 1 "delivery"): the encoder records the
 // ranking and the cut for its share; DecodeProgressiveGlb sends that cut's
 // refinements reliably (as a session does), none with share 0, another cut
 // for another share; a hostile "delivery" is refused by name.

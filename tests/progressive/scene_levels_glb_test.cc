@@ -1,4 +1,4 @@
-// A level of a scene in the progressive .glb (docs/progressive-format.md,
+// A level of a scene in the progressive .glb (docs/spec/progressive-format.md,
 // "Levels of a scene"): `decode --lod K` applies to each primitive the
 // refinements the scene's level K has (codec/progressive/scene_levels.h, from
 // the file's "residual_error"); a file without them keeps K refinements of

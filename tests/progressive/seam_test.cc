@@ -1,4 +1,4 @@
-// Seams (the seams tool, docs/codec.md "Seams"): spot's UV seams collapse on
+// Seams (the seams tool, docs/design/codec.md "Seams"): spot's UV seams collapse on
 // both sides together, so its base shrinks, the stream decodes losslessly,
 // and under loss the two copies of every seam vertex stay on one point
 // (no crack) whatever was lost, with prediction and with LwoP.
@@ -66,7 +66,7 @@ TEST(Seams, SpotsSeamsRefineInsteadOfStayingInTheBase) {
     EXPECT_GE(double(after - before), 0.05 * after) << "level " << i << ": " << before << " -> " << after;
   }
   // The refinements grow by less than the base shrinks: at least 10 % off
-  // the total (docs/codec.md has the sizes).
+  // the total (docs/design/codec.md has the sizes).
   const size_t total_with = with.base_bytes + StreamBytes(with.stream);
   const size_t total_without = without.base_bytes + StreamBytes(without.stream);
   EXPECT_LT(total_with * 10, total_without * 9) << total_with << " against " << total_without;

@@ -1,4 +1,4 @@
-// The test vector of docs/progressive-format.md ("Test vector"): the encoder
+// The test vector of docs/spec/progressive-format.md ("Test vector"): the encoder
 // still writes exactly the stored bytes, and the decoder gives the mesh the
 // spec documents.
 #include <algorithm>

@@ -1,7 +1,7 @@
 // What a server sends for one session, made from a real artifact without
 // services/: a mesh encoded by the codec (Draco base, the progressive
 // stream), turned into the session's ServerMessages and DATA payloads as
-// docs/streaming-protocol.md ("Sessions") lays them out, and sent through a
+// docs/spec/streaming-protocol.md ("Sessions") lays them out, and sent through a
 // seeded simulated network (codec/loss/simulator.h's loss, reordering and
 // duplicates, and its link timing) to a SessionCore driven the way
 // sdk/session.cc drives it, on a simulated clock.

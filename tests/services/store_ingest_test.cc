@@ -1,4 +1,4 @@
-// Ingest over the store's one contract (docs/store.md, "One contract, two
+// Ingest over the store's one contract (docs/design/store.md, "One contract, two
 // backends"): IngestUpload on a real embedded store, through a decorator
 // that watches what ingest hands the store. Every byte of an upload reaches
 // the store's sink or resumable upload once and is hashed there only: ingest

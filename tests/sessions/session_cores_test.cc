@@ -731,7 +731,7 @@ namespace meshstream {
 namespace {
 
 // Issue 27: the parity the sender adds after each block of protected
-// refinements (docs/loss-protection.md) reaches the client's reconstructor,
+// refinements (docs/design/loss-protection.md) reaches the client's reconstructor,
 // which rebuilds what UDP lost without asking again; the raw loss is still
 // what the reports say (the congestion controller sees it). At 12 % and
 // 30 % loss, over several seeds, the final mesh is exact or within the

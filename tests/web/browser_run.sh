@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The browser path end to end (docs/web.md, "Tests"): starts
+# The browser path end to end (docs/design/web.md, "Tests"): starts
 # `meshstream serve --http-listen 127.0.0.1:0` on a temporary store, with the
 # viewer's bundle (make wasm puts it beside the binary's folder, the server's
 # default --http-root), ingests the bunny, the horse, 2CylinderEngine and
@@ -90,7 +90,7 @@ node "$here/browser_test.mjs" --base "http://$http/" --reference "$reference" --
 
 # A failure while the server still runs: its threads' stacks, for the
 # record (a live session that stalled once in make test, unexplained yet:
-# docs/web.md, "Open defects").
+# docs/design/web.md, "Open defects").
 if [ $rc -ne 0 ] && command -v gdb >/dev/null 2>&1; then
   echo "--- the server's threads (gdb) ---"
   timeout 60 gdb -p "$SERVE_PID" -batch -ex "thread apply all bt 30" 2>/dev/null | grep -E '^(Thread|#)' | head -400

@@ -1,4 +1,4 @@
-// The viewer in a real browser (docs/web.md, "Tests"): Debian's Chromium,
+// The viewer in a real browser (docs/design/web.md, "Tests"): Debian's Chromium,
 // headless, driven by puppeteer-core, loads the viewer page from a real
 // server and streams each asset by HTTP ranges and over a live WebSocket
 // session. For every load it checks:

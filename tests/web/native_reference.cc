@@ -4,7 +4,7 @@
 //   <stream id> <vertices> <indices> <PrimitiveHash, 16 hex digits>
 // With --repeat N it decodes N times and prints, after those lines, the
 // median decode time: "time_ms <median>" (make bench-web compares it with
-// the wasm decoder's, docs/web-benchmarks.md).
+// the wasm decoder's, docs/results/web-benchmarks.md).
 // usage: meshstream_wasm_reference FILE.glb [--loss P] [--burst B] [--seed S] [--lod K] [--repeat N] [--profile auto|reliable|loss-tolerant]
 #include <algorithm>
 #include <chrono>

@@ -1,5 +1,5 @@
 // The browser's parsers of outside bytes under seeded random mutations
-// (docs/web.md): what a server or a file hands web/src, mutated by bit flips,
+// (docs/design/web.md): what a server or a file hands web/src, mutated by bit flips,
 // truncations, insertions, deletions, duplications and random bytes (and, for
 // a .glb, by values swapped inside its JSON), a fixed seed per case so that
 // any case is reproduced alone (--case N). The parsers:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The wasm decoder against the native one (docs/web.md, "Tests"): every shared
+# The wasm decoder against the native one (docs/design/web.md, "Tests"): every shared
 # model (and the glTF scenes) encoded by the CLI into a temporary folder, then
 # web/test/wasm_vs_native.mjs decodes each with the wasm module (the base by
 # draco3d) and compares it with meshstream_wasm_reference (the native

@@ -1,4 +1,4 @@
-// The live session over WebSocket (docs/streaming-protocol.md, "WebSocket
+// The live session over WebSocket (docs/spec/streaming-protocol.md, "WebSocket
 // transport") with a client of its own (`ws` from npm), against a real
 // `meshstream serve --http-listen`:
 //   - each asset streams to the end: the first message is a SessionStart

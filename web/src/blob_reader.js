@@ -1,4 +1,4 @@
-// A stream blob (docs/progressive-format.md, section 2) read as its bytes
+// A stream blob (docs/spec/progressive-format.md, section 2) read as its bytes
 // arrive, for the file read by HTTP ranges: push() takes the next bytes
 // and returns what they completed, in order:
 //   { kind: 'header', bytes }                      the stream header

@@ -1,4 +1,4 @@
-// The plain-JS API of meshstream in the browser (docs/web.md, "The npm
+// The plain-JS API of meshstream in the browser (docs/design/web.md, "The npm
 // package"), for any engine (Babylon.js, custom WebGL); plugin.js builds the
 // three.js integration on it.
 //
@@ -13,7 +13,7 @@
 //   client.dispose();   stops the fetch or session, frees the worker's decoders
 //
 // `url` is a progressive .glb served with HTTP ranges (`meshstream serve
-// --http-listen`, docs/http-api.md, or any static server or CDN): the first
+// --http-listen`, docs/spec/http-api.md, or any static server or CDN): the first
 // ranged GET reads the scene at its base level (everything before the first
 // stream blob), the second streams the blobs, decoded as they arrive. With
 // `session: { url, asset, version, token }` the refinements come from a live

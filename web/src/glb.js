@@ -2,7 +2,7 @@
 // binary chunk, and per refined primitive (in stream order: meshes in order,
 // each mesh's primitives in file order) its Draco base bytes and attribute
 // ids, its stream blob (or only where it lies in the file, for a prefix) and
-// its delivery record (docs/progressive-format.md).
+// its delivery record (docs/spec/progressive-format.md).
 // Throws an Error naming what is wrong; never reads outside the buffer.
 
 const GLB_MAGIC = 0x46546c67;
@@ -147,7 +147,7 @@ export function progressivePrimitives(glb, profile = 'auto') {
       if (!isObject(progressive) || !isObject(draco)) return;
       // A file with both profiles (format version 4, what the server
       // stores): the reliable profile's stream, which a file or HTTP ranges
-      // carry whole (smaller, faster to decode; docs/web.md). Its blobs lie
+      // carry whole (smaller, faster to decode; docs/design/web.md). Its blobs lie
       // together before the loss-tolerant ones, so one ranged GET reads them.
       const both = progressive.reliable !== undefined;
       const view = both && profile !== 'loss-tolerant' ? progressive.reliable : progressive.bufferView;

@@ -1,4 +1,4 @@
-// three.js integration (docs/web.md): a GLTFLoader plugin that refines the
+// three.js integration (docs/design/web.md): a GLTFLoader plugin that refines the
 // progressive primitives of a .glb in place.
 //
 //   import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';

@@ -1,4 +1,4 @@
-// A live session over WebSocket (docs/streaming-protocol.md, "WebSocket
+// A live session over WebSocket (docs/spec/streaming-protocol.md, "WebSocket
 // transport"), in the worker: the same session as StreamService.Open, its
 // protobuf messages in binary frames tagged by their first byte (1: a
 // ClientMessage, 2: a ServerMessage, 3: a datagram, the codec's bytes). The
@@ -123,7 +123,7 @@ export function readServerMessage(bytes) {
   return out;
 }
 
-// The stream number of a codec datagram (docs/progressive-format.md,
+// The stream number of a codec datagram (docs/spec/progressive-format.md,
 // section 6: magic, version, kind, then the stream as a varint); -1 when
 // malformed.
 export function datagramStream(d) {

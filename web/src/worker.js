@@ -1,4 +1,4 @@
-// The decoding side of the browser (docs/web.md): a module Web Worker that
+// The decoding side of the browser (docs/design/web.md): a module Web Worker that
 // holds the wasm decoder (codec/ compiled by emscripten) and draco3d, so
 // that no decoding runs on the page's thread. client.js starts it and talks
 // to it with messages:
@@ -63,7 +63,7 @@ async function loadModules(urls) {
     self.createMeshstreamDecoder(),
     self.DracoDecoderModule({ wasmBinary }),
   ]);
-  // The decoder's hot code compiled before the first stream (docs/web.md,
+  // The decoder's hot code compiled before the first stream (docs/design/web.md,
   // "Warming the decoder"): a sphere encoded and decoded in the module.
   if (M._ms_wasm_warm_up() === 0) throw new Error('the decoder failed its warm-up decode');
   return { M, D };

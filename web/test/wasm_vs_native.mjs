@@ -1,4 +1,4 @@
-// The wasm decoder against the native one (docs/web.md, "Tests"): every
+// The wasm decoder against the native one (docs/design/web.md, "Tests"): every
 // progressive .glb given is decoded by web/dist's module (the base by
 // draco3d) and by meshstream_wasm_reference (DecodeProgressiveGlb), without
 // loss, at 12 % random loss and at 12 % in bursts of 4, and every refined

@@ -1,4 +1,4 @@
-// The viewer at `meshstream serve --http-listen`'s root (docs/web.md): lists
+// The viewer at `meshstream serve --http-listen`'s root (docs/design/web.md): lists
 // the assets, loads one with GLTFLoader and the meshstream plugin, from the
 // file by HTTP ranges or from a live session over WebSocket, and shows the
 // level, bytes, time to base and to full quality, with predicted vertices

@@ -1,5 +1,5 @@
 // The progressive decoder for the browser and node (codec/ compiled to
-// WebAssembly, docs/web.md): one primitive's stream blob, its base as Draco
+// WebAssembly, docs/design/web.md): one primitive's stream blob, its base as Draco
 // decoded it (floats per point, as draco3d's GetAttributeFloatForAllPoints
 // gives them), decoded through the same path as the native
 // DecodeProgressiveGlb (QuantizeOnto, DecodeStreamLossy), and the result as
@@ -20,7 +20,7 @@ extern "C" {
 
 typedef struct ms_wasm_stream ms_wasm_stream;
 
-// Parses a stream blob (docs/progressive-format.md section 2); `stream_id` is
+// Parses a stream blob (docs/spec/progressive-format.md section 2); `stream_id` is
 // the stream's position among the file's streams (it seeds the simulated
 // loss as in the native decoder). Null only when out of memory; a blob that
 // does not parse gives a stream whose ms_wasm_error() is set.
@@ -66,14 +66,14 @@ const uint8_t* ms_wasm_reliable(const ms_wasm_stream* s);
 // Runs the decoder once on a mesh of its own (a sphere of about 2,500
 // vertices, encoded here and decoded three times), so that the engine has
 // compiled the decoder's hot code before the first real stream: a fresh
-// module otherwise decodes its first stream several times slower (docs/web.md,
+// module otherwise decodes its first stream several times slower (docs/design/web.md,
 // "Warming the decoder"). Returns the vertices of the decoded sphere (0 on
 // an error).
 uint32_t ms_wasm_warm_up(void);
 
 // --- Live decoding: the refinements as they arrive ---------------------------
 // The same stream fed piece by piece, as a session's messages (SessionStart's
-// header and base, ControlBlocks, datagrams; docs/streaming-protocol.md) or a
+// header and base, ControlBlocks, datagrams; docs/spec/streaming-protocol.md) or a
 // file read by HTTP ranges (the blob's header, then each refinement's control
 // block, datagrams and an END made from the count the blob gives) deliver it,
 // through codec's StreamReconstructor. Both transports are reliable, so the

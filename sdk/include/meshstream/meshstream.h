@@ -1,4 +1,4 @@
-/* The C API of meshstream for engines: libmeshstream (docs/c-api.md).
+/* The C API of meshstream for engines: libmeshstream (docs/spec/c-api.md).
  *
  * A client is a connection to a meshstream server; a session streams one
  * asset version over it: the base mesh first, then one level of refinement
@@ -108,14 +108,14 @@ typedef struct {
   int64_t time_budget_ms;  /* stop this long after open, COMPLETE at the level reached */
   const char* udp_via;     /* "HOST:PORT": send the UDP half there (a relay, a tunnel) instead of the advertised endpoint */
   int32_t repair;          /* non-zero: once the stream has ended, ask once for the lost datagrams and decode again:
-                              the last LEVEL_READY shows the predicted mesh, COMPLETE the exact one (docs/c-api.md) */
+                              the last LEVEL_READY shows the predicted mesh, COMPLETE the exact one (docs/spec/c-api.md) */
   int32_t decode_threads;  /* threads that decode a refinement whose datagrams all arrived (same output bit for bit):
                               0 or 1 the session's own thread, N > 1 a pool of N, -1 one per core; at most 64 */
   int32_t no_parity;       /* non-zero: no parity datagrams; what UDP loses is predicted (or repaired), never rebuilt */
-  int32_t profile;         /* MS_PROFILE_*: which stream of the asset (docs/c-api.md); 0: the server's choice */
+  int32_t profile;         /* MS_PROFILE_*: which stream of the asset (docs/spec/c-api.md); 0: the server's choice */
 } ms_session_config;
 
-/* ms_session_config.profile (docs/streaming-protocol.md, "Profiles"). */
+/* ms_session_config.profile (docs/spec/streaming-protocol.md, "Profiles"). */
 #define MS_PROFILE_AUTO 0           /* the reliable profile over the stream alone, the loss-tolerant one over UDP */
 #define MS_PROFILE_RELIABLE 1       /* smaller and faster to decode; no datagrams: the session uses the stream alone */
 #define MS_PROFILE_LOSS_TOLERANT 2  /* datagrams that decode on their own, over any transport */

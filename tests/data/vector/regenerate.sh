@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the test vectors of docs/progressive-format.md ("Test vector")
+# Regenerates the test vectors of docs/spec/progressive-format.md ("Test vector")
 # from octahedron.obj with the meshstream CLI (build it first: make build):
 #   tests/data/vector/regenerate.sh [path/to/meshstream]
 # Writes, in the current format version (4), octahedron-qp8-bundled.glb (the
