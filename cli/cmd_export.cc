@@ -37,7 +37,7 @@ struct ExportArgs {
 };
 
 StatusOr<v1::Format> ParseFormat(const std::string& format, const std::string& out) {
-  if (format.empty()) return ExportFormatForPath(out).proto;
+  if (format.empty()) return ExportFormatForExtension(FileExtension(out)).proto;
   if (const ExportFormatInfo* info = ExportFormatNamed(format)) return info->proto;
   return InvalidArgument("--format " + format + ": expected one of " + ExportFormatNames());
 }

@@ -31,15 +31,9 @@ const ExportFormatInfo* ExportFormatOf(v1::Format proto) {
   return nullptr;
 }
 
-const ExportFormatInfo& ExportFormatForPath(std::string_view path) {
-  const size_t dot = path.find_last_of('.');
-  const size_t slash = path.find_last_of('/');
-  if (dot != std::string_view::npos && (slash == std::string_view::npos || dot > slash)) {
-    std::string ext(path.substr(dot));
-    for (char& c : ext) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
-    for (const ExportFormatInfo& info : ExportFormats())
-      if (info.decodes && ext == info.extension) return info;  // .glb: glb, the first row
-  }
+const ExportFormatInfo& ExportFormatForExtension(std::string_view extension) {
+  for (const ExportFormatInfo& info : ExportFormats())
+    if (info.decodes && extension == info.extension) return info;  // .glb: glb, the first row
   return InfoOf(ExportFormat::kGlb);
 }
 

@@ -35,8 +35,9 @@ const ExportFormatInfo& InfoOf(ExportFormat format);
 // nullptr when no format has that name (case-sensitive) or enum value.
 const ExportFormatInfo* ExportFormatNamed(std::string_view name);
 const ExportFormatInfo* ExportFormatOf(v1::Format proto);
-// The format a file name's extension implies: obj, ply, else glb.
-const ExportFormatInfo& ExportFormatForPath(std::string_view path);
+// The format a file's extension implies (lower case, with the dot, as
+// importers' FileExtension gives it): obj, ply, else glb.
+const ExportFormatInfo& ExportFormatForExtension(std::string_view extension);
 
 // "glb, draco, progressive, obj, ply" (the names, for messages and help).
 std::string ExportFormatNames();

@@ -46,13 +46,12 @@ TEST(ExportFormats, NamesAndLookups) {
   EXPECT_STREQ(InfoOf(ExportFormat::kPly).extension, ".ply");
 }
 
-TEST(ExportFormats, FormatForPathByExtension) {
-  EXPECT_EQ(ExportFormatForPath("out/bunny.obj").format, ExportFormat::kObj);
-  EXPECT_EQ(ExportFormatForPath("BUNNY.PLY").format, ExportFormat::kPly);
-  EXPECT_EQ(ExportFormatForPath("bunny.glb").format, ExportFormat::kGlb);
-  EXPECT_EQ(ExportFormatForPath("bunny.gltf").format, ExportFormat::kGlb);
-  EXPECT_EQ(ExportFormatForPath("dir.obj/bunny").format, ExportFormat::kGlb);
-  EXPECT_EQ(ExportFormatForPath("bunny").format, ExportFormat::kGlb);
+TEST(ExportFormats, FormatForExtension) {
+  EXPECT_EQ(ExportFormatForExtension(".obj").format, ExportFormat::kObj);
+  EXPECT_EQ(ExportFormatForExtension(".ply").format, ExportFormat::kPly);
+  EXPECT_EQ(ExportFormatForExtension(".glb").format, ExportFormat::kGlb);
+  EXPECT_EQ(ExportFormatForExtension(".gltf").format, ExportFormat::kGlb);
+  EXPECT_EQ(ExportFormatForExtension("").format, ExportFormat::kGlb);
 }
 
 }  // namespace
