@@ -2,7 +2,7 @@
 
 #include <cstdlib>
 
-#include "services/store/store_checks.h"
+#include "proto/api_names.h"
 
 namespace meshstream::cli {
 

@@ -11,9 +11,8 @@
 #include "cli/remote.h"
 #include "cli/verbs.h"
 #include "importers/import.h"
+#include "proto/api_names.h"
 #include "sdk/asset_client.h"
-#include "services/pipeline/resource_path.h"
-#include "services/store/store_checks.h"
 
 namespace meshstream::cli {
 

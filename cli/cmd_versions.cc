@@ -8,7 +8,7 @@
 #include "cli/json_out.h"
 #include "cli/remote.h"
 #include "cli/verbs.h"
-#include "services/store/store_checks.h"
+#include "proto/api_names.h"
 
 namespace meshstream::cli {
 

@@ -1,7 +1,6 @@
 #include "sdk/asset_client.h"
 
 #include <fcntl.h>
-#include <sodium.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -14,29 +13,13 @@
 #include "importers/gltf_files.h"
 #include "importers/import.h"
 #include "proto/rpc_status.h"
+#include "proto/sha256.h"
 
 namespace meshstream::sdk {
 
 namespace {
 
 constexpr int32_t kPageSize = 100;
-
-std::string Hex(const unsigned char* digest, size_t size) {
-  static const char kDigits[] = "0123456789abcdef";
-  std::string out;
-  out.reserve(size * 2);
-  for (size_t i = 0; i < size; ++i) {
-    out.push_back(kDigits[digest[i] >> 4]);
-    out.push_back(kDigits[digest[i] & 15]);
-  }
-  return out;
-}
-
-std::string Sha256Hex(const uint8_t* data, size_t size) {
-  unsigned char digest[crypto_hash_sha256_BYTES];
-  crypto_hash_sha256(digest, data, size);
-  return Hex(digest, sizeof digest);
-}
 
 // A file on disk read in chunks; closes itself.
 class FileReader {
@@ -128,8 +111,7 @@ grpc::Status EveryPage(const Client& client, v1::AssetService::Stub& stub,
 StatusOr<UploadFile> UploadFile::FromPath(const std::string& path, const std::string& name) {
   FileReader reader;
   MS_RETURN_IF_ERROR(reader.Open(path, 0));
-  crypto_hash_sha256_state state;
-  crypto_hash_sha256_init(&state);
+  Sha256Hasher hash;
   std::vector<uint8_t> buffer(size_t{1} << 20);
   UploadFile file;
   file.name = name;
@@ -137,12 +119,10 @@ StatusOr<UploadFile> UploadFile::FromPath(const std::string& path, const std::st
   for (;;) {
     MS_ASSIGN_OR_RETURN(const size_t n, reader.Read(buffer));
     if (n == 0) break;
-    crypto_hash_sha256_update(&state, buffer.data(), n);
+    hash.Update(buffer.data(), n);
     file.size += n;
   }
-  unsigned char digest[crypto_hash_sha256_BYTES];
-  crypto_hash_sha256_final(&state, digest);
-  file.sha256 = Hex(digest, sizeof digest);
+  file.sha256 = hash.FinishHex();
   return file;
 }
 

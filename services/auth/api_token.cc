@@ -2,7 +2,7 @@
 
 #include <cstdint>
 
-#include "services/store/blob_store.h"
+#include "proto/sha256.h"
 
 namespace meshstream {
 

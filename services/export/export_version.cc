@@ -1,6 +1,6 @@
 #include "services/export/export_version.h"
 
-#include "services/store/blob_store.h"
+#include "proto/sha256.h"
 
 namespace meshstream {
 

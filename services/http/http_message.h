@@ -1,5 +1,5 @@
 // A request and a response of the HTTP server as plain values: what a route
-// (services/http/router.h) reads and returns, with no Boost type in sight, so
+// (services/http_routes/router.h) reads and returns, with no Boost type in sight, so
 // that routes are tested without sockets and run on any thread.
 //
 // Also the one mapping of a Status to HTTP (docs/spec/http-api.md, "Status

@@ -6,7 +6,7 @@
 #include <utility>
 
 #include "importers/import.h"
-#include "services/pipeline/resource_path.h"
+#include "proto/api_names.h"
 #include "services/store/store_checks.h"
 
 namespace meshstream {

@@ -30,7 +30,6 @@
 #include "codec/core/status.h"
 #include "services/auth/authenticator.h"
 #include "services/pipeline/encode_options.h"
-#include "services/store/blob_store.h"
 #include "services/store/store.h"
 
 namespace meshstream {

@@ -12,8 +12,8 @@
 #include "codec/bitstream/format.h"
 #include "codec/core/utf8.h"
 #include "codec/mesh/quantization.h"
-#include "services/pipeline/resource_path.h"
-#include "services/store/blob_store.h"
+#include "proto/api_names.h"
+#include "proto/sha256.h"
 
 namespace meshstream {
 

@@ -11,7 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "services/pipeline/resource_path.h"
+#include "proto/api_names.h"
 
 namespace meshstream {
 

@@ -5,7 +5,7 @@
 //
 // Contract: the names in the VersionRecord are untrusted: the main filename
 // must pass CheckMainFilename and every resource name CheckResourceName
-// (resource_path.h), names may not repeat or collide (a file where another
+// (proto/api_names.h), names may not repeat or collide (a file where another
 // name needs a folder), else InvalidArgument and nothing is left on disk.
 // The folder is made by mkdtemp (mode 0700), files are created 0600 with
 // O_EXCL|O_NOFOLLOW, so nothing outside the folder is ever written. Blobs

@@ -8,8 +8,8 @@
 
 #include "codec/core/utf8.h"
 #include "importers/import.h"
+#include "proto/sha256.h"
 #include "services/pipeline/stream_layout.h"
-#include "services/store/blob_store.h"
 
 namespace meshstream {
 

@@ -21,19 +21,19 @@
 #include <grpcpp/resource_quota.h>
 
 #include "importers/import.h"
-#include "services/api/asset_service.h"
-#include "services/api/stream_service.h"
+#include "net/udp_socket.h"
+#include "proto/sha256.h"
 #include "services/auth/authenticator.h"
-#include "services/http/asset_route.h"
+#include "services/grpc/asset_service.h"
+#include "services/grpc/stream_service.h"
 #include "services/http/cors.h"
 #include "services/http/http_server.h"
-#include "services/http/router.h"
-#include "services/http/static_route.h"
-#include "services/http/stream_socket.h"
+#include "services/http_routes/asset_route.h"
+#include "services/http_routes/router.h"
+#include "services/http_routes/static_route.h"
+#include "services/http_routes/stream_socket.h"
 #include "services/jobs/worker_pool.h"
-#include "services/store/blob_store.h"
 #include "services/store/open_store.h"
-#include "net/udp_socket.h"
 #include "services/streaming/udp_endpoint.h"
 
 namespace meshstream {
@@ -389,7 +389,7 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     impl->http_assets = std::make_unique<AssetRoute>(impl->store.get(), impl->auth.get(),
                                                      impl->service->export_limit(), asset_options);
     // The live session over WebSocket: the gRPC stream service's sessions
-    // (services/http/stream_socket.h), its origins those of CORS.
+    // (services/http_routes/stream_socket.h), its origins those of CORS.
     StreamSocketOptions socket_options;
     socket_options.cors = cors;
     socket_options.log = impl->log;

@@ -28,17 +28,12 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "proto/sha256.h"
 
 namespace meshstream {
 
-// SHA-256 of `size` bytes, as 64 lower-case hex digits (libsodium).
-std::string Sha256Hex(const uint8_t* data, size_t size);
-// True when `digest` is 64 lower-case hex digits.
-bool IsSha256Hex(const std::string& digest);
-// Lower-case hex of `size` bytes.
-std::string ToHex(const uint8_t* data, size_t size);
-// `bytes` random bytes from libsodium, as hex (ids, temporary names, tokens).
-std::string RandomHex(size_t bytes);
+// Digests and random ids (Sha256Hex, IsSha256Hex, ToHex, RandomHex,
+// Sha256Hasher): proto/sha256.h, shared with the clients.
 
 // The refusals about blobs, worded once for the blob folder and both store
 // backends (services/store/store_records.h words the rest and includes this
@@ -50,18 +45,6 @@ Status BlobTooLarge(const std::string& sha256, uint64_t size, uint64_t max_bytes
 Status BlobDamaged(const std::string& sha256);
 // Bytes whose digest is `actual` where `expected` was announced: DataLoss.
 Status DigestMismatch(const std::string& actual, const std::string& expected);
-
-// Incremental SHA-256 (libsodium), for every sink that hashes as bytes arrive.
-class Sha256Hasher {
- public:
-  Sha256Hasher();
-  void Update(const uint8_t* data, size_t size);
-  // The digest as 64 lower-case hex digits; the hasher is spent afterwards.
-  std::string FinishHex();
-
- private:
-  alignas(16) unsigned char state_[128];  // crypto_hash_sha256_state (checked in the .cc)
-};
 
 class FileBlobStore;
 

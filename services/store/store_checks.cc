@@ -21,28 +21,6 @@ Status CheckFileName(const std::string& field, const std::string& name) {
 
 }  // namespace
 
-bool IsValidName(const std::string& name) {
-  if (name.empty() || name.size() > kMaxNameBytes) return false;
-  if (name == "." || name == "..") return false;  // they would name folders (uploads/<tenant>/)
-  for (const char c : name) {
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' ||
-                    c == '_' || c == '-';
-    if (!ok) return false;
-  }
-  return true;
-}
-
-Status CheckName(const std::string& field, const std::string& name) {
-  if (IsValidName(name)) return Status::Ok();
-  if (name.empty()) return InvalidArgument(field + ": must not be empty");
-  if (name.size() > kMaxNameBytes) {
-    return InvalidArgument(field + ": " + std::to_string(name.size()) + " characters, at most " +
-                           std::to_string(kMaxNameBytes));
-  }
-  if (name == "." || name == "..") return InvalidArgument(field + ": '" + name + "' is not a name");
-  return InvalidArgument(field + ": only letters, digits, '.', '_' and '-' are allowed");
-}
-
 Status CheckDigest(const std::string& field, const std::string& digest) {
   if (IsSha256Hex(digest)) return Status::Ok();
   return InvalidArgument(field + ": not a SHA-256 (64 lower-case hex digits)");

@@ -19,18 +19,15 @@
 #include <string>
 
 #include "codec/core/status.h"
+#include "proto/api_names.h"
 
 namespace meshstream {
 
 struct ArtifactSummary;
 struct NewVersion;
 
-// Names: assets, tenants, upload ids, job ids and token ids are
-// [A-Za-z0-9._-]{1,128}, and not "." or ".." (they would name folders).
-constexpr size_t kMaxNameBytes = 128;
-bool IsValidName(const std::string& name);
-// InvalidArgument naming `field` when `name` is not valid.
-Status CheckName(const std::string& field, const std::string& name);
+// Names (IsValidName, CheckName) are the API's rules, shared with the
+// clients: proto/api_names.h.
 
 // A digest: 64 lower-case hex digits (a SHA-256).
 Status CheckDigest(const std::string& field, const std::string& digest);

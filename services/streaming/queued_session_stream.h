@@ -3,8 +3,8 @@
 // for (start, control blocks, datagrams on the stream, refinement ends, the
 // end, the repair's end) translated once into ServerMessages
 // (session_messages.h), and the client's messages handed to the session's
-// registration. A transport (the gRPC call of services/api/stream_service.cc,
-// the WebSocket of services/http/stream_socket.cc; a WebTransport one later)
+// registration. A transport (the gRPC call of services/grpc/stream_service.cc,
+// the WebSocket of services/http_routes/stream_socket.cc; a WebTransport one later)
 // derives from it and implements only its wire: Send (queue one message;
 // the send loop waits while queued() is at its bound, which is the
 // back-pressure), Close (end the channel with a status once what is queued

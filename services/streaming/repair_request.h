@@ -1,7 +1,7 @@
 // A client's RepairRequest on the server (docs/spec/streaming-protocol.md,
 // "Sessions", step 5): the datagrams it names, checked against the session's
 // plan. The protobuf message is translated to RepairItems by
-// services/api/proto_convert.h; this is where its content is judged.
+// services/grpc/proto_convert.h; this is where its content is judged.
 //
 // Contract: safe on untrusted input (tests/fuzz/fuzz_service_repair.cc).
 // A request names at most as many items as the plan has refinements (one

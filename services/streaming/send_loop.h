@@ -2,7 +2,7 @@
 // one thread drives every session's SessionSender (session_sender.h) by its
 // next due time, from a timer heap, so that a session costs no thread of its
 // own. It hands each session's actions to that session's SessionStream (the
-// gRPC call, services/api/stream_service.cc, which queues them as
+// gRPC call, services/grpc/stream_service.cc, which queues them as
 // ServerMessages) and its UDP DATA to the UDP endpoint (udp_endpoint.h):
 // sealed into the thread's DatagramOutbox as each session is stepped and sent
 // in one sendmmsg for every session of the pass, never waiting on a full

@@ -4,7 +4,7 @@
 
 #include "fec/reed_solomon.h"
 #include "net/steady_clock.h"
-#include "services/store/blob_store.h"
+#include "proto/sha256.h"
 #include "services/store/ready_version.h"
 #include "services/streaming/session_messages.h"
 

@@ -1,6 +1,6 @@
 // The host of the streaming sessions (docs/spec/streaming-protocol.md,
 // "Sessions"), whatever carries their reliable channel: the gRPC call
-// (services/api/stream_service.h) and the WebSocket (services/http/
+// (services/grpc/stream_service.h) and the WebSocket (services/http/
 // stream_socket.h) are thin transports on it, each keeping only its wire.
 //
 // It owns what every session shares: the session slots (`max_sessions`),

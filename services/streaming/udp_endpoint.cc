@@ -6,7 +6,7 @@
 
 #include "codec/core/byte_io.h"
 #include "net/steady_clock.h"
-#include "services/store/blob_store.h"
+#include "proto/sha256.h"
 
 namespace meshstream {
 

@@ -1,5 +1,5 @@
 // libFuzzer target for the Ingest state machine (services/ingest/
-// ingest_upload.h) as the gRPC service drives it (services/api/
+// ingest_upload.h) as the gRPC service drives it (services/grpc/
 // asset_service.cc): serialized meshstream.v1.IngestRequest messages from
 // the client, converted by proto_convert's FromProto, fed to an IngestUpload
 // over a real SqliteStore, then Finish.
@@ -62,16 +62,16 @@
 #include <google/protobuf/stubs/logging.h>
 
 #include "codec/core/status.h"
-#include "tests/fuzz/fuzz_service_util.h"
 #include "meshstream/v1/asset_service.pb.h"
-#include "services/api/proto_convert.h"
+#include "proto/api_names.h"
 #include "services/auth/authenticator.h"
+#include "services/grpc/proto_convert.h"
 #include "services/ingest/ingest_upload.h"
 #include "services/pipeline/encode_options.h"
-#include "services/pipeline/resource_path.h"
 #include "services/store/blob_store.h"
 #include "services/store/sqlite_store.h"
 #include "services/store/store.h"
+#include "tests/fuzz/fuzz_service_util.h"
 
 namespace {
 

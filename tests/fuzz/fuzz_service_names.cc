@@ -1,7 +1,7 @@
 // libFuzzer target for the small parsers of untrusted strings of the asset
-// service: resource names and main file names (services/pipeline/
-// resource_path.h), asset, tenant and upload names (IsValidName, CheckName in
-// services/store/store.h), the encode options' JSON (ParseSettingsJson,
+// service: resource names, main file names and asset, tenant and upload
+// names (CheckResourceName, CheckMainFilename, IsValidName, CheckName in
+// proto/api_names.h), the encode options' JSON (ParseSettingsJson,
 // ResolveSettings in services/pipeline/encode_options.h) and the
 // authorization header (Authenticator::Authenticate, services/auth/).
 //
@@ -52,17 +52,17 @@
 #include <string>
 #include <vector>
 
+#include "codec/bitstream/format.h"
 #include "codec/core/status.h"
-#include "tests/fuzz/fuzz_service_util.h"
 #include "codec/core/utf8.h"
 #include "codec/mesh/quantization.h"
-#include "codec/bitstream/format.h"
+#include "proto/api_names.h"
 #include "services/auth/api_token.h"
 #include "services/auth/authenticator.h"
 #include "services/pipeline/encode_options.h"
-#include "services/pipeline/resource_path.h"
 #include "services/store/sqlite_store.h"
 #include "services/store/store.h"
+#include "tests/fuzz/fuzz_service_util.h"
 
 namespace {
 
@@ -154,7 +154,7 @@ Fixture& GetFixture() {
 
 // --- names -------------------------------------------------------------------
 
-// The rules of resource_path.h, written again.
+// The rules of proto/api_names.h, written again.
 bool ExpectedResourceName(const std::string& n, size_t max_bytes) {
   if (n.empty() || n.size() > max_bytes || !meshstream::IsValidUtf8(n)) return false;
   for (unsigned char c : n) {

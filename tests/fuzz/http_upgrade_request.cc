@@ -3,7 +3,7 @@
 #include <boost/beast/http/field.hpp>
 #include <boost/beast/http/verb.hpp>
 
-#include "services/http/stream_socket.h"
+#include "services/http_routes/stream_socket.h"
 
 namespace meshstream::fuzz {
 

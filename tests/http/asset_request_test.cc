@@ -1,6 +1,6 @@
-// The file route's path and query (services/http/asset_route.h,
+// The file route's path and query (services/http_routes/asset_route.h,
 // ParseAssetRequest): what is a request, what is 400, what is 404.
-#include "services/http/asset_route.h"
+#include "services/http_routes/asset_route.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
-// The viewer's files (services/http/static_route.h): what is served, and
+// The viewer's files (services/http_routes/static_route.h): what is served, and
 // every way a path could try to leave the root.
-#include "services/http/static_route.h"
+#include "services/http_routes/static_route.h"
 
 #include <unistd.h>
 

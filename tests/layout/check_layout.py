@@ -14,13 +14,18 @@
   bench/, tests/ or testing/;
 - services/ and sdk/ never include cli/, bench/, tests/ or testing/; sdk/
   never includes services/;
+- proto/ (the generated API and meshstream_common, the rules of the API's
+  values) uses codec/, importers/ and the generated code only;
 - cli/ never includes bench/, tests/ or testing/: no part of the product
-  (codec/, importers/, net/, services/, sdk/, cli/) uses testing/;
+  (codec/, importers/, net/, services/, sdk/, cli/) uses testing/; of cli/,
+  only the verbs that run the server or work on its store (CLI_SERVER_FILES)
+  include services/;
 - web/ (the decoder's C ABI for WebAssembly) uses codec/ only;
 - testing/ (what tests/ and bench/ share) never includes cli/, bench/ or
   tests/; bench/ never includes tests/; the folders of services/ depend on
   each other in one direction too (SERVICES_DEPENDS, as docs/architecture.md
-  writes it).
+  writes it), and services/CMakeLists.txt builds one library per folder
+  linking exactly those folders (meshstream_service_layer's LAYERS).
 Exits 1 naming every include that points the wrong way.
 """
 import os
@@ -46,12 +51,18 @@ SERVICES_DEPENDS = {
     "export": ["pipeline"],
     # The session host and what every transport shares (auth: the host admits).
     "streaming": ["pipeline", "auth"],
+    # HTTP/1.1 and WebSocket machinery on Boost.Beast: no route, no library call.
+    "http": [],
     # The two transports of the API, siblings on the same library calls:
-    # gRPC (api/) and HTTP with its WebSocket sessions (http/).
-    "api": ["ingest", "export", "streaming"],
-    "http": ["auth", "export", "streaming"],
-    "server": ["api", "jobs", "http"],
+    # gRPC (grpc/) and HTTP's routes with the WebSocket sessions (http_routes/).
+    "grpc": ["ingest", "export", "streaming"],
+    "http_routes": ["http", "auth", "export", "streaming"],
+    "server": ["grpc", "jobs", "http_routes"],
 }
+# The CLI's verbs that run the server or work on its store directly; every
+# other file of cli/ is a client and uses the API's rules from proto/, never
+# services/.
+CLI_SERVER_FILES = {"cli/cmd_serve.cc", "cli/cmd_token.cc"}
 FOLDER_DEPENDS = {"codec": CODEC_DEPENDS, "services": SERVICES_DEPENDS}
 LAYER_FORBIDDEN = {
     "codec": ["importers", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel", "fec"],
@@ -61,6 +72,9 @@ LAYER_FORBIDDEN = {
     # The codec's erasure code on ISA-L: codec/core and the library only.
     "fec": ["importers", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto", "parallel"],
     "net": ["services", "sdk", "cli", "bench", "tests", "testing"],
+    # The generated API and the rules of its values (meshstream_common) that
+    # clients and the server share: codec/, importers/ and the generated code.
+    "proto": ["parallel", "fec", "net", "services", "sdk", "cli", "bench", "tests", "testing"],
     "services": ["sdk", "cli", "bench", "tests", "testing"],
     "sdk": ["services", "cli", "bench", "tests", "testing"],
     # The command line is the product too: what tests share is not for it.
@@ -100,6 +114,40 @@ def sources(root, top):
                 yield os.path.join(dirpath, name)
 
 
+LAYER_CALL = re.compile(r"meshstream_service_layer\(\s*(\w+)([^)]*)\)", re.S)
+LAYER_KEYWORDS = {"LAYERS", "LIBS", "PRIVATE_LIBS"}
+
+
+def check_service_targets(root):
+    """services/CMakeLists.txt builds one library per folder whose LAYERS are
+    the folder's SERVICES_DEPENDS: the build's order is the architecture's."""
+    path = os.path.join(root, "services", "CMakeLists.txt")
+    errors = []
+    with open(path, encoding="utf-8") as f:
+        text = re.sub(r"#[^\n]*", "", f.read())
+    built = {}
+    for folder, args in LAYER_CALL.findall(text):
+        layers, current = [], None
+        for word in args.split():
+            if word in LAYER_KEYWORDS:
+                current = word
+            elif current == "LAYERS":
+                layers.append(word)
+        if folder in built:
+            errors.append(f"services/CMakeLists.txt: services/{folder}/ built twice")
+        built[folder] = layers
+    for folder, depends in SERVICES_DEPENDS.items():
+        if folder not in built:
+            errors.append(f"services/CMakeLists.txt: no meshstream_service_layer({folder} ...)")
+        elif sorted(built[folder]) != sorted(depends):
+            errors.append(f"services/CMakeLists.txt: meshstream_{folder} links LAYERS {sorted(built[folder])}, "
+                          f"docs/architecture.md draws {sorted(depends)}")
+    for folder in built:
+        if folder not in SERVICES_DEPENDS:
+            errors.append(f"services/CMakeLists.txt: meshstream_{folder} is not a folder docs/architecture.md names")
+    return errors
+
+
 def main(root):
     errors = []
     checked = 0
@@ -124,6 +172,9 @@ def main(root):
                     head = target.split("/")[0]
                     if kind == '"' and head in forbidden:
                         errors.append(f"{where}: {top}/ may not depend on {head}/")
+                    if (top == "cli" and kind == '"' and head == "services" and
+                            rel.replace(os.sep, "/") not in CLI_SERVER_FILES):
+                        errors.append(f"{where}: a client verb of cli/ uses proto/'s rules, not services/")
                     if top == "services" and kind == '"' and head == "services":
                         dep = target.split("/")[1] if target.count("/") >= 2 else None
                         if dep not in SERVICES_DEPENDS:
@@ -149,6 +200,7 @@ def main(root):
                     elif dep != folder and dep not in closure(folder):
                         errors.append(f"{where}: codec/{folder}/ may not use codec/{dep}/ "
                                       f"(order in docs/architecture.md)")
+    errors += check_service_targets(root)
     for e in errors:
         print(e)
     print(f"layout: {checked} includes checked, {len(errors)} pointing the wrong way")

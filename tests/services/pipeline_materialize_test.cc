@@ -13,9 +13,9 @@
 
 #include <gtest/gtest.h>
 
+#include "proto/api_names.h"
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
-#include "services/pipeline/resource_path.h"
 #include "services/store/blob_store.h"
 #include "testing/test_util.h"
 

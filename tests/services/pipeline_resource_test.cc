@@ -1,7 +1,7 @@
 // Names of uploaded files: a resource is a relative path inside the upload
 // and nothing else; the main file is a plain name whose extension chooses
 // the importer.
-#include "services/pipeline/resource_path.h"
+#include "proto/api_names.h"
 
 #include <string>
 

@@ -5,8 +5,8 @@
 //
 // Thread safety: gRPC calls the methods from its threads at once; the class
 // holds only pointers to thread-safe parts.
-#ifndef MESHSTREAM_SERVICES_API_ASSET_SERVICE_H_
-#define MESHSTREAM_SERVICES_API_ASSET_SERVICE_H_
+#ifndef MESHSTREAM_SERVICES_GRPC_ASSET_SERVICE_H_
+#define MESHSTREAM_SERVICES_GRPC_ASSET_SERVICE_H_
 
 #include <atomic>
 #include <cstdint>
@@ -60,7 +60,7 @@ class AssetServiceImpl final : public v1::AssetService::Service {
                       grpc::ServerWriter<v1::ExportChunk>* writer) override;
 
   // The limit on concurrent exports that decode, for the server's other
-  // transports to share (services/http/asset_route.h): one bound per server.
+  // transports to share (services/http_routes/asset_route.h): one bound per server.
   CallLimit* export_limit() { return &exports_; }
   const AssetServiceOptions& options() const { return options_; }
 
@@ -78,4 +78,4 @@ class AssetServiceImpl final : public v1::AssetService::Service {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_ASSET_SERVICE_H_
+#endif  // MESHSTREAM_SERVICES_GRPC_ASSET_SERVICE_H_

@@ -1,4 +1,4 @@
-#include "services/api/proto_convert.h"
+#include "services/grpc/proto_convert.h"
 
 #include <algorithm>
 

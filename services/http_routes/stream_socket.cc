@@ -1,4 +1,4 @@
-#include "services/http/stream_socket.h"
+#include "services/http_routes/stream_socket.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "services/http/asset_route.h"
+#include "services/http_routes/asset_route.h"
 
 #include <chrono>
 #include <exception>
@@ -9,11 +9,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "proto/export_formats.h"
 #include "services/export/export_version.h"
 #include "services/http/conditional.h"
 #include "services/http/representation.h"
 #include "services/http/url.h"
-#include "proto/export_formats.h"
 #include "services/store/store_checks.h"
 
 namespace meshstream {

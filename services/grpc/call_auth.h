@@ -1,7 +1,7 @@
 // Who a gRPC call is: the `authorization` metadata handed to the
 // Authenticator (services/auth/authenticator.h). One place for every service.
-#ifndef MESHSTREAM_SERVICES_API_CALL_AUTH_H_
-#define MESHSTREAM_SERVICES_API_CALL_AUTH_H_
+#ifndef MESHSTREAM_SERVICES_GRPC_CALL_AUTH_H_
+#define MESHSTREAM_SERVICES_GRPC_CALL_AUTH_H_
 
 #include <optional>
 #include <string>
@@ -22,4 +22,4 @@ inline StatusOr<Principal> AuthenticateCall(const Authenticator& auth, const grp
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_CALL_AUTH_H_
+#endif  // MESHSTREAM_SERVICES_GRPC_CALL_AUTH_H_

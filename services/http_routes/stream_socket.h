@@ -38,17 +38,17 @@
 // Contract: everything the client sends is untrusted. Thread safety:
 // Upgrade from the io threads at once; each connection is served on its
 // strand and the send loop's thread.
-#ifndef MESHSTREAM_SERVICES_HTTP_STREAM_SOCKET_H_
-#define MESHSTREAM_SERVICES_HTTP_STREAM_SOCKET_H_
+#ifndef MESHSTREAM_SERVICES_HTTP_ROUTES_STREAM_SOCKET_H_
+#define MESHSTREAM_SERVICES_HTTP_ROUTES_STREAM_SOCKET_H_
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <string>
 
-#include "services/streaming/session_host.h"
 #include "services/http/cors.h"
 #include "services/http/upgrade.h"
+#include "services/streaming/session_host.h"
 
 namespace meshstream {
 
@@ -89,4 +89,4 @@ class StreamSocketRoute final : public HttpUpgradeHandler {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_HTTP_STREAM_SOCKET_H_
+#endif  // MESHSTREAM_SERVICES_HTTP_ROUTES_STREAM_SOCKET_H_

@@ -15,17 +15,17 @@
 // Contract: requests are untrusted; no exception leaves Handle (one that a
 // route throws becomes a 500 with a JSON error). Thread safety: Handle from
 // the pool's threads at once; the routes it points to must outlive it.
-#ifndef MESHSTREAM_SERVICES_HTTP_ROUTER_H_
-#define MESHSTREAM_SERVICES_HTTP_ROUTER_H_
+#ifndef MESHSTREAM_SERVICES_HTTP_ROUTES_ROUTER_H_
+#define MESHSTREAM_SERVICES_HTTP_ROUTES_ROUTER_H_
 
 #include <atomic>
 #include <functional>
 #include <string>
 
-#include "services/http/asset_route.h"
 #include "services/http/cors.h"
 #include "services/http/http_message.h"
-#include "services/http/static_route.h"
+#include "services/http_routes/asset_route.h"
+#include "services/http_routes/static_route.h"
 
 namespace meshstream {
 
@@ -51,4 +51,4 @@ class HttpRouter {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_HTTP_ROUTER_H_
+#endif  // MESHSTREAM_SERVICES_HTTP_ROUTES_ROUTER_H_

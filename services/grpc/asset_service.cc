@@ -1,4 +1,4 @@
-#include "services/api/asset_service.h"
+#include "services/grpc/asset_service.h"
 
 #include <chrono>
 #include <optional>
@@ -6,10 +6,10 @@
 #include <thread>
 #include <utility>
 
-#include "services/api/call_auth.h"
 #include "proto/rpc_status.h"
-#include "services/api/proto_convert.h"
 #include "services/export/export_version.h"
+#include "services/grpc/call_auth.h"
+#include "services/grpc/proto_convert.h"
 #include "services/store/page_token.h"
 
 namespace meshstream {

@@ -1,4 +1,4 @@
-#include "services/pipeline/resource_path.h"
+#include "proto/api_names.h"
 
 #include "codec/core/utf8.h"
 #include "importers/import.h"
@@ -72,6 +72,28 @@ Status CheckMainFilename(const std::string& filename) {
     return refuse("the extension must be .gltf .glb .obj .ply .off or .stl (it chooses the format)");
   }
   return Status::Ok();
+}
+
+bool IsValidName(const std::string& name) {
+  if (name.empty() || name.size() > kMaxNameBytes) return false;
+  if (name == "." || name == "..") return false;  // they would name folders (uploads/<tenant>/)
+  for (const char c : name) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' ||
+                    c == '_' || c == '-';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+Status CheckName(const std::string& field, const std::string& name) {
+  if (IsValidName(name)) return Status::Ok();
+  if (name.empty()) return InvalidArgument(field + ": must not be empty");
+  if (name.size() > kMaxNameBytes) {
+    return InvalidArgument(field + ": " + std::to_string(name.size()) + " characters, at most " +
+                           std::to_string(kMaxNameBytes));
+  }
+  if (name == "." || name == "..") return InvalidArgument(field + ": '" + name + "' is not a name");
+  return InvalidArgument(field + ": only letters, digits, '.', '_' and '-' are allowed");
 }
 
 }  // namespace meshstream

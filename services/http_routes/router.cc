@@ -1,4 +1,4 @@
-#include "services/http/router.h"
+#include "services/http_routes/router.h"
 
 #include <exception>
 #include <utility>

@@ -25,8 +25,8 @@
 // Contract: request paths are untrusted; the root is the operator's.
 // Thread safety: Handle and Resolve from any thread at once (immutable
 // after Open; blocking file I/O, so on the server's pool).
-#ifndef MESHSTREAM_SERVICES_HTTP_STATIC_ROUTE_H_
-#define MESHSTREAM_SERVICES_HTTP_STATIC_ROUTE_H_
+#ifndef MESHSTREAM_SERVICES_HTTP_ROUTES_STATIC_ROUTE_H_
+#define MESHSTREAM_SERVICES_HTTP_ROUTES_STATIC_ROUTE_H_
 
 #include <cstdint>
 #include <memory>
@@ -77,4 +77,4 @@ class StaticRoute {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_HTTP_STATIC_ROUTE_H_
+#endif  // MESHSTREAM_SERVICES_HTTP_ROUTES_STATIC_ROUTE_H_

@@ -1,4 +1,4 @@
-#include "services/http/static_route.h"
+#include "services/http_routes/static_route.h"
 
 #include <fcntl.h>
 #include <limits.h>
@@ -12,10 +12,10 @@
 #include <system_error>
 #include <utility>
 
+#include "proto/sha256.h"
 #include "services/http/conditional.h"
 #include "services/http/representation.h"
 #include "services/http/url.h"
-#include "services/store/blob_store.h"
 
 namespace meshstream {
 

@@ -1,7 +1,7 @@
 // The assets over HTTP (docs/spec/http-api.md, "Assets"): a thin translation of
 //   GET|HEAD /v1/assets/{asset}/versions/{version}/{format}[?lod=K]
 //   GET|HEAD /v1/assets[?page_size=N&page_token=T]
-// to the calls the gRPC AssetService makes (services/api/asset_service.cc):
+// to the calls the gRPC AssetService makes (services/grpc/asset_service.cc):
 // the Authenticator for the tenant, CheckName for the asset, ExportVersion
 // with a slot of the same limit on concurrent exports that decode and the
 // same largest export, Store::ListAssets for the list.
@@ -32,8 +32,8 @@
 // Contract: requests are untrusted. Errors are JSON (http_message.h);
 // nothing throws. Thread safety: Handle is called from the pool's threads
 // at once; the route holds pointers to thread-safe parts and a CallLimit.
-#ifndef MESHSTREAM_SERVICES_HTTP_ASSET_ROUTE_H_
-#define MESHSTREAM_SERVICES_HTTP_ASSET_ROUTE_H_
+#ifndef MESHSTREAM_SERVICES_HTTP_ROUTES_ASSET_ROUTE_H_
+#define MESHSTREAM_SERVICES_HTTP_ROUTES_ASSET_ROUTE_H_
 
 #include <atomic>
 #include <cstdint>
@@ -102,4 +102,4 @@ class AssetRoute {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_HTTP_ASSET_ROUTE_H_
+#endif  // MESHSTREAM_SERVICES_HTTP_ROUTES_ASSET_ROUTE_H_

@@ -1,8 +1,16 @@
-// The names of the files of an upload, before any becomes a path on disk.
+// The names clients give, checked the same way by the server (services/),
+// the SDK and the CLI before a request leaves: names of assets, tenants and
+// ids, and the names of the files of an upload before any becomes a path on
+// disk.
+//
+// Names: assets, tenants, upload ids, job ids and token ids are
+// [A-Za-z0-9._-]{1,128}, and not "." or ".." (they would name folders);
+// refusals are InvalidArgument starting with the field's name and never quote
+// the value.
 //
 // A resource (an external file of a .gltf: its .bin, its images) is named by
 // a relative path inside the upload and nothing else: the materializer
-// (materialize.h) writes it under the job's work folder by that path, so a
+// (services/pipeline/materialize.h) writes it under the job's work folder by that path, so a
 // name that could leave the folder, or mean different files on different
 // systems, is refused here. The main file is a plain file name whose
 // extension chooses the importer (importers/import.h).
@@ -12,8 +20,8 @@
 // characters as '?', at most 64 bytes) and say what is wrong:
 // "resource name '../x': '..' segments are not allowed".
 // Thread safety: pure functions.
-#ifndef MESHSTREAM_SERVICES_PIPELINE_RESOURCE_PATH_H_
-#define MESHSTREAM_SERVICES_PIPELINE_RESOURCE_PATH_H_
+#ifndef MESHSTREAM_PROTO_API_NAMES_H_
+#define MESHSTREAM_PROTO_API_NAMES_H_
 
 #include <cstddef>
 #include <string>
@@ -21,6 +29,11 @@
 #include "codec/core/status.h"
 
 namespace meshstream {
+
+constexpr size_t kMaxNameBytes = 128;
+bool IsValidName(const std::string& name);
+// InvalidArgument naming `field` when `name` is not valid.
+Status CheckName(const std::string& field, const std::string& name);
 
 constexpr size_t kMaxResourceNameBytes = 512;
 constexpr size_t kMaxMainFilenameBytes = 255;  // one path component on common file systems
@@ -41,4 +54,4 @@ std::string PrintableName(const std::string& name);
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_PIPELINE_RESOURCE_PATH_H_
+#endif  // MESHSTREAM_PROTO_API_NAMES_H_

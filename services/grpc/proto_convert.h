@@ -1,8 +1,8 @@
 // Between the protobuf messages of proto/meshstream/v1 and the library's
 // records. Pure translation: no validation beyond what a type change needs
 // (the library validates).
-#ifndef MESHSTREAM_SERVICES_API_PROTO_CONVERT_H_
-#define MESHSTREAM_SERVICES_API_PROTO_CONVERT_H_
+#ifndef MESHSTREAM_SERVICES_GRPC_PROTO_CONVERT_H_
+#define MESHSTREAM_SERVICES_GRPC_PROTO_CONVERT_H_
 
 #include <vector>
 
@@ -26,4 +26,4 @@ v1::Job ToProto(const JobRecord& job);
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_PROTO_CONVERT_H_
+#endif  // MESHSTREAM_SERVICES_GRPC_PROTO_CONVERT_H_

@@ -9,8 +9,8 @@
 //
 // Thread safety: gRPC calls Open from its threads at once; the host is
 // thread-safe.
-#ifndef MESHSTREAM_SERVICES_API_STREAM_SERVICE_H_
-#define MESHSTREAM_SERVICES_API_STREAM_SERVICE_H_
+#ifndef MESHSTREAM_SERVICES_GRPC_STREAM_SERVICE_H_
+#define MESHSTREAM_SERVICES_GRPC_STREAM_SERVICE_H_
 
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "services/streaming/session_host.h"
@@ -31,4 +31,4 @@ class StreamServiceImpl final : public v1::StreamService::CallbackService {
 
 }  // namespace meshstream
 
-#endif  // MESHSTREAM_SERVICES_API_STREAM_SERVICE_H_
+#endif  // MESHSTREAM_SERVICES_GRPC_STREAM_SERVICE_H_

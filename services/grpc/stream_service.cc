@@ -1,4 +1,4 @@
-#include "services/api/stream_service.h"
+#include "services/grpc/stream_service.h"
 
 #include <atomic>
 #include <chrono>
@@ -14,7 +14,7 @@
 
 #include "net/steady_clock.h"
 #include "proto/rpc_status.h"
-#include "services/api/call_auth.h"
+#include "services/grpc/call_auth.h"
 #include "services/streaming/queued_session_stream.h"
 
 namespace meshstream {
