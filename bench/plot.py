@@ -20,6 +20,7 @@ markers are there). Works headless (Agg backend).
 """
 import argparse
 import os
+import re
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -380,7 +381,7 @@ def markdown(data, plots, prefix):
     out.append("")
     out.append("The split packing encoded with the tools of format versions 2 and 3 added one at a time "
                "(docs/design/codec.md; `StreamWriteOptions::tools`), each decoded once; bits per split saved = "
-               "8 x bytes saved against the row above / splits. The version 3 rows are issue 24's lever "
+               "8 x bytes saved against the row above / splits. The version 3 rows are format version 3's lever "
                "table (the last row is the ring predictor's 2-ring term, which the default encoder "
                "charges 0.5 bit per split for the decoder's time; docs/design/codec.md).")
     out.append("")
@@ -392,7 +393,7 @@ def markdown(data, plots, prefix):
                 m["name"], r["qp"], lv["lever"], fmt_int(lv["total_bytes"]), lv["total_bpv"],
                 lv["bits_per_split_saved"]))
     out.append("")
-    out.append("### Targets of issues 11, 24 and 25")
+    out.append("### Targets of the codec (sizes, decode time, levels)")
     out.append("")
     out.append("| target | model | qp | measured (split) | measured (bundled) | limit | verdict |")
     out.append("|---|---|---:|---:|---:|---:|---|")
@@ -400,11 +401,16 @@ def markdown(data, plots, prefix):
         if t.get("issue") == 42:
             continue
         out.append("| %s | %s | %d | %.3g | %.3g | %g | %s |" % (
-            t["target"], t["model"], t["qp"], t["value"], t["value_bundled"], t["limit"],
+            target_text(t), t["model"], t["qp"], t["value"], t["value_bundled"], t["limit"],
             "**met**" if t["met"] else "**not met**"))
     out.append("")
     issue42_targets(data, out)
     return "\n".join(out)
+
+
+def target_text(t):
+    """A target's words without the issue that set it ("issue 24: x" -> "x"); the JSON keeps both."""
+    return re.sub(r"^issues? [0-9, and]+: ", "", t["target"])
 
 
 def same_meshes_note(rows):
@@ -465,7 +471,7 @@ def chain_table(data, plots, prefix, out):
     if not rows:
         return
     st = data["settings"]
-    out.append("#### Against the Draco LOD chain (issue 42)")
+    out.append("#### Against the Draco LOD chain")
     out.append("")
     ratios = ", ".join("1/%g" % (1.0 / r) for r in st.get("chain_ratios", []))
     out.append("The chain is what a glTF viewer with separate LOD files downloads (needle's gltf-progressive "
@@ -475,7 +481,7 @@ def chain_table(data, plots, prefix, out):
                "step's distance is that of the mesh Draco decodes from it, against the same full mesh. For each "
                "step and profile: the first level of the stream at most as far from the full mesh (Hausdorff), "
                "its bytes, and those bytes x the chain's (below 1: the stream needs fewer bytes to look at least "
-               "as good; issue 42 asks at most 0.8 at every step). The same comparison by mean distance is "
+               "as good; the target is at most 0.8 at every step). The same comparison by mean distance is "
                "`by_mean` in the JSON." % ratios)
     out.append("")
     out.append("| model | qp | step | vertices | step bytes | chain bytes | Hausdorff | loss-tolerant: level, bytes, "
@@ -502,7 +508,7 @@ def issue42_targets(data, out):
     ts = [t for t in data["targets"] if t.get("issue") == 42]
     if not ts:
         return
-    out.append("### Targets of issue 42 (format version 4's profiles)")
+    out.append("### Targets of format version 4's profiles")
     out.append("")
     out.append("Loss-tolerant rows give the split packing, then the bundled one (both must meet the limit); the "
                "chain rows give the worst step of the Draco LOD chain.")
@@ -518,7 +524,7 @@ def issue42_targets(data, out):
         if t.get("unreached_steps"):
             measured += ", %d steps not reached" % t["unreached_steps"]
         out.append("| %s | %s | %d | %s | %s | %g | %s |" % (
-            t["target"].replace("issue 42: ", ""), t["model"], t["qp"], t["profile"], measured, t["limit"],
+            target_text(t), t["model"], t["qp"], t["profile"], measured, t["limit"],
             "**met**" if t["met"] else "**not met**"))
     out.append("")
 

@@ -241,7 +241,7 @@ def cut_markdown(data):
     models = [m for m in data["models"] if m.get("cut_runs")]
     if not models:
         return []
-    L = ["### Importance-ordered delivery and repair (issue 12)", ""]
+    L = ["### Importance-ordered delivery and repair", ""]
     L.append("The reliable cut (docs/design/loss-tolerance.md, \"The reliable cut\") at --reliable-share %s: the refinements "
              "whose loss would displace most per byte travel with their datagrams on the reliable channel. Both "
              "schemes on the same seeds (the cut's datagrams take their draws too, so the others see the same loss). "
@@ -301,7 +301,7 @@ def cut_markdown(data):
     L += protection_markdown(data, models)
 
     # ---- the targets, plainly
-    L.append("**Targets of issue 12** (12 % random loss, split packing, final level):")
+    L.append("**Targets of importance-ordered delivery and repair** (12 % random loss, split packing, final level):")
     L.append("")
     for m in models:
         cr = cut_runs(m, 0.12)
@@ -359,7 +359,7 @@ def protection_markdown(data, models):
     par = [m for m in models if m.get("parity_runs")]
     if not par:
         return []
-    L = ["### Protection: parity chosen by harm per byte (issue 27)", ""]
+    L = ["### Protection: parity chosen by harm per byte", ""]
     L.append("docs/design/loss-protection.md has the design. Parity: Reed-Solomon datagrams over blocks of the refinements "
              "the encoder protects (the delivery record's `parity`, by each refinement's single-loss harm), sized "
              "for the run's own loss and burst length as a client's reports would show them, sent after each block "
@@ -412,7 +412,7 @@ def protection_markdown(data, models):
         L.append("- %s: %d of %d unreliable datagrams harm at most 0.1 %%; %s" % (m["name"], under, count,
                                                                              ", ".join(cells_)))
     L.append("")
-    L.append("**Targets of issue 27** (12 % loss, random and in bursts of mean 4, every shared model):")
+    L.append("**Targets of protection** (12 % loss, random and in bursts of mean 4, every shared model):")
     L.append("")
     for m in par:
         total = m.get("reliable_cut", {}).get("stream_bytes") or 0
@@ -677,7 +677,7 @@ def main():
         if plot_levels(m, os.path.join(out, f)):
             plots.append(("%s: distortion per level (paper Figs 6-9)" % m["name"], f))
     if plot_cut(data, os.path.join(out, "loss-cut.png")):
-        plots.append(("The paper's scheme against the reliable cut (issue 12)", "loss-cut.png"))
+        plots.append(("The paper's scheme against the reliable cut", "loss-cut.png"))
     if plot_time(data, os.path.join(out, "loss-time.png")):
         plots.append(("Decoding time relative to zero loss (paper Fig 11)", "loss-time.png"))
     if plot_packing(data, os.path.join(out, "loss-packing.png")):

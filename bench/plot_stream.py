@@ -548,7 +548,7 @@ def parity_table(sh):
     rows = [(m, loss, u) for m, loss, u in rows if u and u.get("vs_no_parity")]
     if not rows:
         return []
-    out = ["#### Parity on this link (issue 27)", ""]
+    out = ["#### Parity on this link", ""]
     out.append("| model | loss | full ms: with / without parity | difference | parity bytes (median) | their time "
                "at %.0f Mbit/s | runs' spread | time target | final distance with parity: median (max) | without | distance target | "
                "datagrams over UDP / lost / rebuilt (median) |" % st["rate_mbit"])
