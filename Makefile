@@ -138,6 +138,16 @@ bench-scaling: build
 	@mkdir -p docs/results/bench
 	$(BUILD)/bin/meshstream_bench_scaling --out docs/results/bench/scaling.json $(SCALING_ARGS)
 
+# Ranged GETs of the stored progressive file (docs/results/http-ranges.md): the HTTP asset route from
+# the store and from the session host's hot artifacts, on the bunny and the 557 k-vertex noisy bunny
+# (about 2 minutes, most of it the large model's ingest). RANGES_ARGS e.g. "--quick".
+RANGES_ARGS ?=
+.PHONY: bench-ranges
+bench-ranges: build
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_bench_ranges --out docs/results/bench/http-ranges.json $(RANGES_ARGS)
+	$(PYTHON) bench/plot_ranges.py docs/results/bench/http-ranges.json --doc docs/results/http-ranges.md
+
 .PHONY: bench-soak
 bench-soak: build
 	@mkdir -p docs/results/bench

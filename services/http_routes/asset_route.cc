@@ -102,11 +102,13 @@ StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view
   return r;
 }
 
-AssetRoute::AssetRoute(Store* store, const Authenticator* auth, CallLimit* exports, AssetRouteOptions options)
+AssetRoute::AssetRoute(Store* store, const Authenticator* auth, CallLimit* exports, AssetRouteOptions options,
+                       SessionHost* sessions)
     : store_(store),
       auth_(auth),
       exports_(exports),
       options_(options),
+      sessions_(sessions),
       decode_requests_(options.max_decode_requests),
       bytes_in_flight_(std::make_shared<std::atomic<uint64_t>>(0)) {}
 
@@ -203,6 +205,19 @@ HttpResponse AssetRoute::List(const HttpRequest& request, const Principal& princ
 }
 
 HttpResponse AssetRoute::Export(const HttpRequest& request, const Principal& principal, const AssetRequest& file) {
+  if (sessions_ != nullptr && file.format == ExportFormat::kProgressiveGlb && !file.lod) {
+    // The stored file, from the hot artifacts sessions read: a lookup.
+    auto hot = sessions_->HotFile(principal.tenant, file.asset, file.version);
+    if (!hot.ok()) return StatusResponse(hot.status());
+    if (hot->hot->bytes.size() > options_.max_export_bytes) {
+      return StatusResponse(ResourceExhausted("the progressive file has " + std::to_string(hot->hot->bytes.size()) +
+                                              " bytes, more than the server's limit of " +
+                                              std::to_string(options_.max_export_bytes)));
+    }
+    const HotArtifacts::Entry& entry = hot->hot;
+    return Serve(request, file, entry->sha256, hot->version.version,
+                 std::shared_ptr<const std::vector<uint8_t>>(entry, &entry->bytes), true);
+  }
   // Exports that decode hold a scene in memory: a few at a time, a slot of
   // the limit the gRPC service takes too. The stored file and the export
   // cache's hits take no slot.
@@ -220,28 +235,36 @@ HttpResponse AssetRoute::Export(const HttpRequest& request, const Principal& pri
   slot = CallLimit::Slot();
   waiting = CallLimit::Slot();
   if (!exported.ok()) return StatusResponse(exported.status());
+  return Serve(request, file, exported->sha256, exported->version.version,
+               std::make_shared<const std::vector<uint8_t>>(std::move(exported->bytes)), false);
+}
 
+HttpResponse AssetRoute::Serve(const HttpRequest& request, const AssetRequest& file, const std::string& sha256,
+                               int64_t resolved_version, std::shared_ptr<const std::vector<uint8_t>> bytes,
+                               bool kept) {
   Representation rep;
-  rep.bytes = std::make_shared<const std::vector<uint8_t>>(std::move(exported->bytes));
-  rep.etag = StrongEntityTag(exported->sha256);
+  rep.bytes = std::move(bytes);
+  rep.etag = StrongEntityTag(sha256);
   rep.content_type = InfoOf(file.format).content_type;
   HttpResponse caching;
   AddCaching(&caching, file.version != 0);
   if (file.version == 0) {
-    caching.SetHeader("Content-Location", FileUrl(file.asset, exported->version.version, file.format, file.lod));
+    caching.SetHeader("Content-Location", FileUrl(file.asset, resolved_version, file.format, file.lod));
   }
   rep.headers = std::move(caching.headers);
   HttpResponse r = ServeRepresentation(request, rep);
   rep.bytes.reset();
   if (!r.data || r.size == 0 || request.head()) return r;
-  if (r.size < r.data->size()) {
+  if (!kept && r.size < r.data->size()) {
     // A range keeps its slice only, not the whole file, while it is written.
     const auto begin = r.data->begin() + static_cast<std::ptrdiff_t>(r.offset);
     r.SetBody(std::make_shared<const std::vector<uint8_t>>(begin, begin + static_cast<std::ptrdiff_t>(r.size)), 0,
               r.size);
   }
-  // Admitted when the bytes fit the budget, or when nothing else is held.
-  const uint64_t n = r.data->size();
+  // Admitted when the bytes fit the budget, or when nothing else is held. A
+  // kept file counts the bytes this response serves (the rest is the
+  // cache's, bounded by it).
+  const uint64_t n = kept ? r.size : r.data->size();
   uint64_t held = bytes_in_flight_->load();
   do {
     if (held != 0 && (held > options_.max_bytes_in_flight || n > options_.max_bytes_in_flight - held)) {

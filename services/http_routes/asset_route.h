@@ -20,8 +20,17 @@
 // the same URLs); `latest` moves, so `no-cache` and a Content-Location
 // naming the numbered version it resolved to.
 //
-// Memory: a 206 keeps only its slice; the bodies of responses still being
-// written are bounded together by `max_bytes_in_flight` (503 beyond).
+// The stored progressive file is served from the session host's hot
+// artifacts (services/streaming/session_host.h, HotFile) when the route has
+// a host: the same in-memory bytes sessions read, loaded and digest-checked
+// once per load, so a range is a lookup and a slice (a browser's view makes
+// two or three). Without a host, and for every other format, the file
+// comes from ExportVersion (a verified read of the whole blob per request).
+//
+// Memory: a 206 keeps only its slice (a hot file's slice is a view of the
+// kept bytes, not a copy); the bodies of responses still being written are
+// bounded together by `max_bytes_in_flight` (503 beyond), a hot file's by
+// the bytes the response serves.
 //
 // Exports that decode wait at most `export_wait_ms` for a slot of the
 // shared limit, as gRPC's do; but at most `max_decode_requests` requests
@@ -41,12 +50,14 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "parallel/call_limit.h"
 #include "services/auth/authenticator.h"
 #include "services/http/http_message.h"
 #include "services/pipeline/export_artifact.h"
 #include "services/store/store.h"
+#include "services/streaming/session_host.h"
 
 namespace meshstream {
 
@@ -76,8 +87,10 @@ StatusOr<AssetRequest> ParseAssetRequest(std::string_view path, std::string_view
 class AssetRoute {
  public:
   // `exports`: the server's limit on concurrent exports that decode, shared
-  // with the gRPC service; it must outlive the route.
-  AssetRoute(Store* store, const Authenticator* auth, CallLimit* exports, AssetRouteOptions options);
+  // with the gRPC service; `sessions` (may be null): the session host whose
+  // hot artifacts serve the stored progressive file. Both outlive the route.
+  AssetRoute(Store* store, const Authenticator* auth, CallLimit* exports, AssetRouteOptions options,
+             SessionHost* sessions = nullptr);
 
   // True for /v1/assets and every path under it (this route answers them).
   static bool Matches(std::string_view path);
@@ -88,6 +101,9 @@ class AssetRoute {
  private:
   HttpResponse List(const HttpRequest& request, const Principal& principal);
   HttpResponse Export(const HttpRequest& request, const Principal& principal, const AssetRequest& asset);
+  // The file's response (ranges, 304) admitted against the bytes in flight.
+  HttpResponse Serve(const HttpRequest& request, const AssetRequest& file, const std::string& sha256,
+                     int64_t resolved_version, std::shared_ptr<const std::vector<uint8_t>> bytes, bool kept);
   // `Cache-Control` (and Vary) of a response of this route.
   void AddCaching(HttpResponse* response, bool immutable) const;
 
@@ -95,6 +111,7 @@ class AssetRoute {
   const Authenticator* auth_;
   CallLimit* exports_;
   AssetRouteOptions options_;
+  SessionHost* sessions_;
   CallLimit decode_requests_;
   // Shared with the bodies' deleters, which may run on any thread.
   std::shared_ptr<std::atomic<uint64_t>> bytes_in_flight_;

@@ -387,7 +387,8 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     asset_options.max_export_bytes = impl->service->options().max_export_bytes;
     asset_options.export_wait_ms = impl->service->options().export_wait_ms;
     impl->http_assets = std::make_unique<AssetRoute>(impl->store.get(), impl->auth.get(),
-                                                     impl->service->export_limit(), asset_options);
+                                                     impl->service->export_limit(), asset_options,
+                                                     impl->sessions.get());
     // The live session over WebSocket: the gRPC stream service's sessions
     // (services/http_routes/stream_socket.h), its origins those of CORS.
     StreamSocketOptions socket_options;

@@ -56,14 +56,9 @@ StatusOr<PreparedSession> SessionHost::Prepare(const std::string& tenant, const 
                                                bool allow_udp) {
   MS_RETURN_IF_ERROR(CheckOpen(open));
   PreparedSession p;
-  MS_ASSIGN_OR_RETURN(p.version, ResolveVersion(tenant, open.asset(), open.version()));
-  // The artifact, its plan and its scene: kept in memory between sessions
-  // (hot_artifacts.h); the store's read, which checks the digest, only
-  // when the cache has none.
-  const std::string& sha = p.version.artifact.artifact_sha256;
-  MS_ASSIGN_OR_RETURN(p.hot, artifacts_.Get(sha, p.version.artifact.layout_json, [&] {
-    return store_->GetBlob(sha, options_.max_artifact_bytes);
-  }));
+  MS_ASSIGN_OR_RETURN(HotVersion file, HotFile(tenant, open.asset(), open.version()));
+  p.version = std::move(file.version);
+  p.hot = std::move(file.hot);
   SessionSenderOptions options;
   // The reliable profile has no datagrams: a client that asks for it gets
   // the stream alone (docs/spec/streaming-protocol.md, "Profiles").
@@ -140,6 +135,19 @@ void SessionHost::LogEnd(const PreparedSession& session, const std::string& reas
   if (!options_.log) return;
   options_.log("session " + session.version.asset + "@" + std::to_string(session.version.version) + " ended (" +
                reason + note + "): " + DescribeSession(stats) + tail);
+}
+
+StatusOr<HotVersion> SessionHost::HotFile(const std::string& tenant, const std::string& asset, int64_t version) {
+  HotVersion out;
+  MS_ASSIGN_OR_RETURN(out.version, ResolveVersion(tenant, asset, version));
+  // The artifact, its plans and its scene: kept in memory between sessions
+  // (hot_artifacts.h); the store's read, which checks the digest, only
+  // when the cache has none.
+  const std::string& sha = out.version.artifact.artifact_sha256;
+  MS_ASSIGN_OR_RETURN(out.hot, artifacts_.Get(sha, out.version.artifact.layout_json, [&] {
+    return store_->GetBlob(sha, options_.max_artifact_bytes);
+  }));
+  return out;
 }
 
 StatusOr<VersionRecord> SessionHost::ResolveVersion(const std::string& tenant, const std::string& asset,

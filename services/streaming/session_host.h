@@ -90,6 +90,13 @@ struct PreparedSession {
   std::unique_ptr<SessionSender> sender;
 };
 
+// A READY version's stored progressive file, hot: the version and the
+// artifact's entry (its bytes read and digest-checked once per load).
+struct HotVersion {
+  VersionRecord version;
+  HotArtifacts::Entry hot;
+};
+
 class SessionHost {
  public:
   // `store`, `auth` and `draining` outlive the host.
@@ -115,6 +122,13 @@ class SessionHost {
   // "session ASSET@VERSION ended (REASON`note`): STATS`tail`", when logging.
   void LogEnd(const PreparedSession& session, const std::string& reason, const std::string& note,
               const SessionSenderStats& stats, const std::string& tail) const;
+
+  // The hot artifact of a READY version (ResolveVersion's rules), loaded
+  // from the store at most once while it is kept or held: what sessions
+  // open with, and what the HTTP route serves ranges of the stored
+  // progressive file from (a range is a lookup and a slice). Blocks on the
+  // store on a miss.
+  StatusOr<HotVersion> HotFile(const std::string& tenant, const std::string& asset, int64_t version);
 
   Executor& openers() { return openers_; }
   const Authenticator& authenticator() const { return *auth_; }
