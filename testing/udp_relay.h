@@ -1,24 +1,21 @@
 // A seeded UDP relay for the streaming tests, the demo and the benchmarks:
 // it sits between the clients and the server's UDP endpoint (the client
 // sends its HELLO to the relay's front, `fetch --udp-via` or the server's
-// --udp-advertise) and forwards both ways with impairments: loss (Bernoulli
-// or Gilbert-Elliott bursts), delay with jitter (so reordering), extra
-// reordering, duplicates. Every client address on the front gets its own
+// --udp-advertise) and forwards both ways with impairments drawn from the
+// one link model (codec/loss/link_model.h: loss, Bernoulli or in
+// Gilbert-Elliott bursts, delay with jitter, extra reordering, duplicates),
+// the same the session cores' simulated network draws from, so a relay
+// run's fates can be replayed in process. Every client address on the front gets its own
 // upstream socket, so the server sees one source per client and its replies
 // find their way back. The front listens on loopback unless
 // RelayOptions::bind says where (the host side of a network namespace's
-// veth, for clients inside it). One thread; all randomness from one seeded
-// std::mt19937_64 per direction, so a run is reproducible for the same order
-// of arrivals.
+// veth, for clients inside it). One thread; all randomness from one
+// SimulatedLink per direction (to the server seeded with its model's seed,
+// to the clients with the seed ^ 0x9E3779B97F4A7C15), so a run is
+// reproducible for the same order of arrivals.
 //
 // For the hostile-traffic tests it records what passed (a bounded copy) and
 // can inject any bytes towards a client or the server.
-//
-// Gilbert-Elliott: a two-state chain, good -> bad with p_bad, bad -> good
-// with p_good; a datagram is lost with loss_good / loss_bad in its state.
-// The stationary share of bad is p_bad / (p_bad + p_good), so the mean loss
-// is (p_good * loss_good + p_bad * loss_bad) / (p_bad + p_good) and a bad
-// spell lasts 1 / p_good datagrams on average.
 //
 // Thread safety: Start/Stop and the accessors from any thread.
 #ifndef MESHSTREAM_TESTING_UDP_RELAY_H_
@@ -35,51 +32,21 @@
 #include <memory>
 #include <mutex>
 #include <queue>
-#include <random>
 #include <string>
 #include <thread>
 #include <unordered_map>
 #include <vector>
 
 #include "codec/core/status.h"
+#include "codec/loss/link_model.h"
 #include "net/steady_clock.h"
 #include "net/udp_socket.h"
 
 namespace meshstream::test_util {
 
-struct Impairment {
-  double loss = 0;              // Bernoulli loss (used when p_bad == 0)
-  double p_bad = 0;             // Gilbert-Elliott: good -> bad per datagram
-  double p_good = 1;            //                  bad -> good per datagram
-  double loss_good = 0, loss_bad = 1;
-  uint64_t delay_us = 0;        // every datagram
-  uint64_t jitter_us = 0;       // plus uniform [0, jitter)
-  double reorder = 0;           // this share is held back another `reorder_us`
-  uint64_t reorder_us = 5000;
-  double duplicate = 0;         // this share is sent twice
-  uint64_t seed = 1;
-
-  static Impairment Loss(double p, uint64_t seed = 1) {
-    Impairment i;
-    i.loss = p;
-    i.seed = seed;
-    return i;
-  }
-  // Bursts with mean loss `mean` and mean bad spell `burst` datagrams (loss 1 in bad).
-  static Impairment Bursts(double mean, double burst, uint64_t seed = 1) {
-    Impairment i;
-    i.p_good = 1.0 / burst;
-    i.p_bad = mean * i.p_good / (1.0 - mean);
-    i.loss_good = 0;
-    i.loss_bad = 1;
-    i.seed = seed;
-    return i;
-  }
-};
-
 struct RelayOptions {
   SocketAddress upstream;              // the server's UDP endpoint
-  Impairment to_server, to_client;
+  LinkModel to_server, to_client;
   size_t max_clients = 256;
   size_t max_queued = 1 << 16;         // delayed datagrams in flight, both ways
   size_t record = 0;                   // keep a copy of the first N datagrams passed to clients
@@ -109,8 +76,6 @@ class UdpRelay {
     // The upstream sockets: the front's host, any port.
     r->upstream_bind_ = front_address->family() == AF_INET6 ? "[" + front_address->host() + "]:0"
                                                             : front_address->host() + ":0";
-    r->directions_[0].rng.seed(options.to_server.seed);
-    r->directions_[1].rng.seed(options.to_client.seed ^ 0x9E3779B97F4A7C15ull);
     UdpRelay* raw = r.get();
     r->thread_ = std::thread([raw] { raw->Run(); });
     return r;
@@ -161,48 +126,38 @@ class UdpRelay {
     bool operator>(const Pending& o) const { return due_us != o.due_us ? due_us > o.due_us : order > o.order; }
   };
   struct Direction {
-    std::mt19937_64 rng;
-    bool bad = false;
+    SimulatedLink link;
     RelayCounters counters;
   };
 
-  explicit UdpRelay(const RelayOptions& options) : options_(options) {}
+  explicit UdpRelay(const RelayOptions& options)
+      : options_(options),
+        directions_{Direction{SimulatedLink(options.to_server, options.to_server.seed), {}},
+                    Direction{SimulatedLink(options.to_client, options.to_client.seed ^ 0x9E3779B97F4A7C15ull), {}}} {}
 
   RelayCounters Counters(int d) const {
     std::lock_guard<std::mutex> lock(mutex_);
     return directions_[d].counters;
   }
 
-  double Uniform(Direction& d) { return std::uniform_real_distribution<double>(0.0, 1.0)(d.rng); }
-
   // Decides the fate of one datagram and queues its copies.
   void Admit(int direction, size_t client, std::vector<uint8_t>&& bytes, uint64_t now) {
     Direction& d = directions_[direction];
-    const Impairment& imp = direction == 0 ? options_.to_server : options_.to_client;
     ++d.counters.in;
     d.counters.bytes += bytes.size();
-    bool lost;
-    if (imp.p_bad > 0) {
-      d.bad = d.bad ? Uniform(d) >= imp.p_good : Uniform(d) < imp.p_bad;
-      lost = Uniform(d) < (d.bad ? imp.loss_bad : imp.loss_good);
-    } else {
-      lost = imp.loss > 0 && Uniform(d) < imp.loss;
-    }
-    if (lost) {
+    const DatagramFate fate = d.link.Next();
+    if (fate.copies == 0) {
       ++d.counters.dropped;
       return;
     }
-    const int copies = imp.duplicate > 0 && Uniform(d) < imp.duplicate ? 2 : 1;
-    if (copies == 2) ++d.counters.duplicated;
-    for (int c = 0; c < copies; ++c) {
-      uint64_t delay = imp.delay_us;
-      if (imp.jitter_us > 0) delay += static_cast<uint64_t>(Uniform(d) * static_cast<double>(imp.jitter_us));
-      if (imp.reorder > 0 && Uniform(d) < imp.reorder) delay += imp.reorder_us;
+    if (fate.copies == 2) ++d.counters.duplicated;
+    for (int c = 0; c < fate.copies; ++c) {
       if (queue_.size() >= options_.max_queued) {
         ++d.counters.dropped;
         continue;
       }
-      queue_.push(Pending{now + delay, order_++, direction, client, c + 1 < copies ? bytes : std::move(bytes)});
+      queue_.push(Pending{now + fate.delay_us[c], order_++, direction, client,
+                          c + 1 < fate.copies ? bytes : std::move(bytes)});
     }
   }
 

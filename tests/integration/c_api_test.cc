@@ -503,7 +503,7 @@ TEST_F(CApi, NoParityMeansNoParityDatagrams) {
   auto run = [&](int32_t no_parity) {
     test_util::RelayOptions o;
     o.upstream = SocketAddress::Parse((*server)->udp_address()).value();
-    o.to_client = test_util::Impairment::Loss(0.30, 7);
+    o.to_client = LinkModel::Loss(0.30, 7);
     auto relay = test_util::UdpRelay::Start(o);
     EXPECT_TRUE(relay.ok()) << relay.status().ToString();
     const std::string via = relay.value()->front().ToString();

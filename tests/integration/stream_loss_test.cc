@@ -36,7 +36,6 @@
 namespace meshstream {
 namespace {
 
-using test_util::Impairment;
 using test_util::RelayOptions;
 using test_util::ServeProcess;
 using test_util::UdpRelay;
@@ -122,7 +121,7 @@ class StreamOverRelay : public ::testing::Test {
   // not lost: a lost HELLO only leaves the session on the stream a while
   // longer (no round trip is waited for), which is not what these tests
   // lose data for. The HELLO wait's fallback is StreamSession's test.
-  static std::unique_ptr<UdpRelay> Relay(const Impairment& both) {
+  static std::unique_ptr<UdpRelay> Relay(const LinkModel& both) {
     RelayOptions o;
     o.upstream = SocketAddress::Parse(server_->udp_address()).value();
     o.to_client = both;
@@ -185,13 +184,13 @@ uint64_t ExpectLikeLossless(const Result& got, const Result& lossless, bool expe
 TEST_F(StreamOverRelay, LossBurstsDelayReorderingAndDuplicates) {
   struct Case {
     const char* name;
-    Impairment impairment;
+    LinkModel impairment;
   };
   std::vector<Case> cases;
   for (double loss : {0.12, 0.30}) {
-    Impairment bernoulli = Impairment::Loss(loss, 11);
-    Impairment bursts = Impairment::Bursts(loss, 3.0, 12);
-    for (Impairment* i : {&bernoulli, &bursts}) {
+    LinkModel bernoulli = LinkModel::Loss(loss, 11);
+    LinkModel bursts = LinkModel::Bursts(loss, 3.0, 12);
+    for (LinkModel* i : {&bernoulli, &bursts}) {
       i->delay_us = 2000;
       i->jitter_us = 3000;
       i->reorder = 0.05;
@@ -235,7 +234,7 @@ TEST_F(StreamOverRelay, LossBurstsDelayReorderingAndDuplicates) {
 // datagrams the client found missing.
 TEST_F(StreamOverRelay, RepairGivesTheExactMeshUnder12And30PercentLoss) {
   for (double loss : {0.12, 0.30}) {
-    Impairment bursts = Impairment::Bursts(loss, 3.0, 21);
+    LinkModel bursts = LinkModel::Bursts(loss, 3.0, 21);
     bursts.reorder = 0.05;
     bursts.duplicate = 0.03;
     uint64_t repaired = 0;
@@ -277,7 +276,7 @@ TEST_F(StreamOverRelay, ParityRebuildsWhatTheRelayLostUnder12And30PercentLoss) {
     for (uint64_t seed : {41, 42}) {
       for (const auto& [asset, file] : Models()) {
         SCOPED_TRACE(std::to_string(loss) + " loss, seed " + std::to_string(seed) + ", " + asset);
-        auto relay = Relay(Impairment::Loss(loss, seed));
+        auto relay = Relay(LinkModel::Loss(loss, seed));
         const Result got =
             RunSession(*client_, test_util::SessionFor(asset, 0, -1, false, relay->front().ToString()));
         const Result& lossless = lossless_->at(asset);
@@ -313,7 +312,7 @@ TEST_F(StreamOverRelay, NoParityAskedMeansNoneSentUnder30PercentLoss) {
   for (uint64_t seed : {41, 42}) {
     for (const auto& [asset, file] : Models()) {
       SCOPED_TRACE("seed " + std::to_string(seed) + ", " + asset);
-      auto relay = Relay(Impairment::Loss(0.30, seed));
+      auto relay = Relay(LinkModel::Loss(0.30, seed));
       sdk::SessionOptions options = test_util::SessionFor(asset, 0, -1, false, relay->front().ToString());
       options.no_parity = true;
       const Result got = RunSession(*client_, options);
@@ -337,7 +336,7 @@ TEST_F(StreamOverRelay, TheClientRemembersTheLossOfItsLastSession) {
   auto fresh_client = [&] {
     return sdk::Client::Create(meshstream::test_util::PlainClientOptions(server_->address())).value();
   };
-  auto clean = Relay(Impairment{});
+  auto clean = Relay(LinkModel{});
   const sdk::SessionOptions options = test_util::SessionFor("bunny", 0, -1, false, clean->front().ToString());
   auto first_client = fresh_client();
   EXPECT_EQ(first_client->remembered_loss(), -1.0) << "nothing remembered before a session";
@@ -350,7 +349,7 @@ TEST_F(StreamOverRelay, TheClientRemembersTheLossOfItsLastSession) {
   EXPECT_LT(remembered.stats.reliable_datagram_bytes, unknown.stats.reliable_datagram_bytes)
       << "the second session states the remembered 0 % and gets the smaller cut";
 
-  auto lossy = Relay(Impairment::Loss(0.30, 51));
+  auto lossy = Relay(LinkModel::Loss(0.30, 51));
   auto second_client = fresh_client();
   const Result stormy = RunSession(*second_client, test_util::SessionFor("bunny", 0, -1, false, lossy->front().ToString()));
   ASSERT_EQ(stormy.last.type, sdk::EventType::kComplete) << stormy.last.status.ToString();
@@ -367,7 +366,7 @@ TEST_F(StreamOverRelay, TheClientRemembersTheLossOfItsLastSession) {
 // expects 30 % twice the share; either way some refinements travel on the
 // stream and are never reported missing.
 TEST_F(StreamOverRelay, ReliableCutFollowsTheLossTheClientExpects) {
-  auto clean = Relay(Impairment{});
+  auto clean = Relay(LinkModel{});
   sdk::SessionOptions calm_options = test_util::SessionFor("bunny", 0, -1, false, clean->front().ToString());
   calm_options.expected_loss = 0;
   const Result calm = RunSession(*client_, calm_options);
@@ -378,7 +377,7 @@ TEST_F(StreamOverRelay, ReliableCutFollowsTheLossTheClientExpects) {
   // apart, as early: they say nothing of the cut.)
   EXPECT_GT(calm.stats.reliable_datagram_bytes, 0u);
 
-  auto lossy = Relay(Impairment::Loss(0.30, 31));
+  auto lossy = Relay(LinkModel::Loss(0.30, 31));
   sdk::SessionOptions stormy_options = test_util::SessionFor("bunny", 0, -1, false, lossy->front().ToString());
   stormy_options.expected_loss = 0.3;
   const Result stormy = RunSession(*client_, stormy_options);
@@ -404,7 +403,7 @@ TEST_F(StreamOverRelay, ReliableCutFollowsTheLossTheClientExpects) {
 // 70 ms were not always enough beside four builds: one datagram in 20 soak
 // runs came after its window); the pause after each event is longer still.
 TEST_F(StreamOverRelay, ASlowPollerLosesNothingThatArrived) {
-  Impairment late;
+  LinkModel late;
   late.delay_us = 30000;  // after the stream's END, within twice the straggler timeout
   auto relay = Relay(late);
   sdk::SessionOptions options = test_util::SessionFor("bunny", 0, -1, false, relay->front().ToString());
@@ -417,7 +416,7 @@ TEST_F(StreamOverRelay, ASlowPollerLosesNothingThatArrived) {
 }
 
 TEST_F(StreamOverRelay, HostileTrafficIsDroppedCountedAndNeverAnswered) {
-  auto relay = Relay(Impairment{});
+  auto relay = Relay(LinkModel{});
   UdpSocket attacker = std::move(UdpSocket::Bind(*SocketAddress::Parse("127.0.0.1:0"))).value();
   const SocketAddress server_udp = SocketAddress::Parse(server_->udp_address()).value();
   auto session = sdk::Session::Open(*client_, test_util::SessionFor("horse", 0, -1, false, relay->front().ToString()));

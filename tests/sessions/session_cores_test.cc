@@ -36,7 +36,6 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <random>
 #include <set>
 #include <string>
 #include <utility>
@@ -45,15 +44,16 @@
 #include "codec/bitstream/format.h"
 #include "codec/bitstream/reader.h"
 #include "codec/loss/datagram_harm.h"
+#include "codec/loss/link_model.h"
 #include "codec/loss/protection.h"
 #include "fec/reed_solomon.h"
 #include "importers/draco_base_coder.h"
 #include "importers/draco_codec.h"
 #include "net/packet_header.h"
 #include "sdk/session_core.h"
-#include "services/streaming/session_messages.h"
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
+#include "services/streaming/session_messages.h"
 #include "services/streaming/session_plan.h"
 #include "services/streaming/session_sender.h"
 #include "testing/test_util.h"
@@ -114,9 +114,19 @@ const Artifact& Spot() {
 struct NetOptions {
   uint64_t seed = 1;
   uint64_t delay_us = 20000;   // both channels, one way
-  uint64_t jitter_us = 0;      // UDP only: + uniform [0, jitter]
+  uint64_t jitter_us = 0;      // UDP only: + uniform [0, jitter)
   double loss = 0;             // UDP only
   double duplicate = 0;        // UDP only: a delivered datagram arrives twice
+
+  // The UDP channel as the one link model the tests' relay draws from too
+  // (codec/loss/link_model.h): the same seed gives the same fates.
+  LinkModel Udp() const {
+    LinkModel m = LinkModel::Loss(loss, seed);
+    m.delay_us = delay_us;
+    m.jitter_us = jitter_us;
+    m.duplicate = duplicate;
+    return m;
+  }
 };
 
 // What travels, and when it arrives: a multimap on (time, sequence) is the
@@ -132,10 +142,10 @@ struct Delivery {
 };
 
 // The two channels between the cores: the reliable one in order and never
-// lost, the UDP one lossy, jittered and duplicating, by a seeded generator.
+// lost, the UDP one lossy, jittered and duplicating by the seeded link model.
 class SimNetwork {
  public:
-  explicit SimNetwork(const NetOptions& o) : o_(o), rng_(o.seed) {}
+  explicit SimNetwork(const NetOptions& o) : o_(o), udp_(o.Udp()) {}
 
   void Reliable(uint64_t now, Delivery d) {
     uint64_t& last = d.kind == Delivery::kToServer ? to_server_at_ : to_client_at_;
@@ -144,17 +154,17 @@ class SimNetwork {
   }
   void Udp(uint64_t now, std::vector<uint8_t> payload, uint64_t packet_number) {
     ++udp_sent_;
-    if (Chance(o_.loss)) {
+    const DatagramFate fate = udp_.Next();
+    if (fate.copies == 0) {
       dropped_.insert(packet_number);
       return;
     }
-    const int copies = Chance(o_.duplicate) ? 2 : 1;
-    for (int c = 0; c < copies; ++c) {
+    for (int c = 0; c < fate.copies; ++c) {
       Delivery d;
       d.kind = Delivery::kDatagram;
       d.payload = payload;
       d.packet_number = packet_number;
-      Push(now + o_.delay_us + Jitter(), std::move(d));
+      Push(now + fate.delay_us[c], std::move(d));
     }
   }
   void Hello(uint64_t now) {
@@ -179,12 +189,10 @@ class SimNetwork {
   uint64_t udp_sent() const { return udp_sent_; }
 
  private:
-  bool Chance(double p) { return p > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
-  uint64_t Jitter() { return o_.jitter_us == 0 ? 0 : std::uniform_int_distribution<uint64_t>(0, o_.jitter_us)(rng_); }
   void Push(uint64_t at, Delivery d) { queue_.emplace(std::make_pair(at, seq_++), std::move(d)); }
 
   NetOptions o_;
-  std::mt19937_64 rng_;
+  SimulatedLink udp_;
   std::multimap<std::pair<uint64_t, uint64_t>, Delivery> queue_;
   uint64_t seq_ = 0;
   uint64_t to_server_at_ = 0, to_client_at_ = 0;

@@ -87,7 +87,7 @@ TEST(UdpRelay, BernoulliLossIsNearItsRateAndTheSameForTheSameSeed) {
     Endpoint server, client;
     RelayOptions o;
     o.upstream = server.socket.local();
-    o.to_server = Impairment::Loss(0.3, 7);
+    o.to_server = LinkModel::Loss(0.3, 7);
     auto relay = UdpRelay::Start(o);
     ASSERT_TRUE(relay.ok());
     runs.push_back(Through(**relay, client, server, 20000));
@@ -116,9 +116,9 @@ TEST(UdpRelay, GilbertElliottBurstsAreLongerAtTheSameMean) {
   Endpoint server_a, client_a, server_b, client_b;
   RelayOptions a, b;
   a.upstream = server_a.socket.local();
-  a.to_server = Impairment::Bursts(0.12, 4.0, 3);
+  a.to_server = LinkModel::Bursts(0.12, 4.0, 3);
   b.upstream = server_b.socket.local();
-  b.to_server = Impairment::Loss(0.12, 3);
+  b.to_server = LinkModel::Loss(0.12, 3);
   auto ra = UdpRelay::Start(a), rb = UdpRelay::Start(b);
   ASSERT_TRUE(ra.ok() && rb.ok());
   const uint32_t n = 20000;
@@ -129,6 +129,27 @@ TEST(UdpRelay, GilbertElliottBurstsAreLongerAtTheSameMean) {
   const double burst_a = MeanBurst(got_a, n), burst_b = MeanBurst(got_b, n);
   EXPECT_NEAR(burst_a, 4.0, 1.0);
   EXPECT_LT(burst_b, 1.5) << "Bernoulli at 12 %: runs of about 1.14";
+}
+
+TEST(UdpRelay, ABurstyRunReplaysInProcessFromTheLinkModel) {
+  // The relay draws its fates from the one link model: the datagrams a
+  // bursty run dropped are those a SimulatedLink of the same model and seed
+  // drops, so the session cores' simulated network can replay the run.
+  Endpoint server, client;
+  RelayOptions o;
+  o.upstream = server.socket.local();
+  o.to_server = LinkModel::Bursts(0.2, 5.0, 17);
+  auto relay = UdpRelay::Start(o);
+  ASSERT_TRUE(relay.ok());
+  const uint32_t n = 5000;
+  const std::vector<uint32_t> got = Through(**relay, client, server, n);
+  SimulatedLink replay(o.to_server, o.to_server.seed);
+  std::vector<uint32_t> want;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (replay.Next().copies > 0) want.push_back(i);
+  }
+  EXPECT_EQ(got, want);
+  EXPECT_GT(n - want.size(), 500u) << "the run lost something to replay";
 }
 
 TEST(UdpRelay, DuplicatesDelayAndReordering) {

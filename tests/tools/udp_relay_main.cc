@@ -42,7 +42,7 @@ bool Number(const char* text, double lo, double hi, double* out) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  using meshstream::test_util::Impairment;
+  using meshstream::LinkModel;
   std::string upstream;
   double loss = 0, burst = 0, delay_ms = 0, jitter_ms = 0, duplicate = 0, seed = 1;
   for (int i = 1; i < argc; ++i) {
@@ -72,8 +72,8 @@ int main(int argc, char** argv) {
   if (upstream.empty()) return Usage("--upstream is required");
   auto address = meshstream::SocketAddress::Parse(upstream);
   if (!address.ok()) return Usage(address.status().message().c_str());
-  Impairment imp = burst > 1 && loss > 0 ? Impairment::Bursts(loss, burst, static_cast<uint64_t>(seed))
-                                         : Impairment::Loss(loss, static_cast<uint64_t>(seed));
+  LinkModel imp = burst > 1 && loss > 0 ? LinkModel::Bursts(loss, burst, static_cast<uint64_t>(seed))
+                                         : LinkModel::Loss(loss, static_cast<uint64_t>(seed));
   imp.delay_us = static_cast<uint64_t>(delay_ms * 1000);
   imp.jitter_us = static_cast<uint64_t>(jitter_ms * 1000);
   imp.duplicate = duplicate;
