@@ -77,7 +77,9 @@ void StampHold(Outgoing& o, uint64_t sent_at_us) {
 }
 
 SessionCore::SessionCore(const SessionOptions& options, uint64_t opened_us)
-    : options_(options), opened_us_(opened_us) {}
+    : options_(options),
+      opened_us_(opened_us),
+      losses_(static_cast<uint64_t>(std::max(0, options.straggler_timeout_ms)) * 1000) {}
 
 SessionCore::~SessionCore() = default;
 
@@ -92,7 +94,10 @@ void SessionCore::TakeStreamEnd(Status status) {
   stream_status_ = std::move(status);
 }
 
-void SessionCore::SetUdpCounters(const UdpCounters& c) { udp_ = c; }
+void SessionCore::SetUdpCounters(const UdpCounters& c) {
+  udp_ = c;
+  losses_.SetRtt(c.hello_rtt_us);
+}
 
 std::optional<Event> SessionCore::NextEvent() {
   if (events_.empty()) return std::nullopt;
@@ -370,8 +375,7 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
       // adaptive thresholds), up to the straggler timeout.
       t.spurious = true;
       ++stats_.losses_spurious;
-      packet_rule_ = false;
-      grown_window_us_ = std::min(2 * ReorderWindowUs(), static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000);
+      losses_.OnSpurious();
     }
     if (end) {
       if (t.end_time_us == 0) t.end_time_us = now;
@@ -409,19 +413,9 @@ Status SessionCore::OfferDatagram(const uint8_t* data, size_t size, const uint64
   return GiveControls(p, now, false);
 }
 
-// The wait after a later datagram before what is missing counts as lost: an
-// eighth of the HELLO round trip (at least 1 ms), or what spurious losses
-// grew it to; never more than the straggler timeout, which is also the wait
-// without an RTT sample (the rules are then off).
-uint64_t SessionCore::ReorderWindowUs() const {
-  const uint64_t straggler = static_cast<uint64_t>(options_.straggler_timeout_ms) * 1000;
-  if (!LossRulesActive()) return straggler;
-  // Reordering seen (a datagram that came after a later-numbered one, by
-  // how long) widens it at once, with RFC 9002's 9/8 margin.
-  const uint64_t seen = reorder_seen_us_ + reorder_seen_us_ / 8;
-  const uint64_t base = std::clamp<uint64_t>(std::max(udp_.hello_rtt_us / 8, seen), kMinReorderWindowUs, straggler);
-  return std::min(std::max(base, grown_window_us_), straggler);
-}
+// The wait after a later datagram before what is missing counts as lost
+// (loss_detector.h).
+uint64_t SessionCore::ReorderWindowUs() const { return losses_.WindowUs(); }
 
 // A UDP datagram numbered `packet_number` arrived at `at`: the refinements
 // whose data was all sent before it have had a later datagram.
@@ -438,21 +432,7 @@ Status SessionCore::ForOpenUdpRefinements(Primitives& primitives, F f) {
 }
 
 void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
-  if (!SeenPacketNumber(packet_number)) {
-    rises_.emplace_back(packet_number, at);
-    if (rises_.size() > kRiseHistory) {
-      rises_.pop_front();
-      rises_forgotten_ = true;
-    }
-  } else {
-    // Reordered: it comes after the first datagram numbered above it (long
-    // ago when that one is forgotten: the window then goes to its cap).
-    const auto later = std::upper_bound(rises_.begin(), rises_.end(), std::make_pair(packet_number, UINT64_MAX));
-    uint64_t since = later == rises_.end() || at < later->second ? 0 : at - later->second;
-    if (later == rises_.begin() && rises_forgotten_) since = UINT64_MAX / 2;
-    reorder_seen_us_ = std::max(reorder_seen_us_, since);
-    if (SeenPacketNumber(packet_number + kPacketThreshold)) packet_rule_ = false;
-  }
+  losses_.OnPacket(packet_number, at);
   (void)ForOpenUdpRefinements(primitives_, [&](PrimitiveState&, size_t, RefinementTrack& t) {
     if (t.later_us == 0 && packet_number >= t.first_packet_number + t.datagrams) t.later_us = at;
     return Status::Ok();
@@ -466,12 +446,10 @@ void SessionCore::NotePacketNumber(uint64_t packet_number, uint64_t at) {
 // first datagram numbered after them arrived. Only with an RTT sample.
 Status SessionCore::DeclareLosses(uint64_t clock) {
   if (!LossRulesActive() || transport_ != SessionTransport::kUdp) return Status::Ok();
-  const uint64_t window = ReorderWindowUs();
   return ForOpenUdpRefinements(primitives_, [&](PrimitiveState& p, size_t r, const RefinementTrack& t) {
     const uint64_t last_data = t.first_packet_number + t.datagrams - 1;
-    const bool by_packets = packet_rule_ && SeenPacketNumber(last_data + kPacketThreshold);
-    const bool by_time = t.later_us != 0 && clock >= t.later_us + window;
-    return by_packets || by_time ? Declare(p, r, clock) : Status::Ok();
+    return losses_.LostByPackets(last_data) || losses_.LostByTime(t.later_us, clock) ? Declare(p, r, clock)
+                                                                                    : Status::Ok();
   });
 }
 

@@ -58,7 +58,8 @@
 #include "meshstream/v1/stream.pb.h"
 #include "net/packet_crypto.h"
 #include "parallel/fork_join_pool.h"
-#include "sdk/session.h"
+#include "sdk/loss_detector.h"
+#include "sdk/session_types.h"
 
 namespace meshstream::sdk {
 
@@ -243,7 +244,7 @@ class SessionCore {
   // Loss detection by packet numbers (RFC 9002's rules on the receiver):
   // the window, a UDP datagram's effect on it, and the declarations.
   uint64_t ReorderWindowUs() const;
-  bool LossRulesActive() const { return udp_.hello_rtt_us > 0; }
+  bool LossRulesActive() const { return losses_.active(); }
   void NotePacketNumber(uint64_t packet_number, uint64_t at);
   // Calls f(p, refinement, track) for every UDP refinement of `primitives`
   // (primitives_, const or not) whose control block has come and that is not
@@ -251,9 +252,7 @@ class SessionCore {
   template <typename Primitives, typename F>
   static Status ForOpenUdpRefinements(Primitives& primitives, F f);
   // Whether a UDP datagram numbered `packet_number` or above has come.
-  bool SeenPacketNumber(uint64_t packet_number) const {
-    return !rises_.empty() && rises_.back().first >= packet_number;
-  }
+  bool SeenPacketNumber(uint64_t packet_number) const { return losses_.Seen(packet_number); }
   Status DeclareLosses(uint64_t clock);
   Status Declare(PrimitiveState& p, size_t refinement, uint64_t now);
   Status Handle(const v1::ServerMessage& m, uint64_t now);
@@ -310,18 +309,7 @@ class SessionCore {
   uint64_t udp_drops_seen_ = 0;
   uint64_t udp_replays_seen_ = 0;
   uint64_t stray_rejected_ = 0;  // datagrams no primitive's reconstructor could take
-  // Loss detection by packet numbers.
-  static constexpr uint64_t kPacketThreshold = 3;
-  static constexpr uint64_t kMinReorderWindowUs = 2000;
-  static constexpr size_t kRiseHistory = 4096;
-  bool packet_rule_ = true;           // off once reordering beyond it was seen
-  uint64_t grown_window_us_ = 0;      // after spurious declarations: the window, doubled each time
-  uint64_t reorder_seen_us_ = 0;      // the longest a datagram came after a later-numbered one
-  // Each new highest packet number and when it arrived (increasing in both;
-  // the last kRiseHistory): how late a reordered datagram is; its back is the
-  // highest packet number seen (empty: no UDP datagram yet).
-  std::deque<std::pair<uint64_t, uint64_t>> rises_;
-  bool rises_forgotten_ = false;
+  LossDetector losses_;  // packet numbers and the reorder window (loss_detector.h)
   size_t touched_ = SIZE_MAX;    // the primitive the last arrival went to
 };
 
