@@ -182,6 +182,9 @@ struct Server::Impl {
   std::unique_ptr<HttpServer> http;
   std::string address;
   std::string streams_advertise;
+  bool shared_store = false;  // not the embedded SQLite store: others may write to it
+  int workers = 0;            // job workers
+  bool reflection = false;
   std::atomic<bool> draining{false};
   std::atomic<bool> waited{false};
 
@@ -190,6 +193,13 @@ struct Server::Impl {
   bool stopping = false;    // the maintenance thread ends
   bool drain_done = false;  // Drain has returned (Wait waits for it)
   std::thread maintenance;
+
+  // Server::Start's stages, in order (below).
+  Status CheckHttp(CorsPolicy* cors, std::string* root_note);
+  Status OpenStorage();
+  Status MakeAssetService();
+  Status StartGrpc(const std::shared_ptr<grpc::ServerCredentials>& credentials, bool loopback);
+  Status StartHttp(CorsPolicy cors);
 
   // Every 10 minutes: expired uploads, and blobs no row names that are older
   // than an hour (what a failed upload or a crash left behind).
@@ -220,97 +230,98 @@ Server::~Server() {
 
 const std::string& Server::address() const { return impl_->address; }
 
-StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
-  auto impl = std::make_unique<Impl>();
-  impl->options = options;
-  impl->log = options.log ? options.log : [](const std::string& line) {
-    std::fprintf(stderr, "meshstream serve: %s\n", line.c_str());
-    std::fflush(stderr);
-  };
-  const bool loopback = IsLoopbackListen(options.listen);
+// Serving a non-loopback address without --auth needs --insecure (then a
+// warning); with --auth but without TLS, tokens travel in clear text.
+// `flag` names the listen flag, `what` what is served ("", "HTTP on ").
+Status CheckExposure(const ServerOptions& options, const std::string& flag, const std::string& listen,
+                     const std::string& insecure_warning, const std::function<void(const std::string&)>& log) {
+  const bool loopback = IsLoopbackListen(listen);
   if (!loopback && !options.auth) {
     if (!options.insecure) {
-      return InvalidArgument("--listen " + options.listen +
+      return InvalidArgument(flag + " " + listen +
                              ": not a loopback address, so --auth is required (or --insecure to serve anyone)");
     }
-    impl->log("warning: --insecure: serving " + options.listen + " without authentication; anyone who reaches it "
-              "can read and write every asset");
+    log(insecure_warning);
   }
   if (!loopback && options.auth && options.tls_cert.empty()) {
-    impl->log("warning: tokens travel in clear text on " + options.listen + " (give --tls-cert and --tls-key)");
+    log("warning: tokens travel in clear text on " + listen + " (give --tls-cert and --tls-key)");
   }
-  auto credentials = Credentials(options);
-  if (!credentials.ok()) return credentials.status();
-  // HTTP's flags are checked before anything is opened.
-  CorsPolicy cors;
-  std::string http_root_note;
-  if (!options.http_listen.empty()) {
-    if (options.http_listen.rfind("unix:", 0) == 0) {
-      return InvalidArgument("--http-listen " + options.http_listen + ": HTTP listens on HOST:PORT, not a unix socket");
-    }
-    std::string http_host;
-    uint16_t http_port = 0;
-    Status http_address = SplitHostPort(options.http_listen, &http_host, &http_port);
-    if (!http_address.ok()) return http_address.WithContext("--http-listen");
-    const bool http_loopback = IsLoopbackListen(options.http_listen);
-    if (!http_loopback && !options.auth) {
-      if (!options.insecure) {
-        return InvalidArgument("--http-listen " + options.http_listen +
-                               ": not a loopback address, so --auth is required (or --insecure to serve anyone)");
-      }
-      impl->log("warning: --insecure: serving HTTP on " + options.http_listen + " without authentication");
-    }
-    if (!http_loopback && options.auth && options.tls_cert.empty()) {
-      impl->log("warning: tokens travel in clear text on " + options.http_listen + " (give --tls-cert and --tls-key)");
-    }
-    auto policy = CorsPolicy::Make(options.http_cors_origins);
-    if (!policy.ok()) return policy.status();
-    cors = std::move(policy).value();
-    if (cors.allows_any() && options.auth) {
-      impl->log("warning: --http-cors-origin '*' with --auth: any web page may use a token it holds to read assets");
-    }
-    WebRootSearch search;
-    if (options.http_root.empty()) search = FindDefaultWebRoot();
-    const std::string root = options.http_root.empty() ? search.found : options.http_root;
-    auto files = StaticRoute::Open(root, search.searched);
-    if (!files.ok()) return files.status();
-    impl->http_files = std::move(files).value();
-    if (!impl->http_files->root().empty()) {
-      http_root_note = "viewer files from " + impl->http_files->root();
-    } else {
-      std::string where;
-      for (const std::string& w : search.searched) where += (where.empty() ? "" : ", ") + w;
-      http_root_note = "no viewer files (looked in " + where + "; give --http-root DIR)";
-    }
-  }
+  return Status::Ok();
+}
 
-  auto store = OpenStore(options.store);
-  if (!store.ok()) return store.status().WithContext("--store " + options.store);
-  impl->store = std::move(store).value();
-  impl->log("store: " + impl->store->backend() + " at " + options.store);
+// Stage 1, before anything is opened: HTTP's flags, CORS and the viewer's
+// files (impl->http_files); the note the start's log line gives about them.
+Status Server::Impl::CheckHttp(CorsPolicy* cors, std::string* root_note) {
+  if (options.http_listen.empty()) return Status::Ok();
+  if (options.http_listen.rfind("unix:", 0) == 0) {
+    return InvalidArgument("--http-listen " + options.http_listen + ": HTTP listens on HOST:PORT, not a unix socket");
+  }
+  std::string http_host;
+  uint16_t http_port = 0;
+  Status http_address = SplitHostPort(options.http_listen, &http_host, &http_port);
+  if (!http_address.ok()) return http_address.WithContext("--http-listen");
+  MS_RETURN_IF_ERROR(CheckExposure(options, "--http-listen", options.http_listen,
+                                   "warning: --insecure: serving HTTP on " + options.http_listen +
+                                       " without authentication",
+                                   log));
+  auto policy = CorsPolicy::Make(options.http_cors_origins);
+  if (!policy.ok()) return policy.status();
+  *cors = std::move(policy).value();
+  if (cors->allows_any() && options.auth) {
+    log("warning: --http-cors-origin '*' with --auth: any web page may use a token it holds to read assets");
+  }
+  WebRootSearch search;
+  if (options.http_root.empty()) search = FindDefaultWebRoot();
+  const std::string root = options.http_root.empty() ? search.found : options.http_root;
+  auto files = StaticRoute::Open(root, search.searched);
+  if (!files.ok()) return files.status();
+  http_files = std::move(files).value();
+  if (!http_files->root().empty()) {
+    *root_note = "viewer files from " + http_files->root();
+  } else {
+    std::string where;
+    for (const std::string& w : search.searched) where += (where.empty() ? "" : ", ") + w;
+    *root_note = "no viewer files (looked in " + where + "; give --http-root DIR)";
+  }
+  return Status::Ok();
+}
+
+// Stage 2: the store opened and tidied: orphan blobs, interrupted jobs (an
+// embedded store's), expired uploads.
+Status Server::Impl::OpenStorage() {
+  auto opened = OpenStore(options.store);
+  if (!opened.ok()) return opened.status().WithContext("--store " + options.store);
+  store = std::move(opened).value();
+  log("store: " + store->backend() + " at " + options.store);
   // An embedded store belongs to this process alone (its lock): nothing
   // another writer could be about to name, so orphans go at once. A shared
   // one waits an hour, longer than any ingest between blob and row.
-  const bool shared = impl->store->backend() != "sqlite";
-  auto orphans = impl->store->RemoveOrphanBlobs(shared ? kOrphanAgeMs : 0);
+  shared_store = store->backend() != "sqlite";
+  auto orphans = store->RemoveOrphanBlobs(shared_store ? kOrphanAgeMs : 0);
   if (!orphans.ok()) return orphans.status().WithContext("removing orphan blobs");
-  if (orphans.value() > 0) impl->log("removed " + std::to_string(orphans.value()) + " orphan blobs");
-  if (!shared) {
-    auto released = impl->store->ReleaseAllLeases();
+  if (orphans.value() > 0) log("removed " + std::to_string(orphans.value()) + " orphan blobs");
+  if (!shared_store) {
+    auto released = store->ReleaseAllLeases();
     if (!released.ok()) return released.status();
-    if (released.value() > 0) impl->log("resuming " + std::to_string(released.value()) + " interrupted jobs");
+    if (released.value() > 0) log("resuming " + std::to_string(released.value()) + " interrupted jobs");
   }
-  auto expired = impl->store->ExpireUploads(options.upload_ttl_ms);
+  auto expired = store->ExpireUploads(options.upload_ttl_ms);
   if (!expired.ok()) return expired.status();
+  return Status::Ok();
+}
 
-  impl->auth = std::make_unique<Authenticator>(impl->store.get(), options.auth);
+// Stage 3: who a request is, the job workers (not started yet) and the
+// asset service.
+Status Server::Impl::MakeAssetService() {
+  auth = std::make_unique<Authenticator>(store.get(), options.auth);
   WorkerPoolOptions pool_options;
-  pool_options.workers = options.workers > 0 ? options.workers : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  pool_options.workers =
+      options.workers > 0 ? options.workers : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   pool_options.worker_id_prefix = options.server_id.empty() ? DefaultServerId() : options.server_id;
   pool_options.lease_ms = options.lease_ms;
   pool_options.max_source_bytes = options.max_upload_bytes;
   pool_options.max_attempts = options.max_attempts;
-  if (!shared) {
+  if (!shared_store) {
     // Work folders of the embedded store live in it, so what a killed
     // process left there is removed at the next start (nobody else uses it).
     pool_options.work_dir = options.store + "/work";
@@ -319,41 +330,49 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
     std::filesystem::create_directories(pool_options.work_dir, ec);
     if (ec) return IoError(pool_options.work_dir + ": " + ec.message());
   }
-  impl->pool = std::make_unique<WorkerPool>(*impl->store, pool_options);
-
+  workers = pool_options.workers;
+  pool = std::make_unique<WorkerPool>(*store, pool_options);
   AssetServiceOptions service_options;
   service_options.ingest.max_upload_bytes = options.max_upload_bytes;
   service_options.max_watchers = options.max_watchers;
   service_options.max_exports = options.max_exports > 0 ? options.max_exports : pool_options.workers;
-  Impl* raw = impl.get();
-  impl->service = std::make_unique<AssetServiceImpl>(impl->store.get(), impl->auth.get(), service_options,
-                                                     [raw] { raw->pool->Wake(); }, &impl->draining);
+  Impl* raw = this;
+  service = std::make_unique<AssetServiceImpl>(store.get(), auth.get(), service_options,
+                                               [raw] { raw->pool->Wake(); }, &draining);
+  return Status::Ok();
+}
 
+// Stage 4: the session host (with its UDP endpoint and the server's rate
+// share) and the gRPC server with both services, listening.
+Status Server::Impl::StartGrpc(const std::shared_ptr<grpc::ServerCredentials>& credentials, bool loopback) {
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(options.listen, credentials.value(), &port);
-  builder.RegisterService(impl->service.get());
-  auto stream_options = StreamingOptions(options, loopback, impl->log);
+  builder.AddListeningPort(options.listen, credentials, &port);
+  builder.RegisterService(service.get());
+  auto stream_options = StreamingOptions(options, loopback, log);
   if (!stream_options.ok()) return stream_options.status();
   if (stream_options->udp_listen.has_value()) {
-    auto udp = UdpEndpoint::Start(*stream_options->udp_listen);
-    if (!udp.ok()) return udp.status();
-    impl->udp = std::move(udp).value();
-    stream_options->service.udp = impl->udp.get();
+    auto endpoint = UdpEndpoint::Start(*stream_options->udp_listen);
+    if (!endpoint.ok()) return endpoint.status();
+    udp = std::move(endpoint).value();
+    stream_options->service.udp = udp.get();
     if (stream_options->service.udp_advertise_port == 0) {
-      stream_options->service.udp_advertise_port = impl->udp->local().port();
-      if (!impl->udp->local().IsUnspecified()) stream_options->service.udp_advertise_host = impl->udp->local().host();
+      stream_options->service.udp_advertise_port = udp->local().port();
+      if (!udp->local().IsUnspecified()) stream_options->service.udp_advertise_host = udp->local().host();
     }
+    streams_advertise = stream_options->service.udp_advertise_host.empty()
+                            ? std::string()
+                            : stream_options->service.udp_advertise_host + ":" +
+                                  std::to_string(stream_options->service.udp_advertise_port);
   }
   if (options.max_rate_bps > 0) {
-    impl->share = std::make_unique<RateShare>(options.max_rate_bps);
-    stream_options->service.server_share = impl->share.get();
+    share = std::make_unique<RateShare>(options.max_rate_bps);
+    stream_options->service.server_share = share.get();
   }
-  impl->sessions = std::make_unique<SessionHost>(impl->store.get(), impl->auth.get(), stream_options->service,
-                                                 &impl->draining);
-  impl->streams = std::make_unique<StreamServiceImpl>(impl->sessions.get());
-  builder.RegisterService(impl->streams.get());
+  sessions = std::make_unique<SessionHost>(store.get(), auth.get(), stream_options->service, &draining);
+  streams = std::make_unique<StreamServiceImpl>(sessions.get());
+  builder.RegisterService(streams.get());
   // Chunks are at most 1 MiB; a message is a chunk and a little framing.
   // A bounded number of threads for the synchronous AssetService: calls
   // beyond it are RESOURCE_EXHAUSTED instead of a thread each (a flood of
@@ -369,57 +388,82 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   // far more than a chunk for a large asset (the client's receive limit
   // is what protects it; the SDK allows 256 MiB).
   builder.SetMaxSendMessageSize(256 << 20);
-  const bool reflection = options.reflection.value_or(loopback);
+  reflection = options.reflection.value_or(loopback);
   builder.SetOption(std::make_unique<ReflectionOption>(reflection));
-  impl->server = builder.BuildAndStart();
-  if (!impl->server || (port == 0 && options.listen.rfind("unix:", 0) != 0)) {
+  server = builder.BuildAndStart();
+  if (!server || (port == 0 && options.listen.rfind("unix:", 0) != 0)) {
     return Unavailable("--listen " + options.listen + ": cannot listen there (address in use, or not this host's)");
   }
   if (options.listen.rfind("unix:", 0) == 0) {
-    impl->address = options.listen;
+    address = options.listen;
   } else {
     const size_t colon = options.listen.rfind(':');
-    impl->address = options.listen.substr(0, colon) + ":" + std::to_string(port);
+    address = options.listen.substr(0, colon) + ":" + std::to_string(port);
   }
-  impl->server->GetHealthCheckService()->SetServingStatus(true);
-  if (!options.http_listen.empty()) {
-    AssetRouteOptions asset_options;
-    asset_options.max_export_bytes = impl->service->options().max_export_bytes;
-    asset_options.export_wait_ms = impl->service->options().export_wait_ms;
-    impl->http_assets = std::make_unique<AssetRoute>(impl->store.get(), impl->auth.get(),
-                                                     impl->service->export_limit(), asset_options,
-                                                     impl->sessions.get());
-    // The live session over WebSocket: the gRPC stream service's sessions
-    // (services/http_routes/stream_socket.h), its origins those of CORS.
-    StreamSocketOptions socket_options;
-    socket_options.cors = cors;
-    socket_options.log = impl->log;
-    impl->http_sessions = std::make_shared<StreamSocketRoute>(impl->sessions.get(), std::move(socket_options));
-    impl->http_router = std::make_unique<HttpRouter>(impl->http_assets.get(), impl->http_files.get(), std::move(cors),
-                                                     &impl->draining, impl->log);
-    HttpServerOptions http_options;
-    http_options.upgrades["/v1/stream"] = impl->http_sessions;
-    http_options.listen = options.http_listen;
-    http_options.tls_cert = options.tls_cert;
-    http_options.tls_key = options.tls_key;
-    http_options.log = impl->log;
-    HttpRouter* router = impl->http_router.get();
-    auto http = HttpServer::Start(std::move(http_options),
-                                  [router](const HttpRequest& request) { return router->Handle(request); });
-    if (!http.ok()) return http.status();
-    impl->http = std::move(http).value();
-  }
+  server->GetHealthCheckService()->SetServingStatus(true);
+  return Status::Ok();
+}
+
+// Stage 5: HTTP, when asked for: the file routes on the asset service's
+// export limit and the session host's hot artifacts, the WebSocket sessions
+// on the same host, listening.
+Status Server::Impl::StartHttp(CorsPolicy cors) {
+  if (options.http_listen.empty()) return Status::Ok();
+  AssetRouteOptions asset_options;
+  asset_options.max_export_bytes = service->options().max_export_bytes;
+  asset_options.export_wait_ms = service->options().export_wait_ms;
+  http_assets = std::make_unique<AssetRoute>(store.get(), auth.get(), service->export_limit(), asset_options,
+                                             sessions.get());
+  // The live session over WebSocket: the gRPC stream service's sessions
+  // (services/http_routes/stream_socket.h), its origins those of CORS.
+  StreamSocketOptions socket_options;
+  socket_options.cors = cors;
+  socket_options.log = log;
+  http_sessions = std::make_shared<StreamSocketRoute>(sessions.get(), std::move(socket_options));
+  http_router = std::make_unique<HttpRouter>(http_assets.get(), http_files.get(), std::move(cors), &draining, log);
+  HttpServerOptions http_options;
+  http_options.upgrades["/v1/stream"] = http_sessions;
+  http_options.listen = options.http_listen;
+  http_options.tls_cert = options.tls_cert;
+  http_options.tls_key = options.tls_key;
+  http_options.log = log;
+  HttpRouter* router = http_router.get();
+  auto started = HttpServer::Start(std::move(http_options),
+                                   [router](const HttpRequest& request) { return router->Handle(request); });
+  if (!started.ok()) return started.status();
+  http = std::move(started).value();
+  return Status::Ok();
+}
+
+StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->options = options;
+  impl->log = options.log ? options.log : [](const std::string& line) {
+    std::fprintf(stderr, "meshstream serve: %s\n", line.c_str());
+    std::fflush(stderr);
+  };
+  const bool loopback = IsLoopbackListen(options.listen);
+  MS_RETURN_IF_ERROR(CheckExposure(options, "--listen", options.listen,
+                                   "warning: --insecure: serving " + options.listen +
+                                       " without authentication; anyone who reaches it can read and write every asset",
+                                   impl->log));
+  auto credentials = Credentials(options);
+  if (!credentials.ok()) return credentials.status();
+  CorsPolicy cors;
+  std::string http_root_note;
+  MS_RETURN_IF_ERROR(impl->CheckHttp(&cors, &http_root_note));
+  MS_RETURN_IF_ERROR(impl->OpenStorage());
+  MS_RETURN_IF_ERROR(impl->MakeAssetService());
+  MS_RETURN_IF_ERROR(impl->StartGrpc(credentials.value(), loopback));
+  MS_RETURN_IF_ERROR(impl->StartHttp(std::move(cors)));
   Status started = impl->pool->Start();
   if (!started.ok()) return started;
+  Impl* raw = impl.get();
   impl->maintenance = std::thread([raw] { raw->Maintain(); });
   impl->log("listening on " + impl->address + (options.tls_cert.empty() ? "" : " (TLS)") +
             (options.auth ? ", tokens required" : loopback ? ", no authentication (loopback)" : ", no authentication (--insecure)") + ", " +
-            std::to_string(pool_options.workers) + " workers" + (reflection ? ", reflection on" : ""));
+            std::to_string(impl->workers) + " workers" + (impl->reflection ? ", reflection on" : ""));
   if (impl->udp) {
-    impl->streams_advertise = stream_options->service.udp_advertise_host.empty()
-                                  ? std::string()
-                                  : stream_options->service.udp_advertise_host + ":" +
-                                        std::to_string(stream_options->service.udp_advertise_port);
     impl->log("udp on " + impl->udp->local().ToString() + ", advertised as " +
               (impl->streams_advertise.empty() ? "the client's server host" : impl->streams_advertise));
   }
