@@ -8,10 +8,12 @@
 #define MESHSTREAM_TESTING_ASSET_CALLS_H_
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
@@ -77,6 +79,20 @@ inline std::vector<v1::IngestRequest> UploadMessages(const std::string& asset, c
     AppendChunks(r.bytes, chunk, messages);
   }
   return messages;
+}
+
+// Waits until the server holds `bytes` committed bytes of upload
+// `upload_id` (QueryUpload), for a test that cuts an upload part way: a
+// deadline that only bounds a broken server. False when it never did.
+inline bool WaitForCommitted(const sdk::AssetClient& client, const std::string& upload_id, uint64_t bytes,
+                             std::chrono::seconds timeout = std::chrono::seconds(60)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    auto held = client.QueryUpload(upload_id);
+    if (held.ok() && held.value() == bytes) return true;
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 // Prepares a raw call's context as the client would (token, deadline).

@@ -268,8 +268,10 @@ TEST(HttpServer, TimeoutsCloseSlowAndIdleConnections) {
 
 TEST(HttpServer, DrainClosesIdleAndFinishesRunning) {
   std::atomic<bool> release{false};
-  TestServer t = Start({}, [&release](const HttpRequest& r) {
+  std::atomic<bool> entered{false};
+  TestServer t = Start({}, [&release, &entered](const HttpRequest& r) {
     if (r.path == "/slow") {
+      entered = true;
       while (!release.load()) std::this_thread::sleep_for(milliseconds(5));
     }
     return Text("done " + r.path);
@@ -277,7 +279,10 @@ TEST(HttpServer, DrainClosesIdleAndFinishesRunning) {
   const int idle = Connect(t.port);
   const int busy = Connect(t.port);
   Send(busy, "GET /slow HTTP/1.1\r\n\r\n");
-  std::this_thread::sleep_for(milliseconds(100));
+  // The drain begins once /slow runs (not after a guess of how long that takes).
+  const auto entered_by = Clock::now() + milliseconds(30000);
+  while (!entered.load() && Clock::now() < entered_by) std::this_thread::sleep_for(milliseconds(2));
+  ASSERT_TRUE(entered.load()) << "the slow request never reached its handler";
   t.server->BeginDrain();
   bool closed = false;
   EXPECT_EQ(Receive(idle, milliseconds(2000), &closed), "");
@@ -292,7 +297,7 @@ TEST(HttpServer, DrainClosesIdleAndFinishesRunning) {
   std::thread stopper([&] { t.server->Stop(Clock::now() + milliseconds(5000)); });
   std::this_thread::sleep_for(milliseconds(100));
   release = true;
-  const std::string r = Receive(busy, milliseconds(3000), &closed);
+  const std::string r = Receive(busy, milliseconds(10000), &closed);
   EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 200") << r;
   EXPECT_NE(r.find("Connection: close"), std::string::npos) << r;
   EXPECT_NE(r.find("done /slow"), std::string::npos) << r;

@@ -389,8 +389,13 @@ TEST_F(AssetApi, AnInterruptedUploadResumesAtCommittedSize) {
     test_util::Prepare(*client_, context);
     v1::IngestResponse response;
     auto writer = client_->stub().Ingest(&context, &response);
-    for (size_t i = 0; i < messages.size() / 2; ++i) ASSERT_TRUE(writer->Write(messages[i]));
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    uint64_t sent = 0;
+    for (size_t i = 0; i < messages.size() / 2; ++i) {
+      ASSERT_TRUE(writer->Write(messages[i]));
+      sent += messages[i].chunk().size();
+    }
+    // Cut once the server has committed what was sent (not after a guess of how long that takes).
+    ASSERT_TRUE(test_util::WaitForCommitted(*client_, "resume-test-1", sent)) << "the chunks were never committed";
     context.TryCancel();
     EXPECT_FALSE(writer->Finish().ok());
   }

@@ -43,11 +43,7 @@ void UploadPart(const sdk::AssetClient& client, const std::string& asset, const 
   auto writer = client.stub().Ingest(&context, &response);
   for (const v1::IngestRequest& m : messages) ASSERT_TRUE(writer->Write(m));
   // Until the server has committed them (QueryUpload says so), then cut.
-  for (int i = 0; i < 100; ++i) {
-    auto held = client.QueryUpload(upload_id);
-    if (held.ok() && held.value() == chunks * kChunk) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
+  EXPECT_TRUE(test_util::WaitForCommitted(client, upload_id, chunks * kChunk)) << "the chunks were never committed";
   context.TryCancel();
   (void)writer->Finish();
 }

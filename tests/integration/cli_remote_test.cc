@@ -166,7 +166,7 @@ TEST_F(CliRemote, IngestResumesAnUploadTheServerHoldsPartOf) {
     v1::IngestResponse response;
     auto writer = client->stub().Ingest(&context, &response);
     ASSERT_TRUE(writer->Write(messages[0]) && writer->Write(messages[1]));
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    ASSERT_TRUE(test_util::WaitForCommitted(*client, upload_id, 512 << 10)) << "the chunk was never committed";
     context.TryCancel();
     writer->Finish();
   }

@@ -169,29 +169,39 @@ TEST(SdkSession, AHostThatDoesNotPollDoesNotHoldTheDecodingBack) {
   ASSERT_TRUE(sdk_client.ok());
   for (const bool tcp_only : {true, false}) {
     SCOPED_TRACE(tcp_only ? "tcp_only" : "udp");
-    auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("bunny", 0, -1, tcp_only));
-    ASSERT_TRUE(session.ok()) << session.status().ToString();
-    constexpr int kAwayMs = 3000;
-    std::this_thread::sleep_for(std::chrono::milliseconds(kAwayMs));
-    const sdk::Event base = (*session)->Poll(10000);
-    ASSERT_EQ(base.type, sdk::EventType::kBaseReady) << base.status.ToString();
-    auto mesh = (*session)->Mesh(0);
-    ASSERT_TRUE(mesh.ok());
-    EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.front()) << "the base's view";
-    const std::vector<sdk::Event> rest = PollToEnd(**session);
-    ASSERT_EQ(rest.size(), 2u);
-    EXPECT_EQ(rest[0].type, sdk::EventType::kLevelReady);
-    EXPECT_EQ(rest[0].level, (*session)->levels());
-    EXPECT_EQ(rest[1].type, sdk::EventType::kComplete) << rest[1].status.ToString();
-    mesh = (*session)->Mesh(0);
-    ASSERT_TRUE(mesh.ok());
-    EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.back());
-    const sdk::SessionStats& st = (*session)->stats();
-    EXPECT_GT(st.time_to_full_ms, 0);
-    EXPECT_LT(st.time_to_full_ms, kAwayMs) << "decoded while the host was away";
-    EXPECT_LE(st.last_arrival_ms, st.time_to_full_ms);
-    EXPECT_GE(st.decode_after_last_byte_ms, 0);
-    EXPECT_GT(st.session_thread_cpu_ms, 0);
+    // The host stays away longer than the whole session takes: 3 s, and
+    // twice as long again while the session (open, transfer, decoding)
+    // took longer than that on this machine, so the verdict is the rule's
+    // (everything decoded while nobody polled), not the machine's speed.
+    bool told = false;
+    for (int away_ms = 3000; away_ms <= 48000 && !told; away_ms *= 2) {
+      auto session = sdk::Session::Open(**sdk_client, test_util::SessionFor("bunny", 0, -1, tcp_only));
+      ASSERT_TRUE(session.ok()) << session.status().ToString();
+      std::this_thread::sleep_for(std::chrono::milliseconds(away_ms));
+      const sdk::Event base = (*session)->Poll(10000);
+      ASSERT_EQ(base.type, sdk::EventType::kBaseReady) << base.status.ToString();
+      auto mesh = (*session)->Mesh(0);
+      ASSERT_TRUE(mesh.ok());
+      EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.front()) << "the base's view";
+      const std::vector<sdk::Event> rest = PollToEnd(**session);
+      ASSERT_FALSE(rest.empty());
+      ASSERT_EQ(rest.back().type, sdk::EventType::kComplete) << rest.back().status.ToString();
+      const sdk::SessionStats& st = (*session)->stats();
+      if (st.time_to_full_ms >= away_ms) continue;  // the session outlasted the absence: try longer
+      told = true;
+      // Decoded while the host was away: one event for the last level, then the end.
+      ASSERT_EQ(rest.size(), 2u);
+      EXPECT_EQ(rest[0].type, sdk::EventType::kLevelReady);
+      EXPECT_EQ(rest[0].level, (*session)->levels());
+      mesh = (*session)->Mesh(0);
+      ASSERT_TRUE(mesh.ok());
+      EXPECT_EQ(static_cast<int64_t>(mesh->positions.size()), report.level_vertices.back());
+      EXPECT_GT(st.time_to_full_ms, 0);
+      EXPECT_LE(st.last_arrival_ms, st.time_to_full_ms);
+      EXPECT_GE(st.decode_after_last_byte_ms, 0);
+      EXPECT_GT(st.session_thread_cpu_ms, 0);
+    }
+    EXPECT_TRUE(told) << "no session finished within 48 s of absence";
   }
   EXPECT_EQ((*server)->Terminate(), 0) << (*server)->log();
 }
@@ -260,7 +270,9 @@ TEST(SdkSession, ByteAndTimeBudgetsAndCancel) {
   EXPECT_EQ(by_time->stats().end_reason, "time_budget");
   EXPECT_LT(by_time->level_shown(), by_time->levels());
   EXPECT_GE(by_time->stats().time_to_full_ms, 300.0);
-  EXPECT_LT(by_time->stats().time_to_full_ms, 2000.0);
+  // That it stopped at the budget is end_reason and the level above; the
+  // time only bounds a session that hangs after its budget, never a slow machine.
+  EXPECT_LT(by_time->stats().time_to_full_ms, 300.0 + 20000.0);
   by_time.reset();
 
   std::unique_ptr<sdk::Session> cancelled = OpenWhenFree(**sdk_client, test_util::SessionFor("horse"), &e);

@@ -225,12 +225,23 @@ TEST(StreamFaults, AStoppedClientIsCutOffAfterTheIdleTimeout) {
   ASSERT_EQ(before.find("ended ("), std::string::npos) << "the fetch ended before it was stopped: " << before;
   const bool cut = wait_for_log("session horse@1 ended (timeout)", 15);
   const double seconds = std::chrono::duration<double>(Clock::now() - stopped).count();
-  EXPECT_TRUE(cut) << (*server)->log();
-  EXPECT_LT(seconds, 8.0);
-  // The slot is free again: a session completes.
+  // (When the cut comes after the last client message is the session
+  // core's test, above; here the reason is the verdict and the time a note.)
+  EXPECT_TRUE(cut) << "no idle-timeout cut " << seconds << " s after the stop: " << (*server)->log();
+  // The slot is free again: a session completes. The log line comes just
+  // before the slot is released, so an Open at that instant may still be
+  // refused (RESOURCE_EXHAUSTED): it asks again until a deadline that only
+  // bounds a slot never freed.
   auto client = sdk::Client::Create(meshstream::test_util::PlainClientOptions((*server)->address()));
   ASSERT_TRUE(client.ok());
-  const Outcome o = RunSession(**client, test_util::SessionFor("horse", 0, 0, false), 15000);
+  Outcome o;
+  const auto free_by = Clock::now() + std::chrono::seconds(30);
+  for (;;) {
+    o = RunSession(**client, test_util::SessionFor("horse", 0, 0, false), 15000);
+    const bool busy = o.last == sdk::EventType::kError && o.status.code() == StatusCode::kResourceExhausted;
+    if (!busy || Clock::now() > free_by) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
   kill(child, SIGKILL);
   waitpid(child, nullptr, 0);
   EXPECT_EQ(o.last, sdk::EventType::kComplete) << o.status.ToString();

@@ -253,9 +253,10 @@ TEST(StreamSession, WithoutAHelloTheDatagramsFallBackToTheStream) {
   EXPECT_EQ(got.start.server_to_client_key().size(), 32u);
   EXPECT_NE(got.start.client_to_server_key(), got.start.server_to_client_key());
   // ... sent refinements on the stream from the start without waiting ...
+  // (a refinement before the transport change: the count says so, whatever
+  // the machine's speed; the time is printed for who reads the log)
   EXPECT_GE(got.first_control_ms, 0.0);
-  EXPECT_LT(got.first_control_ms, 300.0) << "the first refinement does not wait for the HELLO timeout";
-  EXPECT_GE(got.controls_before_change, 1u);
+  EXPECT_GE(got.controls_before_change, 1u) << "the first refinement waited for the HELLO timeout";
   EXPECT_EQ(got.unreliable_controls, 0u) << "with no address proven every refinement is on the stream";
   // ... and, with no HELLO, changed to gRPC between two refinements.
   ASSERT_EQ(got.changes.size(), 1u);
@@ -375,6 +376,12 @@ TEST(StreamSession, AnErrorWhileTheClientIsNotReadingKeepsItsStatus) {
   open.mutable_open()->set_max_level(-1);
   open.mutable_open()->set_transport(v1::TRANSPORT_GRPC);
   ASSERT_TRUE(stream->Write(open));
+  // The session has started (its first message read) before the repair
+  // arrives, however long its opening took; then the client stops reading
+  // and the server's writes fill the small window.
+  v1::ServerMessage first;
+  ASSERT_TRUE(stream->Read(&first));
+  ASSERT_TRUE(first.has_session());
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   v1::ClientMessage repair;  // a session opened without repair may not ask for one
   v1::RepairItem& item = *repair.mutable_repair()->add_items();
@@ -384,7 +391,7 @@ TEST(StreamSession, AnErrorWhileTheClientIsNotReadingKeepsItsStatus) {
   stream->Write(repair);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   v1::ServerMessage m;
-  size_t read = 0;
+  size_t read = 1;
   bool ended = false;
   while (stream->Read(&m)) {
     ++read;

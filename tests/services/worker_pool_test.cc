@@ -524,11 +524,11 @@ TEST(WorkerPool, DrainReturnsWithinItsDeadlineAndAbandonsWhatRuns) {
   WorkerPool pool(store, FastOptions(work.path(), 1));
   ASSERT_TRUE(pool.Start().ok());
   ASSERT_TRUE(WaitFor([&] { return pool.running_jobs() == 1; }));
-  const auto start = Clock::now();
-  const int64_t abandoned = pool.Drain(start + std::chrono::milliseconds(20));
-  const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
+  // Returned at its deadline, not at the job's end: the job was still
+  // running, so Drain abandoned it (a Drain that waited for it would
+  // abandon nothing). The count says so whatever the machine's speed.
+  const int64_t abandoned = pool.Drain(Clock::now() + std::chrono::milliseconds(20));
   EXPECT_EQ(abandoned, 1);
-  EXPECT_LT(took.count(), 250) << "Drain took " << took.count() << " ms";  // the job alone takes longer
   // Nothing more is claimed after a drain.
   const std::string later = Ingest(store, "later", Model("spot.obj"));
   pool.Wake();
@@ -555,17 +555,19 @@ TEST(WorkerPool, DrainWaitsForJobsThatFinishInTime) {
   TempDir work;
   WorkerPool idle(store, FastOptions(work.path()));
   ASSERT_TRUE(idle.Start().ok());
+  // Returning before half the deadline tells "returned when nothing ran"
+  // from "waited for the deadline" on any machine.
   auto start = Clock::now();
-  EXPECT_EQ(idle.Drain(start + std::chrono::seconds(10)), 0);
-  EXPECT_LT(Clock::now() - start, std::chrono::seconds(1));
+  EXPECT_EQ(idle.Drain(start + std::chrono::seconds(120)), 0);
+  EXPECT_LT(Clock::now() - start, std::chrono::seconds(60));
 
   const std::string quick = Ingest(store, "quick", Model("spot.obj"));
   WorkerPool pool(store, FastOptions(work.path(), 1));
   ASSERT_TRUE(pool.Start().ok());
   ASSERT_TRUE(WaitFor([&] { return pool.counters().claimed == 1; }));
   start = Clock::now();
-  EXPECT_EQ(pool.Drain(start + std::chrono::seconds(30)), 0);
-  EXPECT_LT(Clock::now() - start, std::chrono::seconds(10));
+  EXPECT_EQ(pool.Drain(start + std::chrono::seconds(120)), 0);
+  EXPECT_LT(Clock::now() - start, std::chrono::seconds(60));
   EXPECT_EQ(store.Job(quick).state, JobState::kSucceeded);
   EXPECT_EQ(pool.counters().abandoned, 0u);
 }

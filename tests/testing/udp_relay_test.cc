@@ -7,15 +7,18 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <set>
+#include <thread>
 
 namespace meshstream::test_util {
 namespace {
 
 struct Endpoint {
   UdpSocket socket = std::move(UdpSocket::Bind(*SocketAddress::Parse("127.0.0.1:0"))).value();
-  std::vector<IncomingDatagram> Receive(size_t want, int idle_ms = 300) {
+  // Until `want` arrived or nothing came for `idle_ms` (a bound on a datagram that will not come).
+  std::vector<IncomingDatagram> Receive(size_t want, int idle_ms = 2000) {
     std::vector<IncomingDatagram> out, batch(32);
     while (out.size() < want) {
       auto n = socket.ReceiveBatch(&batch, 2000, idle_ms);
@@ -36,18 +39,29 @@ uint32_t NumberOf(const std::vector<uint8_t>& d) {
          static_cast<uint32_t>(d[3]) << 24;
 }
 
-// Sends n numbered datagrams from `from` through the relay, paced a little
-// so that no socket buffer overflows, and returns the numbers that arrived.
+// Sends n numbered datagrams from `from` through the relay, 64 at a time:
+// the next 64 only once the relay has taken the last ones in (its counter),
+// so no socket buffer overflows however slowly its thread runs, and the
+// kernel never drops what the seeded link model did not. Returns the
+// numbers that arrived.
 std::vector<uint32_t> Through(UdpRelay& relay, Endpoint& from, Endpoint& server, uint32_t n) {
   std::vector<uint32_t> got;
   std::vector<IncomingDatagram> batch(64);
   for (uint32_t i = 0; i < n; ++i) {
     const std::vector<uint8_t> d = Numbered(i);
     EXPECT_TRUE(from.socket.SendTo(relay.front(), d.data(), d.size()).ok());
-    if (i % 64 == 63) {
-      for (;;) {
-        auto k = server.socket.ReceiveBatch(&batch, 2000, 1);
-        if (!k.ok() || k.value() == 0) break;
+    if (i % 64 == 63 || i + 1 == n) {
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+      while (relay.to_server().in < i + 1 && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+      EXPECT_EQ(relay.to_server().in, i + 1u) << "the relay did not take the datagrams in";
+      // Everything the relay has forwarded so far, taken off the server's
+      // socket before the next batch (so that it never overflows either).
+      const uint64_t forwarded = relay.to_server().forwarded;
+      while (got.size() < forwarded && std::chrono::steady_clock::now() < deadline) {
+        auto k = server.socket.ReceiveBatch(&batch, 2000, 100);
+        if (!k.ok()) break;
         for (size_t j = 0; j < k.value(); ++j) got.push_back(NumberOf(batch[j].data));
       }
     }
@@ -167,10 +181,10 @@ TEST(UdpRelay, DuplicatesDelayAndReordering) {
     const std::vector<uint8_t> d = Numbered(i);
     ASSERT_TRUE(client.socket.SendTo((*relay)->front(), d.data(), d.size()).ok());
   }
-  const auto first = server.Receive(1, 1000);
+  const auto first = server.Receive(1, 10000);
   ASSERT_GE(first.size(), 1u);
   EXPECT_GE(std::chrono::steady_clock::now() - sent, std::chrono::milliseconds(19)) << "not before the delay";
-  auto rest = server.Receive(1000, 300);
+  auto rest = server.Receive(1000);
   rest.insert(rest.begin(), first.begin(), first.end());
   EXPECT_GT(rest.size(), 250u);
   EXPECT_LT(rest.size(), 350u);

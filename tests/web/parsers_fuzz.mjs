@@ -46,7 +46,10 @@ import { firstBlobOffset, glbJsonEnd, parseGlb, progressivePrimitives } from '..
 import { ProtoWriter } from '../../web/src/protowire.js';
 import { datagramStream, openSessionSource, readServerMessage } from '../../web/src/session.js';
 
-const HANG_MS = 5000;
+// A case that gives no result for this long hangs: far above what any case
+// takes on a loaded machine (milliseconds), so the verdict is never the
+// scheduler's (the first case's clock includes the worker's start).
+const HANG_MS = 30000;
 const HEX_LIMIT = 1024;
 
 // --- seeded randomness ---------------------------------------------------------
