@@ -18,6 +18,23 @@ std::vector<int> Copies(SimulatedLink link, int n) {
   return out;
 }
 
+// The share of `n` datagrams lost and the mean length of a run of losses.
+struct LossRuns {
+  double share = 0;
+  double mean_run = 0;
+};
+LossRuns Runs(SimulatedLink link, int n) {
+  int lost = 0, runs = 0;
+  bool previous = false;
+  for (int i = 0; i < n; ++i) {
+    const bool l = link.Next().copies == 0;
+    lost += l;
+    if (l && !previous) ++runs;
+    previous = l;
+  }
+  return {static_cast<double>(lost) / n, runs == 0 ? 0.0 : static_cast<double>(lost) / runs};
+}
+
 TEST(LinkModel, TheSameSeedGivesTheSameFates) {
   LinkModel m = LinkModel::Bursts(0.2, 4, 9);
   m.duplicate = 0.1;
@@ -33,11 +50,7 @@ TEST(LinkModel, TheSameSeedGivesTheSameFates) {
 }
 
 TEST(LinkModel, IndependentLossHasItsMean) {
-  SimulatedLink link(LinkModel::Loss(0.3, 7));
-  int lost = 0;
-  const int n = 100000;
-  for (int i = 0; i < n; ++i) lost += link.Next().copies == 0;
-  EXPECT_NEAR(static_cast<double>(lost) / n, 0.3, 0.01);
+  EXPECT_NEAR(Runs(SimulatedLink(LinkModel::Loss(0.3, 7)), 100000).share, 0.3, 0.01);
   // No loss: every datagram once, at the link's delay.
   LinkModel clean;
   clean.delay_us = 20000;
@@ -52,29 +65,11 @@ TEST(LinkModel, IndependentLossHasItsMean) {
 TEST(LinkModel, BurstsHaveTheirMeanAndLength) {
   const LinkModel m = LinkModel::Bursts(0.12, 4, 3);
   EXPECT_NEAR(m.mean_loss(), 0.12, 1e-12);
-  SimulatedLink link(m);
-  const int n = 200000;
-  int lost = 0, runs = 0;
-  bool previous = false;
-  for (int i = 0; i < n; ++i) {
-    const bool l = link.Next().copies == 0;
-    lost += l;
-    if (l && !previous) ++runs;
-    previous = l;
-  }
-  EXPECT_NEAR(static_cast<double>(lost) / n, 0.12, 0.01);
-  EXPECT_NEAR(static_cast<double>(lost) / runs, 4.0, 0.3);  // mean burst length
-  // The same mean, independent: bursts of about 1 / (1 - p).
-  SimulatedLink flat(LinkModel::Loss(0.12, 3));
-  lost = runs = 0;
-  previous = false;
-  for (int i = 0; i < n; ++i) {
-    const bool l = flat.Next().copies == 0;
-    lost += l;
-    if (l && !previous) ++runs;
-    previous = l;
-  }
-  EXPECT_LT(static_cast<double>(lost) / runs, 1.3);
+  const LossRuns bursts = Runs(SimulatedLink(m), 200000);
+  EXPECT_NEAR(bursts.share, 0.12, 0.01);
+  EXPECT_NEAR(bursts.mean_run, 4.0, 0.3);
+  // The same mean, independent: runs of about 1 / (1 - p).
+  EXPECT_LT(Runs(SimulatedLink(LinkModel::Loss(0.12, 3)), 200000).mean_run, 1.3);
 }
 
 TEST(LinkModel, DuplicatesJitterAndReorder) {
