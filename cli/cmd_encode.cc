@@ -16,6 +16,7 @@
 #include "codec/mesh/quantization.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
+#include "parallel/fork_join_pool.h"
 
 namespace meshstream::cli {
 
@@ -41,6 +42,7 @@ struct EncodeArgs {
   std::string tools = "default";
   bool json = false;
   bool profile_given = false;
+  int threads = 0;
 };
 
 // --tools: "default", "all", "none" or names of kToolNames; an unknown name
@@ -129,6 +131,15 @@ int RunEncode(EncodeArgs& args) {
   auto scene = ImportFile(in);
   if (!scene.ok()) return ReportError("encode", scene.status());
 
+  // Streams (primitives, spatial parts) encode at once on these workers; the
+  // file does not depend on their count. The pool starts outside the timing.
+  const int threads = args.threads == 0 ? ForkJoinPool::HardwareWorkers() : args.threads;
+  std::unique_ptr<ForkJoinPool> pool;
+  if (threads > 1) {
+    pool = std::make_unique<ForkJoinPool>(threads);
+    options.runner = pool.get();
+  }
+
   const auto start = std::chrono::steady_clock::now();
   ProgressiveGlbReport report;
   // The refined primitives' float arrays are dropped as each is quantized
@@ -162,7 +173,9 @@ int RunEncode(EncodeArgs& args) {
       {"output", Utf8(out)},
       {"vertices", vertices},
       {"faces", faces},
-      {"primitives", report.primitives.size()},
+      {"primitives", report.primitives.size()},  // streams: a spatial part counts as one
+      {"part_vertices", options.part_vertices},
+      {"threads", threads},
       {"levels", level_vertices.empty() ? 0 : level_vertices.size() - 1},
       {"level_vertices", level_vertices},
       {"base_vertices", level_vertices.empty() ? 0 : level_vertices.front()},
@@ -275,6 +288,15 @@ Verb AddEncode(CLI::App& root) {
       ->capture_default_str();
   FromEnv(cmd->add_option("--cl", o.draco_compression_level, "Draco compression level of the base mesh")
               ->check(CLI::Range(0, 10)))
+      ->capture_default_str();
+  FromEnv(cmd->add_option("--part-vertices", o.part_vertices,
+                          "cut a primitive of more vertices than this into spatial parts, each a stream of its own "
+                          "that decodes on its own core (0: never; docs/design/codec.md, \"Spatial parts\")"))
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads,
+                  "threads that encode streams (primitives and parts) at once (0: one per core; the file does not "
+                  "change)")
+      ->check(CLI::Range(0, ForkJoinPool::kMaxWorkers))
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "print one JSON object with sizes and timings");
   return {cmd, [args] { return RunEncode(*args); }};

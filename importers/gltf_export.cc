@@ -335,17 +335,22 @@ StatusOr<json> DocumentBuilder::Build(const Scene& scene) {
       }
       const size_t k = ref.index;
       const Primitive& p = mesh.primitives[k];
-      const PrecodedPrimitive* pre = nullptr;
-      if (m < options_.precoded.size() && k < options_.precoded[m].size()) pre = options_.precoded[m][k];
+      static const std::vector<const PrecodedPrimitive*> kNone;
+      const std::vector<const PrecodedPrimitive*>& pre =
+          (m < options_.precoded.size() && k < options_.precoded[m].size()) ? options_.precoded[m][k] : kNone;
       // A precoded primitive is written from its codings (its arrays may be
       // released: EncodeProgressiveGlbReleasing).
-      if (pre == nullptr && p.face_count() == 0) continue;
-      auto prim = pre ? StatusOr<json>(PrecodedJson(*pre)) : options_.draco ? DracoPrimitive(p) : PlainPrimitive(p);
-      if (!prim.ok()) {
-        return prim.status().WithContext("meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]");
+      if (pre.empty() && p.face_count() == 0) continue;
+      for (size_t part = 0; part < std::max<size_t>(pre.size(), 1); ++part) {
+        auto prim = !pre.empty()   ? StatusOr<json>(PrecodedJson(*pre[part]))
+                    : options_.draco ? DracoPrimitive(p)
+                                     : PlainPrimitive(p);
+        if (!prim.ok()) {
+          return prim.status().WithContext("meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]");
+        }
+        if (p.material >= 0) prim.value()["material"] = p.material;
+        out["primitives"].push_back(std::move(prim).value());
       }
-      if (p.material >= 0) prim.value()["material"] = p.material;
-      out["primitives"].push_back(std::move(prim).value());
     }
     if (out["primitives"].empty()) {
       return InvalidInput("meshes[" + std::to_string(m) + "] has no primitive to write");

@@ -50,11 +50,14 @@ struct PrecodedPrimitive {
 struct ExportOptions {
   bool draco = false;
   DracoEncodeOptions draco_options;
-  // [mesh][primitive]; a null entry (or a short table) means: encode as usual.
+  // [mesh][primitive]: the codings written in the primitive's place, in
+  // order (one, or the spatial parts it was cut into: codec/mesh/
+  // spatial_parts.h), each a primitive of its own with the primitive's
+  // material; an empty list (or a short table) means: encode as usual.
   // Precoded primitives make the asset require KHR_draco_mesh_compression;
   // their own extension is listed in extensionsUsed only. Of a precoded
   // primitive only the material is read (its arrays may be empty).
-  std::vector<std::vector<const PrecodedPrimitive*>> precoded;
+  std::vector<std::vector<std::vector<const PrecodedPrimitive*>>> precoded;
 };
 
 // By the extension of `path`: .glb or .gltf (the buffer goes to <stem>.bin).

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <mutex>
 #include <optional>
 
 #include <nlohmann/json.hpp>
@@ -281,152 +283,263 @@ void ReleaseArrays(Primitive& p) {
   p.indices = decltype(p.indices)();
 }
 
+// One stream to encode: a refined primitive, or one spatial part of it.
+struct StreamJob {
+  size_t mesh = 0, primitive = 0;
+  size_t input = 0;  // the primitive's index among the scene's refined ones (progress)
+  uint32_t stream_id = 0;
+  std::string where;
+  QuantizedMesh quantized;  // given up to the encoder
+  PrecodedPrimitive pre;
+  PrimitiveStreamReport report;
+  Status status;
+};
+
+// Encodes one stream into job->pre and job->report; `harm_runner` shares its
+// harm measure (null: this thread); `observer` sees the simplifier's batches.
+Status EncodeStream(StreamJob* job, const ProgressiveGlbOptions& options, double scale, TaskRunner* harm_runner,
+                    const std::function<bool(int, size_t)>& observer) {
+  const std::string& where = job->where;
+  PrecodedPrimitive& pre = job->pre;
+  ProgressiveEncodeOptions encode = options.encode;
+  // Seam edges collapse only where the stream can carry it (version 2, the seams tool).
+  encode.simplify.collapse_seams = options.stream.version >= 2 && (options.stream.tools & kToolSeams) != 0;
+  if (observer) encode.simplify.observer = observer;
+  const int level = options.draco_compression_level;
+  using Clock = std::chrono::steady_clock;
+  auto ms_since = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
+  Clock::time_point step = Clock::now();
+  // The base coder's last call is the one the encoder kept: its Draco ids
+  // and decoded floats describe the base in the glTF. (The encoder works in
+  // the quantized mesh's arrays: EncodeProgressive without its copy.)
+  auto base_coder = [&pre, level](const QuantizedMesh& base, int method) {
+    return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
+  };
+  // A file of the reliable profile alone may simplify by the matching
+  // rule; should its replay in split order ever fail, the strict rule's
+  // hierarchy (whose splits are independent, so any order is theirs)
+  // takes its place. Both profiles share the strict rule's.
+  const bool reliable = options.profiles == ProfileSet::kReliable;
+  const bool both = options.profiles == ProfileSet::kBoth;
+  std::optional<QuantizedMesh> strict_input;
+  encode.simplify.rule = BatchRule::kStrict;
+  if (reliable) {
+    encode.simplify.rule = options.reliable_rule;
+    if (options.reliable_rule != BatchRule::kStrict) strict_input = job->quantized;
+  }
+  auto encoded = EncodeProgressiveQuantized(std::move(job->quantized), encode, base_coder);
+  job->quantized = QuantizedMesh();
+  if (!encoded.ok() && strict_input && encoded.status().code() == StatusCode::kInternal) {
+    encode.simplify.rule = BatchRule::kStrict;
+    encoded = EncodeProgressiveQuantized(std::move(*strict_input), encode, base_coder);
+  }
+  strict_input.reset();
+  if (!encoded.ok()) return encoded.status().WithContext(where);
+  const double hierarchy_ms = ms_since(step);
+  step = Clock::now();
+  StreamWriteOptions stream_options = options.stream;
+  stream_options.stream_id = job->stream_id;
+  stream_options.profile = reliable ? Profile::kReliable : Profile::kLossTolerant;
+  auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
+  if (!stream.ok()) return stream.status().WithContext(where);
+  std::optional<ProgressiveStream> reliable_stream;
+  if (both) {
+    stream_options.profile = Profile::kReliable;
+    auto second = WriteStream(encoded.value(), encode.quantization, stream_options);
+    if (!second.ok()) return second.status().WithContext(where + ": the reliable profile");
+    reliable_stream = std::move(second).value();
+    pre.reliable_bytes = reliable_stream->Serialize();
+  }
+  const double stream_ms = ms_since(step);
+  step = Clock::now();
+
+  pre.draco_bytes = encoded->base_bytes;
+  pre.extension_name = kProgressiveExtension;
+  pre.extension_version = stream->version;
+  pre.extension_bytes = stream->Serialize();
+  // The reliable cut (codec/loss/reliable_cut.h): the ranking, and its
+  // prefix for the encode-time share of this stream's bytes.
+  // With the harm of each refinement's loss, which ones parity protects
+  // (codec/loss/protection.h), measured on the base as a client decodes it.
+  std::optional<DatagramHarm> harm;
+  if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty() && !reliable) {
+    auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+    if (!header.ok()) return header.status().WithContext(where);
+    auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
+    if (!base.ok()) return base.status().WithContext(where + ": the base for the harm measure");
+    auto measured = EstimateDatagramHarm(stream.value(), base.value(), harm_runner);
+    if (!measured.ok()) return measured.status().WithContext(where + ": harm");
+    harm = std::move(measured).value();
+  }
+  const double harm_ms = ms_since(step);
+  step = Clock::now();
+  const DeliveryRecord delivery = MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(),
+                                                     options.reliable_share, harm ? &*harm : nullptr);
+  const double delivery_ms = ms_since(step);
+  // The error each level leaves, in scene units: what orders the
+  // refinements of a scene's primitives (codec/progressive/scene_levels.h).
+  std::vector<double> residual = encoded->residual_error;
+  const double unit = encoded->mesh.base.position_grid.step() * scale;
+  for (double& e : residual) e = static_cast<float>(e * unit);
+  // The reliable profile has no datagrams: nothing to deliver otherwise.
+  pre.extension_fields = reliable ? "{\"residual_error\":" + ResidualErrorsJson(residual) + "}"
+                                  : "{\"delivery\":" + DeliveryRecordJson(delivery) +
+                                        ",\"residual_error\":" + ResidualErrorsJson(residual) + "}";
+
+  PrimitiveStreamReport& r = job->report;
+  r.vertices = encoded->input_vertices;
+  r.faces = encoded->input_faces;
+  r.level_vertices = encoded->mesh.level_vertices();
+  r.level_bytes = LevelBytes(pre.draco_bytes.size(), stream.value());
+  if (reliable_stream) {
+    r.reliable_profile_bytes = reliable_stream->reliable_bytes();
+    r.reliable_level_bytes = LevelBytes(pre.draco_bytes.size(), *reliable_stream);
+  }
+  r.base_bytes = pre.draco_bytes.size();
+  r.reliable_bytes = stream->reliable_bytes();
+  r.unreliable_bytes = stream->unreliable_bytes();
+  r.datagrams = stream->datagram_count();
+  r.removed_faces = encoded->removed_faces;
+  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+  if (!header.ok()) return header.status().WithContext(where);
+  r.tools = header->tools;
+  const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
+  for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
+  r.reliable_cut = delivery.reliable;
+  r.parity = delivery.parity;
+  r.residual_error = std::move(residual);
+  r.hierarchy_ms = hierarchy_ms;
+  r.stream_ms = stream_ms;
+  r.harm_ms = harm_ms;
+  r.delivery_ms = delivery_ms;
+  return Status::Ok();
+}
+
+// The referenced vertices of `indices`.
+uint64_t ReferencedVertices(const std::vector<uint32_t>& indices, size_t vertices) {
+  std::vector<bool> seen(vertices, false);
+  uint64_t count = 0;
+  for (uint32_t i : indices) {
+    if (i < vertices && !seen[i]) {
+      seen[i] = true;
+      ++count;
+    }
+  }
+  return count;
+}
+
+// The encoder's progress, from any worker: one call at a time, the vertices
+// left summed over a primitive's parts; a call that throws cancels every
+// stream (the simplifiers stop at their next batch) and is kept to rethrow.
+class ProgressRelay {
+ public:
+  ProgressRelay(const ProgressiveGlbOptions& options, const std::vector<StreamJob>& jobs)
+      : progress_(options.progress), left_(jobs.size(), 0), input_of_(jobs.size()) {
+    for (size_t j = 0; j < jobs.size(); ++j) input_of_[j] = jobs[j].input;
+  }
+  std::function<bool(int, size_t)> ObserverFor(size_t job) {
+    if (!progress_) return nullptr;
+    return [this, job](int batch, size_t left) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (error_) return false;
+      left_[job] = left;
+      size_t total = 0;
+      for (size_t j = 0; j < left_.size(); ++j) {
+        if (input_of_[j] == input_of_[job]) total += left_[j];
+      }
+      try {
+        progress_(input_of_[job], batch, total);
+      } catch (...) {
+        error_ = std::current_exception();
+        return false;
+      }
+      return true;
+    };
+  }
+  void RethrowIfAny() {
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  const std::function<void(size_t, int, size_t)>& progress_;
+  std::mutex mutex_;
+  std::vector<size_t> left_;
+  std::vector<size_t> input_of_;
+  std::exception_ptr error_;
+};
+
 // `releasing`: the scene itself, whose refined primitives' arrays are
 // dropped once quantized (EncodeProgressiveGlbReleasing), or null.
 StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene, Scene* releasing,
                                                     const ProgressiveGlbOptions& options,
                                                     ProgressiveGlbReport* report) {
   MS_RETURN_IF_ERROR(ValidateScene(scene));
-  std::vector<std::vector<PrecodedPrimitive>> precoded(scene.meshes.size());
-  ExportOptions export_options;
-  export_options.precoded.resize(scene.meshes.size());
-  ProgressiveGlbReport local;
-  uint32_t stream_id = 0;
   const std::vector<double> scales = MeshScales(scene);
+  // First every stream to encode, in file order: each refined primitive,
+  // quantized, and cut into parts when it is large.
+  std::vector<StreamJob> jobs;
+  size_t input = 0;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const Mesh& mesh = scene.meshes[m];
-    precoded[m].resize(mesh.primitives.size());
-    export_options.precoded[m].assign(mesh.primitives.size(), nullptr);
     for (size_t k = 0; k < mesh.primitives.size(); ++k) {
       const Primitive& prim = mesh.primitives[k];
       if (prim.face_count() == 0) continue;
       const std::string where = "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(k) + "]";
-      ProgressiveEncodeOptions encode = options.encode;
-      // Seam edges collapse only where the stream can carry it (version 2, the seams tool).
-      encode.simplify.collapse_seams = options.stream.version >= 2 && (options.stream.tools & kToolSeams) != 0;
-      const size_t index = stream_id;
-      if (options.progress) {
-        encode.simplify.observer = [&options, index](int batch, size_t left) {
-          options.progress(index, batch, left);
-          return true;
-        };
-      }
-      PrecodedPrimitive& pre = precoded[m][k];
-      const int level = options.draco_compression_level;
-      auto quantized = QuantizePrimitive(prim, encode.quantization);
+      auto quantized = QuantizePrimitive(prim, options.encode.quantization);
       if (!quantized.ok()) return quantized.status().WithContext(where);
       if (releasing != nullptr) ReleaseArrays(releasing->meshes[m].primitives[k]);
-      // The base coder's last call is the one the encoder kept: its Draco ids
-      // and decoded floats describe the base in the glTF. (The encoder works
-      // in the quantized mesh's arrays: EncodeProgressive without its copy.)
-      using Clock = std::chrono::steady_clock;
-      auto ms_since = [](Clock::time_point t) {
-        return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-      };
-      Clock::time_point step = Clock::now();
-      double hierarchy_ms = 0, stream_ms = 0, harm_ms = 0, delivery_ms = 0;
-      auto base_coder = [&pre, level](const QuantizedMesh& base, int method) {
-        return EncodeDracoBase(base, method, level, &pre.ids, &pre.decoded);
-      };
-      // A file of the reliable profile alone may simplify by the matching
-      // rule; should its replay in split order ever fail, the strict rule's
-      // hierarchy (whose splits are independent, so any order is theirs)
-      // takes its place. Both profiles share the strict rule's.
-      const bool reliable = options.profiles == ProfileSet::kReliable;
-      const bool both = options.profiles == ProfileSet::kBoth;
-      std::optional<QuantizedMesh> strict_input;
-      encode.simplify.rule = BatchRule::kStrict;
-      if (reliable) {
-        encode.simplify.rule = options.reliable_rule;
-        if (options.reliable_rule != BatchRule::kStrict) strict_input = quantized.value();
+      const size_t parts = PartCount(ReferencedVertices(quantized->indices, quantized->vertex_count()),
+                                     options.part_vertices);
+      std::vector<QuantizedMesh> pieces;
+      if (parts > 1) {
+        pieces = SplitIntoParts(quantized.value(), parts);
+      } else {
+        pieces.push_back(std::move(quantized).value());
       }
-      auto encoded = EncodeProgressiveQuantized(std::move(quantized).value(), encode, base_coder);
-      if (!encoded.ok() && strict_input && encoded.status().code() == StatusCode::kInternal) {
-        encode.simplify.rule = BatchRule::kStrict;
-        encoded = EncodeProgressiveQuantized(std::move(*strict_input), encode, base_coder);
+      quantized = QuantizedMesh();
+      for (size_t part = 0; part < pieces.size(); ++part) {
+        StreamJob job;
+        job.mesh = m;
+        job.primitive = k;
+        job.input = input;
+        job.stream_id = static_cast<uint32_t>(jobs.size());
+        job.where = pieces.size() > 1 ? where + " (part " + std::to_string(part + 1) + " of " +
+                                            std::to_string(pieces.size()) + ")"
+                                      : where;
+        job.quantized = std::move(pieces[part]);
+        jobs.push_back(std::move(job));
       }
-      strict_input.reset();
-      if (!encoded.ok()) return encoded.status().WithContext(where);
-      hierarchy_ms = ms_since(step);
-      step = Clock::now();
-      StreamWriteOptions stream_options = options.stream;
-      stream_options.stream_id = stream_id++;
-      stream_options.profile = reliable ? Profile::kReliable : Profile::kLossTolerant;
-      auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
-      if (!stream.ok()) return stream.status().WithContext(where);
-      std::optional<ProgressiveStream> reliable_stream;
-      if (both) {
-        stream_options.profile = Profile::kReliable;
-        auto second = WriteStream(encoded.value(), encode.quantization, stream_options);
-        if (!second.ok()) return second.status().WithContext(where + ": the reliable profile");
-        reliable_stream = std::move(second).value();
-        pre.reliable_bytes = reliable_stream->Serialize();
-      }
-      stream_ms = ms_since(step);
-      step = Clock::now();
-
-      pre.draco_bytes = encoded->base_bytes;
-      pre.extension_name = kProgressiveExtension;
-      pre.extension_version = stream->version;
-      pre.extension_bytes = stream->Serialize();
-      // The reliable cut (codec/loss/reliable_cut.h): the ranking, and its
-      // prefix for the encode-time share of this stream's bytes.
-      // With the harm of each refinement's loss, which ones parity protects
-      // (codec/loss/protection.h), measured on the base as a client decodes it.
-      std::optional<DatagramHarm> harm;
-      if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty() && !reliable) {
-        auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
-        if (!header.ok()) return header.status().WithContext(where);
-        auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
-        if (!base.ok()) return base.status().WithContext(where + ": the base for the harm measure");
-        auto measured = EstimateDatagramHarm(stream.value(), base.value(), options.runner);
-        if (!measured.ok()) return measured.status().WithContext(where + ": harm");
-        harm = std::move(measured).value();
-      }
-      harm_ms = ms_since(step);
-      step = Clock::now();
-      const DeliveryRecord delivery = MakeDeliveryRecord(encoded->mesh, stream.value(), encoded->base_bytes.size(),
-                                                         options.reliable_share, harm ? &*harm : nullptr);
-      delivery_ms = ms_since(step);
-      // The error each level leaves, in scene units: what orders the
-      // refinements of a scene's primitives (codec/progressive/scene_levels.h).
-      std::vector<double> residual = encoded->residual_error;
-      const double unit = encoded->mesh.base.position_grid.step() * scales[m];
-      for (double& e : residual) e = static_cast<float>(e * unit);
-      // The reliable profile has no datagrams: nothing to deliver otherwise.
-      pre.extension_fields = reliable ? "{\"residual_error\":" + ResidualErrorsJson(residual) + "}"
-                                      : "{\"delivery\":" + DeliveryRecordJson(delivery) +
-                                            ",\"residual_error\":" + ResidualErrorsJson(residual) + "}";
-      export_options.precoded[m][k] = &pre;
-
-      PrimitiveStreamReport r;
-      r.vertices = encoded->input_vertices;
-      r.faces = encoded->input_faces;
-      r.level_vertices = encoded->mesh.level_vertices();
-      r.level_bytes = LevelBytes(pre.draco_bytes.size(), stream.value());
-      if (reliable_stream) {
-        r.reliable_profile_bytes = reliable_stream->reliable_bytes();
-        r.reliable_level_bytes = LevelBytes(pre.draco_bytes.size(), *reliable_stream);
-      }
-      r.base_bytes = pre.draco_bytes.size();
-      r.reliable_bytes = stream->reliable_bytes();
-      r.unreliable_bytes = stream->unreliable_bytes();
-      r.datagrams = stream->datagram_count();
-      r.removed_faces = encoded->removed_faces;
-      auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
-      if (!header.ok()) return header.status().WithContext(where);
-      r.tools = header->tools;
-      const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
-      for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
-      r.reliable_cut = delivery.reliable;
-      r.parity = delivery.parity;
-      r.residual_error = std::move(residual);
-      r.hierarchy_ms = hierarchy_ms;
-      r.stream_ms = stream_ms;
-      r.harm_ms = harm_ms;
-      r.delivery_ms = delivery_ms;
-      local.primitives.push_back(std::move(r));
+      ++input;
     }
+  }
+  // Then the streams, several at once when there are workers for them.
+  ProgressRelay relay(options, jobs);
+  const bool parallel = options.runner != nullptr && options.runner->workers() > 1 && jobs.size() > 1;
+  auto run = [&](size_t j, TaskRunner* harm_runner) {
+    StreamJob& job = jobs[j];
+    job.status = CatchExceptions(job.where, [&]() -> StatusOr<bool> {
+      MS_RETURN_IF_ERROR(EncodeStream(&job, options, scales[job.mesh], harm_runner, relay.ObserverFor(j)));
+      return true;
+    }).status();
+  };
+  if (parallel) {
+    options.runner->Run(jobs.size(), [&](size_t j, int) { run(j, nullptr); });
+  } else {
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      run(j, options.runner);
+      if (!jobs[j].status.ok()) break;
+    }
+  }
+  relay.RethrowIfAny();
+  for (const StreamJob& job : jobs) MS_RETURN_IF_ERROR(job.status);
+
+  ExportOptions export_options;
+  export_options.precoded.resize(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) export_options.precoded[m].resize(scene.meshes[m].primitives.size());
+  ProgressiveGlbReport local;
+  for (StreamJob& job : jobs) {
+    export_options.precoded[job.mesh][job.primitive].push_back(&job.pre);
+    local.primitives.push_back(std::move(job.report));
   }
   MS_ASSIGN_OR_RETURN(std::vector<uint8_t> glb, ExportGlb(scene, export_options));
   local.file_bytes = glb.size();
@@ -552,9 +665,16 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
   }
   const SceneLevels scene_levels = SceneLevelsOf(level_vertices, residuals);
 
-  ProgressiveDecodeReport local;
-  uint32_t stream_id = 0;
-  for (size_t i = 0; i < found.size(); ++i) {
+  // Each stream decodes on its own (any core, any order): several at once
+  // when there are workers for them, else one after the other, each with
+  // the workers for its refinements. The mesh is the same bit for bit.
+  struct Decoded {
+    Status status;
+    LossyDecodeReport lossy;
+    uint64_t predicted_vertices = 0;
+  };
+  std::vector<Decoded> decoded(found.size());
+  auto decode_one = [&](size_t i, TaskRunner* runner) -> Status {
     Found& f = found[i];
     const size_t m = f.m, k = f.k;
     const json& prim = *f.prim;
@@ -587,12 +707,13 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     }
     // Loss-free or not, every stream crosses the simulated network and the
     // reconstructor: one code path.
+    const uint32_t stream_id = static_cast<uint32_t>(i);
     LossyDecodeOptions lossy;
     lossy.loss = options.loss;
     lossy.loss.seed = options.loss.seed + stream_id;
     lossy.reconstructor.recovery = options.recovery;
     lossy.reconstructor.lod = static_cast<int>(apply);
-    lossy.reconstructor.runner = options.runner;
+    lossy.reconstructor.runner = runner;
     lossy.reliable = std::move(reliable);
     if (options.parity != nullptr && !protect.empty()) {
       lossy.parity.code = options.parity;
@@ -600,25 +721,14 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
       lossy.parity.loss = options.loss.loss;
       lossy.parity.burst = options.loss.burst;
     }
-    LossyDecodeReport lr;
-    auto reader = DecodeStreamLossy(stream, stream_id++, std::move(base).value(), lossy, &lr);
+    LossyDecodeReport& lr = decoded[i].lossy;
+    auto reader = DecodeStreamLossy(stream, stream_id, std::move(base).value(), lossy, &lr);
     if (!reader.ok()) return reader.status().WithContext(where);
     if (reader->applied() != apply) {
       return Internal(where + ": decoded " + std::to_string(reader->applied()) + " of " + std::to_string(apply) +
                       " refinements");
     }
-    local.datagrams += lr.transmission.datagrams_sent;
-    local.lost_datagrams += lr.transmission.datagrams_lost;
-    local.late_datagrams += lr.reconstructor.late;
-    local.reliable_datagrams += lr.transmission.reliable_datagrams;
-    local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
-    local.recovery.Add(lr.recovery);
-    (header.reliable() ? local.reliable_profile_streams : local.loss_tolerant_streams) += 1;
-    local.predicted_vertices += reader->inexact_positions();
-    local.parity_datagrams += lr.transmission.parity_datagrams;
-    local.parity_bytes += lr.transmission.parity_bytes;
-    local.recovered_datagrams += lr.reconstructor.recovered;
-    local.refinements_decoded_again += lr.reconstructor.redecoded;
+    decoded[i].predicted_vertices = reader->inexact_positions();
     const RefinementState& state = reader->state();
     if (state.any_absent) {
       target = DequantizeMesh(reader->Mesh(), target.material);
@@ -631,7 +741,40 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
                                 state.attributes, faces.empty() ? nullptr : faces.front().data(),
                                 3 * faces.size(), target.material);
     }
-    local.tools |= header.tools;
+    return Status::Ok();
+  };
+  auto guarded = [&](size_t i, TaskRunner* runner) {
+    try {
+      decoded[i].status = decode_one(i, runner);
+    } catch (const std::exception& e) {
+      decoded[i].status = InvalidInput(found[i].where + ": " + e.what());
+    }
+  };
+  if (options.runner != nullptr && options.runner->workers() > 1 && found.size() > 1) {
+    options.runner->Run(found.size(), [&](size_t i, int) { guarded(i, nullptr); });
+  } else {
+    for (size_t i = 0; i < found.size(); ++i) {
+      guarded(i, options.runner);
+      if (!decoded[i].status.ok()) break;
+    }
+  }
+  ProgressiveDecodeReport local;
+  for (size_t i = 0; i < found.size(); ++i) {
+    MS_RETURN_IF_ERROR(decoded[i].status);
+    const LossyDecodeReport& lr = decoded[i].lossy;
+    local.datagrams += lr.transmission.datagrams_sent;
+    local.lost_datagrams += lr.transmission.datagrams_lost;
+    local.late_datagrams += lr.reconstructor.late;
+    local.reliable_datagrams += lr.transmission.reliable_datagrams;
+    local.reliable_datagram_bytes += lr.transmission.reliable_bytes;
+    local.recovery.Add(lr.recovery);
+    (found[i].header.reliable() ? local.reliable_profile_streams : local.loss_tolerant_streams) += 1;
+    local.predicted_vertices += decoded[i].predicted_vertices;
+    local.parity_datagrams += lr.transmission.parity_datagrams;
+    local.parity_bytes += lr.transmission.parity_bytes;
+    local.recovered_datagrams += lr.reconstructor.recovered;
+    local.refinements_decoded_again += lr.reconstructor.redecoded;
+    local.tools |= found[i].header.tools;
   }
   local.levels = scene_levels.levels;
   local.level_vertices = SceneLevelVertices(scene_levels, level_vertices);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "codec/mesh/mesh.h"
+#include "codec/mesh/spatial_parts.h"
 #include "codec/loss/datagram_harm.h"
 #include "codec/loss/reliable_cut.h"
 #include "codec/loss/simulator.h"
@@ -56,9 +57,20 @@ struct ProgressiveGlbOptions {
   // every shared model but spot) or kMatching (fuller batches, fewer levels;
   // docs/design/codec.md, "Version 4"). Both profiles in one file share kStrict's.
   BatchRule reliable_rule = BatchRule::kStrict;
-  // Workers for that measure (parallel/fork_join_pool.h); null: this thread.
+  // A refined primitive with more referenced vertices than this is cut into
+  // spatial parts (codec/mesh/spatial_parts.h), each a stream and a primitive
+  // of the same glTF mesh with its material; 0: never cut.
+  uint64_t part_vertices = kDefaultPartVertices;
+  // Workers (parallel/fork_join_pool.h): with several streams (primitives or
+  // parts) they encode streams at once, each on one worker; with one, they
+  // share its harm measure. The file is the same bit for bit with any
+  // count; null: this thread.
   TaskRunner* runner = nullptr;
-  // Called with (primitive index, batch index, vertices left) during encoding.
+  // Called with (primitive index, batch index, vertices left) during
+  // encoding: the index counts the scene's refined primitives as given
+  // (parts are not counted), the vertices left are summed over a
+  // primitive's parts. Calls never overlap (from the worker that reports);
+  // one that throws cancels the encoding and the exception reaches the caller.
   std::function<void(size_t, int, size_t)> progress;
 };
 
