@@ -114,6 +114,11 @@ Verb AddServe(CLI::App& root) {
   FromEnv(cmd->add_option("--store", o.store, "a folder (embedded) or postgresql://... (shared)"))->capture_default_str();
   FromEnv(cmd->add_option("--workers", o.workers, "processing threads (0: the core count)")->check(CLI::Range(0, 256)))
       ->capture_default_str();
+  FromEnv(cmd->add_option("--encode-threads", o.encode_threads,
+                          "threads each processing job encodes a large mesh's spatial parts and a scene's primitives "
+                          "on (0: the core count; the artifact does not depend on it)")
+              ->check(CLI::Range(0, 64)))
+      ->capture_default_str();
   FromEnv(cmd->add_flag("--auth", o.auth, "require 'authorization: Bearer TOKEN' (meshstream token create)"));
   FromEnv(cmd->add_flag("--insecure", o.insecure, "allow a non-loopback --listen without --auth (not recommended)"));
   FromEnv(cmd->add_option("--tls-cert", o.tls_cert, "PEM certificate chain (with --tls-key)")->check(CLI::ExistingFile));

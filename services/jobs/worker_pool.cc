@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <exception>
+#include <memory>
 #include <new>
 #include <system_error>
 
+#include "parallel/fork_join_pool.h"
 #include "services/pipeline/materialize.h"
 #include "services/pipeline/process_source.h"
 
@@ -306,6 +308,11 @@ StatusOr<ArtifactSummary> WorkerPool::Produce(JobRun& run, const VersionRecord& 
     if (run.cancelled()) return Aborted("cancelled");
     ProcessOptions process;
     process.max_input_bytes = options_.max_source_bytes;
+    std::unique_ptr<ForkJoinPool> encoders;
+    if (options_.encode_threads > 1) {
+      encoders = std::make_unique<ForkJoinPool>(options_.encode_threads);
+      process.runner = encoders.get();
+    }
     process.cancelled = [&run] { return run.cancelled(); };
     MS_ASSIGN_OR_RETURN(result, ProcessSource(folder->main_path(), settings, set_progress, process));
   }  // the work folder is removed here

@@ -56,6 +56,9 @@ namespace meshstream {
 
 struct WorkerPoolOptions {
   int workers = static_cast<int>(std::thread::hardware_concurrency());  // < 1: one
+  // Threads each job encodes its streams on (primitives and spatial parts;
+  // the artifact does not depend on the count); < 2: the worker's own.
+  int encode_threads = 1;
   std::string worker_id_prefix = "meshstream";  // the server's id
   int64_t lease_ms = 30000;
   int64_t heartbeat_ms = 0;             // 0: lease_ms / 3

@@ -111,6 +111,7 @@ StatusOr<ProcessResult> ProcessUnguarded(const std::string& main_path, const Enc
   report(kImported, "imported");
 
   ProgressiveGlbOptions glb_options = ToGlbOptions(settings);
+  glb_options.runner = options.runner;
   const EncodeProgress mapping(scene.value(), settings.base_ratio);
   const size_t primitives = mapping.primitives();
   glb_options.progress = [&](size_t primitive, int batch, size_t left) {

@@ -45,6 +45,10 @@ using ProgressCallback = std::function<void(double progress, const std::string& 
 struct ProcessOptions {
   uint64_t max_input_bytes = kDefaultMaxInputBytes;  // ImportOptions
   std::function<bool()> cancelled;                   // null: never
+  // Workers that encode the scene's streams (primitives and spatial parts)
+  // at once (ProgressiveGlbOptions::runner; the artifact does not depend on
+  // their count); null: this thread.
+  TaskRunner* runner = nullptr;
 };
 
 // `main_path`: the main file in a work folder, its resources beside it

@@ -317,6 +317,9 @@ Status Server::Impl::MakeAssetService() {
   WorkerPoolOptions pool_options;
   pool_options.workers =
       options.workers > 0 ? options.workers : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  pool_options.encode_threads = options.encode_threads > 0
+                                    ? options.encode_threads
+                                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   pool_options.worker_id_prefix = options.server_id.empty() ? DefaultServerId() : options.server_id;
   pool_options.lease_ms = options.lease_ms;
   pool_options.max_source_bytes = options.max_upload_bytes;

@@ -34,6 +34,7 @@ struct ServerOptions {
   std::string listen = kDefaultAddress;   // host:port, [v6]:port or unix:/path; port 0 picks a free one
   std::string store = "./meshstream-data";  // a folder, or postgresql://...
   int workers = 0;                        // 0: the core count
+  int encode_threads = 0;                 // per job (spatial parts, primitives); 0: the core count
   bool auth = false;
   bool insecure = false;                  // allow a non-loopback address without auth
   std::string tls_cert, tls_key;          // PEM files; both or neither
