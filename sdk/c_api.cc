@@ -80,6 +80,15 @@ ms_status Fail(const Status& status) { return Fail(ToC(status.code()), status.To
 
 ms_status Null(const char* what) { return Fail(MS_ERR_INVALID_ARGUMENT, std::string(what) + ": must not be NULL"); }
 
+meshstream::View ToView(const ms_view& v) {
+  meshstream::View out;
+  for (int a = 0; a < 3; ++a) out.camera[a] = v.camera_position[a];
+  for (int i = 0; i < 16; ++i) out.view_projection[i] = v.view_projection[i];
+  out.viewport_width = v.viewport_width;
+  out.viewport_height = v.viewport_height;
+  return out;
+}
+
 // The message of an exception caught at the boundary; building it may fail
 // too (no memory), and then the message is empty rather than a throw.
 ms_status FailNoThrow(ms_status status, const char* function, const char* what) noexcept {
@@ -236,6 +245,7 @@ ms_status ms_session_open(ms_client* client, const ms_session_config* config, ms
       }
       options.profile = static_cast<meshstream::sdk::SessionOptions::Profile>(config->profile);
     }
+    if (MS_FIELD_FITS(config, ms_session_config, view) && config->view != nullptr) options.view = ToView(*config->view);
     auto session = meshstream::sdk::Session::Open(*client->client, options);
     if (!session.ok()) return Fail(session.status());
     auto handle = std::make_unique<ms_session>();
@@ -374,6 +384,16 @@ ms_status ms_session_export(ms_session* session, const char* path) {
     if (session == nullptr) return Null("session");
     if (path == nullptr) return Null("path");
     const Status s = session->session->Export(path);
+    if (!s.ok()) return Fail(s);
+    return Ok();
+  });
+}
+
+ms_status ms_session_set_view(ms_session* session, const ms_view* view) {
+  return Guard("ms_session_set_view", [&] {
+    if (session == nullptr) return Null("session");
+    if (view == nullptr) return Null("view");
+    const meshstream::Status s = session->session->SetView(ToView(*view));
     if (!s.ok()) return Fail(s);
     return Ok();
   });

@@ -79,6 +79,7 @@ struct Session::Impl {
   SessionView building;  // the view as of the last event (unchanged primitives shared)
   ViewBuffers buffers;   // the arrays of views no longer shown (Recycle under the mutex)
   std::optional<Event> waiting_level;  // a level to queue once Poll takes the one before
+  std::optional<View> pending_view;    // SetView's, for the session thread to write
 
   // Owned by the Poll thread.
   std::shared_ptr<const SessionView> shown = std::make_shared<const SessionView>();
@@ -148,6 +149,12 @@ struct Session::Impl {
         udp.reset();  // the server fell back to gRPC
       }
     }
+    std::optional<View> view;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      view = std::exchange(pending_view, std::nullopt);
+    }
+    if (view && !core->over()) stream->Write(ViewMessage(*view));
     for (Outgoing& o : core->TakeOutgoing()) {
       StampHold(o, SteadyNowUs());  // after the decode: the hold covers it
       stream->Write(o.message);
@@ -239,7 +246,8 @@ struct Session::Impl {
           const uint64_t due = c.next_due_us(), now_us = SteadyNowUs();
           if (due != UINT64_MAX) wake = std::min(wake, Clock::now() + std::chrono::microseconds(due > now_us ? due - now_us : 0));
           arrived.wait_until(lock, wake, [this] {
-            return !queue.empty() || !packets.empty() || finished || stopping || (waiting_level && outbox.empty());
+            return !queue.empty() || !packets.empty() || finished || stopping || pending_view ||
+                   (waiting_level && outbox.empty());
           });
           if (stopping) break;
         }
@@ -297,6 +305,10 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   if (options.straggler_timeout_ms < 1 || options.straggler_timeout_ms > 60000) {
     return InvalidArgument("straggler_timeout_ms: 1..60000");
   }
+  if (options.view) {
+    const Status checked = CheckView(*options.view);
+    if (!checked.ok()) return InvalidArgument(checked.message());
+  }
   auto impl = std::make_unique<Impl>(options);
   impl->server_target = client.options().server;
   impl->loss_memory = client.loss_memory();
@@ -311,6 +323,7 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   open.mutable_open()->set_repair(options.repair);
   open.mutable_open()->set_no_parity(options.no_parity);
   open.mutable_open()->set_profile(static_cast<v1::Profile>(static_cast<int>(options.profile)));
+  if (options.view) *open.mutable_open()->mutable_view() = ViewProto(*options.view);
   const double remembered = client.remembered_loss();
   if (options.expected_loss >= 0) {
     open.mutable_open()->set_expected_loss(options.expected_loss);
@@ -325,6 +338,17 @@ StatusOr<std::unique_ptr<Session>> Session::Open(const Client& client, const Ses
   impl->reader = std::thread([raw] { raw->ReadAll(); });
   impl->worker = std::thread([raw] { raw->Run(); });
   return std::unique_ptr<Session>(new Session(std::move(impl)));
+}
+
+Status Session::SetView(const View& view) {
+  const Status checked = CheckView(view);
+  if (!checked.ok()) return InvalidArgument(checked.message());
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->pending_view = view;
+  }
+  impl_->arrived.notify_one();
+  return Status::Ok();
 }
 
 Event Session::Poll(int32_t timeout_ms) {

@@ -99,6 +99,10 @@ class Session {
   // Stops the session (the server frees it); Poll then returns kError
   // (cancelled) once.
   void Cancel();
+  // The viewer's view changed: the server orders what it has not begun by it
+  // (ClientMessage.view; acted on at most once a second, the latest wins).
+  // Callable from any thread; InvalidArgument for a view CheckView refuses.
+  Status SetView(const View& view);
 
   size_t primitive_count() const;
   // The current mesh of a primitive (dequantized), and per vertex 1 where

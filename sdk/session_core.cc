@@ -70,6 +70,21 @@ struct SessionCore::PrimitiveState {
   QuantizedMesh kept_base;              // with repair: the decoded base, to decode again from
 };
 
+v1::View ViewProto(const View& view) {
+  v1::View v;
+  for (double c : view.camera) v.add_camera_position(c);
+  for (double m : view.view_projection) v.add_view_projection(m);
+  v.set_viewport_width(view.viewport_width);
+  v.set_viewport_height(view.viewport_height);
+  return v;
+}
+
+v1::ClientMessage ViewMessage(const View& view) {
+  v1::ClientMessage m;
+  *m.mutable_view() = ViewProto(view);
+  return m;
+}
+
 void StampHold(Outgoing& o, uint64_t sent_at_us) {
   if (!o.message.has_report()) return;
   o.message.mutable_report()->set_hold_us(o.end_time_us != 0 && sent_at_us > o.end_time_us ? sent_at_us - o.end_time_us
@@ -497,6 +512,47 @@ Status SessionCore::GiveEnd(PrimitiveState& p, uint32_t refinement, uint32_t dat
   return GiveControls(p, now, false);
 }
 
+// The server ordered what it had not begun by a new view: each primitive's
+// level list is replaced, the levels before the first changed one being as
+// they were, each list as PrimitiveStart's rules (non-decreasing, the last
+// all of the primitive's refinements in this session).
+Status SessionCore::OnLevelPlan(const v1::LevelPlan& plan) {
+  if (phase_ == SessionPhase::kOpening) return InvalidInput("a level plan before the session start");
+  if (static_cast<size_t>(plan.primitives_size()) != primitives_.size()) {
+    return InvalidInput("a level plan for " + std::to_string(plan.primitives_size()) + " primitives, not " +
+                        std::to_string(primitives_.size()));
+  }
+  const uint32_t first = plan.first_changed_level();
+  for (size_t i = 0; i < primitives_.size(); ++i) {
+    const PrimitiveState& p = primitives_[i];
+    const auto& old = p.start.level_refinements();
+    const auto& now = plan.primitives(static_cast<int>(i)).level_refinements();
+    const std::string where = Where(p.start.primitive()) + ": level plan";
+    if (old.empty() || now.size() != old.size()) return InvalidInput(where + ": " + std::to_string(now.size()) +
+                                                                     " levels, the session has " + std::to_string(old.size()));
+    for (int l = 0; l < now.size(); ++l) {
+      if (now[l] > p.start.refinements() || (l > 0 && now[l] < now[l - 1])) {
+        return InvalidInput(where + ": level_refinements[" + std::to_string(l) + "] = " + std::to_string(now[l]) +
+                            " is not between the level before and the " + std::to_string(p.start.refinements()) +
+                            " refinements");
+      }
+      if (static_cast<uint32_t>(l + 1) < first && now[l] != old[l]) {
+        return InvalidInput(where + ": level " + std::to_string(l + 1) + " changed before the first changed level " +
+                            std::to_string(first));
+      }
+    }
+    if (now[now.size() - 1] != p.start.refinements()) {
+      return InvalidInput(where + ": the last level applies " + std::to_string(now[now.size() - 1]) + " of " +
+                          std::to_string(p.start.refinements()) + " refinements");
+    }
+  }
+  for (size_t i = 0; i < primitives_.size(); ++i) {
+    *primitives_[i].start.mutable_level_refinements() = plan.primitives(static_cast<int>(i)).level_refinements();
+  }
+  ++stats_.level_plans;
+  return Status::Ok();
+}
+
 // Handles one message of the gRPC stream.
 Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
   // Nothing but the start before the start: a block for a primitive not yet
@@ -566,6 +622,7 @@ Status SessionCore::Handle(const v1::ServerMessage& m, uint64_t now) {
       return Status::Ok();
     }
     case v1::ServerMessage::kRefinementEnd: return OnRefinementEnd(m.refinement_end(), now);
+    case v1::ServerMessage::kLevels: return OnLevelPlan(m.levels());
     case v1::ServerMessage::kEnd: {
       // A second end, or one after a budget ran out, changes nothing.
       if (end_reason_ != EndReason::kNone) return Status::Ok();

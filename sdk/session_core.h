@@ -99,6 +99,10 @@ struct Outgoing {
 // `sent_at_us`, when it is written (0 without an END datagram).
 void StampHold(Outgoing& o, uint64_t sent_at_us);
 
+// OpenRequest.view and ClientMessage.view of a view (checked by the caller).
+v1::View ViewProto(const View& view);
+v1::ClientMessage ViewMessage(const View& view);
+
 // What a host sees of the session at an event (sdk/session.h's views),
 // taken from the core when the event is made (SessionCore::TakeView), so
 // that the decoding goes on while the host reads the event's meshes. A
@@ -257,6 +261,7 @@ class SessionCore {
   Status Declare(PrimitiveState& p, size_t refinement, uint64_t now);
   Status Handle(const v1::ServerMessage& m, uint64_t now);
   Status OnRefinementEnd(const v1::RefinementEnd& e, uint64_t now);
+  Status OnLevelPlan(const v1::LevelPlan& plan);
   Status GiveEnd(PrimitiveState& p, uint32_t refinement, uint32_t datagrams, uint64_t now);
   void Report();
   Status Advance(uint64_t now, bool flush);

@@ -11,9 +11,11 @@
 #define MESHSTREAM_SDK_SESSION_TYPES_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "codec/core/status.h"
+#include "codec/progressive/view_order.h"
 
 namespace meshstream::sdk {
 
@@ -62,6 +64,10 @@ struct SessionOptions {
   // keeps the cores), N > 1 a pool of N started with the session, -1 one
   // per core; at most 64.
   int32_t decode_threads = 1;
+  // What the viewer sees at the start (OpenRequest.view; codec/progressive/
+  // view_order.h): the server sends first what spans the most pixels of it.
+  // Session::SetView changes it during the session. Unset: the scene's order.
+  std::optional<View> view;
   // The profile to stream (OpenRequest.profile; docs/spec/streaming-protocol.md,
   // "Profiles"): kAuto lets the server choose (the reliable profile over the
   // stream alone, the loss-tolerant one over UDP); kReliable asks for the
@@ -114,6 +120,7 @@ struct SessionStats {
   double last_arrival_ms = 0;       // from open to the last arrival before the full mesh (either channel)
   double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
   double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
+  uint32_t level_plans = 0;          // LevelPlans the server sent (a view reordered the session)
   uint64_t parallel_splits = 0;     // splits decoded on the decode_threads (0 with one thread)
   // Parity (docs/design/loss-protection.md): datagrams_lost counts what the network
   // lost (the raw loss the reports tell the server); of those, parity rebuilt

@@ -38,6 +38,10 @@ void QueuedSessionStream::RepairEnd(uint32_t datagrams, uint64_t bytes) {
   Send(RepairEndMessage(datagrams, bytes));
 }
 
+void QueuedSessionStream::Levels(const SessionPlan& plan, uint32_t first_changed_level) {
+  Send(LevelPlanMessage(plan, first_changed_level));
+}
+
 void QueuedSessionStream::Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) {
   host_->LogEnd(session_, reason, EndNote(), stats, EndTail());
   Close(status);
@@ -51,6 +55,9 @@ QueuedSessionStream::AfterClientMessage QueuedSessionStream::Deliver(const v1::C
     case v1::ClientMessage::kRepair:
       registration_.OnRepair(FromProto(message.repair()));
       return AfterClientMessage::kRepairAsked;
+    case v1::ClientMessage::kView:
+      registration_.OnView(FromProto(message.view()));
+      return AfterClientMessage::kReadMore;
     case v1::ClientMessage::kDone:
       registration_.OnClientClosed(true);
       return AfterClientMessage::kDone;

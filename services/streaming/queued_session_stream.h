@@ -40,6 +40,7 @@ class QueuedSessionStream : public SessionStream {
                      uint32_t parity_datagrams) final;
   void End(const std::string& reason) final;
   void RepairEnd(uint32_t datagrams, uint64_t bytes) final;
+  void Levels(const SessionPlan& plan, uint32_t first_changed_level) final;
   // Logs the session's end line (SessionHost::LogEnd), then Close(status).
   void Finish(const Status& status, const std::string& reason, const SessionSenderStats& stats) final;
 

@@ -237,6 +237,9 @@ void SendLoop::Step(const std::shared_ptr<Entry>& entry) {
       case SenderAction::kRepairEnd:
         stream.RepairEnd(a.count, a.bytes);
         break;
+      case SenderAction::kLevels:
+        stream.Levels(sender.plan(), a.first_changed_level);
+        break;
       case SenderAction::kFinish:
         entry->DropUdp();
         stream.Finish(a.status, sender.end_reason(), sender.stats());
@@ -274,6 +277,19 @@ void SendLoop::Registration::OnReport(const ClientReportInfo& report) {
   // Reports steer the rate and the cut of what is still to be planned: no wake-up needed.
   std::lock_guard<std::mutex> lock(entry_->mutex);
   if (entry_->sender) entry_->sender->OnReport(SteadyNowUs(), report);
+}
+
+void SendLoop::Registration::OnView(const StatusOr<View>& view) {
+  {
+    std::lock_guard<std::mutex> lock(entry_->mutex);
+    if (!entry_->sender) return;
+    if (view.ok()) {
+      entry_->sender->OnView(SteadyNowUs(), view.value());
+    } else {
+      entry_->sender->Cancel(view.status(), "bad view");
+    }
+  }
+  loop_->Schedule(entry_, 0);
 }
 
 void SendLoop::Registration::OnRepair(const std::vector<RepairItem>& items) {

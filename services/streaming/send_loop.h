@@ -66,6 +66,9 @@ class SessionStream {
                              uint32_t parity_datagrams) = 0;
   virtual void End(const std::string& reason) = 0;
   virtual void RepairEnd(uint32_t datagrams, uint64_t bytes) = 0;
+  // The refinements not begun were ordered by a view: `plan`'s level lists
+  // from `first_changed_level` on (LevelPlan).
+  virtual void Levels(const SessionPlan& plan, uint32_t first_changed_level) = 0;
   // The session is over: end the call with `status` once what is queued is
   // written (at once, dropping it, when `status` is not OK). `reason` and
   // `stats` are for the log.
@@ -154,6 +157,8 @@ class SendLoop::Registration {
   void OnReport(const ClientReportInfo& report);
   // The request is judged at once, on the caller's thread (SessionSender::OnRepair).
   void OnRepair(const std::vector<RepairItem>& items);
+  // ClientMessage.view as FromProto read it: a bad one ends the session with its status.
+  void OnView(const StatusOr<View>& view);
   void OnClientClosed(bool done);
   // The stream wrote a message: a session waiting for room goes on.
   void OnWritten();

@@ -77,7 +77,12 @@ StatusOr<PreparedSession> SessionHost::Prepare(const std::string& tenant, const 
       open.profile() == v1::PROFILE_RELIABLE ||
       (open.profile() == v1::PROFILE_AUTO && options.transport == SessionTransport::kGrpc);
   const SessionPlan& full = reliable ? p.hot->reliable_plan : p.hot->plan;
-  if (open.max_level() < 0) {
+  if (open.has_view()) {
+    // What the client sees orders the session (docs/spec/streaming-protocol.md, "Views").
+    MS_ASSIGN_OR_RETURN(View view, FromProto(open.view()));
+    p.cut_plan = std::make_unique<SessionPlan>(ViewPlan(full, view, open.max_level()));
+    p.plan = p.cut_plan.get();
+  } else if (open.max_level() < 0) {
     p.plan = &full;
   } else {
     p.cut_plan = std::make_unique<SessionPlan>(CutPlan(full, open.max_level()));

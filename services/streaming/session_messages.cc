@@ -89,6 +89,34 @@ v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes) {
   return m;
 }
 
+StatusOr<View> FromProto(const v1::View& view) {
+  if (view.camera_position_size() != 3) {
+    return InvalidArgument("view.camera_position: 3 numbers, not " + std::to_string(view.camera_position_size()));
+  }
+  if (view.view_projection_size() != 16) {
+    return InvalidArgument("view.view_projection: 16 numbers, not " + std::to_string(view.view_projection_size()));
+  }
+  View v;
+  for (int a = 0; a < 3; ++a) v.camera[a] = view.camera_position(a);
+  for (int i = 0; i < 16; ++i) v.view_projection[i] = view.view_projection(i);
+  v.viewport_width = view.viewport_width();
+  v.viewport_height = view.viewport_height();
+  const Status checked = CheckView(v);
+  if (!checked.ok()) return InvalidArgument(checked.message());
+  return v;
+}
+
+v1::ServerMessage LevelPlanMessage(const SessionPlan& plan, uint32_t first_changed_level) {
+  v1::ServerMessage m;
+  v1::LevelPlan* levels = m.mutable_levels();
+  levels->set_first_changed_level(first_changed_level);
+  for (const PlannedPrimitive& p : plan.primitives) {
+    v1::PrimitiveLevels* out = levels->add_primitives();
+    for (uint32_t r : p.level_refinements) out->add_level_refinements(r);
+  }
+  return m;
+}
+
 ClientReportInfo FromProto(const v1::ClientReport& r) {
   ClientReportInfo info;
   info.stream = r.primitive();

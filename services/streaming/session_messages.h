@@ -38,6 +38,14 @@ v1::ServerMessage RepairEndMessage(uint32_t datagrams, uint64_t bytes);
 // A client's report: `missing` counts the ordinals (at most 2^20), and at
 // most 16 RTT samples are kept (the rest of an untrusted report is ignored).
 ClientReportInfo FromProto(const v1::ClientReport& report);
+
+// A client's view, checked (CheckView): InvalidArgument naming the field
+// ("view.camera_position: 3 numbers", "view.viewport_width ...").
+StatusOr<View> FromProto(const v1::View& view);
+
+// The LevelPlan of a plan whose refinements were ordered again
+// (SessionSender::OnView): every primitive's level list.
+v1::ServerMessage LevelPlanMessage(const SessionPlan& plan, uint32_t first_changed_level);
 std::vector<RepairItem> FromProto(const v1::RepairRequest& request);
 
 }  // namespace meshstream

@@ -1,11 +1,13 @@
 #include "services/streaming/session_plan.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <utility>
 
 #include <nlohmann/json.hpp>
 
+#include "codec/mesh/scene_flatten.h"
 #include "codec/progressive/scene_levels.h"
 
 namespace meshstream {
@@ -52,7 +54,143 @@ StatusOr<std::map<std::string, int32_t>> DracoAttributes(const nlohmann::json& d
   return out;
 }
 
+// A JSON array of n finite numbers, or false.
+bool Numbers(const nlohmann::json& j, size_t n, double* out) {
+  if (!j.is_array() || j.size() != n) return false;
+  for (size_t i = 0; i < n; ++i) {
+    if (!j[i].is_number()) return false;
+    out[i] = j[i].get<double>();
+    if (!std::isfinite(out[i])) return false;
+  }
+  return true;
+}
+
+// The local matrix of a glTF node (matrix, or translation, rotation, scale).
+Mat4d LocalMatrix(const nlohmann::json& node) {
+  Node n;
+  if (node.contains("matrix") && Numbers(node["matrix"], 16, n.matrix.data())) n.has_matrix = true;
+  if (node.contains("translation")) Numbers(node["translation"], 3, n.translation.data());
+  if (node.contains("rotation")) Numbers(node["rotation"], 4, n.rotation.data());
+  if (node.contains("scale")) Numbers(node["scale"], 3, n.scale.data());
+  return NodeLocalMatrix(n);
+}
+
+// Per mesh, the world matrices of the nodes of the default scene (the
+// first without one) that show it; every mesh once with the identity when
+// the file has no scene.
+std::vector<std::vector<Mat4d>> MeshInstances(const nlohmann::json& doc, size_t meshes) {
+  std::vector<std::vector<Mat4d>> out(meshes);
+  const Mat4d identity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  const nlohmann::json* scenes = doc.contains("scenes") && doc["scenes"].is_array() ? &doc["scenes"] : nullptr;
+  const nlohmann::json* nodes = doc.contains("nodes") && doc["nodes"].is_array() ? &doc["nodes"] : nullptr;
+  if (scenes == nullptr || scenes->empty() || nodes == nullptr) {
+    for (auto& m : out) m.push_back(identity);
+    return out;
+  }
+  size_t which = doc.contains("scene") && doc["scene"].is_number_unsigned() ? doc["scene"].get<size_t>() : 0;
+  if (which >= scenes->size()) which = 0;
+  const nlohmann::json& scene = (*scenes)[which];
+  std::vector<std::pair<size_t, Mat4d>> stack;
+  if (scene.is_object() && scene.contains("nodes") && scene["nodes"].is_array()) {
+    for (const auto& n : scene["nodes"]) {
+      if (n.is_number_unsigned() && n.get<size_t>() < nodes->size()) stack.push_back({n.get<size_t>(), identity});
+    }
+  }
+  std::vector<bool> visited(nodes->size(), false);
+  while (!stack.empty()) {
+    const auto [index, parent] = stack.back();
+    stack.pop_back();
+    if (visited[index]) continue;  // a forest (the importer checked); never loop
+    visited[index] = true;
+    const nlohmann::json& node = (*nodes)[index];
+    if (!node.is_object()) continue;
+    const Mat4d world = Multiply(parent, LocalMatrix(node));
+    if (node.contains("mesh") && node["mesh"].is_number_unsigned() && node["mesh"].get<size_t>() < meshes) {
+      out[node["mesh"].get<size_t>()].push_back(world);
+    }
+    if (node.contains("children") && node["children"].is_array()) {
+      for (const auto& c : node["children"]) {
+        if (c.is_number_unsigned() && c.get<size_t>() < nodes->size()) stack.push_back({c.get<size_t>(), world});
+      }
+    }
+  }
+  return out;
+}
+
+// The box, in the scene, of meshes[mesh].primitives[primitive]'s base (its
+// POSITION accessor's min and max) over every instance; false when the file
+// does not say or no node shows the mesh.
+bool WorldBounds(const nlohmann::json& doc, const std::vector<std::vector<Mat4d>>& instances, uint32_t mesh,
+                 uint32_t primitive, Box* out) {
+  try {
+    const nlohmann::json& p = doc.at("meshes").at(mesh).at("primitives").at(primitive);
+    const nlohmann::json& accessor = doc.at("accessors").at(p.at("attributes").at("POSITION").get<size_t>());
+    Box local;
+    if (!Numbers(accessor.at("min"), 3, local.lo.data()) || !Numbers(accessor.at("max"), 3, local.hi.data())) {
+      return false;
+    }
+    if (mesh >= instances.size() || instances[mesh].empty()) return false;
+    bool first = true;
+    for (const Mat4d& m : instances[mesh]) {
+      const Box b = TransformBox(local, m);
+      for (int a = 0; a < 3; ++a) {
+        out->lo[a] = first ? b.lo[a] : std::min(out->lo[a], b.lo[a]);
+        out->hi[a] = first ? b.hi[a] : std::max(out->hi[a], b.hi[a]);
+      }
+      first = false;
+    }
+    return true;
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+}
+
+// `order`'s refinements of `full` with their levels: the plan of every
+// refinement in that order (the primitives' level lists from `levels`).
+SessionPlan Reordered(const SessionPlan& full, const SceneLevels& levels) {
+  SessionPlan plan;
+  plan.primitives = full.primitives;
+  plan.reliable_profile = full.reliable_profile;
+  plan.reliable_bytes = full.reliable_bytes;
+  plan.unreliable_bytes = full.unreliable_bytes;
+  plan.levels = levels.levels;
+  for (size_t i = 0; i < plan.primitives.size(); ++i) plan.primitives[i].level_refinements = levels.applied[i];
+  std::vector<std::vector<const PlannedRefinement*>> by_primitive(full.primitives.size());
+  for (const PlannedRefinement& r : full.refinements) {
+    if (r.primitive >= by_primitive.size()) continue;
+    auto& list = by_primitive[r.primitive];
+    if (list.size() <= r.refinement) list.resize(r.refinement + 1, nullptr);
+    list[r.refinement] = &r;
+  }
+  for (const ScheduledRefinement& s : levels.order) {
+    PlannedRefinement r = *by_primitive[s.primitive][s.refinement];
+    r.level = s.level;
+    plan.refinements.push_back(std::move(r));
+  }
+  return plan;
+}
+
 }  // namespace
+
+bool ViewCanOrder(const SessionPlan& plan) {
+  for (const PlannedPrimitive& p : plan.primitives) {
+    if (!p.has_bounds || p.residual_error.size() != size_t{p.refinements} + 1) return false;
+  }
+  return !plan.primitives.empty();
+}
+
+SessionPlan ViewPlan(const SessionPlan& full, const View& view, int32_t max_level) {
+  if (!ViewCanOrder(full)) return CutPlan(full, max_level);
+  std::vector<uint32_t> counts;
+  std::vector<std::vector<double>> errors;
+  std::vector<Box> bounds;
+  for (const PlannedPrimitive& p : full.primitives) {
+    counts.push_back(p.refinements);
+    errors.push_back(p.residual_error);
+    bounds.push_back(p.bounds);
+  }
+  return CutPlan(Reordered(full, ScheduleSceneLevels(counts, ViewErrors(view, bounds, errors))), max_level);
+}
 
 std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss) {
   return CutForShare(p.delivery.ranking, p.refinement_bytes, p.stream_bytes,
@@ -71,6 +209,8 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
   plan.reliable_profile = reliable && !layout->primitives.empty();
   std::vector<StreamBlocks> blocks;
   const nlohmann::json doc = layout->primitives.empty() ? nlohmann::json() : GlbJson(artifact);
+  const size_t meshes = doc.is_object() && doc.contains("meshes") && doc["meshes"].is_array() ? doc["meshes"].size() : 0;
+  const std::vector<std::vector<Mat4d>> instances = MeshInstances(doc, meshes);
   for (const PrimitiveLayout& entry : layout->primitives) {
     const bool second = reliable && entry.has_reliable();
     plan.reliable_profile = plan.reliable_profile && second;
@@ -86,6 +226,8 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
     auto attributes = DracoAttributes(doc, entry.mesh, entry.primitive);
     if (!attributes.ok()) return attributes.status();
     p.draco_attributes = std::move(attributes).value();
+    p.has_bounds = WorldBounds(doc, instances, entry.mesh, entry.primitive, &p.bounds);
+    p.residual_error = entry.residual_error;
     if (!second) p.delivery = entry.delivery;  // the reliable profile has nothing to deliver
     p.refinement_bytes.assign(located->datagrams.size(), 0);
     for (size_t i = 0; i < located->datagrams.size(); ++i) {

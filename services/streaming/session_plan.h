@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "codec/core/status.h"
+#include "codec/progressive/view_order.h"
 #include "services/pipeline/stream_layout.h"
 
 namespace meshstream {
@@ -45,6 +46,13 @@ struct PlannedPrimitive {
   DeliveryRecord delivery;
   std::vector<uint64_t> refinement_bytes;
   uint64_t stream_bytes = 0;
+  // What a view orders by (codec/progressive/view_order.h): the stream's
+  // residual errors (all of its refinements + 1; empty: the artifact has
+  // none) and the box of its base in the scene, over every node that shows
+  // it (has_bounds false: the file says nothing or no node shows it).
+  std::vector<double> residual_error;
+  Box bounds;
+  bool has_bounds = false;
 };
 
 // The refinements of `p` its session sends reliably when the client reports
@@ -78,6 +86,16 @@ StatusOr<SessionPlan> PlanSession(const std::vector<uint8_t>& artifact, const st
 // without reading the artifact or the layout again (hot_artifacts.h keeps
 // `full`). `max_level` < 0: `full` as it is.
 SessionPlan CutPlan(const SessionPlan& full, int32_t max_level);
+
+// Whether every primitive of `plan` has what a view orders by (residual
+// errors of every refinement and a box).
+bool ViewCanOrder(const SessionPlan& plan);
+
+// The plan of a session with `view` and `max_level` from `full` (PlanSession
+// with -1): every refinement ordered by the view (ViewErrors, then the
+// scene's scheduler: the levels are the view's), then cut at `max_level` as
+// CutPlan does. Without what a view orders by (ViewCanOrder), CutPlan.
+SessionPlan ViewPlan(const SessionPlan& full, const View& view, int32_t max_level);
 
 }  // namespace meshstream
 

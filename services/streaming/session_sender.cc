@@ -1,5 +1,7 @@
 #include "services/streaming/session_sender.h"
 
+#include "codec/progressive/scene_levels.h"
+
 #include <algorithm>
 #include <iomanip>
 #include <sstream>
@@ -10,6 +12,7 @@
 #include "codec/loss/parity.h"
 #include "codec/loss/protection.h"
 #include "codec/loss/reliable_cut.h"
+#include "codec/progressive/scene_levels.h"
 #include "net/packet_header.h"
 
 namespace meshstream {
@@ -72,27 +75,121 @@ std::string DescribeSession(const SessionSenderStats& st) {
 
 SessionSender::SessionSender(const SessionPlan& plan, const std::vector<uint8_t>& artifact, int32_t max_level,
                              SessionSenderOptions options, uint64_t now_us)
-    : plan_(plan), artifact_(artifact), max_level_(max_level), options_(std::move(options)),
+    : plan_(&plan), artifact_(artifact), max_level_(max_level), options_(std::move(options)),
       transport_(options_.transport),
       pacer_(options_.rate.initial_bps, std::max<size_t>(1, options_.burst_datagrams) * kMaxDatagramBytes),
       controller_(options_.rate), last_heard_us_(now_us) {
   options_.burst_datagrams = std::max<size_t>(1, options_.burst_datagrams);
   // Parity: each primitive's tiers from its delivery record, and where its
   // last protected refinement lies in the plan (its block closes there).
-  tiers_.resize(plan_.primitives.size());
-  open_blocks_.resize(plan_.primitives.size());
-  last_protected_.assign(plan_.primitives.size(), SIZE_MAX);
+  tiers_.resize(plan_->primitives.size());
+  open_blocks_.resize(plan_->primitives.size());
   if (options_.erasure != nullptr) {
-    for (size_t i = 0; i < plan_.primitives.size(); ++i) {
-      const DeliveryRecord& d = plan_.primitives[i].delivery;
-      tiers_[i] = ProtectionTiers(d.parity, d.harm, plan_.primitives[i].refinement_bytes.size());
-    }
-    for (size_t k = 0; k < plan_.refinements.size(); ++k) {
-      const PlannedRefinement& r = plan_.refinements[k];
-      const auto& t = tiers_[r.primitive];
-      if (r.refinement < t.size() && t[r.refinement] != kUnprotected) last_protected_[r.primitive] = k;
+    for (size_t i = 0; i < plan_->primitives.size(); ++i) {
+      const DeliveryRecord& d = plan_->primitives[i].delivery;
+      tiers_[i] = ProtectionTiers(d.parity, d.harm, plan_->primitives[i].refinement_bytes.size());
     }
   }
+  FindLastProtected();
+}
+
+void SessionSender::FindLastProtected() {
+  last_protected_.assign(plan_->primitives.size(), SIZE_MAX);
+  if (options_.erasure == nullptr) return;
+  for (size_t k = 0; k < plan_->refinements.size(); ++k) {
+    const PlannedRefinement& r = plan_->refinements[k];
+    const auto& t = tiers_[r.primitive];
+    if (r.refinement < t.size() && t[r.refinement] != kUnprotected) last_protected_[r.primitive] = k;
+  }
+}
+
+void SessionSender::OnView(uint64_t now_us, const View& view) {
+  OnClientMessage(now_us);
+  if (!ViewCanOrder(*plan_)) return;
+  pending_view_ = view;
+}
+
+uint32_t SessionSender::ApplyView(uint64_t now_us) {
+  const View view = *pending_view_;
+  pending_view_.reset();
+  view_applied_ = true;
+  view_applied_us_ = now_us;
+  const SessionPlan& old = *plan_;
+  const size_t total = old.refinements.size();
+  if (index_ >= total) return 0;
+  // The levels keep their sizes: level L is the first count(L) refinements
+  // of the order (those with level <= L in the old plan).
+  std::vector<size_t> count(old.levels + 1, 0);
+  for (const PlannedRefinement& r : old.refinements) {
+    if (r.level >= 1 && r.level <= old.levels) ++count[r.level];
+  }
+  for (uint32_t l = 1; l <= old.levels; ++l) count[l] += count[l - 1];
+  // Per primitive, its refinements begun and in this session.
+  const size_t primitives = old.primitives.size();
+  std::vector<uint32_t> begun(primitives, 0), in_session(primitives, 0);
+  for (size_t k = 0; k < total; ++k) {
+    ++in_session[old.refinements[k].primitive];
+    if (k < index_) ++begun[old.refinements[k].primitive];
+  }
+  // The rest ordered by the view: the scene's scheduler over each
+  // primitive's remaining errors (a suffix of its own, in pixels).
+  std::vector<uint32_t> remaining(primitives);
+  std::vector<std::vector<double>> errors(primitives);
+  std::vector<Box> bounds;
+  std::vector<std::vector<double>> full_errors;
+  for (const PlannedPrimitive& p : old.primitives) {
+    bounds.push_back(p.bounds);
+    full_errors.push_back(p.residual_error);
+  }
+  const std::vector<std::vector<double>> seen = ViewErrors(view, bounds, full_errors);
+  for (size_t p = 0; p < primitives; ++p) {
+    remaining[p] = in_session[p] - begun[p];
+    errors[p].assign(seen[p].begin() + begun[p], seen[p].begin() + in_session[p] + 1);
+  }
+  const SceneLevels rest = ScheduleSceneLevels(remaining, errors);
+  std::vector<std::vector<const PlannedRefinement*>> by_primitive(primitives);
+  for (const PlannedRefinement& r : old.refinements) {
+    auto& list = by_primitive[r.primitive];
+    if (list.size() <= r.refinement) list.resize(r.refinement + 1, nullptr);
+    list[r.refinement] = &r;
+  }
+  auto plan = std::make_unique<SessionPlan>();
+  plan->primitives = old.primitives;
+  plan->reliable_profile = old.reliable_profile;
+  plan->reliable_bytes = old.reliable_bytes;
+  plan->unreliable_bytes = old.unreliable_bytes;
+  plan->levels = old.levels;
+  plan->refinements.assign(old.refinements.begin(), old.refinements.begin() + index_);
+  bool same = true;
+  for (const ScheduledRefinement& s : rest.order) {
+    const PlannedRefinement& r = *by_primitive[s.primitive][begun[s.primitive] + s.refinement];
+    const PlannedRefinement& was = old.refinements[plan->refinements.size()];
+    same = same && was.primitive == r.primitive && was.refinement == r.refinement;
+    plan->refinements.push_back(r);
+  }
+  if (same) return 0;  // the view changes nothing: no new plan, no LevelPlan
+  // Each refinement's level and each primitive's level list, by position.
+  uint32_t level = 1;
+  for (size_t k = 0; k < plan->refinements.size(); ++k) {
+    while (level < old.levels && count[level] <= k) ++level;
+    plan->refinements[k].level = level;
+  }
+  for (size_t p = 0; p < primitives; ++p) {
+    std::vector<uint32_t>& list = plan->primitives[p].level_refinements;
+    list.assign(old.levels, 0);
+  }
+  std::vector<uint32_t> applied(primitives, 0);
+  size_t k = 0;
+  for (uint32_t l = 1; l <= old.levels; ++l) {
+    for (; k < count[l] && k < plan->refinements.size(); ++k) ++applied[plan->refinements[k].primitive];
+    for (size_t p = 0; p < primitives; ++p) plan->primitives[p].level_refinements[l - 1] = applied[p];
+  }
+  uint32_t first_changed = 1;
+  while (first_changed <= old.levels && count[first_changed] <= index_) ++first_changed;
+  own_plan_ = std::move(plan);
+  plan_ = own_plan_.get();
+  FindLastProtected();
+  return first_changed <= old.levels ? first_changed : 0;
 }
 
 void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }
@@ -128,7 +225,7 @@ void SessionSender::OnRepair(uint64_t now_us, const std::vector<RepairItem>& ite
     repair_status_ = InvalidArgument("repair: the session was not opened with repair");
     return;
   }
-  auto ranges = RepairDatagrams(plan_, items);
+  auto ranges = RepairDatagrams(*plan_, items);
   if (!ranges.ok()) {
     repair_status_ = ranges.status();
     return;
@@ -238,7 +335,7 @@ bool SessionSender::InReliableCut(const PlannedRefinement& r) {
   if (!options_.reliable_cut) return false;
   const double loss = ReportedLoss(udp_reported_received_, udp_reported_missing_, options_.expected_loss);
   stats_.cut_loss = loss;
-  const std::vector<uint32_t> cut = ReliableCutFor(plan_.primitives[r.primitive], loss);
+  const std::vector<uint32_t> cut = ReliableCutFor(plan_->primitives[r.primitive], loss);
   return std::binary_search(cut.begin(), cut.end(), r.refinement);
 }
 
@@ -265,7 +362,7 @@ void SessionSender::CloseParityBlock(uint32_t primitive) {
   if (shape.m == 0) return;
   std::vector<const std::vector<uint8_t>*> members;
   for (const auto& c : copies) members.push_back(&c);
-  auto parity = EncodeParity(*options_.erasure, plan_.primitives[primitive].stream, members, shape);
+  auto parity = EncodeParity(*options_.erasure, plan_->primitives[primitive].stream, members, shape);
   if (!parity.ok()) return;  // the artifact's datagrams are the store's: not reached
   ++stats_.parity_blocks;
   for (auto& d : parity.value()) parity_due_.push_back(std::move(d));
@@ -291,7 +388,7 @@ bool SessionSender::JoinParityBlock(const PlannedRefinement& r) {
 
 SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
   SenderAction a;
-  if (index_ >= plan_.refinements.size() && transport_ == SessionTransport::kUdp && !trailing_parity_) {
+  if (index_ >= plan_->refinements.size() && transport_ == SessionTransport::kUdp && !trailing_parity_) {
     // The parity still due, and that of the blocks still open, goes out now
     // (over UDP, paced): after it, the end.
     trailing_parity_ = true;
@@ -311,10 +408,10 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
       }
     }
   }
-  if (trailing_parity_ && mode_ == Mode::kUdp && next_payload_ < payloads_.size() && index_ >= plan_.refinements.size()) {
+  if (trailing_parity_ && mode_ == Mode::kUdp && next_payload_ < payloads_.size() && index_ >= plan_->refinements.size()) {
     return NextBatch(now_us);
   }
-  if (index_ >= plan_.refinements.size()) {
+  if (index_ >= plan_->refinements.size()) {
     phase_ = options_.repair ? Phase::kAwaitRepair : Phase::kLinger;
     ended_us_ = now_us;
     end_reason_ = max_level_ >= 0 ? "max_level" : "complete";
@@ -322,8 +419,17 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     a.reason = end_reason_;
     return a;
   }
-  const PlannedRefinement& r = plan_.refinements[index_];
-  const uint32_t stream = plan_.primitives[r.primitive].stream;
+  if (step_ == Step::kControl && pending_view_ &&
+      (!view_applied_ || now_us >= view_applied_us_ + kMinViewIntervalUs)) {
+    const uint32_t first_changed = ApplyView(now_us);
+    if (first_changed > 0) {
+      a.kind = SenderAction::kLevels;
+      a.first_changed_level = first_changed;
+      return a;
+    }
+  }
+  const PlannedRefinement& r = plan_->refinements[index_];
+  const uint32_t stream = plan_->primitives[r.primitive].stream;
   const uint32_t count = static_cast<uint32_t>(r.datagrams.size());
   if (step_ == Step::kControl) {
     const bool unproven = transport_ == SessionTransport::kUdp && !proven_;
@@ -377,7 +483,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
       parity_due_.clear();
     }
     first_packet_number_ = mode_ == Mode::kUdp ? options_.reserve_packet_numbers(count + 1 + parity_sent_.size()) : 0;
-    end_datagram_ = ServerEndDatagram(plan_, artifact_, r, count);
+    end_datagram_ = ServerEndDatagram(*plan_, artifact_, r, count);
     payloads_.clear();
     payloads_.reserve(count + 1 + parity_sent_.size());
     for (const ByteRange& d : r.datagrams) payloads_.emplace_back(artifact_.data() + d.offset, static_cast<size_t>(d.length));

@@ -60,6 +60,8 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -176,6 +178,7 @@ struct SenderAction {
     kEnd,
     kRepairEnd,
     kFinish,
+    kLevels,
   };
   static constexpr uint64_t kNever = std::numeric_limits<uint64_t>::max();
 
@@ -195,6 +198,7 @@ struct SenderAction {
   bool on_stream = true;          // kDatagrams: as StreamDatagrams (false: sealed UDP DATA)
   PayloadSpan datagrams;          // kDatagrams: valid until the next call (above)
   Status status;                  // kFinish
+  uint32_t first_changed_level = 0;  // kLevels: the plan (SessionSender::plan()) was ordered by a view
 };
 
 class SessionSender {
@@ -202,6 +206,7 @@ class SessionSender {
   static constexpr uint64_t kRepairWaitUs = 10000000;  // after SessionEnd, for the RepairRequest
   static constexpr uint64_t kLingerUs = 2000000;       // then for the client to close its side
   static constexpr uint64_t kMinReportedForCut = 32;   // datagrams reported before the loss steers the cut
+  static constexpr uint64_t kMinViewIntervalUs = 1000000;  // views acted on at most this often
 
   // `max_level` as OpenRequest.max_level (>= 0: the plan was cut there).
   // `now_us`: the session's start, the first moment the idle timeout counts from.
@@ -225,6 +230,15 @@ class SessionSender {
   // the same as now_us) and whether an address is proven. Read only while
   // awaiting_hello().
   void OnHello(uint64_t last_hello_us, bool proven);
+  // The client's view changed (ClientMessage.view, checked): before the
+  // next refinement begins, the ones not begun are ordered by it
+  // (codec/progressive/view_order.h) and Next hands out kLevels (the
+  // driver sends plan()'s LevelPlan). At most one view per kMinViewIntervalUs
+  // is acted on; a newer one replaces a waiting one. Ignored when the plan
+  // lacks what a view orders by (ViewCanOrder) or every refinement has begun.
+  void OnView(uint64_t now_us, const View& view);
+  // The plan being sent: the one given, or its reordering by a view.
+  const SessionPlan& plan() const { return *plan_; }
   // The driver stops the session: the next Next is kFinish with `status`
   // and `reason` (e.g. Cancelled / "client went away", Unavailable / "draining").
   void Cancel(Status status, std::string reason);
@@ -266,7 +280,17 @@ class SessionSender {
   // The next batch of the current refinement: due now or kWait.
   SenderAction NextBatch(uint64_t now_us);
 
-  const SessionPlan& plan_;
+  // Orders the refinements from index_ on by pending_view_ (a copy of the
+  // plan the first time); returns the first level that changed (0: none).
+  uint32_t ApplyView(uint64_t now_us);
+  // Where each primitive's last protected refinement lies in the plan.
+  void FindLastProtected();
+
+  const SessionPlan* plan_;
+  std::unique_ptr<SessionPlan> own_plan_;  // after a view: the reordered plan
+  std::optional<View> pending_view_;
+  uint64_t view_applied_us_ = 0;
+  bool view_applied_ = false;
   const std::vector<uint8_t>& artifact_;
   int32_t max_level_;
   SessionSenderOptions options_;

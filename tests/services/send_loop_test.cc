@@ -57,6 +57,7 @@ class RecordingStream : public SessionStream {
   void RefinementEnd(uint32_t, uint32_t, uint32_t, uint32_t) override { Record("refinement_end"); }
   void End(const std::string&) override { Record("end"); }
   void RepairEnd(uint32_t, uint64_t) override { Record("repair_end"); }
+  void Levels(const SessionPlan&, uint32_t) override { Record("levels"); }
   void Finish(const Status& status, const std::string&, const SessionSenderStats&) override {
     std::lock_guard<std::mutex> lock(mutex_);
     calls_.push_back("finish");

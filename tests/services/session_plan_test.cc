@@ -2,6 +2,7 @@
 // block is the stream's own (ProgressiveStream::Parse of the stored blob),
 // the refinements go level by level across the primitives, max_level cuts
 // them, and a layout of another artifact is refused.
+#include <algorithm>
 #include <limits>
 #include <set>
 #include <string>
@@ -12,6 +13,7 @@
 #include "codec/bitstream/format.h"
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
+#include "services/streaming/session_messages.h"
 #include "services/streaming/session_plan.h"
 #include "testing/test_util.h"
 
@@ -125,6 +127,83 @@ TEST(SessionPlan, ALayoutOfAnotherArtifactIsDataLoss) {
   EXPECT_EQ(wrong.status().code(), StatusCode::kDataLoss) << wrong.status().ToString();
   auto garbage = PlanSession(spot.glb, "{not json", -1);
   EXPECT_EQ(garbage.status().code(), StatusCode::kDataLoss) << garbage.status().ToString();
+}
+
+TEST(SessionPlan, AViewOrdersTheEngineAndKeepsEveryRefinement) {
+  const ProcessResult p = Process("gltf/2CylinderEngine.glb");
+  auto full = PlanSession(p.glb, p.summary.layout_json, -1);
+  ASSERT_TRUE(full.ok()) << full.status().ToString();
+  ASSERT_TRUE(ViewCanOrder(full.value()));
+  // Every primitive has its box in the scene (nodes applied): the scene's box holds them.
+  Box all = full->primitives[0].bounds;
+  for (const PlannedPrimitive& pr : full->primitives) {
+    ASSERT_TRUE(pr.has_bounds);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_LE(pr.bounds.lo[a], pr.bounds.hi[a]);
+      all.lo[a] = std::min(all.lo[a], pr.bounds.lo[a]);
+      all.hi[a] = std::max(all.hi[a], pr.bounds.hi[a]);
+    }
+  }
+  // A camera at one end of the engine's longest axis, looking along it.
+  int axis = 0;
+  for (int a = 1; a < 3; ++a) {
+    if (all.hi[a] - all.lo[a] > all.hi[axis] - all.lo[axis]) axis = a;
+  }
+  Vec3d eye, target;
+  for (int a = 0; a < 3; ++a) eye[a] = target[a] = (all.lo[a] + all.hi[a]) / 2;
+  const double extent = all.hi[axis] - all.lo[axis];
+  eye[axis] = all.hi[axis] + 0.2 * extent;
+  const View view = LookAtView(eye, target, 40, 1280, 720, extent * 0.01, extent * 10);
+  const SessionPlan seen = ViewPlan(full.value(), view, -1);
+  ASSERT_EQ(seen.refinements.size(), full->refinements.size());
+  std::multiset<std::pair<uint32_t, uint32_t>> a, b;
+  for (const PlannedRefinement& r : full->refinements) a.insert({r.primitive, r.refinement});
+  for (const PlannedRefinement& r : seen.refinements) b.insert({r.primitive, r.refinement});
+  EXPECT_EQ(a, b);
+  // Each primitive's own refinements keep their order; the whole order changed.
+  std::vector<int64_t> last(seen.primitives.size(), -1);
+  bool differs = false;
+  for (size_t k = 0; k < seen.refinements.size(); ++k) {
+    const PlannedRefinement& r = seen.refinements[k];
+    EXPECT_EQ(static_cast<int64_t>(r.refinement), last[r.primitive] + 1);
+    last[r.primitive] = r.refinement;
+    differs = differs || r.primitive != full->refinements[k].primitive;
+  }
+  EXPECT_TRUE(differs);
+  // The levels are the view's: non-decreasing, each primitive's last all of it.
+  for (const PlannedPrimitive& pr : seen.primitives) {
+    ASSERT_EQ(pr.level_refinements.size(), seen.levels);
+    EXPECT_EQ(pr.level_refinements.back(), pr.refinements);
+  }
+  // Cut at a level: the view's first refinements.
+  const SessionPlan three = ViewPlan(full.value(), view, 3);
+  EXPECT_EQ(three.levels, 3u);
+  for (size_t k = 0; k < three.refinements.size(); ++k) {
+    EXPECT_EQ(three.refinements[k].primitive, seen.refinements[k].primitive);
+    EXPECT_EQ(three.refinements[k].refinement, seen.refinements[k].refinement);
+  }
+}
+
+TEST(SessionPlan, AViewFromTheWireIsCheckedFieldByField) {
+  v1::View v;
+  for (int i = 0; i < 3; ++i) v.add_camera_position(0);
+  const View good = LookAtView({0, 0, 5}, {0, 0, 0}, 60, 640, 480, 0.1, 100);
+  for (double m : good.view_projection) v.add_view_projection(m);
+  v.set_viewport_width(640);
+  v.set_viewport_height(480);
+  EXPECT_TRUE(FromProto(v).ok());
+  v1::View short_camera = v;
+  short_camera.mutable_camera_position()->RemoveLast();
+  EXPECT_NE(FromProto(short_camera).status().message().find("camera_position"), std::string::npos);
+  v1::View long_matrix = v;
+  long_matrix.add_view_projection(1);
+  EXPECT_NE(FromProto(long_matrix).status().message().find("view_projection"), std::string::npos);
+  v1::View no_width = v;
+  no_width.set_viewport_width(0);
+  EXPECT_EQ(FromProto(no_width).status().code(), StatusCode::kInvalidArgument);
+  v1::View nan = v;
+  nan.set_view_projection(3, std::numeric_limits<double>::quiet_NaN());
+  EXPECT_NE(FromProto(nan).status().message().find("view_projection[3]"), std::string::npos);
 }
 
 }  // namespace

@@ -46,13 +46,17 @@
 #include "codec/loss/datagram_harm.h"
 #include "codec/loss/link_model.h"
 #include "codec/loss/protection.h"
+#include "codec/progressive/view_order.h"
 #include "fec/reed_solomon.h"
 #include "importers/draco_base_coder.h"
 #include "importers/draco_codec.h"
 #include "net/packet_header.h"
 #include "sdk/session_core.h"
+#include "importers/import.h"
+#include "importers/progressive_glb.h"
 #include "services/pipeline/encode_options.h"
 #include "services/pipeline/process_source.h"
+#include "services/pipeline/stream_layout.h"
 #include "services/streaming/session_messages.h"
 #include "services/streaming/session_plan.h"
 #include "services/streaming/session_sender.h"
@@ -78,16 +82,12 @@ DracoAttributeIds IdsOf(const PlannedPrimitive& p) {
   return ids;
 }
 
-const Artifact& Spot() {
-  static const Artifact a = [] {
-    Artifact out;
-    auto settings = ResolveSettings(EncodeSettings{});
-    EXPECT_TRUE(settings.ok());
-    auto r = ProcessSource(test_util::ModelPath("spot.obj"), settings.value(), nullptr);
-    EXPECT_TRUE(r.ok()) << r.status().ToString();
-    if (!r.ok()) return out;
-    out.glb = r->glb;
-    auto plan = PlanSession(out.glb, r->summary.layout_json, -1);
+// The artifact planned whole, and the exact decode of every primitive.
+Artifact MakeArtifact(std::vector<uint8_t> glb, const std::string& layout_json) {
+  Artifact out;
+  out.glb = std::move(glb);
+  {
+    auto plan = PlanSession(out.glb, layout_json, -1);
     EXPECT_TRUE(plan.ok()) << plan.status().ToString();
     if (!plan.ok()) return out;
     out.plan = std::move(plan).value();
@@ -106,7 +106,38 @@ const Artifact& Spot() {
       }
       out.exact.push_back(reader->Mesh());
     }
-    return out;
+  }
+  return out;
+}
+
+const Artifact& Spot() {
+  static const Artifact a = [] {
+    auto settings = ResolveSettings(EncodeSettings{});
+    EXPECT_TRUE(settings.ok());
+    auto r = ProcessSource(test_util::ModelPath("spot.obj"), settings.value(), nullptr);
+    EXPECT_TRUE(r.ok()) << r.status().ToString();
+    if (!r.ok()) return Artifact();
+    return MakeArtifact(r->glb, r->summary.layout_json);
+  }();
+  return a;
+}
+
+// The bunny cut into four spatial parts (codec/mesh/spatial_parts.h), each
+// a stream: a scene a view can order.
+const Artifact& BunnyParts() {
+  static const Artifact a = [] {
+    auto scene = ImportFile(test_util::ModelPath("stanford-bunny.obj"));
+    EXPECT_TRUE(scene.ok());
+    if (!scene.ok()) return Artifact();
+    ProgressiveGlbOptions options;
+    options.part_vertices = 10000;
+    auto glb = EncodeProgressiveGlb(scene.value(), options, nullptr);
+    EXPECT_TRUE(glb.ok()) << glb.status().ToString();
+    if (!glb.ok()) return Artifact();
+    auto layout = ComputeStreamLayout(glb->data(), glb->size());
+    EXPECT_TRUE(layout.ok()) << layout.status().ToString();
+    if (!layout.ok()) return Artifact();
+    return MakeArtifact(std::move(glb).value(), StreamLayoutJson(layout.value()));
   }();
   return a;
 }
@@ -215,6 +246,9 @@ struct RunOptions {
   size_t burst_datagrams = 1;
   uint64_t hello_rtt_us = 0;  // the client's RTT sample (its HELLO_ACK); 0: none, loss rules off
   double expected_loss = -1;  // what the client states (OpenRequest.expected_loss); < 0: nothing
+  const Artifact* artifact = nullptr;  // null: Spot()
+  const SessionPlan* plan = nullptr;   // the plan the sender sends (an open's view); null: the artifact's
+  std::vector<std::pair<uint64_t, View>> views;  // ClientMessage.view the client sends at these times
 };
 
 // Where a UDP refinement's datagrams were numbered (its kControl).
@@ -246,14 +280,23 @@ class CoresLoop {
       next_packet_number_ += count;
       return first;
     };
-    sender_ = std::make_unique<SessionSender>(Spot().plan, Spot().glb, -1, std::move(s), 0);
+    const Artifact& a = artifact();
+    sender_ = std::make_unique<SessionSender>(o.plan ? *o.plan : a.plan, a.glb, -1, std::move(s), 0);
   }
+
+  const Artifact& artifact() const { return o_.artifact ? *o_.artifact : Spot(); }
 
   // Until nothing can move any more: true; false when `until_us` of
   // simulated time (or the step guard) ran out first.
   bool Run(uint64_t until_us = 120000000) {
     uint64_t next_poll = 0;
     for (int guard = 0; guard < 10000000 && now_ <= until_us; ++guard) {
+      for (; next_view_ < o_.views.size() && o_.views[next_view_].first <= now_; ++next_view_) {
+        Delivery d;
+        d.kind = Delivery::kToServer;
+        d.client = sdk::ViewMessage(o_.views[next_view_].second);
+        net_.Reliable(now_, std::move(d));
+      }
       while (auto d = net_.Pop(now_)) Deliver(d->first, std::move(d->second));
       StepSender();
       if (ClientActive() && now_ >= next_poll) {  // Poll drains the queued events first
@@ -263,6 +306,7 @@ class CoresLoop {
       uint64_t next = sender_due_;
       if (auto at = net_.next_at()) next = std::min(next, *at);
       if (ClientActive()) next = std::min(next, next_poll);
+      if (next_view_ < o_.views.size() && !sender_->finished()) next = std::min(next, o_.views[next_view_].first);
       if (next == SenderAction::kNever) return true;
       now_ = std::max(now_, next);
     }
@@ -282,6 +326,8 @@ class CoresLoop {
   uint64_t transport_change_us = 0;
   uint64_t start_us = 0;       // when the sender handed out the SessionStart
   std::optional<uint64_t> first_control_us;  // ... and its first control block
+  std::vector<std::pair<uint32_t, uint32_t>> controls;  // (plan primitive, refinement) of each control block sent
+  std::vector<size_t> level_plans_at;                   // how many control blocks were sent before each LevelPlan
 
  private:
   static sdk::SessionOptions ClientOptions(const RunOptions& o) {
@@ -332,6 +378,12 @@ class CoresLoop {
         reading_ = false;
         sender_->OnRepair(at, FromProto(m.repair()));
         return;
+      case v1::ClientMessage::kView: {
+        auto view = FromProto(m.view());
+        EXPECT_TRUE(view.ok()) << view.status().ToString();
+        if (view.ok()) sender_->OnView(at, view.value());
+        break;
+      }
       case v1::ClientMessage::kDone:
         reading_ = false;
         sender_->OnClientClosed(at, true);
@@ -356,7 +408,7 @@ class CoresLoop {
   // As send_loop's Step: every action due now, into the stream or the network.
   void StepSender() {
     if (sender_->finished() || now_ < sender_due_) return;
-    const Artifact& a = Spot();
+    const Artifact& a = artifact();
     for (;;) {
       if (hello_us_ && o_.hello_proven) sender_->OnHello(*hello_us_, true);
       SenderAction act = sender_->Next(now_);
@@ -387,6 +439,7 @@ class CoresLoop {
           break;
         case SenderAction::kControl:
           if (!first_control_us) first_control_us = now_;
+          controls.push_back({act.refinement->primitive, act.refinement->refinement});
           if (!act.reliable && sender_->transport() == SessionTransport::kUdp) {
             udp_refinements.push_back({act.stream, act.refinement->refinement, act.count, act.first_packet_number});
           }
@@ -410,6 +463,10 @@ class CoresLoop {
           break;
         case SenderAction::kRepairEnd:
           ToClient(RepairEndMessage(act.count, act.bytes));
+          break;
+        case SenderAction::kLevels:
+          level_plans_at.push_back(controls.size());
+          ToClient(LevelPlanMessage(sender_->plan(), act.first_changed_level));
           break;
         case SenderAction::kFinish: {
           finish_status = act.status;
@@ -489,14 +546,14 @@ class CoresLoop {
   std::vector<uint64_t> datagram_times_;
   std::optional<Status> stream_end_;
   bool stream_end_taken_ = false;
+  size_t next_view_ = 0;
 };
 
 bool SameMesh(const QuantizedMesh& a, const QuantizedMesh& b) {
   return a.positions == b.positions && a.attributes == b.attributes && a.indices == b.indices;
 }
 
-void ExpectExactMeshes(sdk::SessionCore& core) {
-  const Artifact& a = Spot();
+void ExpectExactMeshes(sdk::SessionCore& core, const Artifact& a = Spot()) {
   ASSERT_EQ(core.primitive_count(), a.exact.size());
   for (size_t i = 0; i < a.exact.size(); ++i) {
     EXPECT_TRUE(SameMesh(core.reader(i).Mesh(), a.exact[i])) << "primitive " << i;
@@ -505,7 +562,7 @@ void ExpectExactMeshes(sdk::SessionCore& core) {
 }
 
 // kBaseReady, increasing kLevelReady up to every level, then `last`.
-void ExpectEventsInOrder(const std::vector<sdk::Event>& events, sdk::EventType last) {
+void ExpectEventsInOrder(const std::vector<sdk::Event>& events, sdk::EventType last, const Artifact& a = Spot()) {
   ASSERT_GE(events.size(), 2u);
   EXPECT_EQ(events.front().type, sdk::EventType::kBaseReady);
   int32_t level = 0;
@@ -514,7 +571,7 @@ void ExpectEventsInOrder(const std::vector<sdk::Event>& events, sdk::EventType l
     EXPECT_GT(events[i].level, level);
     level = events[i].level;
   }
-  EXPECT_EQ(level, static_cast<int32_t>(Spot().plan.levels));
+  EXPECT_EQ(level, static_cast<int32_t>(a.plan.levels));
   EXPECT_EQ(events.back().type, last) << events.back().status.ToString();
 }
 
@@ -810,6 +867,113 @@ TEST(SessionCores, ParityRebuildsWhatUdpLostWithoutAskingAgain) {
     EXPECT_GT(recovered, 0u) << "loss " << loss;
     EXPECT_GT(within, within_without) << "loss " << loss;
     EXPECT_GE(within * 2, runs) << "loss " << loss << ": the median session within 0.1 % of the diagonal";
+  }
+}
+
+}  // namespace
+}  // namespace meshstream
+
+namespace meshstream {
+namespace {
+
+// A camera close to the part whose box is lowest along the longest axis of
+// the whole, looking along that axis: some parts are outside its frustum.
+View OneSideView(const SessionPlan& plan, std::vector<bool>* outside) {
+  Box all = plan.primitives.at(0).bounds;
+  for (const PlannedPrimitive& p : plan.primitives) {
+    for (int a = 0; a < 3; ++a) {
+      all.lo[a] = std::min(all.lo[a], p.bounds.lo[a]);
+      all.hi[a] = std::max(all.hi[a], p.bounds.hi[a]);
+    }
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a) {
+    if (all.hi[a] - all.lo[a] > all.hi[axis] - all.lo[axis]) axis = a;
+  }
+  size_t lowest = 0;
+  for (size_t i = 1; i < plan.primitives.size(); ++i) {
+    if (plan.primitives[i].bounds.lo[axis] < plan.primitives[lowest].bounds.lo[axis]) lowest = i;
+  }
+  const Box& b = plan.primitives[lowest].bounds;
+  Vec3d center, eye;
+  for (int a = 0; a < 3; ++a) center[a] = eye[a] = (b.lo[a] + b.hi[a]) / 2;
+  const double extent = all.hi[axis] - all.lo[axis];
+  eye[axis] = all.lo[axis] - extent;  // outside, on the low side, looking up the axis
+  // Narrow enough that only the near part's box fills the view.
+  const View view = LookAtView(eye, center, 20, 800, 600, extent * 0.5, extent * 1.45);
+  outside->clear();
+  for (const PlannedPrimitive& p : plan.primitives) outside->push_back(OutsideFrustum(view, p.bounds));
+  return view;
+}
+
+// Whether every control block of a primitive inside the frustum, from
+// `from` on, comes before every one of a primitive outside it.
+bool InsideFirst(const std::vector<std::pair<uint32_t, uint32_t>>& controls, const std::vector<bool>& outside,
+                 size_t from) {
+  bool seen_outside = false;
+  for (size_t k = from; k < controls.size(); ++k) {
+    if (outside[controls[k].first]) {
+      seen_outside = true;
+    } else if (seen_outside) {
+      return false;
+    }
+  }
+  return true;
+}
+
+TEST(SessionCores, AViewAtTheOpenSendsWhatItSeesFirstAndTheMeshIsTheSame) {
+  const Artifact& a = BunnyParts();
+  ASSERT_EQ(a.plan.primitives.size(), 4u);
+  ASSERT_TRUE(ViewCanOrder(a.plan));
+  std::vector<bool> outside;
+  const View view = OneSideView(a.plan, &outside);
+  const size_t out = std::count(outside.begin(), outside.end(), true);
+  ASSERT_GT(out, 0u) << "no part outside the view";
+  ASSERT_LT(out, outside.size()) << "no part inside the view";
+  RunOptions o;
+  o.udp = false;
+  o.artifact = &a;
+  CoresLoop plain(o);
+  ASSERT_TRUE(plain.Run());
+  ExpectExactMeshes(plain.core(), a);
+  EXPECT_FALSE(InsideFirst(plain.controls, outside, 0)) << "the scene's order already puts the seen parts first";
+  const SessionPlan seen = ViewPlan(a.plan, view, -1);
+  o.plan = &seen;
+  CoresLoop viewed(o);
+  ASSERT_TRUE(viewed.Run());
+  ExpectEventsInOrder(viewed.events, sdk::EventType::kComplete, a);
+  ExpectExactMeshes(viewed.core(), a);
+  EXPECT_EQ(viewed.controls.size(), plain.controls.size());
+  EXPECT_TRUE(InsideFirst(viewed.controls, outside, 0));
+  EXPECT_NE(viewed.controls, plain.controls);
+}
+
+TEST(SessionCores, AViewDuringTheSessionReordersWhatIsNotBegunAndTheMeshIsTheSame) {
+  const Artifact& a = BunnyParts();
+  std::vector<bool> outside;
+  const View view = OneSideView(a.plan, &outside);
+  // Over UDP, paced (the simulated stream takes everything at once, so a
+  // session on it has begun every refinement before a view could arrive).
+  for (double loss : {0.0, 0.12}) {
+    SCOPED_TRACE(loss);
+    RunOptions o;
+    o.net = Lossy(7);
+    o.net.loss = loss;
+    o.artifact = &a;
+    // After the base and some refinements; a second view within the
+    // second waits, and the latest is the one acted on.
+    o.views = {{300000, view}, {350000, view}};
+    CoresLoop loop(o);
+    ASSERT_TRUE(loop.Run());
+    ExpectEventsInOrder(loop.events, sdk::EventType::kComplete, a);
+    if (loss == 0) ExpectExactMeshes(loop.core(), a);
+    ASSERT_EQ(loop.level_plans_at.size(), 1u);
+    EXPECT_EQ(loop.core().stats().level_plans, 1u);
+    const size_t from = loop.level_plans_at[0];
+    EXPECT_GT(from, 0u);
+    EXPECT_LT(from, loop.controls.size());
+    EXPECT_TRUE(InsideFirst(loop.controls, outside, from));
+    EXPECT_FALSE(InsideFirst(loop.controls, outside, 0));
   }
 }
 

@@ -97,6 +97,16 @@ typedef struct {
 } ms_client_config;
 #define MS_CLIENT_CONFIG_V0_SIZE (offsetof(ms_client_config, token) + sizeof(const char*))
 
+/* What the viewer sees (docs/spec/streaming-protocol.md, "Views"): the server
+ * sends first the refinements whose error spans the most pixels of it, the
+ * primitives and spatial parts outside its frustum last. */
+typedef struct {
+  double camera_position[3];   /* the eye, in the asset's scene units */
+  double view_projection[16];  /* column-major (glTF, OpenGL): clip = M (x, y, z, 1) */
+  uint32_t viewport_width;     /* pixels, 1..65536 */
+  uint32_t viewport_height;
+} ms_view;
+
 typedef struct {
   size_t struct_size;      /* sizeof(ms_session_config) */
   const char* asset;       /* required */
@@ -113,6 +123,7 @@ typedef struct {
                               0 or 1 the session's own thread, N > 1 a pool of N, -1 one per core; at most 64 */
   int32_t no_parity;       /* non-zero: no parity datagrams; what UDP loses is predicted (or repaired), never rebuilt */
   int32_t profile;         /* MS_PROFILE_*: which stream of the asset (docs/spec/c-api.md); 0: the server's choice */
+  const ms_view* view;     /* the view at the start (copied); NULL: the scene's order by error */
 } ms_session_config;
 
 /* ms_session_config.profile (docs/spec/streaming-protocol.md, "Profiles"). */
@@ -232,6 +243,11 @@ MS_API ms_status ms_session_export(ms_session* session, const char* path);
  * MS_EVENT_ERROR with MS_ERR_UNAVAILABLE ("CANCELLED: ..."), unless the session
  * was already over. May be called from another thread. */
 MS_API ms_status ms_session_cancel(ms_session* session);
+
+/* The viewer's view changed (copied): the server orders what it has not begun
+ * by it, at most once a second (the latest wins). From the session's thread
+ * or any other; MS_ERR_INVALID_ARGUMENT names a bad field. */
+MS_API ms_status ms_session_set_view(ms_session* session, const ms_view* view);
 
 MS_API void ms_session_close(ms_session* session);
 
