@@ -3,7 +3,7 @@
 
   corpus/progressive_glb/  progressive .glb files made by `meshstream encode`
       (spheres with and without normals and UVs in both packings, at two qp
-      and a small packet size, a two-mesh glTF scene, fandisk when the shared
+      and a small packet size, one cut into spatial parts, a two-mesh glTF scene, fandisk when the shared
       models are there), a plain .glb without our extension, and truncated
       and bit-flipped variants;
   corpus/split_bits/       the real control blocks of the sphere stream of
@@ -247,6 +247,8 @@ def make_glb_corpus(meshstream, out, tmp):
         ("glb-sphere-loss-tolerant-crossings", plain_obj, ["--profile", "loss-tolerant", "--tools", "all"]),
         ("glb-sphere-matching", plain_obj, ["--batch-rule", "matching", "--profile", "reliable"]),
         ("glb-sphere-version3", plain_obj, ["--format-version", "3"]),
+        # A mesh cut into spatial parts (four primitives of one mesh).
+        ("glb-sphere-parts", plain_obj, ["--part-vertices", "30"] + both),
     ]
     fandisk = os.path.join(MODELS, "fandisk.obj")
     if os.path.exists(fandisk):
@@ -276,7 +278,7 @@ def make_glb_corpus(meshstream, out, tmp):
 
     rng = random.Random(3)
     for name in ("glb-sphere-split", "glb-sphere-attributes-bundled", "glb-two-meshes", "glb-sphere-reliable",
-                 "glb-sphere-attributes-reliable-crossings"):
+                 "glb-sphere-attributes-reliable-crossings", "glb-sphere-parts"):
         data = made[name]
         n = len(data)
         for cut in (n // 2, 3 * n // 4, n - 9):
