@@ -13,6 +13,8 @@
 //     from the same server);
 //   - three.js drew something: the canvas holds pixels other than the
 //     background (a blank or all-background picture fails);
+//   - over a live session, the plugin sent the camera as a view at least
+//     once (the meshes above are the same whatever the server's order);
 // and saves a screenshot per load into --shots when given.
 // A browser that cannot start fails the test with the reason.
 //
@@ -183,12 +185,17 @@ async function main() {
             }
             if (s.hash !== native[id].hash) fail(`stream ${id}: hash ${s.hash}, native ${native[id].hash}`);
           }
+          // Live: the plugin sent the camera to the session (the server orders by it).
+          if (mode === 'live' && !(state.stats && state.stats.viewsSent >= 1)) {
+            fail(`the plugin sent no view (${JSON.stringify(state.stats)})`);
+          }
           const drawn = await page.evaluate(drawnShare);
           if (!(drawn > 0.005)) fail(`the canvas is blank (${(drawn * 100).toFixed(2)} % drawn)`);
           if (shots) await page.screenshot({ path: join(shots, `${asset}-${mode}.png`) });
           const levelCount = Object.values(state.streams).reduce((a, s) => a + s.levels.length, 0);
           console.log(`${asset} (${mode}): ${got.length} streams, ${levelCount} levels, base ${state.timings.base.toFixed(0)} ms, ` +
-                      `full ${state.timings.full.toFixed(0)} ms, ${state.bytes} bytes, ${(drawn * 100).toFixed(1)} % drawn`);
+                      `full ${state.timings.full.toFixed(0)} ms, ${state.bytes} bytes, ${(drawn * 100).toFixed(1)} % drawn` +
+                      (mode === 'live' ? `, ${state.stats.viewsSent} views sent, ${state.stats.levelPlans || 0} level plans` : ''));
         } catch (e) {
           fail(e.message);
         } finally {

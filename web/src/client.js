@@ -115,6 +115,11 @@ export class DecoderWorker {
     if (this.jobs.has(job)) this.worker.postMessage({ type: 'ack', job, streamId });
   }
 
+  // The viewer's camera (a live session sends it to the server; other jobs ignore it).
+  view(job, view) {
+    if (this.jobs.has(job)) this.worker.postMessage({ type: 'view', job, view });
+  }
+
   close(job) {
     if (!this.jobs.has(job)) return;
     this.jobs.delete(job);

@@ -12,6 +12,8 @@
 //   scene.add(gltf.scene);
 //   progressive.addEventListener('level', (e) => ...);  // e.streamId, e.level, e.levels, e.vertices, e.faces
 //   progressive.addEventListener('complete', (e) => ...);
+//   // each frame: a live session sends the camera (at most every viewIntervalMs, when it moved)
+//   progressive.setView(camera, renderer.domElement.width, renderer.domElement.height);
 //   progressive.dispose();  // stops the download or session; frees the worker's decoders
 //
 // The base is what GLTFLoader (with DRACOLoader) shows of the file's prefix;
@@ -40,7 +42,9 @@ export class MeshstreamProgressive extends EventDispatcher {
     this.jobs = [];
     this.pending = null;  // the prefix load() fetched, for the next afterRoot
     this.geometries = new Map();  // streamId -> { geometry, meshes, capacity }
-    this.stats = { levels: 0, bytes: 0 };  // bytes: the prefix's and the blobs' (or the session's)
+    this.stats = { levels: 0, bytes: 0, viewsSent: 0 };  // bytes: the prefix's and the blobs' (or the session's)
+    this.lastView = null;     // the last view sent, and when
+    this.lastViewAt = -Infinity;
     this.prefixBytes = 0;
     this.timings = { start: performance.now(), base: null, complete: null };
     this.complete = new Promise((resolve, reject) => {
@@ -130,6 +134,41 @@ export class MeshstreamProgressive extends EventDispatcher {
       this.dispatchEvent({ type: 'error', error });
       this.rejectComplete(error);
     }
+  }
+
+  // What the camera sees, for a live session (docs/spec/streaming-protocol.md,
+  // "Views"): the server sends first the refinements that span the most
+  // pixels of it. Call it every frame: it sends when the camera moved (or
+  // the viewport changed) and `viewIntervalMs` (default 250; the server acts
+  // on one a second) have passed since the last one. Returns whether it sent.
+  setView(camera, width, height) {
+    if (!this.worker || this.jobs.length === 0 || !this.options.session) return false;
+    const now = performance.now();
+    const interval = this.options.viewIntervalMs === undefined ? 250 : this.options.viewIntervalMs;
+    if (now - this.lastViewAt < interval) return false;
+    camera.updateMatrixWorld();
+    const p = camera.projectionMatrix.elements, v = camera.matrixWorldInverse.elements, w = camera.matrixWorld.elements;
+    // view-projection = projection x view, column-major as three.js stores them.
+    const vp = new Array(16);
+    for (let c = 0; c < 4; ++c) {
+      for (let r = 0; r < 4; ++r) {
+        let s = 0;
+        for (let k = 0; k < 4; ++k) s += p[k * 4 + r] * v[c * 4 + k];
+        vp[c * 4 + r] = s;
+      }
+    }
+    const view = { camera: [w[12], w[13], w[14]], viewProjection: vp,
+                   width: Math.max(1, Math.round(width)), height: Math.max(1, Math.round(height)) };
+    const last = this.lastView;
+    if (last && last.width === view.width && last.height === view.height &&
+        last.viewProjection.every((x, i) => Math.abs(x - view.viewProjection[i]) <= 1e-6 * (1 + Math.abs(x)))) {
+      return false;
+    }
+    this.lastView = view;
+    this.lastViewAt = now;
+    for (const job of this.jobs) this.worker.view(job, view);
+    this.stats.viewsSent += 1;
+    return true;
   }
 
   // Attributes sized for the finest level, made once per geometry.

@@ -141,6 +141,14 @@ export class ProtoWriter {
     this.raw(b);
   }
 
+  // A packed repeated double: one length-delimited field of 8-byte values.
+  doubles(field, values) {
+    const b = new Uint8Array(8 * values.length);
+    const view = new DataView(b.buffer);
+    values.forEach((v, i) => view.setFloat64(8 * i, v, true));
+    this.bytesField(field, b);
+  }
+
   bytesField(field, bytes) {
     this.tag(field, 2);
     this.varint(bytes.byteLength);

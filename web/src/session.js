@@ -27,14 +27,32 @@ function frame(type, body) {
   return out;
 }
 
-export function openMessage({ asset, version = 0, lod = -1 }) {
+// A View (docs/spec/streaming-protocol.md, "Views"): { camera: [x, y, z],
+// viewProjection: 16 numbers, column-major, width, height } in pixels.
+function viewWriter(view) {
+  const v = new ProtoWriter();
+  v.doubles(1, view.camera);
+  v.doubles(2, view.viewProjection);
+  v.uint(3, view.width);
+  v.uint(4, view.height);
+  return v;
+}
+
+export function openMessage({ asset, version = 0, lod = -1, view = null }) {
   const open = new ProtoWriter();
   open.string(1, asset);
   open.int(2, version);
   open.int(3, lod);
   open.uint(4, TRANSPORT_GRPC);
+  if (view) open.message(9, viewWriter(view));
   const m = new ProtoWriter();
   m.message(1, open);
+  return m.finish();
+}
+
+export function viewMessage(view) {
+  const m = new ProtoWriter();
+  m.message(5, viewWriter(view));
   return m.finish();
 }
 
@@ -119,6 +137,13 @@ export function readServerMessage(bytes) {
       x.sub().message({ 1: (y) => { t.transport = y.varint(); }, 2: (y) => { t.reason = y.string(); } });
       out = t;
     },
+    // A LevelPlan: the scene's levels after a view. The browser's levels are
+    // each stream's own refinements, so only its arrival counts.
+    8: (x) => {
+      const l = { kind: 'levelPlan', firstChangedLevel: 0 };
+      x.sub().message({ 1: (y) => { l.firstChangedLevel = y.varint(); } });
+      out = l;
+    },
   });
   return out;
 }
@@ -162,7 +187,15 @@ export function openSessionSource(job, source, take) {
     job.abort.signal.addEventListener('abort', () => fail(new Error('closed')));
     ws.onopen = () => {
       ws.send(frame(FRAME_CLIENT, openMessage({ asset: source.asset, version: source.version || 0,
-                                                 lod: source.lod === undefined ? -1 : source.lod })));
+                                                 lod: source.lod === undefined ? -1 : source.lod,
+                                                 view: job.view || null })));
+      job.view = null;
+      // Views the page sends during the session (the server acts on one a second).
+      job.sendView = (view) => {
+        if (ended || failed) return;
+        ws.send(frame(FRAME_CLIENT, viewMessage(view)));
+        job.stats.viewsSent = (job.stats.viewsSent || 0) + 1;
+      };
     };
     ws.onerror = () => fail(new Error(source.url + ': the WebSocket failed'));
     ws.onclose = (event) => {
@@ -205,6 +238,8 @@ export function openSessionSource(job, source, take) {
           ws.send(frame(FRAME_CLIENT, reportMessage({ primitive: m.primitive, refinement: m.refinement,
                                                        received: counts.get(key) || 0, bytes: job.stats.bytes })));
           counts.delete(key);
+        } else if (m.kind === 'levelPlan') {
+          job.stats.levelPlans = (job.stats.levelPlans || 0) + 1;
         } else if (m.kind === 'end') {
           ended = true;
           ws.send(frame(FRAME_CLIENT, doneMessage('complete')));

@@ -349,6 +349,13 @@ self.onmessage = (event) => {
         jobs.delete(job.id);
       }
     }
+  } else if (msg.type === 'view') {
+    // The page's camera: to the live session (before it opens, its first view).
+    const job = jobs.get(msg.job);
+    if (job && !job.closed) {
+      if (job.sendView) job.sendView(msg.view);
+      else job.view = msg.view;
+    }
   } else if (msg.type === 'close') {
     const job = jobs.get(msg.job);
     if (job) job.close();

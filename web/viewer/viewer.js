@@ -53,6 +53,8 @@ function resize() {
 }
 function frame() {
   resize();
+  // A live session orders what it sends by what this camera sees (throttled in the plugin).
+  if (current && current.progressive.setView) current.progressive.setView(camera, canvas.width, canvas.height);
   if (dirty) {
     renderer.render(scene, camera);
     state.frames += 1;
