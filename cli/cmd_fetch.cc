@@ -179,6 +179,7 @@ int RunFetch(const FetchArgs& args) {
                       {"session_thread_cpu_ms", st.session_thread_cpu_ms},
                       {"threads", args.threads == 0 ? ForkJoinPool::HardwareWorkers() : args.threads},
                       {"parallel_splits", st.parallel_splits},
+                      {"parallel_streams", st.parallel_streams},
                       {"view", !args.view.empty()},
                       {"level_plans", st.level_plans},
                       {"repair", args.repair},

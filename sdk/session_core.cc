@@ -226,7 +226,13 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
   const int threads = options_.decode_threads < 0 ? ForkJoinPool::HardwareWorkers() : options_.decode_threads;
   if (threads > 1) {
     decode_pool_ = std::make_unique<ForkJoinPool>(threads);
-    ro.runner = decode_pool_.get();
+    // Several streams (a scene's primitives, a large mesh's spatial parts)
+    // decode at once, each on one worker, at the end of each batch of
+    // arrivals (Advance); one stream shares the workers within its
+    // refinements. The meshes are the same bit for bit either way.
+    across_streams_ = start.primitives_size() > 1;
+    if (across_streams_) stats_.parallel_streams = static_cast<uint32_t>(start.primitives_size());
+    if (!across_streams_) ro.runner = decode_pool_.get();
   }
   reconstructor_options_ = ro;
   for (const v1::PrimitiveStart& p : start.primitives()) {
@@ -691,7 +697,7 @@ Status SessionCore::Advance(uint64_t now, bool flush) {
   if (!flush) MS_RETURN_IF_ERROR(DeclareLosses(now));
   // Flushing gives everything; otherwise what the levels reached let go.
   MS_RETURN_IF_ERROR(GiveAllControls(now, flush));
-  for (PrimitiveState& p : primitives_) {
+  auto decode = [&](PrimitiveState& p) -> Status {
     if (flush) {
       Status s = p.reconstructor->Flush();
       if (!s.ok()) return s.WithContext(Where(p.start.primitive()));
@@ -699,6 +705,24 @@ Status SessionCore::Advance(uint64_t now, bool flush) {
       auto n = p.reconstructor->Poll(now);
       if (!n.ok()) return n.status().WithContext(Where(p.start.primitive()));
     }
+    return Status::Ok();
+  };
+  if (across_streams_) {
+    // Every stream at once; what their progress lets go (a level reached
+    // everywhere) is decoded in the same call, round after round.
+    for (int round = 0; round < kMaxRefinements + 1; ++round) {
+      std::vector<size_t> applied;
+      for (const PrimitiveState& p : primitives_) applied.push_back(p.reconstructor->applied());
+      std::vector<Status> status(primitives_.size());
+      decode_pool_->Run(primitives_.size(), [&](size_t i, int) { status[i] = decode(primitives_[i]); });
+      for (const Status& s : status) MS_RETURN_IF_ERROR(s);
+      bool advanced = false;
+      for (size_t i = 0; i < primitives_.size(); ++i) advanced = advanced || primitives_[i].reconstructor->applied() != applied[i];
+      if (!advanced || flush) break;
+      MS_RETURN_IF_ERROR(GiveAllControls(now, false));
+    }
+  } else {
+    for (PrimitiveState& p : primitives_) MS_RETURN_IF_ERROR(decode(p));
   }
   Report();
   AnnounceLevel();
@@ -710,6 +734,11 @@ Status SessionCore::Advance(uint64_t now, bool flush) {
 // handed over), and reports and announces only if it advanced.
 Status SessionCore::AdvanceTouched(uint64_t now) {
   if (touched_ == SIZE_MAX) return Status::Ok();
+  // Streams decoded at once wait for the end of the batch (Advance).
+  if (across_streams_) {
+    touched_ = SIZE_MAX;
+    return Status::Ok();
+  }
   PrimitiveState& p = primitives_[touched_];
   touched_ = SIZE_MAX;
   const size_t before = p.reconstructor->applied();

@@ -306,6 +306,7 @@ class SessionCore {
   uint64_t kept_bytes_ = 0;
   ReconstructorOptions reconstructor_options_;
   std::unique_ptr<ForkJoinPool> decode_pool_;  // with decode_threads > 1 or -1
+  bool across_streams_ = false;  // the pool decodes several streams at once (Advance)
   std::deque<Event> events_;
   std::vector<Outgoing> outgoing_;
   std::optional<UdpStart> udp_start_;
