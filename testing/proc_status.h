@@ -15,6 +15,7 @@ namespace meshstream::test_util {
 struct ProcStatus {
   int64_t threads = -1;  // "Threads:"
   int64_t rss_kib = -1;  // "VmRSS:", KiB
+  int64_t peak_rss_kib = -1;  // "VmHWM:", KiB: the most it held since its exec
 };
 
 // The status of `pid`; -1 for a field the file does not have (or a process
@@ -25,6 +26,7 @@ inline ProcStatus ReadProcStatus(pid_t pid) {
   std::string key;
   while (in >> key) {
     if (key == "VmRSS:") in >> s.rss_kib;
+    if (key == "VmHWM:") in >> s.peak_rss_kib;
     if (key == "Threads:") in >> s.threads;
     std::getline(in, key);
   }

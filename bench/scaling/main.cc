@@ -21,6 +21,13 @@
 // takes by default); and the series runs twice, on the smooth subdivision
 // and on the same meshes with scan-like surface noise
 // (bench/scaling/surface_noise.h), whose rows carry "surface": "noisy".
+// Large assets: a third surface, "scan" (bench/scaling/surface_noise.h,
+// WithGridNoise: each vertex a subdivision added moved by up to a grid step
+// of qp 11 per axis), and per row the encoder on one thread (the
+// "meshstream" row), on two (encode --threads 2: spatial parts at once) and
+// as one part (--part-vertices 0: what the parts cost in bytes), with their
+// ratios (encode_2threads_time_vs_draco, bytes_vs_one_part,
+// reliable_bytes_vs_draco).
 // Writes one JSON object (--out, default docs/results/bench/scaling.json) and prints
 // the table as markdown.
 #include <unistd.h>
@@ -63,7 +70,7 @@ void Usage() {
   std::printf(
       "usage: meshstream_bench_scaling [--model FILE] [--subdivisions N] [--runs N] [--qp Q]\n"
       "                                [--work-dir DIR] [--out FILE] [--keep-inputs DIR]\n"
-      "                                [--surfaces smooth,noisy] [--noise A]\n\n"
+      "                                [--surfaces smooth,noisy,scan] [--noise A]\n\n"
       "The encoder at scale: FILE (a shared model, default stanford-bunny.obj) subdivided 0..N\n"
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
@@ -74,7 +81,9 @@ void Usage() {
       "the delivery record; each row keeps its step times), both profiles are decoded, and\n"
       "--surfaces (default smooth,noisy) runs the series on the smooth subdivision and on the\n"
       "same meshes with surface noise like a scan's: every vertex moved along its normal by up\n"
-      "to --noise (default 0.25) mean edge lengths.\n");
+      "to --noise (default 0.25) mean edge lengths; scan: every vertex a subdivision added moved\n"
+      "by up to one grid step of qp 11 along each axis (the shaped-link race's large model).\n"
+      "Each row also encodes on two threads and as one spatial part (--part-vertices 0).\n");
 }
 
 Args Parse(int argc, char** argv) {
@@ -109,7 +118,9 @@ Args Parse(int argc, char** argv) {
       for (size_t at = 0; at <= list.size();) {
         const size_t comma = std::min(list.find(',', at), list.size());
         const std::string name = list.substr(at, comma - at);
-        if (name != "smooth" && name != "noisy") ms::bench::Die("--surfaces: '" + name + "' is not smooth or noisy");
+        if (name != "smooth" && name != "noisy" && name != "scan") {
+          ms::bench::Die("--surfaces: '" + name + "' is not smooth, noisy or scan");
+        }
         a.surfaces.push_back(name);
         at = comma + 1;
       }
@@ -183,13 +194,16 @@ int main(int argc, char** argv) {
   json rows = json::array();
   for (const std::string& surface : args.surfaces) {
     const bool noisy = surface == "noisy";
+    const bool scan = surface == "scan";
     ms::Primitive smooth = source;
     size_t first_row = rows.size();
     for (int level = 0; level <= args.subdivisions; ++level) {
       if (level > 0) smooth = ms::bench::SubdivideMidpoint(smooth);
       const ms::Primitive mesh =
-          noisy ? ms::bench::WithSurfaceNoise(smooth, args.noise, 1000 + static_cast<uint64_t>(level)) : smooth;
-      const std::string stem = (noisy ? "noisy" : "level") + std::to_string(level);
+          noisy  ? ms::bench::WithSurfaceNoise(smooth, args.noise, 1000 + static_cast<uint64_t>(level))
+          : scan ? ms::bench::WithGridNoise(smooth, source.positions.size(), 1.0, 11, 2000 + static_cast<uint64_t>(level))
+                 : smooth;
+      const std::string stem = (noisy ? "noisy" : scan ? "scan" : "level") + std::to_string(level);
       const std::string in = dir + "/" + stem + ".ply";
       const ms::Status written = ms::WriteMeshFile(ms::SceneFromPrimitive(mesh, "scaled"), in);
       if (!written.ok()) ms::bench::Die("writing " + in + ": " + written.ToString());
@@ -212,8 +226,8 @@ int main(int argc, char** argv) {
       row["draco"]["output_bytes"] = FileBytes(draco);
       // The encoder as an ingest runs it: both profiles in one file.
       std::vector<json> encodes;
-      row["meshstream"] =
-          Measure({cli, "encode", "--json", "--profile", "both", "--qp", qp, in, "-o", ours}, args.runs, vertices, &encodes);
+      row["meshstream"] = Measure({cli, "encode", "--json", "--profile", "both", "--threads", "1", "--qp", qp, in, "-o", ours},
+                                  args.runs, vertices, &encodes);
       row["meshstream"]["output_bytes"] = FileBytes(ours);
       row["meshstream"]["profile"] = "both";
       row["meshstream"]["reliable_profile_bytes"] = encodes.front().value("reliable_level_bytes", json::array()).empty()
@@ -223,6 +237,27 @@ int main(int argc, char** argv) {
       for (const char* step : {"hierarchy", "stream", "harm", "delivery"}) {
         row["meshstream"]["step_ms"][step] = MedianOf(encodes, step, "step_ms");
       }
+      row["meshstream"]["streams"] = encodes.front().value("primitives", 0);
+      // The same on two threads (spatial parts encoded at once; the same file).
+      const std::string ours2 = dir + "/ours2.glb", one_part = dir + "/one_part.glb";
+      row["meshstream_2threads"] =
+          Measure({cli, "encode", "--json", "--profile", "both", "--threads", "2", "--qp", qp, in, "-o", ours2}, args.runs,
+                  vertices);
+      row["meshstream_2threads"]["output_bytes"] = FileBytes(ours2);
+      // As one part: what the parts cost in bytes.
+      std::vector<json> one_part_encodes;
+      row["meshstream_one_part"] = Measure({cli, "encode", "--json", "--profile", "both", "--threads", "1",
+                                            "--part-vertices", "0", "--qp", qp, in, "-o", one_part},
+                                           1, vertices, &one_part_encodes);
+      row["meshstream_one_part"]["output_bytes"] = FileBytes(one_part);
+      auto reliable_bytes = [](const json& e) {
+        return e.value("reliable_level_bytes", json::array()).empty() ? 0.0 : e["reliable_level_bytes"].back().get<double>();
+      };
+      row["meshstream_one_part"]["reliable_profile_bytes"] = reliable_bytes(one_part_encodes.front());
+      row["meshstream_one_part"]["loss_tolerant_bytes"] = one_part_encodes.front().value("total_bytes", 0.0) +
+                                                          one_part_encodes.front().value("base_bytes", 0.0);
+      row["meshstream"]["loss_tolerant_bytes"] = encodes.front().value("total_bytes", 0.0) +
+                                                 encodes.front().value("base_bytes", 0.0);
       // Issue 25: the decoders, whole processes that read the .glb, decode
       // and write a plain .glb: `meshstream decode` (all levels; it also checks the
       // mesh's health, as it does for a user) against `meshstream convert` of
@@ -256,7 +291,19 @@ int main(int argc, char** argv) {
            row["meshstream_decode_loss_tolerant"]["wall_s"].get<double>() / draco_decode_s},
           {"decode_memory_vs_draco", row["meshstream_decode"]["peak_rss_bytes"].get<double>() /
                                          row["draco_decode"]["peak_rss_bytes"].get<double>()},
-          {"decode_2threads_time_vs_draco", row["meshstream_decode_2threads"]["wall_s"].get<double>() / draco_decode_s}};
+          {"decode_2threads_time_vs_draco", row["meshstream_decode_2threads"]["wall_s"].get<double>() / draco_decode_s},
+          {"encode_2threads_time_vs_draco",
+           row["meshstream_2threads"]["wall_s"].get<double>() / row["draco"]["wall_s"].get<double>()},
+          {"reliable_bytes_vs_one_part", row["meshstream"]["reliable_profile_bytes"].is_number()
+                                             ? row["meshstream"]["reliable_profile_bytes"].get<double>() /
+                                                   row["meshstream_one_part"]["reliable_profile_bytes"].get<double>()
+                                             : 0.0},
+          {"loss_tolerant_bytes_vs_one_part", row["meshstream"]["loss_tolerant_bytes"].get<double>() /
+                                                  row["meshstream_one_part"]["loss_tolerant_bytes"].get<double>()},
+          {"reliable_bytes_vs_draco", row["meshstream"]["reliable_profile_bytes"].is_number()
+                                          ? row["meshstream"]["reliable_profile_bytes"].get<double>() /
+                                                row["draco"]["output_bytes"].get<double>()
+                                          : 0.0}};
       if (rows.size() > first_row) {
         const json& before = rows.back();
         row["growth_per_4x"] = {
@@ -316,6 +363,18 @@ int main(int argc, char** argv) {
                 r["ratios"]["decode_loss_tolerant_time_vs_draco"].get<double>(),
                 r["ratios"]["decode_memory_vs_draco"].get<double>(), m2["wall_s"].get<double>(),
                 m2["decode_ms"].get<double>() / 1000.0, r["ratios"]["decode_2threads_time_vs_draco"].get<double>());
+  }
+  std::printf("\n| surface | vertices | streams | encode 1 thread s | 2 threads s | 2 threads vs Draco | reliable bytes | vs one part | loss-tolerant vs one part | reliable vs Draco's bytes |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  for (const json& r : rows) {
+    const json& q = r["ratios"];
+    std::printf("| %s | %llu | %d | %.2f | %.2f | %.2f | %.0f | %.3f | %.3f | %.2f |\n", r["surface"].get<std::string>().c_str(),
+                static_cast<unsigned long long>(r["vertices"].get<uint64_t>()), r["meshstream"]["streams"].get<int>(),
+                r["meshstream"]["wall_s"].get<double>(), r["meshstream_2threads"]["wall_s"].get<double>(),
+                q["encode_2threads_time_vs_draco"].get<double>(),
+                r["meshstream"]["reliable_profile_bytes"].is_number() ? r["meshstream"]["reliable_profile_bytes"].get<double>() : 0.0,
+                q["reliable_bytes_vs_one_part"].get<double>(), q["loss_tolerant_bytes_vs_one_part"].get<double>(),
+                q["reliable_bytes_vs_draco"].get<double>());
   }
   std::fprintf(stderr, "meshstream_bench_scaling: wrote %s\n", args.out.c_str());
   return 0;

@@ -1,5 +1,6 @@
 #include "bench/scaling/surface_noise.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -45,6 +46,29 @@ Primitive WithSurfaceNoise(const Primitive& in, double amplitude, uint64_t seed)
     for (int i = 0; i < 3; ++i) {
       out.positions[k][i] = static_cast<float>(out.positions[k][i] + d * normal[k][i] / len);
     }
+  }
+  return out;
+}
+
+Primitive WithGridNoise(const Primitive& in, size_t first_new, double steps, int bits, uint64_t seed) {
+  Primitive out;
+  out.positions = in.positions;
+  out.indices = in.indices;
+  if (in.positions.empty()) return out;
+  double lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) lo[i] = hi[i] = in.positions[0][i];
+  for (const Vec3f& p : in.positions) {
+    for (int i = 0; i < 3; ++i) {
+      lo[i] = std::min(lo[i], double(p[i]));
+      hi[i] = std::max(hi[i], double(p[i]));
+    }
+  }
+  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  const double step = extent / (std::ldexp(1.0, bits) - 1);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> offset(-steps * step, steps * step);
+  for (size_t k = first_new; k < out.positions.size(); ++k) {
+    for (int i = 0; i < 3; ++i) out.positions[k][i] = static_cast<float>(out.positions[k][i] + offset(rng));
   }
   return out;
 }
