@@ -139,7 +139,12 @@ bench-web: build wasm
 SOAK_ARGS ?=
 # The encoder at scale (docs/results/benchmarks.md, "The encoder at scale"): the bunny subdivided to
 # 2.2 M vertices, meshstream encode against Draco, time and peak memory (about 3 minutes).
-.PHONY: bench-scaling
+.PHONY: bench-scaling bench-large
+# A mesh of about 10 M vertices end to end (docs/results/large-assets.md): about 10 minutes, 10 GB.
+bench-large: build
+	@mkdir -p docs/results/bench
+	$(BUILD)/bin/meshstream_bench_large --out docs/results/bench/large.json $(LARGE_ARGS)
+
 bench-scaling: build
 	@mkdir -p docs/results/bench
 	$(BUILD)/bin/meshstream_bench_scaling --out docs/results/bench/scaling.json $(SCALING_ARGS)

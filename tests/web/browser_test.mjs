@@ -14,7 +14,8 @@
 //   - three.js drew something: the canvas holds pixels other than the
 //     background (a blank or all-background picture fails);
 //   - over a live session, the plugin sent the camera as a view at least
-//     once (the meshes above are the same whatever the server's order);
+//     once; by ranges, the streams were read in the order of the camera's
+//     view (view_order.js) (the meshes above are the same whatever the order);
 // and saves a screenshot per load into --shots when given.
 // A browser that cannot start fails the test with the reason.
 //
@@ -184,6 +185,11 @@ async function main() {
               fail(`stream ${id}: ${last.vertices} vertices, ${last.faces} faces; native ${native[id].vertices}, ${native[id].indices / 3}`);
             }
             if (s.hash !== native[id].hash) fail(`stream ${id}: hash ${s.hash}, native ${native[id].hash}`);
+          }
+          // Ranges: the streams were fetched in the order of the camera's view.
+          if (mode === 'ranges' && !(state.stats && Array.isArray(state.stats.viewOrder) &&
+                                     state.stats.viewOrder.length === ids.length)) {
+            fail(`the ranges were not read in the view's order (${JSON.stringify(state.stats && state.stats.viewOrder)})`);
           }
           // Live: the plugin sent the camera to the session (the server orders by it).
           if (mode === 'live' && !(state.stats && state.stats.viewsSent >= 1)) {

@@ -19,6 +19,7 @@
 // `session: { url, asset, version, token }` the refinements come from a live
 // session over WebSocket instead (session.js), the scene still from the file.
 
+import { viewOrder } from './view_order.js';
 import { firstBlobOffset, glbJsonEnd, parseGlb, progressivePrimitives } from './glb.js';
 
 // The first ranged GET: most files' JSON and bases are smaller; what it
@@ -135,7 +136,7 @@ export class DecoderWorker {
 // The worker's job spec for the refined primitives of `glb`: each base's
 // bytes copied (they are transferred), and where the blobs come from.
 // `prefix`: fetchPrefix's result, when the file was read that way.
-export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, session = null, prefix = null }) {
+export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, session = null, prefix = null, view = null }) {
   const prims = progressivePrimitives(glb);
   const streams = prims.map((p) => ({ streamId: p.streamId, base: p.base.slice(), ids: p.ids }));
   let source;
@@ -151,6 +152,8 @@ export function jobSpec(glb, { url, headers, lod = -1, loss = 0, seed = 1, sessi
     const have = prefix ? prefix.bytes.byteLength : first;
     source = { kind: 'ranges', url: new URL(url, self.location.href).href, headers: headers || {}, blobs,
                head: have > first ? prefix.bytes.slice(first, have) : new Uint8Array(0), headStart: first };
+    // A view: the streams it needs first, a ranged GET each (view_order.js).
+    if (view) source.order = viewOrder(glb.json, prims, view);
   }
   return { prims, spec: { streams, source, lod, loss, seed } };
 }

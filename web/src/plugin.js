@@ -33,6 +33,24 @@ import { DecoderWorker, fetchPrefix, jobSpec } from './client.js';
 
 const UV_NAMES = ['uv', 'uv1', 'uv2', 'uv3'];
 
+// A three.js camera as a View (docs/spec/streaming-protocol.md, "Views"):
+// the eye, projection x view (column-major, as three.js stores matrices),
+// the viewport in pixels. For options.view and setView.
+export function viewOfCamera(camera, width, height) {
+  camera.updateMatrixWorld();
+  const p = camera.projectionMatrix.elements, v = camera.matrixWorldInverse.elements, w = camera.matrixWorld.elements;
+  const vp = new Array(16);
+  for (let c = 0; c < 4; ++c) {
+    for (let r = 0; r < 4; ++r) {
+      let s = 0;
+      for (let k = 0; k < 4; ++k) s += p[k * 4 + r] * v[c * 4 + k];
+      vp[c * 4 + r] = s;
+    }
+  }
+  return { camera: [w[12], w[13], w[14]], viewProjection: vp,
+           width: Math.max(1, Math.round(width)), height: Math.max(1, Math.round(height)) };
+}
+
 export class MeshstreamProgressive extends EventDispatcher {
   constructor(options = {}) {
     super();
@@ -85,8 +103,13 @@ export class MeshstreamProgressive extends EventDispatcher {
       bin: body ? new Uint8Array(body) : null,
       binOffset: pending ? pending.prefix.glb.binOffset : -1,
     };
+    // options.view: a view, or a function of the base scene that returns one
+    // (the page frames its camera on it): the HTTP-range path fetches the
+    // streams it needs first before the others (view_order.js).
+    const view = typeof this.options.view === 'function' ? this.options.view(result) : this.options.view || null;
     const { prims, spec } = jobSpec(glb, Object.assign({}, this.options, { url: pending ? pending.url : null,
-                                                                          prefix: pending ? pending.prefix : null }));
+                                                                          prefix: pending ? pending.prefix : null,
+                                                                          view }));
     if (prims.length === 0) return;
     if (spec.source.kind === 'ranges' && !pending) throw new Error('MeshstreamProgressive: the blobs are not in memory');
     // Each progressive primitive's geometry, through GLTFLoader's associations.
@@ -146,19 +169,7 @@ export class MeshstreamProgressive extends EventDispatcher {
     const now = performance.now();
     const interval = this.options.viewIntervalMs === undefined ? 250 : this.options.viewIntervalMs;
     if (now - this.lastViewAt < interval) return false;
-    camera.updateMatrixWorld();
-    const p = camera.projectionMatrix.elements, v = camera.matrixWorldInverse.elements, w = camera.matrixWorld.elements;
-    // view-projection = projection x view, column-major as three.js stores them.
-    const vp = new Array(16);
-    for (let c = 0; c < 4; ++c) {
-      for (let r = 0; r < 4; ++r) {
-        let s = 0;
-        for (let k = 0; k < 4; ++k) s += p[k * 4 + r] * v[c * 4 + k];
-        vp[c * 4 + r] = s;
-      }
-    }
-    const view = { camera: [w[12], w[13], w[14]], viewProjection: vp,
-                   width: Math.max(1, Math.round(width)), height: Math.max(1, Math.round(height)) };
+    const view = viewOfCamera(camera, width, height);
     const last = this.lastView;
     if (last && last.width === view.width && last.height === view.height &&
         last.viewProjection.every((x, i) => Math.abs(x - view.viewProjection[i]) <= 1e-6 * (1 + Math.abs(x)))) {

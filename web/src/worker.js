@@ -6,7 +6,8 @@
 //   page -> worker
 //     { type: 'open', job, streams, source, lod, loss, seed }
 //         streams: per refined primitive { streamId, base (Draco bytes), ids }
-//         source:  { kind: 'ranges', url, headers, blobs: [{ streamId, start, end }], head, headStart }
+//         source:  { kind: 'ranges', url, headers, blobs: [{ streamId, start, end }], head, headStart,
+//                    order (optional: stream ids, the view's first; a GET per blob in that order) }
 //                    (file offsets of each stream blob, end exclusive; `head`: the
 //                    file's bytes from headStart the page already read)
 //                  { kind: 'bytes', blobs: [{ streamId, bytes }] }  (the file already in memory)
@@ -277,6 +278,45 @@ async function readRanges(job, source) {
   if (at < last) throw new Error(`${source.url}: the response ended at byte ${at} of ${last}`);
 }
 
+// With a view (source.order: the streams the view needs first,
+// view_order.js): one ranged GET per stream blob, in that order, after the
+// bytes the prefix already held.
+async function readRangesInOrder(job, source) {
+  const byId = new Map(source.blobs.map((b) => [b.streamId, b]));
+  const headEnd = source.head && source.head.byteLength > 0 ? source.headStart + source.head.byteLength : 0;
+  const push = (b, bytes) => {
+    const s = job.streams.get(b.streamId);
+    for (const e of s.reader.push(bytes)) s.take(e);
+  };
+  if (headEnd > 0) {
+    for (const b of source.blobs) {
+      const lo = Math.max(source.headStart, b.start), hi = Math.min(headEnd, b.end);
+      if (lo < hi) push(b, source.head.subarray(lo - source.headStart, hi - source.headStart));
+    }
+  }
+  for (const id of source.order) {
+    const b = byId.get(id);
+    if (!b) continue;
+    const from = Math.max(b.start, Math.min(headEnd, b.end));
+    if (from >= b.end) continue;
+    const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${from}-${b.end - 1}` });
+    const response = await fetch(source.url, { headers, signal: job.abort.signal });
+    if (response.status !== 206) throw new Error(`${source.url}: HTTP ${response.status} to a range of stream ${id}`);
+    const body = response.body.getReader();
+    let at = from;
+    for (;;) {
+      const { done, value } = await body.read();
+      if (done) break;
+      job.stats.bytes += value.byteLength;
+      const n = Math.min(value.byteLength, b.end - at);
+      if (n > 0) push(b, value.subarray(0, n));
+      at += n;
+    }
+    if (at < b.end) throw new Error(`${source.url}: stream ${id}'s range ended at byte ${at} of ${b.end}`);
+  }
+  job.stats.viewOrder = source.order;
+}
+
 function readBytes(job, source) {
   for (const b of source.blobs) {
     const s = job.streams.get(b.streamId);
@@ -307,7 +347,7 @@ async function open(msg) {
       postMessage({ type: 'base', job: job.id, streamId: spec.streamId, mesh: copy }, transferables(copy));
     }
     if (msg.source.kind === 'ranges') {
-      await readRanges(job, msg.source);
+      await (Array.isArray(msg.source.order) ? readRangesInOrder(job, msg.source) : readRanges(job, msg.source));
     } else if (msg.source.kind === 'bytes') {
       readBytes(job, msg.source);
     } else if (msg.source.kind === 'session') {

@@ -17,7 +17,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { MeshstreamProgressive } from './src/plugin.js';
+import { MeshstreamProgressive, viewOfCamera } from './src/plugin.js';
 import { DecoderWorker } from './src/client.js';
 
 const $ = (id) => document.getElementById(id);
@@ -148,6 +148,12 @@ async function load() {
     ws.protocol = location.protocol === 'https:' ? 'wss:' : 'ws:';
     options.session = { url: ws.href, asset, version: version === 'latest' ? 0 : Number(version), lod,
                         token: $('token').value.trim() };
+  } else {
+    // By ranges: the camera framed on the base decides which streams come first.
+    options.view = (result) => {
+      frameObject(result.scene || result.scenes[0]);
+      return viewOfCamera(camera, canvas.width, canvas.height);
+    };
   }
   const progressive = new MeshstreamProgressive(options);
   const loader = new GLTFLoader().setDRACOLoader(dracoLoader);
