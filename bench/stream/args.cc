@@ -61,6 +61,8 @@ void ShapedOptions(Options& o, Args& a) {
   o.Double("--shaped-delay-ms", "MS", &a.shaped_delay_ms, 0, 2000,
            "one-way delay of both channels: UDP relay and TCP proxy (default 20)");
   o.IntList("--shaped-loss", "LIST", &a.shaped_losses, 0, 99, "nftables drop percentages, TCP and UDP (default 0,2,5,12)");
+  o.Flag("--shaped-large", &a.shaped_large,
+         "add the large model: the bunny subdivided twice with scan-like noise\n(557 k vertices, made by the benchmark; named bunny-scan-557k)");
   o.Flag("--shaped-loss-udp-only", &a.shaped_udp_only_loss,
          "drop UDP only (an experiment: what TCP's losses cost the sessions)");
   o.Int("--shaped-snapshots", "N", &a.shaped_snapshots, 2, 1000,

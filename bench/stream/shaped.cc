@@ -12,6 +12,8 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
+#include "bench/scaling/subdivide.h"
+#include "bench/scaling/surface_noise.h"
 #include "bench/stream/server_log.h"
 #include "bench/stream/shaped_distances.h"
 #include "bench/stream/shaped_summary.h"
@@ -19,6 +21,7 @@
 #include "bench/tcp_delay_proxy.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"
+#include "importers/mesh_writer.h"
 #include "net/udp_socket.h"
 #include "sdk/client.h"
 #include "sdk/session.h"
@@ -106,6 +109,25 @@ std::string LargestModelByVertices(const std::string& dir, uint64_t* vertices) {
   return best;
 }
 
+// The large model (Args::shaped_large): the bunny subdivided twice, each
+// vertex the subdivisions added moved by up to one grid step of qp 11 along
+// each axis (bench/scaling/surface_noise.h), written as a PLY into the work
+// folder (overwritten by the next run) and read back as a model file.
+Model LargeModel(const Args& args) {
+  Scene scene = Check(ImportFile(args.models_dir + "/stanford-bunny.obj"), "the bunny");
+  const Primitive& mesh = scene.meshes.at(0).primitives.at(0);
+  Primitive plain;
+  plain.positions = mesh.positions;
+  plain.indices = mesh.indices;
+  const size_t original = plain.positions.size();
+  for (int level = 0; level < 2; ++level) plain = SubdivideMidpoint(plain);
+  plain = WithGridNoise(plain, original, 1.0, 11, 2002);
+  const std::string file = "bunny-scan-557k.ply";
+  const Status written = WriteMeshFile(SceneFromPrimitive(plain, "bunny-scan-557k"), args.work_dir + "/" + file);
+  if (!written.ok()) Die("writing the large model: " + written.ToString());
+  return LoadModel(args.work_dir, file, {"large"});  // the file stays: the ingest reads it
+}
+
 // The shaped part's models: the bunny and the horse (those of `models`), and
 // the largest shared model by vertices (a new Model when it is neither);
 // filtered by --model.
@@ -123,6 +145,7 @@ std::vector<Model> ShapedModels(const Args& args, const std::vector<Model>& mode
   if (std::none_of(out.begin(), out.end(), [](const Model& m) { return IsLargest(m); })) {
     out.push_back(LoadModel(args.models_dir, largest, {"largest"}));
   }
+  if (args.shaped_large) out.push_back(LargeModel(args));
   KeepOnly(args.only, out);
   return out;
 }
