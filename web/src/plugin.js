@@ -51,13 +51,49 @@ export function viewOfCamera(camera, width, height) {
            width: Math.max(1, Math.round(width)), height: Math.max(1, Math.round(height)) };
 }
 
+// A job's spec split into `count` specs of about as many streams each
+// (round-robin in the view's order, or the streams' own), each reading only
+// its streams' blobs (a ranged GET per blob, in that order).
+function splitSpec(spec, count) {
+  if (count <= 1) return [spec];
+  const source = spec.source;
+  const order = Array.isArray(source.order) ? source.order : spec.streams.map((s) => s.streamId);
+  const groups = Array.from({ length: count }, () => []);
+  order.forEach((id, i) => groups[i % count].push(id));
+  return groups.filter((g) => g.length > 0).map((ids) => {
+    const set = new Set(ids);
+    const part = Object.assign({}, spec, { streams: spec.streams.filter((s) => set.has(s.streamId)) });
+    part.source = Object.assign({}, source, { blobs: source.blobs.filter((b) => set.has(b.streamId)) });
+    if (source.kind === 'ranges') part.source.order = ids;
+    return part;
+  });
+}
+
+// The workers' 'complete' stats as one: counts and times added, the
+// longest worker's time, the per-stream maps joined.
+function mergeStats(list) {
+  const out = { bytes: 0, dropped: 0, baseMs: 0, decodeMs: 0, workerMs: 0, predictedVertices: {} };
+  for (const s of list) {
+    out.bytes += s.bytes || 0;
+    out.dropped += s.dropped || 0;
+    out.baseMs += s.baseMs || 0;
+    out.decodeMs += s.decodeMs || 0;
+    out.workerMs = Math.max(out.workerMs, s.workerMs || 0);
+    Object.assign(out.predictedVertices, s.predictedVertices || {});
+    if (Array.isArray(s.viewOrder)) out.viewOrder = (out.viewOrder || []).concat(s.viewOrder);
+    for (const [key, value] of Object.entries(s)) if (!(key in out)) out[key] = value;
+  }
+  return out;
+}
+
 export class MeshstreamProgressive extends EventDispatcher {
   constructor(options = {}) {
     super();
     this.options = options;
     this.worker = options.worker || null;
     this.ownWorker = !options.worker;
-    this.jobs = [];
+    this.extraWorkers = [];  // made here when options.workers asks for more than one
+    this.jobs = [];  // { worker, id }
     this.pending = null;  // the prefix load() fetched, for the next afterRoot
     this.geometries = new Map();  // streamId -> { geometry, meshes, capacity }
     this.stats = { levels: 0, bytes: 0, viewsSent: 0 };  // bytes: the prefix's and the blobs' (or the session's)
@@ -127,17 +163,29 @@ export class MeshstreamProgressive extends EventDispatcher {
       });
     }
     if (!this.worker) this.worker = new DecoderWorker(this.options);
-    await this.worker.ready;
-    const remaining = new Set(prims.map((p) => p.streamId));
-    this.jobs.push(this.worker.open(spec, (msg) => this.onMessage(msg, remaining)));
+    // options.workers (default 1): the streams of a file (a scene's
+    // primitives, a large mesh's spatial parts) split among that many Web
+    // Workers, each decoding its own; a live session stays on one.
+    const count = spec.source.kind === 'session' ? 1 : Math.max(1, Math.min(this.options.workers || 1, spec.streams.length));
+    while (this.extraWorkers.length < count - 1) this.extraWorkers.push(new DecoderWorker(this.options));
+    const workers = [this.worker, ...this.extraWorkers.slice(0, count - 1)];
+    await Promise.all(workers.map((w) => w.ready));
+    const specs = splitSpec(spec, count);
+    const group = { left: specs.length, bytes: new Array(specs.length).fill(0), stats: [] };
+    this.stats.workers = specs.length;
+    specs.forEach((s, k) => {
+      const worker = workers[k];
+      this.jobs.push({ worker, id: worker.open(s, (msg) => this.onMessage(msg, worker, k, group)) });
+    });
   }
 
-  onMessage(msg, remaining) {
+  onMessage(msg, worker, k, group) {
     if (msg.type === 'level') {
       const entry = this.geometries.get(msg.streamId);
       if (entry) this.applyLevel(entry, msg);
       this.stats.levels += 1;
-      this.stats.bytes = this.prefixBytes + msg.bytes;
+      group.bytes[k] = msg.bytes;
+      this.stats.bytes = this.prefixBytes + group.bytes.reduce((a, b) => a + b, 0);
       this.dispatchEvent({ type: 'level', streamId: msg.streamId, level: msg.level, levels: msg.levels,
                            vertices: msg.mesh.vertices, faces: msg.mesh.indices.length / 3,
                            predictedVertices: msg.mesh.predictedVertices, hash: msg.hash });
@@ -145,11 +193,14 @@ export class MeshstreamProgressive extends EventDispatcher {
       // that come faster than frames replace each other in the buffers (the
       // next frame shows the newest), and the worker never queues more than
       // one per stream.
-      if (this.worker) this.worker.ack(msg.job, msg.streamId);
+      if (this.worker) worker.ack(msg.job, msg.streamId);
     } else if (msg.type === 'complete') {
+      group.stats[k] = msg.stats;
+      if (--group.left > 0) return;
       for (const entry of this.geometries.values()) this.updateBounds(entry);
       this.timings.complete = performance.now();
-      Object.assign(this.stats, msg.stats, { bytes: this.prefixBytes + msg.stats.bytes });
+      Object.assign(this.stats, mergeStats(group.stats));
+      this.stats.bytes += this.prefixBytes;
       this.dispatchEvent({ type: 'complete', stats: this.stats, timings: this.timings });
       this.resolveComplete(this.stats);
     } else if (msg.type === 'error') {
@@ -177,7 +228,7 @@ export class MeshstreamProgressive extends EventDispatcher {
     }
     this.lastView = view;
     this.lastViewAt = now;
-    for (const job of this.jobs) this.worker.view(job, view);
+    for (const job of this.jobs) job.worker.view(job.id, view);
     this.stats.viewsSent += 1;
     return true;
   }
@@ -280,11 +331,11 @@ export class MeshstreamProgressive extends EventDispatcher {
   // the worker, when this object made it). With `geometries`, disposes the
   // refined geometries too (their GPU buffers).
   dispose({ geometries = false } = {}) {
-    if (this.worker) {
-      for (const job of this.jobs) this.worker.close(job);
-      if (this.ownWorker) this.worker.terminate();
-    }
+    for (const job of this.jobs) job.worker.close(job.id);
+    if (this.worker && this.ownWorker) this.worker.terminate();
+    for (const w of this.extraWorkers) w.terminate();
     this.worker = null;
+    this.extraWorkers = [];
     this.jobs = [];
     if (geometries) for (const entry of this.geometries.values()) entry.geometry.dispose();
     this.geometries.clear();

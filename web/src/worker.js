@@ -329,6 +329,7 @@ async function open(msg) {
   const job = new Job(msg.job);
   jobs.set(job.id, job);
   job.started = performance.now();
+  job.stats.source = msg.source.kind;  // 'ranges', 'bytes' (the prefix held every blob) or 'session'
   try {
     if (modules === null) throw new Error('the decoder modules are not loaded');
     const lod = msg.lod === undefined ? -1 : msg.lod;

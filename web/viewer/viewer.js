@@ -142,7 +142,9 @@ async function load() {
   const loss = live ? 0 : Number($('loss').value) || 0;
   begin();
   const url = new URL(`v1/assets/${encodeURIComponent(asset)}/versions/${version}/progressive`, location.href).href;
-  const options = { headers: headers(), lod, loss, seed: 1, tintPredicted: $('tint').checked, worker };
+  // ?workers=N: a file's streams (primitives, spatial parts) decoded by N Web Workers.
+  const workers = Math.max(1, Math.min(16, Number(params.get('workers')) || 1));
+  const options = { headers: headers(), lod, loss, seed: 1, tintPredicted: $('tint').checked, worker, workers };
   if (live) {
     const ws = new URL('v1/stream', location.href);
     ws.protocol = location.protocol === 'https:' ? 'wss:' : 'ws:';
