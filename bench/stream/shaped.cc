@@ -260,7 +260,35 @@ struct RunId {
   int loss = 0, run = 0;
   const Model* model = nullptr;
   const char* kind = "";
+  std::string view;  // the view run's camera: EX,EY,EZ,TX,TY,TZ,FOV,W,H
 };
+
+// The view run's camera for `reference`: outside the low end of the box's
+// longest axis, looking along it at the point a quarter of the way in, a
+// narrow field of view (30 degrees, 1280 x 720): one side of the model is
+// seen, the other is outside the frustum or far.
+std::string ViewArg(const Primitive& reference) {
+  Vec3d lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+  for (const Vec3f& p : reference.positions) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(p[a]));
+      hi[a] = std::max(hi[a], double(p[a]));
+    }
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a) {
+    if (hi[a] - lo[a] > hi[axis] - lo[axis]) axis = a;
+  }
+  Vec3d eye, target;
+  for (int a = 0; a < 3; ++a) eye[a] = target[a] = (lo[a] + hi[a]) / 2;
+  const double extent = hi[axis] - lo[axis];
+  target[axis] = lo[axis] + 0.25 * extent;
+  eye[axis] = lo[axis] - 0.6 * extent;
+  char text[512];
+  std::snprintf(text, sizeof text, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,30,1280,720", eye[0], eye[1], eye[2], target[0],
+                target[1], target[2]);
+  return text;
+}
 
 // One child in the namespace: its JSON line, with what crossed the link for
 // it (the gRPC probe calls and the channel set-up included) and the
@@ -271,7 +299,7 @@ json RunChild(const Args& args, Link& link, const RunId& id, const std::string& 
                                           link.proxy->address(), link.udp_via,        id.model->name,
                                           std::to_string(id.model->version),          snapshot_file,
                                           std::to_string(args.shaped_snapshots),      std::to_string(args.shaped_timeout_s),
-                                          std::to_string(remembered)};
+                                          std::to_string(remembered),                 id.view};
   std::string command;
   for (const std::string& a : cargs) command += (command.empty() ? "" : " ") + ShellQuote(a);
   const size_t logged = link.log.session_count();
@@ -288,6 +316,7 @@ json RunChild(const Args& args, Link& link, const RunId& id, const std::string& 
   }
   r["loss_percent"] = id.loss;
   r["model"] = id.model->name;
+  if (!id.view.empty()) r["view"] = id.view;
   r["run"] = id.run;
   r["child_process_ms"] = child_ms;
   if (std::string(id.kind) != "draco_export") r["expected_loss_stated"] = remembered;
@@ -357,10 +386,14 @@ void Remember(const json& r, sdk::LossMemory& memory) {
 // sessions (sdk::Client::remembered_loss) is passed to it: the UDP runs',
 // across models and loss levels (the first run of a level states what the
 // levels before it left).
-Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, const std::string& snap_dir) {
+Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, const ShapedMeshes& meshes,
+               const std::string& snap_dir) {
   Runs out;
   sdk::LossMemory memory;
-  const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) * models.size() * std::size(kShapedKinds);
+  size_t large = 0;
+  for (const Model& m : models) large += std::count(m.roles.begin(), m.roles.end(), std::string("large"));
+  const size_t total = args.shaped_losses.size() * static_cast<size_t>(args.shaped_runs) *
+                       (models.size() * std::size(kShapedKinds) + large);
   size_t done = 0;
   for (int loss : args.shaped_losses) {
     const Status l = link.ns->SetLoss(loss, args.shaped_udp_only_loss);
@@ -370,8 +403,13 @@ Runs RunMatrix(const Args& args, Link& link, const std::vector<Model>& models, c
     const auto loss_start = Clock::now();
     for (int run = 0; run < args.shaped_runs; ++run) {
       for (const Model& m : models) {
-        for (const char* kind : kShapedKinds) {
-          const RunId id{loss, run, &m, kind};
+        std::vector<RunId> ids;
+        for (const char* kind : kShapedKinds) ids.push_back(RunId{loss, run, &m, kind, ""});
+        if (std::find(m.roles.begin(), m.roles.end(), "large") != m.roles.end()) {
+          ids.push_back(RunId{loss, run, &m, kShapedViewKind, ViewArg(meshes.reference.at(m.name))});
+        }
+        for (const RunId& id : ids) {
+          const char* kind = id.kind;
           const std::string file = snap_dir + "/" + std::to_string(out.runs.size()) + ".snap";
           json r = RunChild(args, link, id, file, memory.Rate());
           if (std::string(kind).rfind("udp", 0) == 0) Remember(r, memory);
@@ -448,7 +486,7 @@ json RunShaped(const Args& args, const std::string& store, const std::string& fo
   StartRelayAndProxy(args, link);
   const std::string snap_dir = folder + "/shaped-snapshots";
   fs::create_directories(snap_dir);
-  Runs runs = RunMatrix(args, link, models, snap_dir);
+  Runs runs = RunMatrix(args, link, models, meshes, snap_dir);
   const std::string udp_totals = StopLink(link);
   const json notable = link.log.Notable(30);
   link.ns.reset();  // the namespace and its veth go

@@ -14,6 +14,7 @@
 #include "bench/harness.h"
 #include "bench/stream/sessions.h"
 #include "bench/stream/snapshots.h"
+#include "codec/progressive/view_order.h"
 #include "importers/gltf_import.h"
 #include "importers/import.h"
 #include "sdk/client.h"
@@ -34,10 +35,27 @@ struct ClientArgs {
   int max_snapshots = 0;
   double timeout_s = 0;
   double expected_loss = -1;
+  std::string view;  // udp_view: EX,EY,EZ,TX,TY,TZ,FOV,W,H (shaped.cc's ViewArg)
 };
 
+// The view run's camera from its nine numbers.
+View ParseViewArg(const std::string& text) {
+  std::vector<double> v;
+  for (size_t at = 0; at <= text.size();) {
+    const size_t comma = std::min(text.find(',', at), text.size());
+    v.push_back(ParseDouble(text.substr(at, comma - at), "VIEW"));
+    at = comma + 1;
+  }
+  if (v.size() != 9) Die("--shaped-client: VIEW is nine numbers");
+  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) + (v[5] - v[2]) * (v[5] - v[2]));
+  return LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, v[6], static_cast<uint32_t>(v[7]), static_cast<uint32_t>(v[8]),
+                    distance / 1000, distance * 1000);
+}
+
 ClientArgs ParseClientArgs(int argc, char** argv) {
-  if (argc != 11) Die("--shaped-client KIND SERVER UDP_VIA ASSET VERSION SNAPSHOTS MAX_SNAPSHOTS TIMEOUT_S EXPECTED_LOSS");
+  if (argc != 11 && argc != 12) {
+    Die("--shaped-client KIND SERVER UDP_VIA ASSET VERSION SNAPSHOTS MAX_SNAPSHOTS TIMEOUT_S EXPECTED_LOSS [VIEW]");
+  }
   ClientArgs a;
   a.kind = argv[2];
   a.server = argv[3];
@@ -49,9 +67,12 @@ ClientArgs ParseClientArgs(int argc, char** argv) {
   a.timeout_s = ParseDouble(argv[9], "TIMEOUT_S");
   a.expected_loss = ParseDouble(argv[10], "EXPECTED_LOSS");
   if (a.expected_loss > 1) Die("--shaped-client: EXPECTED_LOSS at most 1 (< 0: unknown)");
-  if (a.kind != "udp" && a.kind != "udp_no_parity" && a.kind != "tcp_only" && a.kind != "draco_export") {
-    Die("--shaped-client: KIND udp, udp_no_parity, tcp_only or draco_export");
+  if (argc > 11 && argv[11][0] != '\0') a.view = argv[11];
+  if (a.kind != "udp" && a.kind != "udp_no_parity" && a.kind != "tcp_only" && a.kind != "draco_export" &&
+      a.kind != "udp_view") {
+    Die("--shaped-client: KIND udp, udp_no_parity, tcp_only, draco_export or udp_view");
   }
+  if (a.kind == "udp_view" && a.view.empty()) Die("--shaped-client: udp_view needs VIEW");
   return a;
 }
 
@@ -258,6 +279,7 @@ void RunSession(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots) 
   if (a.kind != "tcp_only") so.udp_via = a.udp_via;
   so.no_parity = a.kind == "udp_no_parity";
   so.expected_loss = a.expected_loss;
+  if (a.kind == "udp_view") so.view = ParseViewArg(a.view);
   auto session = sdk::Session::Open(*client.value(), so);
   if (!session.ok()) {
     j["error"] = "Session::Open: " + session.status().ToString();

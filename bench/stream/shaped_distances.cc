@@ -11,6 +11,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/stream/snapshots.h"
+#include "codec/progressive/view_order.h"
 #include "codec/metrics/hausdorff.h"
 
 namespace meshstream::bench::stream {
@@ -87,11 +88,65 @@ struct Point {
   size_t run, event;
   int32_t level;
   size_t job;  // kExact: the reference itself
+  size_t visible_job = SIZE_MAX;  // the view run: what its camera sees (SIZE_MAX: none)
+  double diagonal = 0;            // of the reference, for the visible distance's share
 };
+
+// The view run's camera, from the run's "view" (shaped.cc's ViewArg).
+View RunView(const std::string& text) {
+  std::vector<double> v;
+  for (size_t at = 0; at <= text.size();) {
+    const size_t comma = std::min(text.find(',', at), text.size());
+    v.push_back(std::strtod(text.substr(at, comma - at).c_str(), nullptr));
+    at = comma + 1;
+  }
+  v.resize(9, 1);
+  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) + (v[5] - v[2]) * (v[5] - v[2]));
+  return LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, v[6], static_cast<uint32_t>(v[7]), static_cast<uint32_t>(v[8]),
+                    distance / 1000, distance * 1000);
+}
+
+// The triangles of `mesh` whose centroid the view's frustum holds: what the
+// camera sees (occlusion aside), measured on the surface.
+Primitive Visible(const Primitive& mesh, const View& view) {
+  Primitive out;
+  std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
+  const std::array<double, 16>& m = view.view_projection;
+  for (size_t f = 0; f + 2 < mesh.indices.size(); f += 3) {
+    double c[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) c[a] += mesh.positions[mesh.indices[f + k]][a] / 3.0;
+    double clip[4];
+    for (int r = 0; r < 4; ++r) clip[r] = m[r] * c[0] + m[4 + r] * c[1] + m[8 + r] * c[2] + m[12 + r];
+    if (!(clip[3] > 0) || std::abs(clip[0]) > clip[3] || std::abs(clip[1]) > clip[3] || std::abs(clip[2]) > clip[3]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.indices[f + k];
+      if (remap[v] == UINT32_MAX) {
+        remap[v] = static_cast<uint32_t>(out.positions.size());
+        out.positions.push_back(mesh.positions[v]);
+      }
+      out.indices.push_back(remap[v]);
+    }
+  }
+  return out;
+}
+
+double Diagonal(const Primitive& mesh) {
+  Vec3d lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+  for (const Vec3f& p : mesh.positions) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(p[a]));
+      hi[a] = std::max(hi[a], double(p[a]));
+    }
+  }
+  return mesh.positions.empty() ? 0 : std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
 
 // The snapshots of every run, each distinct mesh measured once.
 std::vector<Point> MeasureSnapshots(const ShapedMeshes& meshes, const std::vector<std::string>& snapshot_files,
-                                    const json& runs, Distances& distances) {
+                                    const json& runs, Distances& distances,
+                                    std::map<std::string, std::unique_ptr<Primitive>>& visible_references) {
   std::vector<Point> points;
   std::map<std::pair<std::string, uint64_t>, size_t> job_of;
   for (size_t i = 0; i < runs.size(); ++i) {
@@ -100,7 +155,22 @@ std::vector<Point> MeasureSnapshots(const ShapedMeshes& meshes, const std::vecto
     std::vector<Snapshot> snaps = ReadSnapshots(snapshot_files[i]);
     const json ev = runs[i].value("snapshot_events", json::array());
     const size_t first_new = distances.size();
+    // The view run: each snapshot's visible part against the reference's.
+    const bool viewed = runs[i].contains("view");
+    View view;
+    const Primitive* visible_reference = nullptr;
+    if (viewed) {
+      view = RunView(runs[i]["view"].get<std::string>());
+      std::unique_ptr<Primitive>& ref = visible_references[model + " " + runs[i]["view"].get<std::string>()];
+      if (!ref) ref = std::make_unique<Primitive>(Visible(meshes.reference.at(model), view));
+      visible_reference = ref.get();
+    }
     for (size_t k = 0; k < snaps.size() && k < ev.size(); ++k) {
+      size_t visible_job = SIZE_MAX;
+      if (viewed && !visible_reference->indices.empty()) {
+        Primitive seen = Visible(snaps[k].mesh, view);
+        if (!seen.indices.empty()) visible_job = distances.Add(visible_reference, std::move(seen));
+      }
       const uint64_t h = MeshHash(snaps[k].mesh);
       size_t job = kExact;
       if (h != meshes.reference_hash.at(model)) {
@@ -111,7 +181,7 @@ std::vector<Point> MeasureSnapshots(const ShapedMeshes& meshes, const std::vecto
         }
         job = it->second;
       }
-      points.push_back({i, ev[k].get<size_t>(), snaps[k].level, job});
+      points.push_back({i, ev[k].get<size_t>(), snaps[k].level, job, visible_job, Diagonal(meshes.reference.at(model))});
     }
     snaps.clear();
     distances.MeasureFrom(first_new);
@@ -129,6 +199,13 @@ void AddQuality(const std::vector<Point>& points, const Distances& distances, js
     json& r = runs[p.run];
     json q = distances.Json(p.job);
     q["level"] = p.level;
+    if (p.visible_job != SIZE_MAX) {
+      const json v = distances.Json(p.visible_job);
+      if (v.contains("hausdorff") && p.diagonal > 0) {
+        q["visible_hausdorff"] = v["hausdorff"];
+        q["visible_hausdorff_rel"] = v["hausdorff"].get<double>() / p.diagonal;  // of the whole model's diagonal
+      }
+    }
     const json& ev = r["events"];
     if (p.event < ev.size()) {
       q["t_ms"] = ev[p.event]["t_ms"];
@@ -156,7 +233,8 @@ DistanceCounts MeasureShapedDistances(const std::vector<Model>& models, const Sh
                           distances.Add(&source, draco)};
   }
   distances.MeasureFrom(0);
-  const std::vector<Point> points = MeasureSnapshots(meshes, snapshot_files, runs, distances);
+  std::map<std::string, std::unique_ptr<Primitive>> visible_references;  // outlive the jobs that point at them
+  const std::vector<Point> points = MeasureSnapshots(meshes, snapshot_files, runs, distances, visible_references);
   DistanceCounts counts{distances.size(), points.size(), Ms(d0, Clock::now()) / 1000};
   std::fprintf(stderr, "meshstream_bench_stream: shaped link: %zu snapshots, %zu distinct meshes measured in %.0f s\n",
                counts.snapshots, counts.distinct_meshes, counts.seconds);

@@ -27,7 +27,7 @@ json ShapedMsSummary(std::vector<double> v) {
 
 // What the successful runs of one cell measured, run by run.
 struct Cell {
-  std::vector<double> first, full, final_h, predicted, lost, received, rate, srtt, decreases, within1, within01;
+  std::vector<double> first, full, final_h, predicted, lost, received, rate, srtt, decreases, within1, within01, visible1, visible01;
   // Where a session's time went (SessionStats): the base, the last arrival,
   // the decoding left after it, the session thread's CPU, the HELLO.
   std::vector<double> base, last_arrival, decode_after, thread_cpu, hello_rtt, connect;
@@ -86,6 +86,16 @@ struct Cell {
     }
     if (t1 >= 0) within1.push_back(t1);
     if (t01 >= 0) within01.push_back(t01);
+    // The view run: when what the camera sees came within 1 % and 0.1 %.
+    double v1 = -1, v01 = -1;
+    for (const json& p : q) {
+      if (!p.contains("visible_hausdorff_rel") || !p.contains("t_ms")) continue;
+      const double h = p["visible_hausdorff_rel"];
+      if (v1 < 0 && h <= 0.01) v1 = p["t_ms"];
+      if (v01 < 0 && h <= 0.001) v01 = p["t_ms"];
+    }
+    if (v1 >= 0) visible1.push_back(v1);
+    if (v01 >= 0) visible01.push_back(v01);
   }
 
   json Json(int loss, const std::string& model, const std::string& kind) const {
@@ -95,6 +105,14 @@ struct Cell {
               {"final_hausdorff_rel_median", Median(final_h)},
               {"final_hausdorff_rel_max", final_h.empty() ? 0.0 : *std::max_element(final_h.begin(), final_h.end())}};
     if (!errors.empty()) s["errors"] = errors;
+    if (!visible1.empty() || !visible01.empty()) {
+      s["visible_within_1pct_ms"] = ShapedMsSummary(visible1);
+      s["visible_within_0_1pct_ms"] = ShapedMsSummary(visible01);
+      const double f = Median(full);
+      if (f > 0) {
+        s["visible_vs_full"] = {{"within_1pct", Median(visible1) / f}, {"within_0_1pct", Median(visible01) / f}};
+      }
+    }
     if (kind != "draco_export") {
       s["predicted_vertices_median"] = Median(predicted);
       s["datagrams_lost_median"] = Median(lost);
@@ -184,6 +202,11 @@ json ShapedSummary(const std::vector<int>& losses, const std::vector<Model>& mod
       }
       by_kind["udp"]["vs_no_parity"] = VsNoParity(by_kind["udp"], by_kind["udp_no_parity"], rate_mbit);
       for (const char* kind : kShapedKinds) summary.push_back(by_kind[kind]);
+      Cell view;
+      for (const json& r : runs) {
+        if (r["loss_percent"] == loss && r["model"] == m.name && r["kind"] == kShapedViewKind) view.Add(r);
+      }
+      if (view.n > 0) summary.push_back(view.Json(loss, m.name, kShapedViewKind));
     }
   }
   return summary;

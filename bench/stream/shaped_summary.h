@@ -16,6 +16,10 @@ namespace meshstream::bench::stream {
 // udp_no_parity is a UDP session that asks for no parity datagrams
 // (OpenRequest.no_parity), the reference for what parity costs in time.
 inline const char* const kShapedKinds[] = {"udp", "udp_no_parity", "tcp_only", "draco_export"};
+// The view run, for models of the role "large": a udp session opened with a
+// camera on one side of the model (OpenRequest.view); its snapshots also
+// get the distance of what the camera sees (shaped_distances.h).
+inline const char kShapedViewKind[] = "udp_view";
 
 // Runs (with their "quality") grouped by loss, model and kind: the
 // "summary" array, one entry per loss, model and kind. The udp entries
