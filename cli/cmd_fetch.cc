@@ -1,4 +1,5 @@
 // meshstream fetch ASSET[@VERSION] -o OUT.glb [--server ADDR] [--lod K] [--tcp-only] [--json]
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -27,8 +28,9 @@ const char kDetails[] =
     "ASSET alone or ASSET@0 is the latest READY version; --lod K stops after K levels. The\n"
     "refinement datagrams travel over UDP (authenticated, paced; what is lost is predicted, not\n"
     "sent again) unless --tcp-only asks for them on the gRPC stream, or UDP is blocked (the server\n"
-    "then falls back to gRPC after its HELLO timeout). On a terminal a line per level shows the\n"
-    "progress.\n"
+    "then falls back to gRPC after its HELLO timeout). On a terminal one line shows the progress\n"
+    "(level, megabytes received, mean rate, time); with --json, or when stderr is not a terminal,\n"
+    "nothing but the result is printed.\n"
     "\n"
     "Example:\n"
     "  meshstream fetch bunny -o bunny.glb --json";
@@ -114,7 +116,19 @@ int RunFetch(const FetchArgs& args) {
   }
   auto session = sdk::Session::Open(**client, options);
   if (!session.ok()) return ReportError("fetch", session.status());
+  // On a terminal (stderr) and without --json: one line, rewritten per
+  // level: the level, the bytes received on both channels, the mean rate.
   ProgressLine progress(!args.json);
+  const auto opened = std::chrono::steady_clock::now();
+  auto show = [&](const std::string& what) {
+    const sdk::SessionStats& st = (*session)->stats();
+    const double bytes = static_cast<double>(st.reliable_bytes + st.unreliable_bytes);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+    char line[256];
+    std::snprintf(line, sizeof line, "%s, %.2f MB, %.1f Mbit/s, %.1f s", what.c_str(), bytes / 1e6,
+                  s > 0 ? bytes * 8 / s / 1e6 : 0.0, s);
+    progress.Show(line);
+  };
   for (;;) {
     const sdk::Event e = (*session)->Poll(static_cast<int32_t>(args.remote.client.request_timeout_s * 1000));
     if (e.type == sdk::EventType::kNone) {
@@ -126,12 +140,12 @@ int RunFetch(const FetchArgs& args) {
       if (error.code() == StatusCode::kInvalidArgument) error = InvalidInput(error.message());
       return ReportError("fetch", error);
     }
-    if (e.type == sdk::EventType::kBaseReady) progress.Show("base mesh after " + std::to_string(static_cast<int>((*session)->stats().time_to_base_ms)) + " ms");
+    if (e.type == sdk::EventType::kBaseReady) show("base mesh after " + std::to_string(static_cast<int>((*session)->stats().time_to_base_ms)) + " ms");
     if (e.type == sdk::EventType::kLevelReady) {
-      progress.Show("level " + std::to_string(e.level) + " of " + std::to_string((*session)->levels()));
+      show("level " + std::to_string(e.level) + " of " + std::to_string((*session)->levels()));
     }
     if (e.type == sdk::EventType::kLevelReady && args.repair && e.level == (*session)->levels()) {
-      progress.Show("level " + std::to_string(e.level) + " of " + std::to_string(e.level) + ", repairing");
+      show("level " + std::to_string(e.level) + " of " + std::to_string(e.level) + ", repairing");
     }
     if (e.type == sdk::EventType::kComplete) break;
   }
