@@ -20,7 +20,7 @@ ifneq ($(CCACHE),)
   export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all deps build wasm test test-asan test-tsan demo bench fuzz clean
+.PHONY: all deps build wasm test test-asan test-tsan demo bench fuzz clean install
 
 all: build
 
@@ -163,6 +163,13 @@ bench-ranges: build
 bench-soak: build
 	@mkdir -p docs/results/bench
 	$(BUILD)/bin/meshstream_bench_soak --out docs/results/bench/soak.json $(SOAK_ARGS)
+
+# The CLI, the C API's shared and static libraries, its header and meshstream.pc under
+# $(PREFIX) (default /usr/local): `make install PREFIX=$$HOME/.local`. DESTDIR is honoured.
+PREFIX ?= /usr/local
+install: build
+	DESTDIR=$(DESTDIR) cmake --install $(BUILD) --prefix $(PREFIX) --component cli
+	DESTDIR=$(DESTDIR) cmake --install $(BUILD) --prefix $(PREFIX) --component c_api
 
 # libFuzzer binaries (clang): the importers' and codec's in build-fuzz/ (ONLY_IMPORTERS), the
 # service's parsers (fuzz_service_*, which link services/) in build-fuzz-services/.

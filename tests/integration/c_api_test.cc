@@ -1011,5 +1011,41 @@ TEST_F(CApi, ExampleBuildsWithPkgConfigFromAnInstalledTree) {
   EXPECT_NE(ldd.out.find(lib_dir + "/libmeshstream.so.0"), std::string::npos) << ldd.out;
 }
 
+// `make install`'s two components into a prefix: the CLI, and the C API's
+// static archive, which an engine links with `pkg-config meshstream-static`
+// alone (the example then has no libmeshstream.so to load).
+TEST_F(CApi, ExampleLinksStaticallyFromAnInstalledTree) {
+  const test_util::TempDir dir;
+  const std::string prefix = dir.File("prefix");
+  for (const char* component : {"cli", "c_api"}) {
+    const auto install = RunCommand(Quote(MESHSTREAM_CMAKE) + " --install " + Quote(MESHSTREAM_BUILD_DIR) +
+                                    " --component " + component + " --prefix " + Quote(prefix));
+    ASSERT_EQ(install.exit_code, 0) << install.out << install.err;
+  }
+  const auto version = RunCommand(Quote(prefix + "/bin/meshstream") + " --version");
+  EXPECT_EQ(version.exit_code, 0) << version.err;
+  std::string pc_dir, archive;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(prefix)) {
+    if (entry.path().filename() == "meshstream-static.pc") pc_dir = entry.path().parent_path().string();
+    if (entry.path().filename() == "libmeshstream.a") archive = entry.path().string();
+  }
+  ASSERT_FALSE(pc_dir.empty()) << "no meshstream-static.pc installed";
+  ASSERT_FALSE(archive.empty()) << "no libmeshstream.a installed";
+  const std::string env = "PKG_CONFIG_PATH=" + Quote(pc_dir);
+  const auto libs = RunCommand(env + " pkg-config --libs meshstream-static");
+  ASSERT_EQ(libs.exit_code, 0) << libs.err;
+  EXPECT_NE(libs.out.find("libmeshstream.a"), std::string::npos) << libs.out;
+  const std::string binary = dir.File("stream_mesh_static");
+  const auto cc = RunCommand("cc -std=c99 -Wall -Wextra -pedantic -Werror -o " + Quote(binary) + " " +
+                             Quote(MESHSTREAM_C_EXAMPLE_SOURCE) + " $(" + env + " pkg-config --cflags --libs meshstream-static)");
+  ASSERT_EQ(cc.exit_code, 0) << cc.out << cc.err;
+  const auto ldd = RunCommand("ldd " + Quote(binary));
+  EXPECT_EQ(ldd.out.find("libmeshstream"), std::string::npos) << ldd.out;
+  const std::string file = dir.File("spot.glb");
+  ExpectExampleOutput(RunCommand("env -u LD_LIBRARY_PATH " + Quote(binary) + " " + server_->address() + " spot " +
+                                 Quote(file) + " --tcp-only"),
+                      Asset("spot"), file, true);
+}
+
 }  // namespace
 }  // namespace meshstream
