@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <utility>
 
 #include <nlohmann/json.hpp>
@@ -65,55 +66,48 @@ bool Numbers(const nlohmann::json& j, size_t n, double* out) {
   return true;
 }
 
-// The local matrix of a glTF node (matrix, or translation, rotation, scale).
-Mat4d LocalMatrix(const nlohmann::json& node) {
-  Node n;
-  if (node.contains("matrix") && Numbers(node["matrix"], 16, n.matrix.data())) n.has_matrix = true;
-  if (node.contains("translation")) Numbers(node["translation"], 3, n.translation.data());
-  if (node.contains("rotation")) Numbers(node["rotation"], 4, n.rotation.data());
-  if (node.contains("scale")) Numbers(node["scale"], 3, n.scale.data());
-  return NodeLocalMatrix(n);
+// The scene's structure alone (nodes with their transforms and meshes, the
+// scenes' roots, the default scene, as many empty meshes as the file has),
+// read from the glTF JSON without importing the artifact.
+Scene SceneStructure(const nlohmann::json& doc, size_t meshes) {
+  Scene scene;
+  scene.meshes.resize(meshes);
+  auto index = [](const nlohmann::json& j) { return j.is_number_unsigned() ? j.get<int32_t>() : -1; };
+  if (doc.contains("nodes") && doc["nodes"].is_array()) {
+    for (const nlohmann::json& node : doc["nodes"]) {
+      Node n;
+      if (node.is_object()) {
+        if (node.contains("mesh")) n.mesh = index(node["mesh"]);
+        if (node.contains("children") && node["children"].is_array()) {
+          for (const auto& c : node["children"]) n.children.push_back(index(c));
+        }
+        if (node.contains("matrix") && Numbers(node["matrix"], 16, n.matrix.data())) n.has_matrix = true;
+        if (node.contains("translation")) Numbers(node["translation"], 3, n.translation.data());
+        if (node.contains("rotation")) Numbers(node["rotation"], 4, n.rotation.data());
+        if (node.contains("scale")) Numbers(node["scale"], 3, n.scale.data());
+      }
+      scene.nodes.push_back(std::move(n));
+    }
+  }
+  if (doc.contains("scenes") && doc["scenes"].is_array()) {
+    for (const nlohmann::json& root : doc["scenes"]) {
+      SceneRoot r;
+      if (root.is_object() && root.contains("nodes") && root["nodes"].is_array()) {
+        for (const auto& n : root["nodes"]) r.nodes.push_back(index(n));
+      }
+      scene.scenes.push_back(std::move(r));
+    }
+  }
+  if (doc.contains("scene")) scene.default_scene = index(doc["scene"]);
+  return scene;
 }
 
-// Per mesh, the world matrices of the nodes of the default scene (the
-// first without one) that show it; every mesh once with the identity when
-// the file has no scene.
+// Per mesh, the world matrices of the nodes that show it
+// (codec/mesh/scene_flatten.h's ForEachMeshInstance over the default scene).
 std::vector<std::vector<Mat4d>> MeshInstances(const nlohmann::json& doc, size_t meshes) {
   std::vector<std::vector<Mat4d>> out(meshes);
-  const Mat4d identity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-  const nlohmann::json* scenes = doc.contains("scenes") && doc["scenes"].is_array() ? &doc["scenes"] : nullptr;
-  const nlohmann::json* nodes = doc.contains("nodes") && doc["nodes"].is_array() ? &doc["nodes"] : nullptr;
-  if (scenes == nullptr || scenes->empty() || nodes == nullptr) {
-    for (auto& m : out) m.push_back(identity);
-    return out;
-  }
-  size_t which = doc.contains("scene") && doc["scene"].is_number_unsigned() ? doc["scene"].get<size_t>() : 0;
-  if (which >= scenes->size()) which = 0;
-  const nlohmann::json& scene = (*scenes)[which];
-  std::vector<std::pair<size_t, Mat4d>> stack;
-  if (scene.is_object() && scene.contains("nodes") && scene["nodes"].is_array()) {
-    for (const auto& n : scene["nodes"]) {
-      if (n.is_number_unsigned() && n.get<size_t>() < nodes->size()) stack.push_back({n.get<size_t>(), identity});
-    }
-  }
-  std::vector<bool> visited(nodes->size(), false);
-  while (!stack.empty()) {
-    const auto [index, parent] = stack.back();
-    stack.pop_back();
-    if (visited[index]) continue;  // a forest (the importer checked); never loop
-    visited[index] = true;
-    const nlohmann::json& node = (*nodes)[index];
-    if (!node.is_object()) continue;
-    const Mat4d world = Multiply(parent, LocalMatrix(node));
-    if (node.contains("mesh") && node["mesh"].is_number_unsigned() && node["mesh"].get<size_t>() < meshes) {
-      out[node["mesh"].get<size_t>()].push_back(world);
-    }
-    if (node.contains("children") && node["children"].is_array()) {
-      for (const auto& c : node["children"]) {
-        if (c.is_number_unsigned() && c.get<size_t>() < nodes->size()) stack.push_back({c.get<size_t>(), world});
-      }
-    }
-  }
+  ForEachMeshInstance(SceneStructure(doc, meshes),
+                      [&](int32_t mesh, const Mat4d& world, bool) { out[static_cast<size_t>(mesh)].push_back(world); });
   return out;
 }
 
@@ -145,51 +139,92 @@ bool WorldBounds(const nlohmann::json& doc, const std::vector<std::vector<Mat4d>
   }
 }
 
-// `order`'s refinements of `full` with their levels: the plan of every
-// refinement in that order (the primitives' level lists from `levels`).
-SessionPlan Reordered(const SessionPlan& full, const SceneLevels& levels) {
-  SessionPlan plan;
-  plan.primitives = full.primitives;
-  plan.reliable_profile = full.reliable_profile;
-  plan.reliable_bytes = full.reliable_bytes;
-  plan.unreliable_bytes = full.unreliable_bytes;
-  plan.levels = levels.levels;
-  for (size_t i = 0; i < plan.primitives.size(); ++i) plan.primitives[i].level_refinements = levels.applied[i];
-  std::vector<std::vector<const PlannedRefinement*>> by_primitive(full.primitives.size());
-  for (const PlannedRefinement& r : full.refinements) {
-    if (r.primitive >= by_primitive.size()) continue;
-    auto& list = by_primitive[r.primitive];
-    if (list.size() <= r.refinement) list.resize(r.refinement + 1, nullptr);
-    list[r.refinement] = &r;
-  }
-  for (const ScheduledRefinement& s : levels.order) {
-    PlannedRefinement r = *by_primitive[s.primitive][s.refinement];
-    r.level = s.level;
-    plan.refinements.push_back(std::move(r));
-  }
-  return plan;
-}
-
 }  // namespace
 
 bool ViewCanOrder(const SessionPlan& plan) {
   for (const PlannedPrimitive& p : plan.primitives) {
-    if (!p.has_bounds || p.residual_error.size() != size_t{p.refinements} + 1) return false;
+    // The stream's errors cover every refinement, those of this session too.
+    if (!p.has_bounds || p.residual_error.size() < size_t{p.refinements} + 1) return false;
   }
   return !plan.primitives.empty();
 }
 
-SessionPlan ViewPlan(const SessionPlan& full, const View& view, int32_t max_level) {
-  if (!ViewCanOrder(full)) return CutPlan(full, max_level);
-  std::vector<uint32_t> counts;
-  std::vector<std::vector<double>> errors;
-  std::vector<Box> bounds;
-  for (const PlannedPrimitive& p : full.primitives) {
-    counts.push_back(p.refinements);
-    errors.push_back(p.residual_error);
-    bounds.push_back(p.bounds);
+std::optional<SessionPlan> OrderByView(const SessionPlan& plan, size_t begun, const View& view,
+                                       uint32_t* first_changed) {
+  const size_t total = plan.refinements.size();
+  if (!ViewCanOrder(plan) || begun >= total) return std::nullopt;
+  // The levels keep their sizes: level L is the first count[L] refinements.
+  std::vector<size_t> count(plan.levels + 1, 0);
+  for (const PlannedRefinement& r : plan.refinements) {
+    if (r.level >= 1 && r.level <= plan.levels) ++count[r.level];
   }
-  return CutPlan(Reordered(full, ScheduleSceneLevels(counts, ViewErrors(view, bounds, errors))), max_level);
+  for (uint32_t l = 1; l <= plan.levels; ++l) count[l] += count[l - 1];
+  // Per primitive: its refinements begun, in the session, and by index.
+  const size_t primitives = plan.primitives.size();
+  std::vector<uint32_t> done(primitives, 0), in_session(primitives, 0);
+  std::vector<std::vector<const PlannedRefinement*>> by_primitive(primitives);
+  for (size_t k = 0; k < total; ++k) {
+    const PlannedRefinement& r = plan.refinements[k];
+    ++in_session[r.primitive];
+    if (k < begun) ++done[r.primitive];
+    auto& list = by_primitive[r.primitive];
+    if (list.size() <= r.refinement) list.resize(r.refinement + 1, nullptr);
+    list[r.refinement] = &r;
+  }
+  // The rest by the view: the scene's scheduler over each primitive's
+  // remaining errors, in pixels (a suffix of its own).
+  std::vector<Box> bounds;
+  std::vector<std::vector<double>> errors;
+  for (const PlannedPrimitive& p : plan.primitives) {
+    bounds.push_back(p.bounds);
+    errors.push_back(p.residual_error);
+  }
+  const std::vector<std::vector<double>> seen = ViewErrors(view, bounds, errors);
+  std::vector<uint32_t> remaining(primitives);
+  std::vector<std::vector<double>> rest_errors(primitives);
+  for (size_t p = 0; p < primitives; ++p) {
+    remaining[p] = in_session[p] - done[p];
+    rest_errors[p].assign(seen[p].begin() + done[p], seen[p].begin() + in_session[p] + 1);
+  }
+  const SceneLevels rest = ScheduleSceneLevels(remaining, rest_errors);
+  SessionPlan out;
+  out.primitives = plan.primitives;
+  out.reliable_profile = plan.reliable_profile;
+  out.reliable_bytes = plan.reliable_bytes;
+  out.unreliable_bytes = plan.unreliable_bytes;
+  out.levels = plan.levels;
+  out.refinements.assign(plan.refinements.begin(), plan.refinements.begin() + static_cast<long>(begun));
+  bool same = true;
+  for (const ScheduledRefinement& s : rest.order) {
+    const PlannedRefinement& r = *by_primitive[s.primitive][done[s.primitive] + s.refinement];
+    const PlannedRefinement& was = plan.refinements[out.refinements.size()];
+    same = same && was.primitive == r.primitive && was.refinement == r.refinement;
+    out.refinements.push_back(r);
+  }
+  if (same) return std::nullopt;
+  // Each refinement's level and each primitive's level list, by position.
+  uint32_t level = 1;
+  for (size_t k = 0; k < out.refinements.size(); ++k) {
+    while (level < plan.levels && count[level] <= k) ++level;
+    out.refinements[k].level = level;
+  }
+  std::vector<uint32_t> applied(primitives, 0);
+  for (PlannedPrimitive& p : out.primitives) p.level_refinements.assign(plan.levels, 0);
+  size_t k = 0;
+  for (uint32_t l = 1; l <= plan.levels; ++l) {
+    for (; k < count[l] && k < out.refinements.size(); ++k) ++applied[out.refinements[k].primitive];
+    for (size_t p = 0; p < primitives; ++p) out.primitives[p].level_refinements[l - 1] = applied[p];
+  }
+  uint32_t first = 1;
+  while (first <= plan.levels && count[first] <= begun) ++first;
+  if (first_changed != nullptr) *first_changed = first;
+  return out;
+}
+
+SessionPlan ViewPlan(const SessionPlan& full, const View& view, int32_t max_level) {
+  uint32_t first_changed = 0;
+  std::optional<SessionPlan> ordered = OrderByView(full, 0, view, &first_changed);
+  return CutPlan(ordered ? *ordered : full, max_level);
 }
 
 std::vector<uint32_t> ReliableCutFor(const PlannedPrimitive& p, double loss) {

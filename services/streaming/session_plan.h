@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -91,10 +92,20 @@ SessionPlan CutPlan(const SessionPlan& full, int32_t max_level);
 // errors of every refinement and a box).
 bool ViewCanOrder(const SessionPlan& plan);
 
+// `plan` with its refinements from `begun` on ordered by `view`
+// (ViewErrors over each primitive's remaining errors, then the scene's
+// scheduler), the ones before kept where they are. The levels keep their
+// sizes (level L is still its first as many refinements), so the levels
+// whose refinements all lie before `begun` do not change: *first_changed is
+// the first that may. nullopt when the plan lacks what a view orders by
+// (ViewCanOrder), every refinement has begun, or the order would not change.
+std::optional<SessionPlan> OrderByView(const SessionPlan& plan, size_t begun, const View& view,
+                                       uint32_t* first_changed);
+
 // The plan of a session with `view` and `max_level` from `full` (PlanSession
-// with -1): every refinement ordered by the view (ViewErrors, then the
-// scene's scheduler: the levels are the view's), then cut at `max_level` as
-// CutPlan does. Without what a view orders by (ViewCanOrder), CutPlan.
+// with -1): every refinement ordered by the view (OrderByView from the
+// first), then cut at `max_level` as CutPlan does. Without what a view
+// orders by (ViewCanOrder), CutPlan.
 SessionPlan ViewPlan(const SessionPlan& full, const View& view, int32_t max_level);
 
 }  // namespace meshstream

@@ -1,6 +1,5 @@
 #include "services/streaming/session_sender.h"
 
-#include "codec/progressive/scene_levels.h"
 
 #include <algorithm>
 #include <iomanip>
@@ -12,7 +11,6 @@
 #include "codec/loss/parity.h"
 #include "codec/loss/protection.h"
 #include "codec/loss/reliable_cut.h"
-#include "codec/progressive/scene_levels.h"
 #include "net/packet_header.h"
 
 namespace meshstream {
@@ -114,82 +112,13 @@ uint32_t SessionSender::ApplyView(uint64_t now_us) {
   pending_view_.reset();
   view_applied_ = true;
   view_applied_us_ = now_us;
-  const SessionPlan& old = *plan_;
-  const size_t total = old.refinements.size();
-  if (index_ >= total) return 0;
-  // The levels keep their sizes: level L is the first count(L) refinements
-  // of the order (those with level <= L in the old plan).
-  std::vector<size_t> count(old.levels + 1, 0);
-  for (const PlannedRefinement& r : old.refinements) {
-    if (r.level >= 1 && r.level <= old.levels) ++count[r.level];
-  }
-  for (uint32_t l = 1; l <= old.levels; ++l) count[l] += count[l - 1];
-  // Per primitive, its refinements begun and in this session.
-  const size_t primitives = old.primitives.size();
-  std::vector<uint32_t> begun(primitives, 0), in_session(primitives, 0);
-  for (size_t k = 0; k < total; ++k) {
-    ++in_session[old.refinements[k].primitive];
-    if (k < index_) ++begun[old.refinements[k].primitive];
-  }
-  // The rest ordered by the view: the scene's scheduler over each
-  // primitive's remaining errors (a suffix of its own, in pixels).
-  std::vector<uint32_t> remaining(primitives);
-  std::vector<std::vector<double>> errors(primitives);
-  std::vector<Box> bounds;
-  std::vector<std::vector<double>> full_errors;
-  for (const PlannedPrimitive& p : old.primitives) {
-    bounds.push_back(p.bounds);
-    full_errors.push_back(p.residual_error);
-  }
-  const std::vector<std::vector<double>> seen = ViewErrors(view, bounds, full_errors);
-  for (size_t p = 0; p < primitives; ++p) {
-    remaining[p] = in_session[p] - begun[p];
-    errors[p].assign(seen[p].begin() + begun[p], seen[p].begin() + in_session[p] + 1);
-  }
-  const SceneLevels rest = ScheduleSceneLevels(remaining, errors);
-  std::vector<std::vector<const PlannedRefinement*>> by_primitive(primitives);
-  for (const PlannedRefinement& r : old.refinements) {
-    auto& list = by_primitive[r.primitive];
-    if (list.size() <= r.refinement) list.resize(r.refinement + 1, nullptr);
-    list[r.refinement] = &r;
-  }
-  auto plan = std::make_unique<SessionPlan>();
-  plan->primitives = old.primitives;
-  plan->reliable_profile = old.reliable_profile;
-  plan->reliable_bytes = old.reliable_bytes;
-  plan->unreliable_bytes = old.unreliable_bytes;
-  plan->levels = old.levels;
-  plan->refinements.assign(old.refinements.begin(), old.refinements.begin() + index_);
-  bool same = true;
-  for (const ScheduledRefinement& s : rest.order) {
-    const PlannedRefinement& r = *by_primitive[s.primitive][begun[s.primitive] + s.refinement];
-    const PlannedRefinement& was = old.refinements[plan->refinements.size()];
-    same = same && was.primitive == r.primitive && was.refinement == r.refinement;
-    plan->refinements.push_back(r);
-  }
-  if (same) return 0;  // the view changes nothing: no new plan, no LevelPlan
-  // Each refinement's level and each primitive's level list, by position.
-  uint32_t level = 1;
-  for (size_t k = 0; k < plan->refinements.size(); ++k) {
-    while (level < old.levels && count[level] <= k) ++level;
-    plan->refinements[k].level = level;
-  }
-  for (size_t p = 0; p < primitives; ++p) {
-    std::vector<uint32_t>& list = plan->primitives[p].level_refinements;
-    list.assign(old.levels, 0);
-  }
-  std::vector<uint32_t> applied(primitives, 0);
-  size_t k = 0;
-  for (uint32_t l = 1; l <= old.levels; ++l) {
-    for (; k < count[l] && k < plan->refinements.size(); ++k) ++applied[plan->refinements[k].primitive];
-    for (size_t p = 0; p < primitives; ++p) plan->primitives[p].level_refinements[l - 1] = applied[p];
-  }
-  uint32_t first_changed = 1;
-  while (first_changed <= old.levels && count[first_changed] <= index_) ++first_changed;
-  own_plan_ = std::move(plan);
+  uint32_t first_changed = 0;
+  std::optional<SessionPlan> ordered = OrderByView(*plan_, index_, view, &first_changed);
+  if (!ordered) return 0;  // the view changes nothing: no new plan, no LevelPlan
+  own_plan_ = std::make_unique<SessionPlan>(std::move(*ordered));
   plan_ = own_plan_.get();
   FindLastProtected();
-  return first_changed <= old.levels ? first_changed : 0;
+  return first_changed;
 }
 
 void SessionSender::OnClientMessage(uint64_t now_us) { last_heard_us_ = std::max(last_heard_us_, now_us); }

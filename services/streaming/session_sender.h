@@ -280,7 +280,7 @@ class SessionSender {
   // The next batch of the current refinement: due now or kWait.
   SenderAction NextBatch(uint64_t now_us);
 
-  // Orders the refinements from index_ on by pending_view_ (a copy of the
+  // Orders the refinements from index_ on by pending_view_ (OrderByView; a copy of the
   // plan the first time); returns the first level that changed (0: none).
   uint32_t ApplyView(uint64_t now_us);
   // Where each primitive's last protected refinement lies in the plan.
