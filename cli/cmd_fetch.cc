@@ -1,8 +1,6 @@
 // meshstream fetch ASSET[@VERSION] -o OUT.glb [--server ADDR] [--lod K] [--tcp-only] [--json]
 #include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <optional>
 #include <string>
@@ -50,40 +48,6 @@ struct FetchArgs {
   RemoteOptions remote;
 };
 
-// --view EX,EY,EZ,TX,TY,TZ[,FOV,W,H]: a perspective camera at the eye looking
-// at the target (vertical field of view FOV degrees, default 60; a W x H
-// viewport, default 1280 x 720), depth range 1/1000 to 1000 x the distance.
-StatusOr<View> ParseView(const std::string& text) {
-  std::vector<double> v;
-  size_t at = 0;
-  while (at <= text.size()) {
-    const size_t comma = text.find(',', at);
-    const std::string item = text.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
-    char* end = nullptr;
-    const double d = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(d)) {
-      return InvalidArgument("--view: '" + item + "' is not a number (EX,EY,EZ,TX,TY,TZ[,FOV,W,H])");
-    }
-    v.push_back(d);
-    if (comma == std::string::npos) break;
-    at = comma + 1;
-  }
-  if (v.size() != 6 && v.size() != 9) {
-    return InvalidArgument("--view: 6 or 9 numbers (EX,EY,EZ,TX,TY,TZ[,FOV,W,H]), not " + std::to_string(v.size()));
-  }
-  const Vec3d eye = {v[0], v[1], v[2]}, target = {v[3], v[4], v[5]};
-  const double fov = v.size() == 9 ? v[6] : 60;
-  if (!(fov > 0 && fov < 180)) return InvalidArgument("--view: the field of view is in (0, 180) degrees");
-  const double w = v.size() == 9 ? v[7] : 1280, h = v.size() == 9 ? v[8] : 720;
-  if (!(w >= 1 && w <= kMaxViewportPixels && h >= 1 && h <= kMaxViewportPixels) || w != std::floor(w) || h != std::floor(h)) {
-    return InvalidArgument("--view: the viewport is whole pixels in [1, " + std::to_string(kMaxViewportPixels) + "]");
-  }
-  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) + (v[5] - v[2]) * (v[5] - v[2]));
-  if (!(distance > 0)) return InvalidArgument("--view: the eye and the target are the same point");
-  View view = LookAtView(eye, target, fov, static_cast<uint32_t>(w), static_cast<uint32_t>(h), distance / 1000, distance * 1000);
-  MS_RETURN_IF_ERROR(CheckView(view));
-  return view;
-}
 
 int RunFetch(const FetchArgs& args) {
   auto target = ParseAssetVersion(args.target);
@@ -110,8 +74,8 @@ int RunFetch(const FetchArgs& args) {
   options.expected_loss = args.expected_loss;
   options.decode_threads = args.threads == 0 ? -1 : args.threads;  // the SDK's -1: one per core
   if (!args.view.empty()) {
-    auto view = ParseView(args.view);
-    if (!view.ok()) return ReportError("fetch", view.status());
+    auto view = LookAtViewFromText(args.view);
+    if (!view.ok()) return ReportError("fetch", Status(view.status().code(), "--" + view.status().message()));
     options.view = view.value();
   }
   auto session = sdk::Session::Open(**client, options);

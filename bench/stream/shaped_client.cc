@@ -38,19 +38,6 @@ struct ClientArgs {
   std::string view;  // udp_view: EX,EY,EZ,TX,TY,TZ,FOV,W,H (shaped.cc's ViewArg)
 };
 
-// The view run's camera from its nine numbers.
-View ParseViewArg(const std::string& text) {
-  std::vector<double> v;
-  for (size_t at = 0; at <= text.size();) {
-    const size_t comma = std::min(text.find(',', at), text.size());
-    v.push_back(ParseDouble(text.substr(at, comma - at), "VIEW"));
-    at = comma + 1;
-  }
-  if (v.size() != 9) Die("--shaped-client: VIEW is nine numbers");
-  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) + (v[5] - v[2]) * (v[5] - v[2]));
-  return LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, v[6], static_cast<uint32_t>(v[7]), static_cast<uint32_t>(v[8]),
-                    distance / 1000, distance * 1000);
-}
 
 ClientArgs ParseClientArgs(int argc, char** argv) {
   if (argc != 11 && argc != 12) {
@@ -279,7 +266,7 @@ void RunSession(const ClientArgs& a, json& j, std::vector<Snapshot>& snapshots) 
   if (a.kind != "tcp_only") so.udp_via = a.udp_via;
   so.no_parity = a.kind == "udp_no_parity";
   so.expected_loss = a.expected_loss;
-  if (a.kind == "udp_view") so.view = ParseViewArg(a.view);
+  if (a.kind == "udp_view") so.view = Check(LookAtViewFromText(a.view), "VIEW");
   auto session = sdk::Session::Open(*client.value(), so);
   if (!session.ok()) {
     j["error"] = "Session::Open: " + session.status().ToString();

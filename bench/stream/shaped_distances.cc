@@ -92,19 +92,6 @@ struct Point {
   double diagonal = 0;            // of the reference, for the visible distance's share
 };
 
-// The view run's camera, from the run's "view" (shaped.cc's ViewArg).
-View RunView(const std::string& text) {
-  std::vector<double> v;
-  for (size_t at = 0; at <= text.size();) {
-    const size_t comma = std::min(text.find(',', at), text.size());
-    v.push_back(std::strtod(text.substr(at, comma - at).c_str(), nullptr));
-    at = comma + 1;
-  }
-  v.resize(9, 1);
-  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) + (v[5] - v[2]) * (v[5] - v[2]));
-  return LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, v[6], static_cast<uint32_t>(v[7]), static_cast<uint32_t>(v[8]),
-                    distance / 1000, distance * 1000);
-}
 
 // The triangles of `mesh` whose centroid the view's frustum holds: what the
 // camera sees (occlusion aside), measured on the surface.
@@ -160,7 +147,7 @@ std::vector<Point> MeasureSnapshots(const ShapedMeshes& meshes, const std::vecto
     View view;
     const Primitive* visible_reference = nullptr;
     if (viewed) {
-      view = RunView(runs[i]["view"].get<std::string>());
+      view = Check(LookAtViewFromText(runs[i]["view"].get<std::string>()), "the view run's camera");
       std::unique_ptr<Primitive>& ref = visible_references[model + " " + runs[i]["view"].get<std::string>()];
       if (!ref) ref = std::make_unique<Primitive>(Visible(meshes.reference.at(model), view));
       visible_reference = ref.get();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 namespace meshstream {
@@ -139,6 +140,39 @@ View LookAtView(const Vec3d& eye, const Vec3d& target, double fov_y_degrees, uin
   m[14] = a * translation[2] + b;
   m[15] = -translation[2];
   return v;
+}
+
+StatusOr<View> LookAtViewFromText(const std::string& text) {
+  std::vector<double> v;
+  for (size_t at = 0; at <= text.size();) {
+    const size_t comma = std::min(text.find(',', at), text.size());
+    const std::string item = text.substr(at, comma - at);
+    char* end = nullptr;
+    const double d = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(d)) {
+      return InvalidArgument("view: '" + item + "' is not a number (EX,EY,EZ,TX,TY,TZ[,FOV,W,H])");
+    }
+    v.push_back(d);
+    at = comma + 1;
+  }
+  if (v.size() != 6 && v.size() != 9) {
+    return InvalidArgument("view: 6 or 9 numbers (EX,EY,EZ,TX,TY,TZ[,FOV,W,H]), not " + std::to_string(v.size()));
+  }
+  const double fov = v.size() == 9 ? v[6] : 60;
+  if (!(fov > 0 && fov < 180)) return InvalidArgument("view: the field of view is in (0, 180) degrees");
+  const double w = v.size() == 9 ? v[7] : 1280, h = v.size() == 9 ? v[8] : 720;
+  if (!(w >= 1 && w <= kMaxViewportPixels && h >= 1 && h <= kMaxViewportPixels) || w != std::floor(w) ||
+      h != std::floor(h)) {
+    return InvalidArgument("view: the viewport is whole pixels in [1, " + std::to_string(kMaxViewportPixels) + "]");
+  }
+  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) +
+                                    (v[5] - v[2]) * (v[5] - v[2]));
+  if (!(distance > 0)) return InvalidArgument("view: the eye and the target are the same point");
+  const View view = LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, fov, static_cast<uint32_t>(w),
+                               static_cast<uint32_t>(h), distance / 1000, distance * 1000);
+  const Status checked = CheckView(view);
+  if (!checked.ok()) return InvalidArgument(checked.message());
+  return view;
 }
 
 std::vector<std::vector<double>> ViewErrors(const View& view, const std::vector<Box>& bounds,

@@ -25,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "codec/core/status.h"
@@ -70,6 +71,13 @@ double ScreenError(const View& view, const Box& box, double error);
 // [near, far]: what a client without its own matrices sends (fetch --view).
 View LookAtView(const Vec3d& eye, const Vec3d& target, double fov_y_degrees, uint32_t width, uint32_t height,
                 double near_plane, double far_plane);
+
+// "EX,EY,EZ,TX,TY,TZ[,FOV,W,H]": LookAtView of that eye and target, FOV
+// degrees (default 60, in (0, 180)), a W x H viewport (default 1280 x 720,
+// whole pixels), depth range 1/1000 to 1000 x their distance; the form
+// `meshstream fetch --view` and the benchmarks take. InvalidArgument naming
+// what is wrong.
+StatusOr<View> LookAtViewFromText(const std::string& text);
 
 // Per primitive, its errors as `view` sees them (ScreenError, or
 // kOutsideWeight x error outside the frustum). `bounds` and `errors` have
