@@ -342,6 +342,8 @@ Status EncodeStream(StreamJob* job, const ProgressiveGlbOptions& options, double
   stream_options.profile = reliable ? Profile::kReliable : Profile::kLossTolerant;
   auto stream = WriteStream(encoded.value(), encode.quantization, stream_options);
   if (!stream.ok()) return stream.status().WithContext(where);
+  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
+  if (!header.ok()) return header.status().WithContext(where);
   std::optional<ProgressiveStream> reliable_stream;
   if (both) {
     stream_options.profile = Profile::kReliable;
@@ -363,8 +365,6 @@ Status EncodeStream(StreamJob* job, const ProgressiveGlbOptions& options, double
   // (codec/loss/protection.h), measured on the base as a client decodes it.
   std::optional<DatagramHarm> harm;
   if (options.measure_harm && options.reliable_share > 0 && !stream->control.empty() && !reliable) {
-    auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
-    if (!header.ok()) return header.status().WithContext(where);
     auto base = DecodeDracoBase(pre.draco_bytes.data(), pre.draco_bytes.size(), pre.ids, header->grids);
     if (!base.ok()) return base.status().WithContext(where + ": the base for the harm measure");
     auto measured = EstimateDatagramHarm(stream.value(), base.value(), harm_runner);
@@ -400,8 +400,6 @@ Status EncodeStream(StreamJob* job, const ProgressiveGlbOptions& options, double
   r.unreliable_bytes = stream->unreliable_bytes();
   r.datagrams = stream->datagram_count();
   r.removed_faces = encoded->removed_faces;
-  auto header = StreamHeader::Parse(stream->header.data(), stream->header.size());
-  if (!header.ok()) return header.status().WithContext(where);
   r.tools = header->tools;
   const std::vector<uint64_t> refinement_bytes = RefinementDatagramBytes(stream.value());
   for (uint32_t i : delivery.reliable) r.reliable_cut_bytes += refinement_bytes[i];
