@@ -15,6 +15,7 @@
 
 #include "codec/core/status.h"
 #include "sdk/client.h"
+#include "sdk/mesh_changes.h"
 #include "sdk/session.h"
 
 #ifndef MESHSTREAM_VERSION
@@ -31,11 +32,15 @@ struct ms_session {
   std::shared_ptr<meshstream::sdk::Client> client;
   std::unique_ptr<meshstream::sdk::Session> session;
   uint64_t generation = 1;  // bumped by every poll; a view is valid within one generation
+  // A primitive's view: the arrays the host reads, updated in place by the
+  // ranges that changed since the read before (sdk/mesh_changes.h), which
+  // ms_session_mesh_changes hands out.
   struct View {
     uint64_t generation = 0;  // 0: never filled
     std::vector<float> positions, normals, texcoords, colors;
     std::vector<uint32_t> indices;
-    std::vector<uint8_t> predicted;
+    meshstream::sdk::MeshChanges changes;  // also keeps the predicted flags
+    std::vector<ms_range> vertex_ranges, index_ranges;  // ms_session_mesh_changes's, after its max_ranges
   };
   std::vector<View> views;
   mutable std::string transport;  // what ms_stats.transport points to
@@ -144,36 +149,38 @@ ms_status CheckPrimitive(const ms_session* session, uint32_t primitive) {
                                            std::to_string(count) + " primitives now)");
 }
 
-template <typename T, size_t N>
-void Flatten(const std::vector<std::array<T, N>>& in, std::vector<T>& out) {
-  out.resize(in.size() * N);
-  for (size_t i = 0; i < in.size(); ++i) {
-    for (size_t k = 0; k < N; ++k) out[i * N + k] = in[i][k];
-  }
-}
-
-// The view buffers of a primitive, filled once per poll generation.
+// The view buffers of a primitive, brought up to date once per poll
+// generation: only the vertices and triangles that changed since the last
+// fill are written (all of them the first time).
 ms_status Fill(ms_session* session, uint32_t primitive, ms_session::View** out) {
   if (session->views.size() < session->session->primitive_count()) {
     session->views.resize(session->session->primitive_count());
   }
   ms_session::View& view = session->views[primitive];
   if (view.generation != session->generation) {
-    auto mesh = session->session->Mesh(primitive);
-    if (!mesh.ok()) return Fail(mesh.status());
-    auto predicted = session->session->Predicted(primitive);
-    if (!predicted.ok()) return Fail(predicted.status());
-    Flatten(mesh->positions, view.positions);
-    Flatten(mesh->normals, view.normals);
-    if (mesh->texcoords.empty()) {
-      view.texcoords.clear();
-    } else {
-      Flatten(mesh->texcoords[0], view.texcoords);
+    auto shown = session->session->Quantized(primitive);
+    if (!shown.ok()) return Fail(shown.status());
+    const meshstream::QuantizedMesh& mesh = *shown->mesh;
+    view.changes.Update(mesh, *shown->exact);
+    const size_t n = mesh.vertex_count();
+    const meshstream::AttributeLayout& layout = mesh.layout;
+    view.positions.resize(3 * n);
+    view.normals.resize(layout.has_normals ? 3 * n : 0);
+    view.texcoords.resize(layout.texcoord_sets > 0 ? 2 * n : 0);
+    view.colors.resize(layout.has_colors ? 4 * n : 0);
+    meshstream::FlatVertexArrays arrays;
+    arrays.positions = view.positions.data();
+    arrays.normals = layout.has_normals ? view.normals.data() : nullptr;
+    arrays.texcoords = layout.texcoord_sets > 0 ? view.texcoords.data() : nullptr;
+    arrays.colors = layout.has_colors ? view.colors.data() : nullptr;
+    for (const meshstream::sdk::Range& r : view.changes.vertices()) {
+      meshstream::DequantizeVerticesInto(mesh, r.first, r.count, arrays);
     }
-    Flatten(mesh->colors, view.colors);
-    view.indices = std::move(mesh->indices);
-    view.predicted = std::move(predicted).value();
-    view.predicted.resize(mesh->positions.size(), 0);
+    view.indices.resize(mesh.indices.size());
+    for (const meshstream::sdk::Range& r : view.changes.triangles()) {
+      std::memcpy(view.indices.data() + 3 * size_t{r.first}, mesh.indices.data() + 3 * size_t{r.first},
+                  3 * size_t{r.count} * sizeof(uint32_t));
+    }
     view.generation = session->generation;
   }
   *out = &view;
@@ -298,7 +305,7 @@ ms_status ms_session_mesh(ms_session* session, uint32_t primitive, ms_mesh_view*
     out->texcoords = DataOrNull(view->texcoords);
     out->index_count = view->indices.size();
     out->indices = DataOrNull(view->indices);
-    out->predicted = DataOrNull(view->predicted);
+    out->predicted = DataOrNull(view->changes.predicted());
     return Ok();
   });
 }
@@ -313,6 +320,42 @@ ms_status ms_session_mesh_colors(ms_session* session, uint32_t primitive, const 
     const ms_status s = Fill(session, primitive, &view);
     if (s != MS_OK) return s;
     *out_rgba = DataOrNull(view->colors);
+    return Ok();
+  });
+}
+
+ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive, ms_mesh_changes* out) {
+  return Guard("ms_session_mesh_changes", [&] {
+    if (session == nullptr) return Null("session");
+    if (out == nullptr) return Null("out");
+    if (CheckSize(out->struct_size, MS_MESH_CHANGES_V0_SIZE, "out") != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    const uint32_t max_ranges = out->max_ranges;
+    const size_t struct_size = out->struct_size;
+    if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    ms_session::View* view = nullptr;
+    const ms_status s = Fill(session, primitive, &view);
+    if (s != MS_OK) return s;
+    const meshstream::sdk::MeshChanges& c = view->changes;
+    std::vector<meshstream::sdk::Range> vertices = c.vertices();
+    std::vector<meshstream::sdk::Range> triangles = c.triangles();
+    meshstream::sdk::LimitRanges(vertices, max_ranges);
+    meshstream::sdk::LimitRanges(triangles, max_ranges);
+    view->vertex_ranges.clear();
+    for (const auto& r : vertices) view->vertex_ranges.push_back(ms_range{r.first, r.count});
+    view->index_ranges.clear();
+    for (const auto& r : triangles) view->index_ranges.push_back(ms_range{3 * r.first, 3 * r.count});
+    std::memset(out, 0, sizeof(ms_mesh_changes) < struct_size ? sizeof(ms_mesh_changes) : struct_size);
+    out->struct_size = struct_size;
+    out->max_ranges = max_ranges;
+    out->everything = c.everything() ? 1 : 0;
+    out->vertex_ranges = DataOrNull(view->vertex_ranges);
+    out->vertex_range_count = static_cast<uint32_t>(view->vertex_ranges.size());
+    out->index_ranges = DataOrNull(view->index_ranges);
+    out->index_range_count = static_cast<uint32_t>(view->index_ranges.size());
+    out->changed_vertices = meshstream::sdk::RangeElements(vertices);
+    out->changed_indices = 3 * meshstream::sdk::RangeElements(triangles);
+    out->previous_vertex_count = c.previous_vertex_count();
+    out->previous_index_count = 3 * uint64_t{c.previous_triangle_count()};
     return Ok();
   });
 }

@@ -384,6 +384,12 @@ StatusOr<std::vector<uint8_t>> Session::Predicted(size_t primitive) const {
   return predicted;
 }
 
+StatusOr<Session::QuantizedView> Session::Quantized(size_t primitive) const {
+  if (primitive >= primitive_count()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
+  const PrimitiveView& v = impl_->shown->primitives[primitive];
+  return QuantizedView{v.mesh.get(), v.reliable.get()};
+}
+
 std::pair<uint32_t, uint32_t> Session::GltfPosition(size_t primitive) const {
   if (primitive >= primitive_count()) return {0, 0};
   const SessionLayout::Place& p = impl_->shown->layout->places[primitive];

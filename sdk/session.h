@@ -81,6 +81,7 @@
 
 #include "codec/core/status.h"
 #include "codec/mesh/mesh.h"
+#include "codec/mesh/quantized_mesh.h"
 #include "sdk/client.h"
 #include "sdk/session_types.h"
 
@@ -112,6 +113,15 @@ class Session {
   // a prediction touched). All 0 when nothing was lost or parity rebuilt it.
   StatusOr<Primitive> Mesh(size_t primitive) const;
   StatusOr<std::vector<uint8_t>> Predicted(size_t primitive) const;
+  // The same mesh as the decoder holds it, without a copy: quantized (its
+  // grids dequantize it, DequantizeVerticesInto), and per vertex 1 where its
+  // position is the loss-free decode's (a vertex past its end: exact). Both
+  // valid until the next Poll (what sdk/mesh_changes.h compares).
+  struct QuantizedView {
+    const QuantizedMesh* mesh = nullptr;
+    const std::vector<uint8_t>* exact = nullptr;
+  };
+  StatusOr<QuantizedView> Quantized(size_t primitive) const;
   // Where the primitive sits in the asset's glTF (mesh, primitive index).
   std::pair<uint32_t, uint32_t> GltfPosition(size_t primitive) const;
   int32_t levels() const;  // the most refinements any primitive has in this session

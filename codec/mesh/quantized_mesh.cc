@@ -111,46 +111,77 @@ struct Dequantizer {
 
 }  // namespace
 
+namespace {
+
+// The attributes of vertices [first, first + count) into flat arrays (null:
+// skipped); the one loop DequantizeArrays and DequantizeVerticesInto share.
+void DequantizeRange(const QuantizationGrid& position_grid, const AttributeLayout& layout, const Vec3i* positions,
+                     const int32_t* attributes, size_t first, size_t count, float* out_positions, float* out_normals,
+                     int texcoord_set, float* out_texcoords, float* out_colors) {
+  const size_t channels = static_cast<size_t>(layout.channels());
+  if (out_positions != nullptr) {
+    const Dequantizer dq(position_grid);
+    for (size_t v = first; v < first + count; ++v)
+      for (int c = 0; c < 3; ++c) out_positions[3 * v + c] = dq(positions[v][c], c);
+  }
+  if (out_normals != nullptr && layout.has_normals) {
+    for (size_t v = first; v < first + count; ++v) {
+      const int32_t* a = attributes + v * channels + layout.normal_offset();
+      const Vec3f n = DequantizeNormal({static_cast<uint32_t>(a[0]), static_cast<uint32_t>(a[1])}, layout.qn);
+      for (int c = 0; c < 3; ++c) out_normals[3 * v + c] = n[c];
+    }
+  }
+  if (out_texcoords != nullptr && texcoord_set < layout.texcoord_sets) {
+    const Dequantizer dq(layout.texcoord_grids[texcoord_set]);
+    for (size_t v = first; v < first + count; ++v) {
+      const int32_t* a = attributes + v * channels + layout.texcoord_offset(texcoord_set);
+      for (int c = 0; c < 2; ++c) out_texcoords[2 * v + c] = dq(a[c], c);
+    }
+  }
+  if (out_colors != nullptr && layout.has_colors) {
+    const Dequantizer dq(layout.color_grid);
+    for (size_t v = first; v < first + count; ++v) {
+      const int32_t* a = attributes + v * channels + layout.color_offset();
+      for (int c = 0; c < 4; ++c) out_colors[4 * v + c] = dq(a[c], c);
+    }
+  }
+}
+
+}  // namespace
+
 Primitive DequantizeArrays(const QuantizationGrid& position_grid, const AttributeLayout& layout,
                            const std::vector<Vec3i>& positions, const std::vector<int32_t>& attributes,
                            const uint32_t* indices, size_t index_count, int32_t material) {
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float) && sizeof(Vec2f) == 2 * sizeof(float) &&
+                    sizeof(Vec4f) == 4 * sizeof(float),
+                "the vector types are packed arrays of floats");
   Primitive p;
   p.material = material;
   const size_t n = positions.size();
-  const size_t channels = static_cast<size_t>(layout.channels());
-  const int32_t* attr = attributes.data();
   p.positions.resize(n);
-  {
-    const Dequantizer dq(position_grid);
-    for (size_t v = 0; v < n; ++v)
-      for (int c = 0; c < 3; ++c) p.positions[v][c] = dq(positions[v][c], c);
+  if (layout.has_normals) p.normals.resize(n);
+  if (layout.has_colors) p.colors.resize(n);
+  p.texcoords.resize(static_cast<size_t>(layout.texcoord_sets));
+  for (auto& uv : p.texcoords) uv.resize(n);
+  if (n == 0) {
+    p.indices.assign(indices, indices + index_count);
+    return p;
   }
-  if (layout.has_normals) {
-    p.normals.resize(n);
-    for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = attr + v * channels + layout.normal_offset();
-      p.normals[v] = DequantizeNormal({static_cast<uint32_t>(a[0]), static_cast<uint32_t>(a[1])}, layout.qn);
-    }
-  }
-  for (int t = 0; t < layout.texcoord_sets; ++t) {
-    const Dequantizer dq(layout.texcoord_grids[t]);
-    std::vector<Vec2f> uv(n);
-    for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = attr + v * channels + layout.texcoord_offset(t);
-      for (int c = 0; c < 2; ++c) uv[v][c] = dq(a[c], c);
-    }
-    p.texcoords.push_back(std::move(uv));
-  }
-  if (layout.has_colors) {
-    const Dequantizer dq(layout.color_grid);
-    p.colors.resize(n);
-    for (size_t v = 0; v < n; ++v) {
-      const int32_t* a = attr + v * channels + layout.color_offset();
-      for (int c = 0; c < 4; ++c) p.colors[v][c] = dq(a[c], c);
-    }
+  DequantizeRange(position_grid, layout, positions.data(), attributes.data(), 0, n, p.positions.data()->data(),
+                  layout.has_normals ? p.normals.data()->data() : nullptr, 0,
+                  layout.texcoord_sets > 0 ? p.texcoords[0].data()->data() : nullptr,
+                  layout.has_colors ? p.colors.data()->data() : nullptr);
+  for (int t = 1; t < layout.texcoord_sets; ++t) {
+    DequantizeRange(position_grid, layout, positions.data(), attributes.data(), 0, n, nullptr, nullptr, t,
+                    p.texcoords[t].data()->data(), nullptr);
   }
   p.indices.assign(indices, indices + index_count);
   return p;
+}
+
+void DequantizeVerticesInto(const QuantizedMesh& mesh, size_t first, size_t count, const FlatVertexArrays& out) {
+  DequantizeRange(mesh.position_grid, mesh.layout, mesh.positions.data(), mesh.attributes.data(), first, count,
+                  out.positions, out.normals, 0, out.texcoords, out.colors);
 }
 
 }  // namespace meshstream

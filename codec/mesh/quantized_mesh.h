@@ -68,6 +68,20 @@ Primitive DequantizeArrays(const QuantizationGrid& position_grid, const Attribut
                            const std::vector<Vec3i>& positions, const std::vector<int32_t>& attributes,
                            const uint32_t* indices, size_t index_count, int32_t material);
 
+// Flat float arrays, one entry per vertex, tightly packed: xyz, normal xyz,
+// TEXCOORD_0 uv, COLOR_0 rgba (a host's vertex buffers). Null: not wanted.
+struct FlatVertexArrays {
+  float* positions = nullptr;
+  float* normals = nullptr;
+  float* texcoords = nullptr;
+  float* colors = nullptr;
+};
+// Vertices [first, first + count) of `mesh` (the caller checked the range)
+// written at their own index into `out`'s arrays (each at least first + count
+// entries), the same floats DequantizeMesh gives, bit for bit; an attribute
+// the layout lacks is left alone.
+void DequantizeVerticesInto(const QuantizedMesh& mesh, size_t first, size_t count, const FlatVertexArrays& out);
+
 // Quantizes every vertex of `primitive` (unreferenced ones too, order kept)
 // onto the grids of `grids` (its position grid and attribute layout). The
 // primitive must have the attributes the layout names.

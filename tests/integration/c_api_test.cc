@@ -362,6 +362,125 @@ TEST_F(CApi, EventsInOrderWithTheMeshesOfEachLevel) {
   EXPECT_GT(primitives, 1u) << "the engine is the multi-primitive case";
 }
 
+// A host's copy of a primitive's arrays, kept up to date by the changed
+// ranges alone (what a renderer's GPU buffers are).
+struct HostCopy {
+  std::vector<float> positions, normals, texcoords;
+  std::vector<uint8_t> predicted;
+  std::vector<uint32_t> indices;
+  uint64_t vertices_written = 0, indices_written = 0;
+};
+
+template <typename T>
+void CopyRanges(std::vector<T>& to, const T* from, size_t count, size_t per_element, const ms_range* ranges,
+                uint32_t range_count) {
+  to.resize(count * per_element);
+  if (from == nullptr) return;
+  for (uint32_t i = 0; i < range_count; ++i) {
+    ASSERT_LE(size_t{ranges[i].first} + ranges[i].count, count) << "range " << i << " ends past the view";
+    std::memcpy(to.data() + size_t{ranges[i].first} * per_element, from + size_t{ranges[i].first} * per_element,
+                size_t{ranges[i].count} * per_element * sizeof(T));
+  }
+}
+
+void ExpectRangesRebuildEveryView(ms_client* client, const char* asset, uint32_t max_ranges) {
+  SCOPED_TRACE(std::string(asset) + ", max_ranges " + std::to_string(max_ranges));
+  ms_session_config config = SessionConfig(asset);
+  ms_session* raw = nullptr;
+  ASSERT_EQ(ms_session_open(client, &config, &raw), MS_OK) << ms_last_error();
+  SessionPtr session(raw);
+  std::vector<HostCopy> host;
+  uint64_t reuploaded_vertices = 0;  // what uploading every view whole would write
+  uint64_t final_vertices = 0;
+  int events = 0;
+  PollToEnd(session.get(), [&](const ms_event& e) {
+    ++events;
+    const uint32_t count = ms_session_primitive_count(session.get());
+    host.resize(count);
+    final_vertices = 0;
+    for (uint32_t i = 0; i < count; ++i) {
+      ms_mesh_changes c;
+      std::memset(&c, 0, sizeof c);
+      c.struct_size = sizeof c;
+      c.max_ranges = max_ranges;
+      ASSERT_EQ(ms_session_mesh_changes(session.get(), i, &c), MS_OK) << ms_last_error();
+      ms_mesh_view v;
+      ASSERT_EQ(ms_session_mesh(session.get(), i, &v), MS_OK) << ms_last_error();
+      EXPECT_EQ(c.everything != 0, e.type == MS_EVENT_BASE_READY) << "level " << e.level << " primitive " << i;
+      if (max_ranges > 0) {
+        EXPECT_LE(c.vertex_range_count, max_ranges);
+        EXPECT_LE(c.index_range_count, max_ranges);
+      }
+      uint64_t covered = 0;
+      for (uint32_t r = 0; r < c.vertex_range_count; ++r) {
+        covered += c.vertex_ranges[r].count;
+        if (r > 0) EXPECT_GT(c.vertex_ranges[r].first, c.vertex_ranges[r - 1].first + c.vertex_ranges[r - 1].count);
+      }
+      EXPECT_EQ(covered, c.changed_vertices);
+      for (uint32_t r = 0; r < c.index_range_count; ++r) {
+        EXPECT_EQ(c.index_ranges[r].first % 3, 0u);
+        EXPECT_EQ(c.index_ranges[r].count % 3, 0u);
+      }
+      // Asking again before the next poll: the same answer.
+      ms_mesh_changes again = c;
+      ASSERT_EQ(ms_session_mesh_changes(session.get(), i, &again), MS_OK);
+      EXPECT_EQ(again.changed_vertices, c.changed_vertices);
+      EXPECT_EQ(again.changed_indices, c.changed_indices);
+      HostCopy& h = host[i];
+      CopyRanges(h.positions, v.positions, v.vertex_count, 3, c.vertex_ranges, c.vertex_range_count);
+      CopyRanges(h.normals, v.normals, v.normals ? v.vertex_count : 0, 3, c.vertex_ranges, c.vertex_range_count);
+      CopyRanges(h.texcoords, v.texcoords, v.texcoords ? v.vertex_count : 0, 2, c.vertex_ranges, c.vertex_range_count);
+      CopyRanges(h.predicted, v.predicted, v.vertex_count, 1, c.vertex_ranges, c.vertex_range_count);
+      CopyRanges(h.indices, v.indices, v.index_count, 1, c.index_ranges, c.index_range_count);
+      h.vertices_written += c.changed_vertices;
+      h.indices_written += c.changed_indices;
+      // The host's copy, written only where the ranges said, is the view.
+      ASSERT_EQ(h.positions.size(), 3 * v.vertex_count);
+      EXPECT_EQ(std::memcmp(h.positions.data(), v.positions, h.positions.size() * sizeof(float)), 0) << "positions";
+      if (v.normals) { EXPECT_EQ(std::memcmp(h.normals.data(), v.normals, h.normals.size() * sizeof(float)), 0); }
+      if (v.texcoords) { EXPECT_EQ(std::memcmp(h.texcoords.data(), v.texcoords, h.texcoords.size() * sizeof(float)), 0); }
+      EXPECT_EQ(std::memcmp(h.predicted.data(), v.predicted, h.predicted.size()), 0) << "predicted";
+      ASSERT_EQ(h.indices.size(), v.index_count);
+      EXPECT_EQ(std::memcmp(h.indices.data(), v.indices, h.indices.size() * sizeof(uint32_t)), 0) << "indices";
+      reuploaded_vertices += v.vertex_count;
+      final_vertices += v.vertex_count;
+    }
+  });
+  ASSERT_GE(events, 3) << "a base and at least two levels";
+  uint64_t written = 0;
+  for (const HostCopy& h : host) written += h.vertices_written;
+  // Fewer vertices written than uploading every view whole, and at least the final mesh.
+  EXPECT_LT(written, reuploaded_vertices);
+  EXPECT_GE(written, final_vertices);
+}
+
+TEST_F(CApi, ChangedRangesRebuildEveryViewFromTheRangesAlone) {
+  ClientPtr client = NewClient();
+  ASSERT_NE(client, nullptr);
+  for (const char* asset : {"spot", "engine"}) {
+    ExpectRangesRebuildEveryView(client.get(), asset, 0);
+    ExpectRangesRebuildEveryView(client.get(), asset, 8);
+  }
+}
+
+TEST_F(CApi, ChangesBeforeTheBaseAndBadArguments) {
+  ClientPtr client = NewClient();
+  ASSERT_NE(client, nullptr);
+  SessionPtr session = Open(client.get(), SessionConfig("spot"));
+  ms_mesh_changes c;
+  std::memset(&c, 0, sizeof c);
+  c.struct_size = sizeof c;
+  EXPECT_EQ(ms_session_mesh_changes(nullptr, 0, &c), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_STREQ(ms_last_error(), "session: must not be NULL");
+  EXPECT_EQ(ms_session_mesh_changes(session.get(), 0, nullptr), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_STREQ(ms_last_error(), "out: must not be NULL");
+  EXPECT_EQ(ms_session_mesh_changes(session.get(), 0, &c), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(ms_last_error()).find("primitive: 0 does not exist"), std::string::npos) << ms_last_error();
+  c.struct_size = 8;
+  EXPECT_EQ(ms_session_mesh_changes(session.get(), 0, &c), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(ms_last_error()).find("out->struct_size"), std::string::npos) << ms_last_error();
+}
+
 TEST_F(CApi, EveryLevelIsTheStoredFileDecodedToThatLevel) {
   const Stored& spot = Asset("spot");
   ClientPtr client = NewClient();

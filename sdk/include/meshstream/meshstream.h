@@ -222,6 +222,47 @@ MS_API ms_status ms_session_mesh(ms_session* session, uint32_t primitive, ms_mes
  * vertex), or *out_rgba = NULL when it has none. Same lifetime as a view. */
 MS_API ms_status ms_session_mesh_colors(ms_session* session, uint32_t primitive, const float** out_rgba);
 
+/* A run of elements: [first, first + count). */
+typedef struct {
+  uint32_t first;
+  uint32_t count;
+} ms_range;
+
+/* What changed in a primitive's view since the host last read it: the ranges
+ * a renderer uploads to its GPU buffers instead of the whole mesh
+ * (docs/spec/c-api.md, "Changes"; docs/engine-integration.md). A read is a
+ * call of ms_session_mesh or ms_session_mesh_changes for the primitive after
+ * a poll; the changes compare the view of this poll with the view the read
+ * before showed (on an earlier poll), so a host that skips a primitive for
+ * some polls gets everything that changed meanwhile. Asking again before the
+ * next poll gives the same answer. A level appends vertices and triangles and
+ * changes others scattered over the mesh (each split moves the vertex it
+ * splits and renumbers some of its triangles).
+ * Write every vertex range of every array (positions, normals, texcoords,
+ * colours, predicted) before drawing with the index ranges. The pointers
+ * stay valid until the next poll or close. */
+typedef struct {
+  size_t struct_size;            /* sizeof(ms_mesh_changes); set by the caller */
+  uint32_t max_ranges;           /* set by the caller: at most this many ranges of each kind, the nearest merged
+                                    first (their gaps then count as changed); 0: no limit */
+  int32_t everything;            /* non-zero: no read before to compare with: the ranges cover the whole view */
+  const ms_range* vertex_ranges; /* vertices whose position, normal, texcoord, colour or predicted flag changed,
+                                    or that are new: ascending, disjoint */
+  uint32_t vertex_range_count;
+  const ms_range* index_ranges;  /* indices, whole triangles (first and count multiples of 3), changed or new */
+  uint32_t index_range_count;
+  uint64_t changed_vertices;     /* what the ranges cover */
+  uint64_t changed_indices;
+  uint64_t previous_vertex_count; /* of the view compared with (0 with everything); the view's own counts are */
+  uint64_t previous_index_count;  /* in ms_mesh_view: a count may also shrink (a decode again), never in a level */
+} ms_mesh_changes;
+#define MS_MESH_CHANGES_V0_SIZE (offsetof(ms_mesh_changes, previous_index_count) + sizeof(uint64_t))
+
+/* Fills *out (its struct_size and max_ranges set by the caller) with the
+ * ranges of the primitive's view (the one ms_session_mesh gives now) that
+ * differ from the view of the read before. */
+MS_API ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive, ms_mesh_changes* out);
+
 /* Where the primitive sits in the asset's glTF: its mesh and its index
  * among that mesh's primitives. */
 MS_API ms_status ms_session_gltf_position(const ms_session* session, uint32_t primitive, uint32_t* mesh,
