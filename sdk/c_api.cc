@@ -41,6 +41,8 @@ struct ms_session {
     std::vector<uint32_t> indices;
     meshstream::sdk::MeshChanges changes;  // also keeps the predicted flags
     std::vector<ms_range> vertex_ranges, index_ranges;  // ms_session_mesh_changes's, after its max_ranges
+    std::vector<float> instances;  // ms_session_instances's matrices (the scene does not change)
+    bool has_instances = false;
   };
   std::vector<View> views;
   mutable std::string transport;  // what ms_stats.transport points to
@@ -356,6 +358,32 @@ ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive, ms_me
     out->changed_indices = 3 * meshstream::sdk::RangeElements(triangles);
     out->previous_vertex_count = c.previous_vertex_count();
     out->previous_index_count = 3 * uint64_t{c.previous_triangle_count()};
+    return Ok();
+  });
+}
+
+ms_status ms_session_instances(ms_session* session, uint32_t primitive, const float** out_matrices,
+                               uint32_t* out_count) {
+  return Guard("ms_session_instances", [&] {
+    if (out_matrices != nullptr) *out_matrices = nullptr;
+    if (out_count != nullptr) *out_count = 0;
+    if (session == nullptr) return Null("session");
+    if (out_matrices == nullptr) return Null("out_matrices");
+    if (out_count == nullptr) return Null("out_count");
+    if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
+    if (session->views.size() < session->session->primitive_count()) {
+      session->views.resize(session->session->primitive_count());
+    }
+    ms_session::View& view = session->views[primitive];
+    if (!view.has_instances) {
+      view.instances.clear();
+      for (const auto& m : session->session->Instances(primitive)) {
+        for (double x : m) view.instances.push_back(static_cast<float>(x));
+      }
+      view.has_instances = true;
+    }
+    *out_matrices = DataOrNull(view.instances);
+    *out_count = static_cast<uint32_t>(view.instances.size() / 16);
     return Ok();
   });
 }

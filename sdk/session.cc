@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "codec/mesh/quantized_mesh.h"
+#include "codec/mesh/scene_flatten.h"
 #include "importers/gltf_export.h"
 #include "meshstream/v1/stream.grpc.pb.h"
 #include "proto/rpc_status.h"
@@ -388,6 +389,21 @@ StatusOr<Session::QuantizedView> Session::Quantized(size_t primitive) const {
   if (primitive >= primitive_count()) return InvalidArgument("primitive: " + std::to_string(primitive) + " does not exist");
   const PrimitiveView& v = impl_->shown->primitives[primitive];
   return QuantizedView{v.mesh.get(), v.reliable.get()};
+}
+
+std::vector<std::array<double, 16>> Session::Instances(size_t primitive) const {
+  std::vector<std::array<double, 16>> out;
+  if (primitive >= primitive_count() || !impl_->shown->layout) return out;
+  const SessionLayout& layout = *impl_->shown->layout;
+  if (!layout.has_scene) {
+    out.push_back({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
+    return out;
+  }
+  const int32_t mesh = static_cast<int32_t>(layout.places[primitive].mesh);
+  ForEachMeshInstance(layout.scene, [&](int32_t m, const Mat4d& world, bool) {
+    if (m == mesh) out.push_back(world);
+  });
+  return out;
 }
 
 std::pair<uint32_t, uint32_t> Session::GltfPosition(size_t primitive) const {

@@ -74,6 +74,7 @@
 #ifndef MESHSTREAM_SDK_SESSION_H_
 #define MESHSTREAM_SDK_SESSION_H_
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -122,6 +123,11 @@ class Session {
     const std::vector<uint8_t>* exact = nullptr;
   };
   StatusOr<QuantizedView> Quantized(size_t primitive) const;
+  // Where the primitive is drawn: the world matrix (column-major, glTF) of
+  // every node instance of its glTF mesh reached from the asset's default
+  // scene (ForEachMeshInstance); the identity once from a server that sends
+  // no scene. Empty for a primitive that does not exist or no node shows.
+  std::vector<std::array<double, 16>> Instances(size_t primitive) const;
   // Where the primitive sits in the asset's glTF (mesh, primitive index).
   std::pair<uint32_t, uint32_t> GltfPosition(size_t primitive) const;
   int32_t levels() const;  // the most refinements any primitive has in this session

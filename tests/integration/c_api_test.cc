@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <regex>
 #include <string>
@@ -29,6 +30,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "codec/mesh/scene_flatten.h"
 #include "importers/import.h"
 #include "importers/progressive_glb.h"
 #include "meshstream/meshstream.h"
@@ -461,6 +463,40 @@ TEST_F(CApi, ChangedRangesRebuildEveryViewFromTheRangesAlone) {
     ExpectRangesRebuildEveryView(client.get(), asset, 0);
     ExpectRangesRebuildEveryView(client.get(), asset, 8);
   }
+}
+
+TEST_F(CApi, InstancesAreTheSceneNodesWorldMatrices) {
+  ClientPtr client = NewClient();
+  ASSERT_NE(client, nullptr);
+  const Stored& engine = Asset("engine");
+  SessionPtr session = Open(client.get(), SessionConfig("engine", 0));
+  const std::vector<Polled> events = PollToEnd(session.get());
+  ASSERT_EQ(events.back().event.type, MS_EVENT_COMPLETE) << events.back().error;
+  std::map<int32_t, std::vector<Mat4d>> by_mesh;
+  ForEachMeshInstance(engine.decoded, [&](int32_t mesh, const Mat4d& world, bool) { by_mesh[mesh].push_back(world); });
+  bool some_not_identity = false;
+  for (uint32_t i = 0; i < ms_session_primitive_count(session.get()); ++i) {
+    uint32_t mesh = 0, mesh_primitive = 0;
+    ASSERT_EQ(ms_session_gltf_position(session.get(), i, &mesh, &mesh_primitive), MS_OK);
+    const float* matrices = nullptr;
+    uint32_t count = 0;
+    ASSERT_EQ(ms_session_instances(session.get(), i, &matrices, &count), MS_OK) << ms_last_error();
+    const std::vector<Mat4d>& want = by_mesh[static_cast<int32_t>(mesh)];
+    ASSERT_EQ(count, want.size()) << "primitive " << i;
+    ASSERT_GT(count, 0u);
+    for (uint32_t k = 0; k < count; ++k) {
+      for (int e = 0; e < 16; ++e) {
+        EXPECT_EQ(matrices[16 * k + e], static_cast<float>(want[k][e])) << "primitive " << i << " instance " << k;
+        if ((e % 5 == 0 ? 1.0 : 0.0) != want[k][e]) some_not_identity = true;
+      }
+    }
+  }
+  EXPECT_TRUE(some_not_identity) << "the engine's nodes move its parts";
+  const float* m = nullptr;
+  uint32_t c = 0;
+  EXPECT_EQ(ms_session_instances(session.get(), 9999, &m, &c), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_EQ(ms_session_instances(session.get(), 0, nullptr, &c), MS_ERR_INVALID_ARGUMENT);
+  EXPECT_STREQ(ms_last_error(), "out_matrices: must not be NULL");
 }
 
 TEST_F(CApi, ChangesBeforeTheBaseAndBadArguments) {

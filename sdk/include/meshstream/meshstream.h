@@ -268,6 +268,14 @@ MS_API ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive
 MS_API ms_status ms_session_gltf_position(const ms_session* session, uint32_t primitive, uint32_t* mesh,
                                           uint32_t* mesh_primitive);
 
+/* Where the primitive is drawn: *out_matrices points to *out_count world
+ * matrices (16 floats each, column-major as glTF and OpenGL: world =
+ * M (x, y, z, 1)), one per node instance of its glTF mesh reached from the
+ * asset's default scene; one identity from a server that sends no scene; 0
+ * when no node shows it. Same lifetime as a view (the next poll or close). */
+MS_API ms_status ms_session_instances(ms_session* session, uint32_t primitive, const float** out_matrices,
+                                      uint32_t* out_count);
+
 /* The session's counters and state; writes the fields that fit in
  * out->struct_size. */
 MS_API ms_status ms_session_stats(const ms_session* session, ms_stats* out);
