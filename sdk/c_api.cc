@@ -179,9 +179,8 @@ ms_status Fill(ms_session* session, uint32_t primitive, ms_session::View** out) 
       meshstream::DequantizeVerticesInto(mesh, r.first, r.count, arrays);
     }
     view.indices.resize(mesh.indices.size());
-    for (const meshstream::sdk::Range& r : view.changes.triangles()) {
-      std::memcpy(view.indices.data() + 3 * size_t{r.first}, mesh.indices.data() + 3 * size_t{r.first},
-                  3 * size_t{r.count} * sizeof(uint32_t));
+    for (const meshstream::sdk::Range& r : view.changes.indices()) {
+      std::memcpy(view.indices.data() + r.first, mesh.indices.data() + r.first, size_t{r.count} * sizeof(uint32_t));
     }
     view.generation = session->generation;
   }
@@ -339,13 +338,13 @@ ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive, ms_me
     if (s != MS_OK) return s;
     const meshstream::sdk::MeshChanges& c = view->changes;
     std::vector<meshstream::sdk::Range> vertices = c.vertices();
-    std::vector<meshstream::sdk::Range> triangles = c.triangles();
+    std::vector<meshstream::sdk::Range> indices = c.indices();
     meshstream::sdk::LimitRanges(vertices, max_ranges);
-    meshstream::sdk::LimitRanges(triangles, max_ranges);
+    meshstream::sdk::LimitRanges(indices, max_ranges);
     view->vertex_ranges.clear();
     for (const auto& r : vertices) view->vertex_ranges.push_back(ms_range{r.first, r.count});
     view->index_ranges.clear();
-    for (const auto& r : triangles) view->index_ranges.push_back(ms_range{3 * r.first, 3 * r.count});
+    for (const auto& r : indices) view->index_ranges.push_back(ms_range{r.first, r.count});
     std::memset(out, 0, sizeof(ms_mesh_changes) < struct_size ? sizeof(ms_mesh_changes) : struct_size);
     out->struct_size = struct_size;
     out->max_ranges = max_ranges;
@@ -355,9 +354,9 @@ ms_status ms_session_mesh_changes(ms_session* session, uint32_t primitive, ms_me
     out->index_ranges = DataOrNull(view->index_ranges);
     out->index_range_count = static_cast<uint32_t>(view->index_ranges.size());
     out->changed_vertices = meshstream::sdk::RangeElements(vertices);
-    out->changed_indices = 3 * meshstream::sdk::RangeElements(triangles);
+    out->changed_indices = meshstream::sdk::RangeElements(indices);
     out->previous_vertex_count = c.previous_vertex_count();
-    out->previous_index_count = 3 * uint64_t{c.previous_triangle_count()};
+    out->previous_index_count = c.previous_index_count();
     return Ok();
   });
 }

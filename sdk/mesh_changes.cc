@@ -30,15 +30,14 @@ inline void MarkSpan(std::vector<Range>& ranges, uint32_t first, uint32_t count)
 
 void MeshChanges::Update(const QuantizedMesh& mesh, const std::vector<uint8_t>& exact) {
   const size_t n = mesh.vertex_count();
-  const size_t t = mesh.face_count();
   const int channels = mesh.layout.channels();
   vertices_.clear();
-  triangles_.clear();
+  indices_ranges_.clear();
   everything_ = !has_last_ || channels != channels_;
   previous_vertices_ = everything_ ? 0 : positions_.size();
-  previous_triangles_ = everything_ ? 0 : indices_.size() / 3;
+  previous_indices_ = everything_ ? 0 : indices_.size();
   const size_t old_n = previous_vertices_;
-  const size_t old_t = previous_triangles_;
+  const size_t old_i = previous_indices_;
   const size_t ch = static_cast<size_t>(channels);
 
   // Vertices: the common prefix compared (position, attributes, flag), the rest new.
@@ -60,27 +59,24 @@ void MeshChanges::Update(const QuantizedMesh& mesh, const std::vector<uint8_t>& 
     Mark(vertices_, static_cast<uint32_t>(v));
   }
 
-  // Triangles: the same.
-  indices_.resize(3 * t);
-  const size_t common_t = std::min(old_t, t);
+  // Indices: the same, one by one.
+  const size_t count = mesh.indices.size();
+  indices_.resize(count);
+  const size_t common_i = std::min(old_i, count);
   const uint32_t* in = mesh.indices.data();
   uint32_t* kept = indices_.data();
-  for (size_t f = 0; f < common_t; ++f) {
-    const uint32_t* a = in + 3 * f;
-    uint32_t* b = kept + 3 * f;
-    if (a[0] == b[0] && a[1] == b[1] && a[2] == b[2]) continue;
-    b[0] = a[0];
-    b[1] = a[1];
-    b[2] = a[2];
-    Mark(triangles_, static_cast<uint32_t>(f));
+  for (size_t i = 0; i < common_i; ++i) {
+    if (in[i] == kept[i]) continue;
+    kept[i] = in[i];
+    Mark(indices_ranges_, static_cast<uint32_t>(i));
   }
-  if (t > common_t) {
-    std::memcpy(kept + 3 * common_t, in + 3 * common_t, 3 * (t - common_t) * sizeof(uint32_t));
-    MarkSpan(triangles_, static_cast<uint32_t>(common_t), static_cast<uint32_t>(t - common_t));
+  if (count > common_i) {
+    std::memcpy(kept + common_i, in + common_i, (count - common_i) * sizeof(uint32_t));
+    MarkSpan(indices_ranges_, static_cast<uint32_t>(common_i), static_cast<uint32_t>(count - common_i));
   }
 
   changed_vertices_ = RangeElements(vertices_);
-  changed_triangles_ = RangeElements(triangles_);
+  changed_indices_ = RangeElements(indices_ranges_);
   channels_ = channels;
   has_last_ = true;
 }

@@ -4,8 +4,8 @@
 // docs/engine-integration.md, "Buffers by range").
 //
 // A split of the progressive decoder appends its new vertex and two
-// triangles, moves the vertex it splits and renumbers some of that vertex's
-// triangles (docs/spec/progressive-format.md, "Vertex split"), so a level
+// triangles, moves the vertex it splits and renumbers one index of some of
+// that vertex's triangles (docs/spec/progressive-format.md, "Vertex split"), so a level
 // changes a tail of new elements and old ones scattered over the mesh; a
 // decode again (a repair, parity) changes predicted positions and their
 // flags. MeshChanges does not rely on any of that: it compares the new read
@@ -48,13 +48,14 @@ class MeshChanges {
   // Vertices whose position, attributes or predicted flag differ from the
   // read before, or that are new: ascending, disjoint, never adjacent.
   const std::vector<Range>& vertices() const { return vertices_; }
-  // Triangles whose three indices differ, or that are new (in triangles).
-  const std::vector<Range>& triangles() const { return triangles_; }
+  // Indices that differ, or that are new: a split renumbers one index of
+  // each triangle it moves, so runs of single indices, not whole triangles.
+  const std::vector<Range>& indices() const { return indices_ranges_; }
   uint64_t changed_vertices() const { return changed_vertices_; }
-  uint64_t changed_triangles() const { return changed_triangles_; }
+  uint64_t changed_indices() const { return changed_indices_; }
   // The counts of the read compared with (0 for everything).
   size_t previous_vertex_count() const { return previous_vertices_; }
-  size_t previous_triangle_count() const { return previous_triangles_; }
+  size_t previous_index_count() const { return previous_indices_; }
   // The last read's flags: 1 where the vertex's position is predicted.
   const std::vector<uint8_t>& predicted() const { return predicted_; }
 
@@ -66,9 +67,9 @@ class MeshChanges {
   std::vector<int32_t> attributes_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> predicted_;
-  std::vector<Range> vertices_, triangles_;
-  uint64_t changed_vertices_ = 0, changed_triangles_ = 0;
-  size_t previous_vertices_ = 0, previous_triangles_ = 0;
+  std::vector<Range> vertices_, indices_ranges_;
+  uint64_t changed_vertices_ = 0, changed_indices_ = 0;
+  size_t previous_vertices_ = 0, previous_indices_ = 0;
 };
 
 // Merges the ranges nearest each other (the smallest gaps first) until at

@@ -52,7 +52,7 @@ TEST(MeshChanges, FirstReadIsEverything) {
   c.Update(Grid(10, 4), {});
   EXPECT_TRUE(c.everything());
   ExpectRanges(c.vertices(), R({{0, 10}}), "vertices");
-  ExpectRanges(c.triangles(), R({{0, 4}}), "triangles");
+  ExpectRanges(c.indices(), R({{0, 12}}), "indices");
   EXPECT_EQ(c.previous_vertex_count(), 0u);
 }
 
@@ -63,9 +63,9 @@ TEST(MeshChanges, TheSameReadAgainChangesNothing) {
   c.Update(m, {});
   EXPECT_FALSE(c.everything());
   EXPECT_TRUE(c.vertices().empty());
-  EXPECT_TRUE(c.triangles().empty());
+  EXPECT_TRUE(c.indices().empty());
   EXPECT_EQ(c.previous_vertex_count(), 10u);
-  EXPECT_EQ(c.previous_triangle_count(), 4u);
+  EXPECT_EQ(c.previous_index_count(), 12u);
 }
 
 TEST(MeshChanges, ASplitsWorthOfChanges) {
@@ -86,16 +86,16 @@ TEST(MeshChanges, ASplitsWorthOfChanges) {
   c.Update(m, exact);
   EXPECT_FALSE(c.everything());
   ExpectRanges(c.vertices(), R({{3, 1}, {7, 2}, {10, 2}}), "vertices");
-  ExpectRanges(c.triangles(), R({{2, 1}, {6, 2}}), "triangles");
+  ExpectRanges(c.indices(), R({{7, 1}, {18, 6}}), "indices");
   EXPECT_EQ(c.changed_vertices(), 5u);
-  EXPECT_EQ(c.changed_triangles(), 3u);
+  EXPECT_EQ(c.changed_indices(), 7u);
   EXPECT_EQ(c.predicted()[8], 1);
   EXPECT_EQ(c.predicted()[7], 0);
   // A flag alone turning back is a change too.
   exact[8] = 1;
   c.Update(m, exact);
   ExpectRanges(c.vertices(), R({{8, 1}}), "the flag");
-  EXPECT_TRUE(c.triangles().empty());
+  EXPECT_TRUE(c.indices().empty());
 }
 
 TEST(MeshChanges, AnotherLayoutIsEverything) {
@@ -117,7 +117,7 @@ TEST(MeshChanges, ShrinkingKeepsOnlyWhatIsLeft) {
   QuantizedMesh smaller = Grid(8, 3);
   c.Update(smaller, {});
   EXPECT_TRUE(c.vertices().empty());
-  EXPECT_TRUE(c.triangles().empty());
+  EXPECT_TRUE(c.indices().empty());
   EXPECT_EQ(c.previous_vertex_count(), 10u);
   EXPECT_EQ(c.predicted().size(), 8u);
 }

@@ -237,7 +237,7 @@ typedef struct {
  * some polls gets everything that changed meanwhile. Asking again before the
  * next poll gives the same answer. A level appends vertices and triangles and
  * changes others scattered over the mesh (each split moves the vertex it
- * splits and renumbers some of its triangles).
+ * splits and renumbers one index of some of its triangles).
  * Write every vertex range of every array (positions, normals, texcoords,
  * colours, predicted) before drawing with the index ranges. The pointers
  * stay valid until the next poll or close. */
@@ -249,7 +249,7 @@ typedef struct {
   const ms_range* vertex_ranges; /* vertices whose position, normal, texcoord, colour or predicted flag changed,
                                     or that are new: ascending, disjoint */
   uint32_t vertex_range_count;
-  const ms_range* index_ranges;  /* indices, whole triangles (first and count multiples of 3), changed or new */
+  const ms_range* index_ranges;  /* indices that changed or are new (a split renumbers single indices) */
   uint32_t index_range_count;
   uint64_t changed_vertices;     /* what the ranges cover */
   uint64_t changed_indices;
