@@ -3,7 +3,7 @@
 //
 //   import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 //   import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
-//   import { MeshstreamProgressive } from '@meshstream/web/src/plugin.js';
+//   import { MeshstreamProgressive } from '@meshstream/web/plugin';
 //
 //   const progressive = new MeshstreamProgressive({ headers, lod, session });
 //   const loader = new GLTFLoader().setDRACOLoader(new DRACOLoader().setDecoderPath(...));
