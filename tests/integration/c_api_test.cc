@@ -1199,6 +1199,29 @@ TEST_F(CApi, ExampleLinksStaticallyFromAnInstalledTree) {
   ExpectExampleOutput(RunCommand("env -u LD_LIBRARY_PATH " + Quote(binary) + " " + server_->address() + " spot " +
                                  Quote(file) + " --tcp-only"),
                       Asset("spot"), file, true);
+  // An engine's plugin: the archive linked into a shared object of its own,
+  // loaded with dlopen by a host that knows nothing of meshstream.
+  const std::string plugin_c = dir.File("plugin.c"), host_c = dir.File("host.c");
+  const std::string plugin = dir.File("plugin.so"), host = dir.File("host");
+  const auto write = [](const std::string& path, const std::string& text) {
+    return WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end())).ok();
+  };
+  ASSERT_TRUE(write(plugin_c, "#include <meshstream/meshstream.h>\n"
+                              "const char* plugin_version(void) { return ms_version(); }\n"));
+  ASSERT_TRUE(write(host_c, "#include <dlfcn.h>\n#include <stdio.h>\n"
+                                             "int main(int argc, char** argv) {\n"
+                                             "  void* h = dlopen(argv[argc - 1], RTLD_NOW);\n"
+                                             "  if (!h) { puts(dlerror()); return 1; }\n"
+                                             "  const char* (*v)(void) = (const char* (*)(void))dlsym(h, \"plugin_version\");\n"
+                                             "  if (!v) return 2;\n  puts(v());\n  return 0;\n}\n"));
+  const auto shared = RunCommand("cc -std=c99 -fPIC -shared -o " + Quote(plugin) + " " + Quote(plugin_c) + " $(" + env +
+                                 " pkg-config --cflags --libs meshstream-static)");
+  ASSERT_EQ(shared.exit_code, 0) << "the archive must link into a shared object: " << shared.out << shared.err;
+  const auto built_host = RunCommand("cc -o " + Quote(host) + " " + Quote(host_c) + " -ldl");
+  ASSERT_EQ(built_host.exit_code, 0) << built_host.err;
+  const auto loaded = RunCommand(Quote(host) + " " + Quote(plugin));
+  EXPECT_EQ(loaded.exit_code, 0) << loaded.out << loaded.err;
+  EXPECT_EQ(loaded.out, std::string(MESHSTREAM_PROJECT_VERSION) + "\n");
 }
 
 }  // namespace

@@ -34,8 +34,8 @@
  *
  * Thread safety. A client may be shared by several threads (sessions opened
  * on it from different threads at once). A session is used from one thread
- * at a time; only ms_session_cancel may be called from another thread
- * while it is in use. ms_last_error is per thread. ms_version and
+ * at a time; only ms_session_cancel and ms_session_set_view may be called
+ * from another thread while it is in use. ms_last_error is per thread. ms_version and
  * ms_status_name may be called from any thread.
  *
  * Mesh views. ms_session_mesh fills a view whose arrays stay valid and
