@@ -85,6 +85,9 @@ LAYER_FORBIDDEN = {
     "bench": ["tests", "experiments"],
     # Research programs: the product, testing/ and bench/'s helpers.
     "experiments": ["tests"],
+    # Programs on the public C API alone (the header is meshstream/meshstream.h).
+    "examples": ["codec", "importers", "parallel", "fec", "net", "services", "sdk", "cli", "bench", "tests", "testing",
+                 "proto", "web"],
     # The browser side's C ABI (web/wasm, compiled to WebAssembly): codec/ only.
     "web": ["importers", "parallel", "fec", "net", "services", "sdk", "cli", "bench", "tests", "testing", "proto"],
 }
@@ -110,7 +113,7 @@ def closure(folder, depends=CODEC_DEPENDS, seen=None):
 def sources(root, top):
     for dirpath, _, files in os.walk(os.path.join(root, top)):
         for name in sorted(files):
-            if name.endswith((".h", ".cc", ".hpp", ".cpp")):
+            if name.endswith((".h", ".c", ".cc", ".hpp", ".cpp")):
                 yield os.path.join(dirpath, name)
 
 
