@@ -121,6 +121,16 @@ bench-stream: build
 	@mkdir -p docs/results/bench
 	$(stream-bench)
 
+# The native viewer's benchmark (docs/results/viewer-benchmarks.md): examples/viewer under Xvfb
+# and Mesa's llvmpipe, frame times while refining against idle and the bytes uploaded to the GPU;
+# VIEWER_BENCH_ARGS e.g. "--runs 5 --rate 2".
+VIEWER_BENCH_ARGS ?=
+.PHONY: bench-viewer
+bench-viewer: build
+	@mkdir -p docs/results/bench
+	bench/viewer/run.sh $(BUILD)/bin/meshstream $(BUILD)/bin/meshstream_viewer ../shared/models docs/results/bench/viewer.json $(VIEWER_BENCH_ARGS)
+	$(PYTHON) bench/plot_viewer.py docs/results/bench/viewer.json --doc docs/results/viewer-benchmarks.md
+
 # The browser benchmark (docs/results/web-benchmarks.md): the viewer in headless Chromium against
 # `meshstream serve --http-listen`, the Draco .glb with three.js alone beside the progressive file
 # by HTTP ranges and over a WebSocket session, on loopback and on a shaped link (20 Mbit/s, 20 ms

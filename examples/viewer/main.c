@@ -10,6 +10,8 @@
  * ms_session_mesh_changes gives; then the draw. It does not poll again until
  * the event's primitives are all on the GPU (the views stay valid until the
  * next poll), so a frame never waits for the network or for a whole scene.
+ * --min-update-ms N shows a level at most every N ms (the SDK merges the levels
+ * between into one event): fewer, larger updates, fewer bytes uploaded.
  * Mouse: drag to orbit, wheel to zoom; P tints predicted vertices; Esc quits.
  * The camera goes to the server as the view when it moved (at most every
  * 250 ms). The window's title shows level, vertices, bytes and times.
@@ -41,6 +43,7 @@ typedef struct {
   int tcp_only;
   int width, height;
   int64_t budget_us;
+  int64_t min_update_ms;
   uint32_t max_ranges;
   const char* capture_dir;
   const char* stats_path;
@@ -64,6 +67,7 @@ static void Usage(FILE* f) {
           "  --size WxH             window size (default 960x720)\n"
           "  --budget-us N          per-frame time for polling and uploads (default 2000)\n"
           "  --max-ranges N         merge changed ranges down to N per array (default 0: exact)\n"
+          "  --min-update-ms N      show a new level at most every N ms (the levels between merge; default 0)\n"
           "  --look EX,EY,EZ,TX,TY,TZ[,FOV]  the camera (default: framing the base)\n"
           "  --no-view              do not send the camera to the server\n"
           "  --vsync                wait for the display's refresh (default: off)\n"
@@ -158,6 +162,12 @@ static int ParseArgs(int argc, char** argv, Options* o) {
         return 2;
       }
       o->budget_us = v;
+    } else if (strcmp(a, "--min-update-ms") == 0) {
+      NEED(a) if (ParseInt(next, 0, 600000, &v) != 0) {
+        fprintf(stderr, "meshstream_viewer: --min-update-ms: 0..600000: %s\n", next);
+        return 2;
+      }
+      o->min_update_ms = v;
     } else if (strcmp(a, "--max-ranges") == 0) {
       NEED(a) if (ParseInt(next, 0, 1 << 30, &v) != 0) {
         fprintf(stderr, "meshstream_viewer: --max-ranges: a count: %s\n", next);
@@ -472,7 +482,7 @@ int main(int argc, char** argv) {
   uint32_t primitive_count = 0;
   LevelRecord* levels = NULL;
   size_t level_records = 0;
-  Series refining_frames = {0}, idle_frames = {0}, stream_us = {0};
+  Series refining_frames = {0}, refining_draw = {0}, idle_frames = {0}, stream_us = {0};
   uint8_t* rgb = (uint8_t*)malloc((size_t)fb_width * fb_height * 3);
   int exit_code = 0;
   int pending = 0;          /* an event whose primitives are not all on the GPU yet */
@@ -485,7 +495,7 @@ int main(int argc, char** argv) {
   double max_stream_us = 0;
   uint32_t event_frames = 0;
   uint64_t final_vertices = 0, final_indices = 0;
-  double last_title_us = 0;
+  double last_title_us = 0, last_update_us = -1e18;
   const double opened_us = NowUs();
 
   while (!glfwWindowShouldClose(window)) {
@@ -495,7 +505,7 @@ int main(int argc, char** argv) {
 
     /* The stream's part of the frame: a poll, or uploads of the event's primitives. */
     const double stream_start = NowUs();
-    if (!pending && !complete) {
+    if (!pending && !complete && frame_start - last_update_us >= 1000.0 * (double)o.min_update_ms) {
       if (ms_session_poll(session, 0, &event) != MS_OK && event.type != MS_EVENT_ERROR) {
         fprintf(stderr, "meshstream_viewer: poll: %s\n", ms_last_error());
         exit_code = 1;
@@ -585,6 +595,7 @@ int main(int argc, char** argv) {
                                4ull * primitives[i].index_count;
         }
         rec->bytes_uploaded_after = renderer.bytes_uploaded;
+        last_update_us = NowUs();
         if (event.type == MS_EVENT_COMPLETE) complete = 1;
         level_shown = 1;
       }
@@ -631,6 +642,7 @@ int main(int argc, char** argv) {
       if (idle_drawn > 0) Push(&idle_frames, (frame_end - frame_start) / 1000.0);
     } else if (base_seen) {
       Push(&refining_frames, (frame_end - frame_start) / 1000.0);
+      Push(&refining_draw, (frame_end - frame_start - stream_time) / 1000.0); /* the same frame without the stream's part */
     }
     glfwSwapBuffers(window);
 
@@ -724,6 +736,7 @@ int main(int argc, char** argv) {
               (unsigned long long)reupload_bytes);
       fprintf(f, "  \"verify\": %s,\n  \"verify_mismatches\": %llu,\n", o.verify ? "true" : "false",
               (unsigned long long)verify_mismatches);
+      fprintf(f, "  \"min_update_ms\": %lld,\n", (long long)o.min_update_ms);
       fprintf(f, "  \"budget_us\": %lld,\n  \"stream_us_max\": %.1f,\n  \"stream_us_p99\": %.1f,\n",
               (long long)o.budget_us, max_stream_us, Quantile(&stream_us, 0.99));
       fprintf(f, "  \"frames_over_budget\": %llu,\n  \"frames\": %zu,\n  \"most_primitives_in_a_frame\": %u,\n",
@@ -731,6 +744,15 @@ int main(int argc, char** argv) {
       fprintf(f,
               "  \"refining_frames\": %zu,\n  \"refining_frame_ms_median\": %.3f,\n  \"refining_frame_ms_p99\": %.3f,\n",
               refining_frames.n, Quantile(&refining_frames, 0.5), Quantile(&refining_frames, 0.99));
+      fprintf(f, "  \"refining_frame_ms\": [");
+      for (size_t i = 0; i < refining_frames.n; ++i) fprintf(f, "%s%.3f", i ? ", " : "", refining_frames.v[i]);
+      fprintf(f, "],\n  \"refining_draw_ms\": [");
+      for (size_t i = 0; i < refining_draw.n; ++i) fprintf(f, "%s%.3f", i ? ", " : "", refining_draw.v[i]);
+      fprintf(f, "],\n  \"idle_frame_ms\": [");
+      for (size_t i = 0; i < idle_frames.n; ++i) fprintf(f, "%s%.3f", i ? ", " : "", idle_frames.v[i]);
+      fprintf(f, "],\n  \"stream_us\": [");
+      for (size_t i = 0; i < stream_us.n; ++i) fprintf(f, "%s%.1f", i ? ", " : "", stream_us.v[i]);
+      fprintf(f, "],\n");
       fprintf(f, "  \"idle_frames\": %zu,\n  \"idle_frame_ms_median\": %.3f,\n  \"idle_frame_ms_p99\": %.3f,\n",
               idle_frames.n, Quantile(&idle_frames, 0.5), Quantile(&idle_frames, 0.99));
       fprintf(f, "  \"time_to_base_ms\": %.2f,\n  \"time_to_full_ms\": %.2f,\n  \"predicted_vertices\": %llu,\n",
@@ -745,6 +767,7 @@ int main(int argc, char** argv) {
   free(levels);
   free(rgb);
   free(refining_frames.v);
+  free(refining_draw.v);
   free(idle_frames.v);
   free(stream_us.v);
   vw_renderer_free(&renderer);
