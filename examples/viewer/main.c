@@ -21,7 +21,8 @@
  * uploads, frame and poll times), --verify (read the GPU buffers back after
  * each upload and compare them with the views), --exit-when-complete,
  * --idle-frames N (frames drawn after COMPLETE, timed as the idle figure),
- * --export PATH (ms_session_export at COMPLETE). */
+ * --export PATH (ms_session_export at COMPLETE), --tint (and final-untinted.ppm
+ * beside final.ppm), --udp-via and --no-parity (a lossy relay's test). */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -55,6 +56,9 @@ typedef struct {
   int has_look;
   float eye[3], target[3], fov;
   int swap_interval;
+  const char* udp_via;
+  int no_parity;
+  int tint;
 } Options;
 
 static void Usage(FILE* f) {
@@ -70,6 +74,9 @@ static void Usage(FILE* f) {
           "  --min-update-ms N      show a new level at most every N ms (the levels between merge; default 0)\n"
           "  --look EX,EY,EZ,TX,TY,TZ[,FOV]  the camera (default: framing the base)\n"
           "  --no-view              do not send the camera to the server\n"
+          "  --tint                 start with predicted vertices tinted (key P toggles)\n"
+          "  --udp-via HOST:PORT    send the UDP half there (a relay) instead of the server's address\n"
+          "  --no-parity            no parity datagrams: what UDP loses is predicted\n"
           "  --vsync                wait for the display's refresh (default: off)\n"
           "  --capture DIR          write DIR/level-NN.ppm per level shown and DIR/final.ppm\n"
           "  --stats FILE           write counts, uploads and times as JSON at the end\n"
@@ -179,6 +186,12 @@ static int ParseArgs(int argc, char** argv, Options* o) {
         fprintf(stderr, "meshstream_viewer: --look: EX,EY,EZ,TX,TY,TZ[,FOV] (eye != target, FOV 1..179): %s\n", next);
         return 2;
       }
+    } else if (strcmp(a, "--tint") == 0) {
+      o->tint = 1;
+    } else if (strcmp(a, "--udp-via") == 0) {
+      NEED(a) o->udp_via = next;
+    } else if (strcmp(a, "--no-parity") == 0) {
+      o->no_parity = 1;
     } else if (strcmp(a, "--no-view") == 0) {
       o->send_view = 0;
     } else if (strcmp(a, "--vsync") == 0) {
@@ -471,6 +484,9 @@ int main(int argc, char** argv) {
   sc.version = o.version;
   sc.max_level = -1;
   sc.tcp_only = o.tcp_only;
+  sc.udp_via = o.udp_via;
+  sc.no_parity = o.no_parity;
+  camera.tint = o.tint;
   ms_session* session = NULL;
   if (ms_session_open(client, &sc, &session) != MS_OK) {
     fprintf(stderr, "meshstream_viewer: %s\n", ms_last_error());
@@ -636,6 +652,30 @@ int main(int argc, char** argv) {
                 (unsigned long long)rec->nonblank_pixels);
       }
     }
+    if (level_shown && complete) { /* the COMPLETE event's meshes are on the GPU and drawn: the final frame */
+      uint64_t nonblank = 0;
+      if (rgb != NULL && Capture(&o, "final", fb_width, fb_height, rgb, &nonblank) != 0) {
+        exit_code = 1;
+        break;
+      }
+      if (camera.tint && rgb != NULL) { /* the same frame untinted, for comparison; then tinted again */
+        vw_draw(&renderer, primitives, primitive_count, vp, 0, fb_width, fb_height);
+        if (Capture(&o, "final-untinted", fb_width, fb_height, rgb, &nonblank) != 0) {
+          exit_code = 1;
+          break;
+        }
+        vw_draw(&renderer, primitives, primitive_count, vp, 1, fb_width, fb_height);
+      }
+      if (o.export_path != NULL && ms_session_export(session, o.export_path) != MS_OK) {
+        fprintf(stderr, "meshstream_viewer: export: %s\n", ms_last_error());
+        exit_code = 1;
+        break;
+      }
+      for (uint32_t i = 0; i < primitive_count; ++i) {
+        final_vertices += primitives[i].vertex_count;
+        final_indices += primitives[i].index_count;
+      }
+    }
     glFinish();
     const double frame_end = NowUs();
     if (complete && !pending) {
@@ -663,22 +703,6 @@ int main(int argc, char** argv) {
     }
 
     if (complete && !pending) {
-      if (idle_drawn == 0) {
-        uint64_t nonblank = 0;
-        if (rgb != NULL && Capture(&o, "final", fb_width, fb_height, rgb, &nonblank) != 0) {
-          exit_code = 1;
-          break;
-        }
-        if (o.export_path != NULL && ms_session_export(session, o.export_path) != MS_OK) {
-          fprintf(stderr, "meshstream_viewer: export: %s\n", ms_last_error());
-          exit_code = 1;
-          break;
-        }
-        for (uint32_t i = 0; i < primitive_count; ++i) {
-          final_vertices += primitives[i].vertex_count;
-          final_indices += primitives[i].index_count;
-        }
-      }
       ++idle_drawn;
       if (o.exit_when_complete && idle_drawn > o.idle_frames) break;
     }

@@ -23,7 +23,11 @@
 #     primitives (a count, not a time); the times the stream's part of each
 #     frame took at the default budget are printed, bounded only as a hang;
 #   - the bytes uploaded are fewer than re-uploading every level whole.
-# Usage: tests/viewer/viewer_run.sh MESHSTREAM VIEWER REFERENCE MODELS_DIR
+#   - predicted vertices are tinted: the bunny through a seeded lossy relay
+#     (25 % each way, no parity, no repair) with --tint: the session ends with
+#     predicted vertices, and its final frame has tinted pixels where the same
+#     frame drawn untinted has none; the GPU buffers still equal the views.
+# Usage: tests/viewer/viewer_run.sh MESHSTREAM VIEWER REFERENCE RELAY MODELS_DIR
 #   MESHSTREAM_TEST_SHOTS  keep the frames there as PNG (bunny-final.png, ...)
 # Exit: non-zero, saying which check failed, when one does.
 set -uo pipefail
@@ -31,11 +35,11 @@ set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 # shellcheck source=../../testing/serve.sh
 . "$here/../../testing/serve.sh"
-if [ $# -lt 4 ]; then
-  echo "usage: $0 MESHSTREAM VIEWER REFERENCE MODELS_DIR" >&2
+if [ $# -lt 5 ]; then
+  echo "usage: $0 MESHSTREAM VIEWER REFERENCE RELAY MODELS_DIR" >&2
   exit 1
 fi
-bin=$(realpath "$1") viewer=$(realpath "$2") reference=$(realpath "$3") models=$4
+bin=$(realpath "$1") viewer=$(realpath "$2") reference=$(realpath "$3") relay_bin=$(realpath "$4") models=$5
 if ! command -v xvfb-run >/dev/null 2>&1; then
   echo "viewer_run.sh: xvfb-run is missing (scripts/install-deps installs xvfb and xauth)" >&2
   exit 1
@@ -44,7 +48,9 @@ for var in $(compgen -e | grep '^MESHSTREAM_' | grep -v '^MESHSTREAM_TEST_'); do
   unset "$var"
 done
 tmp=$(mktemp -d)
+relay_pid=""
 cleanup() {
+  [ -n "$relay_pid" ] && kill "$relay_pid" 2>/dev/null
   serve_kill
   rm -rf "$tmp"
 }
@@ -152,9 +158,52 @@ compare engine
 view engine engine-budget0 --budget-us 0 --no-view
 check engine-budget0 engine 1 0
 
+# Predicted vertices, tinted: through a lossy relay.
+"$relay_bin" --upstream "$SERVE_UDP" --loss 0.25 --seed 11 >"$tmp/relay.out" 2>&1 &
+relay_pid=$!
+relay_addr=""
+for _ in $(seq 1 100); do  # a hang bound: the relay prints its address at once
+  relay_addr=$(sed -n 's/^relay on //p' "$tmp/relay.out")
+  [ -n "$relay_addr" ] && break
+  kill -0 "$relay_pid" 2>/dev/null || fail "the relay exited: $(cat "$tmp/relay.out")"
+  sleep 0.1
+done
+[ -n "$relay_addr" ] || fail "the relay printed no address"
+view bunny lossy --udp-via "$relay_addr" --no-parity --tint
+python3 - "$tmp/lossy.json" "$tmp/lossy/final.ppm" "$tmp/lossy/final-untinted.ppm" <<'PY' || fail "the tint check failed"
+import json, sys
+stats = json.load(open(sys.argv[1]))
+def tinted(path):
+    data = open(path, "rb").read()
+    parts = data.split(b"\n", 3)
+    pixels = parts[3]
+    count = 0
+    for i in range(0, len(pixels), 3):
+        r, g, b = pixels[i], pixels[i + 1], pixels[i + 2]
+        if r > 50 and r > 1.6 * g and r > 3 * b:
+            count += 1
+    return count
+errors = []
+if not stats["complete"]:
+    errors.append("the lossy session did not complete")
+if stats["verify_mismatches"] != 0:
+    errors.append("GPU buffers differed from the views %d times" % stats["verify_mismatches"])
+if stats["predicted_vertices"] == 0:
+    errors.append("nothing predicted at 25 % loss without parity or repair")
+on, off = tinted(sys.argv[2]), tinted(sys.argv[3])
+print("lossy: %d predicted vertices; %d tinted pixels, %d untinted" % (stats["predicted_vertices"], on, off))
+if on == 0:
+    errors.append("no tinted pixel in the final frame with --tint")
+if off != 0:
+    errors.append("%d tinted pixels drawn without the tint" % off)
+if errors:
+    print("\n".join(errors), file=sys.stderr)
+    sys.exit(1)
+PY
+
 if [ -n "${MESHSTREAM_TEST_SHOTS:-}" ]; then
   mkdir -p "$MESHSTREAM_TEST_SHOTS"
-  for name in bunny engine; do
+  for name in bunny engine lossy; do
     for f in "$tmp/$name"/*.ppm; do
       python3 "$here/ppm_to_png.py" "$f" "$MESHSTREAM_TEST_SHOTS/$name-$(basename "$f" .ppm).png" ||
         fail "cannot convert $f"
