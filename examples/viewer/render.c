@@ -142,6 +142,17 @@ static uint32_t NewCapacity(uint32_t have, uint32_t need) {
   return c > 0xffffffffu ? 0xffffffffu : (uint32_t)c;
 }
 
+/* One glBufferSubData per range into the buffer bound to `target`. */
+static void SubDataRanges(vw_renderer* r, GLenum target, const uint8_t* bytes, size_t stride, const ms_range* ranges,
+                          uint32_t count) {
+  for (uint32_t i = 0; i < count; ++i) {
+    const size_t offset = stride * ranges[i].first, size = stride * ranges[i].count;
+    glBufferSubData(target, (GLintptr)offset, (GLsizeiptr)size, bytes + offset);
+    r->bytes_uploaded += size;
+    r->upload_calls += 1;
+  }
+}
+
 /* Writes the ranges of `data` (elements of `stride` bytes) into the buffer
  * bound to `target`: one glBufferSubData per range when they are few, else
  * one mapping of their span with each range flushed explicitly. */
@@ -149,26 +160,15 @@ static void WriteRanges(vw_renderer* r, GLenum target, const void* data, size_t 
                         uint32_t count) {
   if (count == 0 || data == NULL) return;
   const uint8_t* bytes = (const uint8_t*)data;
-  if (count <= 16) {
-    for (uint32_t i = 0; i < count; ++i) {
-      const size_t offset = stride * ranges[i].first, size = stride * ranges[i].count;
-      glBufferSubData(target, (GLintptr)offset, (GLsizeiptr)size, bytes + offset);
-      r->bytes_uploaded += size;
-      r->upload_calls += 1;
-    }
-    return;
-  }
+  uint8_t* mapped = NULL;
   const size_t begin = stride * ranges[0].first;
-  const size_t end = stride * ((size_t)ranges[count - 1].first + ranges[count - 1].count);
-  uint8_t* mapped = (uint8_t*)glMapBufferRange(target, (GLintptr)begin, (GLsizeiptr)(end - begin),
-                                               GL_MAP_WRITE_BIT | GL_MAP_FLUSH_EXPLICIT_BIT);
-  if (mapped == NULL) { /* a driver that refuses: the calls one by one */
-    for (uint32_t i = 0; i < count; ++i) {
-      const size_t offset = stride * ranges[i].first, size = stride * ranges[i].count;
-      glBufferSubData(target, (GLintptr)offset, (GLsizeiptr)size, bytes + offset);
-      r->bytes_uploaded += size;
-      r->upload_calls += 1;
-    }
+  if (count > 16) {
+    const size_t end = stride * ((size_t)ranges[count - 1].first + ranges[count - 1].count);
+    mapped = (uint8_t*)glMapBufferRange(target, (GLintptr)begin, (GLsizeiptr)(end - begin),
+                                        GL_MAP_WRITE_BIT | GL_MAP_FLUSH_EXPLICIT_BIT);
+  }
+  if (mapped == NULL) { /* few ranges, or a driver that refuses the mapping */
+    SubDataRanges(r, target, bytes, stride, ranges, count);
     return;
   }
   for (uint32_t i = 0; i < count; ++i) {
