@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "codec/core/task_runner.h"
 #include "codec/loss/lossy_decode.h"
 #include "codec/loss/protection.h"
 #include "codec/bitstream/reader.h"
@@ -413,19 +414,6 @@ Status EncodeStream(StreamJob* job, const ProgressiveGlbOptions& options, double
   return Status::Ok();
 }
 
-// The referenced vertices of `indices`.
-uint64_t ReferencedVertices(const std::vector<uint32_t>& indices, size_t vertices) {
-  std::vector<bool> seen(vertices, false);
-  uint64_t count = 0;
-  for (uint32_t i : indices) {
-    if (i < vertices && !seen[i]) {
-      seen[i] = true;
-      ++count;
-    }
-  }
-  return count;
-}
-
 // The encoder's progress, from any worker: one call at a time, the vertices
 // left summed over a primitive's parts; a call that throws cancels every
 // stream (the simplifiers stop at their next batch) and is kept to rethrow.
@@ -486,8 +474,8 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
       auto quantized = QuantizePrimitive(prim, options.encode.quantization);
       if (!quantized.ok()) return quantized.status().WithContext(where);
       if (releasing != nullptr) ReleaseArrays(releasing->meshes[m].primitives[k]);
-      const size_t parts = PartCount(ReferencedVertices(quantized->indices, quantized->vertex_count()),
-                                     options.part_vertices);
+      // QuantizePrimitive keeps only the referenced vertices.
+      const size_t parts = PartCount(quantized->vertex_count(), options.part_vertices);
       std::vector<QuantizedMesh> pieces;
       if (parts > 1) {
         pieces = SplitIntoParts(quantized.value(), parts);
@@ -512,22 +500,14 @@ StatusOr<std::vector<uint8_t>> EncodeProgressiveGlbUnguarded(const Scene& scene,
   }
   // Then the streams, several at once when there are workers for them.
   ProgressRelay relay(options, jobs);
-  const bool parallel = options.runner != nullptr && options.runner->workers() > 1 && jobs.size() > 1;
-  auto run = [&](size_t j, TaskRunner* harm_runner) {
+  RunEachTask(options.runner, jobs.size(), [&](size_t j, TaskRunner* harm_runner) {
     StreamJob& job = jobs[j];
     job.status = CatchExceptions(job.where, [&]() -> StatusOr<bool> {
       MS_RETURN_IF_ERROR(EncodeStream(&job, options, scales[job.mesh], harm_runner, relay.ObserverFor(j)));
       return true;
     }).status();
-  };
-  if (parallel) {
-    options.runner->Run(jobs.size(), [&](size_t j, int) { run(j, nullptr); });
-  } else {
-    for (size_t j = 0; j < jobs.size(); ++j) {
-      run(j, options.runner);
-      if (!jobs[j].status.ok()) break;
-    }
-  }
+    return job.status.ok();
+  });
   relay.RethrowIfAny();
   for (const StreamJob& job : jobs) MS_RETURN_IF_ERROR(job.status);
 
@@ -741,21 +721,14 @@ StatusOr<Scene> DecodeChecked(const std::vector<uint8_t>& bytes, const Progressi
     }
     return Status::Ok();
   };
-  auto guarded = [&](size_t i, TaskRunner* runner) {
+  RunEachTask(options.runner, found.size(), [&](size_t i, TaskRunner* runner) {
     try {
       decoded[i].status = decode_one(i, runner);
     } catch (const std::exception& e) {
       decoded[i].status = InvalidInput(found[i].where + ": " + e.what());
     }
-  };
-  if (options.runner != nullptr && options.runner->workers() > 1 && found.size() > 1) {
-    options.runner->Run(found.size(), [&](size_t i, int) { guarded(i, nullptr); });
-  } else {
-    for (size_t i = 0; i < found.size(); ++i) {
-      guarded(i, options.runner);
-      if (!decoded[i].status.ok()) break;
-    }
-  }
+    return decoded[i].status.ok();
+  });
   ProgressiveDecodeReport local;
   for (size_t i = 0; i < found.size(); ++i) {
     MS_RETURN_IF_ERROR(decoded[i].status);

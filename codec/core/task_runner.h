@@ -25,6 +25,24 @@ class TaskRunner {
   virtual void Run(size_t tasks, const std::function<void(size_t task, int worker)>& fn) = 0;
 };
 
+// Independent tasks that may each use workers of their own (a scene's
+// streams: each encodes or decodes alone, and one stream can share workers
+// within itself): with a runner of several workers and several tasks, every
+// task runs at once on one worker and gets no runner (fn(task, nullptr));
+// otherwise they run one after the other on this thread, each given the
+// runner (fn(task, runner)), until one returns false. Either way the work is
+// the same; fn must not throw.
+template <typename F>
+void RunEachTask(TaskRunner* runner, size_t tasks, F&& fn) {
+  if (runner != nullptr && runner->workers() > 1 && tasks > 1) {
+    runner->Run(tasks, [&](size_t task, int) { fn(task, static_cast<TaskRunner*>(nullptr)); });
+    return;
+  }
+  for (size_t task = 0; task < tasks; ++task) {
+    if (!fn(task, runner)) return;
+  }
+}
+
 }  // namespace meshstream
 
 #endif  // MESHSTREAM_CODEC_CORE_TASK_RUNNER_H_
