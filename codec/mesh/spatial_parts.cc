@@ -57,7 +57,7 @@ void Split(const std::vector<Centroid>& centroids, std::vector<uint32_t>& triang
 }  // namespace
 
 size_t RepairBowties(const QuantizedMesh& mesh, std::vector<uint32_t>& label, int rounds) {
-  const size_t faces = mesh.face_count(), vertices = mesh.vertex_count();
+  const size_t vertices = mesh.vertex_count();
   // Triangles around each vertex (CSR).
   std::vector<uint32_t> first(vertices + 1, 0);
   for (uint32_t v : mesh.indices) ++first[v + 1];

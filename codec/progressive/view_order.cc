@@ -99,30 +99,22 @@ double ScreenError(const View& view, const Box& box, double error) {
 
 View LookAtView(const Vec3d& eye, const Vec3d& target, double fov_y_degrees, uint32_t width, uint32_t height,
                 double near_plane, double far_plane) {
-  auto sub = [](const Vec3d& a, const Vec3d& b) { return Vec3d{a[0] - b[0], a[1] - b[1], a[2] - b[2]}; };
-  auto cross = [](const Vec3d& a, const Vec3d& b) {
-    return Vec3d{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  auto unit = [](const Vec3d& v) {
+    const double n = Norm(v);
+    return n > 0 ? Vec3d{v[0] / n, v[1] / n, v[2] / n} : v;
   };
-  auto unit = [](Vec3d v) {
-    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (n > 0) {
-      for (double& c : v) c /= n;
-    }
-    return v;
-  };
-  auto dot = [](const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
-  const Vec3d f = unit(sub(target, eye));
+  const Vec3d f = unit(Sub(target, eye));
   Vec3d up = {0, 1, 0};
-  if (std::abs(dot(f, up)) > 0.999) up = {0, 0, 1};
-  const Vec3d s = unit(cross(f, up));
-  const Vec3d u = cross(s, f);
+  if (std::abs(Dot(f, up)) > 0.999) up = {0, 0, 1};
+  const Vec3d s = unit(Cross(f, up));
+  const Vec3d u = Cross(s, f);
   // The view matrix (rows s, u, -f), then the perspective.
   const double aspect = height > 0 ? static_cast<double>(width) / height : 1.0;
   const double t = 1.0 / std::tan(fov_y_degrees * 3.14159265358979323846 / 360.0);
   const double a = (far_plane + near_plane) / (near_plane - far_plane);
   const double b = 2 * far_plane * near_plane / (near_plane - far_plane);
   const std::array<Vec3d, 3> rows = {s, u, Vec3d{-f[0], -f[1], -f[2]}};
-  const std::array<double, 3> translation = {-dot(s, eye), -dot(u, eye), dot(f, eye)};
+  const std::array<double, 3> translation = {-Dot(s, eye), -Dot(u, eye), Dot(f, eye)};
   View v;
   v.camera = eye;
   v.viewport_width = width;
@@ -165,8 +157,7 @@ StatusOr<View> LookAtViewFromText(const std::string& text) {
       h != std::floor(h)) {
     return InvalidArgument("view: the viewport is whole pixels in [1, " + std::to_string(kMaxViewportPixels) + "]");
   }
-  const double distance = std::sqrt((v[3] - v[0]) * (v[3] - v[0]) + (v[4] - v[1]) * (v[4] - v[1]) +
-                                    (v[5] - v[2]) * (v[5] - v[2]));
+  const double distance = Norm(Sub({v[3], v[4], v[5]}, {v[0], v[1], v[2]}));
   if (!(distance > 0)) return InvalidArgument("view: the eye and the target are the same point");
   const View view = LookAtView({v[0], v[1], v[2]}, {v[3], v[4], v[5]}, fov, static_cast<uint32_t>(w),
                                static_cast<uint32_t>(h), distance / 1000, distance * 1000);
