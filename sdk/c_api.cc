@@ -151,14 +151,19 @@ ms_status CheckPrimitive(const ms_session* session, uint32_t primitive) {
                                            std::to_string(count) + " primitives now)");
 }
 
+// A primitive's view state (the primitive checked by the caller).
+ms_session::View& ViewOf(ms_session* session, uint32_t primitive) {
+  if (session->views.size() < session->session->primitive_count()) {
+    session->views.resize(session->session->primitive_count());
+  }
+  return session->views[primitive];
+}
+
 // The view buffers of a primitive, brought up to date once per poll
 // generation: only the vertices and triangles that changed since the last
 // fill are written (all of them the first time).
 ms_status Fill(ms_session* session, uint32_t primitive, ms_session::View** out) {
-  if (session->views.size() < session->session->primitive_count()) {
-    session->views.resize(session->session->primitive_count());
-  }
-  ms_session::View& view = session->views[primitive];
+  ms_session::View& view = ViewOf(session, primitive);
   if (view.generation != session->generation) {
     auto shown = session->session->Quantized(primitive);
     if (!shown.ok()) return Fail(shown.status());
@@ -370,10 +375,7 @@ ms_status ms_session_instances(ms_session* session, uint32_t primitive, const fl
     if (out_matrices == nullptr) return Null("out_matrices");
     if (out_count == nullptr) return Null("out_count");
     if (CheckPrimitive(session, primitive) != MS_OK) return MS_ERR_INVALID_ARGUMENT;
-    if (session->views.size() < session->session->primitive_count()) {
-      session->views.resize(session->session->primitive_count());
-    }
-    ms_session::View& view = session->views[primitive];
+    ms_session::View& view = ViewOf(session, primitive);
     if (!view.has_instances) {
       view.instances.clear();
       for (const auto& m : session->session->Instances(primitive)) {

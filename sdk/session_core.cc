@@ -30,6 +30,25 @@ StatusOr<DracoAttributeIds> IdsOf(const v1::PrimitiveStart& p) {
 
 const uint8_t* Bytes(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }
 
+// A primitive's level list (docs/spec/streaming-protocol.md, "Levels of a
+// scene": PrimitiveStart's, or a LevelPlan's): non-decreasing counts, the
+// last one all of the session's `refinements`; empty is allowed.
+template <typename List>
+Status CheckLevelList(const List& at, uint32_t refinements, const std::string& where) {
+  for (int i = 0; i < at.size(); ++i) {
+    if (at[i] > refinements || (i > 0 && at[i] < at[i - 1])) {
+      return InvalidInput(where + ": level_refinements[" + std::to_string(i) + "] = " + std::to_string(at[i]) +
+                          " is not between the level before and the " + std::to_string(refinements) +
+                          " refinements");
+    }
+  }
+  if (!at.empty() && at[at.size() - 1] != refinements) {
+    return InvalidInput(where + ": the last level applies " + std::to_string(at[at.size() - 1]) + " of " +
+                        std::to_string(refinements) + " refinements");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 // What the client tracks of one refinement for its report.
@@ -255,20 +274,9 @@ Status SessionCore::Start(const v1::SessionStart& start, uint64_t now) {
     if (options_.repair) state.kept_base = base.value();
     Status s = state.reconstructor->SetBase(std::move(base).value());
     if (!s.ok()) return s.WithContext(where);
-    // The scene's levels (docs/spec/streaming-protocol.md, "Levels of a scene"):
-    // non-decreasing counts, the last one all of this session's refinements.
+    // The scene's levels.
     const auto& at = p.level_refinements();
-    for (int i = 0; i < at.size(); ++i) {
-      if (at[i] > p.refinements() || (i > 0 && at[i] < at[i - 1])) {
-        return InvalidInput(where + ": level_refinements[" + std::to_string(i) + "] = " + std::to_string(at[i]) +
-                            " is not between the level before and the " + std::to_string(p.refinements()) +
-                            " refinements");
-      }
-    }
-    if (!at.empty() && at[at.size() - 1] != p.refinements()) {
-      return InvalidInput(where + ": the last level applies " + std::to_string(at[at.size() - 1]) + " of " +
-                          std::to_string(p.refinements()) + " refinements");
-    }
+    MS_RETURN_IF_ERROR(CheckLevelList(at, p.refinements(), where));
     state.tracks.resize(p.refinements());
     levels_ = std::max(levels_, static_cast<int32_t>(at.empty() ? p.refinements() : at.size()));
     stats_.reliable_bytes += p.header().size() + p.base_mesh().size();
@@ -536,20 +544,12 @@ Status SessionCore::OnLevelPlan(const v1::LevelPlan& plan) {
     const std::string where = Where(p.start.primitive()) + ": level plan";
     if (old.empty() || now.size() != old.size()) return InvalidInput(where + ": " + std::to_string(now.size()) +
                                                                      " levels, the session has " + std::to_string(old.size()));
-    for (int l = 0; l < now.size(); ++l) {
-      if (now[l] > p.start.refinements() || (l > 0 && now[l] < now[l - 1])) {
-        return InvalidInput(where + ": level_refinements[" + std::to_string(l) + "] = " + std::to_string(now[l]) +
-                            " is not between the level before and the " + std::to_string(p.start.refinements()) +
-                            " refinements");
-      }
-      if (static_cast<uint32_t>(l + 1) < first && now[l] != old[l]) {
+    MS_RETURN_IF_ERROR(CheckLevelList(now, p.start.refinements(), where));
+    for (int l = 0; l + 1 < static_cast<int>(first) && l < now.size(); ++l) {
+      if (now[l] != old[l]) {
         return InvalidInput(where + ": level " + std::to_string(l + 1) + " changed before the first changed level " +
                             std::to_string(first));
       }
-    }
-    if (now[now.size() - 1] != p.start.refinements()) {
-      return InvalidInput(where + ": the last level applies " + std::to_string(now[now.size() - 1]) + " of " +
-                          std::to_string(p.start.refinements()) + " refinements");
     }
   }
   for (size_t i = 0; i < primitives_.size(); ++i) {
@@ -710,7 +710,7 @@ Status SessionCore::Advance(uint64_t now, bool flush) {
   if (across_streams_) {
     // Every stream at once; what their progress lets go (a level reached
     // everywhere) is decoded in the same call, round after round.
-    for (int round = 0; round < kMaxRefinements + 1; ++round) {
+    for (uint32_t round = 0; round < kMaxRefinements + 1; ++round) {
       std::vector<size_t> applied;
       for (const PrimitiveState& p : primitives_) applied.push_back(p.reconstructor->applied());
       std::vector<Status> status(primitives_.size());

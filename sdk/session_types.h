@@ -121,8 +121,8 @@ struct SessionStats {
   double decode_after_last_byte_ms = 0;  // time_to_full_ms - last_arrival_ms: the decoding left after it
   double session_thread_cpu_ms = 0; // CPU of the SDK's session thread so far (decoding, the protocol)
   uint32_t level_plans = 0;          // LevelPlans the server sent (a view reordered the session)
-  uint64_t parallel_splits = 0;     // (with one stream; several decode at once instead:)
-  uint32_t parallel_streams = 0;    // streams the decode_threads decode at once (0: one stream, or one thread)     // splits decoded on the decode_threads (0 with one thread)
+  uint64_t parallel_splits = 0;     // splits decoded on the decode_threads (0 with one thread, or several streams)
+  uint32_t parallel_streams = 0;    // streams the decode_threads decode at once (0: one stream, or one thread)
   // Parity (docs/design/loss-protection.md): datagrams_lost counts what the network
   // lost (the raw loss the reports tell the server); of those, parity rebuilt
   // datagrams_recovered locally, without asking again.
