@@ -48,7 +48,6 @@ struct FetchArgs {
   RemoteOptions remote;
 };
 
-
 int RunFetch(const FetchArgs& args) {
   auto target = ParseAssetVersion(args.target);
   if (!target.ok()) return ReportError("fetch", target.status());

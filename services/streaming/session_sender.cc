@@ -1,6 +1,5 @@
 #include "services/streaming/session_sender.h"
 
-
 #include <algorithm>
 #include <iomanip>
 #include <sstream>
@@ -110,7 +109,6 @@ void SessionSender::OnView(uint64_t now_us, const View& view) {
 uint32_t SessionSender::ApplyView(uint64_t now_us) {
   const View view = *pending_view_;
   pending_view_.reset();
-  view_applied_ = true;
   view_applied_us_ = now_us;
   uint32_t first_changed = 0;
   std::optional<SessionPlan> ordered = OrderByView(*plan_, index_, view, &first_changed);
@@ -349,7 +347,7 @@ SenderAction SessionSender::NextRefinementStep(uint64_t now_us) {
     return a;
   }
   if (step_ == Step::kControl && pending_view_ &&
-      (!view_applied_ || now_us >= view_applied_us_ + kMinViewIntervalUs)) {
+      (!view_applied_us_ || now_us >= *view_applied_us_ + kMinViewIntervalUs)) {
     const uint32_t first_changed = ApplyView(now_us);
     if (first_changed > 0) {
       a.kind = SenderAction::kLevels;

@@ -289,8 +289,7 @@ class SessionSender {
   const SessionPlan* plan_;
   std::unique_ptr<SessionPlan> own_plan_;  // after a view: the reordered plan
   std::optional<View> pending_view_;
-  uint64_t view_applied_us_ = 0;
-  bool view_applied_ = false;
+  std::optional<uint64_t> view_applied_us_;  // when the last view was acted on
   const std::vector<uint8_t>& artifact_;
   int32_t max_level_;
   SessionSenderOptions options_;
