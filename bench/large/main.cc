@@ -32,6 +32,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
+#include "bench/options.h"
 #include "bench/scaling/measured_run.h"
 #include "bench/scaling/subdivide.h"
 #include "bench/scaling/surface_noise.h"
@@ -54,13 +55,12 @@ struct Args {
   std::string out = "docs/results/bench/large.json";
 };
 
-void Usage() {
-  std::printf(
-      "usage: meshstream_bench_large [--model FILE] [--subdivisions N] [--noise-steps S] [--threads T]\n"
-      "                              [--work-dir DIR] [--out FILE]\n\n"
-      "--noise-steps S (default 1): each vertex the subdivisions added moves by up to S grid steps of qp 11\n"
-      "along each axis (1: a displacement of one grid step, root mean square; Draco cl7 codes the bunny\n"
-      "subdivided twice at 7.6 bits a vertex, 10.1 with 2).\n"
+// The option table (bench/options.h): --help is made from it.
+Args Parse(int argc, char** argv) {
+  Args a;
+  if (const char* tmp = std::getenv("TMPDIR")) a.work_dir = tmp;
+  ms::bench::Options o(
+      "meshstream_bench_large",
       "A mesh of about 10 M vertices end to end: FILE (default stanford-bunny.obj) subdivided N\n"
       "times (default 4: 9.2 M vertices) with scan-like noise, then Draco's encode and decode, and\n"
       "against a `meshstream serve` (one job worker, --encode-threads T, default 2): ingest to\n"
@@ -68,37 +68,16 @@ void Usage() {
       "of the base alone, and decode on 1 and T threads; wall, CPU and peak memory of each, the\n"
       "server's peak. About 10 minutes and 10 GB of memory on 2 cores. Writes one JSON object\n"
       "(default docs/results/bench/large.json) and prints a markdown table.\n");
-}
-
-Args Parse(int argc, char** argv) {
-  Args a;
-  if (const char* tmp = std::getenv("TMPDIR")) a.work_dir = tmp;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) ms::bench::Die(flag + " needs a value");
-      return argv[++i];
-    };
-    if (flag == "--help" || flag == "-h") {
-      Usage();
-      std::exit(0);
-    } else if (flag == "--model") {
-      a.model = value();
-    } else if (flag == "--subdivisions") {
-      a.subdivisions = static_cast<int>(ms::bench::ParseInt(value(), flag, 0, 5));
-    } else if (flag == "--noise-steps") {
-      a.noise_steps = ms::bench::ParseDouble(value(), flag);
-      if (!(a.noise_steps >= 0 && a.noise_steps <= 100)) ms::bench::Die("--noise-steps must be between 0 and 100");
-    } else if (flag == "--threads") {
-      a.threads = static_cast<int>(ms::bench::ParseInt(value(), flag, 1, 64));
-    } else if (flag == "--work-dir") {
-      a.work_dir = value();
-    } else if (flag == "--out") {
-      a.out = value();
-    } else {
-      ms::bench::Die("unknown flag " + flag + " (--help lists them)");
-    }
-  }
+  o.String("--model", "FILE", &a.model, "the shared model to subdivide (default stanford-bunny.obj)");
+  o.Int("--subdivisions", "N", &a.subdivisions, 0, 5, "subdivisions (default 4)");
+  o.Double("--noise-steps", "S", &a.noise_steps, 0, 100,
+           "each vertex the subdivisions added moves by up to S grid steps of qp 11 along each axis\n"
+           "(default 1: a displacement of one grid step, root mean square; Draco cl7 codes the bunny\n"
+           "subdivided twice at 7.6 bits a vertex, 10.1 with 2)");
+  o.Int("--threads", "T", &a.threads, 1, 64, "encode and decode threads (default 2)");
+  o.String("--work-dir", "DIR", &a.work_dir, "where the meshes and the store go (default $TMPDIR, else /tmp)");
+  o.String("--out", "FILE", &a.out, "the JSON (default docs/results/bench/large.json)");
+  o.Parse(argc, argv);
   return a;
 }
 

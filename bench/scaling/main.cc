@@ -43,6 +43,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/harness.h"
+#include "bench/options.h"
 #include "bench/scaling/measured_run.h"
 #include "bench/scaling/subdivide.h"
 #include "bench/scaling/surface_noise.h"
@@ -66,11 +67,12 @@ struct Args {
   double noise = 0.25;  // the noisy surface's amplitude, in mean edge lengths
 };
 
-void Usage() {
-  std::printf(
-      "usage: meshstream_bench_scaling [--model FILE] [--subdivisions N] [--runs N] [--qp Q]\n"
-      "                                [--work-dir DIR] [--out FILE] [--keep-inputs DIR]\n"
-      "                                [--surfaces smooth,noisy,scan] [--noise A]\n\n"
+// The option table (bench/options.h): --help is made from it.
+Args Parse(int argc, char** argv) {
+  Args a;
+  if (const char* tmp = std::getenv("TMPDIR")) a.work_dir = tmp;
+  ms::bench::Options o(
+      "meshstream_bench_scaling",
       "The encoder at scale: FILE (a shared model, default stanford-bunny.obj) subdivided 0..N\n"
       "times (default 3: 35 k to 2.2 M vertices for the bunny), each encoded by `meshstream\n"
       "encode` and by Draco (`meshstream convert --draco --cl 7`) as child processes: wall and\n"
@@ -84,53 +86,29 @@ void Usage() {
       "to --noise (default 0.25) mean edge lengths; scan: every vertex a subdivision added moved\n"
       "by up to one grid step of qp 11 along each axis (the shaped-link race's large model).\n"
       "Each row also encodes on two threads and as one spatial part (--part-vertices 0).\n");
-}
-
-Args Parse(int argc, char** argv) {
-  Args a;
-  if (const char* tmp = std::getenv("TMPDIR")) a.work_dir = tmp;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) ms::bench::Die(flag + " needs a value");
-      return argv[++i];
-    };
-    if (flag == "--help" || flag == "-h") {
-      Usage();
-      std::exit(0);
-    } else if (flag == "--model") {
-      a.model = value();
-    } else if (flag == "--subdivisions") {
-      a.subdivisions = static_cast<int>(ms::bench::ParseInt(value(), flag, 0, 5));
-    } else if (flag == "--runs") {
-      a.runs = static_cast<int>(ms::bench::ParseInt(value(), flag, 1, 99));
-    } else if (flag == "--qp") {
-      a.qp = static_cast<int>(ms::bench::ParseInt(value(), flag, 1, 30));
-    } else if (flag == "--work-dir") {
-      a.work_dir = value();
-    } else if (flag == "--out") {
-      a.out = value();
-    } else if (flag == "--keep-inputs") {
-      a.keep_inputs = value();
-    } else if (flag == "--surfaces") {
-      a.surfaces.clear();
-      const std::string list = value();
-      for (size_t at = 0; at <= list.size();) {
-        const size_t comma = std::min(list.find(',', at), list.size());
-        const std::string name = list.substr(at, comma - at);
-        if (name != "smooth" && name != "noisy" && name != "scan") {
-          ms::bench::Die("--surfaces: '" + name + "' is not smooth, noisy or scan");
-        }
-        a.surfaces.push_back(name);
-        at = comma + 1;
-      }
-    } else if (flag == "--noise") {
-      a.noise = ms::bench::ParseDouble(value(), flag);
-      if (!(a.noise >= 0 && a.noise <= 10)) ms::bench::Die("--noise must be between 0 and 10");
-    } else {
-      ms::bench::Die("unknown flag " + flag + " (--help lists them)");
-    }
-  }
+  o.String("--model", "FILE", &a.model, "the shared model to subdivide (default stanford-bunny.obj)");
+  o.Int("--subdivisions", "N", &a.subdivisions, 0, 5, "subdivisions (default 3)");
+  o.Int("--runs", "N", &a.runs, 1, 99, "runs per measure, their median kept (default 3)");
+  o.Int("--qp", "Q", &a.qp, 1, 30, "position bits (default 11)");
+  o.String("--work-dir", "DIR", &a.work_dir, "where the meshes go (default $TMPDIR, else /tmp)");
+  o.String("--out", "FILE", &a.out, "the JSON (default docs/results/bench/scaling.json)");
+  o.String("--keep-inputs", "DIR", &a.keep_inputs, "copy each subdivided mesh here (for profiling)");
+  o.Custom("--surfaces", "LIST",
+           [&a](const std::string& list) {
+             a.surfaces.clear();
+             for (size_t at = 0; at <= list.size();) {
+               const size_t comma = std::min(list.find(',', at), list.size());
+               const std::string name = list.substr(at, comma - at);
+               if (name != "smooth" && name != "noisy" && name != "scan") {
+                 ms::bench::Die("--surfaces: '" + name + "' is not smooth, noisy or scan");
+               }
+               a.surfaces.push_back(name);
+               at = comma + 1;
+             }
+           },
+           "smooth, noisy and scan, comma-separated (default smooth,noisy)");
+  o.Double("--noise", "A", &a.noise, 0, 10, "the noisy surface's amplitude, in mean edge lengths (default 0.25)");
+  o.Parse(argc, argv);
   return a;
 }
 
