@@ -28,7 +28,7 @@
 // `tintPredicted`: vertices the decoder predicted (a simulated `loss`, or a
 // lossy transport) are shown orange through vertex colours.
 
-import { BufferAttribute, EventDispatcher } from 'three';
+import { BufferAttribute, EventDispatcher, Matrix4 } from 'three';
 import { DecoderWorker, fetchPrefix, jobSpec } from './client.js';
 
 const UV_NAMES = ['uv', 'uv1', 'uv2', 'uv3'];
@@ -38,16 +38,9 @@ const UV_NAMES = ['uv', 'uv1', 'uv2', 'uv3'];
 // the viewport in pixels. For options.view and setView.
 export function viewOfCamera(camera, width, height) {
   camera.updateMatrixWorld();
-  const p = camera.projectionMatrix.elements, v = camera.matrixWorldInverse.elements, w = camera.matrixWorld.elements;
-  const vp = new Array(16);
-  for (let c = 0; c < 4; ++c) {
-    for (let r = 0; r < 4; ++r) {
-      let s = 0;
-      for (let k = 0; k < 4; ++k) s += p[k * 4 + r] * v[c * 4 + k];
-      vp[c * 4 + r] = s;
-    }
-  }
-  return { camera: [w[12], w[13], w[14]], viewProjection: vp,
+  const vp = new Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse).elements;
+  const w = camera.matrixWorld.elements;
+  return { camera: [w[12], w[13], w[14]], viewProjection: Array.from(vp),
            width: Math.max(1, Math.round(width)), height: Math.max(1, Math.round(height)) };
 }
 

@@ -231,13 +231,10 @@ class Job {
   }
 }
 
-// The blobs' bytes from one ranged GET (they lie together at the end of the
-// file, in stream order), dispatched to each stream's reader by offset.
-async function readRanges(job, source) {
-  const blobs = [...source.blobs].sort((a, b) => a.start - b.start);
-  const last = blobs[blobs.length - 1].end;
-  // Bytes [at, at + n) of the file to each stream's reader.
-  const dispatch = (value, at) => {
+// Bytes [at, at + n) of the file to the reader of each stream whose blob
+// they overlap; returns at + n.
+function dispatcher(job, blobs) {
+  return (value, at) => {
     const chunkEnd = at + value.byteLength;
     for (const b of blobs) {
       const lo = Math.max(at, b.start), hi = Math.min(chunkEnd, b.end);
@@ -247,10 +244,11 @@ async function readRanges(job, source) {
     }
     return chunkEnd;
   };
-  let at = blobs[0].start;
-  if (source.head && source.head.byteLength > 0) at = dispatch(source.head, source.headStart);
-  if (at >= last) return;
-  const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${at}-${last - 1}` });
+}
+
+// One ranged GET of the file's bytes [from, to), each chunk to `dispatch`.
+async function fetchRange(job, source, from, to, dispatch) {
+  const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${from}-${to - 1}` });
   const response = await fetch(source.url, { headers, signal: job.abort.signal });
   if (response.status !== 206 && response.status !== 200) {
     let detail = '';
@@ -258,8 +256,9 @@ async function readRanges(job, source) {
     throw new Error(`${source.url}: HTTP ${response.status}${detail ? ' (' + detail + ')' : ''}`);
   }
   // A server that ignores ranges sends the whole file from byte 0: what
-  // was already read is skipped.
-  let skip = response.status === 206 ? 0 : at;
+  // comes before `from` is skipped.
+  let skip = response.status === 206 ? 0 : from;
+  let at = from;
   const body = response.body.getReader();
   for (;;) {
     const { done, value } = await body.read();
@@ -272,47 +271,33 @@ async function readRanges(job, source) {
       chunk = chunk.subarray(n);
       if (chunk.byteLength === 0) continue;
     }
+    if (at + chunk.byteLength > to) chunk = chunk.subarray(0, to - at);
     at = dispatch(chunk, at);
-    if (at >= last) break;
+    if (at >= to) break;
   }
-  if (at < last) throw new Error(`${source.url}: the response ended at byte ${at} of ${last}`);
+  if (at < to) throw new Error(`${source.url}: the response ended at byte ${at} of ${to}`);
 }
 
-// With a view (source.order: the streams the view needs first,
-// view_order.js): one ranged GET per stream blob, in that order, after the
-// bytes the prefix already held.
-async function readRangesInOrder(job, source) {
-  const byId = new Map(source.blobs.map((b) => [b.streamId, b]));
-  const headEnd = source.head && source.head.byteLength > 0 ? source.headStart + source.head.byteLength : 0;
-  const push = (b, bytes) => {
-    const s = job.streams.get(b.streamId);
-    for (const e of s.reader.push(bytes)) s.take(e);
-  };
-  if (headEnd > 0) {
-    for (const b of source.blobs) {
-      const lo = Math.max(source.headStart, b.start), hi = Math.min(headEnd, b.end);
-      if (lo < hi) push(b, source.head.subarray(lo - source.headStart, hi - source.headStart));
-    }
+// The blobs' bytes after those the prefix already held (`head`): one ranged
+// GET of all of them (they lie together at the end of the file, in stream
+// order), or, with a view (source.order: the streams it needs first,
+// view_order.js), one per stream blob in that order.
+async function readRanges(job, source) {
+  const blobs = [...source.blobs].sort((a, b) => a.start - b.start);
+  const dispatch = dispatcher(job, blobs);
+  let at = blobs[0].start;
+  if (source.head && source.head.byteLength > 0) at = dispatch(source.head, source.headStart);
+  if (!Array.isArray(source.order)) {
+    const last = blobs[blobs.length - 1].end;
+    if (at < last) await fetchRange(job, source, at, last, dispatch);
+    return;
   }
+  const byId = new Map(blobs.map((b) => [b.streamId, b]));
   for (const id of source.order) {
     const b = byId.get(id);
     if (!b) continue;
-    const from = Math.max(b.start, Math.min(headEnd, b.end));
-    if (from >= b.end) continue;
-    const headers = Object.assign({}, source.headers || {}, { Range: `bytes=${from}-${b.end - 1}` });
-    const response = await fetch(source.url, { headers, signal: job.abort.signal });
-    if (response.status !== 206) throw new Error(`${source.url}: HTTP ${response.status} to a range of stream ${id}`);
-    const body = response.body.getReader();
-    let at = from;
-    for (;;) {
-      const { done, value } = await body.read();
-      if (done) break;
-      job.stats.bytes += value.byteLength;
-      const n = Math.min(value.byteLength, b.end - at);
-      if (n > 0) push(b, value.subarray(0, n));
-      at += n;
-    }
-    if (at < b.end) throw new Error(`${source.url}: stream ${id}'s range ended at byte ${at} of ${b.end}`);
+    const from = Math.max(b.start, Math.min(at, b.end));
+    if (from < b.end) await fetchRange(job, source, from, b.end, dispatch);
   }
   job.stats.viewOrder = source.order;
 }
@@ -348,7 +333,7 @@ async function open(msg) {
       postMessage({ type: 'base', job: job.id, streamId: spec.streamId, mesh: copy }, transferables(copy));
     }
     if (msg.source.kind === 'ranges') {
-      await (Array.isArray(msg.source.order) ? readRangesInOrder(job, msg.source) : readRanges(job, msg.source));
+      await readRanges(job, msg.source);
     } else if (msg.source.kind === 'bytes') {
       readBytes(job, msg.source);
     } else if (msg.source.kind === 'session') {
